@@ -1,0 +1,108 @@
+//! Lambertian reflection, f_r = rho / pi (Lambert 1760), the diffuse term of every model
+//! of the study (Ngan et al. 2005, section 3.1). Sampled with a cosine-weighted
+//! hemisphere, so `sample` weights are exactly `rho`.
+//!
+//! Parameters: `reflectance` (RGB albedo, each channel in [0, 1]).
+
+use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::registry::{
+    Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
+    Registry,
+};
+use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::ParamError;
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+use std::sync::Arc;
+
+/// f_r = reflectance / pi.
+#[derive(Clone, Debug)]
+pub struct Lambert {
+    pub reflectance: Rgb,
+}
+
+impl Lambert {
+    pub fn new(reflectance: Rgb) -> Self {
+        Self { reflectance }
+    }
+}
+
+impl Bsdf for Lambert {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        self.reflectance * FRAC_1_PI
+    }
+
+    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let wi = square_to_cosine_hemisphere(u);
+        let pdf = cosine_hemisphere_pdf(wi.z);
+        if pdf <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: self.reflectance,
+            pdf,
+        })
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        cosine_hemisphere_pdf(wi.z)
+    }
+
+    fn flags(&self) -> Flags {
+        Flags::ISOTROPIC | Flags::RECIPROCAL | Flags::ENERGY_BOUNDED | Flags::DIFFUSE
+    }
+
+    fn name(&self) -> &str {
+        "lambert"
+    }
+}
+
+pub const SCHEMA: ModelSchema = ModelSchema {
+    name: "lambert",
+    summary: "Lambertian diffuse reflection, f = reflectance / pi",
+    params: &[ParamSpec {
+        name: "reflectance",
+        kind: ParamKind::Color,
+        role: ParamRole::Diffuse,
+        bounds: Bounds::closed(0.0, 1.0),
+        default: DefaultValue::Color([0.5, 0.5, 0.5]),
+        doc: "diffuse albedo (linear RGB)",
+    }],
+};
+
+fn build(p: &Params, _ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
+    Ok(Arc::new(Lambert::new(p.color("reflectance"))))
+}
+
+pub fn register(r: &mut Registry) {
+    r.register(SCHEMA, build);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn golden_and_one_sided() {
+        let l = Lambert::new(Rgb::new(0.2, 0.5, 1.0));
+        let wo = Vec3::new(0.3, 0.2, 0.93).normalize();
+        let wi = Vec3::new(-0.5, 0.1, 0.86).normalize();
+        assert!((l.eval(wo, wi).g - 0.5 / std::f32::consts::PI).abs() < 1e-7);
+        assert_eq!(l.eval(wo, -wi), Rgb::ZERO);
+        assert_eq!(l.pdf(-wo, wi), 0.0);
+        assert!(l.sample(-wo, Vec2::splat(0.5), 0.5).is_none());
+        let s = l.sample(wo, Vec2::new(0.3, 0.7), 0.0).unwrap();
+        let f = l.eval(wo, s.wi) * s.wi.z / s.pdf;
+        assert!((f - s.weight).max_component().abs() < 1e-5);
+    }
+}

@@ -1,0 +1,172 @@
+//! The BRDF plugin interface and the linear-RGB spectrum type.
+//!
+//! Conventions (pbrt-v4's, see DESIGN.md): directions are unit vectors in the local
+//! shading frame, `z` is the surface normal, and both `wo` (toward the viewer) and `wi`
+//! (toward the light) point away from the surface. Values are linear Rec.709 RGB.
+//! `eval` returns f_r in 1/sr *without* the cosine factor; `sample` returns the weight
+//! `f_r * cos(theta_i) / pdf` with the pdf in solid-angle measure. A BRDF is one-sided:
+//! when either direction is below the surface it evaluates to zero, as Mitsuba 3's BSDFs do.
+
+use glam::{Vec2, Vec3};
+use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Sub};
+
+/// Linear Rec.709 RGB triple.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Rgb {
+    pub r: f32,
+    pub g: f32,
+    pub b: f32,
+}
+
+impl Rgb {
+    pub const ZERO: Rgb = Rgb::splat(0.0);
+    pub const ONE: Rgb = Rgb::splat(1.0);
+
+    pub const fn new(r: f32, g: f32, b: f32) -> Self {
+        Self { r, g, b }
+    }
+    pub const fn splat(v: f32) -> Self {
+        Self { r: v, g: v, b: v }
+    }
+    pub fn to_array(self) -> [f32; 3] {
+        [self.r, self.g, self.b]
+    }
+    pub fn max_component(self) -> f32 {
+        self.r.max(self.g).max(self.b)
+    }
+    pub fn min_component(self) -> f32 {
+        self.r.min(self.g).min(self.b)
+    }
+    /// Luminance with Rec.709 / sRGB primaries (the weights Mitsuba 3 uses).
+    pub fn luminance(self) -> f32 {
+        0.212671 * self.r + 0.715160 * self.g + 0.072169 * self.b
+    }
+    pub fn is_finite(self) -> bool {
+        self.r.is_finite() && self.g.is_finite() && self.b.is_finite()
+    }
+    pub fn is_black(self) -> bool {
+        self.r == 0.0 && self.g == 0.0 && self.b == 0.0
+    }
+    pub fn map(self, f: impl Fn(f32) -> f32) -> Rgb {
+        Rgb::new(f(self.r), f(self.g), f(self.b))
+    }
+}
+
+impl From<[f32; 3]> for Rgb {
+    fn from(a: [f32; 3]) -> Self {
+        Rgb::new(a[0], a[1], a[2])
+    }
+}
+
+impl Add for Rgb {
+    type Output = Rgb;
+    fn add(self, o: Rgb) -> Rgb {
+        Rgb::new(self.r + o.r, self.g + o.g, self.b + o.b)
+    }
+}
+impl AddAssign for Rgb {
+    fn add_assign(&mut self, o: Rgb) {
+        *self = *self + o;
+    }
+}
+impl Sub for Rgb {
+    type Output = Rgb;
+    fn sub(self, o: Rgb) -> Rgb {
+        Rgb::new(self.r - o.r, self.g - o.g, self.b - o.b)
+    }
+}
+impl Mul for Rgb {
+    type Output = Rgb;
+    fn mul(self, o: Rgb) -> Rgb {
+        Rgb::new(self.r * o.r, self.g * o.g, self.b * o.b)
+    }
+}
+impl MulAssign for Rgb {
+    fn mul_assign(&mut self, o: Rgb) {
+        *self = *self * o;
+    }
+}
+impl Mul<f32> for Rgb {
+    type Output = Rgb;
+    fn mul(self, s: f32) -> Rgb {
+        Rgb::new(self.r * s, self.g * s, self.b * s)
+    }
+}
+impl MulAssign<f32> for Rgb {
+    fn mul_assign(&mut self, s: f32) {
+        *self = *self * s;
+    }
+}
+impl Mul<Rgb> for f32 {
+    type Output = Rgb;
+    fn mul(self, c: Rgb) -> Rgb {
+        c * self
+    }
+}
+impl Div<f32> for Rgb {
+    type Output = Rgb;
+    fn div(self, s: f32) -> Rgb {
+        Rgb::new(self.r / s, self.g / s, self.b / s)
+    }
+}
+
+/// Properties of a BRDF that tests and integrators rely on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Flags(u32);
+
+impl Flags {
+    pub const NONE: Flags = Flags(0);
+    /// f depends on the azimuths only through their difference.
+    pub const ISOTROPIC: Flags = Flags(1);
+    /// f(wo, wi) = f(wi, wo).
+    pub const RECIPROCAL: Flags = Flags(2);
+    /// The directional albedo never exceeds 1 for legal parameters.
+    pub const ENERGY_BOUNDED: Flags = Flags(4);
+    /// Has a diffuse (Lambertian-like) component.
+    pub const DIFFUSE: Flags = Flags(8);
+    /// Has a glossy component.
+    pub const GLOSSY: Flags = Flags(16);
+
+    pub const fn union(self, o: Flags) -> Flags {
+        Flags(self.0 | o.0)
+    }
+    pub const fn contains(self, o: Flags) -> bool {
+        self.0 & o.0 == o.0
+    }
+    pub const fn bits(self) -> u32 {
+        self.0
+    }
+}
+
+impl std::ops::BitOr for Flags {
+    type Output = Flags;
+    fn bitor(self, o: Flags) -> Flags {
+        self.union(o)
+    }
+}
+
+/// The result of importance sampling a BRDF.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    /// Sampled direction toward the light, local frame, unit length.
+    pub wi: Vec3,
+    /// `f_r(wo, wi) * cos(theta_i) / pdf`.
+    pub weight: Rgb,
+    /// Solid-angle density of `wi`.
+    pub pdf: f32,
+}
+
+/// The plugin interface every BRDF implements. See the module docs for conventions.
+pub trait Bsdf: Send + Sync + std::fmt::Debug {
+    /// f_r(wo, wi) in 1/sr, without the cosine factor; zero below the surface.
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
+    /// Samples `wi` given `wo`, a 2D uniform sample `u` and a 1D sample `uc` that chooses
+    /// between components. `None` when no direction can be produced (e.g. `wo` below the
+    /// surface).
+    fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample>;
+    /// Solid-angle density with which `sample` produces `wi`.
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+    fn flags(&self) -> Flags;
+    /// Registry name of the model, for reports.
+    fn name(&self) -> &str;
+}

@@ -1,0 +1,432 @@
+//! The registry: model name -> constructor, and the parameter schema of every model.
+//!
+//! A schema lists each parameter's name (the papers' names, see docs/models.md), its kind
+//! (an RGB colour, a scalar, an integer, a choice), its role (a linear colour the fitter
+//! solves for by least squares, or a lobe-shape parameter it optimizes), its legal range
+//! and its default. Scene loading and the fitter both go through this table, so a value
+//! is validated once, the same way, with an error that names its JSON path and its range.
+
+use crate::{Bsdf, ParamError, Rgb};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// What kind of value a parameter takes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ParamKind {
+    /// Linear RGB: a number (grey) or an array of three numbers.
+    Color,
+    Scalar,
+    Integer,
+    /// One of the listed strings.
+    Choice(&'static [&'static str]),
+    Bool,
+}
+
+/// What a parameter means to the fitter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamRole {
+    /// Diffuse colour: linear, solved exactly by the fitter.
+    Diffuse,
+    /// Specular colour of a lobe: linear, solved exactly by the fitter.
+    Specular,
+    /// Lobe shape: optimized by the fitter.
+    Lobe,
+    /// A discrete choice fixed before fitting (distribution, Fresnel form, ...).
+    Setting,
+}
+
+/// Inclusive or exclusive bounds of a numeric parameter (applied to every channel of a
+/// colour).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    pub min: f64,
+    pub max: f64,
+    pub min_open: bool,
+    pub max_open: bool,
+}
+
+impl Bounds {
+    pub const fn closed(min: f64, max: f64) -> Self {
+        Self {
+            min,
+            max,
+            min_open: false,
+            max_open: false,
+        }
+    }
+    /// (min, max]: strictly above `min`.
+    pub const fn above(min: f64, max: f64) -> Self {
+        Self {
+            min,
+            max,
+            min_open: true,
+            max_open: false,
+        }
+    }
+    pub fn contains(&self, v: f64) -> bool {
+        let lo = if self.min_open {
+            v > self.min
+        } else {
+            v >= self.min
+        };
+        let hi = if self.max_open {
+            v < self.max
+        } else {
+            v <= self.max
+        };
+        lo && hi
+    }
+    pub fn describe(&self) -> String {
+        let fmt = |v: f64| {
+            if v.is_infinite() {
+                if v > 0.0 { "inf".into() } else { "-inf".into() }
+            } else {
+                format!("{v}")
+            }
+        };
+        format!(
+            "{}{}, {}{}",
+            if self.min_open { "(" } else { "[" },
+            fmt(self.min),
+            fmt(self.max),
+            if self.max_open { ")" } else { "]" }
+        )
+    }
+}
+
+/// Default of a parameter; `Required` means the description must give it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DefaultValue {
+    Required,
+    Scalar(f64),
+    Color([f64; 3]),
+    Choice(&'static str),
+    Bool(bool),
+}
+
+/// One parameter of a model's schema.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParamSpec {
+    pub name: &'static str,
+    pub kind: ParamKind,
+    pub role: ParamRole,
+    pub bounds: Bounds,
+    pub default: DefaultValue,
+    pub doc: &'static str,
+}
+
+/// The schema of a model: its registry name, a one-line summary and its parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct ModelSchema {
+    pub name: &'static str,
+    pub summary: &'static str,
+    pub params: &'static [ParamSpec],
+}
+
+/// A validated parameter value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ParamValue {
+    Scalar(f64),
+    Color([f64; 3]),
+    Text(String),
+    Bool(bool),
+}
+
+/// Validated parameters of one material description, all present (defaults filled in).
+#[derive(Clone, Debug)]
+pub struct Params {
+    pub model: &'static str,
+    /// JSON path of the description, for errors raised by constructors.
+    pub path: String,
+    values: BTreeMap<&'static str, ParamValue>,
+}
+
+impl Params {
+    fn get(&self, name: &str) -> &ParamValue {
+        self.values
+            .get(name)
+            .unwrap_or_else(|| panic!("model {}: no parameter {name} in its schema", self.model))
+    }
+    pub fn scalar(&self, name: &str) -> f64 {
+        match self.get(name) {
+            ParamValue::Scalar(v) => *v,
+            other => panic!("parameter {name} is {other:?}, not a scalar"),
+        }
+    }
+    pub fn color(&self, name: &str) -> Rgb {
+        match self.get(name) {
+            ParamValue::Color(c) => Rgb::new(c[0] as f32, c[1] as f32, c[2] as f32),
+            other => panic!("parameter {name} is {other:?}, not a colour"),
+        }
+    }
+    pub fn text(&self, name: &str) -> &str {
+        match self.get(name) {
+            ParamValue::Text(t) => t,
+            other => panic!("parameter {name} is {other:?}, not a choice"),
+        }
+    }
+    pub fn flag(&self, name: &str) -> bool {
+        match self.get(name) {
+            ParamValue::Bool(b) => *b,
+            other => panic!("parameter {name} is {other:?}, not a boolean"),
+        }
+    }
+}
+
+/// Where relative paths in a material description resolve (the scene file's folder).
+#[derive(Clone, Debug, Default)]
+pub struct BuildContext {
+    pub base_dir: PathBuf,
+}
+
+/// Builds a material from validated parameters.
+pub type Constructor = fn(&Params, &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError>;
+
+struct Entry {
+    schema: ModelSchema,
+    build: Constructor,
+}
+
+/// Model name -> schema and constructor.
+pub struct Registry {
+    models: BTreeMap<&'static str, Entry>,
+}
+
+fn describe_json(v: &Value) -> String {
+    match v {
+        Value::Null => "null".into(),
+        Value::Bool(b) => format!("{b}"),
+        Value::Number(n) => format!("{n}"),
+        Value::String(s) => format!("\"{s}\""),
+        Value::Array(_) => "an array".into(),
+        Value::Object(_) => "an object".into(),
+    }
+}
+
+fn number(v: &Value) -> Option<f64> {
+    v.as_f64()
+}
+
+impl Registry {
+    /// An empty registry.
+    pub fn new() -> Self {
+        Self {
+            models: BTreeMap::new(),
+        }
+    }
+
+    /// Every model lobe ships with.
+    pub fn builtin() -> Self {
+        let mut r = Self::new();
+        crate::analytic::register_all(&mut r);
+        r
+    }
+
+    pub fn register(&mut self, schema: ModelSchema, build: Constructor) {
+        self.models.insert(schema.name, Entry { schema, build });
+    }
+
+    pub fn schema(&self, name: &str) -> Option<&ModelSchema> {
+        self.models.get(name).map(|e| &e.schema)
+    }
+
+    pub fn names(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.models.keys().copied()
+    }
+
+    /// Validates a description (`{"type": name, param: value, ...}`) against its model's
+    /// schema. `path` is the JSON path of the description, used in errors.
+    pub fn validate(&self, desc: &Value, path: &str) -> Result<Params, ParamError> {
+        let obj = desc.as_object().ok_or_else(|| {
+            ParamError::new(
+                path,
+                format!(
+                    "expected a material object like {{\"type\": \"lambert\", ...}}, found {}",
+                    describe_json(desc)
+                ),
+            )
+        })?;
+        let ty = match obj.get("type") {
+            Some(Value::String(s)) => s.as_str(),
+            Some(other) => {
+                return Err(ParamError::new(
+                    format!("{path}.type"),
+                    format!("expected a model name string, found {}", describe_json(other)),
+                ));
+            }
+            None => {
+                return Err(ParamError::new(
+                    path,
+                    format!(
+                        "missing field \"type\"; expected one of: {}",
+                        self.names().collect::<Vec<_>>().join(", ")
+                    ),
+                ));
+            }
+        };
+        let entry = self.models.get(ty).ok_or_else(|| {
+            ParamError::new(
+                format!("{path}.type"),
+                format!(
+                    "unknown material type \"{ty}\"; expected one of: {}",
+                    self.names().collect::<Vec<_>>().join(", ")
+                ),
+            )
+        })?;
+        let schema = &entry.schema;
+        for key in obj.keys() {
+            if key != "type" && !schema.params.iter().any(|p| p.name == key) {
+                let known: Vec<_> = schema.params.iter().map(|p| p.name).collect();
+                return Err(ParamError::new(
+                    format!("{path}.{key}"),
+                    format!(
+                        "unknown parameter of \"{ty}\"; expected one of: {}",
+                        if known.is_empty() {
+                            "(none)".to_string()
+                        } else {
+                            known.join(", ")
+                        }
+                    ),
+                ));
+            }
+        }
+        let mut values = BTreeMap::new();
+        for spec in schema.params {
+            let ppath = format!("{path}.{}", spec.name);
+            let value = match obj.get(spec.name) {
+                Some(v) => parse_value(spec, v, &ppath)?,
+                None => match spec.default {
+                    DefaultValue::Required => {
+                        return Err(ParamError::new(
+                            ppath,
+                            format!("missing; expected {}", expectation(spec)),
+                        ));
+                    }
+                    DefaultValue::Scalar(v) => ParamValue::Scalar(v),
+                    DefaultValue::Color(c) => ParamValue::Color(c),
+                    DefaultValue::Choice(c) => ParamValue::Text(c.to_string()),
+                    DefaultValue::Bool(b) => ParamValue::Bool(b),
+                },
+            };
+            values.insert(spec.name, value);
+        }
+        Ok(Params {
+            model: schema.name,
+            path: path.to_string(),
+            values,
+        })
+    }
+
+    /// Validates a description and builds the material.
+    pub fn create_with(
+        &self,
+        desc: &Value,
+        path: &str,
+        ctx: &BuildContext,
+    ) -> Result<Arc<dyn Bsdf>, ParamError> {
+        let params = self.validate(desc, path)?;
+        let entry = &self.models[params.model];
+        (entry.build)(&params, ctx)
+    }
+
+    /// [`Registry::create_with`] with relative paths resolving against the working directory.
+    pub fn create(&self, desc: &Value, path: &str) -> Result<Arc<dyn Bsdf>, ParamError> {
+        self.create_with(desc, path, &BuildContext::default())
+    }
+}
+
+impl Default for Registry {
+    fn default() -> Self {
+        Self::builtin()
+    }
+}
+
+fn expectation(spec: &ParamSpec) -> String {
+    match spec.kind {
+        ParamKind::Color => format!(
+            "a colour (a number or [r, g, b]) with each channel in {}",
+            spec.bounds.describe()
+        ),
+        ParamKind::Scalar => format!("a number in {}", spec.bounds.describe()),
+        ParamKind::Integer => format!("an integer in {}", spec.bounds.describe()),
+        ParamKind::Choice(c) => format!("one of: {}", c.join(", ")),
+        ParamKind::Bool => "true or false".into(),
+    }
+}
+
+fn parse_value(spec: &ParamSpec, v: &Value, path: &str) -> Result<ParamValue, ParamError> {
+    let bad = || {
+        ParamError::new(
+            path,
+            format!("expected {}, found {}", expectation(spec), describe_json(v)),
+        )
+    };
+    let check = |x: f64| -> Result<f64, ParamError> {
+        if x.is_finite() && spec.bounds.contains(x) {
+            Ok(x)
+        } else {
+            Err(bad())
+        }
+    };
+    match spec.kind {
+        ParamKind::Scalar => Ok(ParamValue::Scalar(check(number(v).ok_or_else(bad)?)?)),
+        ParamKind::Integer => {
+            let x = number(v).ok_or_else(bad)?;
+            if x.fract() != 0.0 {
+                return Err(bad());
+            }
+            Ok(ParamValue::Scalar(check(x)?))
+        }
+        ParamKind::Color => {
+            if let Some(x) = number(v) {
+                let x = check(x)?;
+                return Ok(ParamValue::Color([x; 3]));
+            }
+            let arr = v.as_array().filter(|a| a.len() == 3).ok_or_else(bad)?;
+            let mut c = [0.0; 3];
+            for (i, e) in arr.iter().enumerate() {
+                c[i] = check(number(e).ok_or_else(bad)?)?;
+            }
+            Ok(ParamValue::Color(c))
+        }
+        ParamKind::Choice(options) => {
+            let s = v.as_str().ok_or_else(bad)?;
+            if options.contains(&s) {
+                Ok(ParamValue::Text(s.to_string()))
+            } else {
+                Err(bad())
+            }
+        }
+        ParamKind::Bool => Ok(ParamValue::Bool(v.as_bool().ok_or_else(bad)?)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn errors_name_the_path_and_the_range() {
+        let r = Registry::builtin();
+        let e = r
+            .create(&json!({"type": "lambert", "reflectance": -0.5}), "materials.red")
+            .unwrap_err();
+        assert_eq!(e.path, "materials.red.reflectance");
+        assert!(e.message.contains("[0, 1]"), "{e}");
+        let e = r
+            .create(&json!({"type": "lambert", "colour": 0.5}), "m")
+            .unwrap_err();
+        assert_eq!(e.path, "m.colour");
+        assert!(e.message.contains("reflectance"));
+        let e = r.create(&json!({"type": "glass"}), "m").unwrap_err();
+        assert!(e.message.contains("lambert"));
+        let e = r
+            .create(&json!({"type": "lambert", "reflectance": [0.1, 0.2]}), "m")
+            .unwrap_err();
+        assert!(e.message.contains("an array"));
+        assert!(r.create(&json!("lambert"), "m").is_err());
+    }
+}

@@ -1,0 +1,109 @@
+//! Warps from the unit square to directions, with their densities: the standard
+//! constructions of pbrt-v4 (`util/sampling.h`) and Mitsuba 3 (`core/warp.h`), written
+//! from Shirley and Chiu's concentric map ("A Low Distortion Map Between Disk and Square",
+//! 1997) and Malley's method for the cosine-weighted hemisphere.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
+
+/// Concentric square-to-disk map (Shirley and Chiu 1997).
+#[inline]
+pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
+    };
+    let (s, c) = theta.sin_cos();
+    Vec2::new(r * c, r * s)
+}
+
+/// Cosine-weighted hemisphere around +z (Malley's method).
+#[inline]
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_disk_concentric(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+#[inline]
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) * FRAC_1_PI
+}
+
+/// Uniform direction on the unit sphere.
+#[inline]
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.y;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (TAU * u.x).sin_cos();
+    Vec3::new(r * c, r * s, z)
+}
+
+pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
+
+/// Uniform direction in the cone of half-angle acos(cos_max) around +z.
+#[inline]
+pub fn square_to_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let cos_t = (1.0 - u.y) + u.y * cos_max;
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let (s, c) = (TAU * u.x).sin_cos();
+    Vec3::new(sin_t * c, sin_t * s, cos_t)
+}
+
+#[inline]
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    1.0 / (TAU * (1.0 - cos_max))
+}
+
+/// Uniform barycentrics (b1, b2) on a triangle (the square-root parameterization).
+#[inline]
+pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+    let su = u.x.sqrt();
+    Vec2::new(1.0 - su, u.y * su)
+}
+
+/// Power heuristic with beta = 2 (Veach 1997) for two strategies with one sample each.
+#[inline]
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    let a2 = pdf_a * pdf_a;
+    let b2 = pdf_b * pdf_b;
+    if a2.is_infinite() {
+        return 1.0;
+    }
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn warps_land_where_they_should() {
+        for i in 0..64 {
+            for j in 0..64 {
+                let u = Vec2::new((i as f32 + 0.5) / 64.0, (j as f32 + 0.5) / 64.0);
+                assert!(square_to_disk_concentric(u).length() <= 1.0 + 1e-6);
+                let w = square_to_cosine_hemisphere(u);
+                assert!(w.z >= 0.0 && (w.length() - 1.0).abs() < 1e-5);
+                assert!((square_to_uniform_sphere(u).length() - 1.0).abs() < 1e-5);
+                let c = square_to_uniform_cone(u, 0.9);
+                assert!(c.z >= 0.9 - 1e-6);
+                let b = square_to_uniform_triangle(u);
+                assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn power_heuristic_limits() {
+        assert_eq!(power_heuristic(1.0, 0.0), 1.0);
+        assert_eq!(power_heuristic(0.0, 0.0), 0.0);
+        assert!((power_heuristic(1.0, 1.0) - 0.5).abs() < 1e-7);
+        assert_eq!(power_heuristic(f32::INFINITY, 3.0), 1.0);
+    }
+}

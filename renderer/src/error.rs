@@ -1,0 +1,39 @@
+//! The renderer's error type. Every message names the file, the JSON path or field of the
+//! offending value, what was found and what was expected, on one line.
+
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum Error {
+    /// A value in a scene description that cannot be accepted.
+    #[error("{file}: {path}: {message}")]
+    Scene {
+        file: String,
+        path: String,
+        message: String,
+    },
+    /// A file that cannot be read, parsed or written.
+    #[error("{file}: {message}")]
+    File { file: String, message: String },
+    /// Anything else, already phrased for the user.
+    #[error("{0}")]
+    Other(String),
+}
+
+impl Error {
+    pub fn scene(file: impl Into<String>, path: impl Into<String>, msg: impl Into<String>) -> Self {
+        Error::Scene {
+            file: file.into(),
+            path: path.into(),
+            message: msg.into(),
+        }
+    }
+    pub fn file(file: impl std::fmt::Display, msg: impl Into<String>) -> Self {
+        Error::File {
+            file: file.to_string(),
+            message: msg.into(),
+        }
+    }
+}
+
+pub type Result<T> = std::result::Result<T, Error>;

@@ -1,0 +1,156 @@
+//! The film: per-pixel means (box filter) and variances of the mean, and the outputs:
+//! linear f32 OpenEXR (exr crate), a tonemapped sRGB PNG (image crate) and a JSON
+//! statistics sidecar. Every write is atomic: the data goes to a temporary file in the
+//! destination folder, is flushed to disk, then renamed over the destination, so a failed
+//! or interrupted write never leaves a truncated file nor clobbers an existing good one.
+
+use crate::Rgb;
+use crate::error::{Error, Result};
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+/// A rendered image: mean radiance per pixel and the variance of that mean.
+#[derive(Clone, Debug)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Rgb>,
+    /// Sample variance of each pixel's mean (per channel), for noise-aware comparisons.
+    pub variance: Vec<Rgb>,
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = (width * height) as usize;
+        Self {
+            width,
+            height,
+            pixels: vec![Rgb::ZERO; n],
+            variance: vec![Rgb::ZERO; n],
+        }
+    }
+
+    pub fn get(&self, x: u32, y: u32) -> Rgb {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    pub fn mean(&self) -> Rgb {
+        let mut acc = [0.0f64; 3];
+        for p in &self.pixels {
+            acc[0] += p.r as f64;
+            acc[1] += p.g as f64;
+            acc[2] += p.b as f64;
+        }
+        let n = self.pixels.len().max(1) as f64;
+        Rgb::new((acc[0] / n) as f32, (acc[1] / n) as f32, (acc[2] / n) as f32)
+    }
+}
+
+/// Writes a file atomically: `fill` writes into a temporary file next to `path`, which
+/// then replaces `path`. On any error nothing at `path` changes.
+pub fn atomic_write(path: &Path, fill: impl FnOnce(&mut BufWriter<&std::fs::File>) -> std::io::Result<()>) -> Result<()> {
+    let shown = path.display().to_string();
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(Error::file(
+            &shown,
+            format!("output folder {} does not exist", dir.display()),
+        ));
+    }
+    if path.is_dir() {
+        return Err(Error::file(&shown, "is a directory; expected a file path to write"));
+    }
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(".tmp")
+        .tempfile_in(&dir)
+        .map_err(|e| Error::file(&shown, format!("cannot create a file in {}: {e}", dir.display())))?;
+    {
+        let file = tmp.as_file();
+        let mut w = BufWriter::new(file);
+        fill(&mut w)
+            .and_then(|_| w.flush())
+            .map_err(|e| Error::file(&shown, format!("write failed: {e}")))?;
+        drop(w);
+        file.sync_all()
+            .map_err(|e| Error::file(&shown, format!("write failed: {e}")))?;
+    }
+    tmp.persist(path)
+        .map_err(|e| Error::file(&shown, format!("cannot move the finished file into place: {}", e.error)))?;
+    Ok(())
+}
+
+/// Writes linear RGB as a 32-bit float OpenEXR file.
+pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Rgb]) -> Result<()> {
+    use exr::prelude::*;
+    let w = width as usize;
+    let channels = SpecificChannels::rgb(|pos: exr::math::Vec2<usize>| {
+        let p = pixels[pos.y() * w + pos.x()];
+        (p.r, p.g, p.b)
+    });
+    let image = exr::image::Image::from_channels((width as usize, height as usize), channels);
+    atomic_write(path, |out| {
+        // exr needs a seekable writer: encode into memory, then write the bytes out.
+        let mut buf = std::io::Cursor::new(Vec::new());
+        image.write().to_buffered(&mut buf).map_err(std::io::Error::other)?;
+        out.write_all(buf.get_ref())
+    })
+}
+
+/// sRGB opto-electronic transfer function.
+#[inline]
+pub fn srgb_encode(v: f32) -> f32 {
+    if v <= 0.0031308 {
+        12.92 * v.max(0.0)
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Tonemaps linear RGB (scaled by 2^exposure, clamped, sRGB-encoded) to 8-bit pixels.
+pub fn tonemap(pixels: &[Rgb], exposure: f32) -> Vec<u8> {
+    let k = exposure.exp2();
+    pixels
+        .iter()
+        .flat_map(|p| p.to_array())
+        .map(|c| {
+            let v = if c.is_finite() { c * k } else { 0.0 };
+            (srgb_encode(v).clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+        })
+        .collect()
+}
+
+/// Writes an 8-bit RGB PNG.
+pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb8: &[u8]) -> Result<()> {
+    use image::ImageEncoder;
+    atomic_write(path, |out| {
+        image::codecs::png::PngEncoder::new(out)
+            .write_image(rgb8, width, height, image::ExtendedColorType::Rgb8)
+            .map_err(std::io::Error::other)
+    })
+}
+
+/// Writes a tonemapped sRGB PNG of linear pixels.
+pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Rgb], exposure: f32) -> Result<()> {
+    write_png_rgb8(path, width, height, &tonemap(pixels, exposure))
+}
+
+/// Writes a JSON value, pretty-printed.
+pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
+    atomic_write(path, |out| {
+        serde_json::to_writer_pretty(&mut *out, value).map_err(std::io::Error::other)?;
+        out.write_all(b"\n")
+    })
+}
+
+/// Reads a linear RGB OpenEXR image (first layer).
+pub fn read_exr(path: &Path) -> Result<Image> {
+    let img = crate::lights::envmap::read_rgb_image(path)?;
+    let mut out = Image::new(img.width as u32, img.height as u32);
+    out.pixels = img.pixels;
+    Ok(out)
+}

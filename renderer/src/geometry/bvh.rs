@@ -1,0 +1,219 @@
+//! All primitives of a scene under one BVH: obvhs builds a binary BVH with PLOC
+//! (Meister and Bittner 2018) plus reinsertion, converts it to a compressed 8-wide BVH
+//! (Ylitie et al. 2017), and traverses it for closest-hit and occlusion queries.
+
+use super::{Interaction, Mesh, Ray, Rectangle, Sphere, Triangle};
+use glam::{Vec2, Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::CwBvh;
+use obvhs::ray::{Ray as BvhRay, RayHit};
+use obvhs::{Boundable, BvhBuildParams};
+use std::time::Duration;
+
+/// The shape of one primitive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PrimKind {
+    Sphere(Sphere),
+    Triangle(Triangle),
+    Rectangle(Rectangle),
+}
+
+/// A BVH primitive and the scene shape it belongs to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Primitive {
+    pub kind: PrimKind,
+    pub shape: u32,
+}
+
+impl Primitive {
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> f32 {
+        match &self.kind {
+            PrimKind::Sphere(s) => s.intersect(ray),
+            PrimKind::Triangle(t) => t.intersect(ray),
+            PrimKind::Rectangle(r) => r.intersect(ray),
+        }
+    }
+}
+
+impl Boundable for Primitive {
+    fn aabb(&self) -> Aabb {
+        let (lo, hi) = match &self.kind {
+            PrimKind::Sphere(s) => (s.center - Vec3::splat(s.radius), s.center + Vec3::splat(s.radius)),
+            PrimKind::Triangle(t) => {
+                let (a, b, c) = (t.p0, t.p0 + t.e1, t.p0 + t.e2);
+                (a.min(b).min(c), a.max(b).max(c))
+            }
+            PrimKind::Rectangle(r) => {
+                let pts = [r.corner, r.corner + r.eu, r.corner + r.ev, r.corner + r.eu + r.ev];
+                let lo = pts.iter().fold(Vec3::INFINITY, |a, p| a.min(*p));
+                let hi = pts.iter().fold(Vec3::NEG_INFINITY, |a, p| a.max(*p));
+                (lo, hi)
+            }
+        };
+        // Pad flat boxes a little so axis-aligned rectangles and triangles have volume.
+        let pad = (hi - lo).max_element().max(1e-3) * 1e-5;
+        Aabb::new(Vec3A::from(lo - Vec3::splat(pad)), Vec3A::from(hi + Vec3::splat(pad)))
+    }
+}
+
+/// Per-shape data the intersection routine needs.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ShapeGeom {
+    /// Normals point inward (Mitsuba's `flip_normals`).
+    pub flip_normals: bool,
+    /// Ignore vertex normals: shade with the geometric normal.
+    pub face_normals: bool,
+}
+
+/// Primitives, meshes and the BVH over them.
+pub struct Geometry {
+    pub prims: Vec<Primitive>,
+    pub meshes: Vec<Mesh>,
+    pub shapes: Vec<ShapeGeom>,
+    bvh: Option<CwBvh>,
+}
+
+impl Geometry {
+    /// Builds the BVH. Primitives are reordered to the BVH's leaf order.
+    pub fn build(prims: Vec<Primitive>, meshes: Vec<Mesh>, shapes: Vec<ShapeGeom>) -> Self {
+        if prims.is_empty() {
+            return Self {
+                prims,
+                meshes,
+                shapes,
+                bvh: None,
+            };
+        }
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(
+            &prims,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        let ordered: Vec<Primitive> = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| prims[i as usize])
+            .collect();
+        Self {
+            prims: ordered,
+            meshes,
+            shapes,
+            bvh: Some(bvh),
+        }
+    }
+
+    fn bvh_ray(ray: &Ray) -> BvhRay {
+        BvhRay::new(Vec3A::from(ray.o), Vec3A::from(ray.d), ray.tmin, ray.tmax)
+    }
+
+    /// Closest hit: (t, primitive index), without computing the local geometry.
+    #[inline]
+    pub fn closest(&self, ray: &Ray) -> Option<(f32, u32)> {
+        let bvh = self.bvh.as_ref()?;
+        let mut hit = RayHit::none();
+        let mut r = *ray;
+        let found = bvh.ray_traverse(Self::bvh_ray(ray), &mut hit, |br, id| {
+            r.tmax = br.tmax;
+            self.prims[id].intersect(&r)
+        });
+        found.then_some((hit.t, hit.primitive_id))
+    }
+
+    /// Closest hit with its local geometry.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Interaction> {
+        let (t, id) = self.closest(ray)?;
+        Some(self.interaction(ray, t, id))
+    }
+
+    /// True when anything blocks the ray within (tmin, tmax).
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        match &self.bvh {
+            None => false,
+            Some(bvh) => !bvh.ray_traverse_miss(Self::bvh_ray(ray), |_, id| self.prims[id].intersect(ray)),
+        }
+    }
+
+    /// Brute-force closest hit over all primitives (for tests).
+    pub fn closest_brute_force(&self, ray: &Ray) -> Option<(f32, u32)> {
+        let mut best: Option<(f32, u32)> = None;
+        let mut r = *ray;
+        for (i, p) in self.prims.iter().enumerate() {
+            let t = p.intersect(&r);
+            if t < r.tmax {
+                r.tmax = t;
+                best = Some((t, i as u32));
+            }
+        }
+        best
+    }
+
+    /// Local geometry of a hit found by [`Geometry::closest`].
+    pub fn interaction(&self, ray: &Ray, t: f32, prim: u32) -> Interaction {
+        let p = &self.prims[prim as usize];
+        let sg = self.shapes[p.shape as usize];
+        let (pos, mut ng, mut ns, dpdu, uv) = match &p.kind {
+            PrimKind::Sphere(s) => {
+                let (pos, n, dpdu, uv) = s.surface(ray.at(t));
+                (pos, n, n, dpdu, uv)
+            }
+            PrimKind::Rectangle(r) => {
+                let uv = r.uv(ray.at(t));
+                (r.point(uv), r.n, r.n, r.eu.normalize(), uv)
+            }
+            PrimKind::Triangle(tri) => {
+                let b = tri.intersect_bary(&Ray { tmin: f32::NEG_INFINITY, tmax: f32::INFINITY, ..*ray })
+                    .map(|(_, b)| b)
+                    .unwrap_or(Vec2::splat(1.0 / 3.0));
+                let mesh = &self.meshes[tri.mesh as usize];
+                let idx = mesh.indices[tri.index as usize];
+                let mut ng = tri.normal();
+                let w = [1.0 - b.x - b.y, b.x, b.y];
+                let mut ns = ng;
+                if !sg.face_normals && !mesh.normals.is_empty() {
+                    let n = idx
+                        .iter()
+                        .zip(w)
+                        .fold(Vec3::ZERO, |a, (&k, wk)| a + mesh.normals[k as usize] * wk);
+                    if n.length_squared() > 0.0 {
+                        ns = n.normalize();
+                        // The file's normals say where the outside is (pbrt-v4's rule).
+                        if ng.dot(ns) < 0.0 {
+                            ng = -ng;
+                        }
+                    }
+                }
+                let uv = if mesh.texcoords.is_empty() {
+                    b
+                } else {
+                    idx.iter()
+                        .zip(w)
+                        .fold(Vec2::ZERO, |a, (&k, wk)| a + mesh.texcoords[k as usize] * wk)
+                };
+                (tri.point(b), ng, ns, tri.e1.normalize_or_zero(), uv)
+            }
+        };
+        if sg.flip_normals {
+            ng = -ng;
+            ns = -ns;
+        }
+        Interaction {
+            t,
+            p: pos,
+            ng,
+            ns,
+            dpdu,
+            uv,
+            shape: p.shape,
+        }
+    }
+
+    /// Bounding box of everything (for the scene's bounding sphere).
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        self.bvh
+            .as_ref()
+            .map(|b| (Vec3::from(b.total_aabb.min), Vec3::from(b.total_aabb.max)))
+    }
+}

@@ -1,0 +1,26 @@
+//! lobe-renderer: light transport for comparing reflectance models.
+//!
+//! A scene file (JSON, see docs/scene-format.md) is loaded by [`scene::load`] into a
+//! [`scene::Scene`]: analytic spheres, rectangles and triangle meshes (OBJ, glTF) under one
+//! BVH (obvhs: PLOC build, compressed wide BVH8 traversal), a Mitsuba-3-compatible camera,
+//! lights (importance-sampled lat-long environment maps with Mitsuba 3's direction
+//! convention, constant environments, point, directional and diffuse area lights) and
+//! materials from the lobe-materials registry. [`render::render`] runs a path tracer with
+//! next-event estimation and multiple importance sampling (Veach 1997, power heuristic)
+//! or a one-bounce direct integrator over parallel tiles, with a per-pixel seeded
+//! low-discrepancy sampler so that images are bit-identical whatever the thread count.
+//! [`film`] writes linear EXR, a tonemapped PNG and a statistics sidecar atomically.
+
+pub mod camera;
+pub mod error;
+pub mod film;
+pub mod geometry;
+pub mod integrators;
+pub mod lights;
+pub mod render;
+pub mod sampler;
+pub mod scene;
+pub mod showcase;
+
+pub use error::Error;
+pub use lobe_materials::Rgb;

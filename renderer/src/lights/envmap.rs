@@ -1,0 +1,255 @@
+//! Lat-long HDR environment maps with Mitsuba 3's `envmap` conventions, importance
+//! sampled by luminance x sin(theta).
+//!
+//! Direction convention (docs/scene-format.md, "Environment maps"): in the emitter's local
+//! frame, +y is up; a direction d = (x, y, z) maps to texture coordinates
+//! u = atan2(x, -z) / (2 pi) (wrapped to [0, 1)) and v = acos(y) / pi, with v = 0 the top
+//! row of the image. The radiance is the bilinear interpolation of the pixels, with row
+//! j at v = j / (H - 1) and column i at u = (i + 1/2) / W, wrapping around in u: exactly the
+//! lookup of Mitsuba 3's `envmap` plugin, so one file lights a scene the same way in both
+//! renderers. `to_world` (a rotation) maps local directions to world ones, and `scale`
+//! multiplies the radiance.
+//!
+//! Sampling: a piecewise-constant 2D distribution over the W x (H - 1) cells of the
+//! bilinear grid, weighted by the mean luminance of each cell's corners times sin(theta)
+//! at the cell centre: positive wherever the radiance is, so the estimator stays unbiased.
+
+use super::distribution::Distribution2D;
+use crate::Rgb;
+use crate::error::{Error, Result};
+use glam::{Mat3, Vec2, Vec3};
+use std::f32::consts::{PI, TAU};
+use std::path::Path;
+
+#[derive(Clone, Debug)]
+pub struct EnvMap {
+    width: usize,
+    height: usize,
+    /// H rows of W + 1 pixels: the last column repeats the first (periodic boundary).
+    data: Vec<Rgb>,
+    scale: f32,
+    to_world: Mat3,
+    to_local: Mat3,
+    dist: Distribution2D,
+}
+
+/// An RGB float image, row-major, top row first.
+#[derive(Clone, Debug)]
+pub struct RgbImage {
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<Rgb>,
+}
+
+impl EnvMap {
+    /// From linear RGB pixels; `to_world` must be a rotation (an orthonormal matrix).
+    pub fn new(img: &RgbImage, scale: f32, to_world: Mat3) -> Self {
+        let (w, h) = (img.width, img.height);
+        assert!(w >= 2 && h >= 3 && img.pixels.len() == w * h);
+        let mut data = Vec::with_capacity((w + 1) * h);
+        for row in img.pixels.chunks(w) {
+            data.extend_from_slice(row);
+            data.push(row[0]);
+        }
+        let lum: Vec<f32> = data.iter().map(|c| c.luminance().max(0.0)).collect();
+        let mut cells = vec![0.0f32; w * (h - 1)];
+        for j in 0..h - 1 {
+            let sin_theta = ((j as f32 + 0.5) / (h - 1) as f32 * PI).sin();
+            for i in 0..w {
+                let k = j * (w + 1) + i;
+                let mean = 0.25 * (lum[k] + lum[k + 1] + lum[k + w + 1] + lum[k + w + 2]);
+                cells[j * w + i] = mean * sin_theta;
+            }
+        }
+        Self {
+            width: w,
+            height: h,
+            data,
+            scale,
+            to_world,
+            to_local: to_world.transpose(),
+            dist: Distribution2D::new(&cells, w, h - 1),
+        }
+    }
+
+    pub fn resolution(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// Bilinear lookup at Mitsuba's texture coordinates (u, v).
+    #[inline]
+    fn lookup(&self, u: f32, v: f32) -> Rgb {
+        let (w, h) = (self.width, self.height);
+        let mut x = u - 0.5 / w as f32;
+        x -= x.floor();
+        let mut y = v;
+        y -= y.floor();
+        let x = x * w as f32;
+        let y = y * (h - 1) as f32;
+        let ix = (x as usize).min(w - 1);
+        let iy = (y as usize).min(h - 2);
+        let fx = x - ix as f32;
+        let fy = y - iy as f32;
+        let k = iy * (w + 1) + ix;
+        let d = &self.data;
+        let top = d[k] * (1.0 - fx) + d[k + 1] * fx;
+        let bottom = d[k + w + 1] * (1.0 - fx) + d[k + w + 2] * fx;
+        (top * (1.0 - fy) + bottom * fy) * self.scale
+    }
+
+    /// Local direction -> Mitsuba texture coordinates.
+    #[inline]
+    fn uv_of(d: Vec3) -> Vec2 {
+        let mut u = d.x.atan2(-d.z) * (1.0 / TAU);
+        if u < 0.0 {
+            u += 1.0;
+        }
+        Vec2::new(u, d.y.clamp(-1.0, 1.0).acos() * (1.0 / PI))
+    }
+
+    /// Radiance arriving from world direction `d` (unit; pointing away from the scene).
+    #[inline]
+    pub fn eval(&self, d: Vec3) -> Rgb {
+        let uv = Self::uv_of(self.to_local * d);
+        self.lookup(uv.x, uv.y)
+    }
+
+    /// Solid-angle density of [`EnvMap::sample`] for world direction `d`.
+    #[inline]
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        let l = self.to_local * d;
+        let sin_theta = (l.x * l.x + l.z * l.z).sqrt();
+        if sin_theta <= 1e-7 {
+            return 0.0;
+        }
+        let uv = Self::uv_of(l);
+        let mut a = uv.x - 0.5 / self.width as f32;
+        a -= a.floor();
+        self.dist.pdf(Vec2::new(a, uv.y)) / (2.0 * PI * PI * sin_theta)
+    }
+
+    /// Samples a world direction: (direction, radiance, solid-angle pdf).
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> Option<(Vec3, Rgb, f32)> {
+        let (ab, pdf_ab) = self.dist.sample(u);
+        if pdf_ab <= 0.0 {
+            return None;
+        }
+        let mut uu = ab.x + 0.5 / self.width as f32;
+        if uu >= 1.0 {
+            uu -= 1.0;
+        }
+        let theta = ab.y * PI;
+        let phi = uu * TAU;
+        let (st, ct) = theta.sin_cos();
+        let (sp, cp) = phi.sin_cos();
+        if st <= 1e-7 {
+            return None;
+        }
+        let local = Vec3::new(st * sp, ct, -st * cp);
+        let pdf = pdf_ab / (2.0 * PI * PI * st);
+        Some((self.to_world * local, self.lookup(uu, ab.y), pdf))
+    }
+}
+
+/// Reads an environment map image (see [`read_rgb_image`]) and checks it: at least 2x3
+/// pixels, non-finite pixels rejected, negative ones (ringing of lossy sources) clamped
+/// to zero.
+pub fn load_rgb_image(path: &Path) -> Result<RgbImage> {
+    let img = read_rgb_image(path)?;
+    validate_image(img, &path.display().to_string())
+}
+
+/// Reads an HDR image: OpenEXR (`.exr`, first layer, RGB) or Radiance (`.hdr`, `.pic`).
+pub fn read_rgb_image(path: &Path) -> Result<RgbImage> {
+    let shown = path.display();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default();
+    if path.is_dir() {
+        return Err(Error::file(shown, "is a directory; expected an .exr or .hdr image"));
+    }
+    let img = match ext.as_str() {
+        "exr" => {
+            use exr::prelude::*;
+            let image = read_first_rgba_layer_from_file(
+                path,
+                |res, _| RgbImage {
+                    width: res.width(),
+                    height: res.height(),
+                    pixels: vec![Rgb::ZERO; res.width() * res.height()],
+                },
+                |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                    img.pixels[pos.y() * img.width + pos.x()] = Rgb::new(r, g, b);
+                },
+            )
+            .map_err(|e| crate::Error::file(&shown, format!("cannot read OpenEXR image: {e}")))?;
+            image.layer_data.channel_data.pixels
+        }
+        "hdr" | "pic" => {
+            let dynimg = image::open(path)
+                .map_err(|e| Error::file(&shown, format!("cannot read Radiance HDR image: {e}")))?;
+            let rgb = dynimg.into_rgb32f();
+            RgbImage {
+                width: rgb.width() as usize,
+                height: rgb.height() as usize,
+                pixels: rgb.pixels().map(|p| Rgb::new(p[0], p[1], p[2])).collect(),
+            }
+        }
+        _ => {
+            return Err(Error::file(
+                shown,
+                format!("unsupported image extension \"{ext}\"; expected .exr or .hdr"),
+            ));
+        }
+    };
+    Ok(img)
+}
+
+fn validate_image(mut img: RgbImage, name: &str) -> Result<RgbImage> {
+    if img.width < 2 || img.height < 3 {
+        return Err(Error::file(
+            name,
+            format!(
+                "resolution {}x{}; an environment map needs at least 2x3 pixels",
+                img.width, img.height
+            ),
+        ));
+    }
+    for (k, p) in img.pixels.iter_mut().enumerate() {
+        if !p.is_finite() {
+            return Err(Error::file(
+                name,
+                format!(
+                    "pixel ({}, {}) is {:?}; expected finite radiance",
+                    k % img.width,
+                    k / img.width,
+                    p.to_array()
+                ),
+            ));
+        }
+        *p = p.map(|c| c.max(0.0));
+    }
+    Ok(img)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pixel_centres_map_to_mitsuba_directions() {
+        // One bright pixel at column i, row j: its direction is theta = j pi / (H - 1),
+        // phi = (i + 1/2) 2 pi / W, local d = (sin t sin p, cos t, -sin t cos p).
+        let (w, h) = (8, 5);
+        let mut px = vec![Rgb::ZERO; w * h];
+        px[2 * w + 1] = Rgb::ONE;
+        let env = EnvMap::new(&RgbImage { width: w, height: h, pixels: px }, 1.0, Mat3::IDENTITY);
+        let theta = 2.0 * PI / 4.0;
+        let phi = 1.5 * TAU / 8.0;
+        let d = Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos());
+        assert!((env.eval(d).r - 1.0).abs() < 1e-4, "{:?}", env.eval(d));
+    }
+}

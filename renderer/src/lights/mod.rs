@@ -1,0 +1,252 @@
+//! Light sources: lat-long environment maps, constant environments, point and directional
+//! lights, and diffuse area lights on spheres, rectangles and meshes (Mitsuba 3's `envmap`,
+//! `constant`, `point`, `directional` and `area` emitters, same parameters and meanings).
+//!
+//! Area lights are one-sided: they emit on the side their (possibly flipped) normal faces.
+//! Sampling: spheres seen from outside are sampled uniformly in the cone they subtend
+//! (pbrt-v4 `Sphere::Sample`), from inside uniformly by area; rectangles and meshes
+//! uniformly by area (a mesh picks a triangle in proportion to its area).
+
+pub mod distribution;
+pub mod envmap;
+
+use crate::Rgb;
+use crate::geometry::{Interaction, Rectangle, Sphere, Triangle};
+use distribution::Distribution1D;
+pub use envmap::EnvMap;
+use glam::{Vec2, Vec3};
+use lobe_materials::sampling::{
+    UNIFORM_SPHERE_PDF, square_to_uniform_cone, square_to_uniform_sphere,
+    square_to_uniform_triangle, uniform_cone_pdf,
+};
+use lobe_materials::frame::Frame;
+
+/// Emitting geometry of an area light.
+#[derive(Clone, Debug)]
+pub enum AreaShape {
+    Sphere { sphere: Sphere, flip: bool },
+    Rectangle { rect: Rectangle, flip: bool },
+    /// Triangles with their emitting-side unit normals, chosen by area.
+    Mesh {
+        tris: Vec<(Triangle, Vec3)>,
+        cdf: Distribution1D,
+        area: f32,
+    },
+}
+
+#[derive(Clone, Debug)]
+pub enum Light {
+    Env(Box<EnvMap>),
+    Constant { radiance: Rgb },
+    Point { position: Vec3, intensity: Rgb },
+    /// `direction` is the direction of propagation (unit).
+    Directional { direction: Vec3, irradiance: Rgb },
+    Area { shape: AreaShape, radiance: Rgb },
+}
+
+/// A light sample seen from a reference point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the reference point toward the light.
+    pub wi: Vec3,
+    /// Incident radiance (or irradiance-like value for delta lights) before the cosine.
+    pub li: Rgb,
+    /// Solid-angle density (1 for delta lights).
+    pub pdf: f32,
+    pub delta: bool,
+    /// Point on the light and its normal, for the shadow ray (None: at infinity).
+    pub p: Option<(Vec3, Vec3)>,
+}
+
+impl Light {
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Env(_) | Light::Constant { .. } | Light::Directional { .. })
+    }
+
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Light::Point { .. } | Light::Directional { .. })
+    }
+
+    /// Samples incident light at point `p`.
+    pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        match self {
+            Light::Env(env) => {
+                let (wi, li, pdf) = env.sample(u)?;
+                Some(LightSample { wi, li, pdf, delta: false, p: None })
+            }
+            Light::Constant { radiance } => Some(LightSample {
+                wi: square_to_uniform_sphere(u),
+                li: *radiance,
+                pdf: UNIFORM_SPHERE_PDF,
+                delta: false,
+                p: None,
+            }),
+            Light::Point { position, intensity } => {
+                let d = *position - p;
+                let d2 = d.length_squared();
+                if !(d2 > 0.0) {
+                    return None;
+                }
+                Some(LightSample {
+                    wi: d / d2.sqrt(),
+                    li: *intensity / d2,
+                    pdf: 1.0,
+                    delta: true,
+                    p: Some((*position, Vec3::ZERO)),
+                })
+            }
+            Light::Directional { direction, irradiance } => Some(LightSample {
+                wi: -*direction,
+                li: *irradiance,
+                pdf: 1.0,
+                delta: true,
+                p: None,
+            }),
+            Light::Area { shape, radiance } => {
+                let (q, n, pdf) = shape.sample(p, u)?;
+                let d = q - p;
+                let dist2 = d.length_squared();
+                if !(dist2 > 0.0) || !(pdf > 0.0) {
+                    return None;
+                }
+                let wi = d / dist2.sqrt();
+                // One-sided emission toward -wi.
+                let li = if n.dot(-wi) > 0.0 { *radiance } else { Rgb::ZERO };
+                Some(LightSample { wi, li, pdf, delta: false, p: Some((q, n)) })
+            }
+        }
+    }
+
+    /// Radiance of an infinite light arriving along world direction `d` (pointing away
+    /// from the scene).
+    #[inline]
+    pub fn le_infinite(&self, d: Vec3) -> Rgb {
+        match self {
+            Light::Env(env) => env.eval(d),
+            Light::Constant { radiance } => *radiance,
+            _ => Rgb::ZERO,
+        }
+    }
+
+    /// Solid-angle density with which `sample_li` picks direction `d` (infinite lights).
+    #[inline]
+    pub fn pdf_infinite(&self, d: Vec3) -> f32 {
+        match self {
+            Light::Env(env) => env.pdf(d),
+            Light::Constant { .. } => UNIFORM_SPHERE_PDF,
+            _ => 0.0,
+        }
+    }
+
+    /// Radiance leaving an area light at `it` toward direction `w` (unit, away from it).
+    #[inline]
+    pub fn le_area(&self, it: &Interaction, w: Vec3) -> Rgb {
+        match self {
+            Light::Area { radiance, .. } if it.ng.dot(w) > 0.0 => *radiance,
+            _ => Rgb::ZERO,
+        }
+    }
+
+    /// Solid-angle density with which `sample_li` from `p` picks the area-light point `it`.
+    pub fn pdf_area(&self, p: Vec3, it: &Interaction) -> f32 {
+        match self {
+            Light::Area { shape, .. } => shape.pdf(p, it.p, it.ng),
+            _ => 0.0,
+        }
+    }
+}
+
+fn area_to_solid_angle(p: Vec3, q: Vec3, n: Vec3, area_pdf: f32) -> f32 {
+    let d = q - p;
+    let dist2 = d.length_squared();
+    let cos = (n.dot(d) / dist2.sqrt()).abs();
+    if cos <= 0.0 || !(dist2 > 0.0) {
+        return 0.0;
+    }
+    area_pdf * dist2 / cos
+}
+
+impl AreaShape {
+    /// Builds a mesh emitter from triangles and their emitting normals.
+    pub fn mesh(tris: Vec<(Triangle, Vec3)>) -> Option<Self> {
+        let areas: Vec<f32> = tris.iter().map(|(t, _)| t.area()).collect();
+        let area: f32 = areas.iter().sum();
+        if !(area > 0.0) {
+            return None;
+        }
+        Some(AreaShape::Mesh { cdf: Distribution1D::new(&areas), tris, area })
+    }
+
+    pub fn area(&self) -> f32 {
+        match self {
+            AreaShape::Sphere { sphere, .. } => sphere.area(),
+            AreaShape::Rectangle { rect, .. } => rect.area(),
+            AreaShape::Mesh { area, .. } => *area,
+        }
+    }
+
+    fn sphere_cone(sphere: &Sphere, p: Vec3) -> Option<(f32, f32)> {
+        let d2 = (sphere.center - p).length_squared();
+        let r2 = sphere.radius * sphere.radius;
+        if d2 <= r2 * 1.0001 {
+            return None;
+        }
+        let sin2 = r2 / d2;
+        let cos_max = (1.0 - sin2).max(0.0).sqrt();
+        Some((cos_max, d2.sqrt()))
+    }
+
+    /// Samples a point: (point, emitting-side unit normal, solid-angle pdf from `p`).
+    pub fn sample(&self, p: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+        match self {
+            AreaShape::Sphere { sphere, flip } => {
+                let sign = if *flip { -1.0 } else { 1.0 };
+                match Self::sphere_cone(sphere, p) {
+                    Some((cos_max, dc)) if cos_max < 0.99999 => {
+                        let axis = (sphere.center - p) / dc;
+                        let local = square_to_uniform_cone(u, cos_max);
+                        let w = Frame::from_normal(axis).to_world(local);
+                        // Distance to the near side along w (pbrt-v4's construction).
+                        let cos_t = local.z;
+                        let sin2 = (1.0 - cos_t * cos_t).max(0.0);
+                        let r2 = sphere.radius * sphere.radius;
+                        let ds = dc * cos_t - (r2 - dc * dc * sin2).max(0.0).sqrt();
+                        let q = p + w * ds;
+                        let (q, n, _, _) = sphere.surface(q);
+                        Some((q, n * sign, uniform_cone_pdf(cos_max)))
+                    }
+                    _ => {
+                        let n = square_to_uniform_sphere(u);
+                        let q = sphere.center + n * sphere.radius;
+                        let pdf = area_to_solid_angle(p, q, n, 1.0 / sphere.area());
+                        Some((q, n * sign, pdf))
+                    }
+                }
+            }
+            AreaShape::Rectangle { rect, flip } => {
+                let q = rect.point(u);
+                let n = if *flip { -rect.n } else { rect.n };
+                Some((q, n, area_to_solid_angle(p, q, n, 1.0 / rect.area())))
+            }
+            AreaShape::Mesh { tris, cdf, area } => {
+                let (i, _, ux) = cdf.sample_discrete(u.x);
+                let (tri, n) = &tris[i];
+                let b = square_to_uniform_triangle(Vec2::new(ux, u.y));
+                let q = tri.point(b);
+                Some((q, *n, area_to_solid_angle(p, q, *n, 1.0 / area)))
+            }
+        }
+    }
+
+    /// Solid-angle density of `sample` from `p` choosing point `q` with normal `n`.
+    pub fn pdf(&self, p: Vec3, q: Vec3, n: Vec3) -> f32 {
+        match self {
+            AreaShape::Sphere { sphere, .. } => match Self::sphere_cone(sphere, p) {
+                Some((cos_max, _)) if cos_max < 0.99999 => uniform_cone_pdf(cos_max),
+                _ => area_to_solid_angle(p, q, n, 1.0 / sphere.area()),
+            },
+            AreaShape::Rectangle { rect, .. } => area_to_solid_angle(p, q, n, 1.0 / rect.area()),
+            AreaShape::Mesh { area, .. } => area_to_solid_angle(p, q, n, 1.0 / area),
+        }
+    }
+}

@@ -1,0 +1,218 @@
+//! The render loop: the image is cut into 16 x 16 tiles rendered in parallel by rayon;
+//! every pixel sample draws its numbers from the per-pixel seeded sampler, and every
+//! pixel is accumulated in a fixed order, so the image is bit-identical whatever the
+//! number of threads. Non-finite samples are dropped (and counted) instead of being
+//! written into the image. An indicatif progress bar with ETA is drawn on request.
+
+use crate::Rgb;
+use crate::error::{Error, Result};
+use crate::film::Image;
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+use glam::Vec2;
+use rayon::prelude::*;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Instant;
+
+const TILE: u32 = 16;
+
+/// How to run a render.
+#[derive(Clone, Debug, Default)]
+pub struct RenderOptions {
+    /// Worker threads; `None` uses rayon's global pool (all cores).
+    pub threads: Option<usize>,
+    /// Draw a progress bar on stderr.
+    pub progress: bool,
+    /// Set to true (e.g. by a Ctrl-C handler) to stop the render early; it then returns
+    /// [`Error::Other`] ("interrupted") and nothing is written.
+    pub cancel: Option<Arc<AtomicBool>>,
+}
+
+/// What a render did.
+#[derive(Clone, Debug)]
+pub struct RenderStats {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seconds: f64,
+    /// Camera paths traced (width x height x spp).
+    pub samples: u64,
+    /// Samples whose radiance was NaN or infinite, dropped from the image.
+    pub nonfinite_dropped: u64,
+    pub threads: usize,
+}
+
+impl RenderStats {
+    pub fn msamples_per_second(&self) -> f64 {
+        self.samples as f64 / self.seconds.max(1e-9) / 1e6
+    }
+
+    /// The one-line summary printed after a render.
+    pub fn summary(&self) -> String {
+        format!(
+            "{}x{} at {} spp in {:.2} s: {:.2} Msamples/s on {} threads, {} non-finite samples dropped",
+            self.width,
+            self.height,
+            self.spp,
+            self.seconds,
+            self.msamples_per_second(),
+            self.threads,
+            self.nonfinite_dropped
+        )
+    }
+
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "width": self.width,
+            "height": self.height,
+            "spp": self.spp,
+            "seconds": self.seconds,
+            "samples": self.samples,
+            "msamples_per_second": self.msamples_per_second(),
+            "nonfinite_dropped": self.nonfinite_dropped,
+            "threads": self.threads,
+        })
+    }
+}
+
+struct TileResult {
+    x0: u32,
+    y0: u32,
+    w: u32,
+    h: u32,
+    mean: Vec<Rgb>,
+    var: Vec<Rgb>,
+    dropped: u64,
+}
+
+fn render_tile(scene: &Scene, x0: u32, y0: u32) -> TileResult {
+    let w = TILE.min(scene.width - x0);
+    let h = TILE.min(scene.height - y0);
+    let spp = scene.spp;
+    let mut sampler = Sampler::new(scene.seed, spp);
+    let mut mean = Vec::with_capacity((w * h) as usize);
+    let mut var = Vec::with_capacity((w * h) as usize);
+    let mut dropped = 0u64;
+    let inv = Vec2::new(1.0 / scene.width as f32, 1.0 / scene.height as f32);
+    for y in y0..y0 + h {
+        for x in x0..x0 + w {
+            let mut sum = [0.0f64; 3];
+            let mut sum2 = [0.0f64; 3];
+            let mut n = 0u32;
+            for s in 0..spp {
+                sampler.start(x, y, s);
+                let jitter = sampler.next_2d();
+                let film = (Vec2::new(x as f32, y as f32) + jitter) * inv;
+                let ray = scene.camera.ray(film);
+                let l = scene.integrator.li(scene, ray, &mut sampler);
+                if !l.is_finite() {
+                    dropped += 1;
+                    continue;
+                }
+                n += 1;
+                for (k, c) in l.to_array().into_iter().enumerate() {
+                    let c = c as f64;
+                    sum[k] += c;
+                    sum2[k] += c * c;
+                }
+            }
+            let nf = n.max(1) as f64;
+            let m = sum.map(|s| s / nf);
+            let v: [f64; 3] = std::array::from_fn(|k| {
+                if n > 1 {
+                    ((sum2[k] - sum[k] * m[k]) / (nf - 1.0)).max(0.0) / nf
+                } else {
+                    0.0
+                }
+            });
+            mean.push(Rgb::new(m[0] as f32, m[1] as f32, m[2] as f32));
+            var.push(Rgb::new(v[0] as f32, v[1] as f32, v[2] as f32));
+        }
+    }
+    TileResult { x0, y0, w, h, mean, var, dropped }
+}
+
+/// Renders the scene.
+pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats)> {
+    let pool = match opts.threads {
+        Some(n) => Some(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n.max(1))
+                .build()
+                .map_err(|e| Error::Other(format!("cannot start {n} render threads: {e}")))?,
+        ),
+        None => None,
+    };
+    let threads = pool.as_ref().map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
+    let tiles: Vec<(u32, u32)> = (0..scene.height.div_ceil(TILE))
+        .flat_map(|ty| (0..scene.width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let bar = if opts.progress {
+        let pb = indicatif::ProgressBar::new(tiles.len() as u64);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} ETA {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        Some(pb)
+    } else {
+        None
+    };
+    let cancelled = AtomicBool::new(false);
+    let done = AtomicU64::new(0);
+    let start = Instant::now();
+    let run = || -> Vec<Option<TileResult>> {
+        tiles
+            .par_iter()
+            .map(|&(x0, y0)| {
+                if opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed)) {
+                    cancelled.store(true, Ordering::Relaxed);
+                    return None;
+                }
+                let t = render_tile(scene, x0, y0);
+                done.fetch_add(1, Ordering::Relaxed);
+                if let Some(pb) = &bar {
+                    pb.inc(1);
+                }
+                Some(t)
+            })
+            .collect()
+    };
+    let results = match &pool {
+        Some(p) => p.install(run),
+        None => run(),
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    if let Some(pb) = bar {
+        pb.finish_and_clear();
+    }
+    if cancelled.load(Ordering::Relaxed) {
+        return Err(Error::Other("render interrupted; nothing was written".into()));
+    }
+    let mut img = Image::new(scene.width, scene.height);
+    let mut dropped = 0;
+    for t in results.into_iter().flatten() {
+        dropped += t.dropped;
+        for j in 0..t.h {
+            for i in 0..t.w {
+                let dst = ((t.y0 + j) * scene.width + t.x0 + i) as usize;
+                let src = (j * t.w + i) as usize;
+                img.pixels[dst] = t.mean[src];
+                img.variance[dst] = t.var[src];
+            }
+        }
+    }
+    let stats = RenderStats {
+        width: scene.width,
+        height: scene.height,
+        spp: scene.spp,
+        seconds,
+        samples: scene.width as u64 * scene.height as u64 * scene.spp as u64,
+        nonfinite_dropped: dropped,
+        threads,
+    };
+    Ok((img, stats))
+}

@@ -1,0 +1,208 @@
+//! `lobe`: the command-line front end of lobe (Ngan, Durand and Matusik 2005's system
+//! for rendering, fitting and comparing BRDF models).
+//!
+//! Subcommands: `render` (this step); fit, tabulate, compare, figure, tradeoff and
+//! stability arrive with later steps. Errors are one line on stderr and a non-zero exit.
+
+use clap::{Parser, Subcommand};
+use lobe_renderer::render::{RenderOptions, RenderStats, render};
+use lobe_renderer::scene::Scene;
+use lobe_renderer::{Error, film};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+#[derive(Parser)]
+#[command(name = "lobe", version, about = "Render, fit and compare BRDF models (Ngan et al. 2005)")]
+struct Cli {
+    /// Print nothing but errors.
+    #[arg(long, short, global = true)]
+    quiet: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene file (or the built-in showcase) to EXR, PNG and a statistics JSON.
+    #[command(after_help = "Examples:\n  lobe render                                  # built-in showcase -> out/showcase.{exr,png,json}\n  lobe render scenes/sphere-envmap.json --spp 256 -o out/sphere.exr\n  lobe render scenes/cornell-box.json --threads 1 --seed 7\n  lobe render --bench                          # Msamples/s on the sphere-under-env-map benchmark")]
+    Render(RenderArgs),
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// Scene file (JSON, see docs/scene-format.md). Without it, the built-in showcase.
+    scene: Option<PathBuf>,
+    /// Output EXR path; the PNG and the JSON statistics go next to it with the same stem.
+    /// Default: out/<scene name>.exr
+    #[arg(long, short)]
+    output: Option<PathBuf>,
+    /// Samples per pixel (overrides the scene's sampler.spp).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Sampler seed (overrides the scene's sampler.seed).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// PNG exposure in stops (overrides the scene's film.exposure).
+    #[arg(long)]
+    exposure: Option<f32>,
+    /// Do not write the PNG.
+    #[arg(long)]
+    no_png: bool,
+    /// Benchmark: render several times without writing anything and report Msamples/s.
+    /// Without a scene, renders the built-in benchmark (one diffuse sphere under a
+    /// 512x256 environment map, 256x256 pixels, path tracer of depth 8).
+    #[arg(long)]
+    bench: bool,
+    /// Number of timed runs for --bench.
+    #[arg(long, default_value_t = 3)]
+    runs: u32,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => cmd_render(args, cli.quiet),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("lobe: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn install_ctrlc() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let f = flag.clone();
+    // If a handler cannot be installed (already set), rendering simply cannot be cancelled.
+    let _ = ctrlc::set_handler(move || f.store(true, Ordering::SeqCst));
+    flag
+}
+
+fn load_scene(args: &RenderArgs) -> Result<(Scene, String), Error> {
+    let (mut scene, name) = match &args.scene {
+        Some(p) => {
+            if !p.exists() {
+                return Err(Error::file(p.display(), "does not exist; expected a scene JSON file"));
+            }
+            let name = p.file_stem().and_then(|s| s.to_str()).unwrap_or("render").to_string();
+            (lobe_renderer::scene::load(p)?, name)
+        }
+        None if args.bench => (lobe_renderer::showcase::bench_scene()?, "bench".to_string()),
+        None => (lobe_renderer::showcase::showcase()?, "showcase".to_string()),
+    };
+    if let Some(spp) = args.spp {
+        if spp == 0 {
+            return Err(Error::Other("--spp: expected a positive number of samples per pixel, found 0".into()));
+        }
+        scene.spp = spp;
+    }
+    if let Some(seed) = args.seed {
+        scene.seed = seed;
+    }
+    if let Some(e) = args.exposure {
+        scene.exposure = e;
+    }
+    Ok((scene, name))
+}
+
+fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
+    if args.threads == Some(0) {
+        return Err(Error::Other("--threads: expected at least 1 thread, found 0".into()));
+    }
+    let (scene, name) = load_scene(&args)?;
+    let cancel = install_ctrlc();
+    let opts = RenderOptions {
+        threads: args.threads,
+        progress: !quiet && !args.bench && std::io::stderr().is_terminal(),
+        cancel: Some(cancel),
+    };
+    if args.bench {
+        return bench(&scene, &opts, args.runs.max(1), quiet);
+    }
+    let exr_path = match &args.output {
+        Some(p) => p.clone(),
+        None => {
+            let dir = PathBuf::from("out");
+            std::fs::create_dir_all(&dir)
+                .map_err(|e| Error::file(dir.display(), format!("cannot create the output folder: {e}")))?;
+            dir.join(format!("{name}.exr"))
+        }
+    };
+    check_output_folder(&exr_path)?;
+    let (img, stats) = render(&scene, &opts)?;
+    let png_path = exr_path.with_extension("png");
+    let json_path = exr_path.with_extension("json");
+    film::write_exr(&exr_path, img.width, img.height, &img.pixels)?;
+    if !args.no_png {
+        film::write_png(&png_path, img.width, img.height, &img.pixels, scene.exposure)?;
+    }
+    film::write_json(&json_path, &stats_json(&scene, &stats, &exr_path, (!args.no_png).then_some(&png_path)))?;
+    if !quiet {
+        eprintln!("{}", stats.summary());
+        eprintln!("wrote {}", exr_path.display());
+    }
+    Ok(())
+}
+
+fn check_output_folder(path: &Path) -> Result<(), Error> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(Error::file(path.display(), format!("output folder {} does not exist", dir.display())));
+    }
+    if path.is_dir() {
+        return Err(Error::file(path.display(), "is a directory; expected an output file path"));
+    }
+    Ok(())
+}
+
+fn stats_json(scene: &Scene, stats: &RenderStats, exr: &Path, png: Option<&PathBuf>) -> serde_json::Value {
+    let mut v = stats.to_json();
+    let o = v.as_object_mut().expect("object");
+    o.insert("scene".into(), scene.file.clone().into());
+    o.insert("seed".into(), scene.seed.into());
+    o.insert("integrator".into(), scene.integrator.describe().into());
+    o.insert("exr".into(), exr.display().to_string().into());
+    if let Some(p) = png {
+        o.insert("png".into(), p.display().to_string().into());
+        o.insert("exposure".into(), scene.exposure.into());
+    }
+    o.insert("lobe_version".into(), env!("CARGO_PKG_VERSION").into());
+    v
+}
+
+fn bench(scene: &Scene, opts: &RenderOptions, runs: u32, quiet: bool) -> Result<(), Error> {
+    // One untimed warm-up run (page faults, thread pool start-up).
+    let _ = render(scene, opts)?;
+    let mut rates = Vec::new();
+    for i in 0..runs {
+        let (_, stats) = render(scene, opts)?;
+        if !quiet {
+            eprintln!("run {}: {}", i + 1, stats.summary());
+        }
+        rates.push(stats.msamples_per_second());
+    }
+    rates.sort_by(f64::total_cmp);
+    let median = rates[rates.len() / 2];
+    println!(
+        "bench {}: {}x{} at {} spp, {}: median {:.2} Msamples/s over {} runs",
+        scene.file,
+        scene.width,
+        scene.height,
+        scene.spp,
+        scene.integrator.describe(),
+        median,
+        runs
+    );
+    Ok(())
+}
