@@ -118,11 +118,11 @@ impl Camera {
             Camera::Perspective { to_world, tan_half, aspect, near_clip } => {
                 let x = (1.0 - 2.0 * s.x) * tan_half;
                 let y = (1.0 - 2.0 * s.y) * tan_half / aspect;
-                let d_cam = Vec3::new(x, y, 1.0).normalize();
-                let d = to_world.transform_vector3(d_cam).normalize();
-                let o = to_world.transform_point3(Vec3::ZERO);
-                let near_t = near_clip / d_cam.z;
-                Ray::new(o + d * near_t, d)
+                // Camera-space direction (x, y, 1): its length sets the near-plane distance.
+                let len = (x * x + y * y + 1.0).sqrt();
+                let d = to_world.transform_vector3(Vec3::new(x, y, 1.0)).normalize();
+                let o = to_world.w_axis.truncate();
+                Ray::new(o + d * (near_clip * len), d)
             }
             Camera::Orthographic { to_world, scale, aspect, near_clip } => {
                 let x = (1.0 - 2.0 * s.x) * scale;

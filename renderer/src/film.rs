@@ -78,6 +78,13 @@ pub fn atomic_write(path: &Path, fill: impl FnOnce(&mut BufWriter<&std::fs::File
         drop(w);
         file.sync_all()
             .map_err(|e| Error::file(&shown, format!("write failed: {e}")))?;
+        // Temporary files are created private (0600); a finished output is an ordinary
+        // file (0644, subject to the umask of the directory's defaults).
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let _ = file.set_permissions(std::fs::Permissions::from_mode(0o644));
+        }
     }
     tmp.persist(path)
         .map_err(|e| Error::file(&shown, format!("cannot move the finished file into place: {}", e.error)))?;

@@ -76,31 +76,35 @@ fn laine_karras(mut x: u32, seed: u32) -> u32 {
     x
 }
 
-/// Owen scramble of a Sobol' integer (bits ordered most significant first).
+/// First Sobol' dimension (van der Corput in base 2), bit-reversed: the index itself.
+/// Sobol' points are produced bit-reversed so that the Owen scramble (which works from
+/// the most significant digit, i.e. the low bits of the reversed value) needs a single
+/// bit reversal at the end.
 #[inline]
-fn owen_scramble(x: u32, seed: u32) -> u32 {
-    laine_karras(x.reverse_bits(), seed).reverse_bits()
+fn sobol0_reversed(i: u32) -> u32 {
+    i
 }
 
-/// First Sobol' dimension (van der Corput in base 2).
+/// Second Sobol' dimension, bit-reversed (direction numbers v_k = v_{k-1} ^ (v_{k-1} >> 1)
+/// in the usual order, hence v'_k = v'_{k-1} ^ (v'_{k-1} << 1) reversed).
 #[inline]
-fn sobol0(i: u32) -> u32 {
-    i.reverse_bits()
-}
-
-/// Second Sobol' dimension (direction numbers v_k = v_{k-1} ^ (v_{k-1} >> 1)).
-#[inline]
-fn sobol1(mut i: u32) -> u32 {
-    let mut v = 1u32 << 31;
+fn sobol1_reversed(mut i: u32) -> u32 {
+    let mut v = 1u32;
     let mut r = 0u32;
     while i != 0 {
         if i & 1 != 0 {
             r ^= v;
         }
         i >>= 1;
-        v ^= v >> 1;
+        v ^= v << 1;
     }
     r
+}
+
+/// Owen-scrambled Sobol' value from its bit-reversed form.
+#[inline]
+fn scrambled(reversed: u32, seed: u32) -> u32 {
+    laine_karras(reversed, seed).reverse_bits()
 }
 
 #[inline]
@@ -138,28 +142,55 @@ impl Sampler {
         self.dim = 0;
     }
 
+    /// The sample index shuffled for the current dimension (Kensler's permutation, which
+    /// needs a single round when spp is a power of two).
+    #[inline]
+    fn shuffled_index(&self, h: u64) -> u32 {
+        permute(self.index, self.spp, h as u32)
+    }
+
+    #[inline]
+    fn dim_hash(&mut self) -> u64 {
+        let h = mix64(self.pixel_key.wrapping_add((self.dim as u64).wrapping_mul(0x9e3779b97f4a7c15)));
+        self.dim += 1;
+        h
+    }
+
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
-        let h = mix64(self.pixel_key ^ (self.dim as u64).wrapping_mul(0x9e3779b97f4a7c15));
-        self.dim += 1;
-        let i = permute(self.index, self.spp, h as u32);
-        let s0 = owen_scramble(sobol0(i), (h >> 32) as u32);
-        let s1 = owen_scramble(sobol1(i), mix64(h) as u32);
+        let h = self.dim_hash();
+        let i = self.shuffled_index(h);
+        let s0 = scrambled(sobol0_reversed(i), (h >> 32) as u32);
+        let s1 = scrambled(sobol1_reversed(i), (h as u32).rotate_left(16) ^ 0x5bd1e995);
         Vec2::new(to_unit(s0), to_unit(s1))
     }
 
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
-        let h = mix64(self.pixel_key ^ (self.dim as u64).wrapping_mul(0x9e3779b97f4a7c15));
-        self.dim += 1;
-        let i = permute(self.index, self.spp, h as u32);
-        to_unit(owen_scramble(sobol0(i), (h >> 32) as u32))
+        let h = self.dim_hash();
+        let i = self.shuffled_index(h);
+        to_unit(scrambled(sobol0_reversed(i), (h >> 32) as u32))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn index_shuffles_are_bijections() {
+        for spp in [1u32, 2, 16, 64, 100] {
+            let mut s = Sampler::new(3, spp);
+            s.start(1, 2, 0);
+            let mut seen = vec![false; spp as usize];
+            for i in 0..spp {
+                s.index = i;
+                let p = s.shuffled_index(0x1234_5678_9abc_def0) as usize;
+                assert!(!seen[p], "spp {spp}: {p} twice");
+                seen[p] = true;
+            }
+        }
+    }
 
     #[test]
     fn permutation_is_a_bijection() {
@@ -171,6 +202,13 @@ mod tests {
                 seen[p] = true;
             }
         }
+    }
+
+    #[test]
+    fn reversed_sobol_matches_the_direction_numbers() {
+        // Unscrambled second dimension for i = 1, 2, 3: 1/2, 3/4, 1/4.
+        let f = |i| sobol1_reversed(i).reverse_bits() as f64 / 2f64.powi(32);
+        assert_eq!((f(1), f(2), f(3)), (0.5, 0.75, 0.25));
     }
 
     #[test]

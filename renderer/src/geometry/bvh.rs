@@ -57,6 +57,9 @@ impl Boundable for Primitive {
     }
 }
 
+/// Scenes with at most this many primitives skip the BVH.
+pub const SMALL_SCENE: usize = 4;
+
 /// Per-shape data the intersection routine needs.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ShapeGeom {
@@ -75,9 +78,10 @@ pub struct Geometry {
 }
 
 impl Geometry {
-    /// Builds the BVH. Primitives are reordered to the BVH's leaf order.
+    /// Builds the BVH. Primitives are reordered to the BVH's leaf order. Scenes of at most
+    /// [`SMALL_SCENE`] primitives are tested exhaustively: cheaper than any traversal.
     pub fn build(prims: Vec<Primitive>, meshes: Vec<Mesh>, shapes: Vec<ShapeGeom>) -> Self {
-        if prims.is_empty() {
+        if prims.len() <= SMALL_SCENE {
             return Self {
                 prims,
                 meshes,
@@ -110,7 +114,9 @@ impl Geometry {
     /// Closest hit: (t, primitive index), without computing the local geometry.
     #[inline]
     pub fn closest(&self, ray: &Ray) -> Option<(f32, u32)> {
-        let bvh = self.bvh.as_ref()?;
+        let Some(bvh) = self.bvh.as_ref() else {
+            return self.closest_brute_force(ray);
+        };
         let mut hit = RayHit::none();
         let mut r = *ray;
         let found = bvh.ray_traverse(Self::bvh_ray(ray), &mut hit, |br, id| {
@@ -131,12 +137,13 @@ impl Geometry {
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         match &self.bvh {
-            None => false,
+            None => self.prims.iter().any(|p| p.intersect(ray) < ray.tmax),
             Some(bvh) => !bvh.ray_traverse_miss(Self::bvh_ray(ray), |_, id| self.prims[id].intersect(ray)),
         }
     }
 
-    /// Brute-force closest hit over all primitives (for tests).
+    /// Brute-force closest hit over all primitives (small scenes, and tests).
+    #[inline]
     pub fn closest_brute_force(&self, ray: &Ray) -> Option<(f32, u32)> {
         let mut best: Option<(f32, u32)> = None;
         let mut r = *ray;
@@ -156,8 +163,8 @@ impl Geometry {
         let sg = self.shapes[p.shape as usize];
         let (pos, mut ng, mut ns, dpdu, uv) = match &p.kind {
             PrimKind::Sphere(s) => {
-                let (pos, n, dpdu, uv) = s.surface(ray.at(t));
-                (pos, n, n, dpdu, uv)
+                let (pos, n, dpdu) = s.surface(ray.at(t));
+                (pos, n, n, dpdu, Vec2::ZERO)
             }
             PrimKind::Rectangle(r) => {
                 let uv = r.uv(ray.at(t));
@@ -210,10 +217,8 @@ impl Geometry {
         }
     }
 
-    /// Bounding box of everything (for the scene's bounding sphere).
-    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
-        self.bvh
-            .as_ref()
-            .map(|b| (Vec3::from(b.total_aabb.min), Vec3::from(b.total_aabb.max)))
+    /// True when queries go through the BVH (more than [`SMALL_SCENE`] primitives).
+    pub fn has_bvh(&self) -> bool {
+        self.bvh.is_some()
     }
 }

@@ -54,6 +54,8 @@ pub struct Interaction {
     pub ns: Vec3,
     /// Surface tangent along u (for anisotropic materials).
     pub dpdu: Vec3,
+    /// Surface coordinates: mesh texture coordinates (or barycentrics), rectangle (u, v);
+    /// zero on spheres (see [`Sphere::uv`]), whose materials need none.
     pub uv: Vec2,
     /// Index of the scene shape that was hit.
     pub shape: u32,

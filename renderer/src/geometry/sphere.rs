@@ -43,9 +43,10 @@ impl Sphere {
         }
     }
 
-    /// Hit point re-projected onto the surface, outward unit normal, tangent and (u, v).
-    /// The (u, v) parameterization is Mitsuba 3's: phi around the local z axis.
-    pub fn surface(&self, p_approx: Vec3) -> (Vec3, Vec3, Vec3, Vec2) {
+    /// Hit point re-projected onto the surface, outward unit normal and tangent (along
+    /// increasing phi around +z, Mitsuba 3's dp/du).
+    #[inline]
+    pub fn surface(&self, p_approx: Vec3) -> (Vec3, Vec3, Vec3) {
         let mut local = p_approx - self.center;
         let len = local.length();
         if len > 0.0 {
@@ -55,18 +56,23 @@ impl Sphere {
         }
         let n = (local / self.radius).normalize();
         let p = self.center + local;
-        let mut phi = local.y.atan2(local.x);
-        if phi < 0.0 {
-            phi += TAU;
-        }
-        let theta = (local.z / self.radius).clamp(-1.0, 1.0).acos();
         let dpdu = Vec3::new(-local.y, local.x, 0.0);
         let dpdu = if dpdu.length_squared() > 0.0 {
             dpdu.normalize()
         } else {
             Vec3::X
         };
-        (p, n, dpdu, Vec2::new(phi / TAU, theta / PI))
+        (p, n, dpdu)
+    }
+
+    /// Mitsuba 3's (u, v) of a point on the sphere: u = phi / 2 pi around +z, v = theta / pi.
+    pub fn uv(&self, p: Vec3) -> Vec2 {
+        let local = (p - self.center) / self.radius;
+        let mut phi = local.y.atan2(local.x);
+        if phi < 0.0 {
+            phi += TAU;
+        }
+        Vec2::new(phi / TAU, local.z.clamp(-1.0, 1.0).acos() / PI)
     }
 
     pub fn area(&self) -> f32 {

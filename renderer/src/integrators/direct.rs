@@ -51,30 +51,27 @@ pub fn li(scene: &Scene, ray: Ray, sampler: &mut Sampler, emitter_samples: u32, 
         };
         let wi = sh.frame.to_world(bs.wi);
         let r = spawn_ray(&it, wi);
-        let (le, light_pdf) = match scene.geometry.intersect(&r) {
-            None => {
-                let mut acc = Rgb::ZERO;
-                let mut pdf = 0.0;
-                for &k in &scene.infinite_lights {
-                    let light = &scene.lights[k as usize];
-                    acc += light.le_infinite(wi);
-                    pdf += sel_pdf * light.pdf_infinite(wi);
-                }
-                (acc, pdf)
+        // Each light is its own integrand term, weighted with its own density.
+        let mut add = |le: Rgb, light_pdf: f32| {
+            if !le.is_black() {
+                let w = power_heuristic(bs.pdf * frac_bsdf, light_pdf * frac_em);
+                l += bs.weight * le * (w / bsdf_samples as f32);
             }
-            Some(hit) => match scene.shapes[hit.shape as usize].light {
-                Some(k) => {
-                    let light = &scene.lights[k as usize];
-                    (light.le_area(&hit, -wi), sel_pdf * light.pdf_area(it.p, &hit))
-                }
-                None => (Rgb::ZERO, 0.0),
-            },
         };
-        if le.is_black() {
-            continue;
+        match scene.geometry.intersect(&r) {
+            None => {
+                for &k in &scene.infinite_lights {
+                    let (le, pdf) = scene.lights[k as usize].le_pdf_infinite(wi);
+                    add(le, sel_pdf * pdf);
+                }
+            }
+            Some(hit) => {
+                if let Some(k) = scene.shapes[hit.shape as usize].light {
+                    let light = &scene.lights[k as usize];
+                    add(light.le_area(&hit, -wi), sel_pdf * light.pdf_area(it.p, &hit));
+                }
+            }
         }
-        let w = power_heuristic(bs.pdf * frac_bsdf, light_pdf * frac_em);
-        l += bs.weight * le * (w / bsdf_samples as f32);
     }
     l
 }

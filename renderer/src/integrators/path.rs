@@ -30,15 +30,11 @@ pub fn li(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, max_depth: Option<
         let Some(it) = scene.geometry.intersect(&ray) else {
             for &k in &scene.infinite_lights {
                 let light = &scene.lights[k as usize];
-                let le = light.le_infinite(ray.d);
+                let (le, pdf) = light.le_pdf_infinite(ray.d);
                 if le.is_black() {
                     continue;
                 }
-                let w = if depth == 0 {
-                    1.0
-                } else {
-                    power_heuristic(prev_pdf, sel_pdf * light.pdf_infinite(ray.d))
-                };
+                let w = if depth == 0 { 1.0 } else { power_heuristic(prev_pdf, sel_pdf * pdf) };
                 l += beta * le * w;
             }
             break;

@@ -102,47 +102,138 @@ impl Distribution1D {
     }
 }
 
-/// A piecewise-constant density on [0, 1)^2 over an `nu` x `nv` grid (row-major, v rows).
+/// Walker's alias method (Vose's O(n) construction) over several rows of `n` cells
+/// stored flat: picks cell i of a row with probability proportional to its weight in
+/// O(1) and one memory access, and returns the sample rescaled within the cell.
+#[derive(Clone, Debug)]
+pub struct AliasTable {
+    n: usize,
+    /// Per cell: probability of keeping it (rather than jumping to its alias), alias.
+    entries: Vec<(f32, u32)>,
+}
+
+impl AliasTable {
+    /// One row from non-negative weights (all zero: uniform).
+    pub fn new(weights: &[f32]) -> Self {
+        Self::rows(weights, weights.len().max(1))
+    }
+
+    /// Rows of `n` cells each, from row-major non-negative weights; an all-zero row is
+    /// uniform.
+    pub fn rows(weights: &[f32], n: usize) -> Self {
+        let mut entries = Vec::with_capacity(weights.len());
+        for row in weights.chunks(n) {
+            let sum: f64 = row.iter().map(|&w| if w.is_finite() { w.max(0.0) as f64 } else { 0.0 }).sum();
+            let mut scaled: Vec<f64> = if sum > 0.0 {
+                row.iter().map(|&w| if w.is_finite() { w.max(0.0) as f64 * n as f64 / sum } else { 0.0 }).collect()
+            } else {
+                vec![1.0; n]
+            };
+            let base = entries.len();
+            entries.extend((0..n as u32).map(|i| (1.0f32, i)));
+            let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
+            while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+                entries[base + s] = (scaled[s] as f32, l as u32);
+                scaled[l] -= 1.0 - scaled[s];
+                if scaled[l] < 1.0 {
+                    large.pop();
+                    small.push(l);
+                }
+            }
+            // Leftovers (rounding) keep themselves with probability 1.
+        }
+        Self { n, entries }
+    }
+
+    /// (cell within `row`, u rescaled to [0, 1) within the choice).
+    #[inline]
+    pub fn sample_row(&self, row: usize, u: f32) -> (usize, f32) {
+        let n = self.n;
+        let x = u * n as f32;
+        let i = (x as usize).min(n - 1);
+        let frac = (x - i as f32).clamp(0.0, 1.0);
+        let (k, alias) = self.entries[row * n + i];
+        if frac < k {
+            (i, (frac / k).min(1.0 - f32::EPSILON / 2.0))
+        } else {
+            (alias as usize, ((frac - k) / (1.0 - k)).clamp(0.0, 1.0 - f32::EPSILON / 2.0))
+        }
+    }
+
+    #[inline]
+    pub fn sample(&self, u: f32) -> (usize, f32) {
+        self.sample_row(0, u)
+    }
+}
+
+/// O(1) sampling of the cells of an `nu` x `nv` grid (row-major, v rows) in proportion
+/// to their values: an alias table over rows, then one over the cells of the row. The
+/// density is left to the caller (see [`Distribution2D`]).
+#[derive(Clone, Debug)]
+pub struct Alias2D {
+    pub nu: usize,
+    pub nv: usize,
+    rows: AliasTable,
+    cols: AliasTable,
+}
+
+impl Alias2D {
+    /// From non-negative cell values (an all-zero grid is uniform). Returns the table and
+    /// the mean cell value (1 for an all-zero grid).
+    pub fn new(values: &[f32], nu: usize, nv: usize) -> (Self, f64) {
+        assert_eq!(values.len(), nu * nv);
+        let clean = |v: f32| if v.is_finite() { v.max(0.0) } else { 0.0 };
+        let row_sums: Vec<f32> = values.chunks(nu).map(|r| r.iter().map(|&v| clean(v) as f64).sum::<f64>() as f32).collect();
+        let mean = row_sums.iter().map(|&v| v as f64).sum::<f64>() / (nu * nv) as f64;
+        let t = Self { nu, nv, rows: AliasTable::new(&row_sums), cols: AliasTable::rows(values, nu) };
+        (t, if mean > 0.0 { mean } else { 1.0 })
+    }
+
+    /// (column, row, position within the cell in [0, 1)^2).
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> (usize, usize, Vec2) {
+        let (row, ry) = self.rows.sample(u.y);
+        let (col, rx) = self.cols.sample_row(row, u.x);
+        (col, row, Vec2::new(rx, ry))
+    }
+}
+
+/// A piecewise-constant density on [0, 1)^2 over an `nu` x `nv` grid, sampled with
+/// [`Alias2D`].
 #[derive(Clone, Debug)]
 pub struct Distribution2D {
-    conditional: Vec<Distribution1D>,
-    marginal: Distribution1D,
+    table: Alias2D,
+    /// Cell values divided by their mean: the density of each cell.
+    density: Vec<f32>,
 }
 
 impl Distribution2D {
+    /// From non-negative cell values; an all-zero function becomes uniform.
     pub fn new(values: &[f32], nu: usize, nv: usize) -> Self {
-        assert_eq!(values.len(), nu * nv);
-        let conditional: Vec<_> = (0..nv)
-            .map(|v| Distribution1D::new(&values[v * nu..(v + 1) * nu]))
+        let (table, mean) = Alias2D::new(values, nu, nv);
+        let all_zero = !values.iter().any(|&v| v.is_finite() && v > 0.0);
+        let density = values
+            .iter()
+            .map(|&v| if all_zero { 1.0 } else if v.is_finite() { (v.max(0.0) as f64 / mean) as f32 } else { 0.0 })
             .collect();
-        let row_integrals: Vec<f32> = (0..nv)
-            .map(|v| {
-                values[v * nu..(v + 1) * nu]
-                    .iter()
-                    .map(|x| if x.is_finite() { x.max(0.0) } else { 0.0 })
-                    .sum::<f32>()
-                    / nu as f32
-            })
-            .collect();
-        Self {
-            conditional,
-            marginal: Distribution1D::new(&row_integrals),
-        }
+        Self { table, density }
     }
 
     /// Samples (u, v) in [0, 1)^2 with its density.
     #[inline]
     pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
-        let (v, pdf_v, row) = self.marginal.sample(u.y);
-        let (x, pdf_u, _) = self.conditional[row].sample(u.x);
-        (Vec2::new(x, v), pdf_v * pdf_u)
+        let (nu, nv) = (self.table.nu, self.table.nv);
+        let (col, row, r) = self.table.sample(u);
+        let p = Vec2::new((col as f32 + r.x) / nu as f32, (row as f32 + r.y) / nv as f32);
+        (p.min(Vec2::splat(1.0 - f32::EPSILON / 2.0)), self.density[row * nu + col])
     }
 
     #[inline]
     pub fn pdf(&self, p: Vec2) -> f32 {
-        let nv = self.conditional.len();
+        let (nu, nv) = (self.table.nu, self.table.nv);
+        let col = ((p.x * nu as f32) as usize).min(nu - 1);
         let row = ((p.y * nv as f32) as usize).min(nv - 1);
-        self.marginal.pdf(p.y) * self.conditional[row].pdf(p.x)
+        self.density[row * nu + col]
     }
 }
 
@@ -176,5 +267,36 @@ mod tests {
             }
         }
         assert!((acc / (n * n) as f32 - 1.0).abs() < 1e-3);
+        // Sampled points land in proportion to the cell values.
+        let mut counts = [0u32; 12];
+        let m = 256;
+        for i in 0..m {
+            for j in 0..m {
+                let (p, pdf) = d.sample(Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32));
+                assert!((pdf - d.pdf(p)).abs() < 1e-5);
+                counts[(p.y * 3.0) as usize * 4 + (p.x * 4.0) as usize] += 1;
+            }
+        }
+        let total: f32 = vals.iter().sum();
+        for k in 0..12 {
+            let expect = vals[k] / total * (m * m) as f32;
+            assert!((counts[k] as f32 - expect).abs() <= 0.01 * (m * m) as f32, "cell {k}: {} vs {expect}", counts[k]);
+        }
+    }
+
+    #[test]
+    fn alias_table_matches_weights() {
+        let w = [1.0, 0.0, 5.0, 2.0];
+        let t = AliasTable::new(&w);
+        let mut c = [0u32; 4];
+        let n = 80000;
+        for k in 0..n {
+            let (i, r) = t.sample((k as f32 + 0.5) / n as f32);
+            assert!((0.0..1.0).contains(&r));
+            c[i] += 1;
+        }
+        for i in 0..4 {
+            assert!((c[i] as f32 / n as f32 - w[i] / 8.0).abs() < 1e-3, "{c:?}");
+        }
     }
 }

@@ -14,7 +14,7 @@
 //! bilinear grid, weighted by the mean luminance of each cell's corners times sin(theta)
 //! at the cell centre: positive wherever the radiance is, so the estimator stays unbiased.
 
-use super::distribution::Distribution2D;
+use super::distribution::Alias2D;
 use crate::Rgb;
 use crate::error::{Error, Result};
 use glam::{Mat3, Vec2, Vec3};
@@ -30,7 +30,13 @@ pub struct EnvMap {
     scale: f32,
     to_world: Mat3,
     to_local: Mat3,
-    dist: Distribution2D,
+    /// Cell sampler; a cell's density is recomputed from the same four corners the
+    /// radiance lookup reads, so sampling and evaluation touch the same cache lines.
+    cells: Alias2D,
+    /// sin(theta) at the centre of each row of cells.
+    sin_centre: Vec<f32>,
+    /// 1 / mean cell weight (0 when the map is black: uniform sampling).
+    inv_mean: f32,
 }
 
 /// An RGB float image, row-major, top row first.
@@ -51,16 +57,16 @@ impl EnvMap {
             data.extend_from_slice(row);
             data.push(row[0]);
         }
-        let lum: Vec<f32> = data.iter().map(|c| c.luminance().max(0.0)).collect();
+        let sin_centre: Vec<f32> = (0..h - 1).map(|j| ((j as f32 + 0.5) / (h - 1) as f32 * PI).sin()).collect();
         let mut cells = vec![0.0f32; w * (h - 1)];
         for j in 0..h - 1 {
-            let sin_theta = ((j as f32 + 0.5) / (h - 1) as f32 * PI).sin();
             for i in 0..w {
                 let k = j * (w + 1) + i;
-                let mean = 0.25 * (lum[k] + lum[k + 1] + lum[k + w + 1] + lum[k + w + 2]);
-                cells[j * w + i] = mean * sin_theta;
+                cells[j * w + i] = Self::corner_weight(&data, k, w) * sin_centre[j];
             }
         }
+        let black = !cells.iter().any(|&c| c > 0.0);
+        let (table, mean) = Alias2D::new(&cells, w, h - 1);
         Self {
             width: w,
             height: h,
@@ -68,8 +74,28 @@ impl EnvMap {
             scale,
             to_world,
             to_local: to_world.transpose(),
-            dist: Distribution2D::new(&cells, w, h - 1),
+            cells: table,
+            sin_centre,
+            inv_mean: if black { 0.0 } else { (1.0 / mean) as f32 },
         }
+    }
+
+    /// Mean luminance of the four corners of the cell whose top-left pixel is `k`.
+    #[inline]
+    fn corner_weight(d: &[Rgb], k: usize, w: usize) -> f32 {
+        0.25 * (d[k].luminance().max(0.0)
+            + d[k + 1].luminance().max(0.0)
+            + d[k + w + 1].luminance().max(0.0)
+            + d[k + w + 2].luminance().max(0.0))
+    }
+
+    /// Density of the cell sampler over the unit square for the cell at (ix, iy).
+    #[inline]
+    fn cell_density(&self, ix: usize, iy: usize) -> f32 {
+        if self.inv_mean == 0.0 {
+            return 1.0;
+        }
+        Self::corner_weight(&self.data, iy * (self.width + 1) + ix, self.width) * self.sin_centre[iy] * self.inv_mean
     }
 
     pub fn resolution(&self) -> (usize, usize) {
@@ -79,6 +105,12 @@ impl EnvMap {
     /// Bilinear lookup at Mitsuba's texture coordinates (u, v).
     #[inline]
     fn lookup(&self, u: f32, v: f32) -> Rgb {
+        self.lookup_cell(u, v).0
+    }
+
+    /// Bilinear lookup, and the cell (ix, iy) of the sampling grid that holds (u, v).
+    #[inline]
+    fn lookup_cell(&self, u: f32, v: f32) -> (Rgb, usize, usize) {
         let (w, h) = (self.width, self.height);
         let mut x = u - 0.5 / w as f32;
         x -= x.floor();
@@ -94,7 +126,7 @@ impl EnvMap {
         let d = &self.data;
         let top = d[k] * (1.0 - fx) + d[k + 1] * fx;
         let bottom = d[k + w + 1] * (1.0 - fx) + d[k + w + 2] * fx;
-        (top * (1.0 - fy) + bottom * fy) * self.scale
+        ((top * (1.0 - fy) + bottom * fy) * self.scale, ix, iy)
     }
 
     /// Local direction -> Mitsuba texture coordinates.
@@ -114,24 +146,35 @@ impl EnvMap {
         self.lookup(uv.x, uv.y)
     }
 
+    /// Radiance from world direction `d` and the solid-angle density with which
+    /// [`EnvMap::sample`] picks it, sharing the coordinate computation.
+    #[inline]
+    pub fn eval_pdf(&self, d: Vec3) -> (Rgb, f32) {
+        let l = self.to_local * d;
+        let uv = Self::uv_of(l);
+        let (radiance, ix, iy) = self.lookup_cell(uv.x, uv.y);
+        let sin_theta = (l.x * l.x + l.z * l.z).sqrt();
+        if sin_theta <= 1e-7 {
+            return (radiance, 0.0);
+        }
+        (radiance, self.cell_density(ix, iy) / (2.0 * PI * PI * sin_theta))
+    }
+
     /// Solid-angle density of [`EnvMap::sample`] for world direction `d`.
     #[inline]
     pub fn pdf(&self, d: Vec3) -> f32 {
-        let l = self.to_local * d;
-        let sin_theta = (l.x * l.x + l.z * l.z).sqrt();
-        if sin_theta <= 1e-7 {
-            return 0.0;
-        }
-        let uv = Self::uv_of(l);
-        let mut a = uv.x - 0.5 / self.width as f32;
-        a -= a.floor();
-        self.dist.pdf(Vec2::new(a, uv.y)) / (2.0 * PI * PI * sin_theta)
+        self.eval_pdf(d).1
     }
 
     /// Samples a world direction: (direction, radiance, solid-angle pdf).
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, Rgb, f32)> {
-        let (ab, pdf_ab) = self.dist.sample(u);
+        let (ix, iy, r) = self.cells.sample(u);
+        let ab = Vec2::new(
+            ((ix as f32 + r.x) / self.width as f32).min(1.0 - f32::EPSILON / 2.0),
+            ((iy as f32 + r.y) / (self.height - 1) as f32).min(1.0 - f32::EPSILON / 2.0),
+        );
+        let pdf_ab = self.cell_density(ix, iy);
         if pdf_ab <= 0.0 {
             return None;
         }

@@ -128,6 +128,17 @@ impl Light {
         }
     }
 
+    /// Radiance of an infinite light along `d` and the density with which `sample_li`
+    /// picks `d`, in one evaluation.
+    #[inline]
+    pub fn le_pdf_infinite(&self, d: Vec3) -> (Rgb, f32) {
+        match self {
+            Light::Env(env) => env.eval_pdf(d),
+            Light::Constant { radiance } => (*radiance, UNIFORM_SPHERE_PDF),
+            _ => (Rgb::ZERO, 0.0),
+        }
+    }
+
     /// Solid-angle density with which `sample_li` picks direction `d` (infinite lights).
     #[inline]
     pub fn pdf_infinite(&self, d: Vec3) -> f32 {
@@ -212,7 +223,7 @@ impl AreaShape {
                         let r2 = sphere.radius * sphere.radius;
                         let ds = dc * cos_t - (r2 - dc * dc * sin2).max(0.0).sqrt();
                         let q = p + w * ds;
-                        let (q, n, _, _) = sphere.surface(q);
+                        let (q, n, _) = sphere.surface(q);
                         Some((q, n * sign, uniform_cone_pdf(cos_max)))
                     }
                     _ => {
