@@ -1,0 +1,117 @@
+//! The BVH returns the same closest hits as a brute-force loop over every primitive, on
+//! random rays through a scene of triangles, spheres and rectangles; occlusion queries
+//! agree with closest hits.
+
+use glam::{Mat4, Vec3};
+use lobe_renderer::geometry::bvh::{PrimKind, Primitive, ShapeGeom};
+use lobe_renderer::geometry::{Geometry, Mesh, Ray, Rectangle, Sphere, Triangle};
+
+struct Lcg(u64);
+impl Lcg {
+    fn f(&mut self) -> f32 {
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((self.0 >> 40) as f32) / (1u64 << 24) as f32
+    }
+    fn v(&mut self, s: f32) -> Vec3 {
+        Vec3::new(self.f() * 2.0 - 1.0, self.f() * 2.0 - 1.0, self.f() * 2.0 - 1.0) * s
+    }
+}
+
+fn scene() -> Geometry {
+    let mut r = Lcg(7);
+    let mut mesh = Mesh::default();
+    for _ in 0..3000 {
+        let c = r.v(4.0);
+        let base = mesh.positions.len() as u32;
+        for _ in 0..3 {
+            mesh.positions.push(c + r.v(0.3));
+        }
+        mesh.indices.push([base, base + 1, base + 2]);
+    }
+    let mut prims = Vec::new();
+    for t in 0..mesh.indices.len() as u32 {
+        prims.push(Primitive { kind: PrimKind::Triangle(Triangle::new(0, &mesh, t)), shape: 0 });
+    }
+    for _ in 0..20 {
+        prims.push(Primitive { kind: PrimKind::Sphere(Sphere { center: r.v(4.0), radius: 0.1 + r.f() }), shape: 1 });
+    }
+    for k in 0..5 {
+        let m = Mat4::from_translation(r.v(3.0)) * Mat4::from_axis_angle(r.v(1.0).normalize(), k as f32) * Mat4::from_scale(Vec3::splat(0.8));
+        prims.push(Primitive { kind: PrimKind::Rectangle(Rectangle::from_transform(&m).unwrap()), shape: 2 });
+    }
+    Geometry::build(prims, vec![mesh], vec![ShapeGeom::default(); 3])
+}
+
+#[test]
+fn closest_hits_equal_brute_force() {
+    let g = scene();
+    assert!(g.has_bvh());
+    let mut r = Lcg(99);
+    let mut hits = 0;
+    for _ in 0..20_000 {
+        let o = r.v(8.0);
+        let target = r.v(3.0);
+        let ray = Ray::new(o, (target - o).normalize());
+        let a = g.closest(&ray);
+        let b = g.closest_brute_force(&ray);
+        match (a, b) {
+            (None, None) => {}
+            (Some((ta, ia)), Some((tb, ib))) => {
+                hits += 1;
+                assert_eq!(ta, tb, "distance differs: BVH prim {ia}, brute force prim {ib}");
+                // Ties between primitives at the same distance may resolve either way.
+                assert_eq!(g.prims[ia as usize].intersect(&ray), ta);
+                // Nothing blocks the ray before its closest hit, something blocks it after.
+                let before = Ray { tmax: ta * 0.999, ..ray };
+                assert!(!g.occluded(&before));
+                let after = Ray { tmax: ta * 1.001 + 1e-4, ..ray };
+                assert!(g.occluded(&after));
+            }
+            _ => panic!("BVH and brute force disagree on whether {ray:?} hits: {a:?} vs {b:?}"),
+        }
+    }
+    assert!(hits > 5000, "the test must hit things ({hits} hits)");
+}
+
+#[test]
+fn spawned_rays_do_not_self_intersect_at_grazing_angles() {
+    // A large sphere and a large rectangle: rays leaving the surface at grazing angles
+    // must not hit the surface they leave.
+    let sphere = Sphere { center: Vec3::new(0.0, 0.0, 0.0), radius: 1000.0 };
+    let rect = Rectangle::from_transform(&(Mat4::from_translation(Vec3::new(0.0, 0.0, 3000.0)) * Mat4::from_scale(Vec3::splat(500.0)))).unwrap();
+    let g = Geometry::build(
+        vec![
+            Primitive { kind: PrimKind::Sphere(sphere), shape: 0 },
+            Primitive { kind: PrimKind::Rectangle(rect), shape: 1 },
+        ],
+        vec![],
+        vec![ShapeGeom::default(); 2],
+    );
+    let mut r = Lcg(3);
+    let mut naive_self_hits = 0;
+    for k in 0..20_000 {
+        // Hit a random point of either surface from outside, then leave at a grazing angle.
+        let (o, target) = if k % 2 == 0 {
+            let n = r.v(1.0).normalize();
+            (n * 3000.0, n * 1000.0)
+        } else {
+            let p = Vec3::new(r.f() * 800.0 - 400.0, r.f() * 800.0 - 400.0, 3000.0);
+            (p + Vec3::new(1.0, 2.0, 500.0), p)
+        };
+        let ray = Ray::new(o, (target - o).normalize());
+        let Some(it) = g.intersect(&ray) else { continue };
+        let t1 = it.ng.any_orthonormal_vector();
+        let d = (t1 + it.ng * 1e-3).normalize(); // 89.94 degrees from the normal
+        let out = lobe_renderer::geometry::spawn_ray(&it, d);
+        if let Some((t, p)) = g.closest(&out) {
+            assert!(g.prims[p as usize].shape != it.shape || t > 1.0, "self-intersection at t = {t}");
+        }
+        // The same ray without the offset does hit its own surface: the test can fail.
+        if let Some((t, p)) = g.closest(&Ray::new(it.p, d)) {
+            if g.prims[p as usize].shape == it.shape && t < 1.0 {
+                naive_self_hits += 1;
+            }
+        }
+    }
+    assert!(naive_self_hits > 100, "unoffset rays self-intersect ({naive_self_hits} times)");
+}

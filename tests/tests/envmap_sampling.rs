@@ -1,0 +1,162 @@
+//! The environment-map sampler: its density integrates to one over the sphere, samples
+//! agree with `eval` and `pdf`, and a chi-square test (Pearson, cells with expected count
+//! below 5 pooled, significance 1 %) matches sampled directions to the density.
+
+use glam::{Mat3, Vec2, Vec3};
+use lobe_materials::Rgb;
+use lobe_renderer::lights::envmap::{EnvMap, RgbImage};
+use lobe_tests::chi2_test;
+use std::f64::consts::PI;
+
+/// A synthetic HDR map: a smooth gradient, a bright "sun" and a black band.
+fn synthetic(w: usize, h: usize) -> RgbImage {
+    let mut pixels = Vec::new();
+    for j in 0..h {
+        for i in 0..w {
+            let (u, v) = (i as f32 / w as f32, j as f32 / h as f32);
+            let mut c = Rgb::new(0.2 + u, 0.5 * v, 0.3) * (1.0 + (6.0 * u).sin().abs());
+            if (u - 0.3).abs() < 0.03 && (v - 0.25).abs() < 0.04 {
+                c = Rgb::new(200.0, 180.0, 150.0);
+            }
+            if (0.6..0.7).contains(&v) {
+                c = Rgb::ZERO;
+            }
+            pixels.push(c);
+        }
+    }
+    RgbImage { width: w, height: h, pixels }
+}
+
+fn env() -> EnvMap {
+    let rot = Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.7);
+    EnvMap::new(&synthetic(64, 32), 1.5, rot)
+}
+
+/// Unit direction from (cos theta, phi) around +z.
+fn dir(z: f64, phi: f64) -> Vec3 {
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32)
+}
+
+#[test]
+fn density_integrates_to_one() {
+    let e = env();
+    // Midpoint rule in (cos theta, phi): equal-area cells.
+    let (nz, np) = (800, 1600);
+    let mut acc = 0.0f64;
+    for a in 0..nz {
+        for b in 0..np {
+            let z = -1.0 + 2.0 * (a as f64 + 0.5) / nz as f64;
+            let phi = 2.0 * PI * (b as f64 + 0.5) / np as f64;
+            acc += e.pdf(dir(z, phi)) as f64;
+        }
+    }
+    let integral = acc * 4.0 * PI / (nz * np) as f64;
+    assert!((integral - 1.0).abs() < 5e-3, "integral of the pdf: {integral}");
+}
+
+#[test]
+fn samples_agree_with_eval_and_pdf() {
+    let e = env();
+    for i in 0..2000 {
+        let u = Vec2::new(((i as f32) * 0.618034).fract(), (i as f32 + 0.5) / 2000.0);
+        let Some((d, li, pdf)) = e.sample(u) else { continue };
+        assert!((d.length() - 1.0).abs() < 1e-4);
+        let (l2, p2) = e.eval_pdf(d);
+        assert!((li - l2).max_component().abs() <= 1e-3 * li.max_component().max(1.0), "{li:?} vs {l2:?}");
+        assert!((pdf - p2).abs() <= 2e-3 * pdf, "pdf {pdf} vs {p2}");
+        assert!(li.max_component() > 0.0, "sampled a black direction");
+    }
+}
+
+#[test]
+fn chi_square_of_sampled_directions() {
+    let e = env();
+    let (nz, np) = (24usize, 48usize);
+    let n = 400_000usize;
+    let mut observed = vec![0.0f64; nz * np];
+    let mut state = 0x1234_5678_9abc_def0u64;
+    let mut rnd = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((state >> 40) as f32) / (1u64 << 24) as f32
+    };
+    for _ in 0..n {
+        let u = Vec2::new(rnd(), rnd());
+        if let Some((d, _, _)) = e.sample(u) {
+            let z = (d.z as f64).clamp(-1.0, 1.0 - 1e-12);
+            let mut phi = (d.y as f64).atan2(d.x as f64);
+            if phi < 0.0 {
+                phi += 2.0 * PI;
+            }
+            let a = (((z + 1.0) / 2.0 * nz as f64) as usize).min(nz - 1);
+            let b = ((phi / (2.0 * PI) * np as f64) as usize).min(np - 1);
+            observed[a * np + b] += 1.0;
+        }
+    }
+    // Expected counts: the pdf integrated over each cell (16 x 16 midpoint sub-cells).
+    let mut expected = vec![0.0f64; nz * np];
+    let sub = 16;
+    let cell_area = 4.0 * PI / (nz * np) as f64;
+    for a in 0..nz {
+        for b in 0..np {
+            let mut acc = 0.0;
+            for i in 0..sub {
+                for j in 0..sub {
+                    let z = -1.0 + 2.0 * (a as f64 + (i as f64 + 0.5) / sub as f64) / nz as f64;
+                    let phi = 2.0 * PI * (b as f64 + (j as f64 + 0.5) / sub as f64) / np as f64;
+                    acc += e.pdf(dir(z, phi)) as f64;
+                }
+            }
+            expected[a * np + b] = acc / (sub * sub) as f64 * cell_area * n as f64;
+        }
+    }
+    let (stat, dof, p) = chi2_test(&observed, &expected, 5.0);
+    eprintln!("chi2 = {stat:.1}, dof = {dof}, p = {p:.4}");
+    assert!(p > 0.01, "chi-square test rejects the sampler: chi2 = {stat:.1}, dof = {dof}, p = {p:.2e}");
+}
+
+#[test]
+fn chi_square_detects_a_wrong_density() {
+    // The same test must fail for a sampler whose pdf is off: compare the samples of one
+    // map with the density of another (a slightly brighter sun).
+    let e = env();
+    let mut img = synthetic(64, 32);
+    for p in img.pixels.iter_mut() {
+        if p.r > 100.0 {
+            *p = *p * 1.3;
+        }
+    }
+    let wrong = EnvMap::new(&img, 1.5, Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.7));
+    let (nz, np) = (12usize, 24usize);
+    let n = 200_000usize;
+    let mut observed = vec![0.0f64; nz * np];
+    for k in 0..n {
+        let u = Vec2::new(((k as f64 * 0.754877666) % 1.0) as f32, ((k as f64 * 0.569840291) % 1.0) as f32);
+        if let Some((d, _, _)) = e.sample(u) {
+            let a = ((((d.z as f64) + 1.0) / 2.0 * nz as f64) as usize).min(nz - 1);
+            let mut phi = (d.y as f64).atan2(d.x as f64);
+            if phi < 0.0 {
+                phi += 2.0 * PI;
+            }
+            let b = ((phi / (2.0 * PI) * np as f64) as usize).min(np - 1);
+            observed[a * np + b] += 1.0;
+        }
+    }
+    let mut expected = vec![0.0f64; nz * np];
+    let sub = 16;
+    for a in 0..nz {
+        for b in 0..np {
+            let mut acc = 0.0;
+            for i in 0..sub {
+                for j in 0..sub {
+                    let z = -1.0 + 2.0 * (a as f64 + (i as f64 + 0.5) / sub as f64) / nz as f64;
+                    let phi = 2.0 * PI * (b as f64 + (j as f64 + 0.5) / sub as f64) / np as f64;
+                    acc += wrong.pdf(dir(z, phi)) as f64;
+                }
+            }
+            expected[a * np + b] = acc / (sub * sub) as f64 * 4.0 * PI / (nz * np) as f64 * n as f64;
+        }
+    }
+    let (_, _, p) = chi2_test(&observed, &expected, 5.0);
+    assert!(p < 1e-6, "a 30 % brighter sun must be detected (p = {p})");
+}
