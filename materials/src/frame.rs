@@ -36,7 +36,11 @@ impl Frame {
             return Self::from_normal(n);
         }
         let s = s / len2.sqrt();
-        Self { s, t: n.cross(s), n }
+        Self {
+            s,
+            t: n.cross(s),
+            n,
+        }
     }
 
     #[inline]

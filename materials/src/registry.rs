@@ -253,7 +253,10 @@ impl Registry {
             Some(other) => {
                 return Err(ParamError::new(
                     format!("{path}.type"),
-                    format!("expected a model name string, found {}", describe_json(other)),
+                    format!(
+                        "expected a model name string, found {}",
+                        describe_json(other)
+                    ),
                 ));
             }
             None => {
@@ -412,7 +415,10 @@ mod tests {
     fn errors_name_the_path_and_the_range() {
         let r = Registry::builtin();
         let e = r
-            .create(&json!({"type": "lambert", "reflectance": -0.5}), "materials.red")
+            .create(
+                &json!({"type": "lambert", "reflectance": -0.5}),
+                "materials.red",
+            )
             .unwrap_err();
         assert_eq!(e.path, "materials.red.reflectance");
         assert!(e.message.contains("[0, 1]"), "{e}");

@@ -102,7 +102,13 @@ pub enum Camera {
 }
 
 impl Camera {
-    pub fn perspective(to_world: Mat4, fov_x_deg: f32, width: u32, height: u32, near_clip: f32) -> Self {
+    pub fn perspective(
+        to_world: Mat4,
+        fov_x_deg: f32,
+        width: u32,
+        height: u32,
+        near_clip: f32,
+    ) -> Self {
         Camera::Perspective {
             to_world,
             tan_half: (fov_x_deg.to_radians() * 0.5).tan(),
@@ -115,7 +121,12 @@ impl Camera {
     #[inline]
     pub fn ray(&self, s: Vec2) -> Ray {
         match self {
-            Camera::Perspective { to_world, tan_half, aspect, near_clip } => {
+            Camera::Perspective {
+                to_world,
+                tan_half,
+                aspect,
+                near_clip,
+            } => {
                 let x = (1.0 - 2.0 * s.x) * tan_half;
                 let y = (1.0 - 2.0 * s.y) * tan_half / aspect;
                 // Camera-space direction (x, y, 1): its length sets the near-plane distance.
@@ -124,7 +135,12 @@ impl Camera {
                 let o = to_world.w_axis.truncate();
                 Ray::new(o + d * (near_clip * len), d)
             }
-            Camera::Orthographic { to_world, scale, aspect, near_clip } => {
+            Camera::Orthographic {
+                to_world,
+                scale,
+                aspect,
+                near_clip,
+            } => {
                 let x = (1.0 - 2.0 * s.x) * scale;
                 let y = (1.0 - 2.0 * s.y) * scale / aspect;
                 let o = to_world.transform_point3(Vec3::new(x, y, *near_clip));

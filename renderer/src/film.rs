@@ -42,13 +42,20 @@ impl Image {
             acc[2] += p.b as f64;
         }
         let n = self.pixels.len().max(1) as f64;
-        Rgb::new((acc[0] / n) as f32, (acc[1] / n) as f32, (acc[2] / n) as f32)
+        Rgb::new(
+            (acc[0] / n) as f32,
+            (acc[1] / n) as f32,
+            (acc[2] / n) as f32,
+        )
     }
 }
 
 /// Writes a file atomically: `fill` writes into a temporary file next to `path`, which
 /// then replaces `path`. On any error nothing at `path` changes.
-pub fn atomic_write(path: &Path, fill: impl FnOnce(&mut BufWriter<&std::fs::File>) -> std::io::Result<()>) -> Result<()> {
+pub fn atomic_write(
+    path: &Path,
+    fill: impl FnOnce(&mut BufWriter<&std::fs::File>) -> std::io::Result<()>,
+) -> Result<()> {
     let shown = path.display().to_string();
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -61,14 +68,22 @@ pub fn atomic_write(path: &Path, fill: impl FnOnce(&mut BufWriter<&std::fs::File
         ));
     }
     if path.is_dir() {
-        return Err(Error::file(&shown, "is a directory; expected a file path to write"));
+        return Err(Error::file(
+            &shown,
+            "is a directory; expected a file path to write",
+        ));
     }
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
     let tmp = tempfile::Builder::new()
         .prefix(&format!(".{name}."))
         .suffix(".tmp")
         .tempfile_in(&dir)
-        .map_err(|e| Error::file(&shown, format!("cannot create a file in {}: {e}", dir.display())))?;
+        .map_err(|e| {
+            Error::file(
+                &shown,
+                format!("cannot create a file in {}: {e}", dir.display()),
+            )
+        })?;
     {
         let file = tmp.as_file();
         let mut w = BufWriter::new(file);
@@ -86,8 +101,12 @@ pub fn atomic_write(path: &Path, fill: impl FnOnce(&mut BufWriter<&std::fs::File
             let _ = file.set_permissions(std::fs::Permissions::from_mode(0o644));
         }
     }
-    tmp.persist(path)
-        .map_err(|e| Error::file(&shown, format!("cannot move the finished file into place: {}", e.error)))?;
+    tmp.persist(path).map_err(|e| {
+        Error::file(
+            &shown,
+            format!("cannot move the finished file into place: {}", e.error),
+        )
+    })?;
     Ok(())
 }
 
@@ -103,7 +122,10 @@ pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Rgb]) -> Result
     atomic_write(path, |out| {
         // exr needs a seekable writer: encode into memory, then write the bytes out.
         let mut buf = std::io::Cursor::new(Vec::new());
-        image.write().to_buffered(&mut buf).map_err(std::io::Error::other)?;
+        image
+            .write()
+            .to_buffered(&mut buf)
+            .map_err(std::io::Error::other)?;
         out.write_all(buf.get_ref())
     })
 }
@@ -142,7 +164,13 @@ pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb8: &[u8]) -> Resu
 }
 
 /// Writes a tonemapped sRGB PNG of linear pixels.
-pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Rgb], exposure: f32) -> Result<()> {
+pub fn write_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[Rgb],
+    exposure: f32,
+) -> Result<()> {
     write_png_rgb8(path, width, height, &tonemap(pixels, exposure))
 }
 

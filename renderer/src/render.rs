@@ -130,7 +130,15 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32) -> TileResult {
             var.push(Rgb::new(v[0] as f32, v[1] as f32, v[2] as f32));
         }
     }
-    TileResult { x0, y0, w, h, mean, var, dropped }
+    TileResult {
+        x0,
+        y0,
+        w,
+        h,
+        mean,
+        var,
+        dropped,
+    }
 }
 
 /// Renders the scene.
@@ -144,7 +152,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
         ),
         None => None,
     };
-    let threads = pool.as_ref().map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
+    let threads = pool
+        .as_ref()
+        .map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
     let tiles: Vec<(u32, u32)> = (0..scene.height.div_ceil(TILE))
         .flat_map(|ty| (0..scene.width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
@@ -168,7 +178,11 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
         tiles
             .par_iter()
             .map(|&(x0, y0)| {
-                if opts.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed)) {
+                if opts
+                    .cancel
+                    .as_ref()
+                    .is_some_and(|c| c.load(Ordering::Relaxed))
+                {
                     cancelled.store(true, Ordering::Relaxed);
                     return None;
                 }
@@ -190,7 +204,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
         pb.finish_and_clear();
     }
     if cancelled.load(Ordering::Relaxed) {
-        return Err(Error::Other("render interrupted; nothing was written".into()));
+        return Err(Error::Other(
+            "render interrupted; nothing was written".into(),
+        ));
     }
     let mut img = Image::new(scene.width, scene.height);
     let mut dropped = 0;

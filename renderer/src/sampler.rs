@@ -151,7 +151,10 @@ impl Sampler {
 
     #[inline]
     fn dim_hash(&mut self) -> u64 {
-        let h = mix64(self.pixel_key.wrapping_add((self.dim as u64).wrapping_mul(0x9e3779b97f4a7c15)));
+        let h = mix64(
+            self.pixel_key
+                .wrapping_add((self.dim as u64).wrapping_mul(0x9e3779b97f4a7c15)),
+        );
         self.dim += 1;
         h
     }

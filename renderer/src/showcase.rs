@@ -42,7 +42,8 @@ pub fn studio_environment(width: usize, height: usize) -> RgbImage {
             let key = window(theta, 30.0, 60.0, 6.0) * window(dphi(phi, 140.0), -20.0, 20.0, 6.0);
             c += Rgb::new(14.0, 13.5, 12.5) * key;
             // Fill: dimmer, to the left.
-            let fill = window(theta, 45.0, 80.0, 10.0) * window(dphi(phi, 235.0), -25.0, 25.0, 10.0);
+            let fill =
+                window(theta, 45.0, 80.0, 10.0) * window(dphi(phi, 235.0), -25.0, 25.0, 10.0);
             c += Rgb::new(2.2, 2.4, 2.8) * fill;
             // Rim: a narrow vertical strip behind the subject.
             let rim = window(theta, 15.0, 80.0, 4.0) * window(dphi(phi, 0.0), -3.0, 3.0, 1.5);
@@ -50,7 +51,11 @@ pub fn studio_environment(width: usize, height: usize) -> RgbImage {
             pixels.push(c);
         }
     }
-    RgbImage { width, height, pixels }
+    RgbImage {
+        width,
+        height,
+        pixels,
+    }
 }
 
 /// The showcase scene description.

@@ -9,11 +9,18 @@ use lobe_renderer::geometry::{Geometry, Mesh, Ray, Rectangle, Sphere, Triangle};
 struct Lcg(u64);
 impl Lcg {
     fn f(&mut self) -> f32 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((self.0 >> 40) as f32) / (1u64 << 24) as f32
     }
     fn v(&mut self, s: f32) -> Vec3 {
-        Vec3::new(self.f() * 2.0 - 1.0, self.f() * 2.0 - 1.0, self.f() * 2.0 - 1.0) * s
+        Vec3::new(
+            self.f() * 2.0 - 1.0,
+            self.f() * 2.0 - 1.0,
+            self.f() * 2.0 - 1.0,
+        ) * s
     }
 }
 
@@ -30,14 +37,28 @@ fn scene() -> Geometry {
     }
     let mut prims = Vec::new();
     for t in 0..mesh.indices.len() as u32 {
-        prims.push(Primitive { kind: PrimKind::Triangle(Triangle::new(0, &mesh, t)), shape: 0 });
+        prims.push(Primitive {
+            kind: PrimKind::Triangle(Triangle::new(0, &mesh, t)),
+            shape: 0,
+        });
     }
     for _ in 0..20 {
-        prims.push(Primitive { kind: PrimKind::Sphere(Sphere { center: r.v(4.0), radius: 0.1 + r.f() }), shape: 1 });
+        prims.push(Primitive {
+            kind: PrimKind::Sphere(Sphere {
+                center: r.v(4.0),
+                radius: 0.1 + r.f(),
+            }),
+            shape: 1,
+        });
     }
     for k in 0..5 {
-        let m = Mat4::from_translation(r.v(3.0)) * Mat4::from_axis_angle(r.v(1.0).normalize(), k as f32) * Mat4::from_scale(Vec3::splat(0.8));
-        prims.push(Primitive { kind: PrimKind::Rectangle(Rectangle::from_transform(&m).unwrap()), shape: 2 });
+        let m = Mat4::from_translation(r.v(3.0))
+            * Mat4::from_axis_angle(r.v(1.0).normalize(), k as f32)
+            * Mat4::from_scale(Vec3::splat(0.8));
+        prims.push(Primitive {
+            kind: PrimKind::Rectangle(Rectangle::from_transform(&m).unwrap()),
+            shape: 2,
+        });
     }
     Geometry::build(prims, vec![mesh], vec![ShapeGeom::default(); 3])
 }
@@ -58,13 +79,22 @@ fn closest_hits_equal_brute_force() {
             (None, None) => {}
             (Some((ta, ia)), Some((tb, ib))) => {
                 hits += 1;
-                assert_eq!(ta, tb, "distance differs: BVH prim {ia}, brute force prim {ib}");
+                assert_eq!(
+                    ta, tb,
+                    "distance differs: BVH prim {ia}, brute force prim {ib}"
+                );
                 // Ties between primitives at the same distance may resolve either way.
                 assert_eq!(g.prims[ia as usize].intersect(&ray), ta);
                 // Nothing blocks the ray before its closest hit, something blocks it after.
-                let before = Ray { tmax: ta * 0.999, ..ray };
+                let before = Ray {
+                    tmax: ta * 0.999,
+                    ..ray
+                };
                 assert!(!g.occluded(&before));
-                let after = Ray { tmax: ta * 1.001 + 1e-4, ..ray };
+                let after = Ray {
+                    tmax: ta * 1.001 + 1e-4,
+                    ..ray
+                };
                 assert!(g.occluded(&after));
             }
             _ => panic!("BVH and brute force disagree on whether {ray:?} hits: {a:?} vs {b:?}"),
@@ -77,12 +107,25 @@ fn closest_hits_equal_brute_force() {
 fn spawned_rays_do_not_self_intersect_at_grazing_angles() {
     // A large sphere and a large rectangle: rays leaving the surface at grazing angles
     // must not hit the surface they leave.
-    let sphere = Sphere { center: Vec3::new(0.0, 0.0, 0.0), radius: 1000.0 };
-    let rect = Rectangle::from_transform(&(Mat4::from_translation(Vec3::new(0.0, 0.0, 3000.0)) * Mat4::from_scale(Vec3::splat(500.0)))).unwrap();
+    let sphere = Sphere {
+        center: Vec3::new(0.0, 0.0, 0.0),
+        radius: 1000.0,
+    };
+    let rect = Rectangle::from_transform(
+        &(Mat4::from_translation(Vec3::new(0.0, 0.0, 3000.0))
+            * Mat4::from_scale(Vec3::splat(500.0))),
+    )
+    .unwrap();
     let g = Geometry::build(
         vec![
-            Primitive { kind: PrimKind::Sphere(sphere), shape: 0 },
-            Primitive { kind: PrimKind::Rectangle(rect), shape: 1 },
+            Primitive {
+                kind: PrimKind::Sphere(sphere),
+                shape: 0,
+            },
+            Primitive {
+                kind: PrimKind::Rectangle(rect),
+                shape: 1,
+            },
         ],
         vec![],
         vec![ShapeGeom::default(); 2],
@@ -99,19 +142,28 @@ fn spawned_rays_do_not_self_intersect_at_grazing_angles() {
             (p + Vec3::new(1.0, 2.0, 500.0), p)
         };
         let ray = Ray::new(o, (target - o).normalize());
-        let Some(it) = g.intersect(&ray) else { continue };
+        let Some(it) = g.intersect(&ray) else {
+            continue;
+        };
         let t1 = it.ng.any_orthonormal_vector();
         let d = (t1 + it.ng * 1e-3).normalize(); // 89.94 degrees from the normal
         let out = lobe_renderer::geometry::spawn_ray(&it, d);
         if let Some((t, p)) = g.closest(&out) {
-            assert!(g.prims[p as usize].shape != it.shape || t > 1.0, "self-intersection at t = {t}");
+            assert!(
+                g.prims[p as usize].shape != it.shape || t > 1.0,
+                "self-intersection at t = {t}"
+            );
         }
         // The same ray without the offset does hit its own surface: the test can fail.
-        if let Some((t, p)) = g.closest(&Ray::new(it.p, d)) {
-            if g.prims[p as usize].shape == it.shape && t < 1.0 {
-                naive_self_hits += 1;
-            }
+        if let Some((t, p)) = g.closest(&Ray::new(it.p, d))
+            && g.prims[p as usize].shape == it.shape
+            && t < 1.0
+        {
+            naive_self_hits += 1;
         }
     }
-    assert!(naive_self_hits > 100, "unoffset rays self-intersect ({naive_self_hits} times)");
+    assert!(
+        naive_self_hits > 100,
+        "unoffset rays self-intersect ({naive_self_hits} times)"
+    );
 }

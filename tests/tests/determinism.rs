@@ -20,14 +20,56 @@ fn same_image_with_one_and_two_threads() {
         ],
         "lights": [{"type": "envmap", "file": "builtin:studio", "scale": 0.5}, {"type": "point", "position": [0, 3, 2], "intensity": 5}]
     });
-    let mut scene = from_value(&v, "t.json", Path::new("."), &LoadOptions::with_builtins()).unwrap();
-    let one = render(&scene, &RenderOptions { threads: Some(1), ..Default::default() }).unwrap().0;
-    let two = render(&scene, &RenderOptions { threads: Some(2), ..Default::default() }).unwrap().0;
-    let three = render(&scene, &RenderOptions { threads: Some(3), ..Default::default() }).unwrap().0;
-    let bits = |img: &lobe_renderer::film::Image| img.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    let mut scene =
+        from_value(&v, "t.json", Path::new("."), &LoadOptions::with_builtins()).unwrap();
+    let one = render(
+        &scene,
+        &RenderOptions {
+            threads: Some(1),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .0;
+    let two = render(
+        &scene,
+        &RenderOptions {
+            threads: Some(2),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .0;
+    let three = render(
+        &scene,
+        &RenderOptions {
+            threads: Some(3),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .0;
+    let bits = |img: &lobe_renderer::film::Image| {
+        img.pixels
+            .iter()
+            .flat_map(|p| p.to_array().map(f32::to_bits))
+            .collect::<Vec<_>>()
+    };
     assert_eq!(bits(&one), bits(&two));
     assert_eq!(bits(&one), bits(&three));
     scene.seed = 12;
-    let other = render(&scene, &RenderOptions { threads: Some(2), ..Default::default() }).unwrap().0;
-    assert_ne!(bits(&one), bits(&other), "a different seed must give a different image");
+    let other = render(
+        &scene,
+        &RenderOptions {
+            threads: Some(2),
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .0;
+    assert_ne!(
+        bits(&one),
+        bits(&other),
+        "a different seed must give a different image"
+    );
 }

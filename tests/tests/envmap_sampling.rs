@@ -24,7 +24,11 @@ fn synthetic(w: usize, h: usize) -> RgbImage {
             pixels.push(c);
         }
     }
-    RgbImage { width: w, height: h, pixels }
+    RgbImage {
+        width: w,
+        height: h,
+        pixels,
+    }
 }
 
 fn env() -> EnvMap {
@@ -52,7 +56,10 @@ fn density_integrates_to_one() {
         }
     }
     let integral = acc * 4.0 * PI / (nz * np) as f64;
-    assert!((integral - 1.0).abs() < 5e-3, "integral of the pdf: {integral}");
+    assert!(
+        (integral - 1.0).abs() < 5e-3,
+        "integral of the pdf: {integral}"
+    );
 }
 
 #[test]
@@ -60,10 +67,15 @@ fn samples_agree_with_eval_and_pdf() {
     let e = env();
     for i in 0..2000 {
         let u = Vec2::new(((i as f32) * 0.618034).fract(), (i as f32 + 0.5) / 2000.0);
-        let Some((d, li, pdf)) = e.sample(u) else { continue };
+        let Some((d, li, pdf)) = e.sample(u) else {
+            continue;
+        };
         assert!((d.length() - 1.0).abs() < 1e-4);
         let (l2, p2) = e.eval_pdf(d);
-        assert!((li - l2).max_component().abs() <= 1e-3 * li.max_component().max(1.0), "{li:?} vs {l2:?}");
+        assert!(
+            (li - l2).max_component().abs() <= 1e-3 * li.max_component().max(1.0),
+            "{li:?} vs {l2:?}"
+        );
         assert!((pdf - p2).abs() <= 2e-3 * pdf, "pdf {pdf} vs {p2}");
         assert!(li.max_component() > 0.0, "sampled a black direction");
     }
@@ -77,7 +89,9 @@ fn chi_square_of_sampled_directions() {
     let mut observed = vec![0.0f64; nz * np];
     let mut state = 0x1234_5678_9abc_def0u64;
     let mut rnd = || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((state >> 40) as f32) / (1u64 << 24) as f32
     };
     for _ in 0..n {
@@ -112,7 +126,10 @@ fn chi_square_of_sampled_directions() {
     }
     let (stat, dof, p) = chi2_test(&observed, &expected, 5.0);
     eprintln!("chi2 = {stat:.1}, dof = {dof}, p = {p:.4}");
-    assert!(p > 0.01, "chi-square test rejects the sampler: chi2 = {stat:.1}, dof = {dof}, p = {p:.2e}");
+    assert!(
+        p > 0.01,
+        "chi-square test rejects the sampler: chi2 = {stat:.1}, dof = {dof}, p = {p:.2e}"
+    );
 }
 
 #[test]
@@ -123,15 +140,22 @@ fn chi_square_detects_a_wrong_density() {
     let mut img = synthetic(64, 32);
     for p in img.pixels.iter_mut() {
         if p.r > 100.0 {
-            *p = *p * 1.3;
+            *p *= 1.3;
         }
     }
-    let wrong = EnvMap::new(&img, 1.5, Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.7));
+    let wrong = EnvMap::new(
+        &img,
+        1.5,
+        Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.7),
+    );
     let (nz, np) = (12usize, 24usize);
     let n = 200_000usize;
     let mut observed = vec![0.0f64; nz * np];
     for k in 0..n {
-        let u = Vec2::new(((k as f64 * 0.754877666) % 1.0) as f32, ((k as f64 * 0.569840291) % 1.0) as f32);
+        let u = Vec2::new(
+            ((k as f64 * 0.754877666) % 1.0) as f32,
+            ((k as f64 * 0.569840291) % 1.0) as f32,
+        );
         if let Some((d, _, _)) = e.sample(u) {
             let a = ((((d.z as f64) + 1.0) / 2.0 * nz as f64) as usize).min(nz - 1);
             let mut phi = (d.y as f64).atan2(d.x as f64);
@@ -154,7 +178,8 @@ fn chi_square_detects_a_wrong_density() {
                     acc += wrong.pdf(dir(z, phi)) as f64;
                 }
             }
-            expected[a * np + b] = acc / (sub * sub) as f64 * 4.0 * PI / (nz * np) as f64 * n as f64;
+            expected[a * np + b] =
+                acc / (sub * sub) as f64 * 4.0 * PI / (nz * np) as f64 * n as f64;
         }
     }
     let (_, _, p) = chi2_test(&observed, &expected, 5.0);

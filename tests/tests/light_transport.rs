@@ -15,7 +15,13 @@ use std::path::Path;
 const Z: f64 = 5.3;
 
 fn scene(v: Value) -> Scene {
-    from_value(&v, "test.json", Path::new("."), &LoadOptions::with_builtins()).expect("scene loads")
+    from_value(
+        &v,
+        "test.json",
+        Path::new("."),
+        &LoadOptions::with_builtins(),
+    )
+    .expect("scene loads")
 }
 
 fn run(s: &Scene) -> Image {
@@ -39,7 +45,12 @@ fn assert_pixels(img: &Image, expected: impl Fn(u32, u32) -> [f64; 3], slack: f6
                 let dev = (m[c] as f64 - e[c]).abs();
                 let allowed = Z * sigma + slack;
                 worst = worst.max(dev / allowed);
-                assert!(dev <= allowed, "pixel ({x}, {y}) channel {c}: {} vs expected {} (sigma {sigma:.2e})", m[c], e[c]);
+                assert!(
+                    dev <= allowed,
+                    "pixel ({x}, {y}) channel {c}: {} vs expected {} (sigma {sigma:.2e})",
+                    m[c],
+                    e[c]
+                );
             }
         }
     }
@@ -86,8 +97,15 @@ fn furnace_albedo_half_renders_half_on_the_sphere() {
         let mut hits = 0;
         for j in 0..4 {
             for i in 0..4 {
-                let f = glam::Vec2::new((x as f32 + (i as f32 + 0.5) / 4.0) / 48.0, (y as f32 + (j as f32 + 0.5) / 4.0) / 48.0);
-                let corners = [f, f + glam::Vec2::new(0.125 / 48.0, 0.125 / 48.0), f - glam::Vec2::new(0.125 / 48.0, 0.125 / 48.0)];
+                let f = glam::Vec2::new(
+                    (x as f32 + (i as f32 + 0.5) / 4.0) / 48.0,
+                    (y as f32 + (j as f32 + 0.5) / 4.0) / 48.0,
+                );
+                let corners = [
+                    f,
+                    f + glam::Vec2::new(0.125 / 48.0, 0.125 / 48.0),
+                    f - glam::Vec2::new(0.125 / 48.0, 0.125 / 48.0),
+                ];
                 for c in corners {
                     if s.geometry.intersect(&s.camera.ray(c)).is_some() {
                         hits += 1;
@@ -111,11 +129,17 @@ fn furnace_albedo_half_renders_half_on_the_sphere() {
                 let k = (y * 48 + x) as usize;
                 let m = img.pixels[k].g as f64;
                 let sigma = (img.variance[k].g as f64).sqrt();
-                assert!((m - e).abs() <= Z * sigma + 1e-4, "pixel ({x}, {y}): {m} vs {e}");
+                assert!(
+                    (m - e).abs() <= Z * sigma + 1e-4,
+                    "pixel ({x}, {y}): {m} vs {e}"
+                );
             }
         }
     }
-    assert!(inside > 400, "the test must look at the sphere ({inside} pixels inside)");
+    assert!(
+        inside > 400,
+        "the test must look at the sphere ({inside} pixels inside)"
+    );
 }
 
 fn closed_sphere(max_depth: i64) -> Value {

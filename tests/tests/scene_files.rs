@@ -20,7 +20,11 @@ fn every_shipped_scene_loads_and_renders() {
         scene.spp = 2;
         let (img, stats) = render(&scene, &RenderOptions::default()).unwrap();
         assert_eq!(stats.nonfinite_dropped, 0, "{}", path.display());
-        assert!(img.mean().max_component() > 0.0, "{} renders black", path.display());
+        assert!(
+            img.mean().max_component() > 0.0,
+            "{} renders black",
+            path.display()
+        );
         n += 1;
     }
     assert!(n >= 4, "expected the shipped scenes, found {n}");
@@ -37,7 +41,9 @@ fn base() -> Value {
 
 fn error_of(v: Value) -> String {
     let dir = lobe_tests::workspace().join("scenes");
-    match std::panic::catch_unwind(|| from_value(&v, "bad.json", &dir, &LoadOptions::with_builtins())) {
+    match std::panic::catch_unwind(|| {
+        from_value(&v, "bad.json", &dir, &LoadOptions::with_builtins())
+    }) {
         Ok(Ok(_)) => panic!("scene {v} was accepted"),
         Ok(Err(e)) => e.to_string(),
         Err(_) => panic!("loading {v} panicked"),
@@ -61,36 +67,187 @@ fn with(mut v: Value, pointer: &str, x: Value) -> Value {
 #[test]
 fn bad_values_are_named_by_file_path_and_expectation() {
     let cases: Vec<(Value, &[&str])> = vec![
-        (with(base(), "/shapes/0/radius", json!(-1)), &["bad.json: shapes[0].radius: expected a positive radius, found -1"]),
-        (with(base(), "/shapes/0/radius", json!("big")), &["shapes[0].radius", "expected a positive radius", "\"big\""]),
-        (with(base(), "/film/width", json!(0)), &["film.width: expected an integer in [1, 16384], found 0"]),
-        (with(base(), "/film/width", json!(10.5)), &["film.width", "integer"]),
-        (with(base(), "/camera/fov", json!(200)), &["camera.fov", "(0, 180)", "200"]),
-        (with(base(), "/camera/type", json!("fisheye")), &["camera.type", "perspective", "orthographic", "fisheye"]),
-        (with(base(), "/camera/origin", json!([0, 0])), &["camera.origin", "3 finite numbers", "2 elements"]),
-        (with(base(), "/camera/target", json!([0, 0, 4])), &["camera", "degenerate"]),
-        (with(base(), "/shapes/0/type", json!("torus")), &["shapes[0].type", "sphere", "\"torus\""]),
-        (with(base(), "/shapes/0/material", json!("nope")), &["shapes[0].material", "unknown material \"nope\""]),
-        (with(base(), "/shapes/0/material", json!({"type": "lambert", "reflectance": 2})), &["shapes[0].material.reflectance", "[0, 1]", "2"]),
-        (with(base(), "/shapes/0/material", json!({"type": "plastic"})), &["shapes[0].material.type", "unknown material type \"plastic\"", "lambert"]),
-        (with(base(), "/shapes/0/material", json!({"type": "lambert", "albedo": 0.5})), &["shapes[0].material.albedo", "unknown parameter", "reflectance"]),
-        (with(base(), "/shapes/0/material", json!(3)), &["shapes[0].material", "material name or a material object"]),
-        (with(base(), "/lights/0", json!({"type": "constant", "radiance": -1})), &["lights[0].radiance", "non-negative colour"]),
-        (with(base(), "/lights/0", json!({"type": "spot"})), &["lights[0].type", "envmap", "\"spot\""]),
-        (with(base(), "/lights/0", json!({"type": "envmap", "file": "missing.exr"})), &["lights[0].file", "does not exist"]),
-        (with(base(), "/lights/0", json!({"type": "envmap", "file": "builtin:nowhere"})), &["lights[0].file", "unknown built-in image", "studio"]),
-        (with(base(), "/lights/0", json!({"type": "envmap", "file": "builtin:studio", "to_world": {"scale": 2}})), &["lights[0].to_world", "rotation"]),
-        (with(base(), "/lights/0", json!({"type": "directional", "direction": [0, 0, 0], "irradiance": 1})), &["lights[0].direction", "non-zero"]),
-        (with(base(), "/lights/0", json!({"type": "point", "position": [0, 1, 0]})), &["lights[0]", "missing key \"intensity\""]),
-        (with(base(), "/integrator", json!({"type": "bdpt"})), &["integrator.type", "\"path\" or \"direct\"", "\"bdpt\""]),
-        (with(base(), "/integrator", json!({"type": "path", "max_depth": 0})), &["integrator.max_depth", "-1", "0"]),
-        (with(base(), "/shapes/0", json!({"type": "obj", "file": "nothing.obj"})), &["shapes[0].file", "does not exist"]),
-        (with(base(), "/shapes/0", json!({"type": "rectangle", "to_world": {"scale": [1, 0, 1]}})), &["shapes[0].to_world", "non-zero"]),
-        (with(base(), "/shapes/0", json!({"type": "rectangle", "to_world": {"rotate": {"axis": [0, 0, 0], "angle": 3}}})), &["shapes[0].to_world.rotate.axis", "non-zero"]),
-        (with(base(), "/shapes/0", json!({"type": "rectangle", "to_world": [{"translate": [1, 2, 3], "scale": 2}]})), &["shapes[0].to_world[0]", "exactly one"]),
-        (with(base(), "/shapes/0", json!({"type": "sphere", "emitter": {"type": "area"}})), &["shapes[0].emitter", "missing key \"radiance\""]),
+        (
+            with(base(), "/shapes/0/radius", json!(-1)),
+            &["bad.json: shapes[0].radius: expected a positive radius, found -1"],
+        ),
+        (
+            with(base(), "/shapes/0/radius", json!("big")),
+            &["shapes[0].radius", "expected a positive radius", "\"big\""],
+        ),
+        (
+            with(base(), "/film/width", json!(0)),
+            &["film.width: expected an integer in [1, 16384], found 0"],
+        ),
+        (
+            with(base(), "/film/width", json!(10.5)),
+            &["film.width", "integer"],
+        ),
+        (
+            with(base(), "/camera/fov", json!(200)),
+            &["camera.fov", "(0, 180)", "200"],
+        ),
+        (
+            with(base(), "/camera/type", json!("fisheye")),
+            &["camera.type", "perspective", "orthographic", "fisheye"],
+        ),
+        (
+            with(base(), "/camera/origin", json!([0, 0])),
+            &["camera.origin", "3 finite numbers", "2 elements"],
+        ),
+        (
+            with(base(), "/camera/target", json!([0, 0, 4])),
+            &["camera", "degenerate"],
+        ),
+        (
+            with(base(), "/shapes/0/type", json!("torus")),
+            &["shapes[0].type", "sphere", "\"torus\""],
+        ),
+        (
+            with(base(), "/shapes/0/material", json!("nope")),
+            &["shapes[0].material", "unknown material \"nope\""],
+        ),
+        (
+            with(
+                base(),
+                "/shapes/0/material",
+                json!({"type": "lambert", "reflectance": 2}),
+            ),
+            &["shapes[0].material.reflectance", "[0, 1]", "2"],
+        ),
+        (
+            with(base(), "/shapes/0/material", json!({"type": "plastic"})),
+            &[
+                "shapes[0].material.type",
+                "unknown material type \"plastic\"",
+                "lambert",
+            ],
+        ),
+        (
+            with(
+                base(),
+                "/shapes/0/material",
+                json!({"type": "lambert", "albedo": 0.5}),
+            ),
+            &[
+                "shapes[0].material.albedo",
+                "unknown parameter",
+                "reflectance",
+            ],
+        ),
+        (
+            with(base(), "/shapes/0/material", json!(3)),
+            &["shapes[0].material", "material name or a material object"],
+        ),
+        (
+            with(
+                base(),
+                "/lights/0",
+                json!({"type": "constant", "radiance": -1}),
+            ),
+            &["lights[0].radiance", "non-negative colour"],
+        ),
+        (
+            with(base(), "/lights/0", json!({"type": "spot"})),
+            &["lights[0].type", "envmap", "\"spot\""],
+        ),
+        (
+            with(
+                base(),
+                "/lights/0",
+                json!({"type": "envmap", "file": "missing.exr"}),
+            ),
+            &["lights[0].file", "does not exist"],
+        ),
+        (
+            with(
+                base(),
+                "/lights/0",
+                json!({"type": "envmap", "file": "builtin:nowhere"}),
+            ),
+            &["lights[0].file", "unknown built-in image", "studio"],
+        ),
+        (
+            with(
+                base(),
+                "/lights/0",
+                json!({"type": "envmap", "file": "builtin:studio", "to_world": {"scale": 2}}),
+            ),
+            &["lights[0].to_world", "rotation"],
+        ),
+        (
+            with(
+                base(),
+                "/lights/0",
+                json!({"type": "directional", "direction": [0, 0, 0], "irradiance": 1}),
+            ),
+            &["lights[0].direction", "non-zero"],
+        ),
+        (
+            with(
+                base(),
+                "/lights/0",
+                json!({"type": "point", "position": [0, 1, 0]}),
+            ),
+            &["lights[0]", "missing key \"intensity\""],
+        ),
+        (
+            with(base(), "/integrator", json!({"type": "bdpt"})),
+            &["integrator.type", "\"path\" or \"direct\"", "\"bdpt\""],
+        ),
+        (
+            with(
+                base(),
+                "/integrator",
+                json!({"type": "path", "max_depth": 0}),
+            ),
+            &["integrator.max_depth", "-1", "0"],
+        ),
+        (
+            with(
+                base(),
+                "/shapes/0",
+                json!({"type": "obj", "file": "nothing.obj"}),
+            ),
+            &["shapes[0].file", "does not exist"],
+        ),
+        (
+            with(
+                base(),
+                "/shapes/0",
+                json!({"type": "rectangle", "to_world": {"scale": [1, 0, 1]}}),
+            ),
+            &["shapes[0].to_world", "non-zero"],
+        ),
+        (
+            with(
+                base(),
+                "/shapes/0",
+                json!({"type": "rectangle", "to_world": {"rotate": {"axis": [0, 0, 0], "angle": 3}}}),
+            ),
+            &["shapes[0].to_world.rotate.axis", "non-zero"],
+        ),
+        (
+            with(
+                base(),
+                "/shapes/0",
+                json!({"type": "rectangle", "to_world": [{"translate": [1, 2, 3], "scale": 2}]}),
+            ),
+            &["shapes[0].to_world[0]", "exactly one"],
+        ),
+        (
+            with(
+                base(),
+                "/shapes/0",
+                json!({"type": "sphere", "emitter": {"type": "area"}}),
+            ),
+            &["shapes[0].emitter", "missing key \"radiance\""],
+        ),
         (json!({"shapes": []}), &["bad.json: camera: missing"]),
-        (json!({"camera": {"type": "perspective"}, "colour": 1}), &["bad.json: colour: unknown key", "camera, film"]),
+        (
+            json!({"camera": {"type": "perspective"}, "colour": 1}),
+            &["bad.json: colour: unknown key", "camera, film"],
+        ),
         (json!([1, 2]), &["bad.json", "expected an object", "array"]),
     ];
     for (v, needles) in cases {
@@ -117,7 +274,10 @@ fn bad_files_give_clear_errors() {
     };
     assert!(msg(&p("empty.json", b"  \n")).contains("is empty"));
     let e = msg(&p("syntax.json", b"{\"camera\": {,}}"));
-    assert!(e.contains("syntax.json") && e.contains("invalid JSON") && e.contains("line 1"), "{e}");
+    assert!(
+        e.contains("syntax.json") && e.contains("invalid JSON") && e.contains("line 1"),
+        "{e}"
+    );
     assert!(msg(tmp.path()).contains("is a directory"));
     assert!(msg(&tmp.path().join("absent.json")).contains("cannot read"));
     // A broken OBJ and a broken glTF referenced by a scene.
@@ -145,12 +305,17 @@ fn gltf_camera_and_node_transforms_are_used() {
     let scene = load(&path).unwrap();
     // The camera comes from the glTF file: node at (0, 2.2, 6), pitched down 12 degrees.
     let ray = scene.camera.ray(glam::Vec2::splat(0.5));
-    assert!((ray.o - glam::Vec3::new(0.0, 2.2, 6.0)).length() < 0.05, "{:?}", ray.o);
+    assert!(
+        (ray.o - glam::Vec3::new(0.0, 2.2, 6.0)).length() < 0.05,
+        "{:?}",
+        ray.o
+    );
     let pitch = ray.d.y.asin().to_degrees();
     assert!((pitch + 12.0).abs() < 0.1, "pitch {pitch}");
     // The floor quad is scaled by 3 (node) x 1.5 (stage): it spans x in [-4.5, 4.5].
     let down = lobe_renderer::geometry::Ray::new(glam::Vec3::new(4.4, 5.0, 0.0), glam::Vec3::NEG_Y);
     assert!(scene.geometry.intersect(&down).is_some());
-    let outside = lobe_renderer::geometry::Ray::new(glam::Vec3::new(4.6, 5.0, 0.0), glam::Vec3::NEG_Y);
+    let outside =
+        lobe_renderer::geometry::Ray::new(glam::Vec3::new(4.6, 5.0, 0.0), glam::Vec3::NEG_Y);
     assert!(scene.geometry.intersect(&outside).is_none());
 }

@@ -10,8 +10,12 @@ fn bench_sphere_envmap(c: &mut Criterion) {
     let opts = RenderOptions::default();
     let mut g = c.benchmark_group("render");
     g.sample_size(10);
-    g.throughput(criterion::Throughput::Elements((scene.width * scene.height * scene.spp) as u64));
-    g.bench_function("sphere_envmap_256x256x4spp", |b| b.iter(|| render(&scene, &opts).expect("renders")));
+    g.throughput(criterion::Throughput::Elements(
+        (scene.width * scene.height * scene.spp) as u64,
+    ));
+    g.bench_function("sphere_envmap_256x256x4spp", |b| {
+        b.iter(|| render(&scene, &opts).expect("renders"))
+    });
     g.finish();
 }
 

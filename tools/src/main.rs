@@ -15,7 +15,11 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 #[derive(Parser)]
-#[command(name = "lobe", version, about = "Render, fit and compare BRDF models (Ngan et al. 2005)")]
+#[command(
+    name = "lobe",
+    version,
+    about = "Render, fit and compare BRDF models (Ngan et al. 2005)"
+)]
 struct Cli {
     /// Print nothing but errors.
     #[arg(long, short, global = true)]
@@ -27,7 +31,9 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene file (or the built-in showcase) to EXR, PNG and a statistics JSON.
-    #[command(after_help = "Examples:\n  lobe render                                  # built-in showcase -> out/showcase.{exr,png,json}\n  lobe render scenes/sphere-envmap.json --spp 256 -o out/sphere.exr\n  lobe render scenes/cornell-box.json --threads 1 --seed 7\n  lobe render --bench                          # Msamples/s on the sphere-under-env-map benchmark")]
+    #[command(
+        after_help = "Examples:\n  lobe render                                  # built-in showcase -> out/showcase.{exr,png,json}\n  lobe render scenes/sphere-envmap.json --spp 256 -o out/sphere.exr\n  lobe render scenes/cornell-box.json --threads 1 --seed 7\n  lobe render --bench                          # Msamples/s on the sphere-under-env-map benchmark"
+    )]
     Render(RenderArgs),
 }
 
@@ -90,9 +96,16 @@ fn load_scene(args: &RenderArgs) -> Result<(Scene, String), Error> {
     let (mut scene, name) = match &args.scene {
         Some(p) => {
             if !p.exists() {
-                return Err(Error::file(p.display(), "does not exist; expected a scene JSON file"));
+                return Err(Error::file(
+                    p.display(),
+                    "does not exist; expected a scene JSON file",
+                ));
             }
-            let name = p.file_stem().and_then(|s| s.to_str()).unwrap_or("render").to_string();
+            let name = p
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("render")
+                .to_string();
             (lobe_renderer::scene::load(p)?, name)
         }
         None if args.bench => (lobe_renderer::showcase::bench_scene()?, "bench".to_string()),
@@ -100,7 +113,9 @@ fn load_scene(args: &RenderArgs) -> Result<(Scene, String), Error> {
     };
     if let Some(spp) = args.spp {
         if spp == 0 {
-            return Err(Error::Other("--spp: expected a positive number of samples per pixel, found 0".into()));
+            return Err(Error::Other(
+                "--spp: expected a positive number of samples per pixel, found 0".into(),
+            ));
         }
         scene.spp = spp;
     }
@@ -115,7 +130,9 @@ fn load_scene(args: &RenderArgs) -> Result<(Scene, String), Error> {
 
 fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
     if args.threads == Some(0) {
-        return Err(Error::Other("--threads: expected at least 1 thread, found 0".into()));
+        return Err(Error::Other(
+            "--threads: expected at least 1 thread, found 0".into(),
+        ));
     }
     let (scene, name) = load_scene(&args)?;
     let cancel = install_ctrlc();
@@ -131,8 +148,12 @@ fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
         Some(p) => p.clone(),
         None => {
             let dir = PathBuf::from("out");
-            std::fs::create_dir_all(&dir)
-                .map_err(|e| Error::file(dir.display(), format!("cannot create the output folder: {e}")))?;
+            std::fs::create_dir_all(&dir).map_err(|e| {
+                Error::file(
+                    dir.display(),
+                    format!("cannot create the output folder: {e}"),
+                )
+            })?;
             dir.join(format!("{name}.exr"))
         }
     };
@@ -142,9 +163,23 @@ fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
     let json_path = exr_path.with_extension("json");
     film::write_exr(&exr_path, img.width, img.height, &img.pixels)?;
     if !args.no_png {
-        film::write_png(&png_path, img.width, img.height, &img.pixels, scene.exposure)?;
+        film::write_png(
+            &png_path,
+            img.width,
+            img.height,
+            &img.pixels,
+            scene.exposure,
+        )?;
     }
-    film::write_json(&json_path, &stats_json(&scene, &stats, &exr_path, (!args.no_png).then_some(&png_path)))?;
+    film::write_json(
+        &json_path,
+        &stats_json(
+            &scene,
+            &stats,
+            &exr_path,
+            (!args.no_png).then_some(&png_path),
+        ),
+    )?;
     if !quiet {
         eprintln!("{}", stats.summary());
         eprintln!("wrote {}", exr_path.display());
@@ -158,15 +193,26 @@ fn check_output_folder(path: &Path) -> Result<(), Error> {
         _ => Path::new("."),
     };
     if !dir.is_dir() {
-        return Err(Error::file(path.display(), format!("output folder {} does not exist", dir.display())));
+        return Err(Error::file(
+            path.display(),
+            format!("output folder {} does not exist", dir.display()),
+        ));
     }
     if path.is_dir() {
-        return Err(Error::file(path.display(), "is a directory; expected an output file path"));
+        return Err(Error::file(
+            path.display(),
+            "is a directory; expected an output file path",
+        ));
     }
     Ok(())
 }
 
-fn stats_json(scene: &Scene, stats: &RenderStats, exr: &Path, png: Option<&PathBuf>) -> serde_json::Value {
+fn stats_json(
+    scene: &Scene,
+    stats: &RenderStats,
+    exr: &Path,
+    png: Option<&PathBuf>,
+) -> serde_json::Value {
     let mut v = stats.to_json();
     let o = v.as_object_mut().expect("object");
     o.insert("scene".into(), scene.file.clone().into());

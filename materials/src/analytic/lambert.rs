@@ -4,13 +4,13 @@
 //!
 //! Parameters: `reflectance` (RGB albedo, each channel in [0, 1]).
 
+use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
-use crate::ParamError;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;

@@ -39,13 +39,21 @@ impl Primitive {
 impl Boundable for Primitive {
     fn aabb(&self) -> Aabb {
         let (lo, hi) = match &self.kind {
-            PrimKind::Sphere(s) => (s.center - Vec3::splat(s.radius), s.center + Vec3::splat(s.radius)),
+            PrimKind::Sphere(s) => (
+                s.center - Vec3::splat(s.radius),
+                s.center + Vec3::splat(s.radius),
+            ),
             PrimKind::Triangle(t) => {
                 let (a, b, c) = (t.p0, t.p0 + t.e1, t.p0 + t.e2);
                 (a.min(b).min(c), a.max(b).max(c))
             }
             PrimKind::Rectangle(r) => {
-                let pts = [r.corner, r.corner + r.eu, r.corner + r.ev, r.corner + r.eu + r.ev];
+                let pts = [
+                    r.corner,
+                    r.corner + r.eu,
+                    r.corner + r.ev,
+                    r.corner + r.eu + r.ev,
+                ];
                 let lo = pts.iter().fold(Vec3::INFINITY, |a, p| a.min(*p));
                 let hi = pts.iter().fold(Vec3::NEG_INFINITY, |a, p| a.max(*p));
                 (lo, hi)
@@ -53,7 +61,10 @@ impl Boundable for Primitive {
         };
         // Pad flat boxes a little so axis-aligned rectangles and triangles have volume.
         let pad = (hi - lo).max_element().max(1e-3) * 1e-5;
-        Aabb::new(Vec3A::from(lo - Vec3::splat(pad)), Vec3A::from(hi + Vec3::splat(pad)))
+        Aabb::new(
+            Vec3A::from(lo - Vec3::splat(pad)),
+            Vec3A::from(hi + Vec3::splat(pad)),
+        )
     }
 }
 
@@ -138,7 +149,9 @@ impl Geometry {
     pub fn occluded(&self, ray: &Ray) -> bool {
         match &self.bvh {
             None => self.prims.iter().any(|p| p.intersect(ray) < ray.tmax),
-            Some(bvh) => !bvh.ray_traverse_miss(Self::bvh_ray(ray), |_, id| self.prims[id].intersect(ray)),
+            Some(bvh) => {
+                !bvh.ray_traverse_miss(Self::bvh_ray(ray), |_, id| self.prims[id].intersect(ray))
+            }
         }
     }
 
@@ -171,7 +184,12 @@ impl Geometry {
                 (r.point(uv), r.n, r.n, r.eu.normalize(), uv)
             }
             PrimKind::Triangle(tri) => {
-                let b = tri.intersect_bary(&Ray { tmin: f32::NEG_INFINITY, tmax: f32::INFINITY, ..*ray })
+                let b = tri
+                    .intersect_bary(&Ray {
+                        tmin: f32::NEG_INFINITY,
+                        tmax: f32::INFINITY,
+                        ..*ray
+                    })
                     .map(|(_, b)| b)
                     .unwrap_or(Vec2::splat(1.0 / 3.0));
                 let mesh = &self.meshes[tri.mesh as usize];
@@ -195,9 +213,9 @@ impl Geometry {
                 let uv = if mesh.texcoords.is_empty() {
                     b
                 } else {
-                    idx.iter()
-                        .zip(w)
-                        .fold(Vec2::ZERO, |a, (&k, wk)| a + mesh.texcoords[k as usize] * wk)
+                    idx.iter().zip(w).fold(Vec2::ZERO, |a, (&k, wk)| {
+                        a + mesh.texcoords[k as usize] * wk
+                    })
                 };
                 (tri.point(b), ng, ns, tri.e1.normalize_or_zero(), uv)
             }

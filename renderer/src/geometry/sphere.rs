@@ -18,10 +18,11 @@ impl Sphere {
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> f32 {
         let d_len2 = ray.d.length_squared();
+        let inv_len2 = 1.0 / d_len2;
         let f = ray.o - self.center;
         let b = -f.dot(ray.d);
         // Distance of the center to the line, squared, computed without cancellation.
-        let l = f + ray.d * (b / d_len2);
+        let l = f + ray.d * (b * inv_len2);
         let disc = (self.radius * self.radius - l.length_squared()) * d_len2;
         if disc < 0.0 {
             return f32::INFINITY;
@@ -30,7 +31,7 @@ impl Sphere {
         let sq = disc.sqrt();
         let q = if b >= 0.0 { b + sq } else { b - sq };
         let mut t0 = c / q;
-        let mut t1 = q / d_len2;
+        let mut t1 = q * inv_len2;
         if t0 > t1 {
             std::mem::swap(&mut t0, &mut t1);
         }

@@ -4,13 +4,19 @@
 //! `direct` plugin does (Veach 1997, eq. 9.13 with n_i samples per strategy).
 
 use super::{Shading, sample_one_light, unoccluded};
+use crate::Rgb;
 use crate::geometry::{Ray, spawn_ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::Rgb;
 use lobe_materials::sampling::power_heuristic;
 
-pub fn li(scene: &Scene, ray: Ray, sampler: &mut Sampler, emitter_samples: u32, bsdf_samples: u32) -> Rgb {
+pub fn li(
+    scene: &Scene,
+    ray: Ray,
+    sampler: &mut Sampler,
+    emitter_samples: u32,
+    bsdf_samples: u32,
+) -> Rgb {
     let mut l = Rgb::ZERO;
     let Some(it) = scene.geometry.intersect(&ray) else {
         for &k in &scene.infinite_lights {
@@ -26,7 +32,11 @@ pub fn li(scene: &Scene, ray: Ray, sampler: &mut Sampler, emitter_samples: u32, 
     let total = (emitter_samples + bsdf_samples) as f32;
     let frac_em = emitter_samples as f32 / total;
     let frac_bsdf = bsdf_samples as f32 / total;
-    let sel_pdf = if scene.lights.is_empty() { 0.0 } else { 1.0 / scene.lights.len() as f32 };
+    let sel_pdf = if scene.lights.is_empty() {
+        0.0
+    } else {
+        1.0 / scene.lights.len() as f32
+    };
 
     for _ in 0..emitter_samples {
         if let Some((ls, sel)) = sample_one_light(scene, it.p, sampler) {
@@ -68,7 +78,10 @@ pub fn li(scene: &Scene, ray: Ray, sampler: &mut Sampler, emitter_samples: u32, 
             Some(hit) => {
                 if let Some(k) = scene.shapes[hit.shape as usize].light {
                     let light = &scene.lights[k as usize];
-                    add(light.le_area(&hit, -wi), sel_pdf * light.pdf_area(it.p, &hit));
+                    add(
+                        light.le_area(&hit, -wi),
+                        sel_pdf * light.pdf_area(it.p, &hit),
+                    );
                 }
             }
         }

@@ -20,10 +20,16 @@ pub enum Integrator {
     /// `max_depth`: longest path in vertices, Mitsuba's meaning: 1 shows only directly
     /// visible emitters, 2 adds direct illumination; `None` is unbounded.
     /// Russian roulette starts at path depth `rr_depth`.
-    Path { max_depth: Option<u32>, rr_depth: u32 },
+    Path {
+        max_depth: Option<u32>,
+        rr_depth: u32,
+    },
     /// Direct illumination with `emitter_samples` light samples and `bsdf_samples` BSDF
     /// samples per hit, combined with the power heuristic (Mitsuba's `direct`).
-    Direct { emitter_samples: u32, bsdf_samples: u32 },
+    Direct {
+        emitter_samples: u32,
+        bsdf_samples: u32,
+    },
 }
 
 impl Integrator {
@@ -31,22 +37,30 @@ impl Integrator {
     #[inline]
     pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler) -> Rgb {
         match *self {
-            Integrator::Path { max_depth, rr_depth } => {
-                path::li(scene, ray, sampler, max_depth, rr_depth)
-            }
-            Integrator::Direct { emitter_samples, bsdf_samples } => {
-                direct::li(scene, ray, sampler, emitter_samples, bsdf_samples)
-            }
+            Integrator::Path {
+                max_depth,
+                rr_depth,
+            } => path::li(scene, ray, sampler, max_depth, rr_depth),
+            Integrator::Direct {
+                emitter_samples,
+                bsdf_samples,
+            } => direct::li(scene, ray, sampler, emitter_samples, bsdf_samples),
         }
     }
 
     pub fn describe(&self) -> String {
         match self {
-            Integrator::Path { max_depth, rr_depth } => format!(
+            Integrator::Path {
+                max_depth,
+                rr_depth,
+            } => format!(
                 "path (max_depth {}, rr_depth {rr_depth})",
                 max_depth.map_or("unbounded".to_string(), |d| d.to_string())
             ),
-            Integrator::Direct { emitter_samples, bsdf_samples } => {
+            Integrator::Direct {
+                emitter_samples,
+                bsdf_samples,
+            } => {
                 format!("direct (emitter_samples {emitter_samples}, bsdf_samples {bsdf_samples})")
             }
         }
@@ -65,14 +79,22 @@ impl<'a> Shading<'a> {
     pub fn new(scene: &'a Scene, it: &Interaction, ray_d: Vec3) -> Self {
         let frame = Frame::from_normal_tangent(it.ns, it.dpdu);
         let wo = frame.to_local(-ray_d).normalize();
-        Self { bsdf: scene.shapes[it.shape as usize].material.as_ref(), frame, wo }
+        Self {
+            bsdf: scene.shapes[it.shape as usize].material.as_ref(),
+            frame,
+            wo,
+        }
     }
 }
 
 /// Samples one light uniformly (Mitsuba's emitter selection) and returns the sample,
 /// the light's index and the selection probability, or None.
 #[inline]
-pub(crate) fn sample_one_light(scene: &Scene, p: Vec3, sampler: &mut Sampler) -> Option<(LightSample, f32)> {
+pub(crate) fn sample_one_light(
+    scene: &Scene,
+    p: Vec3,
+    sampler: &mut Sampler,
+) -> Option<(LightSample, f32)> {
     let n = scene.lights.len();
     let uc = sampler.next_1d();
     let u = sampler.next_2d();

@@ -4,10 +4,10 @@
 //! min(max throughput, 0.95), as Mitsuba 3's `path` plugin does.
 
 use super::{Shading, sample_one_light, unoccluded};
+use crate::Rgb;
 use crate::geometry::{Ray, spawn_ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::Rgb;
 use glam::Vec3;
 use lobe_materials::sampling::power_heuristic;
 
@@ -15,14 +15,24 @@ use lobe_materials::sampling::power_heuristic;
 /// long before; this only guards against pathological scenes).
 const DEPTH_CAP: u32 = 1 << 16;
 
-pub fn li(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, max_depth: Option<u32>, rr_depth: u32) -> Rgb {
+pub fn li(
+    scene: &Scene,
+    mut ray: Ray,
+    sampler: &mut Sampler,
+    max_depth: Option<u32>,
+    rr_depth: u32,
+) -> Rgb {
     let max_depth = max_depth.unwrap_or(DEPTH_CAP).min(DEPTH_CAP);
     let mut l = Rgb::ZERO;
     let mut beta = Rgb::ONE;
     let mut depth = 0u32;
     let mut prev_pdf = 0.0f32;
     let mut prev_p = Vec3::ZERO;
-    let sel_pdf = if scene.lights.is_empty() { 0.0 } else { 1.0 / scene.lights.len() as f32 };
+    let sel_pdf = if scene.lights.is_empty() {
+        0.0
+    } else {
+        1.0 / scene.lights.len() as f32
+    };
     if max_depth == 0 {
         return l;
     }
@@ -34,7 +44,11 @@ pub fn li(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, max_depth: Option<
                 if le.is_black() {
                     continue;
                 }
-                let w = if depth == 0 { 1.0 } else { power_heuristic(prev_pdf, sel_pdf * pdf) };
+                let w = if depth == 0 {
+                    1.0
+                } else {
+                    power_heuristic(prev_pdf, sel_pdf * pdf)
+                };
                 l += beta * le * w;
             }
             break;
@@ -62,7 +76,11 @@ pub fn li(scene: &Scene, mut ray: Ray, sampler: &mut Sampler, max_depth: Option<
             let f = sh.bsdf.eval(sh.wo, wi) * wi.z.max(0.0);
             if !f.is_black() && unoccluded(scene, &it, &ls) {
                 let light_pdf = ls.pdf * sel;
-                let w = if ls.delta { 1.0 } else { power_heuristic(light_pdf, sh.bsdf.pdf(sh.wo, wi)) };
+                let w = if ls.delta {
+                    1.0
+                } else {
+                    power_heuristic(light_pdf, sh.bsdf.pdf(sh.wo, wi))
+                };
                 l += beta * f * ls.li * (w / light_pdf);
             }
         }

@@ -68,7 +68,11 @@ impl Distribution1D {
         // Last cell whose CDF start is <= u, skipping empty cells.
         let i = (self.cdf.partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1);
         let width = self.cdf[i + 1] - self.cdf[i];
-        let du = if width > 0.0 { (u - self.cdf[i]) / width } else { 0.5 };
+        let du = if width > 0.0 {
+            (u - self.cdf[i]) / width
+        } else {
+            0.5
+        };
         let x = ((i as f32 + du.clamp(0.0, 1.0)) / n as f32).min(1.0 - f32::EPSILON / 2.0);
         (x, self.func[i] / self.integral, i)
     }
@@ -123,15 +127,33 @@ impl AliasTable {
     pub fn rows(weights: &[f32], n: usize) -> Self {
         let mut entries = Vec::with_capacity(weights.len());
         for row in weights.chunks(n) {
-            let sum: f64 = row.iter().map(|&w| if w.is_finite() { w.max(0.0) as f64 } else { 0.0 }).sum();
+            let sum: f64 = row
+                .iter()
+                .map(|&w| {
+                    if w.is_finite() {
+                        w.max(0.0) as f64
+                    } else {
+                        0.0
+                    }
+                })
+                .sum();
             let mut scaled: Vec<f64> = if sum > 0.0 {
-                row.iter().map(|&w| if w.is_finite() { w.max(0.0) as f64 * n as f64 / sum } else { 0.0 }).collect()
+                row.iter()
+                    .map(|&w| {
+                        if w.is_finite() {
+                            w.max(0.0) as f64 * n as f64 / sum
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
             } else {
                 vec![1.0; n]
             };
             let base = entries.len();
             entries.extend((0..n as u32).map(|i| (1.0f32, i)));
-            let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
+            let (mut small, mut large): (Vec<usize>, Vec<usize>) =
+                (0..n).partition(|&i| scaled[i] < 1.0);
             while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
                 entries[base + s] = (scaled[s] as f32, l as u32);
                 scaled[l] -= 1.0 - scaled[s];
@@ -156,7 +178,10 @@ impl AliasTable {
         if frac < k {
             (i, (frac / k).min(1.0 - f32::EPSILON / 2.0))
         } else {
-            (alias as usize, ((frac - k) / (1.0 - k)).clamp(0.0, 1.0 - f32::EPSILON / 2.0))
+            (
+                alias as usize,
+                ((frac - k) / (1.0 - k)).clamp(0.0, 1.0 - f32::EPSILON / 2.0),
+            )
         }
     }
 
@@ -183,9 +208,17 @@ impl Alias2D {
     pub fn new(values: &[f32], nu: usize, nv: usize) -> (Self, f64) {
         assert_eq!(values.len(), nu * nv);
         let clean = |v: f32| if v.is_finite() { v.max(0.0) } else { 0.0 };
-        let row_sums: Vec<f32> = values.chunks(nu).map(|r| r.iter().map(|&v| clean(v) as f64).sum::<f64>() as f32).collect();
+        let row_sums: Vec<f32> = values
+            .chunks(nu)
+            .map(|r| r.iter().map(|&v| clean(v) as f64).sum::<f64>() as f32)
+            .collect();
         let mean = row_sums.iter().map(|&v| v as f64).sum::<f64>() / (nu * nv) as f64;
-        let t = Self { nu, nv, rows: AliasTable::new(&row_sums), cols: AliasTable::rows(values, nu) };
+        let t = Self {
+            nu,
+            nv,
+            rows: AliasTable::new(&row_sums),
+            cols: AliasTable::rows(values, nu),
+        };
         (t, if mean > 0.0 { mean } else { 1.0 })
     }
 
@@ -214,7 +247,15 @@ impl Distribution2D {
         let all_zero = !values.iter().any(|&v| v.is_finite() && v > 0.0);
         let density = values
             .iter()
-            .map(|&v| if all_zero { 1.0 } else if v.is_finite() { (v.max(0.0) as f64 / mean) as f32 } else { 0.0 })
+            .map(|&v| {
+                if all_zero {
+                    1.0
+                } else if v.is_finite() {
+                    (v.max(0.0) as f64 / mean) as f32
+                } else {
+                    0.0
+                }
+            })
             .collect();
         Self { table, density }
     }
@@ -224,8 +265,14 @@ impl Distribution2D {
     pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
         let (nu, nv) = (self.table.nu, self.table.nv);
         let (col, row, r) = self.table.sample(u);
-        let p = Vec2::new((col as f32 + r.x) / nu as f32, (row as f32 + r.y) / nv as f32);
-        (p.min(Vec2::splat(1.0 - f32::EPSILON / 2.0)), self.density[row * nu + col])
+        let p = Vec2::new(
+            (col as f32 + r.x) / nu as f32,
+            (row as f32 + r.y) / nv as f32,
+        );
+        (
+            p.min(Vec2::splat(1.0 - f32::EPSILON / 2.0)),
+            self.density[row * nu + col],
+        )
     }
 
     #[inline]
@@ -263,7 +310,10 @@ mod tests {
         let mut acc = 0.0;
         for i in 0..n {
             for j in 0..n {
-                acc += d.pdf(Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32));
+                acc += d.pdf(Vec2::new(
+                    (i as f32 + 0.5) / n as f32,
+                    (j as f32 + 0.5) / n as f32,
+                ));
             }
         }
         assert!((acc / (n * n) as f32 - 1.0).abs() < 1e-3);
@@ -272,7 +322,10 @@ mod tests {
         let m = 256;
         for i in 0..m {
             for j in 0..m {
-                let (p, pdf) = d.sample(Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32));
+                let (p, pdf) = d.sample(Vec2::new(
+                    (i as f32 + 0.5) / m as f32,
+                    (j as f32 + 0.5) / m as f32,
+                ));
                 assert!((pdf - d.pdf(p)).abs() < 1e-5);
                 counts[(p.y * 3.0) as usize * 4 + (p.x * 4.0) as usize] += 1;
             }
@@ -280,7 +333,11 @@ mod tests {
         let total: f32 = vals.iter().sum();
         for k in 0..12 {
             let expect = vals[k] / total * (m * m) as f32;
-            assert!((counts[k] as f32 - expect).abs() <= 0.01 * (m * m) as f32, "cell {k}: {} vs {expect}", counts[k]);
+            assert!(
+                (counts[k] as f32 - expect).abs() <= 0.01 * (m * m) as f32,
+                "cell {k}: {} vs {expect}",
+                counts[k]
+            );
         }
     }
 

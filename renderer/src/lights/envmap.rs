@@ -57,7 +57,9 @@ impl EnvMap {
             data.extend_from_slice(row);
             data.push(row[0]);
         }
-        let sin_centre: Vec<f32> = (0..h - 1).map(|j| ((j as f32 + 0.5) / (h - 1) as f32 * PI).sin()).collect();
+        let sin_centre: Vec<f32> = (0..h - 1)
+            .map(|j| ((j as f32 + 0.5) / (h - 1) as f32 * PI).sin())
+            .collect();
         let mut cells = vec![0.0f32; w * (h - 1)];
         for j in 0..h - 1 {
             for i in 0..w {
@@ -95,7 +97,9 @@ impl EnvMap {
         if self.inv_mean == 0.0 {
             return 1.0;
         }
-        Self::corner_weight(&self.data, iy * (self.width + 1) + ix, self.width) * self.sin_centre[iy] * self.inv_mean
+        Self::corner_weight(&self.data, iy * (self.width + 1) + ix, self.width)
+            * self.sin_centre[iy]
+            * self.inv_mean
     }
 
     pub fn resolution(&self) -> (usize, usize) {
@@ -157,7 +161,10 @@ impl EnvMap {
         if sin_theta <= 1e-7 {
             return (radiance, 0.0);
         }
-        (radiance, self.cell_density(ix, iy) / (2.0 * PI * PI * sin_theta))
+        (
+            radiance,
+            self.cell_density(ix, iy) / (2.0 * PI * PI * sin_theta),
+        )
     }
 
     /// Solid-angle density of [`EnvMap::sample`] for world direction `d`.
@@ -212,7 +219,10 @@ pub fn read_rgb_image(path: &Path) -> Result<RgbImage> {
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default();
     if path.is_dir() {
-        return Err(Error::file(shown, "is a directory; expected an .exr or .hdr image"));
+        return Err(Error::file(
+            shown,
+            "is a directory; expected an .exr or .hdr image",
+        ));
     }
     let img = match ext.as_str() {
         "exr" => {
@@ -289,10 +299,22 @@ mod tests {
         let (w, h) = (8, 5);
         let mut px = vec![Rgb::ZERO; w * h];
         px[2 * w + 1] = Rgb::ONE;
-        let env = EnvMap::new(&RgbImage { width: w, height: h, pixels: px }, 1.0, Mat3::IDENTITY);
+        let env = EnvMap::new(
+            &RgbImage {
+                width: w,
+                height: h,
+                pixels: px,
+            },
+            1.0,
+            Mat3::IDENTITY,
+        );
         let theta = 2.0 * PI / 4.0;
         let phi = 1.5 * TAU / 8.0;
-        let d = Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos());
+        let d = Vec3::new(
+            theta.sin() * phi.sin(),
+            theta.cos(),
+            -theta.sin() * phi.cos(),
+        );
         assert!((env.eval(d).r - 1.0).abs() < 1e-4, "{:?}", env.eval(d));
     }
 }

@@ -15,17 +15,23 @@ use crate::geometry::{Interaction, Rectangle, Sphere, Triangle};
 use distribution::Distribution1D;
 pub use envmap::EnvMap;
 use glam::{Vec2, Vec3};
+use lobe_materials::frame::Frame;
 use lobe_materials::sampling::{
     UNIFORM_SPHERE_PDF, square_to_uniform_cone, square_to_uniform_sphere,
     square_to_uniform_triangle, uniform_cone_pdf,
 };
-use lobe_materials::frame::Frame;
 
 /// Emitting geometry of an area light.
 #[derive(Clone, Debug)]
 pub enum AreaShape {
-    Sphere { sphere: Sphere, flip: bool },
-    Rectangle { rect: Rectangle, flip: bool },
+    Sphere {
+        sphere: Sphere,
+        flip: bool,
+    },
+    Rectangle {
+        rect: Rectangle,
+        flip: bool,
+    },
     /// Triangles with their emitting-side unit normals, chosen by area.
     Mesh {
         tris: Vec<(Triangle, Vec3)>,
@@ -37,11 +43,22 @@ pub enum AreaShape {
 #[derive(Clone, Debug)]
 pub enum Light {
     Env(Box<EnvMap>),
-    Constant { radiance: Rgb },
-    Point { position: Vec3, intensity: Rgb },
+    Constant {
+        radiance: Rgb,
+    },
+    Point {
+        position: Vec3,
+        intensity: Rgb,
+    },
     /// `direction` is the direction of propagation (unit).
-    Directional { direction: Vec3, irradiance: Rgb },
-    Area { shape: AreaShape, radiance: Rgb },
+    Directional {
+        direction: Vec3,
+        irradiance: Rgb,
+    },
+    Area {
+        shape: AreaShape,
+        radiance: Rgb,
+    },
 }
 
 /// A light sample seen from a reference point.
@@ -60,7 +77,10 @@ pub struct LightSample {
 
 impl Light {
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Env(_) | Light::Constant { .. } | Light::Directional { .. })
+        matches!(
+            self,
+            Light::Env(_) | Light::Constant { .. } | Light::Directional { .. }
+        )
     }
 
     pub fn is_delta(&self) -> bool {
@@ -72,7 +92,13 @@ impl Light {
         match self {
             Light::Env(env) => {
                 let (wi, li, pdf) = env.sample(u)?;
-                Some(LightSample { wi, li, pdf, delta: false, p: None })
+                Some(LightSample {
+                    wi,
+                    li,
+                    pdf,
+                    delta: false,
+                    p: None,
+                })
             }
             Light::Constant { radiance } => Some(LightSample {
                 wi: square_to_uniform_sphere(u),
@@ -81,7 +107,10 @@ impl Light {
                 delta: false,
                 p: None,
             }),
-            Light::Point { position, intensity } => {
+            Light::Point {
+                position,
+                intensity,
+            } => {
                 let d = *position - p;
                 let d2 = d.length_squared();
                 if !(d2 > 0.0) {
@@ -95,7 +124,10 @@ impl Light {
                     p: Some((*position, Vec3::ZERO)),
                 })
             }
-            Light::Directional { direction, irradiance } => Some(LightSample {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => Some(LightSample {
                 wi: -*direction,
                 li: *irradiance,
                 pdf: 1.0,
@@ -111,8 +143,18 @@ impl Light {
                 }
                 let wi = d / dist2.sqrt();
                 // One-sided emission toward -wi.
-                let li = if n.dot(-wi) > 0.0 { *radiance } else { Rgb::ZERO };
-                Some(LightSample { wi, li, pdf, delta: false, p: Some((q, n)) })
+                let li = if n.dot(-wi) > 0.0 {
+                    *radiance
+                } else {
+                    Rgb::ZERO
+                };
+                Some(LightSample {
+                    wi,
+                    li,
+                    pdf,
+                    delta: false,
+                    p: Some((q, n)),
+                })
             }
         }
     }
@@ -185,7 +227,11 @@ impl AreaShape {
         if !(area > 0.0) {
             return None;
         }
-        Some(AreaShape::Mesh { cdf: Distribution1D::new(&areas), tris, area })
+        Some(AreaShape::Mesh {
+            cdf: Distribution1D::new(&areas),
+            tris,
+            area,
+        })
     }
 
     pub fn area(&self) -> f32 {

@@ -29,10 +29,19 @@ pub struct Obj<'a> {
 
 impl<'a> Obj<'a> {
     /// Checks that `v` is an object whose keys are all in `allowed`.
-    pub fn new(file: &'a str, path: impl Into<String>, v: &'a Value, allowed: &[&str]) -> Result<Self> {
+    pub fn new(
+        file: &'a str,
+        path: impl Into<String>,
+        v: &'a Value,
+        allowed: &[&str],
+    ) -> Result<Self> {
         let path = path.into();
         let map = v.as_object().ok_or_else(|| {
-            Error::scene(file, &path, format!("expected an object, found {}", describe(v)))
+            Error::scene(
+                file,
+                &path,
+                format!("expected an object, found {}", describe(v)),
+            )
         })?;
         for k in map.keys() {
             if !allowed.contains(&k.as_str()) {
@@ -63,8 +72,13 @@ impl<'a> Obj<'a> {
     }
 
     pub fn require(&self, key: &str, what: &str) -> Result<&'a Value> {
-        self.get(key)
-            .ok_or_else(|| Error::scene(self.file, &self.path, format!("missing key \"{key}\"; expected {what}")))
+        self.get(key).ok_or_else(|| {
+            Error::scene(
+                self.file,
+                &self.path,
+                format!("missing key \"{key}\"; expected {what}"),
+            )
+        })
     }
 
     fn number(&self, key: &str, v: &Value, what: &str) -> Result<f64> {
@@ -86,7 +100,13 @@ impl<'a> Obj<'a> {
         }
     }
 
-    pub fn f32_or(&self, key: &str, default: f32, what: &str, ok: impl Fn(f64) -> bool) -> Result<f32> {
+    pub fn f32_or(
+        &self,
+        key: &str,
+        default: f32,
+        what: &str,
+        ok: impl Fn(f64) -> bool,
+    ) -> Result<f32> {
         Ok(self.f32_opt(key, what, ok)?.unwrap_or(default))
     }
 
@@ -109,7 +129,10 @@ impl<'a> Obj<'a> {
         match self.get(key) {
             None => Ok(default),
             Some(Value::Bool(b)) => Ok(*b),
-            Some(v) => Err(self.err(key, format!("expected true or false, found {}", describe(v)))),
+            Some(v) => Err(self.err(
+                key,
+                format!("expected true or false, found {}", describe(v)),
+            )),
         }
     }
 
@@ -181,7 +204,16 @@ pub fn join(path: &str, key: &str) -> String {
 }
 
 pub fn vec3_value(file: &str, path: &str, v: &Value) -> Result<Vec3> {
-    let bad = || Error::scene(file, path, format!("expected an array of 3 finite numbers, found {}", describe(v)));
+    let bad = || {
+        Error::scene(
+            file,
+            path,
+            format!(
+                "expected an array of 3 finite numbers, found {}",
+                describe(v)
+            ),
+        )
+    };
     let a = v.as_array().filter(|a| a.len() == 3).ok_or_else(bad)?;
     let mut out = [0.0f32; 3];
     for (i, e) in a.iter().enumerate() {

@@ -11,15 +11,34 @@ use std::path::Path;
 fn check_mesh(mesh: &Mesh, shown: &str) -> Result<()> {
     let n = mesh.positions.len() as u32;
     if mesh.indices.is_empty() {
-        return Err(Error::file(shown, "contains no triangles; expected a triangle mesh"));
-    }
-    if let Some((i, _)) = mesh.positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
-        return Err(Error::file(shown, format!("vertex {i} has a non-finite position; expected finite coordinates")));
-    }
-    if let Some((i, t)) = mesh.indices.iter().enumerate().find(|(_, t)| t.iter().any(|&k| k >= n)) {
         return Err(Error::file(
             shown,
-            format!("triangle {i} refers to vertex {:?}, but the mesh has {n} vertices", t),
+            "contains no triangles; expected a triangle mesh",
+        ));
+    }
+    if let Some((i, _)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !p.is_finite())
+    {
+        return Err(Error::file(
+            shown,
+            format!("vertex {i} has a non-finite position; expected finite coordinates"),
+        ));
+    }
+    if let Some((i, t)) = mesh
+        .indices
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t.iter().any(|&k| k >= n))
+    {
+        return Err(Error::file(
+            shown,
+            format!(
+                "triangle {i} refers to vertex {:?}, but the mesh has {n} vertices",
+                t
+            ),
         ));
     }
     Ok(())
@@ -37,33 +56,46 @@ pub fn load_obj(path: &Path) -> Result<Mesh> {
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _materials) =
-        tobj::load_obj(path, &opts).map_err(|e| Error::file(&shown, format!("cannot read OBJ: {e}")))?;
+    let (models, _materials) = tobj::load_obj(path, &opts)
+        .map_err(|e| Error::file(&shown, format!("cannot read OBJ: {e}")))?;
     let mut mesh = Mesh::default();
     let mut all_have_normals = true;
     for m in &models {
         let mm = &m.mesh;
         let base = mesh.positions.len() as u32;
         if mm.positions.len() % 3 != 0 || mm.indices.len() % 3 != 0 {
-            return Err(Error::file(&shown, format!("object \"{}\" has malformed vertex or face data", m.name)));
+            return Err(Error::file(
+                &shown,
+                format!("object \"{}\" has malformed vertex or face data", m.name),
+            ));
         }
         let nv = mm.positions.len() / 3;
-        mesh.positions.extend(mm.positions.chunks(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+        mesh.positions
+            .extend(mm.positions.chunks(3).map(|c| Vec3::new(c[0], c[1], c[2])));
         if mm.normals.len() == mm.positions.len() {
-            mesh.normals.extend(mm.normals.chunks(3).map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()));
+            mesh.normals.extend(
+                mm.normals
+                    .chunks(3)
+                    .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()),
+            );
         } else {
             all_have_normals = false;
         }
         if mm.texcoords.len() == 2 * nv {
-            mesh.texcoords.extend(mm.texcoords.chunks(2).map(|c| Vec2::new(c[0], c[1])));
+            mesh.texcoords
+                .extend(mm.texcoords.chunks(2).map(|c| Vec2::new(c[0], c[1])));
         }
-        mesh.indices.extend(mm.indices.chunks(3).map(|c| [c[0] + base, c[1] + base, c[2] + base]));
+        mesh.indices.extend(
+            mm.indices
+                .chunks(3)
+                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
+        );
     }
     if mesh.texcoords.len() != mesh.positions.len() {
         mesh.texcoords.clear();
     }
     check_mesh(&mesh, &shown)?;
-    if !all_have_normals || mesh.normals.iter().any(|n| *n == Vec3::ZERO) {
+    if !all_have_normals || mesh.normals.contains(&Vec3::ZERO) {
         mesh.compute_vertex_normals();
     }
     Ok(mesh)
@@ -88,7 +120,12 @@ impl GltfCamera {
     pub fn build(&self, width: u32, height: u32) -> Camera {
         match *self {
             GltfCamera::Perspective { to_world, yfov_deg } => {
-                let fx = crate::camera::fov_x_degrees(yfov_deg, crate::camera::FovAxis::Y, width, height);
+                let fx = crate::camera::fov_x_degrees(
+                    yfov_deg,
+                    crate::camera::FovAxis::Y,
+                    width,
+                    height,
+                );
                 Camera::perspective(to_world, fx, width, height, 0.01)
             }
             GltfCamera::Orthographic { to_world, xmag } => Camera::Orthographic {
@@ -108,7 +145,8 @@ pub fn load_gltf(path: &Path) -> Result<GltfScene> {
     if path.is_dir() {
         return Err(Error::file(&shown, "is a directory; expected a glTF file"));
     }
-    let gltf = gltf::Gltf::open(path).map_err(|e| Error::file(&shown, format!("cannot read glTF: {e}")))?;
+    let gltf = gltf::Gltf::open(path)
+        .map_err(|e| Error::file(&shown, format!("cannot read glTF: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
         .map_err(|e| Error::file(&shown, format!("cannot load glTF buffers: {e}")))?;
@@ -117,7 +155,10 @@ pub fn load_gltf(path: &Path) -> Result<GltfScene> {
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| Error::file(&shown, "has no scene; expected at least one glTF scene"))?;
-    let mut out = GltfScene { mesh: Mesh::default(), camera: None };
+    let mut out = GltfScene {
+        mesh: Mesh::default(),
+        camera: None,
+    };
     let mut any_missing_normals = false;
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
     stack.reverse();
@@ -129,13 +170,21 @@ pub fn load_gltf(path: &Path) -> Result<GltfScene> {
             let origin = world.transform_point3(Vec3::ZERO);
             let fwd = world.transform_vector3(Vec3::NEG_Z);
             let up = world.transform_vector3(Vec3::Y);
-            let to_world = look_at(origin, origin + fwd, up)
-                .ok_or_else(|| Error::file(&shown, format!("camera node {} has a degenerate transform", node.index())))?;
+            let to_world = look_at(origin, origin + fwd, up).ok_or_else(|| {
+                Error::file(
+                    &shown,
+                    format!("camera node {} has a degenerate transform", node.index()),
+                )
+            })?;
             out.camera = Some(match cam.projection() {
-                gltf::camera::Projection::Perspective(p) => {
-                    GltfCamera::Perspective { to_world, yfov_deg: p.yfov().to_degrees() }
-                }
-                gltf::camera::Projection::Orthographic(o) => GltfCamera::Orthographic { to_world, xmag: o.xmag() },
+                gltf::camera::Projection::Perspective(p) => GltfCamera::Perspective {
+                    to_world,
+                    yfov_deg: p.yfov().to_degrees(),
+                },
+                gltf::camera::Projection::Orthographic(o) => GltfCamera::Orthographic {
+                    to_world,
+                    xmag: o.xmag(),
+                },
             });
         }
         if let Some(mesh) = node.mesh() {
@@ -150,12 +199,19 @@ pub fn load_gltf(path: &Path) -> Result<GltfScene> {
                     continue;
                 };
                 let base = out.mesh.positions.len() as u32;
-                let pos: Vec<Vec3> = positions.map(|p| world.transform_point3(Vec3::from_array(p))).collect();
+                let pos: Vec<Vec3> = positions
+                    .map(|p| world.transform_point3(Vec3::from_array(p)))
+                    .collect();
                 let n = pos.len() as u32;
                 match reader.read_normals() {
                     Some(ns) => {
-                        let ns: Vec<Vec3> =
-                            ns.map(|v| normal_m.transform_vector3(Vec3::from_array(v)).normalize_or_zero()).collect();
+                        let ns: Vec<Vec3> = ns
+                            .map(|v| {
+                                normal_m
+                                    .transform_vector3(Vec3::from_array(v))
+                                    .normalize_or_zero()
+                            })
+                            .collect();
                         if ns.len() == pos.len() {
                             out.mesh.normals.extend(ns);
                         } else {
@@ -168,11 +224,23 @@ pub fn load_gltf(path: &Path) -> Result<GltfScene> {
                     Some(i) => i.into_u32().collect(),
                     None => (0..n).collect(),
                 };
-                if idx.len() % 3 != 0 {
-                    return Err(Error::file(&shown, format!("mesh {} has an index count that is not a multiple of 3", mesh.index())));
+                if !idx.len().is_multiple_of(3) {
+                    return Err(Error::file(
+                        &shown,
+                        format!(
+                            "mesh {} has an index count that is not a multiple of 3",
+                            mesh.index()
+                        ),
+                    ));
                 }
                 if let Some(bad) = idx.iter().find(|&&k| k >= n) {
-                    return Err(Error::file(&shown, format!("mesh {} refers to vertex {bad}, but has {n} vertices", mesh.index())));
+                    return Err(Error::file(
+                        &shown,
+                        format!(
+                            "mesh {} refers to vertex {bad}, but has {n} vertices",
+                            mesh.index()
+                        ),
+                    ));
                 }
                 out.mesh.positions.extend(pos);
                 out.mesh.indices.extend(idx.chunks(3).map(|c| {
@@ -193,7 +261,10 @@ pub fn load_gltf(path: &Path) -> Result<GltfScene> {
         if out.camera.is_some() {
             return Ok(out);
         }
-        return Err(Error::file(&shown, "contains no triangle meshes and no camera"));
+        return Err(Error::file(
+            &shown,
+            "contains no triangle meshes and no camera",
+        ));
     }
     check_mesh(&out.mesh, &shown)?;
     if any_missing_normals || out.mesh.normals.len() != out.mesh.positions.len() {

@@ -64,7 +64,10 @@ impl LoadOptions {
     /// The built-in procedural images (`builtin:studio`).
     pub fn with_builtins() -> Self {
         let mut b = BTreeMap::new();
-        b.insert("studio".to_string(), crate::showcase::studio_environment(512, 256));
+        b.insert(
+            "studio".to_string(),
+            crate::showcase::studio_environment(512, 256),
+        );
         Self { builtin_images: b }
     }
 }
@@ -73,18 +76,34 @@ impl LoadOptions {
 pub fn load(path: &Path) -> Result<Scene> {
     let shown = path.display().to_string();
     if path.is_dir() {
-        return Err(Error::file(&shown, "is a directory; expected a scene JSON file"));
+        return Err(Error::file(
+            &shown,
+            "is a directory; expected a scene JSON file",
+        ));
     }
-    let text = std::fs::read_to_string(path).map_err(|e| Error::file(&shown, format!("cannot read: {e}")))?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::file(&shown, format!("cannot read: {e}")))?;
     if text.trim().is_empty() {
-        return Err(Error::file(&shown, "is empty; expected a JSON scene description"));
+        return Err(Error::file(
+            &shown,
+            "is empty; expected a JSON scene description",
+        ));
     }
-    let value: Value = serde_json::from_str(&text).map_err(|e| Error::file(&shown, format!("invalid JSON: {e}")))?;
+    let value: Value = serde_json::from_str(&text)
+        .map_err(|e| Error::file(&shown, format!("invalid JSON: {e}")))?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     from_value(&value, &shown, &base, &LoadOptions::with_builtins())
 }
 
-const TOP_KEYS: &[&str] = &["camera", "film", "sampler", "integrator", "materials", "shapes", "lights"];
+const TOP_KEYS: &[&str] = &[
+    "camera",
+    "film",
+    "sampler",
+    "integrator",
+    "materials",
+    "shapes",
+    "lights",
+];
 
 struct Loader<'a> {
     file: &'a str,
@@ -98,14 +117,22 @@ struct Loader<'a> {
 impl<'a> Loader<'a> {
     fn resolve(&self, p: &str) -> PathBuf {
         let pb = PathBuf::from(p);
-        if pb.is_absolute() { pb } else { self.base.join(pb) }
+        if pb.is_absolute() {
+            pb
+        } else {
+            self.base.join(pb)
+        }
     }
 
     fn material(&mut self, v: Option<&'a Value>, path: &str) -> Result<Arc<dyn Bsdf>> {
-        let ctx = BuildContext { base_dir: self.base.to_path_buf() };
+        let ctx = BuildContext {
+            base_dir: self.base.to_path_buf(),
+        };
         match v {
             // Mitsuba's default material: diffuse, reflectance 0.5.
-            None => Ok(Arc::new(lobe_materials::analytic::lambert::Lambert::new(lobe_materials::Rgb::splat(0.5)))),
+            None => Ok(Arc::new(lobe_materials::analytic::lambert::Lambert::new(
+                lobe_materials::Rgb::splat(0.5),
+            ))),
             Some(Value::String(name)) => {
                 if let Some(m) = self.built.get(name) {
                     return Ok(m.clone());
@@ -134,7 +161,10 @@ impl<'a> Loader<'a> {
             Some(other) => Err(Error::scene(
                 self.file,
                 path,
-                format!("expected a material name or a material object, found {}", describe(other)),
+                format!(
+                    "expected a material name or a material object, found {}",
+                    describe(other)
+                ),
             )),
         }
     }
@@ -143,7 +173,18 @@ impl<'a> Loader<'a> {
         let f = o.str_req(key, "an image file path (.exr or .hdr)")?;
         if let Some(name) = f.strip_prefix("builtin:") {
             return self.opts.builtin_images.get(name).cloned().ok_or_else(|| {
-                o.err(key, format!("unknown built-in image \"{name}\"; expected one of: {}", self.opts.builtin_images.keys().cloned().collect::<Vec<_>>().join(", ")))
+                o.err(
+                    key,
+                    format!(
+                        "unknown built-in image \"{name}\"; expected one of: {}",
+                        self.opts
+                            .builtin_images
+                            .keys()
+                            .cloned()
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )
             });
         }
         let path = self.resolve(f);
@@ -201,7 +242,14 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
     // Materials: validated now, built when a shape uses them.
     if let Some(mv) = top.get("materials") {
         let m = mv.as_object().ok_or_else(|| {
-            Error::scene(file, "materials", format!("expected an object of named materials, found {}", describe(mv)))
+            Error::scene(
+                file,
+                "materials",
+                format!(
+                    "expected an object of named materials, found {}",
+                    describe(mv)
+                ),
+            )
         })?;
         for (name, desc) in m {
             ld.registry
@@ -222,22 +270,46 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
         None => &[][..],
         Some(Value::Array(a)) => &a[..],
         Some(other) => {
-            return Err(Error::scene(file, "shapes", format!("expected an array of shapes, found {}", describe(other))));
+            return Err(Error::scene(
+                file,
+                "shapes",
+                format!("expected an array of shapes, found {}", describe(other)),
+            ));
         }
     };
     for (i, sv) in shape_list.iter().enumerate() {
         let path = format!("shapes[{i}]");
         let kind = sv.get("type").and_then(Value::as_str).unwrap_or("");
         let allowed: &[&str] = match kind {
-            "sphere" => &["type", "center", "radius", "material", "emitter", "flip_normals"],
+            "sphere" => &[
+                "type",
+                "center",
+                "radius",
+                "material",
+                "emitter",
+                "flip_normals",
+            ],
             "rectangle" => &["type", "to_world", "material", "emitter", "flip_normals"],
-            "obj" | "gltf" => &["type", "file", "to_world", "material", "emitter", "flip_normals", "face_normals"],
+            "obj" | "gltf" => &[
+                "type",
+                "file",
+                "to_world",
+                "material",
+                "emitter",
+                "flip_normals",
+                "face_normals",
+            ],
             _ => {
-                let found = sv.get("type").map(describe).unwrap_or_else(|| "nothing".into());
+                let found = sv
+                    .get("type")
+                    .map(describe)
+                    .unwrap_or_else(|| "nothing".into());
                 return Err(Error::scene(
                     file,
                     format!("{path}.type"),
-                    format!("expected one of \"sphere\", \"rectangle\", \"obj\", \"gltf\", found {found}"),
+                    format!(
+                        "expected one of \"sphere\", \"rectangle\", \"obj\", \"gltf\", found {found}"
+                    ),
                 ));
             }
         };
@@ -255,13 +327,23 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
                 let center = o.vec3_opt("center")?.unwrap_or(Vec3::ZERO);
                 let radius = o.f32_or("radius", 1.0, "a positive radius", positive)?;
                 let s = Sphere { center, radius };
-                prims.push(Primitive { kind: PrimKind::Sphere(s), shape: shape_id });
+                prims.push(Primitive {
+                    kind: PrimKind::Sphere(s),
+                    shape: shape_id,
+                });
                 area = Some(AreaShape::Sphere { sphere: s, flip });
             }
             "rectangle" => {
-                let r = Rectangle::from_transform(&to_world)
-                    .ok_or_else(|| o.err("to_world", "maps the rectangle to a degenerate (zero-area) shape"))?;
-                prims.push(Primitive { kind: PrimKind::Rectangle(r), shape: shape_id });
+                let r = Rectangle::from_transform(&to_world).ok_or_else(|| {
+                    o.err(
+                        "to_world",
+                        "maps the rectangle to a degenerate (zero-area) shape",
+                    )
+                })?;
+                prims.push(Primitive {
+                    kind: PrimKind::Rectangle(r),
+                    shape: shape_id,
+                });
                 area = Some(AreaShape::Rectangle { rect: r, flip });
             }
             _ => {
@@ -287,11 +369,17 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
                     if !(tri.area() > 0.0) {
                         continue; // degenerate triangles can never be hit
                     }
-                    prims.push(Primitive { kind: PrimKind::Triangle(tri), shape: shape_id });
+                    prims.push(Primitive {
+                        kind: PrimKind::Triangle(tri),
+                        shape: shape_id,
+                    });
                     if o.has("emitter") {
                         let mut n = tri.normal();
                         if !face_normals && !mesh.normals.is_empty() {
-                            let avg: Vec3 = mesh.indices[t as usize].iter().map(|&k| mesh.normals[k as usize]).sum();
+                            let avg: Vec3 = mesh.indices[t as usize]
+                                .iter()
+                                .map(|&k| mesh.normals[k as usize])
+                                .sum();
                             if avg.dot(n) < 0.0 {
                                 n = -n;
                             }
@@ -300,7 +388,11 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
                     }
                 }
                 meshes.push(mesh);
-                area = if o.has("emitter") { AreaShape::mesh(emit_tris) } else { None };
+                area = if o.has("emitter") {
+                    AreaShape::mesh(emit_tris)
+                } else {
+                    None
+                };
             }
         }
         let material = ld.material(o.get("material"), &o.key_path("material"))?;
@@ -310,22 +402,32 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
                 let e = Obj::new(file, o.key_path("emitter"), ev, &["type", "radiance"])?;
                 match e.str_opt("type")? {
                     Some("area") | None => {}
-                    Some(other) => return Err(e.err("type", format!("expected \"area\", found \"{other}\""))),
+                    Some(other) => {
+                        return Err(e.err("type", format!("expected \"area\", found \"{other}\"")));
+                    }
                 }
                 let radiance = e.rgb_req("radiance")?;
-                let shape = area.ok_or_else(|| o.err("emitter", "the shape has no area to emit from"))?;
+                let shape =
+                    area.ok_or_else(|| o.err("emitter", "the shape has no area to emit from"))?;
                 lights.push(Light::Area { shape, radiance });
                 Some(lights.len() as u32 - 1)
             }
         };
-        shape_geom.push(ShapeGeom { flip_normals: flip, face_normals });
+        shape_geom.push(ShapeGeom {
+            flip_normals: flip,
+            face_normals,
+        });
         shapes.push(ShapeInfo { material, light });
     }
 
     // Lights.
     if let Some(lv) = top.get("lights") {
         let list = lv.as_array().ok_or_else(|| {
-            Error::scene(file, "lights", format!("expected an array of lights, found {}", describe(lv)))
+            Error::scene(
+                file,
+                "lights",
+                format!("expected an array of lights, found {}", describe(lv)),
+            )
         })?;
         for (i, l) in list.iter().enumerate() {
             lights.push(parse_light(&ld, &format!("lights[{i}]"), l)?);
@@ -372,7 +474,10 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
 
 fn parse_integrator(file: &str, v: Option<&Value>) -> Result<Integrator> {
     let Some(v) = v else {
-        return Ok(Integrator::Path { max_depth: None, rr_depth: 5 });
+        return Ok(Integrator::Path {
+            max_depth: None,
+            rr_depth: 5,
+        });
     };
     let kind = v.get("type").and_then(Value::as_str).unwrap_or("");
     match kind {
@@ -380,7 +485,10 @@ fn parse_integrator(file: &str, v: Option<&Value>) -> Result<Integrator> {
             let o = Obj::new(file, "integrator", v, &["type", "max_depth", "rr_depth"])?;
             let md = o.int_opt("max_depth", -1, 1 << 16)?.unwrap_or(-1);
             if md == 0 {
-                return Err(o.err("max_depth", "expected -1 (unbounded) or a depth >= 1, found 0"));
+                return Err(o.err(
+                    "max_depth",
+                    "expected -1 (unbounded) or a depth >= 1, found 0",
+                ));
             }
             Ok(Integrator::Path {
                 max_depth: if md < 0 { None } else { Some(md as u32) },
@@ -388,18 +496,34 @@ fn parse_integrator(file: &str, v: Option<&Value>) -> Result<Integrator> {
             })
         }
         "direct" => {
-            let o = Obj::new(file, "integrator", v, &["type", "emitter_samples", "bsdf_samples"])?;
+            let o = Obj::new(
+                file,
+                "integrator",
+                v,
+                &["type", "emitter_samples", "bsdf_samples"],
+            )?;
             let e = o.int_opt("emitter_samples", 0, 1024)?.unwrap_or(1) as u32;
             let b = o.int_opt("bsdf_samples", 0, 1024)?.unwrap_or(1) as u32;
             if e + b == 0 {
-                return Err(o.err("bsdf_samples", "expected emitter_samples + bsdf_samples >= 1"));
+                return Err(o.err(
+                    "bsdf_samples",
+                    "expected emitter_samples + bsdf_samples >= 1",
+                ));
             }
-            Ok(Integrator::Direct { emitter_samples: e, bsdf_samples: b })
+            Ok(Integrator::Direct {
+                emitter_samples: e,
+                bsdf_samples: b,
+            })
         }
         _ => Err(Error::scene(
             file,
             "integrator.type",
-            format!("expected \"path\" or \"direct\", found {}", v.get("type").map(describe).unwrap_or_else(|| "nothing".into())),
+            format!(
+                "expected \"path\" or \"direct\", found {}",
+                v.get("type")
+                    .map(describe)
+                    .unwrap_or_else(|| "nothing".into())
+            ),
         )),
     }
 }
@@ -407,7 +531,10 @@ fn parse_integrator(file: &str, v: Option<&Value>) -> Result<Integrator> {
 fn camera_frame(o: &Obj, file: &str) -> Result<Mat4> {
     if let Some(t) = o.get("to_world") {
         if o.has("origin") || o.has("target") || o.has("up") {
-            return Err(o.err("to_world", "give either to_world or origin/target/up, not both"));
+            return Err(o.err(
+                "to_world",
+                "give either to_world or origin/target/up, not both",
+            ));
         }
         return transform::parse(file, &o.key_path("to_world"), t);
     }
@@ -415,7 +542,11 @@ fn camera_frame(o: &Obj, file: &str) -> Result<Mat4> {
     let target = o.vec3_opt("target")?.unwrap_or(Vec3::Z);
     let up = o.vec3_opt("up")?.unwrap_or(Vec3::Y);
     look_at(origin, target, up).ok_or_else(|| {
-        Error::scene(file, &o.path, "degenerate look-at: target equals origin or up is parallel to the view direction")
+        Error::scene(
+            file,
+            &o.path,
+            "degenerate look-at: target equals origin or up is parallel to the view direction",
+        )
     })
 }
 
@@ -423,20 +554,64 @@ fn parse_camera(file: &str, v: &Value, width: u32, height: u32) -> Result<Camera
     let kind = v.get("type").and_then(Value::as_str).unwrap_or("");
     match kind {
         "perspective" => {
-            let o = Obj::new(file, "camera", v, &["type", "fov", "fov_axis", "origin", "target", "up", "to_world", "near_clip"])?;
-            let fov = o.f32_or("fov", 39.3077, "a field of view in degrees in (0, 180)", |x| x > 0.0 && x < 180.0)?;
+            let o = Obj::new(
+                file,
+                "camera",
+                v,
+                &[
+                    "type",
+                    "fov",
+                    "fov_axis",
+                    "origin",
+                    "target",
+                    "up",
+                    "to_world",
+                    "near_clip",
+                ],
+            )?;
+            let fov = o.f32_or(
+                "fov",
+                39.3077,
+                "a field of view in degrees in (0, 180)",
+                |x| x > 0.0 && x < 180.0,
+            )?;
             let axis = match o.str_opt("fov_axis")? {
                 None => FovAxis::X,
                 Some(s) => FovAxis::parse(s).ok_or_else(|| {
-                    o.err("fov_axis", format!("expected one of {}, found \"{s}\"", FovAxis::NAMES.join(", ")))
+                    o.err(
+                        "fov_axis",
+                        format!(
+                            "expected one of {}, found \"{s}\"",
+                            FovAxis::NAMES.join(", ")
+                        ),
+                    )
                 })?,
             };
             let near = o.f32_or("near_clip", 0.01, "a non-negative distance", non_negative)?;
             let m = camera_frame(&o, file)?;
-            Ok(Camera::perspective(m, fov_x_degrees(fov, axis, width, height), width, height, near))
+            Ok(Camera::perspective(
+                m,
+                fov_x_degrees(fov, axis, width, height),
+                width,
+                height,
+                near,
+            ))
         }
         "orthographic" => {
-            let o = Obj::new(file, "camera", v, &["type", "scale", "origin", "target", "up", "to_world", "near_clip"])?;
+            let o = Obj::new(
+                file,
+                "camera",
+                v,
+                &[
+                    "type",
+                    "scale",
+                    "origin",
+                    "target",
+                    "up",
+                    "to_world",
+                    "near_clip",
+                ],
+            )?;
             let scale = o.f32_or("scale", 1.0, "a positive half-width", positive)?;
             let near = o.f32_or("near_clip", 0.0, "a non-negative distance", non_negative)?;
             Ok(Camera::Orthographic {
@@ -451,7 +626,9 @@ fn parse_camera(file: &str, v: &Value, width: u32, height: u32) -> Result<Camera
             "camera.type",
             format!(
                 "expected \"perspective\" or \"orthographic\", found {}",
-                v.get("type").map(describe).unwrap_or_else(|| "nothing".into())
+                v.get("type")
+                    .map(describe)
+                    .unwrap_or_else(|| "nothing".into())
             ),
         )),
     }
@@ -476,11 +653,16 @@ fn parse_light(ld: &Loader, path: &str, v: &Value) -> Result<Light> {
         }
         "constant" => {
             let o = Obj::new(file, path, v, &["type", "radiance"])?;
-            Ok(Light::Constant { radiance: o.rgb_opt("radiance")?.unwrap_or(lobe_materials::Rgb::ONE) })
+            Ok(Light::Constant {
+                radiance: o.rgb_opt("radiance")?.unwrap_or(lobe_materials::Rgb::ONE),
+            })
         }
         "point" => {
             let o = Obj::new(file, path, v, &["type", "position", "intensity"])?;
-            Ok(Light::Point { position: o.vec3_req("position")?, intensity: o.rgb_req("intensity")? })
+            Ok(Light::Point {
+                position: o.vec3_req("position")?,
+                intensity: o.rgb_req("intensity")?,
+            })
         }
         "directional" => {
             let o = Obj::new(file, path, v, &["type", "direction", "irradiance"])?;
@@ -488,14 +670,19 @@ fn parse_light(ld: &Loader, path: &str, v: &Value) -> Result<Light> {
             if d.length_squared() == 0.0 {
                 return Err(o.err("direction", "expected a non-zero direction of propagation"));
             }
-            Ok(Light::Directional { direction: d.normalize(), irradiance: o.rgb_req("irradiance")? })
+            Ok(Light::Directional {
+                direction: d.normalize(),
+                irradiance: o.rgb_req("irradiance")?,
+            })
         }
         _ => Err(Error::scene(
             file,
             format!("{path}.type"),
             format!(
                 "expected one of \"envmap\", \"constant\", \"point\", \"directional\" (area lights are an \"emitter\" of a shape), found {}",
-                v.get("type").map(describe).unwrap_or_else(|| "nothing".into())
+                v.get("type")
+                    .map(describe)
+                    .unwrap_or_else(|| "nothing".into())
             ),
         )),
     }

@@ -14,13 +14,20 @@ use serde_json::Value;
 
 pub fn parse(file: &str, path: &str, v: &Value) -> Result<Mat4> {
     let ops: Vec<(String, &Value)> = match v {
-        Value::Array(a) => a.iter().enumerate().map(|(i, o)| (format!("{path}[{i}]"), o)).collect(),
+        Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .map(|(i, o)| (format!("{path}[{i}]"), o))
+            .collect(),
         Value::Object(_) => vec![(path.to_string(), v)],
         _ => {
             return Err(Error::scene(
                 file,
                 path,
-                format!("expected a transform (an operation object or a list of them), found {}", describe(v)),
+                format!(
+                    "expected a transform (an operation object or a list of them), found {}",
+                    describe(v)
+                ),
             ));
         }
     };
@@ -29,13 +36,22 @@ pub fn parse(file: &str, path: &str, v: &Value) -> Result<Mat4> {
         m = parse_op(file, &p, op)? * m;
     }
     if !m.is_finite() || m.determinant() == 0.0 || !m.determinant().is_finite() {
-        return Err(Error::scene(file, path, "transform is singular or not finite; expected an invertible transform"));
+        return Err(Error::scene(
+            file,
+            path,
+            "transform is singular or not finite; expected an invertible transform",
+        ));
     }
     Ok(m)
 }
 
 fn parse_op(file: &str, path: &str, v: &Value) -> Result<Mat4> {
-    let o = Obj::new(file, path, v, &["translate", "scale", "rotate", "matrix", "look_at"])?;
+    let o = Obj::new(
+        file,
+        path,
+        v,
+        &["translate", "scale", "rotate", "matrix", "look_at"],
+    )?;
     let keys: Vec<_> = ["translate", "scale", "rotate", "matrix", "look_at"]
         .into_iter()
         .filter(|k| o.has(k))
@@ -59,7 +75,11 @@ fn parse_op(file: &str, path: &str, v: &Value) -> Result<Mat4> {
                 vec3_value(file, &kp, val)?
             };
             if s.x == 0.0 || s.y == 0.0 || s.z == 0.0 || !s.is_finite() {
-                return Err(Error::scene(file, kp, "expected non-zero finite scale factors"));
+                return Err(Error::scene(
+                    file,
+                    kp,
+                    "expected non-zero finite scale factors",
+                ));
             }
             Mat4::from_scale(s)
         }
@@ -71,25 +91,45 @@ fn parse_op(file: &str, path: &str, v: &Value) -> Result<Mat4> {
             }
             let angle = r
                 .f32_opt("angle", "an angle in degrees", |x| x.is_finite())?
-                .ok_or_else(|| Error::scene(file, &kp, "missing key \"angle\"; expected an angle in degrees"))?;
+                .ok_or_else(|| {
+                    Error::scene(
+                        file,
+                        &kp,
+                        "missing key \"angle\"; expected an angle in degrees",
+                    )
+                })?;
             Mat4::from_axis_angle(axis.normalize(), angle.to_radians())
         }
         "matrix" => {
             let a = val.as_array().filter(|a| a.len() == 16).ok_or_else(|| {
-                Error::scene(file, &kp, format!("expected 16 numbers (row-major 4x4), found {}", describe(val)))
+                Error::scene(
+                    file,
+                    &kp,
+                    format!(
+                        "expected 16 numbers (row-major 4x4), found {}",
+                        describe(val)
+                    ),
+                )
             })?;
             let mut rows = [0.0f32; 16];
             for (i, e) in a.iter().enumerate() {
-                rows[i] = e
-                    .as_f64()
-                    .ok_or_else(|| Error::scene(file, format!("{kp}[{i}]"), format!("expected a number, found {}", describe(e))))?
-                    as f32;
+                rows[i] = e.as_f64().ok_or_else(|| {
+                    Error::scene(
+                        file,
+                        format!("{kp}[{i}]"),
+                        format!("expected a number, found {}", describe(e)),
+                    )
+                })? as f32;
             }
             Mat4::from_cols_array(&rows).transpose()
         }
         _ => {
             let l = Obj::new(file, &kp, val, &["origin", "target", "up"])?;
-            let (origin, target, up) = (l.vec3_req("origin")?, l.vec3_req("target")?, l.vec3_req("up")?);
+            let (origin, target, up) = (
+                l.vec3_req("origin")?,
+                l.vec3_req("target")?,
+                l.vec3_req("up")?,
+            );
             look_at(origin, target, up).ok_or_else(|| {
                 Error::scene(file, &kp, "degenerate look_at: target equals origin or up is parallel to the view direction")
             })?
@@ -101,10 +141,17 @@ fn parse_op(file: &str, path: &str, v: &Value) -> Result<Mat4> {
 pub fn rotation(file: &str, path: &str, m: &Mat4) -> Result<glam::Mat3> {
     let r = glam::Mat3::from_mat4(*m);
     let should_be_identity = r * r.transpose();
-    let ok = (should_be_identity - glam::Mat3::IDENTITY).to_cols_array().iter().all(|x| x.abs() < 1e-4)
+    let ok = (should_be_identity - glam::Mat3::IDENTITY)
+        .to_cols_array()
+        .iter()
+        .all(|x| x.abs() < 1e-4)
         && (r.determinant() - 1.0).abs() < 1e-4;
     if !ok {
-        return Err(Error::scene(file, path, "expected a rotation (no scale, shear or mirror) for an environment map"));
+        return Err(Error::scene(
+            file,
+            path,
+            "expected a rotation (no scale, shear or mirror) for an environment map",
+        ));
     }
     Ok(r)
 }

@@ -1,0 +1,108 @@
+//! The `lobe` binary as a user meets it: a render writes EXR, PNG and JSON atomically;
+//! bad input gives one line on stderr and a non-zero exit, and leaves nothing behind.
+
+use std::path::Path;
+use std::process::Command;
+
+fn lobe() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_lobe"))
+}
+
+const SCENE: &str = r#"{
+  "camera": {"type": "perspective", "fov": 40, "origin": [0, 0, 4], "target": [0, 0, 0]},
+  "film": {"width": 16, "height": 12},
+  "sampler": {"spp": 4},
+  "shapes": [{"type": "sphere"}],
+  "lights": [{"type": "envmap", "file": "builtin:studio"}]
+}"#;
+
+#[test]
+fn render_writes_exr_png_and_stats() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.json");
+    std::fs::write(&scene, SCENE).unwrap();
+    let out = dir.path().join("img.exr");
+    let o = lobe()
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--threads",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("16x12 at 4 spp")
+            && stderr.contains("Msamples/s")
+            && stderr.contains("0 non-finite"),
+        "{stderr}"
+    );
+    assert!(out.exists() && dir.path().join("img.png").exists());
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("img.json")).unwrap())
+            .unwrap();
+    assert_eq!(stats["spp"], 4);
+    assert_eq!(stats["nonfinite_dropped"], 0);
+    let img = lobe_renderer::film::read_exr(&out).unwrap();
+    assert_eq!((img.width, img.height), (16, 12));
+    assert!(img.pixels.iter().all(|p| p.is_finite()) && img.mean().max_component() > 0.0);
+    // No temporary files are left behind.
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 4, "{names:?}");
+}
+
+fn fails(args: &[&str], needle: &str) {
+    let o = lobe().args(args).output().unwrap();
+    assert!(!o.status.success(), "{args:?} succeeded");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains(needle), "{args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"));
+}
+
+#[test]
+fn bad_input_is_one_line_and_non_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.json");
+    std::fs::write(&scene, SCENE).unwrap();
+    let s = scene.to_str().unwrap();
+    fails(&["render", "/nonexistent/scene.json"], "does not exist");
+    fails(&["render", dir.path().to_str().unwrap()], "is a directory");
+    let missing_dir = dir.path().join("no/such/dir/out.exr");
+    fails(
+        &["render", s, "-o", missing_dir.to_str().unwrap()],
+        "output folder",
+    );
+    fails(&["render", s, "--spp", "0"], "--spp");
+    fails(&["render", s, "--threads", "0"], "--threads");
+    let empty = dir.path().join("empty.json");
+    std::fs::write(&empty, "").unwrap();
+    fails(&["render", empty.to_str().unwrap()], "is empty");
+}
+
+#[test]
+fn a_failed_render_does_not_clobber_an_existing_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("keep.exr");
+    std::fs::write(&out, b"precious").unwrap();
+    let bad = dir.path().join("bad.json");
+    std::fs::write(
+        &bad,
+        r#"{"camera": {"type": "perspective"}, "shapes": [{"type": "sphere", "radius": -1}]}"#,
+    )
+    .unwrap();
+    let o = lobe()
+        .args(["render", bad.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert_eq!(std::fs::read(&out).unwrap(), b"precious");
+    assert!(!Path::new(&dir.path().join("keep.png")).exists());
+}
