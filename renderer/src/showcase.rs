@@ -40,7 +40,7 @@ pub fn studio_environment(width: usize, height: usize) -> RgbImage {
             };
             // Key: a large softbox up and to the right, in front of the subject.
             let key = window(theta, 30.0, 60.0, 6.0) * window(dphi(phi, 140.0), -20.0, 20.0, 6.0);
-            c += Rgb::new(14.0, 13.5, 12.5) * key;
+            c += Rgb::new(7.0, 6.8, 6.3) * key;
             // Fill: dimmer, to the left.
             let fill =
                 window(theta, 45.0, 80.0, 10.0) * window(dphi(phi, 235.0), -25.0, 25.0, 10.0);
@@ -82,10 +82,10 @@ pub fn showcase_scene() -> Value {
     shapes.push(json!({
         "type": "rectangle",
         "to_world": [{"scale": 20}, {"rotate": {"axis": [1, 0, 0], "angle": -90}}],
-        "material": {"type": "lambert", "reflectance": 0.4}
+        "material": {"type": "lambert", "reflectance": 0.3}
     }));
     json!({
-        "camera": {"type": "perspective", "fov": 45, "origin": [0, 1.6, 7.5], "target": [0, 0.5, 0], "up": [0, 1, 0]},
+        "camera": {"type": "perspective", "fov": 42, "origin": [0, 1.8, 9.5], "target": [0, 0.45, 0], "up": [0, 1, 0]},
         "film": {"width": 640, "height": 360},
         "sampler": {"spp": 64, "seed": 0},
         "integrator": {"type": "path", "max_depth": 8},
