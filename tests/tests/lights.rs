@@ -13,14 +13,16 @@ fn lights() -> Vec<(&'static str, Light)> {
         &(Mat4::from_translation(Vec3::new(0.3, 2.0, -0.2)) * Mat4::from_rotation_x(1.9)),
     )
     .unwrap();
-    let mut mesh = Mesh::default();
-    mesh.positions = vec![
-        Vec3::new(-1.0, 3.0, -1.0),
-        Vec3::new(1.0, 3.0, -1.0),
-        Vec3::new(1.0, 3.5, 1.0),
-        Vec3::new(-1.0, 2.5, 1.5),
-    ];
-    mesh.indices = vec![[0, 2, 1], [0, 3, 2]];
+    let mesh = Mesh {
+        positions: vec![
+            Vec3::new(-1.0, 3.0, -1.0),
+            Vec3::new(1.0, 3.0, -1.0),
+            Vec3::new(1.0, 3.5, 1.0),
+            Vec3::new(-1.0, 2.5, 1.5),
+        ],
+        indices: vec![[0, 2, 1], [0, 3, 2]],
+        ..Default::default()
+    };
     let tris: Vec<(Triangle, Vec3)> = (0..2)
         .map(|i| {
             let t = Triangle::new(0, &mesh, i);
