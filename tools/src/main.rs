@@ -41,7 +41,8 @@ enum Command {
 struct RenderArgs {
     /// Scene file (JSON, see docs/scene-format.md). Without it, the built-in showcase.
     scene: Option<PathBuf>,
-    /// Output EXR path; the PNG and the JSON statistics go next to it with the same stem.
+    /// Output EXR path; the PNG (.png) and the statistics (.stats.json) go next to it with
+    /// the same stem.
     /// Default: out/<scene name>.exr
     #[arg(long, short)]
     output: Option<PathBuf>,
@@ -160,7 +161,22 @@ fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
     check_output_folder(&exr_path)?;
     let (img, stats) = render(&scene, &opts)?;
     let png_path = exr_path.with_extension("png");
-    let json_path = exr_path.with_extension("json");
+    let json_path = exr_path.with_extension("stats.json");
+    // Never write over the scene being rendered (e.g. `-o scenes/x.exr` for scenes/x.json).
+    if let Some(scene_path) = &args.scene {
+        let same = |p: &Path| match (p.canonicalize(), scene_path.canonicalize()) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        };
+        for out in [&exr_path, &png_path, &json_path] {
+            if same(out) {
+                return Err(Error::file(
+                    out.display(),
+                    "is the scene file itself; expected a different output path",
+                ));
+            }
+        }
+    }
     film::write_exr(&exr_path, img.width, img.height, &img.pixels)?;
     if !args.no_png {
         film::write_png(

@@ -43,7 +43,7 @@ fn render_writes_exr_png_and_stats() {
     );
     assert!(out.exists() && dir.path().join("img.png").exists());
     let stats: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("img.json")).unwrap())
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("img.stats.json")).unwrap())
             .unwrap();
     assert_eq!(stats["spp"], 4);
     assert_eq!(stats["nonfinite_dropped"], 0);
@@ -85,6 +85,42 @@ fn bad_input_is_one_line_and_non_zero() {
     let empty = dir.path().join("empty.json");
     std::fs::write(&empty, "").unwrap();
     fails(&["render", empty.to_str().unwrap()], "is empty");
+}
+
+#[test]
+fn the_scene_file_is_never_overwritten() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("x.json");
+    std::fs::write(&scene, SCENE).unwrap();
+    // The statistics go to x.stats.json, not x.json.
+    let o = lobe()
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            dir.path().join("x.exr").to_str().unwrap(),
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), SCENE);
+    assert!(dir.path().join("x.stats.json").exists());
+    // Naming the scene itself as an output is refused.
+    let copy = dir.path().join("y.png");
+    std::fs::write(&copy, SCENE).unwrap();
+    let o = lobe()
+        .args([
+            "render",
+            copy.to_str().unwrap(),
+            "-o",
+            dir.path().join("y.exr").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("scene file itself"));
+    assert_eq!(std::fs::read_to_string(&copy).unwrap(), SCENE);
 }
 
 #[test]

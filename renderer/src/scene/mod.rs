@@ -53,21 +53,23 @@ pub struct Scene {
     pub infinite_lights: Vec<u32>,
 }
 
+/// A procedural image, made only when a scene refers to it.
+pub type ImageMaker = fn() -> RgbImage;
+
 /// Options of scene loading.
 #[derive(Default)]
 pub struct LoadOptions {
     /// Built-in images that `"file": "builtin:<name>"` refers to.
-    pub builtin_images: BTreeMap<String, RgbImage>,
+    pub builtin_images: BTreeMap<String, ImageMaker>,
 }
 
 impl LoadOptions {
     /// The built-in procedural images (`builtin:studio`).
     pub fn with_builtins() -> Self {
-        let mut b = BTreeMap::new();
-        b.insert(
-            "studio".to_string(),
-            crate::showcase::studio_environment(512, 256),
-        );
+        let mut b: BTreeMap<String, ImageMaker> = BTreeMap::new();
+        b.insert("studio".to_string(), || {
+            crate::showcase::studio_environment(512, 256)
+        });
         Self { builtin_images: b }
     }
 }
@@ -172,20 +174,25 @@ impl<'a> Loader<'a> {
     fn image(&self, o: &Obj, key: &str) -> Result<RgbImage> {
         let f = o.str_req(key, "an image file path (.exr or .hdr)")?;
         if let Some(name) = f.strip_prefix("builtin:") {
-            return self.opts.builtin_images.get(name).cloned().ok_or_else(|| {
-                o.err(
-                    key,
-                    format!(
-                        "unknown built-in image \"{name}\"; expected one of: {}",
-                        self.opts
-                            .builtin_images
-                            .keys()
-                            .cloned()
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                )
-            });
+            return self
+                .opts
+                .builtin_images
+                .get(name)
+                .map(|make| make())
+                .ok_or_else(|| {
+                    o.err(
+                        key,
+                        format!(
+                            "unknown built-in image \"{name}\"; expected one of: {}",
+                            self.opts
+                                .builtin_images
+                                .keys()
+                                .cloned()
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    )
+                });
         }
         let path = self.resolve(f);
         if !path.exists() {
