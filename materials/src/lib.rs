@@ -21,8 +21,11 @@
 
 pub mod analytic;
 pub mod bsdf;
+pub mod composite;
 pub mod error;
 pub mod frame;
+pub mod lobe;
+pub mod math;
 pub mod registry;
 pub mod sampling;
 

@@ -2,6 +2,8 @@
 //! low-expected-count cells (as Mitsuba 3's `chi2.py` and pbrt-v4's `bsdfs_test.cpp` do),
 //! and locating the shared data folder.
 
+pub mod bsdf_checks;
+
 use std::path::PathBuf;
 
 /// Pearson's chi-square test of observed against expected counts. Cells whose expected

@@ -1,0 +1,77 @@
+//! Pieces shared by the analytic models' registrations: the diffuse and specular colour
+//! parameters of the study's `M = diffuse_rgb * Lambert + specular_rgb * lobe(p)` and the
+//! constructor that wraps one lobe into a [`Composite`].
+
+use crate::composite::Composite;
+use crate::lobe::Lobe;
+use crate::registry::{Bounds, DefaultValue, ParamKind, ParamRole, ParamSpec, Params};
+use crate::{Bsdf, ParamError};
+use std::sync::Arc;
+
+/// `diffuse`: the Lambertian colour (albedo), linear RGB.
+pub const DIFFUSE: ParamSpec = ParamSpec {
+    name: "diffuse",
+    kind: ParamKind::Color,
+    role: ParamRole::Diffuse,
+    bounds: Bounds::closed(0.0, 1.0),
+    default: DefaultValue::Color([0.0, 0.0, 0.0]),
+    doc: "diffuse albedo (linear RGB); the Lambertian term is diffuse / pi",
+};
+
+/// `specular`: the colour multiplying the lobe, linear RGB (not bounded above: several
+/// models' lobes are not normalized to unit albedo, e.g. He's).
+pub const SPECULAR: ParamSpec = ParamSpec {
+    name: "specular",
+    kind: ParamKind::Color,
+    role: ParamRole::Specular,
+    bounds: Bounds::closed(0.0, 1.0e6),
+    default: DefaultValue::Color([0.04, 0.04, 0.04]),
+    doc: "specular colour (linear RGB) multiplying the lobe",
+};
+
+/// A lobe-shape scalar parameter.
+pub const fn lobe_param(
+    name: &'static str,
+    bounds: Bounds,
+    default: f64,
+    doc: &'static str,
+) -> ParamSpec {
+    ParamSpec {
+        name,
+        kind: ParamKind::Scalar,
+        role: ParamRole::Lobe,
+        bounds,
+        default: DefaultValue::Scalar(default),
+        doc,
+    }
+}
+
+/// A discrete setting.
+pub const fn setting(
+    name: &'static str,
+    options: &'static [&'static str],
+    default: &'static str,
+    doc: &'static str,
+) -> ParamSpec {
+    ParamSpec {
+        name,
+        kind: ParamKind::Choice(options),
+        role: ParamRole::Setting,
+        bounds: Bounds::closed(0.0, 0.0),
+        default: DefaultValue::Choice(default),
+        doc,
+    }
+}
+
+/// Diffuse + one lobe scaled by `specular`.
+pub fn one_lobe(
+    name: &'static str,
+    p: &Params,
+    lobe: Arc<dyn Lobe>,
+) -> Result<Arc<dyn Bsdf>, ParamError> {
+    Ok(Arc::new(Composite::new(
+        name,
+        p.color("diffuse"),
+        vec![(p.color("specular"), lobe)],
+    )))
+}

@@ -1,0 +1,175 @@
+//! Cook-Torrance (Cook and Torrance, "A Reflectance Model for Computer Graphics", 1981) in
+//! the form Ngan et al. 2005 fitted (sections 3.1, 4.3, 4.4):
+//!
+//!   lobe = D(h) G(wo, wi) F(wi . h) / (pi cos(theta_i) cos(theta_o))
+//!
+//! with D one of the distributions of [`super::microfacet`] (Beckmann, Gaussian, cosine
+//! power; roughness `m`), G the V-groove shadowing-masking, and F none, Schlick's with
+//! reflectance `f0` at normal incidence, or the exact dielectric Fresnel with index `eta`.
+//! The division by pi (rather than 4) is the convention of Ngan's published fits
+//! (bbm `ngan.h`, `microfacet_n::Cook`); docs/models.md states it.
+//!
+//! Sampling: half vectors from D(h) cos(theta_h) (Beckmann proposal for the Gaussian),
+//! reflected about h (Walter et al. 2007, eq. 14).
+
+use super::common::{DIFFUSE, SPECULAR, lobe_param, one_lobe, setting};
+use super::microfacet::fresnel::{FRESNELS, Fresnel};
+use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g};
+use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
+use crate::math::{Real, V3, half};
+use crate::registry::{Bounds, BuildContext, ModelSchema, Params, Registry};
+use crate::{Bsdf, Flags, ParamError};
+use glam::{Vec2, Vec3};
+use std::sync::Arc;
+
+#[derive(Clone, Debug)]
+pub struct CookTorrance {
+    pub distribution: Distribution,
+    pub fresnel: Fresnel,
+}
+
+impl CookTorrance {
+    pub fn new(distribution: Distribution, fresnel: Fresnel) -> Self {
+        Self {
+            distribution,
+            fresnel,
+        }
+    }
+
+    #[inline]
+    pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let Some((co, ci)) = above(wo, wi) else {
+            return T::zero();
+        };
+        let Some(h) = half(wo, wi) else {
+            return T::zero();
+        };
+        let ch = h.z;
+        let oh = wo.dot(h);
+        let d = self.distribution.d(ch);
+        if d == T::zero() {
+            return T::zero();
+        }
+        let g = vgroove_g(ch, co, ci, oh);
+        let f = self.fresnel.eval(wi.dot(h));
+        let v = d * g * f / (T::PI() * ci * co);
+        if v.is_finite() {
+            v.max(T::zero())
+        } else {
+            T::zero()
+        }
+    }
+}
+
+impl Lobe for CookTorrance {
+    fn model(&self) -> &'static str {
+        "cook-torrance"
+    }
+    crate::impl_lobe_eval!();
+
+    fn sample(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        sample_via_half(wo, self.distribution.sample_h(u))
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let Some(h) = (wo + wi).try_normalize() else {
+            return 0.0;
+        };
+        half_to_incident_pdf(self.distribution.pdf_h(h.z), wo.dot(h))
+    }
+
+    fn flags(&self) -> Flags {
+        // Reciprocal (symmetric in wo, wi); not energy-bounded: the 1/pi normalization is
+        // 4/pi times the physically normalized microfacet BRDF.
+        Flags::ISOTROPIC | Flags::RECIPROCAL | Flags::GLOSSY
+    }
+}
+
+pub const SCHEMA: ModelSchema = ModelSchema {
+    name: "cook-torrance",
+    summary: "Cook-Torrance: D G F / (pi cos_i cos_o), Beckmann/Gaussian/cosine-power D, V-groove G",
+    params: &[
+        DIFFUSE,
+        SPECULAR,
+        lobe_param(
+            "m",
+            Bounds::above(0.0, 10.0),
+            0.2,
+            "microfacet roughness m (rms slope for Beckmann)",
+        ),
+        setting(
+            "distribution",
+            DISTRIBUTIONS,
+            "beckmann",
+            "microfacet distribution",
+        ),
+        setting("fresnel", FRESNELS, "schlick", "Fresnel term"),
+        lobe_param(
+            "f0",
+            Bounds::closed(0.0, 1.0),
+            0.04,
+            "Schlick reflectance at normal incidence (fresnel = schlick)",
+        ),
+        lobe_param(
+            "eta",
+            Bounds::above(0.0, 100.0),
+            1.5,
+            "relative index of refraction (fresnel = dielectric)",
+        ),
+    ],
+};
+
+fn build(p: &Params, _ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
+    let d = Distribution::new(p.text("distribution"), p.scalar("m")).expect("validated choice");
+    let f = match p.text("fresnel") {
+        "none" => Fresnel::None,
+        "schlick" => Fresnel::Schlick { f0: p.scalar("f0") },
+        _ => Fresnel::Dielectric {
+            eta: p.scalar("eta"),
+        },
+    };
+    one_lobe("cook-torrance", p, Arc::new(CookTorrance::new(d, f)))
+}
+
+pub fn register(r: &mut Registry) {
+    r.register(SCHEMA, build);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn golden_value_from_the_formula() {
+        // wo = wi at 30 degrees from the normal in the same azimuth: h = n, D = 1/(pi m^2),
+        // G = min(1, 2 cos30 * 1 / cos30) = 1, F = schlick(f0, cos 30).
+        let m = 0.3f64;
+        let ct = CookTorrance::new(
+            Distribution::new("beckmann", m).unwrap(),
+            Fresnel::Schlick { f0: 0.05 },
+        );
+        let t = 30f64.to_radians();
+        let wo = V3::new(t.sin(), 0.0, t.cos());
+        let wi = V3::new(-t.sin(), 0.0, t.cos());
+        let d = 1.0 / (std::f64::consts::PI * m * m);
+        let f = 0.05 + 0.95 * (1.0 - t.cos()).powi(5);
+        let expected = d * 1.0 * f / (std::f64::consts::PI * t.cos() * t.cos());
+        let got = ct.value::<f64>(wo, wi);
+        assert!(
+            (got - expected).abs() < 1e-12 * expected,
+            "{got} vs {expected}"
+        );
+        assert!(
+            (ct.value::<f32>(
+                V3::new(t.sin() as f32, 0.0, t.cos() as f32),
+                V3::new(-t.sin() as f32, 0.0, t.cos() as f32)
+            ) as f64
+                - expected)
+                .abs()
+                < 1e-5 * expected
+        );
+    }
+}

@@ -1,0 +1,241 @@
+//! The study's material: `M = diffuse_rgb * Lambert + sum_k specular_rgb_k * lobe_k(p)`
+//! (Ngan et al. 2005, section 3.1, generalized to N lobes as in section 4.2).
+//!
+//! Sampling picks a component in proportion to its estimated albedo for the current `wo`
+//! (the luminance of its colour times the lobe's directional albedo, tabulated over
+//! cos(theta_o) when the material is built), samples it, and reports the mixture density
+//! (one-sample MIS with the balance heuristic), so every component's sampler helps.
+
+use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::lobe::Lobe;
+use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+use std::sync::Arc;
+
+/// Bins of the directional-albedo table over cos(theta_o).
+const ALBEDO_BINS: usize = 32;
+
+#[derive(Debug, Clone)]
+pub struct Composite {
+    name: &'static str,
+    diffuse: Rgb,
+    lobes: Vec<(Rgb, Arc<dyn Lobe>)>,
+    /// Per lobe: luminance of its colour times its directional albedo, per cos(theta_o) bin.
+    lobe_weights: Vec<[f32; ALBEDO_BINS]>,
+    flags: Flags,
+}
+
+/// Directional albedo of a lobe, int lobe(wo, wi) cos(theta_i) dwi, for `wo` at each
+/// bin centre: deterministic stratified estimate with a 50/50 mixture of cosine and lobe
+/// sampling (balance heuristic), so it is unbiased even where the lobe sampler fails.
+pub fn albedo_table(lobe: &dyn Lobe, n: usize) -> [f32; ALBEDO_BINS] {
+    let mut out = [0.0f32; ALBEDO_BINS];
+    for (b, slot) in out.iter_mut().enumerate() {
+        let cos_o = (b as f32 + 0.5) / ALBEDO_BINS as f32;
+        let wo = Vec3::new((1.0 - cos_o * cos_o).max(0.0).sqrt(), 0.0, cos_o);
+        *slot = directional_albedo(lobe, wo, n) as f32;
+    }
+    out
+}
+
+/// Directional albedo of a lobe for one `wo`, from n x n stratified samples per strategy.
+pub fn directional_albedo(lobe: &dyn Lobe, wo: Vec3, n: usize) -> f64 {
+    let mut acc = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+            for wi in [Some(square_to_cosine_hemisphere(u)), lobe.sample(wo, u)]
+                .into_iter()
+                .flatten()
+            {
+                if wi.z <= 0.0 {
+                    continue;
+                }
+                let pdf = 0.5 * cosine_hemisphere_pdf(wi.z) + 0.5 * lobe.pdf(wo, wi);
+                if pdf > 0.0 {
+                    acc += (lobe.eval(wo, wi) * wi.z / pdf) as f64;
+                }
+            }
+        }
+    }
+    // 2 n^2 stratified draws from the 50/50 mixture (a failed lobe sample is a draw that
+    // contributes zero).
+    acc / (2 * n * n) as f64
+}
+
+impl Composite {
+    pub fn new(name: &'static str, diffuse: Rgb, lobes: Vec<(Rgb, Arc<dyn Lobe>)>) -> Self {
+        let lobe_weights = lobes
+            .iter()
+            .map(|(c, l)| {
+                let mut t = albedo_table(l.as_ref(), 16);
+                let lum = c.luminance().max(0.0);
+                for v in &mut t {
+                    *v = if v.is_finite() {
+                        (*v).max(0.0) * lum
+                    } else {
+                        0.0
+                    };
+                }
+                t
+            })
+            .collect();
+        // The mixture keeps a property only if every lobe has it; it is energy-bounded when
+        // every lobe is (albedo <= 1 per unit colour) and the colours sum to at most 1 in
+        // every channel.
+        let all = |f: Flags| lobes.iter().all(|(_, l)| l.flags().contains(f));
+        let colour_sum = lobes.iter().fold(diffuse, |a, (c, _)| a + *c);
+        let mut flags = Flags::NONE;
+        if all(Flags::ISOTROPIC) {
+            flags = flags | Flags::ISOTROPIC;
+        }
+        if all(Flags::RECIPROCAL) {
+            flags = flags | Flags::RECIPROCAL;
+        }
+        if all(Flags::ENERGY_BOUNDED) && colour_sum.max_component() <= 1.0 {
+            flags = flags | Flags::ENERGY_BOUNDED;
+        }
+        if diffuse.max_component() > 0.0 {
+            flags = flags | Flags::DIFFUSE;
+        }
+        if !lobes.is_empty() {
+            flags = flags | Flags::GLOSSY;
+        }
+        Self {
+            name,
+            diffuse,
+            lobes,
+            lobe_weights,
+            flags,
+        }
+    }
+
+    pub fn diffuse(&self) -> Rgb {
+        self.diffuse
+    }
+
+    pub fn lobes(&self) -> &[(Rgb, Arc<dyn Lobe>)] {
+        &self.lobes
+    }
+
+    /// Probabilities of choosing the diffuse component and each lobe for `wo`.
+    #[inline]
+    fn weights(&self, wo: Vec3, out: &mut [f32]) -> f32 {
+        let bin = ((wo.z * ALBEDO_BINS as f32) as usize).min(ALBEDO_BINS - 1);
+        out[0] = self.diffuse.luminance().max(0.0);
+        let mut total = out[0];
+        for (k, t) in self.lobe_weights.iter().enumerate() {
+            // A floor keeps every lobe sampled a little, even where its albedo estimate
+            // is tiny.
+            let w = t[bin].max(1e-4 * (t.iter().fold(0.0f32, |a, &b| a.max(b))));
+            out[k + 1] = w;
+            total += w;
+        }
+        total
+    }
+}
+
+/// Most materials have few lobes: weights live on the stack.
+const MAX_INLINE: usize = 8;
+
+impl Bsdf for Composite {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let mut f = self.diffuse * FRAC_1_PI;
+        for (c, l) in &self.lobes {
+            let v = l.eval(wo, wi);
+            if v > 0.0 && v.is_finite() {
+                f += *c * v;
+            }
+        }
+        f
+    }
+
+    fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let mut buf = [0.0f32; MAX_INLINE + 1];
+        let mut heap;
+        let w: &mut [f32] = if self.lobes.len() <= MAX_INLINE {
+            &mut buf[..self.lobes.len() + 1]
+        } else {
+            heap = vec![0.0f32; self.lobes.len() + 1];
+            &mut heap
+        };
+        let total = self.weights(wo, w);
+        if !(total > 0.0) {
+            return None;
+        }
+        let mut target = uc * total;
+        let mut chosen = w.len() - 1;
+        for (k, &wk) in w.iter().enumerate() {
+            if target < wk {
+                chosen = k;
+                break;
+            }
+            target -= wk;
+        }
+        let wi = if chosen == 0 {
+            square_to_cosine_hemisphere(u)
+        } else {
+            self.lobes[chosen - 1].1.sample(wo, u)?
+        };
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let pdf = self.mixture_pdf(wo, wi, w, total);
+        if !(pdf > 0.0) {
+            return None;
+        }
+        let f = self.eval(wo, wi);
+        Some(BsdfSample {
+            wi,
+            weight: f * (wi.z / pdf),
+            pdf,
+        })
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let mut buf = [0.0f32; MAX_INLINE + 1];
+        let mut heap;
+        let w: &mut [f32] = if self.lobes.len() <= MAX_INLINE {
+            &mut buf[..self.lobes.len() + 1]
+        } else {
+            heap = vec![0.0f32; self.lobes.len() + 1];
+            &mut heap
+        };
+        let total = self.weights(wo, w);
+        if !(total > 0.0) {
+            return 0.0;
+        }
+        self.mixture_pdf(wo, wi, w, total)
+    }
+
+    fn flags(&self) -> Flags {
+        self.flags
+    }
+
+    fn name(&self) -> &str {
+        self.name
+    }
+}
+
+impl Composite {
+    #[inline]
+    fn mixture_pdf(&self, wo: Vec3, wi: Vec3, w: &[f32], total: f32) -> f32 {
+        let mut pdf = w[0] * cosine_hemisphere_pdf(wi.z);
+        for (k, (_, l)) in self.lobes.iter().enumerate() {
+            if w[k + 1] > 0.0 {
+                pdf += w[k + 1] * l.pdf(wo, wi);
+            }
+        }
+        pdf / total
+    }
+}

@@ -1,0 +1,74 @@
+//! The specular-lobe interface: the `lobe_k(p)` of the study's
+//! `M = diffuse_rgb * Lambert + sum_k specular_rgb_k * lobe_k(p)` (Ngan et al. 2005, sec. 3.1).
+//!
+//! A lobe is a scalar function of the two directions, shared by the three colour channels.
+//! Each model writes its formula once as a generic `value::<T: Real>` and gets an f32
+//! evaluation for rendering and an f64 one for fitting through [`impl_lobe_eval!`].
+//! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
+
+use crate::Flags;
+use crate::math::{Real, V3};
+use glam::{DVec3, Vec2, Vec3};
+
+pub trait Lobe: Send + Sync + std::fmt::Debug {
+    /// Registry name of the model.
+    fn model(&self) -> &'static str;
+    /// Lobe value in 1/sr (no cosine), zero when either direction is below the surface.
+    fn eval(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// The same value in double precision (for fitting).
+    fn eval_f64(&self, wo: DVec3, wi: DVec3) -> f64;
+    /// Importance-samples `wi` for `wo` (None when the sample falls below the surface).
+    fn sample(&self, wo: Vec3, u: Vec2) -> Option<Vec3>;
+    /// Solid-angle density of `sample`.
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+    fn flags(&self) -> Flags;
+}
+
+/// Implements `Lobe::eval` and `Lobe::eval_f64` from an inherent
+/// `fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T`.
+#[macro_export]
+macro_rules! impl_lobe_eval {
+    () => {
+        #[inline]
+        fn eval(&self, wo: glam::Vec3, wi: glam::Vec3) -> f32 {
+            self.value::<f32>(wo.into(), wi.into())
+        }
+        #[inline]
+        fn eval_f64(&self, wo: glam::DVec3, wi: glam::DVec3) -> f64 {
+            self.value::<f64>(wo.into(), wi.into())
+        }
+    };
+}
+
+/// Mirror of `wo` about the unit vector `h`.
+#[inline]
+pub fn reflect(wo: Vec3, h: Vec3) -> Vec3 {
+    2.0 * wo.dot(h) * h - wo
+}
+
+/// Converts a half-vector density to the density of the reflected direction:
+/// p(wi) = p(h) / (4 |wo . h|) (Walter et al. 2007, eq. 14).
+#[inline]
+pub fn half_to_incident_pdf(pdf_h: f32, wo_dot_h: f32) -> f32 {
+    if wo_dot_h <= 0.0 {
+        return 0.0;
+    }
+    pdf_h / (4.0 * wo_dot_h)
+}
+
+/// Samples `wi` by reflecting `wo` about a half vector drawn by `sample_h`, rejecting
+/// directions below the surface.
+#[inline]
+pub fn sample_via_half(wo: Vec3, h: Vec3) -> Option<Vec3> {
+    if wo.z <= 0.0 || wo.dot(h) <= 0.0 {
+        return None;
+    }
+    let wi = reflect(wo, h);
+    (wi.z > 0.0).then_some(wi)
+}
+
+/// Cosines of the angles of a pair of upper-hemisphere directions, or None below.
+#[inline(always)]
+pub fn above<T: Real>(wo: V3<T>, wi: V3<T>) -> Option<(T, T)> {
+    (wo.z > T::zero() && wi.z > T::zero()).then_some((wo.z, wi.z))
+}
