@@ -54,7 +54,7 @@ pub fn directional_albedo(lobe: &dyn Lobe, wo: Vec3, n: usize) -> f64 {
                 }
                 let pdf = 0.5 * cosine_hemisphere_pdf(wi.z) + 0.5 * lobe.pdf(wo, wi);
                 if pdf > 0.0 {
-                    acc += (lobe.eval(wo, wi) * wi.z / pdf) as f64;
+                    acc += (lobe.eval(wo, wi).luminance() * wi.z / pdf) as f64;
                 }
             }
         }
@@ -147,8 +147,8 @@ impl Bsdf for Composite {
         let mut f = self.diffuse * FRAC_1_PI;
         for (c, l) in &self.lobes {
             let v = l.eval(wo, wi);
-            if v > 0.0 && v.is_finite() {
-                f += *c * v;
+            if v.is_finite() {
+                f += *c * v.map(|x| x.max(0.0));
             }
         }
         f

@@ -1,22 +1,25 @@
 //! The specular-lobe interface: the `lobe_k(p)` of the study's
 //! `M = diffuse_rgb * Lambert + sum_k specular_rgb_k * lobe_k(p)` (Ngan et al. 2005, sec. 3.1).
 //!
-//! A lobe is a scalar function of the two directions, shared by the three colour channels.
-//! Each model writes its formula once as a generic `value::<T: Real>` and gets an f32
-//! evaluation for rendering and an f64 one for fitting through [`impl_lobe_eval!`].
+//! A lobe is a function of the two directions, shared by the three colour channels in
+//! every model but He et al.'s, whose wave-optics terms depend on the wavelength of each
+//! channel; so a lobe value is an RGB triple (equal channels for the others). Each model
+//! writes its formula once as a generic `value::<T: Real>` and gets an f32 evaluation for
+//! rendering and an f64 one for fitting through [`impl_lobe_eval!`].
 //! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
 
-use crate::Flags;
 use crate::math::{Real, V3};
+use crate::{Flags, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 
 pub trait Lobe: Send + Sync + std::fmt::Debug {
     /// Registry name of the model.
     fn model(&self) -> &'static str;
-    /// Lobe value in 1/sr (no cosine), zero when either direction is below the surface.
-    fn eval(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// Lobe value in 1/sr (no cosine) per channel, zero when either direction is below
+    /// the surface.
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
     /// The same value in double precision (for fitting).
-    fn eval_f64(&self, wo: DVec3, wi: DVec3) -> f64;
+    fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3];
     /// Importance-samples `wi` for `wo` (None when the sample falls below the surface).
     fn sample(&self, wo: Vec3, u: Vec2) -> Option<Vec3>;
     /// Solid-angle density of `sample`.
@@ -25,17 +28,17 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
 }
 
 /// Implements `Lobe::eval` and `Lobe::eval_f64` from an inherent
-/// `fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T`.
+/// `fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T` shared by the three channels.
 #[macro_export]
 macro_rules! impl_lobe_eval {
     () => {
         #[inline]
-        fn eval(&self, wo: glam::Vec3, wi: glam::Vec3) -> f32 {
-            self.value::<f32>(wo.into(), wi.into())
+        fn eval(&self, wo: glam::Vec3, wi: glam::Vec3) -> $crate::Rgb {
+            $crate::Rgb::splat(self.value::<f32>(wo.into(), wi.into()))
         }
         #[inline]
-        fn eval_f64(&self, wo: glam::DVec3, wi: glam::DVec3) -> f64 {
-            self.value::<f64>(wo.into(), wi.into())
+        fn eval_f64(&self, wo: glam::DVec3, wi: glam::DVec3) -> [f64; 3] {
+            [self.value::<f64>(wo.into(), wi.into()); 3]
         }
     };
 }

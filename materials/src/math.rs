@@ -10,6 +10,8 @@ pub trait Real: Float + FloatConst + std::fmt::Debug + Send + Sync + 'static {
     /// Converts a constant.
     fn c(x: f64) -> Self;
     fn to_f64(self) -> f64;
+    /// Complementary error function (libm, the musl port).
+    fn erfc(self) -> Self;
 }
 
 impl Real for f32 {
@@ -21,6 +23,10 @@ impl Real for f32 {
     fn to_f64(self) -> f64 {
         self as f64
     }
+    #[inline(always)]
+    fn erfc(self) -> Self {
+        libm::erfcf(self)
+    }
 }
 
 impl Real for f64 {
@@ -31,6 +37,10 @@ impl Real for f64 {
     #[inline(always)]
     fn to_f64(self) -> f64 {
         self
+    }
+    #[inline(always)]
+    fn erfc(self) -> Self {
+        libm::erfc(self)
     }
 }
 
@@ -124,6 +134,12 @@ impl From<V3<f32>> for glam::Vec3 {
     #[inline(always)]
     fn from(v: V3<f32>) -> Self {
         glam::Vec3::new(v.x, v.y, v.z)
+    }
+}
+
+impl V3<f64> {
+    pub fn into_f32(self) -> V3<f32> {
+        V3::new(self.x as f32, self.y as f32, self.z as f32)
     }
 }
 

@@ -6,7 +6,12 @@
 //! and its default. Scene loading and the fitter both go through this table, so a value
 //! is validated once, the same way, with an error that names its JSON path and its range.
 
+use crate::composite::Composite;
+use crate::lobe::Lobe;
 use crate::{Bsdf, ParamError, Rgb};
+
+/// The registry name of the multi-lobe material.
+pub const COMPOSITE: &str = "composite";
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -184,9 +189,19 @@ pub struct BuildContext {
 /// Builds a material from validated parameters.
 pub type Constructor = fn(&Params, &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError>;
 
+/// Builds the specular lobe of an analytic model from validated parameters; the material
+/// is then `diffuse * Lambert + specular * lobe` (a [`Composite`]).
+pub type LobeConstructor = fn(&Params) -> Result<Arc<dyn Lobe>, ParamError>;
+
+#[derive(Clone, Copy)]
+enum Builder {
+    Material(Constructor),
+    Lobe(LobeConstructor),
+}
+
 struct Entry {
     schema: ModelSchema,
-    build: Constructor,
+    build: Builder,
 }
 
 /// Model name -> schema and constructor.
@@ -225,7 +240,65 @@ impl Registry {
     }
 
     pub fn register(&mut self, schema: ModelSchema, build: Constructor) {
-        self.models.insert(schema.name, Entry { schema, build });
+        self.models.insert(
+            schema.name,
+            Entry {
+                schema,
+                build: Builder::Material(build),
+            },
+        );
+    }
+
+    /// Registers an analytic model by its lobe: its schema has `diffuse` and `specular`
+    /// colours and the lobe's parameters.
+    pub fn register_lobe(&mut self, schema: ModelSchema, lobe: LobeConstructor) {
+        debug_assert!(
+            schema.params.iter().any(|p| p.name == "diffuse")
+                && schema.params.iter().any(|p| p.name == "specular")
+        );
+        self.models.insert(
+            schema.name,
+            Entry {
+                schema,
+                build: Builder::Lobe(lobe),
+            },
+        );
+    }
+
+    /// True when `name` is an analytic model usable as a lobe of a `composite`.
+    pub fn is_lobe_model(&self, name: &str) -> bool {
+        matches!(
+            self.models.get(name),
+            Some(Entry {
+                build: Builder::Lobe(_),
+                ..
+            })
+        )
+    }
+
+    /// Builds the lobe of an analytic-model description, with its specular colour.
+    pub fn create_lobe(
+        &self,
+        desc: &Value,
+        path: &str,
+    ) -> Result<(Rgb, Arc<dyn Lobe>), ParamError> {
+        let params = self.validate(desc, path)?;
+        match self.models[params.model].build {
+            Builder::Lobe(f) => Ok((params.color("specular"), f(&params)?)),
+            Builder::Material(_) => Err(ParamError::new(
+                format!("{path}.type"),
+                format!(
+                    "\"{}\" is not an analytic lobe model; expected one of: {}",
+                    params.model,
+                    self.models
+                        .iter()
+                        .filter(|(_, e)| matches!(e.build, Builder::Lobe(_)))
+                        .map(|(n, _)| *n)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )),
+        }
     }
 
     pub fn schema(&self, name: &str) -> Option<&ModelSchema> {
@@ -233,7 +306,48 @@ impl Registry {
     }
 
     pub fn names(&self) -> impl Iterator<Item = &'static str> + '_ {
-        self.models.keys().copied()
+        std::iter::once(COMPOSITE).chain(self.models.keys().copied())
+    }
+
+    /// `{"type": "composite", "diffuse": rgb, "lobes": [lobe, ...]}`: Lambert plus N
+    /// lobes, each an analytic model description with its own `specular` colour (and no
+    /// `diffuse` of its own).
+    fn create_composite(&self, desc: &Value, path: &str) -> Result<Arc<dyn Bsdf>, ParamError> {
+        let obj = desc.as_object().expect("checked by the caller");
+        for k in obj.keys() {
+            if !["type", "diffuse", "lobes"].contains(&k.as_str()) {
+                return Err(ParamError::new(
+                    format!("{path}.{k}"),
+                    "unknown parameter of \"composite\"; expected one of: diffuse, lobes",
+                ));
+            }
+        }
+        let diffuse = match obj.get("diffuse") {
+            None => Rgb::ZERO,
+            Some(v) => match parse_value(
+                &crate::analytic::common::DIFFUSE,
+                v,
+                &format!("{path}.diffuse"),
+            )? {
+                ParamValue::Color(c) => Rgb::new(c[0] as f32, c[1] as f32, c[2] as f32),
+                _ => unreachable!("diffuse is a colour"),
+            },
+        };
+        let lobes = obj.get("lobes").and_then(Value::as_array).ok_or_else(|| {
+            ParamError::new(format!("{path}.lobes"), "expected an array of lobe descriptions like {\"type\": \"cook-torrance\", \"specular\": 0.5, \"m\": 0.1}")
+        })?;
+        let mut out = Vec::with_capacity(lobes.len());
+        for (i, l) in lobes.iter().enumerate() {
+            let lp = format!("{path}.lobes[{i}]");
+            if l.get("diffuse").is_some() {
+                return Err(ParamError::new(
+                    format!("{lp}.diffuse"),
+                    "a lobe of a composite has no diffuse colour; give it once, on the composite",
+                ));
+            }
+            out.push(self.create_lobe(l, &lp)?);
+        }
+        Ok(Arc::new(Composite::new(COMPOSITE, diffuse, out)))
     }
 
     /// Validates a description (`{"type": name, param: value, ...}`) against its model's
@@ -329,9 +443,21 @@ impl Registry {
         path: &str,
         ctx: &BuildContext,
     ) -> Result<Arc<dyn Bsdf>, ParamError> {
+        if desc.get("type").and_then(Value::as_str) == Some(COMPOSITE) {
+            return self.create_composite(desc, path);
+        }
         let params = self.validate(desc, path)?;
-        let entry = &self.models[params.model];
-        (entry.build)(&params, ctx)
+        match self.models[params.model].build {
+            Builder::Material(f) => f(&params, ctx),
+            Builder::Lobe(f) => {
+                let lobe = f(&params)?;
+                Ok(Arc::new(Composite::new(
+                    params.model,
+                    params.color("diffuse"),
+                    vec![(params.color("specular"), lobe)],
+                )))
+            }
+        }
     }
 
     /// [`Registry::create_with`] with relative paths resolving against the working directory.

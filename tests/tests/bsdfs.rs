@@ -54,6 +54,87 @@ fn cases() -> Vec<Case> {
         v.push(make(json!({"type": "cook-torrance", "specular": 1, "m": 0.3, "distribution": dist, "fresnel": "dielectric", "eta": 1.0001}), false));
         v.push(make(json!({"type": "cook-torrance", "specular": 1, "m": 0.3, "distribution": dist, "f0": 0}), false));
     }
+    for ty in ["ward", "ward-duer"] {
+        v.push(make(
+            json!({"type": ty, "diffuse": 0.3, "specular": 0.2, "alpha": 0.25}),
+            true,
+        ));
+        for a in [1e-4, 0.01, 1.0, 10.0] {
+            v.push(make(json!({"type": ty, "specular": 1, "alpha": a}), false));
+        }
+    }
+    v.push(make(json!({"type": "ward-anisotropic", "diffuse": 0.1, "specular": 0.3, "alpha_x": 0.1, "alpha_y": 0.4}), true));
+    v.push(make(
+        json!({"type": "ward-anisotropic", "specular": 1, "alpha_x": 1e-4, "alpha_y": 5}),
+        false,
+    ));
+    v.push(make(
+        json!({"type": "blinn-phong", "diffuse": 0.3, "specular": 0.2, "n": 40}),
+        true,
+    ));
+    for n in [0.0, 1.0, 1e4, 1e6] {
+        v.push(make(
+            json!({"type": "blinn-phong", "specular": 1, "n": n}),
+            false,
+        ));
+    }
+    v.push(make(
+        json!({"type": "lafortune", "diffuse": 0.3, "specular": 0.2, "n": 30}),
+        true,
+    ));
+    v.push(make(
+        json!({"type": "lafortune", "specular": 0.2, "cx": -0.8, "cy": -0.3, "cz": 0.5, "n": 15}),
+        true,
+    ));
+    v.push(make(
+        json!({"type": "lafortune", "specular": 0.2, "cx": 0.5, "cy": 0.5, "cz": 0.7, "n": 5}),
+        true,
+    ));
+    v.push(make(json!({"type": "lafortune", "specular": 0.2, "cx": -1, "cy": -1, "cz": 1, "n": 10, "normalization": "none"}), true));
+    for (n, cz) in [(0.0, 0.577), (1e4, 0.577), (1e6, 0.577), (6630.0, 0.574)] {
+        v.push(make(json!({"type": "lafortune", "specular": 1, "cx": -0.577, "cy": -0.577, "cz": cz, "n": n}), false));
+    }
+    v.push(make(
+        json!({"type": "ashikhmin-shirley", "diffuse": 0.3, "specular": 0.7, "n": 60, "f0": 0.1}),
+        true,
+    ));
+    v.push(make(json!({"type": "ashikhmin-shirley-anisotropic", "diffuse": 0.1, "specular": 0.8, "nu": 10, "nv": 200, "f0": 0.5}), true));
+    for (n, f0) in [(0.0, 0.0), (1.0, 1.0), (1e4, 0.04), (1e6, 1.0)] {
+        v.push(make(
+            json!({"type": "ashikhmin-shirley", "specular": 1, "n": n, "f0": f0}),
+            false,
+        ));
+    }
+    v.push(make(json!({"type": "ashikhmin-shirley-anisotropic", "specular": 1, "nu": 0, "nv": 1e6, "f0": 1}), false));
+    // Moderate He lobes are kept wider than the chi-square grid's polar cells: the smooth
+    // regime's width is lambda / (2 pi tau).
+    v.push(make(
+        json!({"type": "he", "diffuse": 0.2, "specular": 1, "sigma0": 0.1, "tau": 0.8, "eta": 1.5}),
+        true,
+    ));
+    v.push(make(
+        json!({"type": "he", "specular": 1, "sigma0": 0.05, "tau": 0.6, "eta": 1.8}),
+        true,
+    ));
+    v.push(make(
+        json!({"type": "he", "specular": 1, "sigma0": 0.5, "tau": 5, "eta": 1.5}),
+        false,
+    ));
+    for (sigma0, tau, eta) in [
+        (0.0, 3.0, 1.5),
+        (100.0, 3.0, 1.5),
+        (0.05, 10000.0, 1.5),
+        (0.5, 0.01, 1.5),
+        (0.2, 3.0, 1.0001),
+        (0.2, 3.0, 50.0),
+        (0.647, 28.0, 9.1),
+        (0.063, 28.7, 1.08),
+    ] {
+        v.push(make(
+            json!({"type": "he", "specular": 1, "sigma0": sigma0, "tau": tau, "eta": eta}),
+            false,
+        ));
+    }
     v
 }
 
@@ -152,7 +233,15 @@ fn glossy_sampling_beats_cosine_sampling() {
         }
     }
     let glossy = [
+        json!({"type": "ward", "specular": 1, "alpha": 0.1}),
+        json!({"type": "ward-duer", "specular": 1, "alpha": 0.1}),
+        json!({"type": "ward-anisotropic", "specular": 1, "alpha_x": 0.05, "alpha_y": 0.2}),
+        json!({"type": "blinn-phong", "specular": 1, "n": 200}),
+        json!({"type": "lafortune", "specular": 1, "n": 100}),
+        json!({"type": "ashikhmin-shirley", "specular": 1, "n": 300, "f0": 0.2}),
+        json!({"type": "ashikhmin-shirley-anisotropic", "specular": 1, "nu": 50, "nv": 800, "f0": 0.2}),
         json!({"type": "cook-torrance", "specular": 1, "m": 0.1}),
+        json!({"type": "he", "specular": 1, "sigma0": 0.3, "tau": 6, "eta": 1.5}),
         json!({"type": "cook-torrance", "specular": 1, "m": 0.1, "distribution": "gaussian"}),
         json!({"type": "cook-torrance", "specular": 1, "m": 0.1, "distribution": "cosine-power"}),
     ];

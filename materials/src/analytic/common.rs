@@ -1,12 +1,8 @@
-//! Pieces shared by the analytic models' registrations: the diffuse and specular colour
-//! parameters of the study's `M = diffuse_rgb * Lambert + specular_rgb * lobe(p)` and the
-//! constructor that wraps one lobe into a [`Composite`].
+//! Pieces shared by the analytic models' schemas: the diffuse and specular colour
+//! parameters of the study's `M = diffuse_rgb * Lambert + specular_rgb * lobe(p)`, and
+//! helpers for lobe-shape parameters and discrete settings.
 
-use crate::composite::Composite;
-use crate::lobe::Lobe;
-use crate::registry::{Bounds, DefaultValue, ParamKind, ParamRole, ParamSpec, Params};
-use crate::{Bsdf, ParamError};
-use std::sync::Arc;
+use crate::registry::{Bounds, DefaultValue, ParamKind, ParamRole, ParamSpec};
 
 /// `diffuse`: the Lambertian colour (albedo), linear RGB.
 pub const DIFFUSE: ParamSpec = ParamSpec {
@@ -61,17 +57,4 @@ pub const fn setting(
         default: DefaultValue::Choice(default),
         doc,
     }
-}
-
-/// Diffuse + one lobe scaled by `specular`.
-pub fn one_lobe(
-    name: &'static str,
-    p: &Params,
-    lobe: Arc<dyn Lobe>,
-) -> Result<Arc<dyn Bsdf>, ParamError> {
-    Ok(Arc::new(Composite::new(
-        name,
-        p.color("diffuse"),
-        vec![(p.color("specular"), lobe)],
-    )))
 }

@@ -12,13 +12,13 @@
 //! Sampling: half vectors from D(h) cos(theta_h) (Beckmann proposal for the Gaussian),
 //! reflected about h (Walter et al. 2007, eq. 14).
 
-use super::common::{DIFFUSE, SPECULAR, lobe_param, one_lobe, setting};
+use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
 use super::microfacet::fresnel::{FRESNELS, Fresnel};
 use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g};
 use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
-use crate::registry::{Bounds, BuildContext, ModelSchema, Params, Registry};
-use crate::{Bsdf, Flags, ParamError};
+use crate::registry::{Bounds, ModelSchema, Params, Registry};
+use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
@@ -122,7 +122,7 @@ pub const SCHEMA: ModelSchema = ModelSchema {
     ],
 };
 
-fn build(p: &Params, _ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
+fn lobe(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
     let d = Distribution::new(p.text("distribution"), p.scalar("m")).expect("validated choice");
     let f = match p.text("fresnel") {
         "none" => Fresnel::None,
@@ -131,11 +131,11 @@ fn build(p: &Params, _ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
             eta: p.scalar("eta"),
         },
     };
-    one_lobe("cook-torrance", p, Arc::new(CookTorrance::new(d, f)))
+    Ok(Arc::new(CookTorrance::new(d, f)))
 }
 
 pub fn register(r: &mut Registry) {
-    r.register(SCHEMA, build);
+    r.register_lobe(SCHEMA, lobe);
 }
 
 #[cfg(test)]

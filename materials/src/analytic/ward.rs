@@ -1,0 +1,209 @@
+//! Ward's anisotropic Gaussian model (G. Ward, "Measuring and Modeling Anisotropic
+//! Reflection", SIGGRAPH 1992, eq. 5), isotropic (alpha) and anisotropic (alpha_x along the
+//! tangent, alpha_y along the bitangent):
+//!
+//!   lobe = exp(-tan^2(theta_h) (cos^2(phi_h) / alpha_x^2 + sin^2(phi_h) / alpha_y^2))
+//!          / (4 pi alpha_x alpha_y sqrt(cos(theta_i) cos(theta_o)))
+//!
+//! `alpha` is the standard deviation of the surface slope (Ngan's fitted `roughness` is
+//! alpha itself; bbm `ward.h`). The same code gives Ward-Duer ([`super::ward_duer`]) with
+//! the denominator cos(theta_i) cos(theta_o) instead of its square root.
+//!
+//! Sampling: Walter's half-vector sampling of the Ward lobe ("Notes on the Ward BRDF",
+//! 2005): tan^2(theta_h) = -ln(u) / (cos^2 phi / ax^2 + sin^2 phi / ay^2) with
+//! tan(phi_h) = (ay / ax) tan(2 pi u'), density
+//! p(h) = exp(-tan^2(theta_h)(...)) / (pi ax ay cos^3(theta_h)).
+
+use super::common::{DIFFUSE, SPECULAR, lobe_param};
+use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
+use crate::math::{Real, V3, half};
+use crate::registry::{Bounds, ModelSchema, Params, Registry};
+use crate::{Flags, ParamError};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+use std::sync::Arc;
+
+/// Ward (`duer = false`) or Ward-Duer (`duer = true`).
+#[derive(Clone, Debug)]
+pub struct Ward {
+    pub alpha_x: f64,
+    pub alpha_y: f64,
+    pub duer: bool,
+}
+
+impl Ward {
+    pub fn new(alpha_x: f64, alpha_y: f64, duer: bool) -> Self {
+        Self {
+            alpha_x,
+            alpha_y,
+            duer,
+        }
+    }
+
+    /// The exponent tan^2(theta_h) (cos^2 phi_h / ax^2 + sin^2 phi_h / ay^2) from an
+    /// unnormalized half vector.
+    #[inline]
+    fn exponent<T: Real>(&self, h: V3<T>) -> T {
+        let (ax, ay) = (T::c(self.alpha_x), T::c(self.alpha_y));
+        (h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay)) / (h.z * h.z)
+    }
+
+    #[inline]
+    pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let Some((co, ci)) = above(wo, wi) else {
+            return T::zero();
+        };
+        let h = wo + wi;
+        if h.z <= T::zero() {
+            return T::zero();
+        }
+        let e = (-self.exponent(h)).exp();
+        if e == T::zero() {
+            return T::zero();
+        }
+        let norm = T::c(4.0) * T::PI() * T::c(self.alpha_x * self.alpha_y);
+        let cos_term = if self.duer { ci * co } else { (ci * co).sqrt() };
+        let v = e / (norm * cos_term);
+        if v.is_finite() { v } else { T::zero() }
+    }
+
+    fn sample_h(&self, u: Vec2) -> Vec3 {
+        let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);
+        let (s, c) = (2.0 * PI * u.x).sin_cos();
+        let (cp, sp) = {
+            let v = Vec2::new(ax * c, ay * s).normalize_or(Vec2::X);
+            (v.x, v.y)
+        };
+        let k = cp * cp / (ax * ax) + sp * sp / (ay * ay);
+        let tan2 = -(1.0 - u.y).max(f32::MIN_POSITIVE).ln() / k;
+        let cos_t = 1.0 / (1.0 + tan2).sqrt();
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        Vec3::new(sin_t * cp, sin_t * sp, cos_t)
+    }
+
+    fn pdf_h(&self, h: Vec3) -> f32 {
+        if h.z <= 0.0 {
+            return 0.0;
+        }
+        let e = (-self.exponent::<f32>(V3::new(h.x, h.y, h.z))).exp();
+        e / (PI * (self.alpha_x * self.alpha_y) as f32 * h.z * h.z * h.z)
+    }
+}
+
+impl Lobe for Ward {
+    fn model(&self) -> &'static str {
+        if self.duer { "ward-duer" } else { "ward" }
+    }
+    crate::impl_lobe_eval!();
+
+    fn sample(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        sample_via_half(wo, self.sample_h(u))
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let Some(h) = half::<f32>(wo.into(), wi.into()) else {
+            return 0.0;
+        };
+        let h = Vec3::new(h.x, h.y, h.z);
+        let p = half_to_incident_pdf(self.pdf_h(h), wo.dot(h));
+        if p.is_finite() { p } else { 0.0 }
+    }
+
+    fn flags(&self) -> Flags {
+        let iso = if self.alpha_x == self.alpha_y {
+            Flags::ISOTROPIC
+        } else {
+            Flags::NONE
+        };
+        iso | Flags::RECIPROCAL | Flags::GLOSSY
+    }
+}
+
+const ALPHA_BOUNDS: Bounds = Bounds::above(0.0, 10.0);
+
+pub const SCHEMA: ModelSchema = ModelSchema {
+    name: "ward",
+    summary: "Ward 1992, isotropic: exp(-tan^2 theta_h / alpha^2) / (4 pi alpha^2 sqrt(cos_i cos_o))",
+    params: &[
+        DIFFUSE,
+        SPECULAR,
+        lobe_param(
+            "alpha",
+            ALPHA_BOUNDS,
+            0.1,
+            "standard deviation of the surface slope",
+        ),
+    ],
+};
+
+pub const SCHEMA_ANISO: ModelSchema = ModelSchema {
+    name: "ward-anisotropic",
+    summary: "Ward 1992, anisotropic: alpha_x along the tangent, alpha_y along the bitangent",
+    params: &[
+        DIFFUSE,
+        SPECULAR,
+        lobe_param(
+            "alpha_x",
+            ALPHA_BOUNDS,
+            0.1,
+            "slope deviation along the tangent (x)",
+        ),
+        lobe_param(
+            "alpha_y",
+            ALPHA_BOUNDS,
+            0.1,
+            "slope deviation along the bitangent (y)",
+        ),
+    ],
+};
+
+fn lobe(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
+    let a = p.scalar("alpha");
+    Ok(Arc::new(Ward::new(a, a, false)))
+}
+
+fn lobe_aniso(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
+    Ok(Arc::new(Ward::new(
+        p.scalar("alpha_x"),
+        p.scalar("alpha_y"),
+        false,
+    )))
+}
+
+pub fn register(r: &mut Registry) {
+    r.register_lobe(SCHEMA, lobe);
+    r.register_lobe(SCHEMA_ANISO, lobe_aniso);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn golden_values() {
+        // theta_i = 20, theta_o = 40 degrees in the incidence plane (phi_o = 180).
+        let (ti, to) = (20f64.to_radians(), 40f64.to_radians());
+        let wi = V3::new(ti.sin(), 0.0, ti.cos());
+        let wo = V3::new(-to.sin(), 0.0, to.cos());
+        let th = ((to - ti) / 2.0).abs(); // half-angle from the normal in the plane
+        let a = 0.2;
+        let ward = Ward::new(a, a, false);
+        let expected = (-(th.tan().powi(2)) / (a * a)).exp()
+            / (4.0 * std::f64::consts::PI * a * a * (ti.cos() * to.cos()).sqrt());
+        assert!((ward.value(wo, wi) - expected).abs() < 1e-12 * expected);
+        let duer = Ward::new(a, a, true);
+        assert!(
+            (duer.value(wo, wi) - expected * (ti.cos() * to.cos()).sqrt() / (ti.cos() * to.cos()))
+                .abs()
+                < 1e-12 * expected
+        );
+        // Anisotropic: in the xz plane only alpha_x matters.
+        let aniso = Ward::new(a, 0.05, false);
+        let e2 = (-(th.tan().powi(2)) / (a * a)).exp()
+            / (4.0 * std::f64::consts::PI * a * 0.05 * (ti.cos() * to.cos()).sqrt());
+        assert!((aniso.value(wo, wi) - e2).abs() < 1e-12 * e2);
+    }
+}
