@@ -288,7 +288,9 @@ mod tests {
     /// formulas (series without early stop), times the fits' specular colours.
     #[test]
     fn golden_values_of_ngan_fits() {
-        let cases: [(He, [f64; 3], (f64, f64), (f64, f64), [f64; 3]); 4] = [
+        /// (model, fitted colour, (theta_i, phi_i), (theta_o, phi_o), expected colour * lobe)
+        type Case = (He, [f64; 3], (f64, f64), (f64, f64), [f64; 3]);
+        let cases: [Case; 4] = [
             (
                 He {
                     sigma0: 0.647,
@@ -372,8 +374,8 @@ mod tests {
         let d = Distribution::Beckmann { m: alpha }.d(h.z);
         let ct = dielectric(1.6, wi.dot(h)) * he.shadow(wi.z) * he.shadow(wo.z) * d
             / (4.0 * wi.z * wo.z);
-        for c in 0..3 {
-            assert!((v[c] - ct).abs() < 1e-9 * ct, "{} vs {ct}", v[c]);
+        for vc in v {
+            assert!((vc - ct).abs() < 1e-9 * ct, "{vc} vs {ct}");
         }
     }
 }
