@@ -26,6 +26,7 @@ pub mod error;
 pub mod frame;
 pub mod lobe;
 pub mod math;
+pub mod ngan_fit;
 pub mod registry;
 pub mod sampling;
 

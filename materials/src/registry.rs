@@ -26,6 +26,8 @@ pub enum ParamKind {
     Integer,
     /// One of the listed strings.
     Choice(&'static [&'static str]),
+    /// Any string (a name, a path); its default is given as `DefaultValue::Choice`.
+    Text,
     Bool,
 }
 
@@ -236,6 +238,7 @@ impl Registry {
     pub fn builtin() -> Self {
         let mut r = Self::new();
         crate::analytic::register_all(&mut r);
+        crate::ngan_fit::register(&mut r);
         r
     }
 
@@ -481,6 +484,7 @@ fn expectation(spec: &ParamSpec) -> String {
         ParamKind::Scalar => format!("a number in {}", spec.bounds.describe()),
         ParamKind::Integer => format!("an integer in {}", spec.bounds.describe()),
         ParamKind::Choice(c) => format!("one of: {}", c.join(", ")),
+        ParamKind::Text => "a string".into(),
         ParamKind::Bool => "true or false".into(),
     }
 }
@@ -528,6 +532,7 @@ fn parse_value(spec: &ParamSpec, v: &Value, path: &str) -> Result<ParamValue, Pa
                 Err(bad())
             }
         }
+        ParamKind::Text => Ok(ParamValue::Text(v.as_str().ok_or_else(bad)?.to_string())),
         ParamKind::Bool => Ok(ParamValue::Bool(v.as_bool().ok_or_else(bad)?)),
     }
 }

@@ -20,7 +20,7 @@ pub const SPECULAR: ParamSpec = ParamSpec {
     name: "specular",
     kind: ParamKind::Color,
     role: ParamRole::Specular,
-    bounds: Bounds::closed(0.0, 1.0e6),
+    bounds: Bounds::closed(0.0, 1.0e12),
     default: DefaultValue::Color([0.04, 0.04, 0.04]),
     doc: "specular colour (linear RGB) multiplying the lobe",
 };
