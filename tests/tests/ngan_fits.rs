@@ -6,7 +6,7 @@
 
 use lobe_materials::ngan_fit::{MODELS, read_fits};
 use lobe_materials::registry::Registry;
-use lobe_tests::bsdf_checks::{albedo, check_finite_nonnegative, dir_deg};
+use lobe_tests::bsdf_checks::{albedo, dir_deg};
 use serde_json::json;
 
 fn fits_dir() -> Option<std::path::PathBuf> {
