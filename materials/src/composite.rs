@@ -45,7 +45,8 @@ pub fn directional_albedo(lobe: &dyn Lobe, wo: Vec3, n: usize) -> f64 {
     for i in 0..n {
         for j in 0..n {
             let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-            for wi in [Some(square_to_cosine_hemisphere(u)), lobe.sample(wo, u)]
+            let uc = ((i * n + j) as f32 * 0.618_034).fract();
+            for wi in [Some(square_to_cosine_hemisphere(u)), lobe.sample(wo, u, uc)]
                 .into_iter()
                 .flatten()
             {
@@ -179,10 +180,13 @@ impl Bsdf for Composite {
             }
             target -= wk;
         }
+        // What is left of uc within the chosen component, rescaled to [0, 1).
+        let uc_rest =
+            (target / w[chosen].max(f32::MIN_POSITIVE)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
         let wi = if chosen == 0 {
             square_to_cosine_hemisphere(u)
         } else {
-            self.lobes[chosen - 1].1.sample(wo, u)?
+            self.lobes[chosen - 1].1.sample(wo, u, uc_rest)?
         };
         if wi.z <= 0.0 {
             return None;

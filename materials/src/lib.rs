@@ -27,6 +27,7 @@ pub mod frame;
 pub mod lobe;
 pub mod math;
 pub mod ngan_fit;
+pub mod quadrature;
 pub mod registry;
 pub mod sampling;
 

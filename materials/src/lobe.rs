@@ -20,8 +20,10 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
     /// The same value in double precision (for fitting).
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3];
-    /// Importance-samples `wi` for `wo` (None when the sample falls below the surface).
-    fn sample(&self, wo: Vec3, u: Vec2) -> Option<Vec3>;
+    /// Importance-samples `wi` for `wo` from a 2D sample `u` and a 1D sample `uc` (for
+    /// models that first choose among facets or proposals); None when the sample falls
+    /// below the surface.
+    fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3>;
     /// Solid-angle density of `sample`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
     fn flags(&self) -> Flags;

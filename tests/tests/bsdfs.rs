@@ -135,6 +135,24 @@ fn cases() -> Vec<Case> {
             false,
         ));
     }
+    v.push(make(json!({"type": "poulin-fournier", "diffuse": 0.2, "specular": 0.5, "n": 20, "d": 0.4, "h": 0.6}), true));
+    v.push(make(
+        json!({"type": "poulin-fournier", "specular": 1, "n": 50, "d": 0.18, "h": 0.5}),
+        true,
+    ));
+    for (n, d, h) in [
+        (3000.0, 0.18, 0.5),
+        (1e6, 0.18, 0.5),
+        (10.0, 0.0, 0.0),
+        (10.0, 0.0, 1.0),
+        (10.0, 1000.0, 0.5),
+        (0.0, 0.5, 0.5),
+    ] {
+        v.push(make(
+            json!({"type": "poulin-fournier", "specular": 1, "n": n, "d": d, "h": h}),
+            false,
+        ));
+    }
     v
 }
 
@@ -242,6 +260,7 @@ fn glossy_sampling_beats_cosine_sampling() {
         json!({"type": "ashikhmin-shirley-anisotropic", "specular": 1, "nu": 50, "nv": 800, "f0": 0.2}),
         json!({"type": "cook-torrance", "specular": 1, "m": 0.1}),
         json!({"type": "he", "specular": 1, "sigma0": 0.3, "tau": 6, "eta": 1.5}),
+        json!({"type": "poulin-fournier", "specular": 1, "n": 200, "d": 0.18, "h": 0.5}),
         json!({"type": "cook-torrance", "specular": 1, "m": 0.1, "distribution": "gaussian"}),
         json!({"type": "cook-torrance", "specular": 1, "m": 0.1, "distribution": "cosine-power"}),
     ];

@@ -62,7 +62,7 @@ impl Lobe for BlinnPhong {
     }
     crate::impl_lobe_eval!();
 
-    fn sample(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
         sample_via_half(wo, sample_cos_power_h(self.n as f32, u))
     }
 

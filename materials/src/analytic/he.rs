@@ -209,12 +209,12 @@ impl Lobe for He {
         self.value::<f64>(wo.into(), wi.into())
     }
 
-    fn sample(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+    fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3> {
         let [a, b] = self.proposals(wo);
-        let h = if u.x < 0.5 {
-            a.sample_h(Vec2::new(u.x * 2.0, u.y))
+        let h = if uc < 0.5 {
+            a.sample_h(u)
         } else {
-            b.sample_h(Vec2::new((u.x - 0.5) * 2.0, u.y))
+            b.sample_h(u)
         };
         sample_via_half(wo, h)
     }

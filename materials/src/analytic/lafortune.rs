@@ -80,7 +80,7 @@ impl Lobe for Lafortune {
     }
     crate::impl_lobe_eval!();
 
-    fn sample(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
         if wo.z <= 0.0 {
             return None;
         }

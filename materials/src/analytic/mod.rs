@@ -9,6 +9,7 @@ pub mod he;
 pub mod lafortune;
 pub mod lambert;
 pub mod microfacet;
+pub mod poulin_fournier;
 pub mod ward;
 pub mod ward_duer;
 
@@ -24,4 +25,5 @@ pub fn register_all(r: &mut Registry) {
     lafortune::register(r);
     ashikhmin_shirley::register(r);
     he::register(r);
+    poulin_fournier::register(r);
 }

@@ -96,7 +96,7 @@ impl Lobe for Ward {
     }
     crate::impl_lobe_eval!();
 
-    fn sample(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
         sample_via_half(wo, self.sample_h(u))
     }
 
