@@ -89,6 +89,8 @@ impl Bounds {
         let fmt = |v: f64| {
             if v.is_infinite() {
                 if v > 0.0 { "inf".into() } else { "-inf".into() }
+            } else if v.abs() >= 1e5 {
+                format!("{v:e}")
             } else {
                 format!("{v}")
             }
@@ -302,6 +304,52 @@ impl Registry {
                 ),
             )),
         }
+    }
+
+    /// The parameter reference of every model as Markdown (docs/models.md embeds it;
+    /// `lobe models` prints it).
+    pub fn reference_markdown(&self) -> String {
+        let mut out = String::new();
+        for (name, e) in &self.models {
+            out.push_str(&format!("### `{name}`\n\n{}\n\n", e.schema.summary));
+            out.push_str("| parameter | kind | role | range | default | meaning |\n|---|---|---|---|---|---|\n");
+            for p in e.schema.params {
+                let kind = match p.kind {
+                    ParamKind::Color => "colour".to_string(),
+                    ParamKind::Scalar => "number".to_string(),
+                    ParamKind::Integer => "integer".to_string(),
+                    ParamKind::Choice(c) => format!("one of {}", c.join(", ")),
+                    ParamKind::Text => "string".to_string(),
+                    ParamKind::Bool => "boolean".to_string(),
+                };
+                let role = match p.role {
+                    ParamRole::Diffuse => "diffuse colour",
+                    ParamRole::Specular => "specular colour",
+                    ParamRole::Lobe => "lobe shape",
+                    ParamRole::Setting => "setting",
+                };
+                let range = match p.kind {
+                    ParamKind::Color | ParamKind::Scalar | ParamKind::Integer => {
+                        p.bounds.describe()
+                    }
+                    _ => String::new(),
+                };
+                let default = match p.default {
+                    DefaultValue::Required => "required".to_string(),
+                    DefaultValue::Scalar(v) => format!("{v}"),
+                    DefaultValue::Color(c) => format!("[{}, {}, {}]", c[0], c[1], c[2]),
+                    DefaultValue::Choice(c) => format!("\"{c}\""),
+                    DefaultValue::Bool(b) => format!("{b}"),
+                };
+                out.push_str(&format!(
+                    "| `{}` | {kind} | {role} | {range} | {default} | {} |\n",
+                    p.name, p.doc
+                ));
+            }
+            out.push('\n');
+        }
+        out.push_str("### `composite`\n\nLambert plus any number of lobes: `{\"type\": \"composite\", \"diffuse\": rgb, \"lobes\": [lobe, ...]}`; each lobe is the description of an analytic model (with its own `specular`, without `diffuse`).\n");
+        out
     }
 
     pub fn schema(&self, name: &str) -> Option<&ModelSchema> {

@@ -319,3 +319,16 @@ fn gltf_camera_and_node_transforms_are_used() {
         lobe_renderer::geometry::Ray::new(glam::Vec3::new(4.6, 5.0, 0.0), glam::Vec3::NEG_Y);
     assert!(scene.geometry.intersect(&outside).is_none());
 }
+
+#[test]
+fn models_doc_has_the_current_parameter_reference() {
+    let doc = std::fs::read_to_string(lobe_tests::workspace().join("docs/models.md")).unwrap();
+    let start = doc.find("<!-- BEGIN lobe models -->\n").expect("marker")
+        + "<!-- BEGIN lobe models -->\n".len();
+    let end = doc.find("<!-- END lobe models -->").expect("marker");
+    let generated = lobe_materials::registry::Registry::builtin().reference_markdown();
+    assert!(
+        doc[start..end] == generated,
+        "docs/models.md is out of date: regenerate its reference with `lobe models`"
+    );
+}

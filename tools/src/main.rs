@@ -4,6 +4,8 @@
 //! Subcommands: `render` (this step); fit, tabulate, compare, figure, tradeoff and
 //! stability arrive with later steps. Errors are one line on stderr and a non-zero exit.
 
+mod eval;
+
 use clap::{Parser, Subcommand};
 use lobe_renderer::render::{RenderOptions, RenderStats, render};
 use lobe_renderer::scene::Scene;
@@ -35,6 +37,20 @@ enum Command {
         after_help = "Examples:\n  lobe render                                  # built-in showcase -> out/showcase.{exr,png,json}\n  lobe render scenes/sphere-envmap.json --spp 256 -o out/sphere.exr\n  lobe render scenes/cornell-box.json --threads 1 --seed 7\n  lobe render --bench                          # Msamples/s on the sphere-under-env-map benchmark"
     )]
     Render(RenderArgs),
+    /// Evaluate f_r (RGB, 1/sr) and the sampling pdf of a material at direction pairs, as CSV.
+    #[command(
+        after_help = "Direction pairs are theta_i phi_i theta_o phi_o in degrees (wi toward the light, wo toward\nthe viewer, z the normal), one pair per line on stdin, or a --grid. The pdf is the density\nwith which the material samples wi given wo.\n\nExamples:\n  echo '30 0 30 180' | lobe eval --material '{\"type\": \"ward\", \"specular\": 0.1, \"alpha\": 0.2}'\n  lobe eval --ngan green-metallic-paint --model cook-torrance --grid 45,0,0..89..1,180\n  lobe eval --scene scenes/cornell-box.json --name white --grid 0,0,30,0"
+    )]
+    Eval(eval::EvalArgs),
+    /// List the material models and their parameters (Markdown, as in docs/models.md).
+    #[command(
+        after_help = "Examples:\n  lobe models             # every model's parameters, ranges and defaults\n  lobe models --names     # one model name per line"
+    )]
+    Models {
+        /// Print only the names.
+        #[arg(long)]
+        names: bool,
+    },
 }
 
 #[derive(clap::Args)]
@@ -75,6 +91,18 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => cmd_render(args, cli.quiet),
+        Command::Eval(args) => eval::cmd_eval(args),
+        Command::Models { names } => {
+            let reg = lobe_materials::registry::Registry::builtin();
+            if names {
+                for n in reg.names() {
+                    println!("{n}");
+                }
+            } else {
+                print!("{}", reg.reference_markdown());
+            }
+            Ok(())
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
