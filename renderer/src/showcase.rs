@@ -58,24 +58,24 @@ pub fn studio_environment(width: usize, height: usize) -> RgbImage {
     }
 }
 
-/// The showcase scene description.
+/// The showcase scene description: five of the study's models side by side.
 pub fn showcase_scene() -> Value {
-    let colours = [
-        [0.80, 0.18, 0.15],
-        [0.90, 0.65, 0.20],
-        [0.20, 0.60, 0.30],
-        [0.20, 0.40, 0.80],
-        [0.85, 0.85, 0.85],
+    let materials = [
+        json!({"type": "cook-torrance", "diffuse": [0.55, 0.06, 0.05], "specular": 0.25, "m": 0.08, "f0": 0.04}),
+        json!({"type": "ashikhmin-shirley", "diffuse": [0.02, 0.015, 0.005], "specular": [0.9, 0.6, 0.25], "n": 400, "f0": 0.8}),
+        json!({"type": "ward-anisotropic", "diffuse": 0.03, "specular": 0.7, "alpha_x": 0.04, "alpha_y": 0.35}),
+        json!({"type": "he", "diffuse": [0.04, 0.12, 0.35], "specular": 1.0, "sigma0": 0.25, "tau": 4.0, "eta": 1.5}),
+        json!({"type": "lafortune", "diffuse": [0.6, 0.6, 0.55], "specular": 0.15, "n": 30}),
     ];
-    let mut shapes: Vec<Value> = colours
+    let mut shapes: Vec<Value> = materials
         .iter()
         .enumerate()
-        .map(|(k, c)| {
+        .map(|(k, m)| {
             json!({
                 "type": "sphere",
                 "center": [-2.6 + 1.3 * k as f32, 0.6, 0.0],
                 "radius": 0.6,
-                "material": {"type": "lambert", "reflectance": c}
+                "material": m
             })
         })
         .collect();

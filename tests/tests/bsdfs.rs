@@ -277,3 +277,42 @@ fn glossy_sampling_beats_cosine_sampling() {
         }
     }
 }
+
+#[test]
+fn out_of_range_parameters_are_rejected_with_their_range() {
+    use lobe_materials::registry::{ParamKind, Registry};
+    let reg = Registry::builtin();
+    let mut checked = 0;
+    for name in reg.names().collect::<Vec<_>>() {
+        let Some(schema) = reg.schema(name) else { continue };
+        for p in schema.params {
+            if !matches!(p.kind, ParamKind::Scalar | ParamKind::Color) {
+                continue;
+            }
+            for bad in [p.bounds.min - 1.0, p.bounds.max * 2.0 + 1.0] {
+                if !bad.is_finite() || p.bounds.contains(bad) {
+                    continue;
+                }
+                let mut desc = json!({"type": name});
+                if name == "ngan-fit" {
+                    desc["material"] = json!("nickel");
+                }
+                desc[p.name] = json!(bad);
+                let e = match reg.create(&desc, "m") {
+                    Ok(_) => panic!("{desc} accepted"),
+                    Err(e) => e,
+                };
+                assert_eq!(e.path, format!("m.{}", p.name), "{desc}: {e}");
+                assert!(e.message.contains(&p.bounds.describe()), "{desc}: {e}");
+                checked += 1;
+            }
+        }
+        // A string where a number belongs.
+        if let Some(p) = schema.params.iter().find(|p| p.kind == ParamKind::Scalar) {
+            let mut desc = json!({"type": name});
+            desc[p.name] = json!("rough");
+            assert!(reg.create(&desc, "m").unwrap_err().message.contains("\"rough\""));
+        }
+    }
+    assert!(checked > 30, "{checked}");
+}
