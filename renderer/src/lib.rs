@@ -12,6 +12,7 @@
 //! [`film`] writes linear EXR, a tonemapped PNG and a statistics sidecar atomically.
 
 pub mod camera;
+pub mod compare;
 pub mod error;
 pub mod film;
 pub mod geometry;

@@ -284,7 +284,9 @@ fn out_of_range_parameters_are_rejected_with_their_range() {
     let reg = Registry::builtin();
     let mut checked = 0;
     for name in reg.names().collect::<Vec<_>>() {
-        let Some(schema) = reg.schema(name) else { continue };
+        let Some(schema) = reg.schema(name) else {
+            continue;
+        };
         for p in schema.params {
             if !matches!(p.kind, ParamKind::Scalar | ParamKind::Color) {
                 continue;
@@ -311,7 +313,12 @@ fn out_of_range_parameters_are_rejected_with_their_range() {
         if let Some(p) = schema.params.iter().find(|p| p.kind == ParamKind::Scalar) {
             let mut desc = json!({"type": name});
             desc[p.name] = json!("rough");
-            assert!(reg.create(&desc, "m").unwrap_err().message.contains("\"rough\""));
+            assert!(
+                reg.create(&desc, "m")
+                    .unwrap_err()
+                    .message
+                    .contains("\"rough\"")
+            );
         }
     }
     assert!(checked > 30, "{checked}");

@@ -4,6 +4,7 @@
 //! Subcommands: `render` (this step); fit, tabulate, compare, figure, tradeoff and
 //! stability arrive with later steps. Errors are one line on stderr and a non-zero exit.
 
+mod compare;
 mod eval;
 
 use clap::{Parser, Subcommand};
@@ -42,6 +43,11 @@ enum Command {
         after_help = "Direction pairs are theta_i phi_i theta_o phi_o in degrees (wi toward the light, wo toward\nthe viewer, z the normal), one pair per line on stdin, or a --grid. The pdf is the density\nwith which the material samples wi given wo.\n\nExamples:\n  echo '30 0 30 180' | lobe eval --material '{\"type\": \"ward\", \"specular\": 0.1, \"alpha\": 0.2}'\n  lobe eval --ngan green-metallic-paint --model cook-torrance --grid 45,0,0..89..1,180\n  lobe eval --scene scenes/cornell-box.json --name white --grid 0,0,30,0"
     )]
     Eval(eval::EvalArgs),
+    /// Compare a test image with a reference: RMSE, relative MSE, PSNR, SSIM, mean FLIP.
+    #[command(
+        after_help = "Examples:\n  lobe compare out/sphere.exr reference-images/sphere-envmap/mitsuba.exr\n  lobe compare a.exr b.exr --heatmap diff.png --json\n  lobe compare a.exr b.exr --fail-above rmse=0.01 --fail-below ssim=0.98"
+    )]
+    Compare(compare::CompareArgs),
     /// List the material models and their parameters (Markdown, as in docs/models.md).
     #[command(
         after_help = "Examples:\n  lobe models             # every model's parameters, ranges and defaults\n  lobe models --names     # one model name per line"
@@ -77,6 +83,10 @@ struct RenderArgs {
     /// Do not write the PNG.
     #[arg(long)]
     no_png: bool,
+    /// Also write the per-pixel variance of the mean as NAME.var.exr (for `lobe compare
+    /// --z-test` and noise-aware comparisons).
+    #[arg(long)]
+    variance: bool,
     /// Benchmark: render several times without writing anything and report Msamples/s.
     /// Without a scene, renders the built-in benchmark (one diffuse sphere under a
     /// 512x256 environment map, 256x256 pixels, path tracer of depth 8).
@@ -92,6 +102,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => cmd_render(args, cli.quiet),
         Command::Eval(args) => eval::cmd_eval(args),
+        Command::Compare(args) => compare::cmd_compare(args, cli.quiet),
         Command::Models { names } => {
             let reg = lobe_materials::registry::Registry::builtin();
             if names {
@@ -206,6 +217,14 @@ fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
         }
     }
     film::write_exr(&exr_path, img.width, img.height, &img.pixels)?;
+    if args.variance {
+        film::write_exr(
+            &exr_path.with_extension("var.exr"),
+            img.width,
+            img.height,
+            &img.variance,
+        )?;
+    }
     if !args.no_png {
         film::write_png(
             &png_path,

@@ -1,0 +1,322 @@
+//! Image comparison: error metrics between a test image and a reference (RMSE, relative
+//! MSE, PSNR, SSIM, mean FLIP), and the noise-aware per-pixel z-test used to validate
+//! renders against Mitsuba 3 references (the test of Mitsuba's `test_renders.py`: each
+//! pixel's difference divided by the combined standard deviation of the two means, two-sided
+//! normal p-values, and a Sidak correction over all pixels and channels).
+//!
+//! - RMSE = sqrt(mean over pixels and channels of (a - b)^2); PSNR = 20 log10(1 / RMSE)
+//!   (peak 1, OpenImageIO `idiff`'s definition).
+//! - relMSE = mean((a - b)^2 / (b^2 + 0.01)) (Rousselle et al. 2011), b the reference.
+//! - SSIM (Wang et al. 2004) on the luminance of the tonemapped images (image-compare's
+//!   MSSIM), FLIP (Andersson et al. 2020, NVIDIA's implementation through nv-flip) on the
+//!   tonemapped sRGB images: HDR inputs are scaled by 2^exposure, clamped and sRGB-encoded
+//!   first, as `lobe render` does for its PNGs.
+
+use crate::Rgb;
+use crate::error::{Error, Result};
+use crate::film::{Image, tonemap};
+
+/// Metrics of a test image against a reference.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Metrics {
+    pub rmse: f64,
+    pub rel_mse: f64,
+    pub psnr: f64,
+    pub ssim: f64,
+    pub flip: f64,
+}
+
+impl Metrics {
+    pub fn get(&self, name: &str) -> Option<f64> {
+        Some(match name {
+            "rmse" => self.rmse,
+            "relmse" => self.rel_mse,
+            "psnr" => self.psnr,
+            "ssim" => self.ssim,
+            "flip" => self.flip,
+            _ => return None,
+        })
+    }
+    pub const NAMES: &'static [&'static str] = &["rmse", "relmse", "psnr", "ssim", "flip"];
+}
+
+fn same_size(a: &Image, b: &Image) -> Result<()> {
+    if a.width != b.width || a.height != b.height {
+        return Err(Error::Other(format!(
+            "the images differ in size: {}x{} against {}x{}",
+            a.width, a.height, b.width, b.height
+        )));
+    }
+    Ok(())
+}
+
+/// RMSE, relative MSE and PSNR.
+pub fn pixel_errors(test: &Image, reference: &Image) -> Result<(f64, f64, f64)> {
+    same_size(test, reference)?;
+    let (mut se, mut rel) = (0.0f64, 0.0f64);
+    for (a, b) in test.pixels.iter().zip(&reference.pixels) {
+        for (x, y) in a.to_array().into_iter().zip(b.to_array()) {
+            let d = x as f64 - y as f64;
+            se += d * d;
+            rel += d * d / (y as f64 * y as f64 + 0.01);
+        }
+    }
+    let n = (test.pixels.len() * 3).max(1) as f64;
+    let rmse = (se / n).sqrt();
+    let psnr = if rmse > 0.0 {
+        20.0 * (1.0 / rmse).log10()
+    } else {
+        f64::INFINITY
+    };
+    Ok((rmse, rel / n, psnr))
+}
+
+/// All metrics; `exposure` (stops) applies to the tonemapping for SSIM and FLIP.
+pub fn metrics(test: &Image, reference: &Image, exposure: f32) -> Result<(Metrics, Vec<f32>)> {
+    let (rmse, rel_mse, psnr) = pixel_errors(test, reference)?;
+    let (w, h) = (test.width, test.height);
+    let ta = tonemap(&test.pixels, exposure);
+    let tb = tonemap(&reference.pixels, exposure);
+    let gray = |rgb: &[u8]| {
+        let lum: Vec<u8> = rgb
+            .chunks(3)
+            .map(|c| {
+                (0.2126 * c[0] as f32 + 0.7152 * c[1] as f32 + 0.0722 * c[2] as f32)
+                    .round()
+                    .clamp(0.0, 255.0) as u8
+            })
+            .collect();
+        image::GrayImage::from_raw(w, h, lum).expect("sizes match")
+    };
+    let ssim = if w >= 8 && h >= 8 {
+        image_compare::gray_similarity_structure(
+            &image_compare::Algorithm::MSSIMSimple,
+            &gray(&ta),
+            &gray(&tb),
+        )
+        .map_err(|e| Error::Other(format!("SSIM: {e}")))?
+        .score
+    } else {
+        f64::NAN
+    };
+    let err = nv_flip::flip(
+        nv_flip::FlipImageRgb8::with_data(w, h, &tb),
+        nv_flip::FlipImageRgb8::with_data(w, h, &ta),
+        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
+    );
+    let flip = nv_flip::FlipPool::from_image(&err).mean() as f64;
+    Ok((
+        Metrics {
+            rmse,
+            rel_mse,
+            psnr,
+            ssim,
+            flip,
+        },
+        err.to_vec(),
+    ))
+}
+
+/// The FLIP error map as a magma-coloured 8-bit RGB image.
+pub fn flip_heatmap(error: &[f32], width: u32, height: u32) -> Vec<u8> {
+    let img = nv_flip::FlipImageFloat::with_data(width, height, error);
+    img.apply_color_lut(&nv_flip::magma_lut()).to_vec()
+}
+
+/// Outcome of the noise-aware comparison.
+#[derive(Clone, Debug)]
+pub struct ZTest {
+    /// Smallest two-sided p-value over all tests.
+    pub min_p: f64,
+    /// Per-test threshold after the Sidak correction over all tests.
+    pub threshold: f64,
+    /// Tests whose p-value is below the threshold.
+    pub failures: usize,
+    /// Worst test: top-left pixel (x, y) of its block, block size, z-score.
+    pub worst: (u32, u32, u32, f64),
+    /// Number of tests (blocks x channels over all scales).
+    pub tests: usize,
+}
+
+impl ZTest {
+    pub fn passed(&self) -> bool {
+        self.failures == 0
+    }
+}
+
+/// Two-sided normal p-value of a z-score.
+pub fn p_value(z: f64) -> f64 {
+    libm::erfc(z.abs() / std::f64::consts::SQRT_2)
+}
+
+/// Block sizes of the multi-scale test.
+pub const Z_TEST_SCALES: [u32; 4] = [1, 4, 16, 64];
+
+/// Noise-aware comparison of `test` (with the variance of its pixel means) against
+/// `reference` (likewise), at a family-wise false-alarm rate `alpha`.
+///
+/// Mitsuba's `test_renders.py` z-tests every pixel; lobe does the same and, because a
+/// small systematic error (a material 5 % too bright) is invisible to any single noisy
+/// pixel but not to many together, also z-tests the mean difference over blocks of 4x4,
+/// 16x16 and 64x64 pixels (and the whole image when it is smaller): a block's variance is
+/// the sum of its independent pixels' variances over n^2. The p-values of all tests (every
+/// block of every scale, every channel) are Sidak-corrected together. A test whose combined
+/// variance is zero passes when the difference is within `1e-6 (1 + |ref|)`.
+pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
+    same_size(test, reference)?;
+    let (w, h) = (test.width, test.height);
+    let mut scales: Vec<u32> = Z_TEST_SCALES
+        .iter()
+        .copied()
+        .filter(|&s| s <= w.max(h))
+        .collect();
+    if !scales.contains(&w.max(h)) && w.max(h) < 64 {
+        scales.push(w.max(h));
+    }
+    // Per pixel and channel: difference and combined variance.
+    let n = (w * h) as usize;
+    let mut diff = vec![[0.0f64; 3]; n];
+    let mut var = vec![[0.0f64; 3]; n];
+    for k in 0..n {
+        let (a, b) = (test.pixels[k].to_array(), reference.pixels[k].to_array());
+        let (va, vb) = (
+            test.variance[k].to_array(),
+            reference.variance[k].to_array(),
+        );
+        for c in 0..3 {
+            diff[k][c] = a[c] as f64 - b[c] as f64;
+            var[k][c] = va[c] as f64 + vb[c] as f64;
+        }
+    }
+    let mut blocks: Vec<(u32, u32, u32, usize, [f64; 3], [f64; 3], [f64; 3])> = Vec::new();
+    for &s in &scales {
+        for by in (0..h).step_by(s as usize) {
+            for bx in (0..w).step_by(s as usize) {
+                let (mut d, mut v, mut r) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
+                let mut cnt = 0usize;
+                for y in by..(by + s).min(h) {
+                    for x in bx..(bx + s).min(w) {
+                        let k = (y * w + x) as usize;
+                        let rp = reference.pixels[k].to_array();
+                        for c in 0..3 {
+                            d[c] += diff[k][c];
+                            v[c] += var[k][c];
+                            r[c] += rp[c] as f64;
+                        }
+                        cnt += 1;
+                    }
+                }
+                blocks.push((bx, by, s, cnt, d, v, r));
+            }
+        }
+    }
+    let tests = blocks.len() * 3;
+    let threshold = 1.0 - (1.0 - alpha).powf(1.0 / tests.max(1) as f64);
+    let mut out = ZTest {
+        min_p: 1.0,
+        threshold,
+        failures: 0,
+        worst: (0, 0, 1, 0.0),
+        tests,
+    };
+    for (bx, by, s, cnt, d, v, r) in blocks {
+        let cnt = cnt as f64;
+        for c in 0..3 {
+            let (dm, vm, rm) = (d[c] / cnt, v[c] / (cnt * cnt), r[c] / cnt);
+            let (p, z) = if vm > 0.0 {
+                let z = dm / vm.sqrt();
+                (p_value(z), z)
+            } else if dm.abs() <= 1e-6 * (1.0 + rm.abs()) {
+                (1.0, 0.0)
+            } else {
+                (0.0, f64::INFINITY)
+            };
+            if p < out.min_p {
+                out.min_p = p;
+                out.worst = (bx, by, s, z);
+            }
+            if p < threshold {
+                out.failures += 1;
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Mean and variance of the mean, per pixel, of several independent renders.
+pub fn mean_and_variance(renders: &[Image]) -> Result<Image> {
+    let first = renders
+        .first()
+        .ok_or_else(|| Error::Other("no images to combine".into()))?;
+    for r in renders {
+        same_size(r, first)?;
+    }
+    let k = renders.len() as f64;
+    let mut out = Image::new(first.width, first.height);
+    for i in 0..first.pixels.len() {
+        let mut m = [0.0f64; 3];
+        let mut s2 = [0.0f64; 3];
+        for r in renders {
+            for (c, v) in r.pixels[i].to_array().into_iter().enumerate() {
+                m[c] += v as f64;
+                s2[c] += v as f64 * v as f64;
+            }
+        }
+        let mean: [f64; 3] = m.map(|x| x / k);
+        let var: [f64; 3] = std::array::from_fn(|c| {
+            if k > 1.0 {
+                ((s2[c] - m[c] * mean[c]) / (k - 1.0)).max(0.0) / k
+            } else {
+                0.0
+            }
+        });
+        out.pixels[i] = Rgb::new(mean[0] as f32, mean[1] as f32, mean[2] as f32);
+        out.variance[i] = Rgb::new(var[0] as f32, var[1] as f32, var[2] as f32);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn img(v: f32, var: f32) -> Image {
+        let mut i = Image::new(16, 16);
+        i.pixels.iter_mut().for_each(|p| *p = Rgb::splat(v));
+        i.variance.iter_mut().for_each(|p| *p = Rgb::splat(var));
+        i
+    }
+
+    #[test]
+    fn metrics_of_known_differences() {
+        let (rmse, rel, psnr) = pixel_errors(&img(0.6, 0.0), &img(0.5, 0.0)).unwrap();
+        assert!((rmse - 0.1).abs() < 1e-6);
+        assert!((psnr - 20.0).abs() < 1e-4);
+        assert!((rel - 0.01 / 0.26).abs() < 1e-6);
+        let (m, _) = metrics(&img(0.5, 0.0), &img(0.5, 0.0), 0.0).unwrap();
+        assert_eq!(m.rmse, 0.0);
+        assert!((m.ssim - 1.0).abs() < 1e-9 && m.flip == 0.0);
+    }
+
+    #[test]
+    fn z_test_tells_noise_from_bias() {
+        // A difference of 3 sigma on one pixel out of 768 is noise at alpha = 1 %;
+        // 10 sigma is not.
+        let reference = img(0.5, 1e-4);
+        let mut test = img(0.5, 1e-4);
+        let sigma = (2e-4f32).sqrt();
+        test.pixels[5] = Rgb::splat(0.5 + 3.0 * sigma);
+        assert!(z_test(&test, &reference, 0.01).unwrap().passed());
+        test.pixels[5] = Rgb::splat(0.5 + 10.0 * sigma);
+        let r = z_test(&test, &reference, 0.01).unwrap();
+        assert!(!r.passed() && r.worst.0 == 5 && r.worst.1 == 0 && r.worst.2 == 1);
+        // A 0.5 sigma bias on every pixel is invisible per pixel but not in blocks.
+        let mut biased = img(0.5, 1e-4);
+        biased
+            .pixels
+            .iter_mut()
+            .for_each(|p| *p = Rgb::splat(0.5 + 0.5 * sigma));
+        let r = z_test(&biased, &reference, 0.01).unwrap();
+        assert!(!r.passed() && r.worst.2 > 1, "{r:?}");
+    }
+}

@@ -1,0 +1,179 @@
+//! `lobe compare TEST.exr REFERENCE.exr`: RMSE, relative MSE, PSNR, SSIM and mean FLIP of a
+//! test image against a reference, a FLIP heat map, thresholds for scripts, JSON output.
+
+use lobe_renderer::Error;
+use lobe_renderer::compare::{flip_heatmap, metrics, z_test};
+use lobe_renderer::film::{read_exr, write_png_rgb8};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct CompareArgs {
+    /// The image under test (EXR or HDR).
+    test: PathBuf,
+    /// The reference image (EXR or HDR).
+    reference: PathBuf,
+    /// Exposure in stops applied before tonemapping for SSIM and FLIP.
+    #[arg(long, default_value_t = 0.0)]
+    exposure: f32,
+    /// Write the FLIP error map as a colour PNG.
+    #[arg(long)]
+    heatmap: Option<PathBuf>,
+    /// Print the metrics as JSON.
+    #[arg(long)]
+    json: bool,
+    /// Exit with failure when an error metric exceeds a value: NAME=VALUE with NAME one of
+    /// rmse, relmse, flip (repeatable).
+    #[arg(long, value_name = "NAME=VALUE")]
+    fail_above: Vec<String>,
+    /// Exit with failure when a similarity metric is below a value: psnr=VALUE or
+    /// ssim=VALUE (repeatable).
+    #[arg(long, value_name = "NAME=VALUE")]
+    fail_below: Vec<String>,
+    /// Noise-aware test: read each image's variance of the mean from NAME.var.exr next to
+    /// it, z-test every pixel and channel, and fail if any is significant at this
+    /// family-wise false-alarm rate (Sidak-corrected), e.g. 0.01.
+    #[arg(long, value_name = "ALPHA")]
+    z_test: Option<f64>,
+}
+
+fn threshold(spec: &str, flag: &str, allowed: &[&str]) -> Result<(String, f64), Error> {
+    let bad = || {
+        Error::Other(format!(
+            "--{flag} {spec}: expected NAME=VALUE with NAME one of {}",
+            allowed.join(", ")
+        ))
+    };
+    let (name, value) = spec.split_once('=').ok_or_else(bad)?;
+    let name = name.trim().to_ascii_lowercase();
+    if !allowed.contains(&name.as_str()) {
+        return Err(bad());
+    }
+    let v: f64 = value.trim().parse().map_err(|_| bad())?;
+    if !v.is_finite() {
+        return Err(bad());
+    }
+    Ok((name, v))
+}
+
+fn load(path: &PathBuf) -> Result<lobe_renderer::film::Image, Error> {
+    if !path.exists() {
+        return Err(Error::file(
+            path.display(),
+            "does not exist; expected an EXR or HDR image",
+        ));
+    }
+    read_exr(path)
+}
+
+pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
+    let above: Vec<_> = args
+        .fail_above
+        .iter()
+        .map(|s| threshold(s, "fail-above", &["rmse", "relmse", "flip"]))
+        .collect::<Result<_, _>>()?;
+    let below: Vec<_> = args
+        .fail_below
+        .iter()
+        .map(|s| threshold(s, "fail-below", &["psnr", "ssim"]))
+        .collect::<Result<_, _>>()?;
+    let test = load(&args.test)?;
+    let reference = load(&args.reference)?;
+    let (m, err) = metrics(&test, &reference, args.exposure)?;
+    let z = match args.z_test {
+        None => None,
+        Some(alpha) => {
+            if !(alpha > 0.0 && alpha < 1.0) {
+                return Err(Error::Other(format!(
+                    "--z-test: expected a false-alarm rate in (0, 1), found {alpha}"
+                )));
+            }
+            let mut t = test.clone();
+            let mut r = reference.clone();
+            t.variance = load(&args.test.with_extension("var.exr"))?.pixels;
+            r.variance = load(&args.reference.with_extension("var.exr"))?.pixels;
+            Some(z_test(&t, &r, alpha)?)
+        }
+    };
+    if let Some(h) = &args.heatmap {
+        write_png_rgb8(
+            h,
+            test.width,
+            test.height,
+            &flip_heatmap(&err, test.width, test.height),
+        )?;
+    }
+    if args.json {
+        let v = serde_json::json!({
+            "test": args.test.display().to_string(),
+            "reference": args.reference.display().to_string(),
+            "width": test.width, "height": test.height, "exposure": args.exposure,
+            "rmse": m.rmse, "relmse": m.rel_mse, "psnr": m.psnr, "ssim": m.ssim, "flip": m.flip,
+            "z_test": z.as_ref().map(|z| serde_json::json!({
+                "min_p": z.min_p, "threshold": z.threshold, "failures": z.failures,
+                "tests": z.tests, "worst_block": [z.worst.0, z.worst.1], "worst_block_size": z.worst.2, "worst_z": z.worst.3,
+            })),
+        });
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&v).expect("serializable")
+        );
+    } else if !quiet {
+        println!(
+            "RMSE    {:.6e}\nrelMSE  {:.6e}\nPSNR    {:.3} dB\nSSIM    {:.5}\nFLIP    {:.5}",
+            m.rmse, m.rel_mse, m.psnr, m.ssim, m.flip
+        );
+        if let Some(z) = &z {
+            println!(
+                "z-test  min p {:.3e} (threshold {:.3e} over {} tests), {} significant, worst z {:.2} for the {}x{} block at ({}, {})",
+                z.min_p,
+                z.threshold,
+                z.tests,
+                z.failures,
+                z.worst.3,
+                z.worst.2,
+                z.worst.2,
+                z.worst.0,
+                z.worst.1
+            );
+        }
+    }
+    if let Some(z) = &z
+        && !z.passed()
+    {
+        return Err(Error::Other(format!(
+            "{} against {}: z-test fails: {} of {} tests significant, worst z {:.2} for the {}x{} block at ({}, {})",
+            args.test.display(),
+            args.reference.display(),
+            z.failures,
+            z.tests,
+            z.worst.3,
+            z.worst.2,
+            z.worst.2,
+            z.worst.0,
+            z.worst.1
+        )));
+    }
+    let mut failed = Vec::new();
+    for (name, v) in &above {
+        let got = m.get(name).expect("known");
+        if got > *v {
+            failed.push(format!("{name} {got:.6e} > {v}"));
+        }
+    }
+    for (name, v) in &below {
+        let got = m.get(name).expect("known");
+        if !(got >= *v) {
+            failed.push(format!("{name} {got:.6e} < {v}"));
+        }
+    }
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Other(format!(
+            "{} against {}: {}",
+            args.test.display(),
+            args.reference.display(),
+            failed.join(", ")
+        )))
+    }
+}
