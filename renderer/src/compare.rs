@@ -4,8 +4,9 @@
 //! pixel's difference divided by the combined standard deviation of the two means, two-sided
 //! normal p-values, and a Sidak correction over all pixels and channels).
 //!
-//! - RMSE = sqrt(mean over pixels and channels of (a - b)^2); PSNR = 20 log10(1 / RMSE)
-//!   (peak 1, OpenImageIO `idiff`'s definition).
+//! - RMSE = sqrt(mean over pixels and channels of (a - b)^2); PSNR = 20 log10(peak / RMSE)
+//!   with peak the largest channel value of either image, at least 1 (OpenImageIO
+//!   `idiff`'s definition, so that the two tools agree).
 //! - relMSE = mean((a - b)^2 / (b^2 + 0.01)) (Rousselle et al. 2011), b the reference.
 //! - SSIM (Wang et al. 2004) on the luminance of the tonemapped images (image-compare's
 //!   MSSIM), FLIP (Andersson et al. 2020, NVIDIA's implementation through nv-flip) on the
@@ -53,18 +54,19 @@ fn same_size(a: &Image, b: &Image) -> Result<()> {
 /// RMSE, relative MSE and PSNR.
 pub fn pixel_errors(test: &Image, reference: &Image) -> Result<(f64, f64, f64)> {
     same_size(test, reference)?;
-    let (mut se, mut rel) = (0.0f64, 0.0f64);
+    let (mut se, mut rel, mut peak) = (0.0f64, 0.0f64, 1.0f64);
     for (a, b) in test.pixels.iter().zip(&reference.pixels) {
         for (x, y) in a.to_array().into_iter().zip(b.to_array()) {
             let d = x as f64 - y as f64;
             se += d * d;
             rel += d * d / (y as f64 * y as f64 + 0.01);
+            peak = peak.max(x as f64).max(y as f64);
         }
     }
     let n = (test.pixels.len() * 3).max(1) as f64;
     let rmse = (se / n).sqrt();
     let psnr = if rmse > 0.0 {
-        20.0 * (1.0 / rmse).log10()
+        20.0 * (peak / rmse).log10()
     } else {
         f64::INFINITY
     };
@@ -149,6 +151,16 @@ pub fn p_value(z: f64) -> f64 {
     libm::erfc(z.abs() / std::f64::consts::SQRT_2)
 }
 
+/// Two-sided p-value of a t statistic with `dof` degrees of freedom (normal beyond 1e6):
+/// I_{dof / (dof + t^2)}(dof / 2, 1 / 2).
+pub fn p_value_t(t: f64, dof: f64) -> f64 {
+    if !(dof < 1e6) {
+        return p_value(t);
+    }
+    let x = dof / (dof + t * t);
+    statrs::function::beta::beta_reg(dof / 2.0, 0.5, x)
+}
+
 /// Block sizes of the multi-scale test.
 pub const Z_TEST_SCALES: [u32; 4] = [1, 4, 16, 64];
 
@@ -159,40 +171,48 @@ pub const Z_TEST_SCALES: [u32; 4] = [1, 4, 16, 64];
 /// small systematic error (a material 5 % too bright) is invisible to any single noisy
 /// pixel but not to many together, also z-tests the mean difference over blocks of 4x4,
 /// 16x16 and 64x64 pixels (and the whole image when it is smaller): a block's variance is
-/// the sum of its independent pixels' variances over n^2. The p-values of all tests (every
-/// block of every scale, every channel) are Sidak-corrected together. A test whose combined
-/// variance is zero passes when the difference is within `1e-6 (1 + |ref|)`.
+/// the sum of its independent pixels' variances over n^2. Because the variances are
+/// themselves estimates (from `variance_dof` degrees of freedom each: a reference made of
+/// 16 runs has only 15), each statistic is referred to Student's t with the
+/// Welch-Satterthwaite degrees of freedom, (sum v)^2 / sum(v_i^2 / dof_i), not to the
+/// normal: heavy-tailed glossy pixels would otherwise raise false alarms. The p-values of
+/// all tests (every block of every scale, every channel) are Sidak-corrected together. A
+/// test whose combined variance is zero passes when the difference is within
+/// `1e-6 (1 + |ref|)`.
 pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
     same_size(test, reference)?;
     let (w, h) = (test.width, test.height);
-    let mut scales: Vec<u32> = Z_TEST_SCALES
-        .iter()
-        .copied()
-        .filter(|&s| s <= w.max(h))
-        .collect();
+    let mut scales: Vec<u32> = Z_TEST_SCALES.iter().copied().filter(|&s| s <= w.max(h)).collect();
     if !scales.contains(&w.max(h)) && w.max(h) < 64 {
         scales.push(w.max(h));
     }
-    // Per pixel and channel: difference and combined variance.
+    // Per pixel and channel: difference, combined variance, and v^2 / dof for the
+    // Welch-Satterthwaite degrees of freedom.
     let n = (w * h) as usize;
+    let (dof_t, dof_r) = (test.variance_dof.max(1.0), reference.variance_dof.max(1.0));
     let mut diff = vec![[0.0f64; 3]; n];
     let mut var = vec![[0.0f64; 3]; n];
+    let mut v2dof = vec![[0.0f64; 3]; n];
     for k in 0..n {
         let (a, b) = (test.pixels[k].to_array(), reference.pixels[k].to_array());
-        let (va, vb) = (
-            test.variance[k].to_array(),
-            reference.variance[k].to_array(),
-        );
+        let (va, vb) = (test.variance[k].to_array(), reference.variance[k].to_array());
         for c in 0..3 {
+            let (va, vb) = (va[c] as f64, vb[c] as f64);
             diff[k][c] = a[c] as f64 - b[c] as f64;
-            var[k][c] = va[c] as f64 + vb[c] as f64;
+            var[k][c] = va + vb;
+            v2dof[k][c] = va * va / dof_t + vb * vb / dof_r;
         }
     }
-    let mut blocks: Vec<(u32, u32, u32, usize, [f64; 3], [f64; 3], [f64; 3])> = Vec::new();
+    let mut tests = 0usize;
+    for &s in &scales {
+        tests += (w.div_ceil(s) * h.div_ceil(s) * 3) as usize;
+    }
+    let threshold = 1.0 - (1.0 - alpha).powf(1.0 / tests.max(1) as f64);
+    let mut out = ZTest { min_p: 1.0, threshold, failures: 0, worst: (0, 0, 1, 0.0), tests };
     for &s in &scales {
         for by in (0..h).step_by(s as usize) {
             for bx in (0..w).step_by(s as usize) {
-                let (mut d, mut v, mut r) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
+                let (mut d, mut v, mut r, mut q) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
                 let mut cnt = 0usize;
                 for y in by..(by + s).min(h) {
                     for x in bx..(bx + s).min(w) {
@@ -201,42 +221,32 @@ pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
                         for c in 0..3 {
                             d[c] += diff[k][c];
                             v[c] += var[k][c];
+                            q[c] += v2dof[k][c];
                             r[c] += rp[c] as f64;
                         }
                         cnt += 1;
                     }
                 }
-                blocks.push((bx, by, s, cnt, d, v, r));
-            }
-        }
-    }
-    let tests = blocks.len() * 3;
-    let threshold = 1.0 - (1.0 - alpha).powf(1.0 / tests.max(1) as f64);
-    let mut out = ZTest {
-        min_p: 1.0,
-        threshold,
-        failures: 0,
-        worst: (0, 0, 1, 0.0),
-        tests,
-    };
-    for (bx, by, s, cnt, d, v, r) in blocks {
-        let cnt = cnt as f64;
-        for c in 0..3 {
-            let (dm, vm, rm) = (d[c] / cnt, v[c] / (cnt * cnt), r[c] / cnt);
-            let (p, z) = if vm > 0.0 {
-                let z = dm / vm.sqrt();
-                (p_value(z), z)
-            } else if dm.abs() <= 1e-6 * (1.0 + rm.abs()) {
-                (1.0, 0.0)
-            } else {
-                (0.0, f64::INFINITY)
-            };
-            if p < out.min_p {
-                out.min_p = p;
-                out.worst = (bx, by, s, z);
-            }
-            if p < threshold {
-                out.failures += 1;
+                let cnt = cnt as f64;
+                for c in 0..3 {
+                    let (dm, vm, rm) = (d[c] / cnt, v[c] / (cnt * cnt), r[c] / cnt);
+                    let (p, z) = if vm > 0.0 {
+                        let z = dm / vm.sqrt();
+                        let dof = if q[c] > 0.0 { v[c] * v[c] / q[c] } else { f64::INFINITY };
+                        (p_value_t(z, dof), z)
+                    } else if dm.abs() <= 1e-6 * (1.0 + rm.abs()) {
+                        (1.0, 0.0)
+                    } else {
+                        (0.0, f64::INFINITY)
+                    };
+                    if p < out.min_p {
+                        out.min_p = p;
+                        out.worst = (bx, by, s, z);
+                    }
+                    if p < threshold {
+                        out.failures += 1;
+                    }
+                }
             }
         }
     }
@@ -284,6 +294,7 @@ mod tests {
         let mut i = Image::new(16, 16);
         i.pixels.iter_mut().for_each(|p| *p = Rgb::splat(v));
         i.variance.iter_mut().for_each(|p| *p = Rgb::splat(var));
+        i.variance_dof = 1000.0;
         i
     }
 

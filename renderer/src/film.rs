@@ -17,6 +17,9 @@ pub struct Image {
     pub pixels: Vec<Rgb>,
     /// Sample variance of each pixel's mean (per channel), for noise-aware comparisons.
     pub variance: Vec<Rgb>,
+    /// Degrees of freedom of those variance estimates (samples - 1 for a render,
+    /// runs - 1 for a mean of independent runs; infinity when exact or unknown).
+    pub variance_dof: f64,
 }
 
 impl Image {
@@ -27,6 +30,7 @@ impl Image {
             height,
             pixels: vec![Rgb::ZERO; n],
             variance: vec![Rgb::ZERO; n],
+            variance_dof: f64::INFINITY,
         }
     }
 

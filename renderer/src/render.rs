@@ -209,6 +209,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
         ));
     }
     let mut img = Image::new(scene.width, scene.height);
+    img.variance_dof = (scene.spp.max(2) - 1) as f64;
     let mut dropped = 0;
     for t in results.into_iter().flatten() {
         dropped += t.dropped;

@@ -34,6 +34,13 @@ pub struct CompareArgs {
     /// family-wise false-alarm rate (Sidak-corrected), e.g. 0.01.
     #[arg(long, value_name = "ALPHA")]
     z_test: Option<f64>,
+    /// Degrees of freedom of the test image's variances (its spp - 1; default: normal).
+    #[arg(long)]
+    test_dof: Option<f64>,
+    /// Degrees of freedom of the reference's variances (e.g. runs - 1 of a Mitsuba
+    /// reference; default: normal).
+    #[arg(long)]
+    reference_dof: Option<f64>,
 }
 
 fn threshold(spec: &str, flag: &str, allowed: &[&str]) -> Result<(String, f64), Error> {
@@ -91,6 +98,8 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             let mut r = reference.clone();
             t.variance = load(&args.test.with_extension("var.exr"))?.pixels;
             r.variance = load(&args.reference.with_extension("var.exr"))?.pixels;
+            t.variance_dof = args.test_dof.unwrap_or(f64::INFINITY);
+            r.variance_dof = args.reference_dof.unwrap_or(f64::INFINITY);
             Some(z_test(&t, &r, alpha)?)
         }
     };

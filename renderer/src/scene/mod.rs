@@ -620,7 +620,7 @@ fn parse_camera(file: &str, v: &Value, width: u32, height: u32) -> Result<Camera
                 ],
             )?;
             let scale = o.f32_or("scale", 1.0, "a positive half-width", positive)?;
-            let near = o.f32_or("near_clip", 0.0, "a non-negative distance", non_negative)?;
+            let near = o.f32_or("near_clip", 0.01, "a non-negative distance", non_negative)?;
             Ok(Camera::Orthographic {
                 to_world: camera_frame(&o, file)?,
                 scale,

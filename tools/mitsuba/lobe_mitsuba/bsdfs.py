@@ -48,7 +48,7 @@ def _gaussian_norm(m):
     t = np.linspace(0.0, min(math.pi / 2, 12 * m), 20001)
     f = np.exp(-(t / m) ** 2) * np.cos(t) * np.sin(t)
     integral = np.sum((f[1:] + f[:-1]) * 0.5 * (t[1] - t[0]))
-    return 1.0 / (2 * math.pi * integral)
+    return float(1.0 / (2 * math.pi * integral))
 
 
 class Lobe:

@@ -158,7 +158,8 @@ class Converter:
             return {"type": "perspective", "fov": float(c.get("fov", 39.3077)), "fov_axis": c.get("fov_axis", "x"),
                     "near_clip": float(c.get("near_clip", 0.01)), "to_world": M, "film": film, "sampler": sampler}
         s = float(c.get("scale", 1.0))
-        return {"type": "orthographic", "near_clip": float(c.get("near_clip", 0.0)),
+        # Mitsuba requires near_clip > 0; lobe's orthographic default is 0.01 like Mitsuba's.
+        return {"type": "orthographic", "near_clip": max(float(c.get("near_clip", 0.01)), 1e-6),
                 "to_world": M @ mi.ScalarTransform4f().scale([s, s, 1.0]), "film": film, "sampler": sampler}
 
     def integrator(self):
