@@ -182,7 +182,11 @@ pub const Z_TEST_SCALES: [u32; 4] = [1, 4, 16, 64];
 pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
     same_size(test, reference)?;
     let (w, h) = (test.width, test.height);
-    let mut scales: Vec<u32> = Z_TEST_SCALES.iter().copied().filter(|&s| s <= w.max(h)).collect();
+    let mut scales: Vec<u32> = Z_TEST_SCALES
+        .iter()
+        .copied()
+        .filter(|&s| s <= w.max(h))
+        .collect();
     if !scales.contains(&w.max(h)) && w.max(h) < 64 {
         scales.push(w.max(h));
     }
@@ -195,7 +199,10 @@ pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
     let mut v2dof = vec![[0.0f64; 3]; n];
     for k in 0..n {
         let (a, b) = (test.pixels[k].to_array(), reference.pixels[k].to_array());
-        let (va, vb) = (test.variance[k].to_array(), reference.variance[k].to_array());
+        let (va, vb) = (
+            test.variance[k].to_array(),
+            reference.variance[k].to_array(),
+        );
         for c in 0..3 {
             let (va, vb) = (va[c] as f64, vb[c] as f64);
             diff[k][c] = a[c] as f64 - b[c] as f64;
@@ -208,11 +215,18 @@ pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
         tests += (w.div_ceil(s) * h.div_ceil(s) * 3) as usize;
     }
     let threshold = 1.0 - (1.0 - alpha).powf(1.0 / tests.max(1) as f64);
-    let mut out = ZTest { min_p: 1.0, threshold, failures: 0, worst: (0, 0, 1, 0.0), tests };
+    let mut out = ZTest {
+        min_p: 1.0,
+        threshold,
+        failures: 0,
+        worst: (0, 0, 1, 0.0),
+        tests,
+    };
     for &s in &scales {
         for by in (0..h).step_by(s as usize) {
             for bx in (0..w).step_by(s as usize) {
-                let (mut d, mut v, mut r, mut q) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
+                let (mut d, mut v, mut r, mut q) =
+                    ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
                 let mut cnt = 0usize;
                 for y in by..(by + s).min(h) {
                     for x in bx..(bx + s).min(w) {
@@ -232,7 +246,11 @@ pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
                     let (dm, vm, rm) = (d[c] / cnt, v[c] / (cnt * cnt), r[c] / cnt);
                     let (p, z) = if vm > 0.0 {
                         let z = dm / vm.sqrt();
-                        let dof = if q[c] > 0.0 { v[c] * v[c] / q[c] } else { f64::INFINITY };
+                        let dof = if q[c] > 0.0 {
+                            v[c] * v[c] / q[c]
+                        } else {
+                            f64::INFINITY
+                        };
                         (p_value_t(z, dof), z)
                     } else if dm.abs() <= 1e-6 * (1.0 + rm.abs()) {
                         (1.0, 0.0)

@@ -20,14 +20,21 @@ const ALPHA: f64 = 0.01;
 
 fn manifest() -> Vec<(String, Value)> {
     let path = lobe_tests::workspace().join("reference-images/manifest.json");
-    let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).expect("manifest")).expect("manifest JSON");
-    v.as_object().expect("object").iter().map(|(k, e)| (k.clone(), e.clone())).collect()
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).expect("manifest"))
+        .expect("manifest JSON");
+    v.as_object()
+        .expect("object")
+        .iter()
+        .map(|(k, e)| (k.clone(), e.clone()))
+        .collect()
 }
 
 fn reference(entry: &Value) -> Image {
     let root = lobe_tests::workspace();
     let mut img = read_exr(&root.join(entry["image"].as_str().unwrap())).unwrap();
-    img.variance = read_exr(&root.join(entry["variance"].as_str().unwrap())).unwrap().pixels;
+    img.variance = read_exr(&root.join(entry["variance"].as_str().unwrap()))
+        .unwrap()
+        .pixels;
     img.variance_dof = (entry["runs"].as_u64().unwrap().max(2) - 1) as f64;
     img
 }
@@ -38,19 +45,39 @@ fn brighten(v: &mut Value, k: f64, base: &Path) {
     match v {
         Value::Object(m) => {
             if m.get("type").and_then(Value::as_str) == Some("ngan-fit") {
-                let model = m.get("model").and_then(Value::as_str).unwrap_or("cook-torrance").to_string();
+                let model = m
+                    .get("model")
+                    .and_then(Value::as_str)
+                    .unwrap_or("cook-torrance")
+                    .to_string();
                 let dir = lobe_materials::ngan_fit::locate_fits("", base).expect("fits");
-                let file = lobe_materials::ngan_fit::MODELS.iter().find(|(n, _, _)| *n == model).unwrap().1;
+                let file = lobe_materials::ngan_fit::MODELS
+                    .iter()
+                    .find(|(n, _, _)| *n == model)
+                    .unwrap()
+                    .1;
                 let fits = lobe_materials::ngan_fit::read_fits(&dir.join(file)).unwrap();
-                let fit = fits.iter().find(|f| Some(f.material.as_str()) == m.get("material").and_then(Value::as_str)).unwrap();
-                *v = lobe_materials::ngan_fit::description(fit, &model, lobe_materials::ngan_fit::MERL_CHANNEL_SCALE).unwrap();
+                let fit = fits
+                    .iter()
+                    .find(|f| {
+                        Some(f.material.as_str()) == m.get("material").and_then(Value::as_str)
+                    })
+                    .unwrap();
+                *v = lobe_materials::ngan_fit::description(
+                    fit,
+                    &model,
+                    lobe_materials::ngan_fit::MERL_CHANNEL_SCALE,
+                )
+                .unwrap();
                 return brighten(v, k, base);
             }
             for (key, val) in m.iter_mut() {
                 if ["reflectance", "diffuse", "specular"].contains(&key.as_str()) {
                     match val {
                         Value::Number(n) => *val = serde_json::json!(n.as_f64().unwrap() * k),
-                        Value::Array(a) => a.iter_mut().for_each(|x| *x = serde_json::json!(x.as_f64().unwrap() * k)),
+                        Value::Array(a) => a
+                            .iter_mut()
+                            .for_each(|x| *x = serde_json::json!(x.as_f64().unwrap() * k)),
                         _ => {}
                     }
                 } else {
@@ -64,7 +91,8 @@ fn brighten(v: &mut Value, k: f64, base: &Path) {
 }
 
 fn render_lobe(desc: &Value, file: &str, base: &Path, spp: u32) -> Image {
-    let mut scene = from_value(desc, file, base, &LoadOptions::with_builtins()).unwrap_or_else(|e| panic!("{e}"));
+    let mut scene = from_value(desc, file, base, &LoadOptions::with_builtins())
+        .unwrap_or_else(|e| panic!("{e}"));
     scene.spp = spp;
     let (img, stats) = render(&scene, &RenderOptions::default()).unwrap();
     assert_eq!(stats.nonfinite_dropped, 0, "{file}: non-finite samples");
@@ -89,7 +117,9 @@ fn lobe_matches_every_mitsuba_reference_and_sees_wrong_materials() {
         );
         let text = String::from_utf8(bytes).unwrap();
         if text.contains("\"ngan-fit\"") && lobe_tests::shared_data().is_none() {
-            eprintln!("SKIPPED {name}: it uses the Ngan et al. fits of ../shared/data, which is absent");
+            eprintln!(
+                "SKIPPED {name}: it uses the Ngan et al. fits of ../shared/data, which is absent"
+            );
             continue;
         }
         let desc: Value = serde_json::from_str(&text).unwrap();
@@ -103,7 +133,10 @@ fn lobe_matches_every_mitsuba_reference_and_sees_wrong_materials() {
             z.min_p, z.threshold, z.worst.3, z.worst.2, z.worst.2, z.worst.0, z.worst.1
         );
         if !z.passed() {
-            failures.push(format!("{name}: {} significant tests, worst z {:.2} for the {}x{} block at ({}, {})", z.failures, z.worst.3, z.worst.2, z.worst.2, z.worst.0, z.worst.1));
+            failures.push(format!(
+                "{name}: {} significant tests, worst z {:.2} for the {}x{} block at ({}, {})",
+                z.failures, z.worst.3, z.worst.2, z.worst.2, z.worst.0, z.worst.1
+            ));
         }
         let mut wrong = desc.clone();
         brighten(&mut wrong, 1.05, base);
@@ -111,7 +144,10 @@ fn lobe_matches_every_mitsuba_reference_and_sees_wrong_materials() {
         let zb = z_test(&bad, &reference, ALPHA).unwrap();
         eprintln!("{name} with colours x1.05: worst z {:.2}", zb.worst.3);
         if zb.passed() {
-            failures.push(format!("{name}: colours 5 % too bright were NOT detected (worst z {:.2})", zb.worst.3));
+            failures.push(format!(
+                "{name}: colours 5 % too bright were NOT detected (worst z {:.2})",
+                zb.worst.3
+            ));
         }
         compared += 1;
     }

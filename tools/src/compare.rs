@@ -62,7 +62,7 @@ fn threshold(spec: &str, flag: &str, allowed: &[&str]) -> Result<(String, f64), 
     Ok((name, v))
 }
 
-fn load(path: &PathBuf) -> Result<lobe_renderer::film::Image, Error> {
+fn load(path: &std::path::Path) -> Result<lobe_renderer::film::Image, Error> {
     if !path.exists() {
         return Err(Error::file(
             path.display(),

@@ -212,9 +212,13 @@ fn eval_prints_csv_for_stdin_pairs_and_grids() {
 
 #[test]
 fn compare_agrees_with_openimageio_idiff() {
-    let idiff = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("mitsuba/.venv/bin/idiff");
+    let idiff =
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("mitsuba/.venv/bin/idiff");
     if !idiff.exists() {
-        eprintln!("SKIPPED: {} is absent (run tools/mitsuba/setup.sh to create the venv)", idiff.display());
+        eprintln!(
+            "SKIPPED: {} is absent (run tools/mitsuba/setup.sh to create the venv)",
+            idiff.display()
+        );
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -222,18 +226,51 @@ fn compare_agrees_with_openimageio_idiff() {
     std::fs::write(&scene, SCENE).unwrap();
     let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
     for (out, seed) in [(&a, "1"), (&b, "2")] {
-        let o = lobe().args(["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--seed", seed, "-q"]).output().unwrap();
+        let o = lobe()
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "--seed",
+                seed,
+                "-q",
+            ])
+            .output()
+            .unwrap();
         assert!(o.status.success());
     }
-    let o = lobe().args(["compare", a.to_str().unwrap(), b.to_str().unwrap(), "--json"]).output().unwrap();
+    let o = lobe()
+        .args([
+            "compare",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap();
     let ours: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let o = Command::new(&idiff).args(["-a", a.to_str().unwrap(), b.to_str().unwrap()]).output().unwrap();
+    let o = Command::new(&idiff)
+        .args(["-a", a.to_str().unwrap(), b.to_str().unwrap()])
+        .output()
+        .unwrap();
     let text = String::from_utf8_lossy(&o.stdout);
     let field = |name: &str| -> f64 {
-        let line = text.lines().find(|l| l.contains(name)).unwrap_or_else(|| panic!("idiff printed no {name}: {text}"));
+        let line = text
+            .lines()
+            .find(|l| l.contains(name))
+            .unwrap_or_else(|| panic!("idiff printed no {name}: {text}"));
         line.split('=').nth(1).unwrap().trim().parse().unwrap()
     };
     let (rmse, psnr) = (field("RMS error"), field("Peak SNR"));
-    assert!((ours["rmse"].as_f64().unwrap() - rmse).abs() <= 1e-5 * rmse.max(1e-12), "RMSE {} vs idiff {rmse}", ours["rmse"]);
-    assert!((ours["psnr"].as_f64().unwrap() - psnr).abs() <= 1e-3, "PSNR {} vs idiff {psnr}", ours["psnr"]);
+    assert!(
+        (ours["rmse"].as_f64().unwrap() - rmse).abs() <= 1e-5 * rmse.max(1e-12),
+        "RMSE {} vs idiff {rmse}",
+        ours["rmse"]
+    );
+    assert!(
+        (ours["psnr"].as_f64().unwrap() - psnr).abs() <= 1e-3,
+        "PSNR {} vs idiff {psnr}",
+        ours["psnr"]
+    );
 }
