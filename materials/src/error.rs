@@ -21,3 +21,21 @@ impl ParamError {
         }
     }
 }
+
+/// A file that cannot be read, parsed or written: the file and what went wrong, including
+/// what was expected and what was found.
+#[derive(Debug, Clone, Error, PartialEq)]
+#[error("{file}: {message}")]
+pub struct FileError {
+    pub file: String,
+    pub message: String,
+}
+
+impl FileError {
+    pub fn new(file: impl std::fmt::Display, message: impl Into<String>) -> Self {
+        Self {
+            file: file.to_string(),
+            message: message.into(),
+        }
+    }
+}

@@ -73,9 +73,74 @@ pub fn spherical_angles(w: Vec3) -> (f32, f32) {
     (theta, phi)
 }
 
+/// Rusinkiewicz's half/difference angles ("A New Change of Variables for Efficient BRDF
+/// Representation", 1998) of a direction pair: (theta_h, phi_h, theta_d, phi_d), with
+/// h = normalize(wi + wo) and d the direction `wi` expressed in the frame of `h` (rotated
+/// by -phi_h about the normal, then by -theta_h about the bitangent), as MERL's tables use.
+pub fn half_diff(wi: Vec3, wo: Vec3) -> (f64, f64, f64, f64) {
+    let (wi, wo) = (wi.as_dvec3().normalize(), wo.as_dvec3().normalize());
+    let h = (wi + wo).normalize_or(glam::DVec3::Z);
+    let theta_h = h.z.clamp(-1.0, 1.0).acos();
+    let phi_h = h.y.atan2(h.x);
+    // Rotate wi by -phi_h about z, then by -theta_h about y.
+    let (sp, cp) = (-phi_h).sin_cos();
+    let t = glam::DVec3::new(wi.x * cp - wi.y * sp, wi.x * sp + wi.y * cp, wi.z);
+    let (st, ct) = (-theta_h).sin_cos();
+    let d = glam::DVec3::new(t.x * ct + t.z * st, t.y, -t.x * st + t.z * ct);
+    let theta_d = d.z.clamp(-1.0, 1.0).acos();
+    let phi_d = d.y.atan2(d.x);
+    (theta_h, phi_h, theta_d, phi_d)
+}
+
+/// The direction pair (wi, wo) of half/difference angles (the inverse of [`half_diff`]).
+pub fn from_half_diff(theta_h: f64, phi_h: f64, theta_d: f64, phi_d: f64) -> (Vec3, Vec3) {
+    let d = glam::DVec3::new(
+        theta_d.sin() * phi_d.cos(),
+        theta_d.sin() * phi_d.sin(),
+        theta_d.cos(),
+    );
+    // Rotate d by theta_h about y, then by phi_h about z.
+    let (st, ct) = theta_h.sin_cos();
+    let t = glam::DVec3::new(d.x * ct + d.z * st, d.y, -d.x * st + d.z * ct);
+    let (sp, cp) = phi_h.sin_cos();
+    let wi = glam::DVec3::new(t.x * cp - t.y * sp, t.x * sp + t.y * cp, t.z);
+    let h = glam::DVec3::new(
+        theta_h.sin() * phi_h.cos(),
+        theta_h.sin() * phi_h.sin(),
+        theta_h.cos(),
+    );
+    let wo = 2.0 * wi.dot(h) * h - wi;
+    (wi.as_vec3(), wo.as_vec3())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn half_diff_round_trip() {
+        for &(th, ph, td, pd) in &[
+            (0.3, 0.5, 0.7, 1.2),
+            (0.05, -2.0, 1.2, -0.4),
+            (1.0, 3.0, 0.2, 2.9),
+        ] {
+            let (wi, wo) = from_half_diff(th, ph, td, pd);
+            let (a, b, c, d) = half_diff(wi, wo);
+            assert!(
+                (a - th).abs() < 1e-5
+                    && (b - ph).abs() < 1e-5
+                    && (c - td).abs() < 1e-5
+                    && (d - pd).abs() < 1e-5,
+                "{:?}",
+                (a, b, c, d)
+            );
+        }
+        // Normal incidence mirror: theta_h = 0, theta_d = the angle of wi.
+        let wi = Vec3::new(0.5, 0.0, 0.75f32.sqrt());
+        let wo = Vec3::new(-0.5, 0.0, 0.75f32.sqrt());
+        let (th, _, td, _) = half_diff(wi, wo);
+        assert!(th.abs() < 1e-6 && (td - 30f64.to_radians()).abs() < 1e-6);
+    }
 
     #[test]
     fn frames_are_orthonormal_and_invert() {

@@ -22,14 +22,17 @@
 pub mod analytic;
 pub mod bsdf;
 pub mod composite;
+pub mod distribution;
 pub mod error;
 pub mod frame;
+pub mod io;
 pub mod lobe;
 pub mod math;
+pub mod measured;
 pub mod ngan_fit;
 pub mod quadrature;
 pub mod registry;
 pub mod sampling;
 
 pub use bsdf::{Bsdf, BsdfSample, Flags, Rgb};
-pub use error::ParamError;
+pub use error::{FileError, ParamError};

@@ -184,10 +184,26 @@ impl Params {
     }
 }
 
-/// Where relative paths in a material description resolve (the scene file's folder).
+/// Where relative paths in a material description resolve (the scene file's folder), and
+/// the cache of measured tables already loaded for this scene (so each file is read once
+/// and shared between shapes).
 #[derive(Clone, Debug, Default)]
 pub struct BuildContext {
     pub base_dir: PathBuf,
+    pub tables: TableCache,
+}
+
+/// Loaded tables by key (kind, file, options).
+pub type TableCache =
+    Arc<std::sync::Mutex<std::collections::HashMap<String, Arc<dyn std::any::Any + Send + Sync>>>>;
+
+impl BuildContext {
+    pub fn new(base_dir: impl Into<PathBuf>) -> Self {
+        Self {
+            base_dir: base_dir.into(),
+            tables: TableCache::default(),
+        }
+    }
 }
 
 /// Builds a material from validated parameters.
@@ -241,6 +257,7 @@ impl Registry {
         let mut r = Self::new();
         crate::analytic::register_all(&mut r);
         crate::ngan_fit::register(&mut r);
+        crate::measured::material::register(&mut r);
         r
     }
 

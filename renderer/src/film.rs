@@ -54,64 +54,15 @@ impl Image {
     }
 }
 
-/// Writes a file atomically: `fill` writes into a temporary file next to `path`, which
-/// then replaces `path`. On any error nothing at `path` changes.
+/// Writes a file atomically (see [`lobe_materials::io::atomic_write`]).
 pub fn atomic_write(
     path: &Path,
     fill: impl FnOnce(&mut BufWriter<&std::fs::File>) -> std::io::Result<()>,
 ) -> Result<()> {
-    let shown = path.display().to_string();
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        return Err(Error::file(
-            &shown,
-            format!("output folder {} does not exist", dir.display()),
-        ));
-    }
-    if path.is_dir() {
-        return Err(Error::file(
-            &shown,
-            "is a directory; expected a file path to write",
-        ));
-    }
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
-    let tmp = tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
-        .suffix(".tmp")
-        .tempfile_in(&dir)
-        .map_err(|e| {
-            Error::file(
-                &shown,
-                format!("cannot create a file in {}: {e}", dir.display()),
-            )
-        })?;
-    {
-        let file = tmp.as_file();
-        let mut w = BufWriter::new(file);
-        fill(&mut w)
-            .and_then(|_| w.flush())
-            .map_err(|e| Error::file(&shown, format!("write failed: {e}")))?;
-        drop(w);
-        file.sync_all()
-            .map_err(|e| Error::file(&shown, format!("write failed: {e}")))?;
-        // Temporary files are created private (0600); a finished output is an ordinary
-        // file (0644, subject to the umask of the directory's defaults).
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            let _ = file.set_permissions(std::fs::Permissions::from_mode(0o644));
-        }
-    }
-    tmp.persist(path).map_err(|e| {
-        Error::file(
-            &shown,
-            format!("cannot move the finished file into place: {}", e.error),
-        )
-    })?;
-    Ok(())
+    lobe_materials::io::atomic_write(path, fill).map_err(|e| Error::File {
+        file: e.file,
+        message: e.message,
+    })
 }
 
 /// Writes linear RGB as a 32-bit float OpenEXR file.

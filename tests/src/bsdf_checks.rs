@@ -200,6 +200,19 @@ pub fn check_pdf_normalized(name: &str, b: &dyn Bsdf, res: usize, tol: f64) {
 /// Chi-square test of `sample` against `pdf` for one `wo`, on an equal-area grid of
 /// `nz` x 2nz cells with 8 x 8 sub-samples for the expected counts. Returns the p-value.
 pub fn chi2_pvalue(b: &dyn Bsdf, wo: Vec3, nz: usize, n_samples: usize, seed: u64) -> f64 {
+    chi2_pvalue_sub(b, wo, nz, n_samples, seed, 8)
+}
+
+/// [`chi2_pvalue`] with `sub` x `sub` sub-samples per cell for the expected counts (for
+/// piecewise-constant densities, whose jumps need a finer integration).
+pub fn chi2_pvalue_sub(
+    b: &dyn Bsdf,
+    wo: Vec3,
+    nz: usize,
+    n_samples: usize,
+    seed: u64,
+    sub: usize,
+) -> f64 {
     let np = 2 * nz;
     let mut observed = vec![0.0f64; nz * np];
     let mut state = seed.wrapping_mul(0x9e3779b97f4a7c15) | 1;
@@ -222,7 +235,6 @@ pub fn chi2_pvalue(b: &dyn Bsdf, wo: Vec3, nz: usize, n_samples: usize, seed: u6
             observed[a * np + c] += 1.0;
         }
     }
-    let sub = 8;
     let cell = 2.0 * PI / (nz * np) as f64;
     let mut expected = vec![0.0f64; nz * np];
     for a in 0..nz {

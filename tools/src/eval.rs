@@ -12,6 +12,17 @@ use std::sync::Arc;
 
 #[derive(clap::Args)]
 pub struct EvalArgs {
+    #[command(flatten)]
+    pub material: MaterialArgs,
+    /// Regular grid instead of stdin: four comma-separated fields theta_i,phi_i,theta_o,phi_o,
+    /// each a value or START..STOP..STEP (degrees, STOP included when on the grid).
+    #[arg(long)]
+    grid: Option<String>,
+}
+
+/// Where a material comes from (shared by `lobe eval` and `lobe tabulate`).
+#[derive(clap::Args)]
+pub struct MaterialArgs {
     /// Material description: a JSON object, or @FILE holding one.
     #[arg(long, conflicts_with_all = ["scene", "ngan"])]
     material: Option<String>,
@@ -28,13 +39,9 @@ pub struct EvalArgs {
     /// ashikhmin-shirley, he.
     #[arg(long)]
     model: Option<String>,
-    /// Regular grid instead of stdin: four comma-separated fields theta_i,phi_i,theta_o,phi_o,
-    /// each a value or START..STOP..STEP (degrees, STOP included when on the grid).
-    #[arg(long)]
-    grid: Option<String>,
 }
 
-fn load_material(args: &EvalArgs) -> Result<Arc<dyn Bsdf>, Error> {
+pub fn load_material(args: &MaterialArgs) -> Result<Arc<dyn Bsdf>, Error> {
     let reg = Registry::builtin();
     let here = std::env::current_dir().unwrap_or_default();
     let (desc, file, base): (Value, String, PathBuf) = if let Some(m) = &args.material {
@@ -92,7 +99,7 @@ fn load_material(args: &EvalArgs) -> Result<Arc<dyn Bsdf>, Error> {
     } else {
         format!("materials.{}", args.name.clone().unwrap_or_default())
     };
-    reg.create_with(&desc, &path, &BuildContext { base_dir: base })
+    reg.create_with(&desc, &path, &BuildContext::new(base))
         .map_err(|e| Error::scene(file, e.path, e.message))
 }
 
@@ -162,7 +169,7 @@ fn row(out: &mut impl Write, m: &dyn Bsdf, a: [f64; 4]) -> std::io::Result<()> {
 }
 
 pub fn cmd_eval(args: EvalArgs) -> Result<(), Error> {
-    let m = load_material(&args)?;
+    let m = load_material(&args.material)?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let io = |e: std::io::Error| Error::Other(format!("cannot write the output: {e}"));

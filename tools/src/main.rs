@@ -6,6 +6,7 @@
 
 mod compare;
 mod eval;
+mod tabulate;
 
 use clap::{Parser, Subcommand};
 use lobe_renderer::render::{RenderOptions, RenderStats, render};
@@ -43,6 +44,11 @@ enum Command {
         after_help = "Direction pairs are theta_i phi_i theta_o phi_o in degrees (wi toward the light, wo toward\nthe viewer, z the normal), one pair per line on stdin, or a --grid. The pdf is the density\nwith which the material samples wi given wo.\n\nExamples:\n  echo '30 0 30 180' | lobe eval --material '{\"type\": \"ward\", \"specular\": 0.1, \"alpha\": 0.2}'\n  lobe eval --ngan green-metallic-paint --model cook-torrance --grid 45,0,0..89..1,180\n  lobe eval --scene scenes/cornell-box.json --name white --grid 0,0,30,0"
     )]
     Eval(eval::EvalArgs),
+    /// Write a material as a MERL table or as binned 4D data, emulating an acquisition.
+    #[command(
+        after_help = "Examples:\n  lobe tabulate --material '{\"type\": \"cook-torrance\", \"diffuse\": 0.1, \"specular\": 0.5, \"m\": 0.1}' -o ct.binary\n  lobe tabulate --ngan nickel --model he --retro-exclusion 3 --noise 0.02 -o nickel-he.binary\n  lobe tabulate --material @brushed.json --format binned --anisotropic --empty-fraction 0.75 --grazing-cutoff 80 -o brushed.bin"
+    )]
+    Tabulate(tabulate::TabulateArgs),
     /// Compare a test image with a reference: RMSE, relative MSE, PSNR, SSIM, mean FLIP.
     #[command(
         after_help = "Examples:\n  lobe compare out/sphere.exr reference-images/sphere-envmap/mitsuba.exr\n  lobe compare a.exr b.exr --heatmap diff.png --json\n  lobe compare a.exr b.exr --fail-above rmse=0.01 --fail-below ssim=0.98"
@@ -103,6 +109,7 @@ fn main() -> ExitCode {
         Command::Render(args) => cmd_render(args, cli.quiet),
         Command::Eval(args) => eval::cmd_eval(args),
         Command::Compare(args) => compare::cmd_compare(args, cli.quiet),
+        Command::Tabulate(args) => tabulate::cmd_tabulate(args, cli.quiet),
         Command::Models { names } => {
             let reg = lobe_materials::registry::Registry::builtin();
             if names {

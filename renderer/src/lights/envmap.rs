@@ -14,10 +14,10 @@
 //! bilinear grid, weighted by the mean luminance of each cell's corners times sin(theta)
 //! at the cell centre: positive wherever the radiance is, so the estimator stays unbiased.
 
-use super::distribution::Alias2D;
 use crate::Rgb;
 use crate::error::{Error, Result};
 use glam::{Mat3, Vec2, Vec3};
+use lobe_materials::distribution::Alias2D;
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
 

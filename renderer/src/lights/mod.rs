@@ -7,14 +7,16 @@
 //! (pbrt-v4 `Sphere::Sample`), from inside uniformly by area; rectangles and meshes
 //! uniformly by area (a mesh picks a triangle in proportion to its area).
 
-pub mod distribution;
 pub mod envmap;
+
+/// The distributions live in lobe-materials (the measured BRDFs' samplers use them too).
+pub use lobe_materials::distribution;
 
 use crate::Rgb;
 use crate::geometry::{Interaction, Rectangle, Sphere, Triangle};
-use distribution::Distribution1D;
 pub use envmap::EnvMap;
 use glam::{Vec2, Vec3};
+use lobe_materials::distribution::Distribution1D;
 use lobe_materials::frame::Frame;
 use lobe_materials::sampling::{
     UNIFORM_SPHERE_PDF, square_to_uniform_cone, square_to_uniform_sphere,

@@ -114,6 +114,8 @@ struct Loader<'a> {
     registry: Registry,
     named: BTreeMap<String, &'a Value>,
     built: BTreeMap<String, Arc<dyn Bsdf>>,
+    /// Shared by every material of the scene: measured tables are loaded once.
+    ctx: BuildContext,
 }
 
 impl<'a> Loader<'a> {
@@ -127,9 +129,7 @@ impl<'a> Loader<'a> {
     }
 
     fn material(&mut self, v: Option<&'a Value>, path: &str) -> Result<Arc<dyn Bsdf>> {
-        let ctx = BuildContext {
-            base_dir: self.base.to_path_buf(),
-        };
+        let ctx = self.ctx.clone();
         match v {
             // Mitsuba's default material: diffuse, reflectance 0.5.
             None => Ok(Arc::new(lobe_materials::analytic::lambert::Lambert::new(
@@ -220,6 +220,7 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
         registry: Registry::builtin(),
         named: BTreeMap::new(),
         built: BTreeMap::new(),
+        ctx: BuildContext::new(base),
     };
 
     // Film and sampler.

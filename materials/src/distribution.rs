@@ -1,6 +1,8 @@
-//! Piecewise-constant 1D and 2D distributions for importance sampling (the inversion
-//! method; pbrt-v4 `PiecewiseConstant1D/2D`, Mitsuba `DiscreteDistribution2D`), written
-//! from the textbook construction: a CDF per row and a marginal CDF over rows.
+//! Discrete and piecewise-constant distributions for importance sampling: a 1D
+//! distribution by CDF inversion (the textbook construction of pbrt-v4's
+//! `PiecewiseConstant1D`), Walker's alias method (Vose's construction) for O(1) sampling of
+//! cells, and 2D grids sampled row by row with alias tables. Used by environment maps and
+//! by the tabulated samplers of measured BRDFs.
 
 use glam::Vec2;
 

@@ -1,0 +1,67 @@
+//! Atomic file writes, shared by every writer of lobe (tables, images, reports): the data
+//! goes to a temporary file in the destination folder, is flushed and synced, then renamed
+//! over the destination, so a failed or interrupted write never leaves a truncated file
+//! nor clobbers an existing good one.
+
+use crate::error::FileError;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+/// Writes `path` atomically with `fill`; on any error nothing at `path` changes.
+pub fn atomic_write(
+    path: &Path,
+    fill: impl FnOnce(&mut BufWriter<&std::fs::File>) -> std::io::Result<()>,
+) -> Result<(), FileError> {
+    let shown = path.display().to_string();
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(FileError::new(
+            &shown,
+            format!("output folder {} does not exist", dir.display()),
+        ));
+    }
+    if path.is_dir() {
+        return Err(FileError::new(
+            &shown,
+            "is a directory; expected a file path to write",
+        ));
+    }
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(".tmp")
+        .tempfile_in(&dir)
+        .map_err(|e| {
+            FileError::new(
+                &shown,
+                format!("cannot create a file in {}: {e}", dir.display()),
+            )
+        })?;
+    {
+        let file = tmp.as_file();
+        let mut w = BufWriter::new(file);
+        fill(&mut w)
+            .and_then(|_| w.flush())
+            .map_err(|e| FileError::new(&shown, format!("write failed: {e}")))?;
+        drop(w);
+        file.sync_all()
+            .map_err(|e| FileError::new(&shown, format!("write failed: {e}")))?;
+        // Temporary files are created private (0600); a finished output is an ordinary
+        // file (0644).
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let _ = file.set_permissions(std::fs::Permissions::from_mode(0o644));
+        }
+    }
+    tmp.persist(path).map_err(|e| {
+        FileError::new(
+            &shown,
+            format!("cannot move the finished file into place: {}", e.error),
+        )
+    })?;
+    Ok(())
+}

@@ -1,0 +1,225 @@
+//! The `merl` (and, with the other tables, `binned` and `rgl`) materials: a measured table
+//! evaluated by lookup and importance sampled with a [`TabulatedSampler`]. Tables and their
+//! samplers are cached in the [`BuildContext`] by file, so a scene loads each once and
+//! shares it between shapes; nothing is read unless a shape uses the material.
+
+use super::binned::Binned;
+use super::merl::Merl;
+use super::sampler::TabulatedSampler;
+use crate::ParamError;
+use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::registry::{
+    Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
+    Registry,
+};
+use glam::{Vec2, Vec3};
+use std::any::Any;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// A loaded table: how to evaluate it.
+pub trait Table: Send + Sync + std::fmt::Debug {
+    /// f_r(wo, wi) in 1/sr (RGB), zero below the surface.
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
+    fn is_isotropic(&self) -> bool {
+        true
+    }
+}
+
+#[derive(Debug)]
+struct MerlTable {
+    table: Merl,
+    interpolate: bool,
+}
+
+impl Table for MerlTable {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if self.interpolate {
+            self.table.lookup(wi, wo)
+        } else {
+            self.table.lookup_nearest(wi, wo)
+        }
+    }
+}
+
+#[derive(Debug)]
+struct BinnedTable {
+    table: Binned,
+}
+
+impl Table for BinnedTable {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.table.lookup(wi, wo)
+    }
+    fn is_isotropic(&self) -> bool {
+        !self.table.anisotropic
+    }
+}
+
+/// A measured material: a table and its sampler.
+#[derive(Debug, Clone)]
+pub struct Measured {
+    name: &'static str,
+    table: Arc<dyn Table>,
+    sampler: Arc<TabulatedSampler>,
+}
+
+impl Measured {
+    pub fn new(name: &'static str, table: Arc<dyn Table>) -> Self {
+        let t = table.clone();
+        let sampler = Arc::new(TabulatedSampler::new(move |wo, wi| {
+            t.eval(wo, wi).luminance()
+        }));
+        Self {
+            name,
+            table,
+            sampler,
+        }
+    }
+
+    pub fn table(&self) -> &Arc<dyn Table> {
+        &self.table
+    }
+}
+
+impl Bsdf for Measured {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        self.table.eval(wo, wi)
+    }
+
+    fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        let wi = self.sampler.sample(wo, u, uc)?;
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let pdf = self.sampler.pdf(wo, wi);
+        if !(pdf > 0.0) {
+            return None;
+        }
+        let f = self.eval(wo, wi);
+        Some(BsdfSample {
+            wi,
+            weight: f * (wi.z / pdf),
+            pdf,
+        })
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.sampler.pdf(wo, wi)
+    }
+
+    fn flags(&self) -> Flags {
+        // Measured data need not be reciprocal nor bounded.
+        let iso = if self.table.is_isotropic() {
+            Flags::ISOTROPIC
+        } else {
+            Flags::NONE
+        };
+        iso | Flags::DIFFUSE | Flags::GLOSSY
+    }
+
+    fn name(&self) -> &str {
+        self.name
+    }
+}
+
+/// Resolves `file` against the scene folder.
+pub fn resolve(ctx: &BuildContext, file: &str) -> PathBuf {
+    let p = PathBuf::from(file);
+    if p.is_absolute() {
+        p
+    } else {
+        ctx.base_dir.join(p)
+    }
+}
+
+/// The cached material for (kind, file, options), built with `make` on first use.
+pub fn cached(
+    ctx: &BuildContext,
+    key: String,
+    make: impl FnOnce() -> Result<Measured, ParamError>,
+) -> Result<Arc<dyn Bsdf>, ParamError> {
+    let mut cache = ctx.tables.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(v) = cache.get(&key)
+        && let Some(m) = v.downcast_ref::<Measured>()
+    {
+        return Ok(Arc::new(m.clone()));
+    }
+    let m = make()?;
+    cache.insert(key, Arc::new(m.clone()) as Arc<dyn Any + Send + Sync>);
+    Ok(Arc::new(m))
+}
+
+const FILE: ParamSpec = ParamSpec {
+    name: "file",
+    kind: ParamKind::Text,
+    role: ParamRole::Setting,
+    bounds: Bounds::closed(0.0, 0.0),
+    default: DefaultValue::Required,
+    doc: "path of the table (relative to the scene file)",
+};
+
+pub const MERL_SCHEMA: ModelSchema = ModelSchema {
+    name: "merl",
+    summary: "a MERL isotropic BRDF table (.binary), looked up trilinearly or by nearest bin",
+    params: &[
+        FILE,
+        ParamSpec {
+            name: "interpolate",
+            kind: ParamKind::Bool,
+            role: ParamRole::Setting,
+            bounds: Bounds::closed(0.0, 0.0),
+            default: DefaultValue::Bool(true),
+            doc: "trilinear interpolation between bin centres (false: nearest bin)",
+        },
+    ],
+};
+
+fn build_merl(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
+    let path = resolve(ctx, p.text("file"));
+    let interpolate = p.flag("interpolate");
+    let key = format!("merl:{}:{interpolate}", path.display());
+    cached(ctx, key, || {
+        let table = Merl::read(&path)
+            .map_err(|e| ParamError::new(format!("{}.file", p.path), e.to_string()))?;
+        Ok(Measured::new(
+            "merl",
+            Arc::new(MerlTable { table, interpolate }),
+        ))
+    })
+}
+
+pub const BINNED_SCHEMA: ModelSchema = ModelSchema {
+    name: "binned",
+    summary: "the study's binned 4D data (docs/binned-format.md), nearest bin, empty bins filled from their neighbours",
+    params: &[FILE],
+};
+
+fn build_binned(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
+    let path = resolve(ctx, p.text("file"));
+    let key = format!("binned:{}", path.display());
+    cached(ctx, key, || {
+        let table = Binned::read(&path)
+            .map_err(|e| ParamError::new(format!("{}.file", p.path), e.to_string()))?;
+        if table.filled() == 0 {
+            return Err(ParamError::new(
+                format!("{}.file", p.path),
+                format!("{}: every bin is empty; expected some data", path.display()),
+            ));
+        }
+        Ok(Measured::new(
+            "binned",
+            Arc::new(BinnedTable {
+                table: table.filled_copy(),
+            }),
+        ))
+    })
+}
+
+pub fn register(r: &mut Registry) {
+    r.register(MERL_SCHEMA, build_merl);
+    r.register(BINNED_SCHEMA, build_binned);
+}
