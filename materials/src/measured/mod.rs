@@ -4,7 +4,10 @@
 //! share it between every shape that uses it.
 
 pub mod binned;
+pub mod marginal2d;
 pub mod material;
 pub mod merl;
+pub mod rgl;
 pub mod sampler;
 pub mod tabulate;
+pub mod tensor;
