@@ -187,7 +187,7 @@ impl Rgl {
         );
         if self.jacobian {
             let u_o = [theta2u(elevation(wo)), phi2u(wo.y.atan2(wo.x))];
-            v = v * (self.ndf.eval(u_m, &[]) / (4.0 * self.sigma.eval(u_o, &[])));
+            v *= self.ndf.eval(u_m, &[]) / (4.0 * self.sigma.eval(u_o, &[]));
         }
         v
     }
