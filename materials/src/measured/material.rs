@@ -226,19 +226,30 @@ fn build_binned(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamEr
 #[derive(Debug, Clone)]
 pub struct RglBsdf {
     table: Arc<Rgl>,
+    /// Clamp the tables' small negative values at zero.
+    clamp: bool,
 }
 
 const RGL_COSINE: f32 = 0.1;
 
 impl RglBsdf {
-    pub fn new(table: Arc<Rgl>) -> Self {
-        Self { table }
+    pub fn new(table: Arc<Rgl>, clamp: bool) -> Self {
+        Self { table, clamp }
+    }
+
+    fn projected(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        let v = self.table.eval_projected(wo, wi);
+        if self.clamp { v.map(|x| x.max(0.0)) } else { v }
     }
 }
 
 impl Bsdf for RglBsdf {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        self.table.eval(wo, wi)
+        if wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let v = self.projected(wo, wi) / wi.z;
+        if v.is_finite() { v } else { Rgb::ZERO }
     }
 
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
@@ -256,7 +267,7 @@ impl Bsdf for RglBsdf {
         }
         Some(BsdfSample {
             wi,
-            weight: self.table.eval_projected(wo, wi) / pdf,
+            weight: self.projected(wo, wi) / pdf,
             pdf,
         })
     }
@@ -286,7 +297,17 @@ impl Bsdf for RglBsdf {
 pub const RGL_SCHEMA: ModelSchema = ModelSchema {
     name: "rgl",
     summary: "an RGL measured BSDF (*_rgb.bsdf, Dupuy and Jakob 2018), evaluated and sampled as Mitsuba 3's measured plugin",
-    params: &[FILE],
+    params: &[
+        FILE,
+        ParamSpec {
+            name: "clamp",
+            kind: ParamKind::Bool,
+            role: ParamRole::Setting,
+            bounds: Bounds::closed(0.0, 0.0),
+            default: DefaultValue::Bool(true),
+            doc: "clamp the tables' small negative values at zero (false: exactly Mitsuba's measured plugin)",
+        },
+    ],
 };
 
 fn build_rgl(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
@@ -296,13 +317,13 @@ fn build_rgl(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError
     if let Some(v) = cache.get(&key)
         && let Some(t) = v.downcast_ref::<Arc<Rgl>>()
     {
-        return Ok(Arc::new(RglBsdf::new(t.clone())));
+        return Ok(Arc::new(RglBsdf::new(t.clone(), p.flag("clamp"))));
     }
     let t = Arc::new(
         Rgl::read(&path).map_err(|e| ParamError::new(format!("{}.file", p.path), e.to_string()))?,
     );
     cache.insert(key, Arc::new(t.clone()) as Arc<dyn Any + Send + Sync>);
-    Ok(Arc::new(RglBsdf::new(t)))
+    Ok(Arc::new(RglBsdf::new(t, p.flag("clamp"))))
 }
 
 pub fn register(r: &mut Registry) {

@@ -9,8 +9,9 @@
 //!   `vndf` (a parameterized piecewise-bilinear warp, [`Marginal2D`]) to a point s of its
 //!   sample space, where the `rgb` tables are interpolated; with the Jacobian flag the value
 //!   is multiplied by ndf(u_m) / (4 sigma(u_o)). That value is the BRDF times cos(theta_i),
-//!   so f = value / cos(theta_i). Negative table values (down to about -0.04 in the RGL
-//!   data) are clamped to zero, where Mitsuba lets them through.
+//!   so f = value / cos(theta_i). The tables can hold small negative values (down to about
+//!   -0.3 x cos in vch_golden_yellow's blue channel); like Mitsuba, [`Rgl`] returns them as
+//!   they are, and the `rgl` material clamps them at zero unless `"clamp": false`.
 //! - Sampling warps (u2, u1) through `luminance` then `vndf` to u_m, builds m, reflects wo;
 //!   pdf = p_vndf p_lum / (2 pi^2 u_m.x sin(theta_m) 4 (wo . m)).
 //!
@@ -192,7 +193,7 @@ impl Rgl {
         v
     }
 
-    /// BRDF x cos(theta_i) for viewer `wo` and light `wi` (Mitsuba's `eval`), clamped at zero.
+    /// BRDF x cos(theta_i) for viewer `wo` and light `wi` (Mitsuba's `eval`, negative values included).
     pub fn eval_projected(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
@@ -202,11 +203,7 @@ impl Rgl {
         let (u_m, params, _) = self.coords(wo_f, m);
         let (s, _) = self.vndf.invert(u_m, &params);
         let v = self.spectrum(s, &params, u_m, wo_f);
-        if v.is_finite() {
-            v.map(|x| x.max(0.0))
-        } else {
-            Rgb::ZERO
-        }
+        if v.is_finite() { v } else { Rgb::ZERO }
     }
 
     /// The BRDF (1/sr).

@@ -76,8 +76,10 @@ class Converter:
             folder = ngan.locate(m.get("fits", ""), self.base)
             d = ngan.description(m["material"], m.get("model", "cook-torrance"), folder, m.get("channel_scale", "merl"))
             return {"type": "lobe_analytic", "desc": json.dumps(d)}
-        if t == "composite":
-            raise SceneError("composite materials have no Mitsuba counterpart in this converter")
+        if t == "rgl":
+            return {"type": "measured", "filename": self.resolve(m["file"])}
+        if t in ("composite", "merl", "binned"):
+            raise SceneError(f"{t} materials have no Mitsuba counterpart in this converter")
         return {"type": "lobe_analytic", "desc": json.dumps(m)}
 
     def mesh_shape(self, s):
