@@ -274,3 +274,103 @@ fn compare_agrees_with_openimageio_idiff() {
         ours["psnr"]
     );
 }
+
+#[test]
+fn tabulate_writes_tables_that_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = dir.path().join("ct.binary");
+    let mat = r#"{"type": "cook-torrance", "diffuse": 0.2, "specular": 0.3, "m": 0.2}"#;
+    let o = lobe()
+        .args([
+            "tabulate",
+            "--material",
+            mat,
+            "-o",
+            table.to_str().unwrap(),
+            "--retro-exclusion",
+            "3",
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let binned = dir.path().join("ct.bin");
+    let merl_mat = format!(r#"{{"type": "merl", "file": "{}"}}"#, table.display());
+    let o = lobe()
+        .args([
+            "tabulate",
+            "--material",
+            &merl_mat,
+            "--format",
+            "binned",
+            "--empty-fraction",
+            "0.2",
+            "--seed",
+            "3",
+            "-o",
+            binned.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("bins hold a value"));
+    // Both render.
+    for m in [
+        format!(r#"{{"type": "merl", "file": "{}"}}"#, table.display()),
+        format!(r#"{{"type": "binned", "file": "{}"}}"#, binned.display()),
+    ] {
+        let scene = dir.path().join("s.json");
+        std::fs::write(
+            &scene,
+            SCENE.replace(
+                r#""shapes": [{"type": "sphere"}]"#,
+                &format!(r#""shapes": [{{"type": "sphere", "material": {m}}}]"#),
+            ),
+        )
+        .unwrap();
+        let o = lobe()
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "-o",
+                dir.path().join("r.exr").to_str().unwrap(),
+                "-q",
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    fails(
+        &[
+            "tabulate",
+            "--material",
+            mat,
+            "-o",
+            "/nonexistent/dir/x.binary",
+        ],
+        "output folder",
+    );
+    fails(
+        &[
+            "tabulate",
+            "--material",
+            mat,
+            "--empty-fraction",
+            "2",
+            "-o",
+            table.to_str().unwrap(),
+        ],
+        "--empty-fraction",
+    );
+    fails(
+        &[
+            "tabulate",
+            "--material",
+            mat,
+            "--anisotropic",
+            "-o",
+            table.to_str().unwrap(),
+        ],
+        "--anisotropic",
+    );
+}
