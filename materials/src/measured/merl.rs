@@ -186,6 +186,21 @@ impl Merl {
         self.data[index(ith, itd, ipd)]
     }
 
+    /// Nearest-bin value, or None below the surface or for a missing sample.
+    pub fn measured(&self, wi: Vec3, wo: Vec3) -> Option<Rgb> {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return None;
+        }
+        let (th, _, td, pd) = half_diff(wi, wo);
+        let (a, b, c) = coords(th, td, pd);
+        let v = self.data[index(
+            (a as usize).min(RES_THETA_H - 1),
+            (b as usize).min(RES_THETA_D - 1),
+            (c as usize).min(RES_PHI_D - 1),
+        )];
+        (v[0] >= 0.0).then(|| Rgb::from(v))
+    }
+
     /// Nearest-bin lookup; zero below the surface or for a missing sample.
     pub fn lookup_nearest(&self, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {

@@ -1,0 +1,124 @@
+//! The linear part of the fit (Ngan et al. 2005, section 3.3): for fixed lobe shapes, the
+//! colours that minimize Eq. (1) solve, per channel, a non-negative linear least-squares
+//! problem in at most three unknowns (diffuse and one or two specular colours). With so few
+//! unknowns the exact solution is found by solving the normal equations on every subset of
+//! active variables and keeping the best feasible one (the Karush-Kuhn-Tucker point).
+
+/// Normal equations of one channel: A x = b with the constant c = sum w R^2 cos^2.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Gram {
+    pub n: usize,
+    pub a: [[f64; 3]; 3],
+    pub b: [f64; 3],
+    pub c: f64,
+}
+
+impl Gram {
+    pub fn new(n: usize) -> Self {
+        Self {
+            n,
+            ..Default::default()
+        }
+    }
+
+    /// Adds one sample: basis values `f` (n of them), target `r`, weight `w`.
+    #[inline]
+    pub fn add(&mut self, f: &[f64], r: f64, w: f64) {
+        for j in 0..self.n {
+            self.b[j] += w * f[j] * r;
+            for k in 0..self.n {
+                self.a[j][k] += w * f[j] * f[k];
+            }
+        }
+        self.c += w * r * r;
+    }
+
+    pub fn merge(mut self, o: &Gram) -> Gram {
+        for j in 0..self.n {
+            self.b[j] += o.b[j];
+            for k in 0..self.n {
+                self.a[j][k] += o.a[j][k];
+            }
+        }
+        self.c += o.c;
+        self
+    }
+
+    /// The non-negative minimizer and the residual sum w (r - f.x)^2.
+    pub fn solve_nonnegative(&self) -> ([f64; 3], f64) {
+        let mut best = ([0.0; 3], self.c.max(0.0));
+        for mask in 1u32..(1 << self.n) {
+            let idx: Vec<usize> = (0..self.n).filter(|&j| mask & (1 << j) != 0).collect();
+            let m = idx.len();
+            // Gaussian elimination with partial pivoting on the m x m subsystem.
+            let mut mat = [[0.0f64; 4]; 3];
+            for (r, &j) in idx.iter().enumerate() {
+                for (s, &k) in idx.iter().enumerate() {
+                    mat[r][s] = self.a[j][k];
+                }
+                mat[r][m] = self.b[j];
+            }
+            let mut ok = true;
+            for col in 0..m {
+                let piv = (col..m)
+                    .max_by(|&x, &y| mat[x][col].abs().total_cmp(&mat[y][col].abs()))
+                    .expect("non-empty");
+                if mat[piv][col].abs() < 1e-300 {
+                    ok = false;
+                    break;
+                }
+                mat.swap(col, piv);
+                let pivot_row = mat[col];
+                for (r, row) in mat.iter_mut().enumerate().take(m) {
+                    if r != col {
+                        let f = row[col] / pivot_row[col];
+                        for (x, p) in row.iter_mut().zip(pivot_row).skip(col).take(m + 1 - col) {
+                            *x -= f * p;
+                        }
+                    }
+                }
+            }
+            if !ok {
+                continue;
+            }
+            let mut x = [0.0f64; 3];
+            for (r, &j) in idx.iter().enumerate() {
+                x[j] = mat[r][m] / mat[r][r];
+            }
+            if idx.iter().any(|&j| !(x[j] >= 0.0) || !x[j].is_finite()) {
+                continue;
+            }
+            // Residual at the subset optimum: c - b.x.
+            let res = (self.c - idx.iter().map(|&j| self.b[j] * x[j]).sum::<f64>()).max(0.0);
+            if res < best.1 {
+                best = (x, res);
+            }
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn recovers_non_negative_coefficients() {
+        // r = 2 f0 + 0.5 f1 exactly.
+        let mut g = Gram::new(2);
+        for k in 0..50 {
+            let f = [1.0, (k as f64 * 0.3).sin().abs()];
+            g.add(&f, 2.0 * f[0] + 0.5 * f[1], 1.0 + k as f64 * 0.01);
+        }
+        let (x, res) = g.solve_nonnegative();
+        assert!((x[0] - 2.0).abs() < 1e-9 && (x[1] - 0.5).abs() < 1e-9 && res < 1e-12);
+        // A target that wants a negative coefficient gets zero for it.
+        let mut g = Gram::new(2);
+        for k in 0..50 {
+            let f = [1.0, k as f64 / 50.0];
+            g.add(&f, 1.0 - f[1], 1.0);
+        }
+        let (x, _) = g.solve_nonnegative();
+        assert!(x[1] == 0.0 && x[0] > 0.0);
+    }
+}
