@@ -258,6 +258,7 @@ impl Registry {
         crate::analytic::register_all(&mut r);
         crate::ngan_fit::register(&mut r);
         crate::measured::material::register(&mut r);
+        crate::fit::register(&mut r);
         r
     }
 

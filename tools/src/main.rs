@@ -6,6 +6,7 @@
 
 mod compare;
 mod eval;
+mod fit;
 mod tabulate;
 
 use clap::{Parser, Subcommand};
@@ -44,6 +45,11 @@ enum Command {
         after_help = "Direction pairs are theta_i phi_i theta_o phi_o in degrees (wi toward the light, wo toward\nthe viewer, z the normal), one pair per line on stdin, or a --grid. The pdf is the density\nwith which the material samples wi given wo.\n\nExamples:\n  echo '30 0 30 180' | lobe eval --material '{\"type\": \"ward\", \"specular\": 0.1, \"alpha\": 0.2}'\n  lobe eval --ngan green-metallic-paint --model cook-torrance --grid 45,0,0..89..1,180\n  lobe eval --scene scenes/cornell-box.json --name white --grid 0,0,30,0"
     )]
     Eval(eval::EvalArgs),
+    /// Fit measured data to the study's models (Eq. 1 metric, NNLS colours, SLSQP multi-start).
+    #[command(
+        after_help = "Examples:\n  lobe fit nickel.binary -o nickel.fit.json\n  lobe fit data.bin --models ward-anisotropic -o data.fit.json\n  lobe fit ../shared/data/rgl/paper_white_rgb.bsdf --models cook-torrance,lafortune --resolution 2 -o paper.fit.json\n  lobe fit --list\nThe report loads as a material: {\"type\": \"fit\", \"file\": \"nickel.fit.json\", \"model\": \"cook-torrance\"}"
+    )]
+    Fit(fit::FitArgs),
     /// Write a material as a MERL table or as binned 4D data, emulating an acquisition.
     #[command(
         after_help = "Examples:\n  lobe tabulate --material '{\"type\": \"cook-torrance\", \"diffuse\": 0.1, \"specular\": 0.5, \"m\": 0.1}' -o ct.binary\n  lobe tabulate --ngan nickel --model he --retro-exclusion 3 --noise 0.02 -o nickel-he.binary\n  lobe tabulate --material @brushed.json --format binned --anisotropic --empty-fraction 0.75 --grazing-cutoff 80 -o brushed.bin"
@@ -110,6 +116,7 @@ fn main() -> ExitCode {
         Command::Eval(args) => eval::cmd_eval(args),
         Command::Compare(args) => compare::cmd_compare(args, cli.quiet),
         Command::Tabulate(args) => tabulate::cmd_tabulate(args, cli.quiet),
+        Command::Fit(args) => fit::cmd_fit(args, cli.quiet),
         Command::Models { names } => {
             let reg = lobe_materials::registry::Registry::builtin();
             if names {

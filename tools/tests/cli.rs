@@ -374,3 +374,65 @@ fn tabulate_writes_tables_that_render() {
         "--anisotropic",
     );
 }
+
+#[test]
+fn fit_writes_a_report_that_loads_as_a_material() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("r.fit.json");
+    let mat = r#"{"type": "cook-torrance", "diffuse": 0.1, "specular": 0.4, "m": 0.2, "f0": 0.2}"#;
+    let o = lobe()
+        .args([
+            "fit",
+            "--material",
+            mat,
+            "--models",
+            "cook-torrance,ward",
+            "--resolution",
+            "5",
+            "-o",
+            report.to_str().unwrap(),
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let ct = &v["models"]["cook-torrance"];
+    assert!(ct["error_normalized"].as_f64().unwrap() < 1e-3);
+    assert!(v["models"]["ward"]["error"].as_f64().unwrap() > ct["error"].as_f64().unwrap());
+    assert!((ct["material"]["m"].as_f64().unwrap() - 0.2).abs() < 0.004);
+    let fit_mat = format!(
+        r#"{{"type": "fit", "file": "{}", "model": "cook-torrance"}}"#,
+        report.display()
+    );
+    let o = lobe()
+        .args(["eval", "--material", &fit_mat, "--grid", "30,0,30,180"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    fails(
+        &[
+            "fit",
+            "--material",
+            mat,
+            "--models",
+            "nonsense",
+            "-o",
+            report.to_str().unwrap(),
+        ],
+        "unknown model",
+    );
+    fails(
+        &["fit", "/nonexistent.binary", "-o", report.to_str().unwrap()],
+        "does not exist",
+    );
+    let bad = format!(
+        r#"{{"type": "fit", "file": "{}", "model": "he"}}"#,
+        report.display()
+    );
+    fails(
+        &["eval", "--material", &bad, "--grid", "0,0,0,0"],
+        "no model \"he\"",
+    );
+}

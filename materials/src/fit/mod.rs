@@ -397,3 +397,96 @@ pub fn fit(data: &Dataset, spec: &ModelSpec, max_evals_per_start: usize) -> FitR
         seconds: t0.elapsed().as_secs_f64(),
     }
 }
+
+/// The JSON report of fitting one material (loadable as `{"type": "fit", "file": ..., "model": ...}`).
+pub fn report_json(
+    material: &str,
+    source: &str,
+    resolution_deg: f64,
+    data: &Dataset,
+    results: &[FitResult],
+) -> Value {
+    let mut models = serde_json::Map::new();
+    for r in results {
+        models.insert(
+            r.label.clone(),
+            json!({
+                "material": r.material,
+                "error": r.error,
+                "error_normalized": r.error_normalized,
+                "starts": r.starts,
+                "starts_agreeing": r.starts_agreeing,
+                "evaluations": r.evaluations,
+                "seconds": r.seconds,
+            }),
+        );
+    }
+    json!({
+        "material": material,
+        "source": source,
+        "resolution_deg": resolution_deg,
+        "samples": data.samples.len(),
+        "max_albedo": data.max_albedo,
+        "models": models,
+    })
+}
+
+pub const FIT_SCHEMA: crate::registry::ModelSchema = crate::registry::ModelSchema {
+    name: "fit",
+    summary: "a model fitted by `lobe fit`: {\"type\": \"fit\", \"file\": \"x.fit.json\", \"model\": \"cook-torrance\"}",
+    params: &[
+        crate::registry::ParamSpec {
+            name: "file",
+            kind: crate::registry::ParamKind::Text,
+            role: crate::registry::ParamRole::Setting,
+            bounds: crate::registry::Bounds::closed(0.0, 0.0),
+            default: crate::registry::DefaultValue::Required,
+            doc: "the fit report (JSON) written by lobe fit",
+        },
+        crate::registry::ParamSpec {
+            name: "model",
+            kind: crate::registry::ParamKind::Text,
+            role: crate::registry::ParamRole::Setting,
+            bounds: crate::registry::Bounds::closed(0.0, 0.0),
+            default: crate::registry::DefaultValue::Required,
+            doc: "the fitted model's label in the report",
+        },
+    ],
+};
+
+fn build_fit(
+    p: &crate::registry::Params,
+    ctx: &crate::registry::BuildContext,
+) -> Result<Arc<dyn crate::Bsdf>, crate::ParamError> {
+    let path = crate::measured::material::resolve(ctx, p.text("file"));
+    let err = |m: String| crate::ParamError::new(format!("{}.file", p.path), m);
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| err(format!("{}: cannot read: {e}", path.display())))?;
+    let v: Value = serde_json::from_str(&text)
+        .map_err(|e| err(format!("{}: invalid JSON: {e}", path.display())))?;
+    let label = p.text("model");
+    let models = v.get("models").and_then(Value::as_object).ok_or_else(|| {
+        err(format!(
+            "{}: no \"models\" object; expected a lobe fit report",
+            path.display()
+        ))
+    })?;
+    let m = models
+        .get(label)
+        .and_then(|m| m.get("material"))
+        .ok_or_else(|| {
+            crate::ParamError::new(
+                format!("{}.model", p.path),
+                format!(
+                    "no model \"{label}\" in {}; expected one of: {}",
+                    path.display(),
+                    models.keys().cloned().collect::<Vec<_>>().join(", ")
+                ),
+            )
+        })?;
+    Registry::builtin().create_with(m, &format!("{}(from {})", p.path, path.display()), ctx)
+}
+
+pub fn register(r: &mut Registry) {
+    r.register(FIT_SCHEMA, build_fit);
+}
