@@ -17,7 +17,9 @@ pub struct FitArgs {
     data: Option<PathBuf>,
     #[command(flatten)]
     material: MaterialArgs,
-    /// Comma-separated model labels (default: every model). `lobe fit --list` shows them.
+    /// Comma-separated model labels (default: the seven models of the study's section 4, or for
+    /// anisotropic binned data anisotropic Ward, Ashikhmin-Shirley and Poulin-Fournier).
+    /// `lobe fit --list` shows them all.
     #[arg(long)]
     models: Option<String>,
     /// Bin size in degrees of the isotropic data (the study: 1).
@@ -51,21 +53,6 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
     let output = args.output.clone().ok_or_else(|| {
         Error::Other("--output: expected the path of the JSON report to write".into())
     })?;
-    let chosen: Vec<_> = match &args.models {
-        None => specs.iter().collect(),
-        Some(list) => list
-            .split(',')
-            .map(|l| {
-                specs.iter().find(|s| s.label == l.trim()).ok_or_else(|| {
-                    Error::Other(format!(
-                        "--models: unknown model \"{}\"; expected one of: {}",
-                        l.trim(),
-                        specs.iter().map(|s| s.label).collect::<Vec<_>>().join(", ")
-                    ))
-                })
-            })
-            .collect::<Result<_, _>>()?,
-    };
     let to_err = |e: lobe_materials::FileError| Error::File {
         file: e.file,
         message: e.message,
@@ -110,6 +97,33 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
                 Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), args.resolution),
             )
         }
+    };
+    let default: &[&str] = if data.anisotropic {
+        &[
+            "ward-anisotropic",
+            "ashikhmin-shirley-anisotropic",
+            "poulin-fournier",
+        ]
+    } else {
+        lobe_materials::fit::ISOTROPIC_DEFAULT
+    };
+    let chosen: Vec<_> = match &args.models {
+        None => specs
+            .iter()
+            .filter(|s| default.contains(&s.label))
+            .collect(),
+        Some(list) => list
+            .split(',')
+            .map(|l| {
+                specs.iter().find(|s| s.label == l.trim()).ok_or_else(|| {
+                    Error::Other(format!(
+                        "--models: unknown model \"{}\"; expected one of: {}",
+                        l.trim(),
+                        specs.iter().map(|s| s.label).collect::<Vec<_>>().join(", ")
+                    ))
+                })
+            })
+            .collect::<Result<_, _>>()?,
     };
     if data.samples.is_empty() {
         return Err(Error::Other(format!(

@@ -140,8 +140,70 @@ pub fn builtin_specs() -> Vec<ModelSpec> {
         ct("cook-torrance-no-fresnel", "beckmann", "none", 1),
         ct("cook-torrance-dielectric", "beckmann", "dielectric", 1),
         ct("cook-torrance-2", "beckmann", "schlick", 2),
+        ModelSpec {
+            label: "lafortune-2",
+            model: "lafortune",
+            settings: json!({"normalization": "ngan"}),
+            params: vec![
+                FitParam {
+                    name: "cx",
+                    lo: -1.0,
+                    hi: 1.0,
+                    log: false,
+                    starts: &[-0.6],
+                    tied: &["cy"],
+                },
+                p("cz", 0.01, 1.0, false, &[0.6]),
+                p("n", 1.0, 1e5, true, &[10.0, 100.0, 1000.0]),
+            ],
+            lobes: 2,
+        },
+        // Section 5: anisotropic models, for 4D (binned) data.
+        ModelSpec {
+            label: "ward-anisotropic",
+            model: "ward-anisotropic",
+            settings: json!({}),
+            params: vec![
+                p("alpha_x", 1e-3, 1.0, true, &[0.03, 0.2]),
+                p("alpha_y", 1e-3, 1.0, true, &[0.03, 0.2]),
+            ],
+            lobes: 1,
+        },
+        ModelSpec {
+            label: "ashikhmin-shirley-anisotropic",
+            model: "ashikhmin-shirley-anisotropic",
+            settings: json!({}),
+            params: vec![
+                p("nu", 1.0, 1e6, true, &[10.0, 1000.0]),
+                p("nv", 1.0, 1e6, true, &[10.0, 1000.0]),
+                p("f0", 0.0, 1.0, false, &[0.1]),
+            ],
+            lobes: 1,
+        },
+        ModelSpec {
+            label: "poulin-fournier",
+            model: "poulin-fournier",
+            settings: json!({}),
+            params: vec![
+                p("n", 1.0, 1e5, true, &[30.0, 1000.0]),
+                p("d", 0.0, 5.0, false, &[0.2, 1.0]),
+                p("h", 0.0, 1.0, false, &[0.5]),
+            ],
+            lobes: 1,
+        },
     ]
 }
+
+/// The labels of the models fitted to isotropic data by default (section 4).
+pub const ISOTROPIC_DEFAULT: &[&str] = &[
+    "ward",
+    "ward-duer",
+    "blinn-phong",
+    "cook-torrance",
+    "lafortune",
+    "ashikhmin-shirley",
+    "he",
+];
 
 /// The result of fitting one model.
 #[derive(Clone, Debug)]
