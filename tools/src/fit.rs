@@ -1,19 +1,27 @@
 //! `lobe fit`: fit measured data (MERL, binned, RGL, or any material) to the study's models
-//! and write the JSON report, loadable as `{"type": "fit", "file": ..., "model": ...}`.
+//! and write JSON reports (loadable as `{"type": "fit", "file": ..., "model": ...}`); over a
+//! folder, fit every file, resumably and in deterministic shards; `lobe fit merge` joins
+//! reports into CSV and Markdown tables.
 
 use crate::eval::{MaterialArgs, load_material};
 use lobe_materials::fit::dataset::Dataset;
-use lobe_materials::fit::{builtin_specs, fit, report_json};
+use lobe_materials::fit::{ISOTROPIC_DEFAULT, ModelSpec, builtin_specs, fit, report_json};
 use lobe_materials::measured::binned::Binned;
 use lobe_materials::measured::merl::Merl;
 use lobe_materials::measured::rgl::Rgl;
 use lobe_renderer::Error;
-use std::path::PathBuf;
+use serde_json::Value;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct FitArgs {
-    /// Measured data: a MERL table (.binary), binned data (.bin) or an RGL file (.bsdf).
-    /// Without it, the material given by --material / --ngan (synthetic data).
+    #[command(subcommand)]
+    sub: Option<FitSub>,
+    /// Measured data: a MERL table (.binary), binned data (.bin) or an RGL file (.bsdf), or a
+    /// folder of them (batch mode: one report per file in the --output folder). Without it,
+    /// the material given by --material / --ngan (synthetic data).
     data: Option<PathBuf>,
     #[command(flatten)]
     material: MaterialArgs,
@@ -28,90 +36,83 @@ pub struct FitArgs {
     /// Objective evaluations allowed per SLSQP start.
     #[arg(long, default_value_t = 300)]
     max_evals: usize,
-    /// Output report (JSON).
+    /// Output report (JSON), or in batch mode the folder of reports.
     #[arg(long, short)]
     output: Option<PathBuf>,
+    /// Batch mode: fit only the files whose index (in sorted order) is i modulo n, e.g. 2/8
+    /// for the third task of an 8-way job array (a Slurm array or a Kubernetes indexed Job).
+    #[arg(long, value_name = "I/N")]
+    shard: Option<String>,
     /// List the model labels and exit.
     #[arg(long)]
     list: bool,
 }
 
-pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
-    let specs = builtin_specs();
-    if args.list {
-        for s in &specs {
-            println!("{}", s.label);
-        }
-        return Ok(());
-    }
-    if !(args.resolution >= 0.25 && args.resolution <= 20.0) {
-        return Err(Error::Other(format!(
-            "--resolution: expected a bin size in [0.25, 20] degrees, found {}",
-            args.resolution
-        )));
-    }
-    let output = args.output.clone().ok_or_else(|| {
-        Error::Other("--output: expected the path of the JSON report to write".into())
-    })?;
-    let to_err = |e: lobe_materials::FileError| Error::File {
+#[derive(clap::Subcommand)]
+enum FitSub {
+    /// Join fit reports (files or folders of *.fit.json) into a CSV and a Markdown table.
+    Merge {
+        /// Reports or folders of reports.
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// Output stem: writes STEM.csv and STEM.md.
+        #[arg(long, short)]
+        output: PathBuf,
+    },
+}
+
+fn to_err(e: lobe_materials::FileError) -> Error {
+    Error::File {
         file: e.file,
         message: e.message,
-    };
-    let (name, source, data) = match &args.data {
-        Some(p) => {
-            if !p.exists() {
-                return Err(Error::file(
-                    p.display(),
-                    "does not exist; expected a MERL .binary, binned .bin or RGL .bsdf file",
-                ));
-            }
-            let name = p
-                .file_stem()
-                .and_then(|s| s.to_str())
-                .unwrap_or("material")
-                .to_string();
-            let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
-            let data = match ext {
-                "binary" => Dataset::from_merl(&Merl::read(p).map_err(to_err)?, args.resolution),
-                "bin" => Dataset::from_binned(&Binned::read(p).map_err(to_err)?),
-                "bsdf" => {
-                    let t = Rgl::read(p).map_err(to_err)?;
-                    Dataset::isotropic(&|wi, wo| Some(t.eval(wo, wi)), args.resolution)
-                }
-                _ => {
-                    return Err(Error::file(
-                        p.display(),
-                        format!(
-                            "unknown extension \"{ext}\"; expected .binary (MERL), .bin (binned) or .bsdf (RGL)"
-                        ),
-                    ));
-                }
-            };
-            (name, p.display().to_string(), data)
+    }
+}
+
+fn load_data(p: &Path, resolution: f64) -> Result<Dataset, Error> {
+    if !p.exists() {
+        return Err(Error::file(
+            p.display(),
+            "does not exist; expected a MERL .binary, binned .bin or RGL .bsdf file",
+        ));
+    }
+    let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
+    Ok(match ext {
+        "binary" => Dataset::from_merl(&Merl::read(p).map_err(to_err)?, resolution),
+        "bin" => Dataset::from_binned(&Binned::read(p).map_err(to_err)?),
+        "bsdf" => {
+            let t = Rgl::read(p).map_err(to_err)?;
+            Dataset::isotropic(&|wi, wo| Some(t.eval(wo, wi)), resolution)
         }
-        None => {
-            let m = load_material(&args.material)?;
-            (
-                "synthetic".to_string(),
-                "material".to_string(),
-                Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), args.resolution),
-            )
+        _ => {
+            return Err(Error::file(
+                p.display(),
+                format!(
+                    "unknown extension \"{ext}\"; expected .binary (MERL), .bin (binned) or .bsdf (RGL)"
+                ),
+            ));
         }
-    };
-    let default: &[&str] = if data.anisotropic {
+    })
+}
+
+fn choose<'a>(
+    specs: &'a [ModelSpec],
+    models: &Option<String>,
+    anisotropic: bool,
+) -> Result<Vec<&'a ModelSpec>, Error> {
+    let default: &[&str] = if anisotropic {
         &[
             "ward-anisotropic",
             "ashikhmin-shirley-anisotropic",
             "poulin-fournier",
         ]
     } else {
-        lobe_materials::fit::ISOTROPIC_DEFAULT
+        ISOTROPIC_DEFAULT
     };
-    let chosen: Vec<_> = match &args.models {
-        None => specs
+    match models {
+        None => Ok(specs
             .iter()
             .filter(|s| default.contains(&s.label))
-            .collect(),
+            .collect()),
         Some(list) => list
             .split(',')
             .map(|l| {
@@ -123,28 +124,272 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
                     ))
                 })
             })
-            .collect::<Result<_, _>>()?,
-    };
+            .collect(),
+    }
+}
+
+fn fit_report(
+    name: &str,
+    source: &str,
+    data: &Dataset,
+    args: &FitArgs,
+    quiet: bool,
+) -> Result<Value, Error> {
     if data.samples.is_empty() {
         return Err(Error::Other(format!(
             "{source}: no measured values below 80 degrees to fit"
         )));
     }
+    let specs = builtin_specs();
+    let chosen = choose(&specs, &args.models, data.anisotropic)?;
     let mut results = Vec::new();
     for spec in chosen {
-        let r = fit(&data, spec, args.max_evals);
+        let r = fit(data, spec, args.max_evals);
         if !quiet {
             eprintln!(
-                "{:28} error {:.4e}  normalized {:.4e}  ({} of {} starts agree, {:.1} s)",
+                "{name}: {:28} error {:.4e}  normalized {:.4e}  ({} of {} starts agree, {:.1} s)",
                 r.label, r.error, r.error_normalized, r.starts_agreeing, r.starts, r.seconds
             );
         }
         results.push(r);
     }
-    let report = report_json(&name, &source, args.resolution, &data, &results);
-    lobe_renderer::film::write_json(&output, &report)?;
+    Ok(report_json(name, source, args.resolution, data, &results))
+}
+
+fn parse_shard(s: &str) -> Result<(usize, usize), Error> {
+    let bad = || {
+        Error::Other(format!(
+            "--shard: expected I/N with 0 <= I < N, found \"{s}\""
+        ))
+    };
+    let (i, n) = s.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
+    if let Some(FitSub::Merge { inputs, output }) = &args.sub {
+        return merge(inputs, output, quiet);
+    }
+    if args.list {
+        for s in builtin_specs() {
+            println!("{}", s.label);
+        }
+        return Ok(());
+    }
+    if !(args.resolution >= 0.25 && args.resolution <= 20.0) {
+        return Err(Error::Other(format!(
+            "--resolution: expected a bin size in [0.25, 20] degrees, found {}",
+            args.resolution
+        )));
+    }
+    let output = args.output.clone().ok_or_else(|| Error::Other("--output: expected the path of the JSON report (or, for a folder of data, of the report folder)".into()))?;
+    match &args.data {
+        Some(dir) if dir.is_dir() => batch(dir, &output, &args, quiet),
+        Some(p) => {
+            if args.shard.is_some() {
+                return Err(Error::Other("--shard: only for a folder of data".into()));
+            }
+            let data = load_data(p, args.resolution)?;
+            let name = p
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("material")
+                .to_string();
+            let report = fit_report(&name, &p.display().to_string(), &data, &args, quiet)?;
+            lobe_renderer::film::write_json(&output, &report)?;
+            if !quiet {
+                eprintln!("wrote {}", output.display());
+            }
+            Ok(())
+        }
+        None => {
+            let m = load_material(&args.material)?;
+            let data = Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), args.resolution);
+            let report = fit_report("synthetic", "material", &data, &args, quiet)?;
+            lobe_renderer::film::write_json(&output, &report)
+        }
+    }
+}
+
+/// Fits every data file of `dir` (sorted by name; this shard's share), writing
+/// `out/<stem>.fit.json` atomically and skipping reports that already exist, so an
+/// interrupted run resumes where it stopped and loses nothing already finished.
+fn batch(dir: &Path, out: &Path, args: &FitArgs, quiet: bool) -> Result<(), Error> {
+    if !out.is_dir() {
+        std::fs::create_dir_all(out).map_err(|e| {
+            Error::file(
+                out.display(),
+                format!("cannot create the report folder: {e}"),
+            )
+        })?;
+    }
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| Error::file(dir.display(), format!("cannot list: {e}")))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            matches!(
+                p.extension().and_then(|e| e.to_str()),
+                Some("binary" | "bin" | "bsdf")
+            )
+        })
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(Error::file(
+            dir.display(),
+            "holds no .binary, .bin or .bsdf files to fit",
+        ));
+    }
+    let (i, n) = match &args.shard {
+        Some(s) => parse_shard(s)?,
+        None => (0, 1),
+    };
+    let mine: Vec<&PathBuf> = files
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % n == i)
+        .map(|(_, p)| p)
+        .collect();
+    let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+        let pb = indicatif::ProgressBar::new(mine.len() as u64);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template(
+                "fitting [{bar:40}] {pos}/{len} {elapsed_precise} ETA {eta} {msg}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        pb
+    });
+    let (mut done, mut skipped) = (0, 0);
+    for p in mine {
+        let stem = p
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("material")
+            .to_string();
+        let report = out.join(format!("{stem}.fit.json"));
+        if report.exists() {
+            skipped += 1;
+        } else {
+            if let Some(b) = &bar {
+                b.set_message(stem.clone());
+            }
+            let data = load_data(p, args.resolution)?;
+            let r = fit_report(
+                &stem,
+                &p.display().to_string(),
+                &data,
+                args,
+                quiet || bar.is_some(),
+            )?;
+            lobe_renderer::film::write_json(&report, &r)?;
+            done += 1;
+        }
+        if let Some(b) = &bar {
+            b.inc(1);
+        }
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
     if !quiet {
-        eprintln!("wrote {}", output.display());
+        eprintln!(
+            "shard {i}/{n}: fitted {done} materials, {skipped} already done, reports in {}",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// Joins reports into STEM.csv and STEM.md: one row per material, per model the
+/// normalized error (and the absolute error in the CSV).
+fn merge(inputs: &[PathBuf], stem: &Path, quiet: bool) -> Result<(), Error> {
+    let mut reports: Vec<(PathBuf, Value)> = Vec::new();
+    for i in inputs {
+        let files: Vec<PathBuf> = if i.is_dir() {
+            let mut v: Vec<PathBuf> = std::fs::read_dir(i)
+                .map_err(|e| Error::file(i.display(), format!("cannot list: {e}")))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.to_string_lossy().ends_with(".fit.json"))
+                .collect();
+            v.sort();
+            v
+        } else {
+            vec![i.clone()]
+        };
+        for f in files {
+            let text = std::fs::read_to_string(&f)
+                .map_err(|e| Error::file(f.display(), format!("cannot read: {e}")))?;
+            let v: Value = serde_json::from_str(&text)
+                .map_err(|e| Error::file(f.display(), format!("invalid JSON: {e}")))?;
+            if v.get("models").and_then(Value::as_object).is_none() {
+                return Err(Error::file(
+                    f.display(),
+                    "no \"models\" object; expected a lobe fit report",
+                ));
+            }
+            reports.push((f, v));
+        }
+    }
+    if reports.is_empty() {
+        return Err(Error::Other(
+            "lobe fit merge: no *.fit.json reports found in the inputs".into(),
+        ));
+    }
+    reports.sort_by(|a, b| a.1["material"].as_str().cmp(&b.1["material"].as_str()));
+    let mut models: Vec<String> = Vec::new();
+    for (_, r) in &reports {
+        for k in r["models"].as_object().expect("checked").keys() {
+            if !models.contains(k) {
+                models.push(k.clone());
+            }
+        }
+    }
+    let mut csv = String::from("material,max_albedo");
+    for m in &models {
+        csv += &format!(",{m} error,{m} normalized error");
+    }
+    csv.push('\n');
+    let mut md = format!(
+        "| material | {} |\n|---|{}\n",
+        models.join(" | "),
+        "---|".repeat(models.len())
+    );
+    for (_, r) in &reports {
+        let name = r["material"].as_str().unwrap_or("?");
+        csv += &format!("{name},{}", r["max_albedo"]);
+        md += &format!("| {name} |");
+        for m in &models {
+            let e = &r["models"][m];
+            let (a, n) = (e["error"].as_f64(), e["error_normalized"].as_f64());
+            csv += &format!(
+                ",{},{}",
+                a.map_or(String::new(), |x| format!("{x:.6e}")),
+                n.map_or(String::new(), |x| format!("{x:.6e}"))
+            );
+            md += &format!(" {} |", n.map_or("".to_string(), |x| format!("{x:.4e}")));
+        }
+        csv.push('\n');
+        md.push('\n');
+    }
+    let csv_path = PathBuf::from(format!("{}.csv", stem.display()));
+    let md_path = PathBuf::from(format!("{}.md", stem.display()));
+    lobe_renderer::film::atomic_write(&csv_path, |w| std::io::Write::write_all(w, csv.as_bytes()))?;
+    lobe_renderer::film::atomic_write(&md_path, |w| std::io::Write::write_all(w, md.as_bytes()))?;
+    if !quiet {
+        eprintln!(
+            "merged {} reports into {} and {}",
+            reports.len(),
+            csv_path.display(),
+            md_path.display()
+        );
     }
     Ok(())
 }

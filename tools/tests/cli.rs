@@ -436,3 +436,125 @@ fn fit_writes_a_report_that_loads_as_a_material() {
         "no model \"he\"",
     );
 }
+
+#[test]
+fn batch_fits_are_sharded_resumable_and_merge_into_tables() {
+    use lobe_materials::measured::binned::{Axis, Binned};
+    use lobe_materials::registry::Registry;
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    std::fs::create_dir(&data).unwrap();
+    // Three coarse binned tables of Cook-Torrance materials.
+    for (k, m) in [0.1, 0.2, 0.3].iter().enumerate() {
+        let mat = Registry::builtin()
+            .create(&serde_json::json!({"type": "cook-torrance", "diffuse": 0.1, "specular": 0.5, "m": m}), "m")
+            .unwrap();
+        let mut b = Binned::empty(
+            false,
+            vec![
+                Axis::new(16, 0.0, 80.0),
+                Axis::new(16, 0.0, 80.0),
+                Axis::new(36, 0.0, 180.0),
+            ],
+        );
+        for i in 0..b.len() {
+            let (wi, wo) = b.directions(i);
+            b.values[i] = Some(mat.eval(wo, wi).to_array());
+        }
+        b.write(&data.join(format!("ct{k}.bin"))).unwrap();
+    }
+    std::fs::write(data.join("notes.txt"), "ignored").unwrap();
+    let out = dir.path().join("reports");
+    let run = |extra: &[&str]| {
+        let mut a = vec![
+            "fit",
+            data.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--models",
+            "cook-torrance",
+            "-q",
+        ];
+        a.extend_from_slice(extra);
+        let o = lobe().args(&a).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&["--shard", "0/2"]);
+    let names = |d: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(names(&out), vec!["ct0.fit.json", "ct2.fit.json"]);
+    run(&["--shard", "1/2"]);
+    assert_eq!(names(&out).len(), 3);
+    // A rerun skips what is done (the files are untouched).
+    let before = std::fs::metadata(out.join("ct1.fit.json"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    run(&[]);
+    assert_eq!(
+        std::fs::metadata(out.join("ct1.fit.json"))
+            .unwrap()
+            .modified()
+            .unwrap(),
+        before
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("ct1.fit.json")).unwrap()).unwrap();
+    assert!(
+        (v["models"]["cook-torrance"]["material"]["m"]
+            .as_f64()
+            .unwrap()
+            - 0.2)
+            .abs()
+            < 0.01
+    );
+    let table = dir.path().join("table");
+    let o = lobe()
+        .args([
+            "fit",
+            "merge",
+            out.to_str().unwrap(),
+            "-o",
+            table.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(dir.path().join("table.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 4, "{csv}");
+    assert!(
+        csv.starts_with("material,max_albedo,cook-torrance error,cook-torrance normalized error")
+    );
+    assert!(
+        std::fs::read_to_string(dir.path().join("table.md"))
+            .unwrap()
+            .contains("| ct2 |")
+    );
+    fails(
+        &[
+            "fit",
+            data.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--shard",
+            "2/2",
+        ],
+        "--shard",
+    );
+    fails(
+        &[
+            "fit",
+            "merge",
+            dir.path().join("nothing").to_str().unwrap(),
+            "-o",
+            table.to_str().unwrap(),
+        ],
+        "nothing",
+    );
+}
