@@ -159,6 +159,30 @@ impl Bsdf for Composite {
         if wo.z <= 0.0 {
             return None;
         }
+        self.with_weights(wo, |w, total| self.sample_with(wo, u, uc, w, total))
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        self.with_weights(wo, |w, total| Some(self.mixture_pdf(wo, wi, w, total)))
+            .unwrap_or(0.0)
+    }
+
+    fn flags(&self) -> Flags {
+        self.flags
+    }
+
+    fn name(&self) -> &str {
+        self.name
+    }
+}
+
+impl Composite {
+    /// Runs `f` with the component probabilities for `wo` (on the stack for up to
+    /// [`MAX_INLINE`] lobes); None when every component is black.
+    fn with_weights<R>(&self, wo: Vec3, f: impl FnOnce(&[f32], f32) -> Option<R>) -> Option<R> {
         let mut buf = [0.0f32; MAX_INLINE + 1];
         let mut heap;
         let w: &mut [f32] = if self.lobes.len() <= MAX_INLINE {
@@ -171,6 +195,10 @@ impl Bsdf for Composite {
         if !(total > 0.0) {
             return None;
         }
+        f(w, total)
+    }
+
+    fn sample_with(&self, wo: Vec3, u: Vec2, uc: f32, w: &[f32], total: f32) -> Option<BsdfSample> {
         let mut target = uc * total;
         let mut chosen = w.len() - 1;
         for (k, &wk) in w.iter().enumerate() {
@@ -203,35 +231,6 @@ impl Bsdf for Composite {
         })
     }
 
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let mut buf = [0.0f32; MAX_INLINE + 1];
-        let mut heap;
-        let w: &mut [f32] = if self.lobes.len() <= MAX_INLINE {
-            &mut buf[..self.lobes.len() + 1]
-        } else {
-            heap = vec![0.0f32; self.lobes.len() + 1];
-            &mut heap
-        };
-        let total = self.weights(wo, w);
-        if !(total > 0.0) {
-            return 0.0;
-        }
-        self.mixture_pdf(wo, wi, w, total)
-    }
-
-    fn flags(&self) -> Flags {
-        self.flags
-    }
-
-    fn name(&self) -> &str {
-        self.name
-    }
-}
-
-impl Composite {
     #[inline]
     fn mixture_pdf(&self, wo: Vec3, wi: Vec3, w: &[f32], total: f32) -> f32 {
         let mut pdf = w[0] * cosine_hemisphere_pdf(wi.z);

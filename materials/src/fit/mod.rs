@@ -56,6 +56,22 @@ const fn p(name: &'static str, lo: f64, hi: f64, log: bool, starts: &'static [f6
     }
 }
 
+/// Lafortune's free parameters on isotropic data: cx (= cy), cz, n.
+fn lafortune_params() -> Vec<FitParam> {
+    vec![
+        FitParam {
+            name: "cx",
+            lo: -1.0,
+            hi: 1.0,
+            log: false,
+            starts: &[-0.6],
+            tied: &["cy"],
+        },
+        p("cz", 0.01, 1.0, false, &[0.6]),
+        p("n", 1.0, 1e5, true, &[10.0, 100.0, 1000.0]),
+    ]
+}
+
 /// The models of the study (sections 3.1, 4.2-4.4 and 5).
 pub fn builtin_specs() -> Vec<ModelSpec> {
     let ct = |label, dist: &str, fresnel: &str, lobes| {
@@ -100,18 +116,7 @@ pub fn builtin_specs() -> Vec<ModelSpec> {
             label: "lafortune",
             model: "lafortune",
             settings: json!({"normalization": "ngan"}),
-            params: vec![
-                FitParam {
-                    name: "cx",
-                    lo: -1.0,
-                    hi: 1.0,
-                    log: false,
-                    starts: &[-0.6],
-                    tied: &["cy"],
-                },
-                p("cz", 0.01, 1.0, false, &[0.6]),
-                p("n", 1.0, 1e5, true, &[10.0, 100.0, 1000.0]),
-            ],
+            params: lafortune_params(),
             lobes: 1,
         },
         ModelSpec {
@@ -144,18 +149,7 @@ pub fn builtin_specs() -> Vec<ModelSpec> {
             label: "lafortune-2",
             model: "lafortune",
             settings: json!({"normalization": "ngan"}),
-            params: vec![
-                FitParam {
-                    name: "cx",
-                    lo: -1.0,
-                    hi: 1.0,
-                    log: false,
-                    starts: &[-0.6],
-                    tied: &["cy"],
-                },
-                p("cz", 0.01, 1.0, false, &[0.6]),
-                p("n", 1.0, 1e5, true, &[10.0, 100.0, 1000.0]),
-            ],
+            params: lafortune_params(),
             lobes: 2,
         },
         // Section 5: anisotropic models, for 4D (binned) data.
