@@ -6,6 +6,7 @@
 
 mod compare;
 mod eval;
+mod figures;
 mod fit;
 mod tabulate;
 
@@ -50,6 +51,12 @@ enum Command {
         after_help = "Examples:\n  lobe fit nickel.binary -o nickel.fit.json\n  lobe fit data.bin --models ward-anisotropic -o data.fit.json\n  lobe fit ../shared/data/rgl/paper_white_rgb.bsdf --models cook-torrance,lafortune --resolution 2 -o paper.fit.json\n  lobe fit --list\nThe report loads as a material: {\"type\": \"fit\", \"file\": \"nickel.fit.json\", \"model\": \"cook-torrance\"}"
     )]
     Fit(fit::FitArgs),
+    /// Draw the study's figures: error plots from fit reports, incidence-plane polar plots.
+    #[command(
+        subcommand,
+        after_help = "Examples:\n  lobe figure errors reports/ -o figure14.png\n  lobe figure multilobe reports/ -o figure5.png\n  lobe figure polar --material '{\"type\": \"merl\", \"file\": \"gmp.binary\"}' --report gmp.fit.json --models ward,cook-torrance,lafortune --theta-i 45 -o figure4.png"
+    )]
+    Figure(figures::FigureCmd),
     /// Write a material as a MERL table or as binned 4D data, emulating an acquisition.
     #[command(
         after_help = "Examples:\n  lobe tabulate --material '{\"type\": \"cook-torrance\", \"diffuse\": 0.1, \"specular\": 0.5, \"m\": 0.1}' -o ct.binary\n  lobe tabulate --ngan nickel --model he --retro-exclusion 3 --noise 0.02 -o nickel-he.binary\n  lobe tabulate --material @brushed.json --format binned --anisotropic --empty-fraction 0.75 --grazing-cutoff 80 -o brushed.bin"
@@ -117,6 +124,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare::cmd_compare(args, cli.quiet),
         Command::Tabulate(args) => tabulate::cmd_tabulate(args, cli.quiet),
         Command::Fit(args) => fit::cmd_fit(args, cli.quiet),
+        Command::Figure(cmd) => figures::cmd_figure(cmd, cli.quiet),
         Command::Models { names } => {
             let reg = lobe_materials::registry::Registry::builtin();
             if names {

@@ -558,3 +558,65 @@ fn batch_fits_are_sharded_resumable_and_merge_into_tables() {
         "nothing",
     );
 }
+
+#[test]
+fn figures_draw_pngs_from_fit_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let mat = r#"{"type": "ward", "diffuse": 0.1, "specular": 0.2, "alpha": 0.2}"#;
+    let report = dir.path().join("w.fit.json");
+    let o = lobe()
+        .args([
+            "fit",
+            "--material",
+            mat,
+            "--models",
+            "ward,lafortune",
+            "--resolution",
+            "4",
+            "-o",
+            report.to_str().unwrap(),
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for (args, name) in [
+        (vec!["figure", "errors", report.to_str().unwrap()], "e.png"),
+        (
+            vec![
+                "figure",
+                "polar",
+                "--material",
+                mat,
+                "--report",
+                report.to_str().unwrap(),
+            ],
+            "p.png",
+        ),
+    ] {
+        let out = dir.path().join(name);
+        let o = lobe()
+            .args(&args)
+            .args(["-o", out.to_str().unwrap(), "-q"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let img = image::open(&out).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (1000, 600));
+        // Something coloured (a plotted curve) was drawn, not just a blank canvas.
+        assert!(img.pixels().any(|p| p[0] != p[1] || p[1] != p[2]));
+    }
+    fails(
+        &[
+            "figure",
+            "polar",
+            "--material",
+            mat,
+            "--theta-i",
+            "95",
+            "-o",
+            dir.path().join("x.png").to_str().unwrap(),
+        ],
+        "--theta-i",
+    );
+}
