@@ -79,39 +79,10 @@ fn register_font() {
 }
 
 fn read_reports(inputs: &[PathBuf]) -> Result<Vec<Value>, Error> {
-    let mut out = Vec::new();
-    for i in inputs {
-        let files: Vec<PathBuf> = if i.is_dir() {
-            let mut v: Vec<PathBuf> = std::fs::read_dir(i)
-                .map_err(|e| Error::file(i.display(), format!("cannot list: {e}")))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.to_string_lossy().ends_with(".fit.json"))
-                .collect();
-            v.sort();
-            v
-        } else {
-            vec![i.clone()]
-        };
-        for f in files {
-            let text = std::fs::read_to_string(&f)
-                .map_err(|e| Error::file(f.display(), format!("cannot read: {e}")))?;
-            let v: Value = serde_json::from_str(&text)
-                .map_err(|e| Error::file(f.display(), format!("invalid JSON: {e}")))?;
-            if v.get("models").and_then(Value::as_object).is_none() {
-                return Err(Error::file(
-                    f.display(),
-                    "no \"models\" object; expected a lobe fit report",
-                ));
-            }
-            out.push(v);
-        }
-    }
-    if out.is_empty() {
-        return Err(Error::Other(
-            "no fit reports (*.fit.json) found in the inputs".into(),
-        ));
-    }
-    Ok(out)
+    Ok(crate::fit::read_reports(inputs)?
+        .into_iter()
+        .map(|(_, v)| v)
+        .collect())
 }
 
 fn err_of(r: &Value, model: &str) -> Option<f64> {
@@ -121,11 +92,11 @@ fn err_of(r: &Value, model: &str) -> Option<f64> {
 }
 
 fn errors(reports: &[Value], output: &Path) -> Result<(), Error> {
-    let mut models: Vec<String> = Vec::new();
+    let mut models: Vec<&str> = Vec::new();
     for r in reports {
         for k in r["models"].as_object().expect("checked").keys() {
-            if !models.contains(k) {
-                models.push(k.clone());
+            if !models.contains(&k.as_str()) {
+                models.push(k);
             }
         }
     }
@@ -135,65 +106,13 @@ fn errors(reports: &[Value], output: &Path) -> Result<(), Error> {
             .unwrap_or(0.0)
             .total_cmp(&err_of(b, "lafortune").unwrap_or(0.0))
     });
-    let all: Vec<f64> = reports
-        .iter()
-        .flat_map(|r| models.iter().filter_map(move |m| err_of(r, m)))
-        .collect();
-    let (lo, hi) = all.iter().fold((f64::MAX, f64::MIN), |(a, b), &x| {
-        (a.min(x.log10()), b.max(x.log10()))
-    });
-    let (lo, hi) = if lo <= hi {
-        (lo.floor(), hi.ceil().max(lo.floor() + 1.0))
-    } else {
-        (-4.0, 0.0)
-    };
-    let mut buf = vec![255u8; (W * H * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
-        root.fill(&WHITE).map_err(plot_err)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                "Normalized fitting error (log10), materials sorted by the Lafortune error",
-                ("sans-serif", 20),
-            )
-            .margin(15)
-            .x_label_area_size(35)
-            .y_label_area_size(55)
-            .build_cartesian_2d(0f64..order.len() as f64, lo..hi)
-            .map_err(plot_err)?;
-        chart
-            .configure_mesh()
-            .x_desc("material")
-            .y_desc("log10 error / max albedo")
-            .draw()
-            .map_err(plot_err)?;
-        for (k, m) in models.iter().enumerate() {
-            let c = PALETTE[k % PALETTE.len()];
-            let pts: Vec<(f64, f64)> = order
-                .iter()
-                .enumerate()
-                .filter_map(|(i, r)| err_of(r, m).map(|e| (i as f64 + 0.5, e.log10())))
-                .collect();
-            chart
-                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
-                .map_err(plot_err)?
-                .label(m.as_str())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
-                });
-            chart
-                .draw_series(pts.into_iter().map(|p| Circle::new(p, 3, c.filled())))
-                .map_err(plot_err)?;
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(plot_err)?;
-        root.present().map_err(plot_err)?;
-    }
-    save(output, &buf)
+    error_chart(
+        "Normalized fitting error (log10), materials sorted by the Lafortune error",
+        &order,
+        &models,
+        true,
+        output,
+    )
 }
 
 fn multilobe(reports: &[Value], output: &Path) -> Result<(), Error> {
@@ -216,34 +135,51 @@ fn multilobe(reports: &[Value], output: &Path) -> Result<(), Error> {
     }
     rows.sort_by(|a, b| b.1.total_cmp(&a.1));
     rows.truncate(30);
-    let vals: Vec<f64> = rows
+    let order: Vec<&Value> = rows.into_iter().map(|(r, _)| r).collect();
+    error_chart(
+        "One lobe against two: the 30 most improved materials",
+        &order,
+        &[
+            "cook-torrance",
+            "cook-torrance-2",
+            "lafortune",
+            "lafortune-2",
+        ],
+        false,
+        output,
+    )
+}
+
+/// One line per model of log10 normalized error over the materials in `order`
+/// (optionally with a marker per material), y range from the data in whole decades.
+fn error_chart(
+    title: &str,
+    order: &[&Value],
+    models: &[&str],
+    markers: bool,
+    output: &Path,
+) -> Result<(), Error> {
+    let (lo, hi) = order
         .iter()
-        .flat_map(|(r, _)| {
-            pairs
-                .iter()
-                .flat_map(|(a, b)| [err_of(r, a), err_of(r, b)])
-                .flatten()
-        })
-        .collect();
-    let (lo, hi) = vals.iter().fold((f64::MAX, f64::MIN), |(a, b), &x| {
-        (a.min(x.log10()), b.max(x.log10()))
-    });
+        .flat_map(|r| models.iter().filter_map(move |m| err_of(r, m)))
+        .fold((f64::MAX, f64::MIN), |(a, b), x| {
+            (a.min(x.log10()), b.max(x.log10()))
+        });
+    let (lo, hi) = if lo <= hi {
+        (lo.floor(), hi.ceil().max(lo.floor() + 1.0))
+    } else {
+        (-4.0, 0.0)
+    };
     let mut buf = vec![255u8; (W * H * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_err)?;
         let mut chart = ChartBuilder::on(&root)
-            .caption(
-                "One lobe against two: the 30 most improved materials",
-                ("sans-serif", 20),
-            )
+            .caption(title, ("sans-serif", 20))
             .margin(15)
             .x_label_area_size(35)
             .y_label_area_size(55)
-            .build_cartesian_2d(
-                0f64..rows.len() as f64,
-                lo.floor()..hi.ceil().max(lo.floor() + 1.0),
-            )
+            .build_cartesian_2d(0f64..order.len() as f64, lo..hi)
             .map_err(plot_err)?;
         chart
             .configure_mesh()
@@ -251,28 +187,25 @@ fn multilobe(reports: &[Value], output: &Path) -> Result<(), Error> {
             .y_desc("log10 error / max albedo")
             .draw()
             .map_err(plot_err)?;
-        for (k, m) in [
-            "cook-torrance",
-            "cook-torrance-2",
-            "lafortune",
-            "lafortune-2",
-        ]
-        .iter()
-        .enumerate()
-        {
+        for (k, &m) in models.iter().enumerate() {
             let c = PALETTE[k % PALETTE.len()];
-            let pts: Vec<(f64, f64)> = rows
+            let pts: Vec<(f64, f64)> = order
                 .iter()
                 .enumerate()
-                .filter_map(|(i, (r, _))| err_of(r, m).map(|e| (i as f64 + 0.5, e.log10())))
+                .filter_map(|(i, r)| err_of(r, m).map(|e| (i as f64 + 0.5, e.log10())))
                 .collect();
             chart
-                .draw_series(LineSeries::new(pts, c.stroke_width(2)))
+                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
                 .map_err(plot_err)?
-                .label(*m)
+                .label(m)
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
                 });
+            if markers {
+                chart
+                    .draw_series(pts.into_iter().map(|p| Circle::new(p, 3, c.filled())))
+                    .map_err(plot_err)?;
+            }
         }
         chart
             .configure_series_labels()

@@ -308,9 +308,9 @@ fn batch(dir: &Path, out: &Path, args: &FitArgs, quiet: bool) -> Result<(), Erro
     Ok(())
 }
 
-/// Joins reports into STEM.csv and STEM.md: one row per material, per model the
-/// normalized error (and the absolute error in the CSV).
-fn merge(inputs: &[PathBuf], stem: &Path, quiet: bool) -> Result<(), Error> {
+/// Reads fit reports: each input is a report or a folder whose `*.fit.json` files are read
+/// in name order. Every report must have a `models` object; no report at all is an error.
+pub(crate) fn read_reports(inputs: &[PathBuf]) -> Result<Vec<(PathBuf, Value)>, Error> {
     let mut reports: Vec<(PathBuf, Value)> = Vec::new();
     for i in inputs {
         let files: Vec<PathBuf> = if i.is_dir() {
@@ -340,9 +340,16 @@ fn merge(inputs: &[PathBuf], stem: &Path, quiet: bool) -> Result<(), Error> {
     }
     if reports.is_empty() {
         return Err(Error::Other(
-            "lobe fit merge: no *.fit.json reports found in the inputs".into(),
+            "no fit reports (*.fit.json) found in the inputs".into(),
         ));
     }
+    Ok(reports)
+}
+
+/// Joins reports into STEM.csv and STEM.md: one row per material, per model the
+/// normalized error (and the absolute error in the CSV).
+fn merge(inputs: &[PathBuf], stem: &Path, quiet: bool) -> Result<(), Error> {
+    let mut reports = read_reports(inputs)?;
     reports.sort_by(|a, b| a.1["material"].as_str().cmp(&b.1["material"].as_str()));
     let mut models: Vec<String> = Vec::new();
     for (_, r) in &reports {
