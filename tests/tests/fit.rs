@@ -1,51 +1,434 @@
-//! The fitter recovers known parameters from synthetic data: data tabulated from a
-//! Cook-Torrance material is fitted by Cook-Torrance with (almost) zero error and the true
-//! parameters, while a model that cannot represent it (Ward) is left with a larger error.
+//! The fitter of Ngan et al. 2005 (sections 3.2-3.3, 5) on data whose answer is known:
+//! - every isotropic model's parameters are recovered from noise-free data it made (relative
+//!   error below 1 %, Eq. (1) error near 0), and from data with 5 % noise and 25 % empty
+//!   bins within the tolerances below, with an error no larger than the truth's own;
+//! - data made by one model is fitted worse by every other model than by its own;
+//! - anisotropic Ward is recovered from sparse 4D binned data, which the other anisotropic
+//!   models fit worse;
+//! - the four real RGL measurements fit with every model, and the fitted Cook-Torrance
+//!   renders close to the measured material;
+//! - empty data, data with every bin missing and NaN values give clear errors.
 
-use lobe_materials::fit::dataset::Dataset;
-use lobe_materials::fit::{builtin_specs, fit};
+use glam::Vec3;
+use lobe_materials::Bsdf;
+use lobe_materials::fit::dataset::{CUTOFF_DEG, Dataset, Sample};
+use lobe_materials::fit::{FitResult, ISOTROPIC_DEFAULT, ModelSpec, builtin_specs, eq1_error, fit};
+use lobe_materials::measured::binned::{Axis, Binned};
+use lobe_materials::measured::tabulate::{Acquisition, merl_from};
 use lobe_materials::registry::Registry;
-use serde_json::json;
+use serde_json::{Value, json};
+use std::sync::Arc;
 
-#[test]
-fn cook_torrance_data_is_recovered_by_cook_torrance() {
-    let truth = Registry::builtin()
-        .create(&json!({"type": "cook-torrance", "diffuse": [0.2, 0.1, 0.05], "specular": [0.3, 0.35, 0.4], "m": 0.15, "f0": 0.1}), "t")
-        .unwrap();
-    let data = Dataset::isotropic(&|wi, wo| Some(truth.eval(wo, wi)), 4.0);
-    assert!(data.samples.len() > 10_000);
-    let specs = builtin_specs();
-    let ct = specs.iter().find(|s| s.label == "cook-torrance").unwrap();
-    let r = fit(&data, ct, 200);
+const DIFFUSE: [f64; 3] = [0.2, 0.1, 0.05];
+const SPECULAR: [f64; 3] = [0.3, 0.35, 0.4];
+
+/// The true lobe parameters of each model's synthetic material (Lafortune's cy is tied to
+/// cx on isotropic data; He is in its series regime, where sigma0 and tau both matter).
+const TRUTH: &[(&str, &[(&str, f64)])] = &[
+    ("ward", &[("alpha", 0.12)]),
+    ("ward-duer", &[("alpha", 0.08)]),
+    ("blinn-phong", &[("n", 60.0)]),
+    ("cook-torrance", &[("m", 0.15), ("f0", 0.1)]),
+    ("lafortune", &[("cx", -0.8), ("cz", 0.6), ("n", 40.0)]),
+    ("ashikhmin-shirley", &[("n", 80.0), ("f0", 0.2)]),
+    ("he", &[("sigma0", 0.1), ("tau", 3.0), ("eta", 1.6)]),
+];
+
+fn spec(label: &str) -> ModelSpec {
+    builtin_specs()
+        .into_iter()
+        .find(|s| s.label == label)
+        .unwrap_or_else(|| panic!("no model {label}"))
+}
+
+fn truth_desc(label: &str) -> Value {
+    let s = spec(label);
+    let mut d = s.settings.clone();
+    d["type"] = json!(s.model);
+    d["diffuse"] = json!(DIFFUSE);
+    d["specular"] = json!(SPECULAR);
+    let params = TRUTH.iter().find(|t| t.0 == label).unwrap().1;
+    for (k, v) in params {
+        d[*k] = json!(v);
+        if *k == "cx" {
+            d["cy"] = json!(v);
+        }
+    }
+    d
+}
+
+fn material(desc: &Value) -> Arc<dyn Bsdf> {
+    Registry::builtin()
+        .create(desc, "truth")
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn rel(got: f64, want: f64) -> f64 {
+    (got - want).abs() / want.abs()
+}
+
+fn show(r: &FitResult) {
     eprintln!(
-        "{} -> error {:.3e} (normalized {:.3e}), {} of {} starts agree, {} evaluations, {:.1} s",
-        r.material,
+        "  {:28} E {:.3e} (normalized {:.3e}), {}/{} starts agree, {} evaluations, {:.2} s: {}",
+        r.label,
         r.error,
         r.error_normalized,
         r.starts_agreeing,
         r.starts,
         r.evaluations,
-        r.seconds
+        r.seconds,
+        r.material
     );
-    let m = r.material["m"].as_f64().unwrap();
-    let f0 = r.material["f0"].as_f64().unwrap();
-    assert!((m - 0.15).abs() < 0.15 * 0.02, "m = {m}");
-    assert!((f0 - 0.1).abs() < 0.1 * 0.05, "f0 = {f0}");
-    for (c, want) in [0.2, 0.1, 0.05].iter().enumerate() {
-        let got = r.material["diffuse"][c].as_f64().unwrap();
-        assert!((got - want).abs() < 0.02 * want, "diffuse {c}: {got}");
+}
+
+/// Checks the recovered lobe parameters (relative error below `tol`) and colours (error
+/// below `colour_tol` times the colour's largest channel) against the truth.
+fn check_recovery(label: &str, r: &FitResult, tol: f64, colour_tol: f64) {
+    let params = TRUTH.iter().find(|t| t.0 == label).unwrap().1;
+    for (k, want) in params {
+        let mut got = r.material[*k].as_f64().unwrap();
+        let mut want = *want;
+        if label == "lafortune" && *k != "n" {
+            // Ngan's normalization divides by max |C|: only the direction of (cx, cz)
+            // matters, so compare cx / cz.
+            if *k == "cz" {
+                continue;
+            }
+            got /= r.material["cz"].as_f64().unwrap();
+            want /= 0.6;
+        }
+        // Fresnel parameters are weakly determined once grazing data are cut at 80 degrees
+        // (they trade against the specular colour): under noise they get three times the
+        // tolerance.
+        let tol = if matches!(*k, "f0" | "eta") && tol > 0.01 {
+            3.0 * tol
+        } else {
+            tol
+        };
+        assert!(
+            rel(got, want) < tol,
+            "{label}: {k} = {got}, truth {want} (tolerance {tol})"
+        );
     }
-    assert!(r.error_normalized < 1e-3, "{}", r.error_normalized);
-    assert!(r.starts_agreeing >= 2);
-    let ward = specs.iter().find(|s| s.label == "ward").unwrap();
-    let w = fit(&data, ward, 100);
-    eprintln!("ward: error {:.3e}", w.error);
-    assert!(
-        w.error > 10.0 * r.error.max(1e-6),
-        "ward {} vs cook-torrance {}",
-        w.error,
-        r.error
+    for c in 0..3 {
+        let d = r.material["diffuse"][c].as_f64().unwrap();
+        let s = r.material["specular"][c].as_f64().unwrap();
+        // Relative to the colour's largest channel: a small channel (diffuse blue 0.05)
+        // trades against the lobe's tail under noise.
+        assert!(
+            (d - DIFFUSE[c]).abs() < colour_tol * 0.2,
+            "{label}: diffuse[{c}] = {d}"
+        );
+        assert!(
+            (s - SPECULAR[c]).abs() < colour_tol * 0.4,
+            "{label}: specular[{c}] = {s}"
+        );
+    }
+}
+
+#[test]
+fn every_isotropic_model_recovers_its_parameters_from_noise_free_data() {
+    for label in ISOTROPIC_DEFAULT {
+        let truth = material(&truth_desc(label));
+        let data = Dataset::isotropic(&|wi, wo| Some(truth.eval(wo, wi)), 4.0);
+        let r = fit(&data, &spec(label), 300).unwrap();
+        show(&r);
+        check_recovery(label, &r, 0.01, 0.01);
+        assert!(r.error_normalized < 1e-3, "{label}: {}", r.error_normalized);
+        assert!(r.starts_agreeing >= 1 && r.starts_agreeing <= r.starts);
+        // The fitted material loads and renders as the truth does.
+        let fitted = material(&r.material);
+        let (wo, wi) = (
+            Vec3::new(0.3, 0.1, 0.95).normalize(),
+            Vec3::new(-0.4, 0.0, 0.9).normalize(),
+        );
+        let (a, b) = (
+            fitted.eval(wo, wi).to_array(),
+            truth.eval(wo, wi).to_array(),
+        );
+        for c in 0..3 {
+            assert!(
+                (a[c] - b[c]).abs() <= 0.01 * b[c],
+                "{label}: {a:?} vs {b:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn noisy_sparse_measurements_are_fitted_within_tolerance() {
+    // 5 % multiplicative noise, 25 % of the MERL bins empty, nothing within 3 degrees of
+    // retro-reflection (the MERL acquisition's blind spot).
+    let acq = Acquisition {
+        noise: 0.05,
+        empty_fraction: 0.25,
+        retro_exclusion_deg: 3.0,
+        seed: 11,
+        ..Default::default()
+    };
+    for label in ISOTROPIC_DEFAULT {
+        let truth = material(&truth_desc(label));
+        let merl = merl_from(&|wo, wi| truth.eval(wo, wi), &acq);
+        let data = Dataset::from_merl(&merl, 4.0);
+        let r = fit(&data, &spec(label), 300).unwrap();
+        show(&r);
+        // The truth's own error on these data (noise and the MERL table's bin quantization):
+        // the optimizer must do at least as well.
+        let e_truth = eq1_error(&data, &|wi, wo| {
+            let v = truth.eval(wo, wi);
+            [v.r as f64, v.g as f64, v.b as f64]
+        });
+        eprintln!("  truth's error {e_truth:.4e}");
+        assert!(
+            r.error <= e_truth * 1.0001,
+            "{label}: {} > truth {e_truth}",
+            r.error
+        );
+        // Lobe parameters within 5 % (He's three coupled parameters within 10 %), colours
+        // within 10 % of their largest channel.
+        let tol = if *label == "he" { 0.10 } else { 0.05 };
+        check_recovery(label, &r, tol, 0.10);
+    }
+}
+
+#[test]
+fn each_model_fits_its_own_data_best() {
+    let specs: Vec<ModelSpec> = ISOTROPIC_DEFAULT.iter().map(|l| spec(l)).collect();
+    for label in ISOTROPIC_DEFAULT {
+        let truth = material(&truth_desc(label));
+        let data = Dataset::isotropic(&|wi, wo| Some(truth.eval(wo, wi)), 5.0);
+        let errors: Vec<(String, f64)> = specs
+            .iter()
+            .map(|s| (s.label.to_string(), fit(&data, s, 150).unwrap().error))
+            .collect();
+        eprintln!("data of {label}: {errors:?}");
+        let own = errors.iter().find(|e| e.0 == *label).unwrap().1;
+        for (other, e) in &errors {
+            if other != label {
+                assert!(
+                    *e > 2.0 * own,
+                    "data of {label}: {other} fits with {e:.3e}, its own model with {own:.3e}"
+                );
+            }
+        }
+    }
+}
+
+/// Sparse anisotropic 4D binned data (5 x 5 x 10 x 10 degree bins, about a quarter of the
+/// bins filled at random) of `truth`.
+fn sparse_4d(truth: &dyn Bsdf) -> Binned {
+    let mut b = Binned::empty(
+        true,
+        vec![
+            Axis::new(18, 0.0, 90.0),
+            Axis::new(18, 0.0, 90.0),
+            Axis::new(36, 0.0, 360.0),
+            Axis::new(36, 0.0, 360.0),
+        ],
     );
-    // The fitted material loads as a material.
-    Registry::builtin().create(&r.material, "fit").unwrap();
+    let acq = Acquisition {
+        empty_fraction: 0.75,
+        seed: 5,
+        ..Default::default()
+    };
+    for k in 0..b.len() {
+        if acq.bin_empty(k as u64) {
+            continue;
+        }
+        let (wi, wo) = b.directions(k);
+        let v = truth.eval(wo, wi);
+        b.values[k] = Some([v.r, v.g, v.b]);
+    }
+    b
+}
+
+#[test]
+fn anisotropic_ward_is_recovered_from_sparse_4d_data() {
+    let desc = json!({"type": "ward-anisotropic", "diffuse": DIFFUSE, "specular": SPECULAR,
+                      "alpha_x": 0.08, "alpha_y": 0.3});
+    let truth = material(&desc);
+    let data = Dataset::from_binned(&sparse_4d(truth.as_ref()));
+    assert!(data.anisotropic);
+    eprintln!("{} bins", data.samples.len());
+    let own = fit(&data, &spec("ward-anisotropic"), 300).unwrap();
+    show(&own);
+    for (k, want) in [("alpha_x", 0.08), ("alpha_y", 0.3)] {
+        let got = own.material[k].as_f64().unwrap();
+        assert!(rel(got, want) < 0.01, "{k} = {got}, truth {want}");
+    }
+    assert!(own.error_normalized < 1e-3);
+    for other in ["ashikhmin-shirley-anisotropic", "poulin-fournier", "ward"] {
+        let r = fit(&data, &spec(other), 200).unwrap();
+        show(&r);
+        assert!(
+            r.error > 5.0 * own.error.max(1e-6),
+            "{other}: {} vs anisotropic Ward {}",
+            r.error,
+            own.error
+        );
+    }
+    // The isotropic Ward fit cannot tell the two widths apart: its error is the anisotropy.
+}
+
+#[test]
+fn real_rgl_measurements_fit_with_every_model_and_render_close() {
+    let Some(base) = lobe_tests::shared_data() else {
+        eprintln!("SKIPPED: ../shared/data (or LOBE_DATA) not found; the RGL fits were not tested");
+        return;
+    };
+    let rgl = base.join("rgl");
+    let mut files: Vec<_> = std::fs::read_dir(&rgl)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "bsdf"))
+        .collect();
+    files.sort();
+    assert_eq!(
+        files.len(),
+        4,
+        "expected the four RGL files in {}",
+        rgl.display()
+    );
+    for f in &files {
+        let measured = material(&json!({"type": "rgl", "file": f.display().to_string()}));
+        let data = Dataset::isotropic(&|wi, wo| Some(measured.eval(wo, wi)), 4.0);
+        eprintln!(
+            "{}: {} bins, max albedo {:.3}",
+            f.display(),
+            data.samples.len(),
+            data.max_albedo
+        );
+        let mut ct = None;
+        for label in ISOTROPIC_DEFAULT {
+            let r = fit(&data, &spec(label), 200).unwrap();
+            show(&r);
+            assert!(r.error.is_finite() && r.error > 0.0, "{label}: {}", r.error);
+            assert!(r.error_normalized < 1.0, "{label}: {}", r.error_normalized);
+            material(&r.material);
+            if *label == "cook-torrance" {
+                ct = Some(r.material);
+            }
+        }
+        // Render both on a sphere under the studio environment map; compare 8x8-pixel
+        // block means (the glossy reflections of the map's small lights are noisy per pixel)
+        // by their RMSE relative to the measured image's mean, next to the same figure for
+        // two renders of the measured material with different seeds (the noise floor).
+        let img = |m: Value, seed: u32| {
+            let scene = json!({
+                "camera": {"type": "perspective", "fov": 24, "origin": [0, 0, 4.5], "target": [0, 0, 0]},
+                "film": {"width": 48, "height": 48},
+                "sampler": {"spp": 128, "seed": seed},
+                "integrator": {"type": "direct", "emitter_samples": 1, "bsdf_samples": 1},
+                "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": m}],
+                "lights": [{"type": "envmap", "file": "envmaps/studio-512.exr"}]
+            });
+            let root = lobe_tests::workspace().join("scenes");
+            let s = lobe_renderer::scene::from_value(
+                &scene,
+                "rgl-fit.json",
+                &root,
+                &lobe_renderer::scene::LoadOptions::with_builtins(),
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+            let im =
+                lobe_renderer::render::render(&s, &lobe_renderer::render::RenderOptions::default())
+                    .unwrap()
+                    .0;
+            let mut blocks = vec![0.0f64; 36];
+            for (k, p) in im.pixels.iter().enumerate() {
+                let (x, y) = (k % 48, k / 48);
+                blocks[(y / 8) * 6 + x / 8] += (p.r + p.g + p.b) as f64 / (3.0 * 64.0);
+            }
+            blocks
+        };
+        let measured_desc = json!({"type": "rgl", "file": f.display().to_string()});
+        let a = img(measured_desc.clone(), 1);
+        let rmse = |b: &[f64]| {
+            let se: f64 = a.iter().zip(b).map(|(p, q)| (p - q).powi(2)).sum();
+            (se / 36.0).sqrt() / (a.iter().sum::<f64>() / 36.0)
+        };
+        let floor = rmse(&img(measured_desc, 2));
+        let fit_rmse = rmse(&img(ct.unwrap(), 1));
+        let lambert = rmse(&img(
+            json!({"type": "lambert", "reflectance": data.max_albedo}),
+            1,
+        ));
+        eprintln!(
+            "  Cook-Torrance fit vs measured render: relative RMSE {fit_rmse:.4} (noise floor \
+             {floor:.4}; a Lambertian of the same albedo {lambert:.4})"
+        );
+        // Measured 2026-11-22 (relative RMSE of 8x8 block means): cc_ibiza_sunset 0.50,
+        // colodur_napoli_4f 0.077, paper_white 0.021, vch_golden_yellow 0.34; noise floors
+        // 0.01-0.03; a Lambertian of the data's albedo 0.1-1.7. The two glossy paints carry
+        // a clear-coat peak no single Cook-Torrance lobe follows (normalized Eq. 1 errors near
+        // 0.26 at 1 and 4 degrees alike), hence their looser bounds.
+        let name = f.file_name().unwrap().to_string_lossy().to_string();
+        let bound = [
+            ("cc_ibiza_sunset", 0.6),
+            ("colodur_napoli_4f", 0.12),
+            ("paper_white", 0.05),
+            ("vch_golden_yellow", 0.45),
+        ]
+        .iter()
+        .find(|(k, _)| name.starts_with(k))
+        .map_or(0.6, |b| b.1);
+        assert!(
+            fit_rmse < bound,
+            "{name}: relative image RMSE {fit_rmse} >= {bound}"
+        );
+        assert!(
+            fit_rmse < 0.5 * lambert,
+            "{name}: {fit_rmse} vs Lambertian {lambert}"
+        );
+        assert!(floor < 0.05, "{name}: noise floor {floor}");
+    }
+}
+
+#[test]
+fn empty_missing_and_nan_data_are_clear_errors() {
+    let ct = spec("cook-torrance");
+    let empty = Dataset {
+        samples: Vec::new(),
+        anisotropic: false,
+        max_albedo: 0.0,
+    };
+    let e = fit(&empty, &ct, 10).unwrap_err();
+    assert!(
+        e.contains("no measured values") && e.contains("expected at least one"),
+        "{e}"
+    );
+    // Every bin missing.
+    let none = Dataset::isotropic(&|_, _| None, 5.0);
+    let e = fit(&none, &ct, 10).unwrap_err();
+    assert!(e.contains("no measured values"), "{e}");
+    // Every bin past the cut-off: data that only exist at grazing angles.
+    let cut = (CUTOFF_DEG as f32).to_radians().cos();
+    let grazing = Dataset::isotropic(
+        &|wi, wo| (wi.z < cut && wo.z < cut).then_some(lobe_materials::Rgb::splat(0.1)),
+        5.0,
+    );
+    assert!(fit(&grazing, &ct, 10).is_err());
+    // A NaN value.
+    let nan = Dataset::isotropic(
+        &|wi, wo| {
+            Some(if wi.z > 0.99 && wo.z > 0.99 {
+                lobe_materials::Rgb::splat(f32::NAN)
+            } else {
+                lobe_materials::Rgb::splat(0.1)
+            })
+        },
+        5.0,
+    );
+    let e = fit(&nan, &ct, 10).unwrap_err();
+    assert!(
+        e.contains("NaN") && e.contains("expected finite values"),
+        "{e}"
+    );
+    // A hand-made sample with an infinite value.
+    let mut inf = Dataset::isotropic(&|_, _| Some(lobe_materials::Rgb::splat(0.1)), 10.0);
+    inf.samples.push(Sample {
+        value: [f64::INFINITY, 0.0, 0.0],
+        ..inf.samples[0]
+    });
+    assert!(fit(&inf, &ct, 10).unwrap_err().contains("inf"));
 }

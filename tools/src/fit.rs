@@ -135,16 +135,12 @@ fn fit_report(
     args: &FitArgs,
     quiet: bool,
 ) -> Result<Value, Error> {
-    if data.samples.is_empty() {
-        return Err(Error::Other(format!(
-            "{source}: no measured values below 80 degrees to fit"
-        )));
-    }
+    data.check().map_err(|m| Error::file(source, m))?;
     let specs = builtin_specs();
     let chosen = choose(&specs, &args.models, data.anisotropic)?;
     let mut results = Vec::new();
     for spec in chosen {
-        let r = fit(data, spec, args.max_evals);
+        let r = fit(data, spec, args.max_evals).map_err(|m| Error::file(source, m))?;
         if !quiet {
             eprintln!(
                 "{name}: {:28} error {:.4e}  normalized {:.4e}  ({} of {} starts agree, {:.1} s)",
@@ -267,45 +263,74 @@ fn batch(dir: &Path, out: &Path, args: &FitArgs, quiet: bool) -> Result<(), Erro
         );
         pb
     });
-    let (mut done, mut skipped) = (0, 0);
-    for p in mine {
-        let stem = p
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("material")
-            .to_string();
-        let report = out.join(format!("{stem}.fit.json"));
-        if report.exists() {
-            skipped += 1;
-        } else {
+    // Materials in parallel (each fit is parallel over its bins too; rayon balances both).
+    // A material that fails is reported and the others go on; it has no report, so a rerun
+    // tries it again.
+    use rayon::prelude::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let (done, skipped) = (AtomicUsize::new(0), AtomicUsize::new(0));
+    let mut failures: Vec<String> = mine
+        .par_iter()
+        .filter_map(|p| {
+            let stem = p
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("material")
+                .to_string();
+            let report = out.join(format!("{stem}.fit.json"));
+            let result = if report.exists() {
+                skipped.fetch_add(1, Ordering::Relaxed);
+                Ok(())
+            } else {
+                if let Some(b) = &bar {
+                    b.set_message(stem.clone());
+                }
+                load_data(p, args.resolution)
+                    .and_then(|data| {
+                        fit_report(
+                            &stem,
+                            &p.display().to_string(),
+                            &data,
+                            args,
+                            quiet || bar.is_some(),
+                        )
+                    })
+                    .and_then(|r| lobe_renderer::film::write_json(&report, &r))
+                    .map(|()| {
+                        done.fetch_add(1, Ordering::Relaxed);
+                    })
+            };
             if let Some(b) = &bar {
-                b.set_message(stem.clone());
+                b.inc(1);
             }
-            let data = load_data(p, args.resolution)?;
-            let r = fit_report(
-                &stem,
-                &p.display().to_string(),
-                &data,
-                args,
-                quiet || bar.is_some(),
-            )?;
-            lobe_renderer::film::write_json(&report, &r)?;
-            done += 1;
-        }
-        if let Some(b) = &bar {
-            b.inc(1);
-        }
-    }
+            result.err().map(|e| e.to_string())
+        })
+        .collect();
+    failures.sort();
     if let Some(b) = bar {
         b.finish_and_clear();
     }
+    let (done, skipped) = (done.into_inner(), skipped.into_inner());
     if !quiet {
         eprintln!(
-            "shard {i}/{n}: fitted {done} materials, {skipped} already done, reports in {}",
+            "shard {i}/{n}: fitted {done} materials, {skipped} already done, {} failed, reports in {}",
+            failures.len(),
             out.display()
         );
     }
-    Ok(())
+    match failures.len() {
+        0 => Ok(()),
+        1 => Err(Error::Other(failures.remove(0))),
+        k => {
+            for f in &failures[1..] {
+                eprintln!("error: {f}");
+            }
+            Err(Error::Other(format!(
+                "{k} materials failed (a rerun retries them); the first: {}",
+                failures[0]
+            )))
+        }
+    }
 }
 
 /// Reads fit reports: each input is a report or a folder whose `*.fit.json` files are read

@@ -427,6 +427,31 @@ fn fit_writes_a_report_that_loads_as_a_material() {
         &["fit", "/nonexistent.binary", "-o", report.to_str().unwrap()],
         "does not exist",
     );
+    // A MERL table with every bin missing, and an empty file.
+    let missing = dir.path().join("missing.binary");
+    lobe_materials::measured::merl::Merl::from_fn(|_, _, _| None)
+        .write(&missing)
+        .unwrap();
+    fails(
+        &[
+            "fit",
+            missing.to_str().unwrap(),
+            "-o",
+            report.to_str().unwrap(),
+        ],
+        "no measured values",
+    );
+    let empty = dir.path().join("empty.binary");
+    std::fs::write(&empty, b"").unwrap();
+    fails(
+        &[
+            "fit",
+            empty.to_str().unwrap(),
+            "-o",
+            report.to_str().unwrap(),
+        ],
+        "empty.binary",
+    );
     let bad = format!(
         r#"{{"type": "fit", "file": "{}", "model": "he"}}"#,
         report.display()
@@ -556,6 +581,26 @@ fn batch_fits_are_sharded_resumable_and_merge_into_tables() {
             table.to_str().unwrap(),
         ],
         "nothing",
+    );
+    // A broken file fails alone: the batch fits the others, exits non-zero naming it, and
+    // a rerun (after the file is fixed or removed) finds the finished reports in place.
+    std::fs::remove_file(out.join("ct0.fit.json")).unwrap();
+    std::fs::write(data.join("broken.bin"), b"not a binned file").unwrap();
+    fails(
+        &[
+            "fit",
+            data.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--models",
+            "cook-torrance",
+            "-q",
+        ],
+        "broken.bin",
+    );
+    assert_eq!(
+        names(&out),
+        vec!["ct0.fit.json", "ct1.fit.json", "ct2.fit.json"]
     );
 }
 

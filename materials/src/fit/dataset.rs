@@ -58,10 +58,8 @@ impl Dataset {
                 (0..np).filter_map(move |c| {
                     let pd = (c as f64 + 0.5) * res_deg;
                     let (wi, wo) = (dir(ti, 0.0), dir(to, pd));
+                    // Non-finite values are kept so that `check` reports them.
                     let v = f(wi, wo)?;
-                    if !v.is_finite() {
-                        return None;
-                    }
                     let ci = ti.to_radians().cos();
                     Some(Sample {
                         wi,
@@ -141,7 +139,68 @@ impl Dataset {
         best
     }
 
+    /// Can these data be fitted? At least one bin, every value finite.
+    pub fn check(&self) -> Result<(), String> {
+        if self.samples.is_empty() {
+            return Err(format!(
+                "no measured values with theta_i and theta_o at most {CUTOFF_DEG} degrees \
+                 (every bin is empty or past the cut-off); expected at least one"
+            ));
+        }
+        if let Some(s) = self
+            .samples
+            .iter()
+            .find(|s| !s.value.iter().all(|v| v.is_finite()))
+        {
+            return Err(format!(
+                "the value at theta_i = {:.2}, theta_o = {:.2} degrees is {:?}; expected finite values",
+                (s.wi.z as f64).acos().to_degrees(),
+                (s.wo.z as f64).acos().to_degrees(),
+                s.value
+            ));
+        }
+        Ok(())
+    }
+
     pub fn total_weight(&self) -> f64 {
         self.samples.iter().map(|s| s.weight).sum()
+    }
+
+    /// A subset of about `target` samples that stands in for the whole in the Eq. (1) sums:
+    /// the samples of largest cosine-weighted value (the specular peak, which a uniform
+    /// subsample would miss for a sharp material) kept as they are, one in every `stride` of
+    /// the others with its weight multiplied by `stride`. Deterministic. Returns a clone
+    /// when the data are already small.
+    pub fn coarse(&self, target: usize) -> Dataset {
+        let n = self.samples.len();
+        if n <= 2 * target.max(1) {
+            return self.clone();
+        }
+        let key = |s: &Sample| s.value.iter().cloned().fold(0.0f64, f64::max) * s.cos2.sqrt();
+        let peak = (target / 4).max(1);
+        let mut keys: Vec<f64> = self.samples.iter().map(key).collect();
+        let (_, &mut threshold, _) = keys.select_nth_unstable_by(n - peak, f64::total_cmp);
+        let rest = (n - peak).max(1);
+        let stride = rest.div_ceil((target - peak).max(1)).max(1);
+        let mut others = 0usize;
+        let mut samples = Vec::with_capacity(target + peak);
+        for s in &self.samples {
+            if key(s) >= threshold {
+                samples.push(*s);
+            } else {
+                if others.is_multiple_of(stride) {
+                    samples.push(Sample {
+                        weight: s.weight * stride as f64,
+                        ..*s
+                    });
+                }
+                others += 1;
+            }
+        }
+        Dataset {
+            samples,
+            anisotropic: self.anisotropic,
+            max_albedo: self.max_albedo,
+        }
     }
 }
