@@ -30,6 +30,7 @@ pub mod io;
 pub mod lobe;
 pub mod math;
 pub mod measured;
+pub mod microfacet_gen;
 pub mod ngan_fit;
 pub mod quadrature;
 pub mod registry;

@@ -259,6 +259,7 @@ impl Registry {
         crate::ngan_fit::register(&mut r);
         crate::measured::material::register(&mut r);
         crate::fit::register(&mut r);
+        crate::microfacet_gen::register(&mut r);
         r
     }
 

@@ -54,6 +54,25 @@ fn cases() -> Vec<Case> {
         v.push(make(json!({"type": "cook-torrance", "specular": 1, "m": 0.3, "distribution": dist, "fresnel": "dielectric", "eta": 1.0001}), false));
         v.push(make(json!({"type": "cook-torrance", "specular": 1, "m": 0.3, "distribution": dist, "f0": 0}), false));
     }
+    // The APS2000 generator with tabulated distributions (issue 7): closed-form Beckmann
+    // (isotropic and anisotropic) and the three synthetic structures of section 5.1.
+    for extra in [
+        json!({"distribution": "beckmann", "alpha_x": 0.3, "alpha_y": 0.3}),
+        json!({"distribution": "beckmann", "alpha_x": 0.1, "alpha_y": 0.4, "f0": 0.2}),
+        json!({"distribution": "brushed"}),
+        json!({"distribution": "satin", "f0": 0.5}),
+        json!({"distribution": "velvet"}),
+    ] {
+        let mut d = json!({"type": "sampled-microfacet", "diffuse": 0.2, "specular": 0.5, "resolution": 129});
+        for (k, val) in extra.as_object().unwrap() {
+            d[k] = val.clone();
+        }
+        v.push(make(d, true));
+    }
+    v.push(make(
+        json!({"type": "sampled-microfacet", "specular": 1, "distribution": "beckmann", "alpha_x": 0.01, "alpha_y": 0.01}),
+        false,
+    ));
     for ty in ["ward", "ward-duer"] {
         v.push(make(
             json!({"type": ty, "diffuse": 0.3, "specular": 0.2, "alpha": 0.25}),

@@ -68,7 +68,7 @@ fn to_err(e: lobe_materials::FileError) -> Error {
     }
 }
 
-fn load_data(p: &Path, resolution: f64) -> Result<Dataset, Error> {
+pub(crate) fn load_data(p: &Path, resolution: f64) -> Result<Dataset, Error> {
     if !p.exists() {
         return Err(Error::file(
             p.display(),

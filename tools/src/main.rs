@@ -8,6 +8,7 @@ mod compare;
 mod eval;
 mod figures;
 mod fit;
+mod microfacet;
 mod tabulate;
 
 use clap::{Parser, Subcommand};
@@ -57,6 +58,13 @@ enum Command {
         after_help = "Examples:\n  lobe figure errors reports/ -o figure14.png\n  lobe figure multilobe reports/ -o figure5.png\n  lobe figure polar --material '{\"type\": \"merl\", \"file\": \"gmp.binary\"}' --report gmp.fit.json --models ward,cook-torrance,lafortune --theta-i 45 -o figure4.png"
     )]
     Figure(figures::FigureCmd),
+    /// The APS2000 microfacet generator: estimate its distribution from measured data, or run
+    /// the study's section 5.1 experiment on a synthetic structure.
+    #[command(
+        subcommand,
+        after_help = "Examples:\n  lobe microfacet estimate brushed.bin -o brushed-p    # brushed-p.{exr,png,json}\n  lobe microfacet synth satin -o out/satin             # prints the comparison table\nThe table loads as a material: {\"type\": \"sampled-microfacet\", \"distribution\": \"brushed-p.exr\", \"specular\": 0.5}"
+    )]
+    Microfacet(microfacet::MicrofacetCmd),
     /// Write a material as a MERL table or as binned 4D data, emulating an acquisition.
     #[command(
         after_help = "Examples:\n  lobe tabulate --material '{\"type\": \"cook-torrance\", \"diffuse\": 0.1, \"specular\": 0.5, \"m\": 0.1}' -o ct.binary\n  lobe tabulate --ngan nickel --model he --retro-exclusion 3 --noise 0.02 -o nickel-he.binary\n  lobe tabulate --material @brushed.json --format binned --anisotropic --empty-fraction 0.75 --grazing-cutoff 80 -o brushed.bin"
@@ -125,6 +133,7 @@ fn main() -> ExitCode {
         Command::Tabulate(args) => tabulate::cmd_tabulate(args, cli.quiet),
         Command::Fit(args) => fit::cmd_fit(args, cli.quiet),
         Command::Figure(cmd) => figures::cmd_figure(cmd, cli.quiet),
+        Command::Microfacet(cmd) => microfacet::cmd_microfacet(cmd, cli.quiet),
         Command::Models { names } => {
             let reg = lobe_materials::registry::Registry::builtin();
             if names {

@@ -220,6 +220,60 @@ pub struct FitResult {
     pub seconds: f64,
 }
 
+/// Normal equations per channel of the colours for fixed lobes.
+fn grams(data: &Dataset, lobes: &[Arc<dyn Lobe>]) -> [Gram; 3] {
+    use rayon::prelude::*;
+    let n = 1 + lobes.len();
+    data.samples
+        .par_chunks(4096)
+        .map(|chunk| {
+            let mut g = [Gram::new(n), Gram::new(n), Gram::new(n)];
+            for s in chunk {
+                let mut f = [[FRAC_1_PI; 3]; 3];
+                for (k, l) in lobes.iter().enumerate() {
+                    let v = l.eval_f64(s.wo.as_dvec3(), s.wi.as_dvec3());
+                    for c in 0..3 {
+                        f[c][k + 1] = if v[c].is_finite() { v[c] } else { 0.0 };
+                    }
+                }
+                for c in 0..3 {
+                    g[c].add(&f[c][..n], s.value[c], s.weight * s.cos2);
+                }
+            }
+            g
+        })
+        .reduce(
+            || [Gram::new(n), Gram::new(n), Gram::new(n)],
+            |a, b| [a[0].merge(&b[0]), a[1].merge(&b[1]), a[2].merge(&b[2])],
+        )
+}
+
+fn linear_colours_with(
+    data: &Dataset,
+    lobes: &[Arc<dyn Lobe>],
+    total_weight: f64,
+) -> (f64, [[f64; 3]; 3]) {
+    let g = grams(data, lobes);
+    let mut res = 0.0;
+    let mut colours = [[0.0f64; 3]; 3];
+    for c in 0..3 {
+        let (xs, r) = g[c].solve_nonnegative();
+        res += r;
+        for k in 0..3 {
+            colours[k][c] = xs[k];
+        }
+    }
+    ((res / (3.0 * total_weight)).sqrt(), colours)
+}
+
+/// The linear part of the fit on its own (section 3.3): for fixed lobes (at most two), the
+/// non-negative diffuse and specular colours minimizing Eq. (1), and that error. Returns
+/// (error, [diffuse, specular of lobe 1, specular of lobe 2]) with colours per channel.
+pub fn linear_colours(data: &Dataset, lobes: &[Arc<dyn Lobe>]) -> (f64, [[f64; 3]; 3]) {
+    assert!(lobes.len() <= 2, "at most two lobes");
+    linear_colours_with(data, lobes, data.total_weight().max(1e-300))
+}
+
 struct Problem<'a> {
     data: &'a Dataset,
     spec: &'a ModelSpec,
@@ -266,52 +320,13 @@ impl Problem<'_> {
             .collect()
     }
 
-    /// Normal equations per channel for fixed lobe parameters.
-    fn grams(&self, lobes: &[Arc<dyn Lobe>]) -> [Gram; 3] {
-        use rayon::prelude::*;
-        let n = 1 + lobes.len();
-        self.data
-            .samples
-            .par_chunks(4096)
-            .map(|chunk| {
-                let mut g = [Gram::new(n), Gram::new(n), Gram::new(n)];
-                for s in chunk {
-                    let mut f = [[FRAC_1_PI; 3]; 3];
-                    for (k, l) in lobes.iter().enumerate() {
-                        let v = l.eval_f64(s.wo.as_dvec3(), s.wi.as_dvec3());
-                        for c in 0..3 {
-                            f[c][k + 1] = if v[c].is_finite() { v[c] } else { 0.0 };
-                        }
-                    }
-                    for c in 0..3 {
-                        g[c].add(&f[c][..n], s.value[c], s.weight * s.cos2);
-                    }
-                }
-                g
-            })
-            .reduce(
-                || [Gram::new(n), Gram::new(n), Gram::new(n)],
-                |a, b| [a[0].merge(&b[0]), a[1].merge(&b[1]), a[2].merge(&b[2])],
-            )
-    }
-
     /// E(p) and the colours (diffuse, then each lobe's specular) per channel.
     fn error(&self, x: &[f64]) -> (f64, [[f64; 3]; 3]) {
         let vals = self.values(x);
         let Some(lobes) = self.lobes(&vals) else {
             return (f64::INFINITY, [[0.0; 3]; 3]);
         };
-        let g = self.grams(&lobes);
-        let mut res = 0.0;
-        let mut colours = [[0.0f64; 3]; 3];
-        for c in 0..3 {
-            let (xs, r) = g[c].solve_nonnegative();
-            res += r;
-            for k in 0..3 {
-                colours[k][c] = xs[k];
-            }
-        }
-        ((res / (3.0 * self.total_weight)).sqrt(), colours)
+        linear_colours_with(self.data, &lobes, self.total_weight)
     }
 
     fn material(&self, x: &[f64], colours: &[[f64; 3]; 3]) -> Value {
