@@ -169,4 +169,8 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
     fn flags(&self) -> Flags;
     /// Registry name of the model, for reports.
     fn name(&self) -> &str;
+    /// Bytes this material holds (tables, samplers), for the speed/memory trade-off reports.
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of_val(self)
+    }
 }

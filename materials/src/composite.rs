@@ -177,6 +177,15 @@ impl Bsdf for Composite {
     fn name(&self) -> &str {
         self.name
     }
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of_val(self)
+            + self
+                .lobes
+                .iter()
+                .map(|(_, l)| l.memory_bytes())
+                .sum::<usize>()
+            + self.lobe_weights.len() * std::mem::size_of::<[f32; ALBEDO_BINS]>()
+    }
 }
 
 impl Composite {

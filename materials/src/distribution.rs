@@ -119,6 +119,10 @@ pub struct AliasTable {
 }
 
 impl AliasTable {
+    pub fn memory_bytes(&self) -> usize {
+        std::mem::size_of::<Self>() + self.entries.len() * std::mem::size_of::<(f32, u32)>()
+    }
+
     /// One row from non-negative weights (all zero: uniform).
     pub fn new(weights: &[f32]) -> Self {
         Self::rows(weights, weights.len().max(1))
@@ -205,6 +209,10 @@ pub struct Alias2D {
 }
 
 impl Alias2D {
+    pub fn memory_bytes(&self) -> usize {
+        self.rows.memory_bytes() + self.cols.memory_bytes()
+    }
+
     /// From non-negative cell values (an all-zero grid is uniform). Returns the table and
     /// the mean cell value (1 for an all-zero grid).
     pub fn new(values: &[f32], nu: usize, nv: usize) -> (Self, f64) {

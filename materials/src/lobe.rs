@@ -27,6 +27,10 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     /// Solid-angle density of `sample`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
     fn flags(&self) -> Flags;
+    /// Bytes this lobe holds (its tables, if any).
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of_val(self)
+    }
 }
 
 /// Implements `Lobe::eval` and `Lobe::eval_f64` from an inherent

@@ -376,6 +376,11 @@ impl Lobe for SampledMicrofacet {
     fn flags(&self) -> Flags {
         Flags::RECIPROCAL | Flags::GLOSSY
     }
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of_val(self)
+            + (self.table.p.len() + self.table.g.len()) * 4
+            + self.table.sampler.memory_bytes()
+    }
 }
 
 /// The result of estimating a distribution from measured data.
@@ -414,14 +419,36 @@ fn estimate_p(
 ) -> Vec<f64> {
     use rayon::prelude::*;
     let s = (n - 1) as f64 / 2.0;
+    // Isotropic data hold one azimuth of each configuration (wi at phi = 0, wo at phi_d in
+    // [0, 180]): spread every pair over 8 rotations and their mirror images so that p is
+    // estimated over the whole disk.
+    type Rot = Box<dyn Fn(DVec3) -> DVec3 + Sync>;
+    let rotations: Vec<Rot> = if data.anisotropic {
+        vec![Box::new(|k| k)]
+    } else {
+        (0..8)
+            .flat_map(|j| {
+                let (sn, cs) = (j as f64 * PI / 4.0).sin_cos();
+                [false, true].map(move |mirror| -> Rot {
+                    Box::new(move |k: DVec3| {
+                        let y = if mirror { -k.y } else { k.y };
+                        DVec3::new(cs * k.x - sn * y, sn * k.x + cs * y, k.z)
+                    })
+                })
+            })
+            .collect()
+    };
     let (acc, wsum) = data
         .samples
         .par_chunks(8192)
         .map(|chunk| {
             let mut acc = vec![0.0f64; n * n];
             let mut wsum = vec![0.0f64; n * n];
-            for smp in chunk {
-                let (k1, k2) = (smp.wi.as_dvec3(), smp.wo.as_dvec3());
+            for (smp, rot) in chunk
+                .iter()
+                .flat_map(|s| rotations.iter().map(move |r| (s, r)))
+            {
+                let (k1, k2) = (rot(smp.wi.as_dvec3()), rot(smp.wo.as_dvec3()));
                 let h = (k1 + k2).normalize_or_zero();
                 if h.z <= 0.0 {
                     continue;

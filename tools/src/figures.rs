@@ -14,10 +14,10 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
-const W: u32 = 1000;
-const H: u32 = 600;
-const PALETTE: [RGBColor; 8] = [
+pub(crate) const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+pub(crate) const W: u32 = 1000;
+pub(crate) const H: u32 = 600;
+pub(crate) const PALETTE: [RGBColor; 8] = [
     RGBColor(214, 39, 40),
     RGBColor(31, 119, 180),
     RGBColor(44, 160, 44),
@@ -66,15 +66,15 @@ pub enum FigureCmd {
     },
 }
 
-fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
+pub(crate) fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
     Error::Other(format!("cannot draw the figure: {e:?}"))
 }
 
-fn save(path: &Path, buf: &[u8]) -> Result<(), Error> {
+pub(crate) fn save(path: &Path, buf: &[u8]) -> Result<(), Error> {
     lobe_renderer::film::write_png_rgb8(path, W, H, buf)
 }
 
-fn register_font() {
+pub(crate) fn register_font() {
     let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
 }
 

@@ -46,6 +46,14 @@ pub struct FitArgs {
     /// List the model labels and exit.
     #[arg(long)]
     list: bool,
+    /// Also pick, per material, the cheapest fitted model (eval + sample time per call,
+    /// measured) whose normalized error is within --tolerance of the best; recorded in the
+    /// report as "selected".
+    #[arg(long)]
+    select: bool,
+    /// Relative tolerance of --select: error <= best error x (1 + tolerance).
+    #[arg(long, default_value_t = 0.1)]
+    tolerance: f64,
 }
 
 #[derive(clap::Subcommand)]
@@ -149,7 +157,46 @@ fn fit_report(
         }
         results.push(r);
     }
-    Ok(report_json(name, source, args.resolution, data, &results))
+    let mut report = report_json(name, source, args.resolution, data, &results);
+    if args.select {
+        report["selected"] = select(&results, args.tolerance)?;
+        if !quiet {
+            eprintln!(
+                "{name}: selected {} (tolerance {})",
+                report["selected"]["model"], args.tolerance
+            );
+        }
+    }
+    Ok(report)
+}
+
+/// The cheapest model within `tolerance` of the best error, cost measured per call.
+fn select(results: &[lobe_materials::fit::FitResult], tolerance: f64) -> Result<Value, Error> {
+    let registry = lobe_materials::registry::Registry::builtin();
+    let best = results
+        .iter()
+        .map(|r| r.error)
+        .fold(f64::INFINITY, f64::min);
+    let mut costs = serde_json::Map::new();
+    let mut pick: Option<(&str, f64)> = None;
+    for r in results {
+        let b = registry
+            .create(&r.material, &r.label)
+            .map_err(|e| Error::Other(e.to_string()))?;
+        let (eval_ns, sample_ns) = crate::tradeoff::cost(b.as_ref());
+        let total = eval_ns + sample_ns;
+        costs.insert(
+            r.label.clone(),
+            serde_json::json!({"eval_ns": eval_ns, "sample_ns": sample_ns, "error": r.error}),
+        );
+        if r.error <= best * (1.0 + tolerance) && pick.is_none_or(|p| total < p.1) {
+            pick = Some((&r.label, total));
+        }
+    }
+    let model = pick.map(|p| p.0).unwrap_or_default();
+    Ok(
+        serde_json::json!({"model": model, "tolerance": tolerance, "best_error": best, "costs": costs}),
+    )
 }
 
 fn parse_shard(s: &str) -> Result<(usize, usize), Error> {
@@ -178,6 +225,12 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
             println!("{}", s.label);
         }
         return Ok(());
+    }
+    if !(args.tolerance >= 0.0 && args.tolerance.is_finite()) {
+        return Err(Error::Other(format!(
+            "--tolerance: expected a non-negative relative tolerance, found {}",
+            args.tolerance
+        )));
     }
     if !(args.resolution >= 0.25 && args.resolution <= 20.0) {
         return Err(Error::Other(format!(

@@ -10,6 +10,7 @@ mod figures;
 mod fit;
 mod microfacet;
 mod tabulate;
+mod tradeoff;
 
 use clap::{Parser, Subcommand};
 use lobe_renderer::render::{RenderOptions, RenderStats, render};
@@ -65,6 +66,12 @@ enum Command {
         after_help = "Examples:\n  lobe microfacet estimate brushed.bin -o brushed-p    # brushed-p.{exr,png,json}\n  lobe microfacet synth satin -o out/satin             # prints the comparison table\nThe table loads as a material: {\"type\": \"sampled-microfacet\", \"distribution\": \"brushed-p.exr\", \"specular\": 0.5}"
     )]
     Microfacet(microfacet::MicrofacetCmd),
+    /// Measure the speed/accuracy/memory trade between a measured table, the estimated
+    /// microfacet distribution and every analytic fit (Markdown, CSV, Pareto plot).
+    #[command(
+        after_help = "Examples:\n  lobe tradeoff ../shared/data/rgl/paper_white_rgb.bsdf -o out/paper\n  lobe tradeoff nickel.binary --scene my-scene.json --spp 256 --reference-spp 4096 -o out/nickel\nA --scene must name the material to replace \"subject\" in its \"materials\"."
+    )]
+    Tradeoff(tradeoff::TradeoffArgs),
     /// Write a material as a MERL table or as binned 4D data, emulating an acquisition.
     #[command(
         after_help = "Examples:\n  lobe tabulate --material '{\"type\": \"cook-torrance\", \"diffuse\": 0.1, \"specular\": 0.5, \"m\": 0.1}' -o ct.binary\n  lobe tabulate --ngan nickel --model he --retro-exclusion 3 --noise 0.02 -o nickel-he.binary\n  lobe tabulate --material @brushed.json --format binned --anisotropic --empty-fraction 0.75 --grazing-cutoff 80 -o brushed.bin"
@@ -134,6 +141,7 @@ fn main() -> ExitCode {
         Command::Fit(args) => fit::cmd_fit(args, cli.quiet),
         Command::Figure(cmd) => figures::cmd_figure(cmd, cli.quiet),
         Command::Microfacet(cmd) => microfacet::cmd_microfacet(cmd, cli.quiet),
+        Command::Tradeoff(args) => tradeoff::cmd_tradeoff(args, cli.quiet),
         Command::Models { names } => {
             let reg = lobe_materials::registry::Registry::builtin();
             if names {

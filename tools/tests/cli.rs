@@ -772,3 +772,132 @@ fn microfacet_synth_and_estimate_write_tables_plots_and_materials() {
         "does not exist",
     );
 }
+
+#[test]
+fn fit_select_picks_the_cheapest_model_within_tolerance() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("sel.fit.json");
+    let run = |tol: &str| {
+        let o = lobe()
+            .args([
+                "fit",
+                "--material",
+                r#"{"type": "ward", "diffuse": 0.2, "specular": 0.3, "alpha": 0.15}"#,
+                "--models",
+                "ward,cook-torrance,he",
+                "--resolution",
+                "6",
+                "--select",
+                "--tolerance",
+                tol,
+                "-o",
+                report.to_str().unwrap(),
+                "-q",
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        v["selected"].clone()
+    };
+    // Tolerance 0: only the best fit (Ward fits its own data exactly) qualifies.
+    assert_eq!(run("0")["model"], "ward");
+    // Any tolerance: the pick is the cheapest measured model.
+    let s = run("1e12");
+    let costs = s["costs"].as_object().unwrap();
+    let total =
+        |m: &str| costs[m]["eval_ns"].as_f64().unwrap() + costs[m]["sample_ns"].as_f64().unwrap();
+    let cheapest = costs
+        .keys()
+        .min_by(|a, b| total(a).total_cmp(&total(b)))
+        .unwrap();
+    assert_eq!(s["model"].as_str().unwrap(), cheapest);
+    assert!(
+        total("he") > total("ward"),
+        "He is measured costlier than Ward"
+    );
+    fails(
+        &[
+            "fit",
+            "--material",
+            "{\"type\": \"ward\"}",
+            "--select",
+            "--tolerance=-1",
+            "-o",
+            report.to_str().unwrap(),
+        ],
+        "--tolerance",
+    );
+}
+
+#[test]
+fn tradeoff_reports_every_representation() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("ct.binary");
+    let o = lobe()
+        .args([
+            "tabulate",
+            "--material",
+            r#"{"type": "cook-torrance", "diffuse": 0.1, "specular": 0.5, "m": 0.2}"#,
+            "-o",
+            data.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stem = dir.path().join("to");
+    let o = lobe()
+        .args([
+            "tradeoff",
+            data.to_str().unwrap(),
+            "--models",
+            "ward,cook-torrance",
+            "--resolution",
+            "6",
+            "--size",
+            "24",
+            "--spp",
+            "16",
+            "--reference-spp",
+            "64",
+            "-o",
+            stem.to_str().unwrap(),
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(dir.path().join("to.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 4, "{csv}");
+    for (row, name) in rows
+        .iter()
+        .zip(["measured", "sampled-microfacet", "ward", "cook-torrance"])
+    {
+        assert!(row.starts_with(name), "{row}");
+        let f: Vec<f64> = row
+            .split(',')
+            .skip(1)
+            .take(9)
+            .map(|x| x.parse().unwrap())
+            .collect();
+        assert!(f.iter().all(|x| x.is_finite() && *x >= 0.0), "{row}");
+    }
+    // Cook-Torrance data: the Cook-Torrance fit's BRDF error is below Ward's, and the
+    // measured table holds far more memory than an analytic model.
+    let col = |r: &str, k: usize| r.split(',').nth(k).unwrap().parse::<f64>().unwrap();
+    assert!(col(rows[3], 1) < col(rows[2], 1));
+    assert!(col(rows[0], 7) > 100.0 * col(rows[3], 7));
+    assert!(dir.path().join("to.png").is_file() && dir.path().join("to.md").is_file());
+    assert!(dir.path().join("to-microfacet.exr").is_file());
+    fails(
+        &[
+            "tradeoff",
+            data.to_str().unwrap(),
+            "-o",
+            "/nonexistent/dir/x",
+        ],
+        "does not exist",
+    );
+}

@@ -26,6 +26,10 @@ struct Blend {
 }
 
 impl Marginal2D {
+    pub fn memory_bytes(&self) -> usize {
+        (self.data.len() + self.cond.len() + self.marg.len()) * 4
+    }
+
     /// `data` holds the slices (last parameter fastest), each `h` rows of `w` values.
     /// With `sampling`, each slice is normalized and its CDFs built.
     pub fn new(data: &[f32], w: usize, h: usize, params: Vec<Vec<f32>>, sampling: bool) -> Self {

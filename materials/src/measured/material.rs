@@ -25,6 +25,7 @@ pub trait Table: Send + Sync + std::fmt::Debug {
     fn is_isotropic(&self) -> bool {
         true
     }
+    fn memory_bytes(&self) -> usize;
 }
 
 #[derive(Debug)]
@@ -34,6 +35,9 @@ struct MerlTable {
 }
 
 impl Table for MerlTable {
+    fn memory_bytes(&self) -> usize {
+        self.table.memory_bytes()
+    }
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if self.interpolate {
             self.table.lookup(wi, wo)
@@ -49,6 +53,9 @@ struct BinnedTable {
 }
 
 impl Table for BinnedTable {
+    fn memory_bytes(&self) -> usize {
+        self.table.values.len() * std::mem::size_of::<Option<[f32; 3]>>()
+    }
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         self.table.lookup(wi, wo)
     }
@@ -67,6 +74,7 @@ pub struct Measured {
 
 impl Measured {
     pub fn new(name: &'static str, table: Arc<dyn Table>) -> Self {
+        TABLES_BUILT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let t = table.clone();
         let sampler = Arc::new(TabulatedSampler::new(move |wo, wi| {
             t.eval(wo, wi).luminance()
@@ -125,6 +133,9 @@ impl Bsdf for Measured {
     fn name(&self) -> &str {
         self.name
     }
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of_val(self) + self.table.memory_bytes() + self.sampler.memory_bytes()
+    }
 }
 
 /// Resolves `file` against the scene folder.
@@ -136,6 +147,10 @@ pub fn resolve(ctx: &BuildContext, file: &str) -> PathBuf {
         ctx.base_dir.join(p)
     }
 }
+
+/// Measured tables built (with their samplers) since the process started: lets tests show
+/// that a scene builds only the tables its shapes use.
+pub static TABLES_BUILT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 
 /// The cached material for (kind, file, options), built with `make` on first use.
 pub fn cached(
@@ -292,6 +307,9 @@ impl Bsdf for RglBsdf {
     fn name(&self) -> &str {
         "rgl"
     }
+    fn memory_bytes(&self) -> usize {
+        std::mem::size_of_val(self) + self.table.memory_bytes()
+    }
 }
 
 pub const RGL_SCHEMA: ModelSchema = ModelSchema {
@@ -319,9 +337,10 @@ fn build_rgl(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError
     {
         return Ok(Arc::new(RglBsdf::new(t.clone(), p.flag("clamp"))));
     }
-    let t = Arc::new(
-        Rgl::read(&path).map_err(|e| ParamError::new(format!("{}.file", p.path), e.to_string()))?,
-    );
+    let t = Arc::new({
+        TABLES_BUILT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Rgl::read(&path).map_err(|e| ParamError::new(format!("{}.file", p.path), e.to_string()))?
+    });
     cache.insert(key, Arc::new(t.clone()) as Arc<dyn Any + Send + Sync>);
     Ok(Arc::new(RglBsdf::new(t, p.flag("clamp"))))
 }

@@ -59,6 +59,10 @@ fn coords(theta_h: f64, theta_d: f64, phi_d: f64) -> (f64, f64, f64) {
 
 impl Merl {
     /// Reads a `.binary` file, checking its dimensions and length.
+    pub fn memory_bytes(&self) -> usize {
+        self.data.len() * 12
+    }
+
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let shown = path.display().to_string();
         if path.is_dir() {

@@ -39,6 +39,16 @@ pub struct Rgl {
     rgb: [Marginal2D; 3],
 }
 
+impl Rgl {
+    pub fn memory_bytes(&self) -> usize {
+        self.ndf.memory_bytes()
+            + self.sigma.memory_bytes()
+            + self.vndf.memory_bytes()
+            + self.luminance.memory_bytes()
+            + self.rgb.iter().map(Marginal2D::memory_bytes).sum::<usize>()
+    }
+}
+
 fn theta2u(t: f32) -> f32 {
     (t * (2.0 / PI)).max(0.0).sqrt()
 }

@@ -41,6 +41,17 @@ fn dir(theta: f32, phi: f32) -> Vec3 {
 }
 
 impl TabulatedSampler {
+    pub fn memory_bytes(&self) -> usize {
+        self.density.len() * 4
+            + self
+                .tables
+                .iter()
+                .map(|t| t.as_ref().map_or(0, |a| a.memory_bytes()))
+                .sum::<usize>()
+    }
+}
+
+impl TabulatedSampler {
     /// Builds the sampler from the luminance of f(wo, wi) (no cosine).
     pub fn new(f: impl Fn(Vec3, Vec3) -> f32 + Sync) -> Self {
         use rayon::prelude::*;

@@ -47,9 +47,15 @@ pub struct RgbImage {
     pub pixels: Vec<Rgb>,
 }
 
+/// Environment-map sampling distributions built since the process started: lets tests show
+/// that a scene without an environment map builds none.
+pub static DISTRIBUTIONS_BUILT: std::sync::atomic::AtomicUsize =
+    std::sync::atomic::AtomicUsize::new(0);
+
 impl EnvMap {
     /// From linear RGB pixels; `to_world` must be a rotation (an orthonormal matrix).
     pub fn new(img: &RgbImage, scale: f32, to_world: Mat3) -> Self {
+        DISTRIBUTIONS_BUILT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let (w, h) = (img.width, img.height);
         assert!(w >= 2 && h >= 3 && img.pixels.len() == w * h);
         let mut data = Vec::with_capacity((w + 1) * h);

@@ -1,0 +1,435 @@
+//! `lobe tradeoff`: the speed/accuracy/memory trade between the representations of one
+//! measured material (Ngan et al. 2005 compare fits in BRDF space, Eq. 1, and in renderings,
+//! Figures 3 and 6): the measured table itself, the APS2000 generator with a distribution
+//! estimated from it (section 5), and every analytic fit (section 4). For each it measures
+//! the Eq. (1) error, the image error against a high-spp render of the measured table (RMSE
+//! and FLIP), eval and sample cost per call, memory, render time at a fixed spp, and the
+//! image error at equal render time (from a convergence curve over spp); writes Markdown,
+//! CSV and a Pareto plot (render time against image error).
+
+use crate::figures::{H, PALETTE, W, plot_err, register_font, save};
+use lobe_materials::Bsdf;
+use lobe_materials::fit::{ISOTROPIC_DEFAULT, builtin_specs, fit};
+use lobe_materials::microfacet_gen::estimate;
+use lobe_materials::registry::{BuildContext, Registry};
+use lobe_renderer::Error;
+use lobe_renderer::compare::metrics;
+use lobe_renderer::film::Image;
+use lobe_renderer::render::{RenderOptions, render};
+use lobe_renderer::scene::{LoadOptions, from_value};
+use plotters::prelude::*;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct TradeoffArgs {
+    /// Measured data: MERL .binary, binned .bin or RGL .bsdf.
+    data: PathBuf,
+    /// A scene whose `materials` has an entry named "subject", replaced by each
+    /// representation (default: a sphere under the built-in studio environment).
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Samples per pixel of the reference render of the measured table.
+    #[arg(long, default_value_t = 1024)]
+    reference_spp: u32,
+    /// Samples per pixel of the compared renders (the convergence curve also renders at
+    /// 1/16 and 1/4 of it).
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Image size of the default scene.
+    #[arg(long, default_value_t = 128)]
+    size: u32,
+    /// Bin size in degrees of the fitted data (the study: 1).
+    #[arg(long, default_value_t = 2.0)]
+    resolution: f64,
+    /// Comma-separated fitted models (default: the study's seven, or the three anisotropic
+    /// ones for anisotropic data).
+    #[arg(long)]
+    models: Option<String>,
+    /// Output stem: STEM.md, STEM.csv, STEM.png, STEM-microfacet.exr.
+    #[arg(long, short)]
+    output: PathBuf,
+}
+
+struct Row {
+    name: String,
+    desc: Value,
+    brdf_error: f64,
+    eval_ns: f64,
+    sample_ns: f64,
+    memory: usize,
+    seconds: f64,
+    rmse: f64,
+    flip: f64,
+    curve: Vec<(f64, f64)>,
+    equal_time_rmse: f64,
+}
+
+fn default_scene(size: u32) -> Value {
+    json!({
+        "camera": {"type": "perspective", "fov": 30, "origin": [0, 0, 4.5], "target": [0, 0, 0], "up": [0, 1, 0]},
+        "film": {"width": size, "height": size},
+        "sampler": {"spp": 16, "seed": 0},
+        "integrator": {"type": "path", "max_depth": 3},
+        "materials": {"subject": {"type": "lambert"}},
+        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "subject"}],
+        "lights": [{"type": "envmap", "file": "builtin:studio"}]
+    })
+}
+
+/// Nanoseconds per eval and per sample over a fixed set of direction pairs.
+pub(crate) fn cost(b: &dyn Bsdf) -> (f64, f64) {
+    let n = 1 << 15;
+    let mut state = 0x853c49e6748fea9bu64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
+    };
+    let dirs: Vec<(glam::Vec3, glam::Vec3, glam::Vec2, f32)> = (0..n)
+        .map(|_| {
+            let a = lobe_materials::sampling::square_to_cosine_hemisphere(glam::Vec2::new(
+                next(),
+                next(),
+            ));
+            let b = lobe_materials::sampling::square_to_cosine_hemisphere(glam::Vec2::new(
+                next(),
+                next(),
+            ));
+            (a, b, glam::Vec2::new(next(), next()), next())
+        })
+        .collect();
+    let time = |f: &dyn Fn(&(glam::Vec3, glam::Vec3, glam::Vec2, f32)) -> f32| {
+        let mut best = f64::INFINITY;
+        for _ in 0..3 {
+            let t = std::time::Instant::now();
+            let mut acc = 0.0f32;
+            for d in &dirs {
+                acc += f(d);
+            }
+            std::hint::black_box(acc);
+            best = best.min(t.elapsed().as_secs_f64() * 1e9 / n as f64);
+        }
+        best
+    };
+    (
+        time(&|d| b.eval(d.0, d.1).r),
+        time(&|d| b.sample(d.0, d.2, d.3).map_or(0.0, |s| s.pdf)),
+    )
+}
+
+/// log-log interpolation (linear extrapolation at the ends) of a curve at `t`.
+fn at_time(curve: &[(f64, f64)], t: f64) -> f64 {
+    let pts: Vec<(f64, f64)> = curve
+        .iter()
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+        .map(|p| (p.0.ln(), p.1.ln()))
+        .collect();
+    if pts.len() < 2 {
+        return curve.last().map_or(f64::NAN, |p| p.1);
+    }
+    let x = t.ln();
+    let k = pts
+        .windows(2)
+        .position(|w| x <= w[1].0)
+        .unwrap_or(pts.len() - 2);
+    let (a, b) = (pts[k], pts[k + 1]);
+    let f = if b.0 > a.0 {
+        (x - a.0) / (b.0 - a.0)
+    } else {
+        0.0
+    };
+    (a.1 + f * (b.1 - a.1)).exp()
+}
+
+pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
+    if args.spp < 16 || args.reference_spp < args.spp {
+        return Err(Error::Other(format!(
+            "--spp {} / --reference-spp {}: expected spp >= 16 and reference-spp >= spp",
+            args.spp, args.reference_spp
+        )));
+    }
+    let data_path = std::fs::canonicalize(&args.data).map_err(|e| {
+        Error::file(
+            args.data.display(),
+            format!("cannot open: {e}; expected a MERL .binary, binned .bin or RGL .bsdf file"),
+        )
+    })?;
+    let kind = match data_path.extension().and_then(|e| e.to_str()) {
+        Some("binary") => "merl",
+        Some("bin") => "binned",
+        Some("bsdf") => "rgl",
+        _ => {
+            return Err(Error::file(
+                data_path.display(),
+                "unknown extension; expected .binary (MERL), .bin (binned) or .bsdf (RGL)",
+            ));
+        }
+    };
+    let measured_desc = json!({"type": kind, "file": data_path.display().to_string()});
+    if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty())
+        && !dir.is_dir()
+    {
+        return Err(Error::file(
+            dir.display(),
+            "the output folder does not exist; expected an existing folder for -o",
+        ));
+    }
+    let say = |m: String| {
+        if !quiet {
+            eprintln!("{m}");
+        }
+    };
+    // The scene and how to put a representation into it.
+    let (scene_v, scene_file, base) = match &args.scene {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .map_err(|e| Error::file(p.display(), format!("cannot read: {e}")))?;
+            let v: Value = serde_json::from_str(&text)
+                .map_err(|e| Error::file(p.display(), format!("invalid JSON: {e}")))?;
+            if v.pointer("/materials/subject").is_none() {
+                return Err(Error::file(
+                    p.display(),
+                    "materials.subject: missing; expected the material the representations replace",
+                ));
+            }
+            let base = p.parent().map(Path::to_path_buf).unwrap_or_default();
+            (v, p.display().to_string(), base)
+        }
+        None => (
+            default_scene(args.size),
+            "tradeoff-sphere".to_string(),
+            PathBuf::from("."),
+        ),
+    };
+    let render_with = |desc: &Value, spp: u32| -> Result<(Image, f64), Error> {
+        let mut v = scene_v.clone();
+        v["materials"]["subject"] = desc.clone();
+        let mut scene = from_value(&v, &scene_file, &base, &LoadOptions::with_builtins())?;
+        scene.spp = spp;
+        let (img, stats) = render(&scene, &RenderOptions::default())?;
+        Ok((img, stats.seconds))
+    };
+    // Fits and the estimated distribution.
+    let data = crate::fit::load_data(&data_path, args.resolution)?;
+    let source = data_path.display().to_string();
+    data.check().map_err(|m| Error::file(&source, m))?;
+    let specs = builtin_specs();
+    let labels: Vec<String> = match &args.models {
+        Some(l) => l.split(',').map(|s| s.trim().to_string()).collect(),
+        None if data.anisotropic => vec![
+            "ward-anisotropic".into(),
+            "ashikhmin-shirley-anisotropic".into(),
+            "poulin-fournier".into(),
+        ],
+        None => ISOTROPIC_DEFAULT.iter().map(|s| s.to_string()).collect(),
+    };
+    let mut reps: Vec<(String, Value, f64)> = vec![("measured".into(), measured_desc.clone(), 0.0)];
+    say(format!(
+        "{source}: {} bins; estimating the microfacet distribution",
+        data.samples.len()
+    ));
+    let est = estimate(&data, 129, None, 5).map_err(|m| Error::file(&source, m))?;
+    let stem = args.output.clone();
+    let exr = PathBuf::from(format!("{}-microfacet.exr", stem.display()));
+    let bytes = est
+        .table
+        .exr_bytes()
+        .map_err(|e| Error::file(exr.display(), e))?;
+    lobe_renderer::film::atomic_write(&exr, |w| std::io::Write::write_all(w, &bytes))?;
+    let exr_abs = std::fs::canonicalize(&exr).unwrap_or(exr.clone());
+    reps.push((
+        "sampled-microfacet".into(),
+        est.material(&exr_abs.display().to_string()),
+        est.error,
+    ));
+    for l in &labels {
+        let spec = specs
+            .iter()
+            .find(|s| s.label == l.as_str())
+            .ok_or_else(|| {
+                Error::Other(format!(
+                    "--models: unknown model \"{l}\"; expected one of: {}",
+                    specs.iter().map(|s| s.label).collect::<Vec<_>>().join(", ")
+                ))
+            })?;
+        let r = fit(&data, spec, 300).map_err(|m| Error::file(&source, m))?;
+        say(format!("  fitted {l}: Eq. (1) error {:.4e}", r.error));
+        reps.push((l.clone(), r.material, r.error));
+    }
+    // The reference.
+    say(format!(
+        "rendering the reference at {} spp",
+        args.reference_spp
+    ));
+    let (reference, _) = render_with(&measured_desc, args.reference_spp)?;
+    let ctx = BuildContext::new(&base);
+    let registry = Registry::builtin();
+    let spps = [args.spp / 16, args.spp / 4, args.spp];
+    let mut rows = Vec::new();
+    for (name, desc, brdf_error) in reps {
+        let b = registry
+            .create_with(&desc, &name, &ctx)
+            .map_err(|e| Error::Other(e.to_string()))?;
+        let (eval_ns, sample_ns) = cost(b.as_ref());
+        let mut curve = Vec::new();
+        let mut last = None;
+        for &spp in &spps {
+            let (img, secs) = render_with(&desc, spp)?;
+            let (m, _) = metrics(&img, &reference, 0.0)?;
+            curve.push((secs, m.rmse));
+            last = Some((secs, m));
+        }
+        let (seconds, m) = last.expect("three renders");
+        say(format!(
+            "  {name}: {seconds:.2} s at {} spp, RMSE {:.4e}, FLIP {:.4}",
+            args.spp, m.rmse, m.flip
+        ));
+        rows.push(Row {
+            name,
+            desc,
+            brdf_error,
+            eval_ns,
+            sample_ns,
+            memory: b.memory_bytes(),
+            seconds,
+            rmse: m.rmse,
+            flip: m.flip,
+            curve,
+            equal_time_rmse: f64::NAN,
+        });
+    }
+    // Equal time: each representation rendered again with the spp that fits the measured
+    // table's render time (from its own measured rate), up to 16x the fixed spp; the error
+    // at exactly the budget is then interpolated on its curve.
+    let budget = rows[0].seconds;
+    for r in rows.iter_mut() {
+        let spp_eq = ((args.spp as f64 * budget / r.seconds.max(1e-6)).round() as u32)
+            .clamp(1, 16 * args.spp);
+        if spp_eq != args.spp {
+            let (img, secs) = render_with(&r.desc, spp_eq)?;
+            let (m, _) = metrics(&img, &reference, 0.0)?;
+            r.curve.push((secs, m.rmse));
+            r.curve.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        r.equal_time_rmse = at_time(&r.curve, budget);
+    }
+    write_outputs(&rows, &args, budget, data.max_albedo, &source)?;
+    Ok(())
+}
+
+fn write_outputs(
+    rows: &[Row],
+    args: &TradeoffArgs,
+    budget: f64,
+    max_albedo: f64,
+    source: &str,
+) -> Result<(), Error> {
+    let stem = args.output.display().to_string();
+    let mut md = format!(
+        "# Trade-off for {source}\n\nReference: the measured table at {} spp. Renders at {} spp; \
+         equal-time error at the measured table's render time ({budget:.2} s): each \
+         representation is rendered again with the spp its rate allows in that time (at most \
+         16x), and the error interpolated on its convergence curve ({}, {}, {} spp and that \
+         one). The reference's own noise is part of every image error.\n\n\
+         | representation | Eq. (1) error (normalized) | image RMSE | FLIP | eval ns | sample ns | memory | render s | RMSE at equal time |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
+        args.reference_spp,
+        args.spp,
+        args.spp / 16,
+        args.spp / 4,
+        args.spp
+    );
+    let mut csv = String::from(
+        "representation,eq1_error,eq1_error_normalized,image_rmse,flip,eval_ns,sample_ns,memory_bytes,render_seconds,equal_time_rmse,material\n",
+    );
+    for r in rows {
+        let mem = if r.memory >= 1 << 20 {
+            format!("{:.1} MiB", r.memory as f64 / (1 << 20) as f64)
+        } else {
+            format!("{:.1} KiB", r.memory as f64 / 1024.0)
+        };
+        md.push_str(&format!(
+            "| {} | {:.3e} ({:.3e}) | {:.3e} | {:.4} | {:.0} | {:.0} | {mem} | {:.2} | {:.3e} |\n",
+            r.name,
+            r.brdf_error,
+            r.brdf_error / max_albedo.max(1e-300),
+            r.rmse,
+            r.flip,
+            r.eval_ns,
+            r.sample_ns,
+            r.seconds,
+            r.equal_time_rmse
+        ));
+        csv.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            r.name,
+            r.brdf_error,
+            r.brdf_error / max_albedo.max(1e-300),
+            r.rmse,
+            r.flip,
+            r.eval_ns,
+            r.sample_ns,
+            r.memory,
+            r.seconds,
+            r.equal_time_rmse,
+            r.desc.to_string().replace('"', "\"\"")
+        ));
+    }
+    let write = |ext: &str, text: &str| {
+        let p = PathBuf::from(format!("{stem}.{ext}"));
+        lobe_renderer::film::atomic_write(&p, |w| std::io::Write::write_all(w, text.as_bytes()))
+    };
+    write("md", &md)?;
+    write("csv", &csv)?;
+    pareto(rows, &PathBuf::from(format!("{stem}.png")))?;
+    print!("{md}");
+    Ok(())
+}
+
+/// Render time against image RMSE (log-log), one labelled point per representation.
+fn pareto(rows: &[Row], path: &Path) -> Result<(), Error> {
+    register_font();
+    let xs = rows.iter().map(|r| r.seconds.max(1e-4).log10());
+    let ys = rows.iter().map(|r| r.rmse.max(1e-9).log10());
+    let (x0, x1) = xs.fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)));
+    let (y0, y1) = ys.fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
+    let mut buf = vec![255u8; (W * H * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                "render time against image error (lower left is better)",
+                ("sans-serif", 20),
+            )
+            .margin(20)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0 - 0.2..x1 + 0.3, y0 - 0.2..y1 + 0.2)
+            .map_err(plot_err)?;
+        chart
+            .configure_mesh()
+            .x_desc("log10 render seconds at fixed spp")
+            .y_desc("log10 image RMSE")
+            .draw()
+            .map_err(plot_err)?;
+        for (k, r) in rows.iter().enumerate() {
+            let c = PALETTE[k % PALETTE.len()];
+            let p = (r.seconds.max(1e-4).log10(), r.rmse.max(1e-9).log10());
+            chart
+                .draw_series(std::iter::once(Circle::new(p, 6, c.filled())))
+                .map_err(plot_err)?;
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    r.name.clone(),
+                    (p.0 + 0.02, p.1 + 0.02),
+                    ("sans-serif", 14),
+                )))
+                .map_err(plot_err)?;
+        }
+        root.present().map_err(plot_err)?;
+    }
+    save(path, &buf)
+}
