@@ -78,6 +78,9 @@ fn default_scene(size: u32) -> Value {
 }
 
 /// Nanoseconds per eval and per sample over a fixed set of direction pairs.
+/// One timing case: wo, wi, the 2D and 1D sample.
+type Case = (glam::Vec3, glam::Vec3, glam::Vec2, f32);
+
 pub(crate) fn cost(b: &dyn Bsdf) -> (f64, f64) {
     let n = 1 << 15;
     let mut state = 0x853c49e6748fea9bu64;
@@ -87,7 +90,7 @@ pub(crate) fn cost(b: &dyn Bsdf) -> (f64, f64) {
             .wrapping_add(1442695040888963407);
         ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
     };
-    let dirs: Vec<(glam::Vec3, glam::Vec3, glam::Vec2, f32)> = (0..n)
+    let dirs: Vec<Case> = (0..n)
         .map(|_| {
             let a = lobe_materials::sampling::square_to_cosine_hemisphere(glam::Vec2::new(
                 next(),
@@ -100,7 +103,7 @@ pub(crate) fn cost(b: &dyn Bsdf) -> (f64, f64) {
             (a, b, glam::Vec2::new(next(), next()), next())
         })
         .collect();
-    let time = |f: &dyn Fn(&(glam::Vec3, glam::Vec3, glam::Vec2, f32)) -> f32| {
+    let time = |f: &dyn Fn(&Case) -> f32| {
         let mut best = f64::INFINITY;
         for _ in 0..3 {
             let t = std::time::Instant::now();
