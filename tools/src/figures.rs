@@ -4,7 +4,11 @@
 //!   material, materials sorted by the Lafortune error;
 //! - `multilobe`: Figure 5, one against two lobes for Cook-Torrance and Lafortune on the 30
 //!   materials whose error the second lobe improves most;
-//! - `polar`: Figure 4, the incidence-plane BRDF of the data and of fitted models, cube root.
+//! - `polar`: Figure 4, the incidence-plane BRDF of the data and of fitted models, cube root;
+//! - `spheres`: Figures 3 and 6, the measured material and each model's fit as labelled
+//!   spheres under an environment map;
+//! - `lobes`: Figures 7 and 8, iso-contours of a half-vector (H.N) and of a mirror (V.R)
+//!   lobe of the same exponent over the outgoing hemisphere at a chosen incidence.
 
 use crate::eval::{MaterialArgs, load_material};
 use lobe_materials::Bsdf;
@@ -61,6 +65,44 @@ pub enum FigureCmd {
         /// Colour channel: 0, 1 or 2 (red, green, blue).
         #[arg(long, default_value_t = 1)]
         channel: usize,
+        #[arg(long, short)]
+        output: PathBuf,
+    },
+    /// Figures 3 and 6: the material and each fitted model as labelled spheres under an
+    /// environment map, one PNG.
+    Spheres {
+        #[command(flatten)]
+        material: MaterialArgs,
+        /// A fit report whose models are drawn after the material.
+        #[arg(long)]
+        report: PathBuf,
+        /// Comma-separated models of the report (default: all).
+        #[arg(long)]
+        models: Option<String>,
+        /// Environment map (EXR or .hdr) or builtin:studio.
+        #[arg(long, default_value = "builtin:studio")]
+        env: String,
+        /// Samples per pixel.
+        #[arg(long, default_value_t = 64)]
+        spp: u32,
+        /// Pixels per sphere tile.
+        #[arg(long, default_value_t = 192)]
+        tile: u32,
+        /// Exposure in stops.
+        #[arg(long, default_value_t = 0.0)]
+        exposure: f32,
+        #[arg(long, short)]
+        output: PathBuf,
+    },
+    /// Figures 7 and 8: iso-contours (10 % to 90 % of the peak) of cos^n(h.n) and cos^n(v.r)
+    /// over the outgoing hemisphere (projected disk) for incidence theta_i.
+    Lobes {
+        /// Incident angle in degrees.
+        #[arg(long, default_value_t = 60.0)]
+        theta_i: f64,
+        /// Lobe exponent n.
+        #[arg(long, default_value_t = 30.0)]
+        exponent: f64,
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -309,6 +351,192 @@ fn polar(
     save(output, &buf)
 }
 
+/// Renders each material on a sphere under `env` and tiles the images with labels.
+#[allow(clippy::too_many_arguments)]
+fn spheres(
+    items: &[(String, Arc<dyn Bsdf>)],
+    env: &str,
+    spp: u32,
+    tile: u32,
+    exposure: f32,
+    output: &Path,
+) -> Result<(), Error> {
+    if !(32..=1024).contains(&tile) || spp == 0 {
+        return Err(Error::Other(format!(
+            "--tile {tile} / --spp {spp}: expected 32 to 1024 pixels and at least one sample"
+        )));
+    }
+    let here = std::env::current_dir().unwrap_or_default();
+    let scene_v = serde_json::json!({
+        "camera": {"type": "perspective", "fov": 30, "origin": [0, 0, 4.5], "target": [0, 0, 0], "up": [0, 1, 0]},
+        "film": {"width": tile, "height": tile},
+        "sampler": {"spp": spp, "seed": 0},
+        "integrator": {"type": "path", "max_depth": 3},
+        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}],
+        "lights": [{"type": "envmap", "file": env}]
+    });
+    let cols = items.len().clamp(1, 4) as u32;
+    let rows = (items.len() as u32).div_ceil(cols);
+    let label_h = 30u32;
+    let (w, h) = (cols * tile, rows * (tile + label_h));
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    for (k, (_, m)) in items.iter().enumerate() {
+        let mut scene = lobe_renderer::scene::from_value(
+            &scene_v,
+            "spheres",
+            &here,
+            &lobe_renderer::scene::LoadOptions::with_builtins(),
+        )?;
+        scene.shapes[0].material = m.clone();
+        let (img, _) = lobe_renderer::render::render(
+            &scene,
+            &lobe_renderer::render::RenderOptions::default(),
+        )?;
+        let rgb = lobe_renderer::film::tonemap(&img.pixels, exposure);
+        let (cx, cy) = (
+            (k as u32 % cols) * tile,
+            (k as u32 / cols) * (tile + label_h),
+        );
+        for y in 0..tile {
+            let src = (y * tile * 3) as usize;
+            let dst = (((cy + y) * w + cx) * 3) as usize;
+            buf[dst..dst + (tile * 3) as usize]
+                .copy_from_slice(&rgb[src..src + (tile * 3) as usize]);
+        }
+    }
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        for (k, (name, _)) in items.iter().enumerate() {
+            let (cx, cy) = (
+                (k as u32 % cols) * tile,
+                (k as u32 / cols) * (tile + label_h),
+            );
+            root.draw(&Text::new(
+                name.clone(),
+                (cx as i32 + 6, (cy + tile + 6) as i32),
+                ("sans-serif", 16),
+            ))
+            .map_err(plot_err)?;
+        }
+        root.present().map_err(plot_err)?;
+    }
+    lobe_renderer::film::write_png_rgb8(output, w, h, &buf)
+}
+
+/// Line segments where `f` crosses `level` on a grid over [-1, 1]^2 (marching squares).
+fn contour(f: &dyn Fn(f64, f64) -> f64, level: f64, n: usize) -> Vec<[(f64, f64); 2]> {
+    let at = |i: usize| -1.0 + 2.0 * i as f64 / n as f64;
+    let v: Vec<f64> = (0..=n)
+        .flat_map(|j| (0..=n).map(move |i| (at(i), at(j))))
+        .map(|(x, y)| f(x, y))
+        .collect();
+    let mut segs = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let c = [
+                (at(i), at(j), v[j * (n + 1) + i]),
+                (at(i + 1), at(j), v[j * (n + 1) + i + 1]),
+                (at(i + 1), at(j + 1), v[(j + 1) * (n + 1) + i + 1]),
+                (at(i), at(j + 1), v[(j + 1) * (n + 1) + i]),
+            ];
+            let mut pts = Vec::new();
+            for e in 0..4 {
+                let (a, b) = (c[e], c[(e + 1) % 4]);
+                if (a.2 >= level) != (b.2 >= level) {
+                    let t = (level - a.2) / (b.2 - a.2);
+                    pts.push((a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1)));
+                }
+            }
+            for p in pts.chunks_exact(2) {
+                segs.push([p[0], p[1]]);
+            }
+        }
+    }
+    segs
+}
+
+fn lobes(theta_i: f64, n: f64, output: &Path) -> Result<(), Error> {
+    if !(0.0..90.0).contains(&theta_i) || !(n >= 1.0 && n <= 1e5) {
+        return Err(Error::Other(format!(
+            "--theta-i must be in [0, 90) and --exponent in [1, 1e5]; found {theta_i} and {n}"
+        )));
+    }
+    let ti = theta_i.to_radians();
+    let wi = glam::DVec3::new(-ti.sin(), 0.0, ti.cos());
+    let r = glam::DVec3::new(-wi.x, -wi.y, wi.z);
+    let wo = |x: f64, y: f64| {
+        let z2 = 1.0 - x * x - y * y;
+        (z2 > 0.0).then(|| glam::DVec3::new(x, y, z2.sqrt()))
+    };
+    let hn =
+        move |x: f64, y: f64| wo(x, y).map_or(-1.0, |o| (o + wi).normalize().z.max(0.0).powf(n));
+    let vr = move |x: f64, y: f64| wo(x, y).map_or(-1.0, |o| o.dot(r).max(0.0).powf(n));
+    let mut buf = vec![255u8; (W * H * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_err)?;
+        let panels = root.split_evenly((1, 2));
+        let lobes: [(&str, &dyn Fn(f64, f64) -> f64); 2] = [("H.N lobe", &hn), ("V.R lobe", &vr)];
+        for (panel, (name, f)) in panels.iter().zip(lobes) {
+            let mut chart = ChartBuilder::on(panel)
+                .caption(
+                    format!("{name}, n = {n}, theta_i = {theta_i} deg"),
+                    ("sans-serif", 18),
+                )
+                .margin(20)
+                .build_cartesian_2d(-1.05f64..1.05, -1.05f64..1.05)
+                .map_err(plot_err)?;
+            let circle: Vec<(f64, f64)> = (0..=360)
+                .map(|k| {
+                    let a = (k as f64).to_radians();
+                    (a.cos(), a.sin())
+                })
+                .collect();
+            chart
+                .draw_series(LineSeries::new(circle, BLACK.stroke_width(1)))
+                .map_err(plot_err)?;
+            // The mirror direction.
+            chart
+                .draw_series(std::iter::once(Cross::new((r.x, r.y), 5, BLACK)))
+                .map_err(plot_err)?;
+            for (k, level) in [0.1, 0.3, 0.5, 0.7, 0.9].iter().enumerate() {
+                let c = PALETTE[k % PALETTE.len()];
+                let segs = contour(f, *level, 240);
+                chart
+                    .draw_series(
+                        segs.into_iter()
+                            .map(|s| PathElement::new(vec![s[0], s[1]], c.stroke_width(2))),
+                    )
+                    .map_err(plot_err)?;
+            }
+        }
+        root.present().map_err(plot_err)?;
+    }
+    save(output, &buf)
+}
+
+/// The fitted models of a report (those of the comma-separated `models`, or all), built.
+fn report_models(
+    report: &Path,
+    models: Option<String>,
+) -> Result<Vec<(String, Arc<dyn Bsdf>)>, Error> {
+    let r = read_reports(&[report.to_path_buf()])?.remove(0);
+    let wanted: Option<Vec<String>> =
+        models.map(|m| m.split(',').map(|s| s.trim().to_string()).collect());
+    let reg = lobe_materials::registry::Registry::builtin();
+    let mut out = Vec::new();
+    for (name, v) in r["models"].as_object().expect("checked") {
+        if wanted.as_ref().is_some_and(|w| !w.contains(name)) {
+            continue;
+        }
+        let m = reg
+            .create(&v["material"], &format!("models.{name}"))
+            .map_err(|e| Error::file(report.display(), e.to_string()))?;
+        out.push((name.clone(), m));
+    }
+    Ok(out)
+}
+
 pub fn cmd_figure(cmd: FigureCmd, quiet: bool) -> Result<(), Error> {
     register_font();
     let out = match cmd {
@@ -329,23 +557,34 @@ pub fn cmd_figure(cmd: FigureCmd, quiet: bool) -> Result<(), Error> {
             output,
         } => {
             let data = load_material(&material)?;
-            let mut fits = Vec::new();
-            if let Some(rp) = &report {
-                let r = read_reports(std::slice::from_ref(rp))?.remove(0);
-                let wanted: Option<Vec<String>> =
-                    models.map(|m| m.split(',').map(|s| s.trim().to_string()).collect());
-                let reg = lobe_materials::registry::Registry::builtin();
-                for (name, v) in r["models"].as_object().expect("checked") {
-                    if wanted.as_ref().is_some_and(|w| !w.contains(name)) {
-                        continue;
-                    }
-                    let m = reg
-                        .create(&v["material"], &format!("models.{name}"))
-                        .map_err(|e| Error::file(rp.display(), e.to_string()))?;
-                    fits.push((name.clone(), m));
-                }
-            }
+            let fits = match &report {
+                Some(rp) => report_models(rp, models)?,
+                None => Vec::new(),
+            };
             polar(data, fits, theta_i, channel, &output)?;
+            output
+        }
+        FigureCmd::Spheres {
+            material,
+            report,
+            models,
+            env,
+            spp,
+            tile,
+            exposure,
+            output,
+        } => {
+            let mut items = vec![("measured".to_string(), load_material(&material)?)];
+            items.extend(report_models(&report, models)?);
+            spheres(&items, &env, spp, tile, exposure, &output)?;
+            output
+        }
+        FigureCmd::Lobes {
+            theta_i,
+            exponent,
+            output,
+        } => {
+            lobes(theta_i, exponent, &output)?;
             output
         }
     };

@@ -638,6 +638,25 @@ fn figures_draw_pngs_from_fit_reports() {
             ],
             "p.png",
         ),
+        (
+            vec![
+                "figure",
+                "spheres",
+                "--material",
+                mat,
+                "--report",
+                report.to_str().unwrap(),
+                "--spp",
+                "4",
+                "--tile",
+                "48",
+            ],
+            "s.png",
+        ),
+        (
+            vec!["figure", "lobes", "--theta-i", "45", "--exponent", "20"],
+            "l.png",
+        ),
     ] {
         let out = dir.path().join(name);
         let o = lobe()
@@ -647,7 +666,13 @@ fn figures_draw_pngs_from_fit_reports() {
             .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let img = image::open(&out).unwrap().to_rgb8();
-        assert_eq!(img.dimensions(), (1000, 600));
+        let want = if name == "s.png" {
+            // Three spheres (the material, ward, lafortune) in one row with labels.
+            (3 * 48, 48 + 30)
+        } else {
+            (1000, 600)
+        };
+        assert_eq!(img.dimensions(), want);
         // Something coloured (a plotted curve) was drawn, not just a blank canvas.
         assert!(img.pixels().any(|p| p[0] != p[1] || p[1] != p[2]));
     }
