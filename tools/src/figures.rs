@@ -456,7 +456,7 @@ fn contour(f: &dyn Fn(f64, f64) -> f64, level: f64, n: usize) -> Vec<[(f64, f64)
 }
 
 fn lobes(theta_i: f64, n: f64, output: &Path) -> Result<(), Error> {
-    if !(0.0..90.0).contains(&theta_i) || !(n >= 1.0 && n <= 1e5) {
+    if !((0.0..90.0).contains(&theta_i) && (1.0..=1e5).contains(&n)) {
         return Err(Error::Other(format!(
             "--theta-i must be in [0, 90) and --exponent in [1, 1e5]; found {theta_i} and {n}"
         )));
@@ -476,7 +476,8 @@ fn lobes(theta_i: f64, n: f64, output: &Path) -> Result<(), Error> {
         let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_err)?;
         let panels = root.split_evenly((1, 2));
-        let lobes: [(&str, &dyn Fn(f64, f64) -> f64); 2] = [("H.N lobe", &hn), ("V.R lobe", &vr)];
+        type Field<'a> = &'a dyn Fn(f64, f64) -> f64;
+        let lobes: [(&str, Field); 2] = [("H.N lobe", &hn), ("V.R lobe", &vr)];
         for (panel, (name, f)) in panels.iter().zip(lobes) {
             let mut chart = ChartBuilder::on(panel)
                 .caption(
