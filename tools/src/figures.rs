@@ -354,7 +354,7 @@ fn polar(
 /// Renders each material on a sphere under `env` and tiles the images with labels.
 #[allow(clippy::too_many_arguments)]
 fn spheres(
-    items: &[(String, Arc<dyn Bsdf>)],
+    items: &[Named],
     env: &str,
     spp: u32,
     tile: u32,
@@ -516,11 +516,11 @@ fn lobes(theta_i: f64, n: f64, output: &Path) -> Result<(), Error> {
     save(output, &buf)
 }
 
+/// A labelled material.
+type Named = (String, Arc<dyn Bsdf>);
+
 /// The fitted models of a report (those of the comma-separated `models`, or all), built.
-fn report_models(
-    report: &Path,
-    models: Option<String>,
-) -> Result<Vec<(String, Arc<dyn Bsdf>)>, Error> {
+fn report_models(report: &Path, models: Option<String>) -> Result<Vec<Named>, Error> {
     let r = read_reports(&[report.to_path_buf()])?.remove(0);
     let wanted: Option<Vec<String>> =
         models.map(|m| m.split(',').map(|s| s.trim().to_string()).collect());
