@@ -9,6 +9,7 @@ mod eval;
 mod figures;
 mod fit;
 mod microfacet;
+mod stability;
 mod tabulate;
 mod tradeoff;
 
@@ -72,6 +73,12 @@ enum Command {
         after_help = "Examples:\n  lobe tradeoff ../shared/data/rgl/paper_white_rgb.bsdf -o out/paper\n  lobe tradeoff nickel.binary --scene my-scene.json --spp 256 --reference-spp 4096 -o out/nickel\nA --scene must name the material to replace \"subject\" in its \"materials\"."
     )]
     Tradeoff(tradeoff::TradeoffArgs),
+    /// Sweep every model over its parameter box and extreme directions; count non-finite,
+    /// negative, non-reciprocal, energy-gaining and f32/f64-disagreeing values.
+    #[command(
+        after_help = "Examples:\n  lobe stability                 # every model, full sweep\n  lobe stability --quick         # the CI sweep\n  lobe stability --models he,lafortune\nExits non-zero on any non-finite or negative value."
+    )]
+    Stability(stability::StabilityArgs),
     /// Write a material as a MERL table or as binned 4D data, emulating an acquisition.
     #[command(
         after_help = "Examples:\n  lobe tabulate --material '{\"type\": \"cook-torrance\", \"diffuse\": 0.1, \"specular\": 0.5, \"m\": 0.1}' -o ct.binary\n  lobe tabulate --ngan nickel --model he --retro-exclusion 3 --noise 0.02 -o nickel-he.binary\n  lobe tabulate --material @brushed.json --format binned --anisotropic --empty-fraction 0.75 --grazing-cutoff 80 -o brushed.bin"
@@ -142,6 +149,7 @@ fn main() -> ExitCode {
         Command::Figure(cmd) => figures::cmd_figure(cmd, cli.quiet),
         Command::Microfacet(cmd) => microfacet::cmd_microfacet(cmd, cli.quiet),
         Command::Tradeoff(args) => tradeoff::cmd_tradeoff(args, cli.quiet),
+        Command::Stability(args) => stability::cmd_stability(args, cli.quiet),
         Command::Models { names } => {
             let reg = lobe_materials::registry::Registry::builtin();
             if names {

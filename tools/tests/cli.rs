@@ -926,3 +926,33 @@ fn tradeoff_reports_every_representation() {
         "does not exist",
     );
 }
+
+#[test]
+fn stability_sweep_finds_no_nonfinite_or_negative_values() {
+    let o = lobe().args(["stability", "--quick"]).output().unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{out}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    for m in [
+        "| ward |",
+        "| cook-torrance |",
+        "| he |",
+        "| poulin-fournier |",
+        "| sampled-microfacet |",
+        "| merl |",
+    ] {
+        assert!(out.contains(m), "{m} missing:\n{out}");
+    }
+    // Columns 5 and 6 (non-finite, negative) are zero on every row.
+    for row in out.lines().skip(2) {
+        let cols: Vec<&str> = row.split('|').map(str::trim).collect();
+        assert_eq!((cols[5], cols[6]), ("0", "0"), "{row}");
+        assert!(
+            cols[2].parse::<usize>().unwrap() > 0 || cols[1] == "rgl",
+            "{row}"
+        );
+    }
+}

@@ -1,0 +1,393 @@
+//! `lobe stability`: numerical stability at the extremes. Every analytic model of the
+//! registry is swept over its parameter box (each lobe parameter at its lower bound, or
+//! 1e-4 above an open zero, a middle value and its upper bound capped at 1e6; every choice
+//! of every setting) and over direction pairs including normal and grazing incidence (to
+//! 89.99 degrees), wi = wo and wi = mirror(wo); the sampled-microfacet generator and the
+//! measured readers (a MERL table, the RGL files if present) over the same directions.
+//! Counts per model: non-finite and negative values (of f32 and f64 evaluation, pdf and
+//! sampling weights), reciprocity violations (models flagged reciprocal), energy violations
+//! (directional albedo above 1 for models flagged energy-bounded) and f32/f64 disagreements.
+//! Exits non-zero on any non-finite or negative value.
+
+use lobe_materials::composite::directional_albedo;
+use lobe_materials::registry::{Bounds, ParamKind, ParamRole, Registry};
+use lobe_materials::{Bsdf, Flags};
+use lobe_renderer::Error;
+use serde_json::{Value, json};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct StabilityArgs {
+    /// Comma-separated models (default: every analytic model, sampled-microfacet, merl, rgl).
+    #[arg(long)]
+    models: Option<String>,
+    /// Fewer parameter values and directions (for CI).
+    #[arg(long)]
+    quick: bool,
+    /// Print the first offending case of each kind per model.
+    #[arg(long)]
+    verbose: bool,
+    /// Folder of RGL .bsdf files to sweep (default: ../shared/data/rgl or $LOBE_DATA/rgl).
+    #[arg(long)]
+    rgl: Option<PathBuf>,
+}
+
+#[derive(Default, Clone)]
+struct Counts {
+    configs: usize,
+    rejected: usize,
+    evals: usize,
+    nonfinite: usize,
+    negative: usize,
+    reciprocity: usize,
+    energy: usize,
+    precision: usize,
+    example: Option<String>,
+    reciprocity_example: Option<String>,
+}
+
+fn dir(theta_deg: f64, phi_deg: f64) -> glam::Vec3 {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    glam::Vec3::new(
+        (t.sin() * p.cos()) as f32,
+        (t.sin() * p.sin()) as f32,
+        t.cos() as f32,
+    )
+    .normalize()
+}
+
+fn pairs(quick: bool) -> Vec<(glam::Vec3, glam::Vec3)> {
+    let thetas: &[f64] = if quick {
+        &[0.0, 30.0, 75.0, 89.99]
+    } else {
+        &[
+            0.0, 1e-3, 10.0, 30.0, 45.0, 60.0, 75.0, 85.0, 89.0, 89.9, 89.99,
+        ]
+    };
+    let phis: &[f64] = if quick {
+        &[0.0, 100.0, 180.0]
+    } else {
+        &[0.0, 45.0, 90.0, 135.0, 180.0, 270.0, 333.0]
+    };
+    let dirs: Vec<glam::Vec3> = thetas
+        .iter()
+        .flat_map(|&t| phis.iter().map(move |&p| dir(t, p)))
+        .collect();
+    let mut out = Vec::new();
+    for &wo in &dirs {
+        for &wi in &dirs {
+            out.push((wo, wi));
+        }
+        out.push((wo, wo));
+        out.push((wo, glam::Vec3::new(-wo.x, -wo.y, wo.z)));
+    }
+    out
+}
+
+/// Values of one bounded parameter: the bounds (open zero -> 1e-4, upper capped at 1e6) and
+/// a middle value.
+fn values(b: &Bounds, quick: bool) -> Vec<f64> {
+    let mut lo = b.min;
+    if b.min_open {
+        lo = if b.min == 0.0 {
+            1e-4
+        } else {
+            b.min + 1e-4 * b.min.abs().max(1.0)
+        };
+    }
+    let mut hi = b.max.min(1e6);
+    if b.max_open {
+        hi = hi - 1e-4 * hi.abs().max(1.0);
+    }
+    if !lo.is_finite() {
+        lo = -1e6;
+    }
+    let mid = if lo > 0.0 {
+        (lo * hi).sqrt()
+    } else {
+        0.5 * (lo + hi)
+    };
+    if quick {
+        vec![lo, hi]
+    } else {
+        vec![lo, mid, hi]
+    }
+}
+
+/// Every description of a model over its parameter box and settings.
+fn descriptions(reg: &Registry, model: &str, quick: bool) -> Vec<Value> {
+    let schema = reg.schema(model).expect("registered");
+    let mut descs = vec![json!({"type": model, "diffuse": 0.0, "specular": 1.0})];
+    for p in schema.params {
+        let opts: Vec<Value> = match (p.role, p.kind) {
+            (ParamRole::Lobe, ParamKind::Scalar | ParamKind::Integer) => values(&p.bounds, quick)
+                .into_iter()
+                .map(|v| json!(v))
+                .collect(),
+            (ParamRole::Setting, ParamKind::Choice(c)) => c.iter().map(|s| json!(s)).collect(),
+            (ParamRole::Setting, ParamKind::Bool) => vec![json!(false), json!(true)],
+            _ => continue,
+        };
+        descs = descs
+            .into_iter()
+            .flat_map(|d| {
+                opts.iter().map(move |o| {
+                    let mut d = d.clone();
+                    d[p.name] = o.clone();
+                    d
+                })
+            })
+            .collect();
+    }
+    descs
+}
+
+/// `reciprocity`: check f(wo, wi) = f(wi, wo) here (the analytic models check it on their
+/// f64 path instead, where grazing pairs do not lose the half vector to f32 cancellation).
+fn check_bsdf(
+    b: &dyn Bsdf,
+    pairs: &[(glam::Vec3, glam::Vec3)],
+    c: &mut Counts,
+    what: &str,
+    reciprocity: bool,
+) {
+    let bad = |v: f32| !v.is_finite();
+    for (k, &(wo, wi)) in pairs.iter().enumerate() {
+        c.evals += 1;
+        let f = b.eval(wo, wi).to_array();
+        let pdf = b.pdf(wo, wi);
+        let u = glam::Vec2::new(
+            ((k as f32) * 0.618_034).fract(),
+            ((k as f32) * 0.754_877_7).fract(),
+        );
+        let s = b.sample(wo, u, ((k as f32) * 0.569_84).fract());
+        let mut vals: Vec<f32> = f.to_vec();
+        vals.push(pdf);
+        if let Some(s) = &s {
+            vals.extend(s.weight.to_array());
+            vals.push(s.pdf);
+        }
+        if vals.iter().any(|v| bad(*v)) {
+            c.nonfinite += 1;
+            c.example
+                .get_or_insert_with(|| format!("{what}: non-finite at wo {wo}, wi {wi}: {vals:?}"));
+        } else if vals.iter().any(|v| *v < 0.0) {
+            c.negative += 1;
+            c.example
+                .get_or_insert_with(|| format!("{what}: negative at wo {wo}, wi {wi}: {vals:?}"));
+        }
+        if reciprocity && b.flags().contains(Flags::RECIPROCAL) {
+            let g = b.eval(wi, wo).to_array();
+            let m = f.iter().chain(&g).fold(0.0f32, |a, x| a.max(x.abs()));
+            if (0..3).any(|i| (f[i] - g[i]).abs() > 1e-3 * m + 1e-6) {
+                c.reciprocity += 1;
+                c.reciprocity_example.get_or_insert_with(|| {
+                    format!("{what}: f(wo, wi) = {f:?}, f(wi, wo) = {g:?} at wo {wo}, wi {wi}")
+                });
+            }
+        }
+    }
+}
+
+fn sweep_lobe_model(
+    reg: &Registry,
+    model: &str,
+    quick: bool,
+    pairs: &[(glam::Vec3, glam::Vec3)],
+) -> Counts {
+    let mut c = Counts::default();
+    for d in descriptions(reg, model, quick) {
+        let Ok((_, lobe)) = reg.create_lobe(&d, "sweep") else {
+            c.rejected += 1;
+            continue;
+        };
+        let Ok(b) = reg.create(&d, "sweep") else {
+            c.rejected += 1;
+            continue;
+        };
+        c.configs += 1;
+        let what = d.to_string();
+        check_bsdf(b.as_ref(), pairs, &mut c, &what, false);
+        // f64 path: finite, non-negative, reciprocal where flagged, agreeing with f32.
+        let reciprocal = lobe.flags().contains(Flags::RECIPROCAL);
+        for &(wo, wi) in pairs {
+            let a = lobe.eval(wo, wi).to_array();
+            let b64 = lobe.eval_f64(wo.as_dvec3(), wi.as_dvec3());
+            if reciprocal {
+                let g = lobe.eval_f64(wi.as_dvec3(), wo.as_dvec3());
+                let m = b64.iter().chain(&g).fold(0.0f64, |x, y| x.max(y.abs()));
+                if (0..3).any(|i| (b64[i] - g[i]).abs() > 1e-4 * m + 1e-12) {
+                    c.reciprocity += 1;
+                    c.reciprocity_example.get_or_insert_with(|| {
+                        format!(
+                            "{what}: f64 f(wo, wi) = {b64:?}, f(wi, wo) = {g:?} at wo {wo}, wi {wi}"
+                        )
+                    });
+                }
+            }
+            if b64.iter().any(|v| !v.is_finite()) {
+                c.nonfinite += 1;
+                c.example
+                    .get_or_insert_with(|| format!("{what}: f64 non-finite at wo {wo}, wi {wi}"));
+            } else if b64.iter().any(|v| *v < 0.0) {
+                c.negative += 1;
+            }
+            if (0..3).any(|i| {
+                let (x, y) = (a[i] as f64, b64[i]);
+                (x - y).abs() > 1e-3 * y.abs().max(1e-3)
+            }) {
+                c.precision += 1;
+            }
+        }
+        if lobe.flags().contains(Flags::ENERGY_BOUNDED) {
+            for t in [0.0, 45.0, 80.0, 89.0] {
+                if directional_albedo(lobe.as_ref(), dir(t, 10.0), if quick { 16 } else { 32 })
+                    > 1.02
+                {
+                    c.energy += 1;
+                }
+            }
+        }
+    }
+    c
+}
+
+fn sweep_materials(
+    descs: &[Value],
+    base: &std::path::Path,
+    pairs: &[(glam::Vec3, glam::Vec3)],
+) -> Counts {
+    let reg = Registry::builtin();
+    let ctx = lobe_materials::registry::BuildContext::new(base);
+    let mut c = Counts::default();
+    for d in descs {
+        match reg.create_with(d, "sweep", &ctx) {
+            Ok(b) => {
+                c.configs += 1;
+                check_bsdf(b.as_ref(), pairs, &mut c, &d.to_string(), true);
+            }
+            Err(_) => c.rejected += 1,
+        }
+    }
+    c
+}
+
+pub fn cmd_stability(args: StabilityArgs, quiet: bool) -> Result<(), Error> {
+    let reg = Registry::builtin();
+    let pairs = pairs(args.quick);
+    let wanted: Option<Vec<String>> = args
+        .models
+        .as_ref()
+        .map(|m| m.split(',').map(|s| s.trim().to_string()).collect());
+    let want = |n: &str| wanted.as_ref().is_none_or(|w| w.iter().any(|x| x == n));
+    let mut rows: Vec<(String, Counts)> = Vec::new();
+    let lobe_models: Vec<&'static str> = reg.names().filter(|n| reg.is_lobe_model(n)).collect();
+    for m in lobe_models {
+        if want(m) {
+            rows.push((m.to_string(), sweep_lobe_model(&reg, m, args.quick, &pairs)));
+        }
+    }
+    if want("sampled-microfacet") {
+        let mut descs = Vec::new();
+        for (ax, ay) in [(0.01, 0.01), (0.01, 2.0), (2.0, 2.0)] {
+            for f0 in [0.0, 1.0] {
+                descs.push(json!({"type": "sampled-microfacet", "distribution": "beckmann", "alpha_x": ax, "alpha_y": ay, "f0": f0, "specular": 1, "resolution": 65}));
+            }
+        }
+        for d in ["brushed", "satin", "velvet"] {
+            descs.push(json!({"type": "sampled-microfacet", "distribution": d, "specular": 1, "resolution": 65}));
+        }
+        rows.push((
+            "sampled-microfacet".into(),
+            sweep_materials(&descs, std::path::Path::new("."), &pairs),
+        ));
+    }
+    let tmp = tempfile::tempdir().map_err(|e| Error::Other(format!("temporary folder: {e}")))?;
+    if want("merl") {
+        // A sharp and a rough table, both interpolated and nearest.
+        let mut descs = Vec::new();
+        for (k, m) in [0.01, 0.8].iter().enumerate() {
+            let ct = reg
+                .create(
+                    &json!({"type": "cook-torrance", "diffuse": 0.1, "specular": 1, "m": m}),
+                    "m",
+                )
+                .map_err(|e| Error::Other(e.to_string()))?;
+            let path = tmp.path().join(format!("t{k}.binary"));
+            lobe_materials::measured::tabulate::merl_from(
+                &|wo, wi| ct.eval(wo, wi),
+                &Default::default(),
+            )
+            .write(&path)
+            .map_err(|e| Error::file(path.display(), e.message))?;
+            for interp in [true, false] {
+                descs.push(json!({"type": "merl", "file": path.display().to_string(), "interpolate": interp}));
+            }
+        }
+        rows.push(("merl".into(), sweep_materials(&descs, tmp.path(), &pairs)));
+    }
+    if want("rgl") {
+        let folder = args.rgl.clone().or_else(|| {
+            std::env::var_os("LOBE_DATA")
+                .map(|d| PathBuf::from(d).join("rgl"))
+                .or_else(|| Some(PathBuf::from("../shared/data/rgl")))
+                .filter(|p| p.is_dir())
+        });
+        match folder {
+            Some(f) => {
+                let mut files: Vec<PathBuf> = std::fs::read_dir(&f)
+                    .map_err(|e| Error::file(f.display(), format!("cannot list: {e}")))?
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| p.extension().is_some_and(|e| e == "bsdf"))
+                    .map(|p| std::fs::canonicalize(&p).unwrap_or(p))
+                    .collect();
+                files.sort();
+                let descs: Vec<Value> = files
+                    .iter()
+                    .map(|p| json!({"type": "rgl", "file": p.display().to_string()}))
+                    .collect();
+                rows.push(("rgl".into(), sweep_materials(&descs, &f, &pairs)));
+            }
+            None if !quiet => {
+                eprintln!("rgl: skipped (no ../shared/data/rgl, $LOBE_DATA/rgl or --rgl folder)")
+            }
+            None => {}
+        }
+    }
+    println!(
+        "| model | configurations | rejected | evaluations | non-finite | negative | reciprocity | energy | f32/f64 |\n|---|---|---|---|---|---|---|---|---|"
+    );
+    let mut failed = Vec::new();
+    for (name, c) in &rows {
+        println!(
+            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            c.configs,
+            c.rejected,
+            c.evals,
+            c.nonfinite,
+            c.negative,
+            c.reciprocity,
+            c.energy,
+            c.precision
+        );
+        if args.verbose {
+            for e in [&c.example, &c.reciprocity_example].into_iter().flatten() {
+                eprintln!("  {e}");
+            }
+        }
+        if c.nonfinite + c.negative > 0 {
+            failed.push(format!(
+                "{name} ({})",
+                c.example.clone().unwrap_or_default()
+            ));
+        }
+    }
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Other(format!(
+            "non-finite or negative values in: {}",
+            failed.join("; ")
+        )))
+    }
+}
