@@ -86,7 +86,9 @@ struct TileResult {
     dropped: u64,
 }
 
-fn render_tile(scene: &Scene, x0: u32, y0: u32) -> TileResult {
+/// Renders one tile; returns None as soon as `cancel` is set (checked per pixel, so that a
+/// high-spp render stops promptly).
+fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> Option<TileResult> {
     let w = TILE.min(scene.width - x0);
     let h = TILE.min(scene.height - y0);
     let spp = scene.spp;
@@ -97,6 +99,9 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32) -> TileResult {
     let inv = Vec2::new(1.0 / scene.width as f32, 1.0 / scene.height as f32);
     for y in y0..y0 + h {
         for x in x0..x0 + w {
+            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                return None;
+            }
             let mut sum = [0.0f64; 3];
             let mut sum2 = [0.0f64; 3];
             let mut n = 0u32;
@@ -130,7 +135,7 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32) -> TileResult {
             var.push(Rgb::new(v[0] as f32, v[1] as f32, v[2] as f32));
         }
     }
-    TileResult {
+    Some(TileResult {
         x0,
         y0,
         w,
@@ -138,7 +143,7 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32) -> TileResult {
         mean,
         var,
         dropped,
-    }
+    })
 }
 
 /// Renders the scene.
@@ -186,7 +191,10 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
                     cancelled.store(true, Ordering::Relaxed);
                     return None;
                 }
-                let t = render_tile(scene, x0, y0);
+                let Some(t) = render_tile(scene, x0, y0, opts.cancel.as_deref()) else {
+                    cancelled.store(true, Ordering::Relaxed);
+                    return None;
+                };
                 done.fetch_add(1, Ordering::Relaxed);
                 if let Some(pb) = &bar {
                     pb.inc(1);

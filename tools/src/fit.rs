@@ -136,6 +136,16 @@ fn choose<'a>(
     }
 }
 
+/// Set by Ctrl-C: fits stop at the next model and nothing unfinished is written.
+fn interrupted() -> bool {
+    INTERRUPTED
+        .get()
+        .is_some_and(|f| f.load(std::sync::atomic::Ordering::SeqCst))
+}
+
+static INTERRUPTED: std::sync::OnceLock<std::sync::Arc<std::sync::atomic::AtomicBool>> =
+    std::sync::OnceLock::new();
+
 fn fit_report(
     name: &str,
     source: &str,
@@ -148,6 +158,9 @@ fn fit_report(
     let chosen = choose(&specs, &args.models, data.anisotropic)?;
     let mut results = Vec::new();
     for spec in chosen {
+        if interrupted() {
+            return Err(Error::Other(format!("{source}: interrupted")));
+        }
         let r = fit(data, spec, args.max_evals).map_err(|m| Error::file(source, m))?;
         if !quiet {
             eprintln!(
@@ -238,6 +251,7 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
             args.resolution
         )));
     }
+    INTERRUPTED.get_or_init(crate::install_ctrlc);
     let output = args.output.clone().ok_or_else(|| Error::Other("--output: expected the path of the JSON report (or, for a folder of data, of the report folder)".into()))?;
     match &args.data {
         Some(dir) if dir.is_dir() => batch(dir, &output, &args, quiet),
@@ -334,6 +348,8 @@ fn batch(dir: &Path, out: &Path, args: &FitArgs, quiet: bool) -> Result<(), Erro
             let result = if report.exists() {
                 skipped.fetch_add(1, Ordering::Relaxed);
                 Ok(())
+            } else if interrupted() {
+                Ok(())
             } else {
                 if let Some(b) = &bar {
                     b.set_message(stem.clone());
@@ -364,6 +380,11 @@ fn batch(dir: &Path, out: &Path, args: &FitArgs, quiet: bool) -> Result<(), Erro
         b.finish_and_clear();
     }
     let (done, skipped) = (done.into_inner(), skipped.into_inner());
+    if interrupted() {
+        return Err(Error::Other(format!(
+            "interrupted: {done} reports written this run ({skipped} were already there), the rest not started or dropped; rerun to resume"
+        )));
+    }
     if !quiet {
         eprintln!(
             "shard {i}/{n}: fitted {done} materials, {skipped} already done, {} failed, reports in {}",

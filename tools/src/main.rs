@@ -171,7 +171,7 @@ fn main() -> ExitCode {
     }
 }
 
-fn install_ctrlc() -> Arc<AtomicBool> {
+pub(crate) fn install_ctrlc() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));
     let f = flag.clone();
     // If a handler cannot be installed (already set), rendering simply cannot be cancelled.

@@ -956,3 +956,183 @@ fn stability_sweep_finds_no_nonfinite_or_negative_values() {
         );
     }
 }
+
+/// Files in `dir` (names), sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    v.sort();
+    v
+}
+
+fn sigint(child: &std::process::Child) {
+    let ok = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill -INT failed");
+}
+
+#[test]
+fn ctrl_c_stops_a_render_without_output_and_a_batch_fit_without_losing_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    // A render long enough to be interrupted.
+    let scene = dir.path().join("s.json");
+    std::fs::write(&scene, SCENE.replace("\"spp\": 4", "\"spp\": 200000")).unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let child = lobe()
+        .args(["render", scene.to_str().unwrap(), "-o"])
+        .arg(out.join("img.exr"))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    sigint(&child);
+    let o = child.wait_with_output().unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("interrupted"), "{err}");
+    assert!(listing(&out).is_empty(), "{:?}", listing(&out));
+    // A batch fit: interrupt after the first report, then resume.
+    use lobe_materials::measured::binned::{Axis, Binned};
+    let data = dir.path().join("data");
+    std::fs::create_dir(&data).unwrap();
+    for k in 0..6 {
+        let mat = lobe_materials::registry::Registry::builtin()
+            .create(&serde_json::json!({"type": "ward", "diffuse": 0.1, "specular": 0.4, "alpha": 0.1 + 0.05 * k as f64}), "m")
+            .unwrap();
+        let mut b = Binned::empty(
+            false,
+            vec![
+                Axis::new(20, 0.0, 80.0),
+                Axis::new(20, 0.0, 80.0),
+                Axis::new(45, 0.0, 180.0),
+            ],
+        );
+        for i in 0..b.len() {
+            let (wi, wo) = b.directions(i);
+            b.values[i] = Some(mat.eval(wo, wi).to_array());
+        }
+        b.write(&data.join(format!("m{k}.bin"))).unwrap();
+    }
+    let reports = dir.path().join("reports");
+    let args = [
+        "fit",
+        data.to_str().unwrap(),
+        "-o",
+        reports.to_str().unwrap(),
+        "--models",
+        "ward,he",
+    ];
+    let args = &args[..];
+    let child = lobe()
+        .args(args)
+        .env("RAYON_NUM_THREADS", "1")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while !reports.is_dir() || listing(&reports).iter().all(|f| !f.ends_with(".fit.json")) {
+        assert!(t0.elapsed().as_secs() < 120, "no report appeared");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    sigint(&child);
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    let kept = listing(&reports);
+    assert!(!kept.is_empty() && kept.len() < 6, "{kept:?}");
+    for f in &kept {
+        assert!(f.ends_with(".fit.json"), "partial output left: {f}");
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(reports.join(f)).unwrap()).unwrap();
+        assert!(v["models"]["he"]["error"].is_number(), "{f} is incomplete");
+    }
+    // The rerun resumes: the kept reports are untouched and the rest appear.
+    let o = lobe().args(args).arg("-q").output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(listing(&reports).len(), 6);
+}
+
+#[test]
+fn read_only_folders_and_full_disks_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.json");
+    std::fs::write(&scene, SCENE).unwrap();
+    // A read-only output folder (root ignores permissions: then the case is skipped).
+    let ro = dir.path().join("ro");
+    std::fs::create_dir(&ro).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
+    if std::fs::write(ro.join("probe"), b"x").is_ok() {
+        eprintln!("SKIPPED read-only folder case: permissions are not enforced (running as root)");
+        std::fs::remove_file(ro.join("probe")).unwrap();
+    } else {
+        fails(
+            &[
+                "render",
+                scene.to_str().unwrap(),
+                "-o",
+                ro.join("x.exr").to_str().unwrap(),
+            ],
+            "x.exr",
+        );
+        assert!(listing(&ro).is_empty());
+    }
+    // An unreadable input (skipped as root too).
+    let secret = dir.path().join("secret.json");
+    std::fs::write(&secret, SCENE).unwrap();
+    std::fs::set_permissions(&secret, std::fs::Permissions::from_mode(0o000)).unwrap();
+    if std::fs::read(&secret).is_err() {
+        fails(&["render", secret.to_str().unwrap()], "secret.json");
+    }
+    // A full disk: a 64 KiB tmpfs, where mounting is allowed.
+    let small = dir.path().join("small");
+    std::fs::create_dir(&small).unwrap();
+    let mounted = Command::new("mount")
+        .args([
+            "-t",
+            "tmpfs",
+            "-o",
+            "size=64k",
+            "tmpfs",
+            small.to_str().unwrap(),
+        ])
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !mounted {
+        eprintln!("SKIPPED full-disk case: cannot mount a tmpfs here");
+        return;
+    }
+    let big = SCENE.replace(
+        "\"width\": 16, \"height\": 12",
+        "\"width\": 256, \"height\": 256",
+    );
+    std::fs::write(&scene, big).unwrap();
+    let out = small.join("big.exr");
+    let o = lobe()
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    let left = listing(&small);
+    let _ = Command::new("umount").arg(&small).status();
+    assert!(!o.status.success());
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("big.exr"), "{err}");
+    assert!(
+        left.is_empty(),
+        "partial output left on the full disk: {left:?}"
+    );
+}
