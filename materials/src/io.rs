@@ -65,3 +65,22 @@ pub fn atomic_write(
     })?;
     Ok(())
 }
+
+/// Largest image (in pixels) lobe reads: 2^27 (e.g. 16384 x 8192), about 1.6 GB as RGB f32.
+pub const MAX_IMAGE_PIXELS: usize = 1 << 27;
+
+/// Checks an OpenEXR file's declared layer sizes before its pixels are allocated (a header
+/// can declare any size; found by fuzzing).
+pub fn check_exr_size(path: &Path) -> Result<(), String> {
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| format!("cannot read OpenEXR header: {e}"))?;
+    for h in &meta.headers {
+        let (w, hh) = (h.layer_size.width(), h.layer_size.height());
+        if w.checked_mul(hh).is_none_or(|n| n > MAX_IMAGE_PIXELS) {
+            return Err(format!(
+                "declares {w} x {hh} pixels; expected at most {MAX_IMAGE_PIXELS} pixels"
+            ));
+        }
+    }
+    Ok(())
+}

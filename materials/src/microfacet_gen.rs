@@ -285,6 +285,7 @@ impl Table {
     pub fn read_exr(path: &Path) -> Result<Table, String> {
         use exr::prelude::*;
         let name = path.display();
+        crate::io::check_exr_size(path).map_err(|m| format!("{name}: {m}"))?;
         let img = read_first_rgba_layer_from_file(
             path,
             |res, _| (res.width(), vec![0.0f64; res.width() * res.height()]),

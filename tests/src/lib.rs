@@ -3,6 +3,7 @@
 //! and locating the shared data folder.
 
 pub mod bsdf_checks;
+pub mod fuzz;
 
 use std::path::PathBuf;
 

@@ -104,7 +104,7 @@ impl TensorFile {
             if offset.checked_add(len).is_none_or(|end| end > b.len()) {
                 return Err(err(format!(
                     "field {fname}: data at {offset}..{} lies past the end of the file ({} bytes): truncated",
-                    offset + len,
+                    offset.saturating_add(len),
                     b.len()
                 )));
             }

@@ -233,6 +233,7 @@ pub fn read_rgb_image(path: &Path) -> Result<RgbImage> {
     let img = match ext.as_str() {
         "exr" => {
             use exr::prelude::*;
+            lobe_materials::io::check_exr_size(path).map_err(|m| crate::Error::file(&shown, m))?;
             let image = read_first_rgba_layer_from_file(
                 path,
                 |res, _| RgbImage {

@@ -140,12 +140,140 @@ impl GltfCamera {
 
 /// Loads the default scene of a glTF 2.0 file (.gltf or .glb): every triangle primitive of
 /// every mesh node, transformed by its node's world transform, as one mesh.
+/// Checks every index between glTF objects before the `gltf` crate validates the document:
+/// its validation indexes some arrays unchecked (found by fuzzing: a primitive's `indices`
+/// naming a missing accessor panics inside gltf-json 1.4), so a malformed file must be
+/// refused first. Binary .glb files are checked through their JSON chunk.
+fn check_gltf_indices(bytes: &[u8]) -> std::result::Result<(), String> {
+    let json: &[u8] = if bytes.starts_with(b"glTF") {
+        // The GLB container (its header arithmetic is unchecked in gltf 1.4 too).
+        let u32_at = |o: usize| -> Option<usize> {
+            bytes
+                .get(o..o + 4)
+                .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+        };
+        let (Some(version), Some(length), Some(json_len)) = (u32_at(4), u32_at(8), u32_at(12))
+        else {
+            return Err("truncated GLB header; expected a 12-byte header and a JSON chunk".into());
+        };
+        if version != 2 {
+            return Err(format!("GLB version {version}; expected 2"));
+        }
+        if length < 20 || length > bytes.len() {
+            return Err(format!(
+                "GLB header declares {length} bytes, the file has {}; expected 20 to {}",
+                bytes.len(),
+                bytes.len()
+            ));
+        }
+        if bytes.get(16..20) != Some(b"JSON".as_slice()) {
+            return Err("the first GLB chunk is not JSON; expected a JSON chunk".into());
+        }
+        let json_end = 20usize.saturating_add(json_len);
+        if json_end > length {
+            return Err(format!(
+                "GLB JSON chunk of {json_len} bytes runs past the declared length {length}"
+            ));
+        }
+        // An optional BIN chunk must fit as well.
+        let bin_at = json_end.next_multiple_of(4);
+        if bin_at + 8 <= length
+            && let Some(bin_len) = u32_at(bin_at)
+            && bin_at + 8 + bin_len > length
+        {
+            return Err(format!(
+                "GLB BIN chunk of {bin_len} bytes runs past the declared length {length}"
+            ));
+        }
+        &bytes[20..json_end]
+    } else {
+        bytes
+    };
+    // Not JSON: leave the error message to the gltf crate.
+    let Ok(v) = serde_json::from_slice::<serde_json::Value>(json) else {
+        return Ok(());
+    };
+    let count = |k: &str| v.get(k).and_then(|a| a.as_array()).map_or(0, |a| a.len());
+    let check =
+        |what: String, idx: &serde_json::Value, target: &str| -> std::result::Result<(), String> {
+            match idx.as_u64() {
+                Some(i) if (i as usize) < count(target) => Ok(()),
+                _ => Err(format!(
+                    "{what}: {idx} is not an index into \"{target}\" (which has {} entries)",
+                    count(target)
+                )),
+            }
+        };
+    let arr = |o: &serde_json::Value, k: &str| -> Vec<serde_json::Value> {
+        o.get(k)
+            .and_then(|a| a.as_array())
+            .cloned()
+            .unwrap_or_default()
+    };
+    for (m, mesh) in arr(&v, "meshes").iter().enumerate() {
+        for (p, prim) in arr(mesh, "primitives").iter().enumerate() {
+            let at = format!("meshes[{m}].primitives[{p}]");
+            if let Some(a) = prim.get("attributes").and_then(|a| a.as_object()) {
+                for (name, idx) in a {
+                    check(format!("{at}.attributes.{name}"), idx, "accessors")?;
+                }
+            }
+            if let Some(i) = prim.get("indices") {
+                check(format!("{at}.indices"), i, "accessors")?;
+            }
+            for (t, target) in arr(prim, "targets").iter().enumerate() {
+                if let Some(a) = target.as_object() {
+                    for (name, idx) in a {
+                        check(format!("{at}.targets[{t}].{name}"), idx, "accessors")?;
+                    }
+                }
+            }
+            if let Some(i) = prim.get("material") {
+                check(format!("{at}.material"), i, "materials")?;
+            }
+        }
+    }
+    for (a, acc) in arr(&v, "accessors").iter().enumerate() {
+        if let Some(i) = acc.get("bufferView") {
+            check(format!("accessors[{a}].bufferView"), i, "bufferViews")?;
+        }
+    }
+    for (b, view) in arr(&v, "bufferViews").iter().enumerate() {
+        if let Some(i) = view.get("buffer") {
+            check(format!("bufferViews[{b}].buffer"), i, "buffers")?;
+        }
+    }
+    for (n, node) in arr(&v, "nodes").iter().enumerate() {
+        if let Some(i) = node.get("mesh") {
+            check(format!("nodes[{n}].mesh"), i, "meshes")?;
+        }
+        if let Some(i) = node.get("camera") {
+            check(format!("nodes[{n}].camera"), i, "cameras")?;
+        }
+        for (c, child) in arr(node, "children").iter().enumerate() {
+            check(format!("nodes[{n}].children[{c}]"), child, "nodes")?;
+        }
+    }
+    for (sc, scene) in arr(&v, "scenes").iter().enumerate() {
+        for (k, node) in arr(scene, "nodes").iter().enumerate() {
+            check(format!("scenes[{sc}].nodes[{k}]"), node, "nodes")?;
+        }
+    }
+    if let Some(i) = v.get("scene") {
+        check("scene".into(), i, "scenes")?;
+    }
+    Ok(())
+}
+
 pub fn load_gltf(path: &Path) -> Result<GltfScene> {
     let shown = path.display().to_string();
     if path.is_dir() {
         return Err(Error::file(&shown, "is a directory; expected a glTF file"));
     }
-    let gltf = gltf::Gltf::open(path)
+    let bytes =
+        std::fs::read(path).map_err(|e| Error::file(&shown, format!("cannot read: {e}")))?;
+    check_gltf_indices(&bytes).map_err(|m| Error::file(&shown, m))?;
+    let gltf = gltf::Gltf::from_slice(&bytes)
         .map_err(|e| Error::file(&shown, format!("cannot read glTF: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Fuzz every reader with libFuzzer (cargo-fuzz) for SECONDS each (default 60):
+#   scripts/fuzz.sh [SECONDS] [TARGET ...]
+# Needs a nightly toolchain and cargo-fuzz; installs both when missing. Seeds come from
+# lobe_tests::fuzz::seeds (written to fuzz/corpus/<target>/). A crash is saved by libFuzzer
+# in fuzz/artifacts/<target>/; after fixing it, copy the input to
+# tests/fuzz-regressions/<target>/ so that the stable test (CI) replays it forever.
+# CI runs the stable, deterministic mutation test instead (tests/tests/fuzz_smoke.rs).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+secs="${1:-60}"
+shift || true
+targets=("$@")
+if [ ${#targets[@]} -eq 0 ]; then
+  targets=(scene_json merl binned rgl fit_json obj gltf envmap_exr envmap_hdr)
+fi
+rustup toolchain list | grep -q '^nightly' || rustup toolchain install nightly --profile minimal
+command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
+cargo test --release -q -p lobe-tests --test fuzz_smoke -- --ignored write_corpus
+status=0
+for t in "${targets[@]}"; do
+  echo "== $t ($secs s)"
+  cargo +nightly fuzz run "$t" "fuzz/corpus/$t" -- -max_total_time="$secs" -rss_limit_mb=4096 -timeout=20 || status=1
+done
+exit $status

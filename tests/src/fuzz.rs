@@ -1,0 +1,290 @@
+//! Fuzz targets for every reader (issue 9), shared by the cargo-fuzz targets of `fuzz/`
+//! (libFuzzer, nightly: `scripts/fuzz.sh`) and by the stable mutation test
+//! `tests/tests/fuzz_smoke.rs` that CI runs. Each target takes arbitrary bytes and a scratch
+//! folder and must return (an error is fine) without panicking, hanging or allocating
+//! without bound; readers that take a path get the bytes written to a scratch file.
+//! [`seeds`] makes a valid seed corpus for each target programmatically.
+
+use lobe_materials::measured::binned::{Axis, Binned};
+use lobe_materials::measured::merl::Merl;
+use lobe_materials::registry::{BuildContext, Registry};
+use lobe_renderer::render::{RenderOptions, render};
+use lobe_renderer::scene::{LoadOptions, from_value};
+use serde_json::{Value, json};
+use std::path::Path;
+
+/// The targets, by name.
+pub const TARGETS: &[&str] = &[
+    "scene_json",
+    "merl",
+    "binned",
+    "rgl",
+    "fit_json",
+    "obj",
+    "gltf",
+    "envmap_exr",
+    "envmap_hdr",
+];
+
+/// Runs target `name` on `data`.
+pub fn run(name: &str, data: &[u8], scratch: &Path) {
+    match name {
+        "scene_json" => scene_json(data, scratch),
+        "merl" => merl(data),
+        "binned" => binned(data),
+        "rgl" => rgl(data, scratch),
+        "fit_json" => fit_json(data, scratch),
+        "obj" => mesh(data, scratch, "m.obj", "obj"),
+        "gltf" => mesh(data, scratch, "m.gltf", "gltf"),
+        "envmap_exr" => envmap(data, scratch, "e.exr"),
+        "envmap_hdr" => envmap(data, scratch, "e.hdr"),
+        _ => panic!("unknown fuzz target {name}"),
+    }
+}
+
+fn dirs() -> [(glam::Vec3, glam::Vec3); 3] {
+    [
+        (glam::Vec3::Z, glam::Vec3::Z),
+        (
+            glam::Vec3::new(0.6, 0.0, 0.8),
+            glam::Vec3::new(-0.6, 0.0, 0.8),
+        ),
+        (
+            glam::Vec3::new(0.0, 0.99, 0.141),
+            glam::Vec3::new(0.3, -0.9, 0.316),
+        ),
+    ]
+}
+
+/// Loads the scene; renders it when it is tiny (so that a fuzzed film size cannot hang).
+fn load_and_render(v: &Value, scratch: &Path) {
+    if let Ok(mut scene) = from_value(v, "fuzz.json", scratch, &LoadOptions::with_builtins()) {
+        let work = scene.width as u64 * scene.height as u64;
+        if work <= 64 * 64 {
+            scene.spp = scene.spp.min(2);
+            let (img, _) = render(
+                &scene,
+                &RenderOptions {
+                    threads: Some(1),
+                    ..Default::default()
+                },
+            )
+            .expect("a loaded scene renders");
+            assert!(img.pixels.iter().all(|p| p.is_finite()), "non-finite pixel");
+        }
+    }
+}
+
+pub fn scene_json(data: &[u8], scratch: &Path) {
+    if let Ok(v) = serde_json::from_slice::<Value>(data) {
+        load_and_render(&v, scratch);
+    }
+}
+
+pub fn merl(data: &[u8]) {
+    if let Ok(t) = Merl::from_bytes(data, "fuzz.binary") {
+        for (wi, wo) in dirs() {
+            assert!(t.lookup(wi, wo).is_finite());
+            let _ = t.measured(wi, wo);
+        }
+    }
+}
+
+pub fn binned(data: &[u8]) {
+    if let Ok(t) = Binned::from_bytes(data, "fuzz.bin") {
+        for (wi, wo) in dirs() {
+            assert!(t.lookup(wi, wo).is_finite());
+        }
+    }
+}
+
+fn write(scratch: &Path, name: &str, data: &[u8]) -> std::path::PathBuf {
+    let p = scratch.join(name);
+    std::fs::write(&p, data).expect("scratch file");
+    p
+}
+
+pub fn rgl(data: &[u8], scratch: &Path) {
+    let p = write(scratch, "f.bsdf", data);
+    let reg = Registry::builtin();
+    let ctx = BuildContext::new(scratch);
+    if let Ok(b) = reg.create_with(
+        &json!({"type": "rgl", "file": p.display().to_string()}),
+        "m",
+        &ctx,
+    ) {
+        for (wi, wo) in dirs() {
+            assert!(b.eval(wo, wi).is_finite());
+            let _ = b.sample(wo, glam::Vec2::new(0.3, 0.7), 0.5);
+        }
+    }
+}
+
+pub fn fit_json(data: &[u8], scratch: &Path) {
+    let p = write(scratch, "r.fit.json", data);
+    let reg = Registry::builtin();
+    let ctx = BuildContext::new(scratch);
+    for model in ["ward", "cook-torrance", "he", "lafortune-2"] {
+        let d = json!({"type": "fit", "file": p.display().to_string(), "model": model});
+        if let Ok(b) = reg.create_with(&d, "m", &ctx) {
+            for (wi, wo) in dirs() {
+                assert!(b.eval(wo, wi).is_finite());
+            }
+        }
+    }
+}
+
+pub fn mesh(data: &[u8], scratch: &Path, file: &str, kind: &str) {
+    write(scratch, file, data);
+    let v = json!({
+        "camera": {"type": "perspective", "origin": [0, 0, 5], "target": [0, 0, 0]},
+        "film": {"width": 8, "height": 8},
+        "sampler": {"spp": 1},
+        "shapes": [{"type": kind, "file": file}],
+        "lights": [{"type": "constant"}]
+    });
+    load_and_render(&v, scratch);
+}
+
+pub fn envmap(data: &[u8], scratch: &Path, file: &str) {
+    write(scratch, file, data);
+    let v = json!({
+        "camera": {"type": "perspective", "origin": [0, 0, 5], "target": [0, 0, 0]},
+        "film": {"width": 8, "height": 8},
+        "sampler": {"spp": 2},
+        "shapes": [{"type": "sphere"}],
+        "lights": [{"type": "envmap", "file": file}]
+    });
+    load_and_render(&v, scratch);
+}
+
+/// A valid seed corpus for each target.
+pub fn seeds(name: &str) -> Vec<Vec<u8>> {
+    let scene = json!({
+        "camera": {"type": "perspective", "fov": 40, "origin": [0, 0, 4], "target": [0, 0, 0]},
+        "film": {"width": 8, "height": 6},
+        "sampler": {"spp": 2},
+        "materials": {"m": {"type": "cook-torrance", "diffuse": 0.2, "specular": 0.5, "m": 0.2}},
+        "shapes": [{"type": "sphere", "material": "m"}, {"type": "rectangle", "to_world": [{"scale": 3}, {"translate": [0, -1, 0]}]}],
+        "lights": [{"type": "envmap", "file": "builtin:studio"}, {"type": "point", "position": [0, 3, 0], "intensity": 5}]
+    });
+    match name {
+        "scene_json" => vec![serde_json::to_vec_pretty(&scene).expect("json")],
+        "merl" => {
+            // A full table is 35 MB; the seeds are its header and one real table.
+            let t = Merl::from_fn(|wi, wo, _| Some([wi.z as f64 * 0.1, wo.z as f64 * 0.1, 0.05]));
+            let bytes = t.to_bytes();
+            vec![bytes[..12].to_vec(), bytes]
+        }
+        "binned" => {
+            let mut b = Binned::empty(
+                true,
+                vec![
+                    Axis::new(3, 0.0, 90.0),
+                    Axis::new(3, 0.0, 90.0),
+                    Axis::new(4, 0.0, 360.0),
+                    Axis::new(4, 0.0, 360.0),
+                ],
+            );
+            for k in (0..b.len()).step_by(3) {
+                b.values[k] = Some([0.1, 0.2, 0.3]);
+            }
+            vec![b.to_bytes()]
+        }
+        "rgl" => {
+            // The real files when present (read-only), else a tensor-file header.
+            let mut v = vec![b"tensor_file\0\x01\x00\x00\x00\x00\x00".to_vec()];
+            if let Some(d) = crate::shared_data()
+                && let Ok(b) = std::fs::read(d.join("rgl/paper_white_rgb.bsdf"))
+            {
+                v.push(b);
+            }
+            v
+        }
+        "fit_json" => vec![
+            serde_json::to_vec(&json!({"material": "x", "models": {
+                "ward": {"material": {"type": "ward", "diffuse": 0.1, "specular": 0.2, "alpha": 0.2}, "error": 0.01},
+                "lafortune-2": {"material": {"type": "composite", "diffuse": 0.1, "lobes": [
+                    {"type": "lafortune", "specular": 0.3, "cx": -0.7, "cy": -0.7, "cz": 0.6, "n": 20},
+                    {"type": "lafortune", "specular": 0.1, "cx": -0.3, "cy": -0.3, "cz": 0.9, "n": 3}]}}
+            }}))
+            .expect("json"),
+        ],
+        "obj" => vec![
+            b"v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 1\nvt 0 0\nf 1/1/1 2/1/1 3/1/1\nf 1 3 4\n"
+                .to_vec(),
+        ],
+        "gltf" => vec![
+            // One triangle with an embedded base64 buffer (3 VEC3 floats + 3 u16 indices).
+            br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0,"translation":[0,0,0]}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+"buffers":[{"byteLength":42,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIA"}],
+"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#
+                .to_vec(),
+        ],
+        "envmap_exr" => {
+            let dir = tempfile::tempdir().expect("tempdir");
+            let p = dir.path().join("e.exr");
+            let px: Vec<lobe_materials::Rgb> = (0..32)
+                .map(|k| lobe_materials::Rgb::new(k as f32 * 0.1, 0.5, 1.0))
+                .collect();
+            lobe_renderer::film::write_exr(&p, 8, 4, &px).expect("exr");
+            vec![std::fs::read(p).expect("read")]
+        }
+        "envmap_hdr" => {
+            let mut v = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 8\n".to_vec();
+            for k in 0..32u8 {
+                v.extend_from_slice(&[128 + k, 100, 50, 129]);
+            }
+            vec![v]
+        }
+        _ => panic!("unknown fuzz target {name}"),
+    }
+}
+
+/// Deterministic mutations of `seed` (bit flips, byte overwrites, truncations, insertions,
+/// duplications of a slice), `n` of them, from a xorshift stream keyed by `key`.
+pub fn mutations(seed: &[u8], n: usize, key: u64) -> Vec<Vec<u8>> {
+    let mut s = key.wrapping_mul(0x9e3779b97f4a7c15) | 1;
+    let mut next = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        s
+    };
+    let interesting: [u8; 8] = [0, 1, 0x7f, 0x80, 0xff, b'-', b'9', b'e'];
+    (0..n)
+        .map(|_| {
+            let mut m = seed.to_vec();
+            for _ in 0..1 + next() % 4 {
+                let len = m.len().max(1);
+                let at = (next() as usize) % len;
+                match next() % 6 {
+                    0 if !m.is_empty() => m[at] ^= 1 << (next() % 8),
+                    1 if !m.is_empty() => m[at] = interesting[(next() % 8) as usize],
+                    2 => m.truncate(at),
+                    3 => m.insert(at.min(m.len()), interesting[(next() % 8) as usize]),
+                    4 if m.len() > 8 => {
+                        let end = (at + 1 + (next() as usize) % 16).min(m.len());
+                        let chunk = m[at..end].to_vec();
+                        let to = (next() as usize) % m.len();
+                        m.splice(to..to, chunk);
+                    }
+                    _ if !m.is_empty() => {
+                        // A JSON-ish number swap: an extreme value at a digit.
+                        if m[at].is_ascii_digit() {
+                            let big = b"1e308";
+                            m.splice(at..at + 1, big.iter().cloned());
+                        } else {
+                            m[at] = m[at].wrapping_add(1);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            m
+        })
+        .collect()
+}
