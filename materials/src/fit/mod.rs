@@ -9,9 +9,9 @@
 //! (the `slsqp` crate, NLopt's algorithm) with central-difference gradients, from a grid of
 //! starting points; the report says how many starts reached the best error. The starts run
 //! on a subset of the bins (the specular peak plus a weighted stride sample of the rest,
-//! [`dataset::Dataset::coarse`]) and the best optima are then refined on all of them, which
-//! makes a 1-degree fit (1.15 M bins) cost a few full-data passes per start instead of
-//! hundreds.
+//! [`dataset::Dataset::coarse`]), the best optima are refined on a finer subset built the
+//! same way, and the winner is judged on all of them: a 1-degree fit (1.15 M bins) costs a
+//! couple of full-data passes instead of hundreds.
 
 pub mod dataset;
 pub mod linear;
@@ -369,7 +369,9 @@ pub fn eq1_error(data: &Dataset, f: &(dyn Fn(glam::Vec3, glam::Vec3) -> [f64; 3]
 
 /// Bins of the coarse stage of the multi-start.
 pub const COARSE_SAMPLES: usize = 12_000;
-/// Objective evaluations allowed to refine a coarse optimum on the full data.
+/// Bins of the refinement stage (all of them for smaller data).
+pub const REFINE_SAMPLES: usize = 150_000;
+/// Objective evaluations allowed to refine a coarse optimum.
 pub const REFINE_EVALS: usize = 40;
 
 /// One SLSQP run from `x0` within `bounds` (central-difference gradients); returns the
@@ -477,7 +479,7 @@ pub fn fit(
         .collect();
     // Coarse to fine: every start runs on a subset of the data (the specular peak and a
     // stride sample of the rest, about COARSE_SAMPLES bins), then the best coarse optima are
-    // refined on all the data.
+    // refined on a finer subset (REFINE_SAMPLES bins).
     let coarse_data = data.coarse(COARSE_SAMPLES);
     let coarse = Problem {
         data: &coarse_data,
@@ -507,14 +509,24 @@ pub fn fit(
     }) {
         refine.push(other.1.clone());
     }
+    // The refinement runs on a finer stand-in (REFINE_SAMPLES bins) when the data are
+    // larger still; the winner is then judged on all the bins.
     let same = coarse_data.samples.len() == data.samples.len();
+    let fine_data = data.coarse(REFINE_SAMPLES);
+    let fine = Problem {
+        data: &fine_data,
+        total_weight: fine_data.total_weight().max(1e-300),
+        ..pr
+    };
     let best = refine
         .iter()
         .map(|x0| {
             if same {
                 (pr.error(x0).0, x0.clone())
             } else {
-                minimize(&pr, &bounds, x0, REFINE_EVALS, &mut evaluations)
+                let (_, x) = minimize(&fine, &bounds, x0, REFINE_EVALS, &mut evaluations);
+                evaluations += 1;
+                (pr.error(&x).0, x)
             }
         })
         .min_by(|a, b| a.0.total_cmp(&b.0))
