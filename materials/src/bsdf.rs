@@ -156,6 +156,26 @@ pub struct BsdfSample {
     pub pdf: f32,
 }
 
+impl BsdfSample {
+    /// The sample of a drawn `wi`: None below the surface or where the density `pdf()` is
+    /// not positive; otherwise the weight `f() cos(theta_i) / pdf` (both evaluated only
+    /// when needed).
+    pub fn finish(wi: Vec3, pdf: impl FnOnce() -> f32, f: impl FnOnce() -> Rgb) -> Option<Self> {
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let pdf = pdf();
+        if !(pdf > 0.0) {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: f() * (wi.z / pdf),
+            pdf,
+        })
+    }
+}
+
 /// The plugin interface every BRDF implements. See the module docs for conventions.
 pub trait Bsdf: Send + Sync + std::fmt::Debug {
     /// f_r(wo, wi) in 1/sr, without the cosine factor; zero below the surface.

@@ -225,19 +225,11 @@ impl Composite {
         } else {
             self.lobes[chosen - 1].1.sample(wo, u, uc_rest)?
         };
-        if wi.z <= 0.0 {
-            return None;
-        }
-        let pdf = self.mixture_pdf(wo, wi, w, total);
-        if !(pdf > 0.0) {
-            return None;
-        }
-        let f = self.eval(wo, wi);
-        Some(BsdfSample {
+        BsdfSample::finish(
             wi,
-            weight: f * (wi.z / pdf),
-            pdf,
-        })
+            || self.mixture_pdf(wo, wi, w, total),
+            || self.eval(wo, wi),
+        )
     }
 
     #[inline]

@@ -305,7 +305,16 @@ impl Table {
         Table::from_nodes(w, px).map_err(|e| format!("{name}: {e}"))
     }
 
-    /// The node values as an EXR image (equal RGB channels), written atomically.
+    /// Writes the table as an EXR file (temporary file renamed into place) that
+    /// [`Table::read_exr`] and the `sampled-microfacet` material read.
+    pub fn write_exr(&self, path: &Path) -> Result<(), crate::FileError> {
+        let bytes = self
+            .exr_bytes()
+            .map_err(|e| crate::FileError::new(path.display().to_string(), e))?;
+        crate::io::atomic_write(path, |w| std::io::Write::write_all(w, &bytes))
+    }
+
+    /// The node values as an EXR image (equal RGB channels).
     pub fn exr_bytes(&self) -> Result<Vec<u8>, String> {
         use exr::prelude::*;
         let n = self.n;
@@ -656,14 +665,7 @@ pub fn sparse_4d(
     };
     let nt = (CUTOFF_DEG / res_deg).floor() as usize;
     let np = (360.0 / res_deg).round() as usize;
-    let dir = |t: f64, p: f64| {
-        let (t, p) = (t.to_radians(), p.to_radians());
-        Vec3::new(
-            (t.sin() * p.cos()) as f32,
-            (t.sin() * p.sin()) as f32,
-            t.cos() as f32,
-        )
-    };
+    use crate::fit::dataset::dir;
     let samples: Vec<Sample> = (0..nt * nt * np)
         .into_par_iter()
         .flat_map_iter(|k| {

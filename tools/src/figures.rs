@@ -380,13 +380,15 @@ fn spheres(
     let label_h = 30u32;
     let (w, h) = (cols * tile, rows * (tile + label_h));
     let mut buf = vec![255u8; (w * h * 3) as usize];
+    // One scene (camera, environment map and its sampling tables); only the sphere's
+    // material changes between tiles.
+    let mut scene = lobe_renderer::scene::from_value(
+        &scene_v,
+        "spheres",
+        &here,
+        &lobe_renderer::scene::LoadOptions::with_builtins(),
+    )?;
     for (k, (_, m)) in items.iter().enumerate() {
-        let mut scene = lobe_renderer::scene::from_value(
-            &scene_v,
-            "spheres",
-            &here,
-            &lobe_renderer::scene::LoadOptions::with_builtins(),
-        )?;
         scene.shapes[0].material = m.clone();
         let (img, _) = lobe_renderer::render::render(
             &scene,

@@ -69,10 +69,25 @@ enum FitSub {
     },
 }
 
-fn to_err(e: lobe_materials::FileError) -> Error {
+pub(crate) fn to_err(e: lobe_materials::FileError) -> Error {
     Error::File {
         file: e.file,
         message: e.message,
+    }
+}
+
+/// The measured-material type of a data file by its extension: merl, binned or rgl.
+pub(crate) fn measured_kind(p: &Path) -> Result<&'static str, Error> {
+    match p.extension().and_then(|e| e.to_str()).unwrap_or("") {
+        "binary" => Ok("merl"),
+        "bin" => Ok("binned"),
+        "bsdf" => Ok("rgl"),
+        ext => Err(Error::file(
+            p.display(),
+            format!(
+                "unknown extension \"{ext}\"; expected .binary (MERL), .bin (binned) or .bsdf (RGL)"
+            ),
+        )),
     }
 }
 
@@ -83,21 +98,12 @@ pub(crate) fn load_data(p: &Path, resolution: f64) -> Result<Dataset, Error> {
             "does not exist; expected a MERL .binary, binned .bin or RGL .bsdf file",
         ));
     }
-    let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
-    Ok(match ext {
-        "binary" => Dataset::from_merl(&Merl::read(p).map_err(to_err)?, resolution),
-        "bin" => Dataset::from_binned(&Binned::read(p).map_err(to_err)?),
-        "bsdf" => {
+    Ok(match measured_kind(p)? {
+        "merl" => Dataset::from_merl(&Merl::read(p).map_err(to_err)?, resolution),
+        "binned" => Dataset::from_binned(&Binned::read(p).map_err(to_err)?),
+        _ => {
             let t = Rgl::read(p).map_err(to_err)?;
             Dataset::isotropic(&|wi, wo| Some(t.eval(wo, wi)), resolution)
-        }
-        _ => {
-            return Err(Error::file(
-                p.display(),
-                format!(
-                    "unknown extension \"{ext}\"; expected .binary (MERL), .bin (binned) or .bsdf (RGL)"
-                ),
-            ));
         }
     })
 }

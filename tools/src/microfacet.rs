@@ -128,10 +128,7 @@ fn plot(table: &Table, path: &Path) -> Result<(), Error> {
 fn write_table(table: &Table, stem: &Path) -> Result<(PathBuf, PathBuf), Error> {
     let exr = stem.with_extension("exr");
     let png = stem.with_extension("png");
-    let bytes = table
-        .exr_bytes()
-        .map_err(|e| Error::file(exr.display(), e))?;
-    lobe_renderer::film::atomic_write(&exr, |w| w.write_all(&bytes))?;
+    table.write_exr(&exr).map_err(crate::fit::to_err)?;
     plot(table, &png)?;
     Ok((exr, png))
 }
@@ -139,8 +136,6 @@ fn write_table(table: &Table, stem: &Path) -> Result<(PathBuf, PathBuf), Error> 
 fn run_estimate(data: &Dataset, source: &str, opts: &EstimateOpts) -> Result<Estimate, Error> {
     estimate(data, opts.nodes, opts.f0, opts.iterations).map_err(|e| Error::file(source, e))
 }
-
-use std::io::Write;
 
 pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
     match cmd {

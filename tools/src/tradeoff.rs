@@ -159,17 +159,7 @@ pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
             format!("cannot open: {e}; expected a MERL .binary, binned .bin or RGL .bsdf file"),
         )
     })?;
-    let kind = match data_path.extension().and_then(|e| e.to_str()) {
-        Some("binary") => "merl",
-        Some("bin") => "binned",
-        Some("bsdf") => "rgl",
-        _ => {
-            return Err(Error::file(
-                data_path.display(),
-                "unknown extension; expected .binary (MERL), .bin (binned) or .bsdf (RGL)",
-            ));
-        }
-    };
+    let kind = crate::fit::measured_kind(&data_path)?;
     let measured_desc = json!({"type": kind, "file": data_path.display().to_string()});
     if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty())
         && !dir.is_dir()
@@ -236,11 +226,7 @@ pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
     let est = estimate(&data, 129, None, 5).map_err(|m| Error::file(&source, m))?;
     let stem = args.output.clone();
     let exr = PathBuf::from(format!("{}-microfacet.exr", stem.display()));
-    let bytes = est
-        .table
-        .exr_bytes()
-        .map_err(|e| Error::file(exr.display(), e))?;
-    lobe_renderer::film::atomic_write(&exr, |w| std::io::Write::write_all(w, &bytes))?;
+    est.table.write_exr(&exr).map_err(crate::fit::to_err)?;
     let exr_abs = std::fs::canonicalize(&exr).unwrap_or(exr.clone());
     reps.push((
         "sampled-microfacet".into(),

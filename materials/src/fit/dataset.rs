@@ -33,7 +33,8 @@ pub struct Dataset {
 /// Largest angle kept (degrees).
 pub const CUTOFF_DEG: f64 = 80.0;
 
-fn dir(theta_deg: f64, phi_deg: f64) -> Vec3 {
+/// The unit direction at (theta, phi) in degrees (local frame, z the normal).
+pub fn dir(theta_deg: f64, phi_deg: f64) -> Vec3 {
     let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
     Vec3::new(
         (t.sin() * p.cos()) as f32,

@@ -101,19 +101,7 @@ impl Bsdf for Measured {
 
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
         let wi = self.sampler.sample(wo, u, uc)?;
-        if wi.z <= 0.0 {
-            return None;
-        }
-        let pdf = self.sampler.pdf(wo, wi);
-        if !(pdf > 0.0) {
-            return None;
-        }
-        let f = self.eval(wo, wi);
-        Some(BsdfSample {
-            wi,
-            weight: f * (wi.z / pdf),
-            pdf,
-        })
+        BsdfSample::finish(wi, || self.sampler.pdf(wo, wi), || self.eval(wo, wi))
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {

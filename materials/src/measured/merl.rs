@@ -207,17 +207,7 @@ impl Merl {
 
     /// Nearest-bin lookup; zero below the surface or for a missing sample.
     pub fn lookup_nearest(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return Rgb::ZERO;
-        }
-        let (th, _, td, pd) = half_diff(wi, wo);
-        let (a, b, c) = coords(th, td, pd);
-        let v = self.data[index(
-            (a as usize).min(RES_THETA_H - 1),
-            (b as usize).min(RES_THETA_D - 1),
-            (c as usize).min(RES_PHI_D - 1),
-        )];
-        if v[0] < 0.0 { Rgb::ZERO } else { Rgb::from(v) }
+        self.measured(wi, wo).unwrap_or(Rgb::ZERO)
     }
 
     /// Trilinear lookup between bin centres (clamped in theta, periodic in phi_d),
