@@ -20,6 +20,15 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
     /// The same value in double precision (for fitting).
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3];
+    /// `eval_f64` of many (wo, wi) pairs into `out` (the fitting inner loop). Models with
+    /// costly factors that depend only on the two elevation angles (He et al.'s shadowing
+    /// and effective roughness) override it to share those factors between consecutive
+    /// pairs of equal elevations, as the bins of one (theta_i, theta_o) row are.
+    fn eval_f64_many(&self, pairs: &[(DVec3, DVec3)], out: &mut [[f64; 3]]) {
+        for (o, &(wo, wi)) in out.iter_mut().zip(pairs) {
+            *o = self.eval_f64(wo, wi);
+        }
+    }
     /// Importance-samples `wi` for `wo` from a 2D sample `u` and a 1D sample `uc` (for
     /// models that first choose among facets or proposals); None when the sample falls
     /// below the surface.

@@ -19,7 +19,7 @@
 //!   D = pi^2 tau^2 / (4 lambda^2) sum_{m >= 1} g^m exp(-g) / (m! m) exp(-pi^2 tau^2 v_xy^2 / (lambda^2 m))
 //!   (eq. 78 with tau -> 2 pi tau / lambda inside the exponential, Westin's reading), with
 //!   v_xy^2 = |(wi + wo)_xy|^2. The series (at most 64 terms, stopped per channel once the
-//!   terms are below machine epsilon of the sum past their peak) is used while the smallest
+//!   terms are below 1e-13 of the sum past their peak) is used while the smallest
 //!   g of the three channels is at most 18; above 19 Beckmann's rough-surface limit
 //!   sum = exp(-E / g) / g replaces it, and between 18 and 19 the two are blended linearly
 //!   (bbm's switch, so that Ngan's fitted parameters mean what they meant). The rough limit
@@ -110,26 +110,47 @@ impl He {
         T::c(self.sigma0) / (T::one() + x * x).sqrt()
     }
 
-    /// The series of eq. 78 without its prefactor, for one channel.
+    /// The series of eq. 78 without its prefactor, for one channel: the Poisson weights
+    /// g^m exp(-g) / m! (at most 1, so f32 cannot overflow) by recurrence, one exp per term,
+    /// stopped past the Poisson peak once a term is below 1e-13 of the sum (f32: its epsilon).
     #[inline]
     fn series<T: Real>(g: T, e: T) -> T {
+        let tol = T::epsilon().max(T::c(1e-13));
         let mut sum = T::zero();
-        let mut gm = T::one(); // g^m / m!
+        let mut p = (-g).exp(); // g^m exp(-g) / m!
         for m in 1..=MAX_TERMS {
             let mf = T::c(m as f64);
-            gm = gm * g / mf;
-            let term = (-g - e / mf).exp() * gm / mf;
+            p = p * g / mf;
+            let term = p * (-e / mf).exp() / mf;
             sum = sum + term;
-            if mf > g && term <= T::epsilon() * sum {
+            if mf > g && term <= tol * sum {
                 break;
             }
         }
         sum
     }
 
+    /// The factors that depend only on the two elevations: S(wi) S(wo) and sigma(wi, wo).
+    #[inline]
+    fn elevation_terms<T: Real>(&self, ci: T, co: T) -> (T, T) {
+        (self.shadow(ci) * self.shadow(co), self.sigma_eff(ci, co))
+    }
+
     /// The lobe per channel.
     #[inline]
     pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
+        self.value_with(wo, wi, |ci, co| self.elevation_terms(ci, co))
+    }
+
+    /// The lobe per channel, with the elevation factors from `terms(cos_i, cos_o)` (called
+    /// at most once).
+    #[inline]
+    fn value_with<T: Real>(
+        &self,
+        wo: V3<T>,
+        wi: V3<T>,
+        terms: impl FnOnce(T, T) -> (T, T),
+    ) -> [T; 3] {
         let zero = [T::zero(); 3];
         let Some((co, ci)) = above(wo, wi) else {
             return zero;
@@ -144,9 +165,8 @@ impl He {
         if fresnel == T::zero() {
             return zero;
         }
-        let s = self.shadow(ci) * self.shadow(co);
+        let (s, sigma) = terms(ci, co);
         let g_geo = T::c(4.0) * cd * cd / (ch * ch);
-        let sigma = self.sigma_eff(ci, co);
         // |(wi + wo)_xy|^2 directly: 4 cd^2 (1 - ch^2) cancels catastrophically near the
         // mirror direction, where narrow lobes are evaluated.
         let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
@@ -207,6 +227,25 @@ impl Lobe for He {
 
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
         self.value::<f64>(wo.into(), wi.into())
+    }
+
+    fn eval_f64_many(&self, pairs: &[(DVec3, DVec3)], out: &mut [[f64; 3]]) {
+        // The elevation factors of the last (cos_i, cos_o) seen, compared bit for bit so the
+        // result is exactly that of `eval_f64`.
+        let mut memo: Option<((u64, u64), (f64, f64))> = None;
+        for (o, &(wo, wi)) in out.iter_mut().zip(pairs) {
+            *o = self.value_with::<f64>(wo.into(), wi.into(), |ci, co| {
+                let key = (ci.to_bits(), co.to_bits());
+                match memo {
+                    Some((k, t)) if k == key => t,
+                    _ => {
+                        let t = self.elevation_terms(ci, co);
+                        memo = Some((key, t));
+                        t
+                    }
+                }
+            });
+        }
     }
 
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3> {
@@ -376,6 +415,52 @@ mod tests {
             / (4.0 * wi.z * wo.z);
         for vc in v {
             assert!((vc - ct).abs() < 1e-9 * ct, "{vc} vs {ct}");
+        }
+    }
+
+    /// The batch evaluation of the fits shares the elevation factors between consecutive
+    /// pairs; its values must be those of `eval_f64`, bit for bit, whatever the order.
+    #[test]
+    fn batch_evaluation_equals_single_evaluation() {
+        let lobes = [
+            He {
+                sigma0: 0.3,
+                tau: 8.0,
+                eta: 1.6,
+            },
+            He {
+                sigma0: 3.0,
+                tau: 10.0,
+                eta: 1.8,
+            },
+        ];
+        let mut pairs = Vec::new();
+        for ti in [0.0, 10.0, 45.0, 79.5] {
+            for to in [0.5, 30.0, 79.5] {
+                for pd in [0.0, 1.0, 90.0, 179.0] {
+                    pairs.push((dir(to, pd), dir(ti, 0.0)));
+                }
+            }
+        }
+        // Interleave repeated and changed elevations.
+        let n = pairs.len();
+        for k in 0..n {
+            pairs.push(pairs[(k * 7) % n]);
+        }
+        let pairs: Vec<(DVec3, DVec3)> = pairs
+            .into_iter()
+            .map(|(o, i)| (DVec3::new(o.x, o.y, o.z), DVec3::new(i.x, i.y, i.z)))
+            .collect();
+        for lobe in &lobes {
+            let mut out = vec![[f64::NAN; 3]; pairs.len()];
+            lobe.eval_f64_many(&pairs, &mut out);
+            assert!(out.iter().any(|v| v[0] > 0.0));
+            for (v, &(wo, wi)) in out.iter().zip(&pairs) {
+                let single = lobe.eval_f64(wo, wi);
+                for c in 0..3 {
+                    assert_eq!(v[c].to_bits(), single[c].to_bits(), "{wo} {wi}");
+                }
+            }
         }
     }
 }

@@ -119,25 +119,29 @@ impl Dataset {
     /// Largest directional albedo int f cos(theta_o) dwo over incidence 0..80 degrees and
     /// the RGB channels (midpoint rule, 1 x 2 degree cells).
     pub fn albedo_of(f: &(dyn Fn(Vec3, Vec3) -> Option<Rgb> + Sync)) -> f64 {
-        let mut best = 0.0f64;
-        for ti in (0..=80).step_by(10) {
-            let wi = dir(ti as f64, 0.0);
-            let mut acc = [0.0f64; 3];
-            for a in 0..90 {
-                let to = a as f64 + 0.5;
-                let d = (to.to_radians().sin() * to.to_radians().cos())
-                    * (1f64.to_radians())
-                    * (2f64.to_radians());
-                for b in 0..180 {
-                    let v = f(wi, dir(to, b as f64 * 2.0 + 1.0)).unwrap_or(Rgb::ZERO);
-                    for (c, x) in v.to_array().into_iter().enumerate() {
-                        acc[c] += x.max(0.0) as f64 * d;
+        use rayon::prelude::*;
+        (0..=80)
+            .step_by(10)
+            .collect::<Vec<i32>>()
+            .into_par_iter()
+            .map(|ti| {
+                let wi = dir(ti as f64, 0.0);
+                let mut acc = [0.0f64; 3];
+                for a in 0..90 {
+                    let to = a as f64 + 0.5;
+                    let d = (to.to_radians().sin() * to.to_radians().cos())
+                        * (1f64.to_radians())
+                        * (2f64.to_radians());
+                    for b in 0..180 {
+                        let v = f(wi, dir(to, b as f64 * 2.0 + 1.0)).unwrap_or(Rgb::ZERO);
+                        for (c, x) in v.to_array().into_iter().enumerate() {
+                            acc[c] += x.max(0.0) as f64 * d;
+                        }
                     }
                 }
-            }
-            best = best.max(acc[0]).max(acc[1]).max(acc[2]);
-        }
-        best
+                acc[0].max(acc[1]).max(acc[2])
+            })
+            .reduce(|| 0.0, f64::max)
     }
 
     /// Can these data be fitted? At least one bin, every value finite.

@@ -6,8 +6,8 @@
 //! (root mean square over the three colour channels as well), where the six (or, with two
 //! lobes, nine) colour parameters are solved exactly inside every evaluation by
 //! non-negative least squares ([`linear`]) and the lobe parameters are optimized by SLSQP
-//! (the `slsqp` crate, NLopt's algorithm) with central-difference gradients, from a grid of
-//! starting points; the report says how many starts reached the best error. The starts run
+//! (the `slsqp` crate, NLopt's algorithm) with finite-difference gradients (forward in the
+//! coarse stage, central in the refinement), from a grid of starting points; the report says how many starts reached the best error. The starts run
 //! on a subset of the bins (the specular peak plus a weighted stride sample of the rest,
 //! [`dataset::Dataset::coarse`]), the best optima are refined on a finer subset built the
 //! same way, and the winner is judged on all of them: a 1-degree fit (1.15 M bins) costs a
@@ -228,12 +228,24 @@ fn grams(data: &Dataset, lobes: &[Arc<dyn Lobe>]) -> [Gram; 3] {
         .par_chunks(4096)
         .map(|chunk| {
             let mut g = [Gram::new(n), Gram::new(n), Gram::new(n)];
-            for s in chunk {
+            let pairs: Vec<_> = chunk
+                .iter()
+                .map(|s| (s.wo.as_dvec3(), s.wi.as_dvec3()))
+                .collect();
+            // At most two lobes (the colour solve has three unknowns per channel).
+            let mut values = vec![[[0.0; 3]; 2]; chunk.len()];
+            let mut buf = vec![[0.0; 3]; chunk.len()];
+            for (k, l) in lobes.iter().enumerate() {
+                l.eval_f64_many(&pairs, &mut buf);
+                for (v, b) in values.iter_mut().zip(&buf) {
+                    v[k] = *b;
+                }
+            }
+            for (s, v) in chunk.iter().zip(&values) {
                 let mut f = [[FRAC_1_PI; 3]; 3];
-                for (k, l) in lobes.iter().enumerate() {
-                    let v = l.eval_f64(s.wo.as_dvec3(), s.wi.as_dvec3());
+                for k in 0..lobes.len() {
                     for c in 0..3 {
-                        f[c][k + 1] = if v[c].is_finite() { v[c] } else { 0.0 };
+                        f[c][k + 1] = if v[k][c].is_finite() { v[k][c] } else { 0.0 };
                     }
                 }
                 for c in 0..3 {
@@ -374,29 +386,46 @@ pub const REFINE_SAMPLES: usize = 150_000;
 /// Objective evaluations allowed to refine a coarse optimum.
 pub const REFINE_EVALS: usize = 40;
 
-/// One SLSQP run from `x0` within `bounds` (central-difference gradients); returns the
-/// error and point of the better of the end point and the start.
+/// One SLSQP run from `x0` within `bounds`, with central-difference gradients (`central`)
+/// or forward differences (half the evaluations, for the coarse stage whose optima are
+/// refined anyway); returns the best point the run evaluated (SLSQP's last point is not
+/// always its best) and its error.
 fn minimize(
     pr: &Problem,
     bounds: &[(f64, f64)],
     x0: &[f64],
     max_evals: usize,
+    central: bool,
     evaluations: &mut usize,
 ) -> (f64, Vec<f64>) {
     let evals = std::cell::Cell::new(0usize);
+    let best = std::cell::RefCell::new((f64::INFINITY, x0.to_vec()));
     let objective = |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| -> f64 {
         evals.set(evals.get() + 1);
         let e = pr.error(x).0;
+        if e < best.borrow().0 {
+            *best.borrow_mut() = (e, x.to_vec());
+        }
         if let Some(g) = grad {
             let h = 1e-4;
             for i in 0..x.len() {
                 let mut xp = x.to_vec();
-                let mut xm = x.to_vec();
                 xp[i] = (x[i] + h).min(bounds[i].1);
-                xm[i] = (x[i] - h).max(bounds[i].0);
-                let (ep, em) = (pr.error(&xp).0, pr.error(&xm).0);
-                evals.set(evals.get() + 2);
-                g[i] = if xp[i] > xm[i] {
+                // Forward differences step back from the upper bound.
+                if !central && xp[i] <= x[i] {
+                    xp[i] = (x[i] - h).max(bounds[i].0);
+                }
+                let mut xm = x.to_vec();
+                let em = if central {
+                    xm[i] = (x[i] - h).max(bounds[i].0);
+                    evals.set(evals.get() + 1);
+                    pr.error(&xm).0
+                } else {
+                    e
+                };
+                let ep = pr.error(&xp).0;
+                evals.set(evals.get() + 1);
+                g[i] = if xp[i] != xm[i] {
                     (ep - em) / (xp[i] - xm[i])
                 } else {
                     0.0
@@ -412,16 +441,14 @@ fn minimize(
         xtol_abs: vec![1e-5; x0.len()],
         ..Default::default()
     };
-    let x = match slsqp::minimize(objective, x0, bounds, &no_cons, (), max_evals, Some(tols)) {
-        Ok((_, x, _)) | Err((_, x, _)) => x,
-    };
-    // SLSQP reports its last point; re-evaluate it and keep the start if that was better.
-    let (e_final, e0) = (pr.error(&x).0, pr.error(x0).0);
-    *evaluations += evals.get() + 2;
-    if e_final.is_finite() && e_final <= e0 {
-        (e_final, x)
+    // The status does not matter: whatever happened, the best point seen is kept.
+    let _ = slsqp::minimize(objective, x0, bounds, &no_cons, (), max_evals, Some(tols));
+    *evaluations += evals.get();
+    let (e, x) = best.into_inner();
+    if e.is_finite() {
+        (e, x)
     } else {
-        (e0, x0.to_vec())
+        (pr.error(x0).0, x0.to_vec())
     }
 }
 
@@ -489,7 +516,16 @@ pub fn fit(
     let mut evaluations = 0usize;
     let mut finals: Vec<(f64, Vec<f64>)> = starts
         .iter()
-        .map(|x0| minimize(&coarse, &bounds, x0, max_evals_per_start, &mut evaluations))
+        .map(|x0| {
+            minimize(
+                &coarse,
+                &bounds,
+                x0,
+                max_evals_per_start,
+                false,
+                &mut evaluations,
+            )
+        })
         .collect();
     finals.sort_by(|a, b| a.0.total_cmp(&b.0));
     let best_coarse = finals[0].0;
@@ -497,9 +533,9 @@ pub fn fit(
         .iter()
         .filter(|f| f.0 <= best_coarse * 1.01 + 1e-15)
         .count();
-    // Refine the best coarse optimum and the best one of a different basin (if any is
-    // within 10 % of it) on the full data.
-    let mut refine = vec![finals[0].1.clone()];
+    // Candidates: the best coarse optimum and the best one of a different basin, if any is
+    // within 10 % of it.
+    let mut candidates = vec![finals[0].1.clone()];
     if let Some(other) = finals[1..].iter().find(|f| {
         f.0 <= best_coarse * 1.1 + 1e-15
             && f.1
@@ -507,34 +543,45 @@ pub fn fit(
                 .zip(&finals[0].1)
                 .any(|(a, b)| (a - b).abs() > 0.05)
     }) {
-        refine.push(other.1.clone());
+        candidates.push(other.1.clone());
     }
-    // The refinement runs on a finer stand-in (REFINE_SAMPLES bins) when the data are
-    // larger still; the winner is then judged on all the bins.
-    let same = coarse_data.samples.len() == data.samples.len();
-    let fine_data = data.coarse(REFINE_SAMPLES);
-    let fine = Problem {
-        data: &fine_data,
-        total_weight: fine_data.total_weight().max(1e-300),
-        ..pr
+    // When the coarse stand-in is not all the data, the candidates are ranked on a finer
+    // stand-in (REFINE_SAMPLES bins, or all of them for smaller data) and the better one
+    // is refined there; the winner is then judged on all the bins.
+    let best = if coarse_data.samples.len() == data.samples.len() {
+        let ranked: Vec<(f64, &Vec<f64>)> = candidates.iter().map(|x| (pr.error(x).0, x)).collect();
+        evaluations += ranked.len();
+        ranked
+            .into_iter()
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .expect("at least one start")
+            .1
+            .clone()
+    } else {
+        let fine_data = data.coarse(REFINE_SAMPLES);
+        let fine = Problem {
+            data: &fine_data,
+            total_weight: fine_data.total_weight().max(1e-300),
+            ..pr
+        };
+        let x0 = if candidates.len() > 1 {
+            evaluations += candidates.len();
+            candidates
+                .iter()
+                .map(|x| (fine.error(x).0, x))
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .expect("two candidates")
+                .1
+        } else {
+            &candidates[0]
+        };
+        minimize(&fine, &bounds, x0, REFINE_EVALS, true, &mut evaluations).1
     };
-    let best = refine
-        .iter()
-        .map(|x0| {
-            if same {
-                (pr.error(x0).0, x0.clone())
-            } else {
-                let (_, x) = minimize(&fine, &bounds, x0, REFINE_EVALS, &mut evaluations);
-                evaluations += 1;
-                (pr.error(&x).0, x)
-            }
-        })
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .expect("at least one start");
-    let (error, colours) = pr.error(&best.1);
+    let (error, colours) = pr.error(&best);
+    evaluations += 1;
     Ok(FitResult {
         label: spec.label.to_string(),
-        material: pr.material(&best.1, &colours),
+        material: pr.material(&best, &colours),
         error,
         error_normalized: if data.max_albedo > 0.0 {
             error / data.max_albedo
