@@ -119,6 +119,8 @@ pub struct Sampler {
     seed: u64,
     spp: u32,
     pixel_key: u64,
+    /// The pixel `pixel_key` was hashed for (the samples of one pixel share it).
+    pixel: Option<(u32, u32)>,
     index: u32,
     dim: u32,
 }
@@ -129,6 +131,7 @@ impl Sampler {
             seed,
             spp: spp.max(1),
             pixel_key: 0,
+            pixel: None,
             index: 0,
             dim: 0,
         }
@@ -137,7 +140,10 @@ impl Sampler {
     /// Starts sample `index` of pixel (x, y).
     #[inline]
     pub fn start(&mut self, x: u32, y: u32, index: u32) {
-        self.pixel_key = hash3(self.seed, x as u64, y as u64);
+        if self.pixel != Some((x, y)) {
+            self.pixel_key = hash3(self.seed, x as u64, y as u64);
+            self.pixel = Some((x, y));
+        }
         self.index = index;
         self.dim = 0;
     }

@@ -147,7 +147,14 @@ fn spawned_rays_do_not_self_intersect_at_grazing_angles() {
         };
         let t1 = it.ng.any_orthonormal_vector();
         let d = (t1 + it.ng * 1e-3).normalize(); // 89.94 degrees from the normal
-        let out = lobe_renderer::geometry::spawn_ray(&it, d);
+        let spawned = lobe_renderer::geometry::spawn_ray(&it, d);
+        // The spawned ray skips the primitive it leaves (planar, or a sphere left outward);
+        // the offset origin alone must also keep it off that surface.
+        assert_eq!(spawned.skip, it.prim, "{d} from {}", it.p);
+        let out = Ray {
+            skip: Ray::NO_SKIP,
+            ..spawned
+        };
         if let Some((t, p)) = g.closest(&out) {
             assert!(
                 g.prims[p as usize].shape != it.shape || t > 1.0,
@@ -165,5 +172,60 @@ fn spawned_rays_do_not_self_intersect_at_grazing_angles() {
     assert!(
         naive_self_hits > 100,
         "unoffset rays self-intersect ({naive_self_hits} times)"
+    );
+}
+
+/// Spawned rays skip the primitive they leave only when it cannot be hit again: through
+/// the BVH and by brute force, a secondary ray finds the same closest hit as the
+/// unskipped ray except for a self-hit right at its origin, and a ray leaving a sphere
+/// inward still finds the sphere's far side.
+#[test]
+fn spawned_rays_skip_only_what_they_cannot_hit() {
+    let g = scene();
+    assert!(g.has_bvh());
+    let mut r = Lcg(11);
+    let (mut inward, mut compared) = (0, 0);
+    for _ in 0..20_000 {
+        let o = r.v(6.0);
+        let Some(it) = g.intersect(&Ray::new(o, r.v(1.0).normalize_or(Vec3::X))) else {
+            continue;
+        };
+        let d = r.v(1.0).normalize_or(Vec3::Z);
+        let spawned = lobe_renderer::geometry::spawn_ray(&it, d);
+        let is_sphere = matches!(g.prims[it.prim as usize].kind, PrimKind::Sphere(_));
+        if is_sphere && d.dot(it.exit) < 0.0 {
+            // Into the sphere: nothing skipped, and the far side (or something inside) is hit.
+            assert_eq!(spawned.skip, Ray::NO_SKIP);
+            let (t, _) = g.closest(&spawned).expect("a ray into a sphere hits");
+            assert!(t > 0.0);
+            inward += 1;
+            continue;
+        }
+        assert_eq!(spawned.skip, it.prim);
+        let unskipped = Ray {
+            skip: Ray::NO_SKIP,
+            ..spawned
+        };
+        let a = g.closest(&spawned);
+        let b = g.closest_brute_force(&spawned);
+        assert_eq!(a.map(|h| h.0), b.map(|h| h.0), "BVH and brute force differ");
+        let c = g.closest(&unskipped);
+        match (a, c) {
+            (x, y) if x == y => compared += 1,
+            // The only difference allowed: the unskipped ray re-hits its own primitive.
+            (_, Some((t, p))) if p == it.prim => assert!(t < 1e-3, "own primitive at t = {t}"),
+            (x, y) => panic!("skipping changed the hit: {x:?} vs {y:?}"),
+        }
+        if let Some((t, _)) = a {
+            let shadow = Ray {
+                tmax: t * 0.999,
+                ..spawned
+            };
+            assert!(!g.occluded(&shadow));
+        }
+    }
+    assert!(
+        inward > 100 && compared > 3000,
+        "{inward} inward, {compared} compared"
     );
 }

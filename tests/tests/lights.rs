@@ -101,6 +101,8 @@ fn sampled_density_matches_pdf_and_integrates_to_one() {
                 dpdu: Vec3::X,
                 uv: Vec2::ZERO,
                 shape: 0,
+                prim: 0,
+                exit: Vec3::ZERO,
             };
             let pdf = light.pdf_area(p, &it);
             assert!(

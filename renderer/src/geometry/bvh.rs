@@ -131,6 +131,9 @@ impl Geometry {
         let mut hit = RayHit::none();
         let mut r = *ray;
         let found = bvh.ray_traverse(Self::bvh_ray(ray), &mut hit, |br, id| {
+            if id as u32 == ray.skip {
+                return f32::INFINITY;
+            }
             r.tmax = br.tmax;
             self.prims[id].intersect(&r)
         });
@@ -148,10 +151,18 @@ impl Geometry {
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         match &self.bvh {
-            None => self.prims.iter().any(|p| p.intersect(ray) < ray.tmax),
-            Some(bvh) => {
-                !bvh.ray_traverse_miss(Self::bvh_ray(ray), |_, id| self.prims[id].intersect(ray))
-            }
+            None => self
+                .prims
+                .iter()
+                .enumerate()
+                .any(|(i, p)| i as u32 != ray.skip && p.intersect(ray) < ray.tmax),
+            Some(bvh) => !bvh.ray_traverse_miss(Self::bvh_ray(ray), |_, id| {
+                if id as u32 == ray.skip {
+                    f32::INFINITY
+                } else {
+                    self.prims[id].intersect(ray)
+                }
+            }),
         }
     }
 
@@ -161,6 +172,9 @@ impl Geometry {
         let mut best: Option<(f32, u32)> = None;
         let mut r = *ray;
         for (i, p) in self.prims.iter().enumerate() {
+            if i as u32 == ray.skip {
+                continue;
+            }
             let t = p.intersect(&r);
             if t < r.tmax {
                 r.tmax = t;
@@ -174,9 +188,11 @@ impl Geometry {
     pub fn interaction(&self, ray: &Ray, t: f32, prim: u32) -> Interaction {
         let p = &self.prims[prim as usize];
         let sg = self.shapes[p.shape as usize];
+        let mut exit = Vec3::ZERO;
         let (pos, mut ng, mut ns, dpdu, uv) = match &p.kind {
             PrimKind::Sphere(s) => {
                 let (pos, n, dpdu) = s.surface(ray.at(t));
+                exit = n;
                 (pos, n, n, dpdu, Vec2::ZERO)
             }
             PrimKind::Rectangle(r) => {
@@ -232,6 +248,8 @@ impl Geometry {
             dpdu,
             uv,
             shape: p.shape,
+            prim,
+            exit,
         }
     }
 

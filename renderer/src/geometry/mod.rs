@@ -26,15 +26,23 @@ pub struct Ray {
     pub d: Vec3,
     pub tmin: f32,
     pub tmax: f32,
+    /// A primitive (index into [`Geometry::prims`]) the ray cannot hit and that queries
+    /// skip: the one a spawned ray leaves when the geometry rules a second hit out (a
+    /// planar primitive, or a sphere left on its outside). [`Ray::NO_SKIP`] otherwise.
+    pub skip: u32,
 }
 
 impl Ray {
+    /// No primitive is skipped.
+    pub const NO_SKIP: u32 = u32::MAX;
+
     pub fn new(o: Vec3, d: Vec3) -> Self {
         Self {
             o,
             d,
             tmin: 0.0,
             tmax: f32::INFINITY,
+            skip: Self::NO_SKIP,
         }
     }
     pub fn at(&self, t: f32) -> Vec3 {
@@ -59,6 +67,23 @@ pub struct Interaction {
     pub uv: Vec2,
     /// Index of the scene shape that was hit.
     pub shape: u32,
+    /// Index of the primitive that was hit (into [`Geometry::prims`]).
+    pub prim: u32,
+    /// Rays leaving the hit point along `d` with `d . exit >= 0` cannot hit this primitive
+    /// again: zero for planar primitives (never), the outward normal for spheres (convex).
+    pub exit: Vec3,
+}
+
+impl Interaction {
+    /// The primitive a ray leaving along `d` may skip (see [`Ray::skip`]).
+    #[inline]
+    pub fn skip_for(&self, d: Vec3) -> u32 {
+        if d.dot(self.exit) >= 0.0 {
+            self.prim
+        } else {
+            Ray::NO_SKIP
+        }
+    }
 }
 
 /// Origin of a ray leaving `p` on the side of `n` (Wächter and Binder 2019).
@@ -91,7 +116,10 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
 #[inline]
 pub fn spawn_ray(it: &Interaction, d: Vec3) -> Ray {
     let n = if d.dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
-    Ray::new(offset_ray_origin(it.p, n), d)
+    Ray {
+        skip: it.skip_for(d),
+        ..Ray::new(offset_ray_origin(it.p, n), d)
+    }
 }
 
 /// A shadow ray from surface point `it` to the point `target`; `target_n`, when given,
@@ -114,5 +142,6 @@ pub fn spawn_ray_to(it: &Interaction, target: Vec3, target_n: Option<Vec3>) -> R
         d,
         tmin: 0.0,
         tmax: 1.0 - 1e-4,
+        skip: it.skip_for(d0),
     }
 }

@@ -170,13 +170,14 @@ class Converter:
             return {"type": "path", "max_depth": int(i.get("max_depth", -1)), "rr_depth": int(i.get("rr_depth", 5))}
         return {"type": "direct", "emitter_samples": int(i.get("emitter_samples", 1)), "bsdf_samples": int(i.get("bsdf_samples", 1))}
 
-    def convert(self, spp=None):
+    def convert(self, spp=None, sampler_type="independent"):
+        """The Mitsuba scene dict; `sampler_type` is a Mitsuba sampler plugin name."""
         s = self.scene
         film_d = s.get("film", {})
         film = {"type": "hdrfilm", "width": int(film_d.get("width", 256)), "height": int(film_d.get("height", 256)),
                 "rfilter": {"type": "box"}, "pixel_format": "rgb", "component_format": "float32"}
         spp = spp or int(s.get("sampler", {}).get("spp", 16))
-        sampler = {"type": "independent", "sample_count": spp}
+        sampler = {"type": sampler_type, "sample_count": spp}
         d = {"type": "scene", "integrator": self.integrator()}
         for k, sh in enumerate(s.get("shapes", [])):
             d[f"shape{k}"] = self.shape(sh)
