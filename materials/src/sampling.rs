@@ -78,6 +78,44 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
 
+/// Samples x in [0, 1] with density proportional to the linear ramp (1 - x) a + x b
+/// (a, b >= 0): the inverse of its CDF, written as in pbrt-v4's `SampleLinear` so that
+/// it does not cancel when a and b are close.
+#[inline]
+pub fn sample_linear(u: f32, a: f32, b: f32) -> f32 {
+    if u == 0.0 && a == 0.0 {
+        return 0.0;
+    }
+    let denom = a + ((1.0 - u) * a * a + u * b * b).max(0.0).sqrt();
+    if !(denom > 0.0) {
+        return u;
+    }
+    (u * (a + b) / denom).min(1.0 - f32::EPSILON / 2.0)
+}
+
+/// Samples the unit square with density proportional to the bilinear interpolation of
+/// the corner weights `w` = [w(0,0), w(1,0), w(0,1), w(1,1)] (all >= 0, not all zero):
+/// y from the marginal ramp, then x from the ramp conditional on y. Monotone in each
+/// coordinate of `u`, so stratified samples stay stratified.
+#[inline]
+pub fn square_to_bilinear(u: Vec2, w: [f32; 4]) -> Vec2 {
+    let y = sample_linear(u.y, w[0] + w[1], w[2] + w[3]);
+    let x = sample_linear(u.x, w[0] + (w[2] - w[0]) * y, w[1] + (w[3] - w[1]) * y);
+    Vec2::new(x, y)
+}
+
+/// Density of [`square_to_bilinear`] at `p`.
+#[inline]
+pub fn bilinear_pdf(p: Vec2, w: [f32; 4]) -> f32 {
+    let sum = w[0] + w[1] + w[2] + w[3];
+    if !(sum > 0.0) {
+        return 1.0;
+    }
+    let top = w[0] + (w[1] - w[0]) * p.x;
+    let bottom = w[2] + (w[3] - w[2]) * p.x;
+    4.0 * (top + (bottom - top) * p.y) / sum
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -105,5 +143,47 @@ mod tests {
         assert_eq!(power_heuristic(0.0, 0.0), 0.0);
         assert!((power_heuristic(1.0, 1.0) - 0.5).abs() < 1e-7);
         assert_eq!(power_heuristic(f32::INFINITY, 3.0), 1.0);
+    }
+
+    /// The bilinear warp draws points with the density `bilinear_pdf` says (histogram of a
+    /// fine stratified grid of u against the density integrated over each bin), for
+    /// ordinary, degenerate (zero corners) and nearly equal corner weights.
+    #[test]
+    fn bilinear_warp_matches_its_density() {
+        for w in [
+            [1.0, 2.0, 3.0, 4.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [5.0, 0.0, 0.0, 5.0],
+            [1.0, 1.0 + 1e-6, 1.0, 1.0],
+            [1e-30, 1.0, 1.0, 1e-30],
+        ] {
+            let (n, m) = (8usize, 512usize);
+            let mut hist = vec![0u32; n * n];
+            for i in 0..m {
+                for j in 0..m {
+                    let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
+                    let p = square_to_bilinear(u, w);
+                    assert!(
+                        (0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y),
+                        "{p}"
+                    );
+                    let pdf = bilinear_pdf(p, w);
+                    assert!(pdf.is_finite() && pdf >= 0.0);
+                    hist[(p.y * n as f32) as usize * n + (p.x * n as f32) as usize] += 1;
+                }
+            }
+            for by in 0..n {
+                for bx in 0..n {
+                    // Midpoint rule is exact for the bilinear density.
+                    let c = Vec2::new((bx as f32 + 0.5) / n as f32, (by as f32 + 0.5) / n as f32);
+                    let expect = bilinear_pdf(c, w) / (n * n) as f32 * (m * m) as f32;
+                    let got = hist[by * n + bx] as f32;
+                    assert!(
+                        (got - expect).abs() <= 0.01 * expect + 2.0 * m as f32 / n as f32,
+                        "{w:?} bin ({bx}, {by}): {got} vs {expect}"
+                    );
+                }
+            }
+        }
     }
 }

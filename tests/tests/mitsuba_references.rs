@@ -96,6 +96,22 @@ fn brighten(v: &mut Value, k: f64, base: &Path) {
     }
 }
 
+/// lobe's per-pixel variance comes from its own samples, which are correlated (Owen-
+/// scrambled Sobol'): their spread cannot show a contribution rarer than one in `spp`
+/// (a glossy reflection of a small bright light through two bounces), and at such pixels
+/// it underestimates the error, so the z-test would flag a correct render. The variance
+/// of the reference, made with Mitsuba's independent sampler, is an honest per-sample
+/// variance of the same estimator (lobe's is within 12 % of it with random samples,
+/// docs/validation.md); scaled to lobe's spp (`ratio` = reference spp / lobe spp), it
+/// floors lobe's own estimate.
+fn floor_variance(img: &mut Image, reference: &Image, ratio: f32) {
+    for (v, r) in img.variance.iter_mut().zip(&reference.variance) {
+        v.r = v.r.max(r.r * ratio);
+        v.g = v.g.max(r.g * ratio);
+        v.b = v.b.max(r.b * ratio);
+    }
+}
+
 fn render_lobe(desc: &Value, file: &str, base: &Path, spp: u32) -> Image {
     let mut scene = from_value(desc, file, base, &LoadOptions::with_builtins())
         .unwrap_or_else(|e| panic!("{e}"));
@@ -132,7 +148,10 @@ fn lobe_matches_every_mitsuba_reference_and_sees_wrong_materials() {
         let base = scene_path.parent().unwrap();
         let spp = entry["lobe_spp"].as_u64().unwrap() as u32;
         let reference = reference(&entry);
-        let img = render_lobe(&desc, &scene_path.display().to_string(), base, spp);
+        let ref_spp =
+            (entry["spp_per_run"].as_u64().unwrap() * entry["runs"].as_u64().unwrap()) as f32;
+        let mut img = render_lobe(&desc, &scene_path.display().to_string(), base, spp);
+        floor_variance(&mut img, &reference, ref_spp / spp as f32);
         let z = z_test(&img, &reference, ALPHA).unwrap();
         eprintln!(
             "{name}: min p {:.2e} (threshold {:.2e}), worst z {:.2} ({}x{} block at {}, {})",
@@ -154,7 +173,8 @@ fn lobe_matches_every_mitsuba_reference_and_sees_wrong_materials() {
                 l["scale"] = serde_json::json!(s * 1.05);
             }
         }
-        let bad = render_lobe(&wrong, &scene_path.display().to_string(), base, spp);
+        let mut bad = render_lobe(&wrong, &scene_path.display().to_string(), base, spp);
+        floor_variance(&mut bad, &reference, ref_spp / spp as f32);
         let zb = z_test(&bad, &reference, ALPHA).unwrap();
         eprintln!("{name} with colours x1.05: worst z {:.2}", zb.worst.3);
         if zb.passed() {

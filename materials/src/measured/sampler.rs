@@ -3,12 +3,12 @@
 //! 90 (theta_i, 1 degree) x 90 (phi_i - phi_o in [0, pi], 2 degrees, mirrored by isotropy)
 //! grid, each cell weighted by the largest luminance x cos(theta_i) x solid angle found on a
 //! 3 x 3 grid of the cell for both edges of the theta_o bin (so narrow highlights are not
-//! missed), sampled with alias tables in O(1), mixed with 10 % cosine sampling so that every
+//! missed), sampled by CDF inversion (which keeps low-discrepancy samples stratified), mixed with 10 % cosine sampling so that every
 //! direction where the table is non-zero can be drawn. Within a cell, directions are
 //! uniform in solid angle. The density is exact for what is sampled, so the estimator is
 //! unbiased whatever the table's accuracy.
 
-use crate::distribution::Alias2D;
+use crate::distribution::Cdf2D;
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -21,7 +21,7 @@ const COSINE_FRACTION: f32 = 0.1;
 #[derive(Clone, Debug)]
 pub struct TabulatedSampler {
     /// One cell sampler per theta_o bin (None when the slice is black).
-    tables: Vec<Option<Alias2D>>,
+    tables: Vec<Option<Cdf2D>>,
     /// Per theta_o bin, per cell: probability / solid angle of the cell (both mirror halves).
     density: Vec<f32>,
 }
@@ -55,7 +55,7 @@ impl TabulatedSampler {
     /// Builds the sampler from the luminance of f(wo, wi) (no cosine).
     pub fn new(f: impl Fn(Vec3, Vec3) -> f32 + Sync) -> Self {
         use rayon::prelude::*;
-        let slices: Vec<(Option<Alias2D>, Vec<f32>)> = (0..N_THETA_O)
+        let slices: Vec<(Option<Cdf2D>, Vec<f32>)> = (0..N_THETA_O)
             .into_par_iter()
             .map(|io| Self::slice_table(&f, io))
             .collect();
@@ -71,7 +71,7 @@ impl TabulatedSampler {
     fn slice_table(
         f: &(impl Fn(Vec3, Vec3) -> f32 + Sync),
         io: usize,
-    ) -> (Option<Alias2D>, Vec<f32>) {
+    ) -> (Option<Cdf2D>, Vec<f32>) {
         let mut density = vec![0.0f32; N_THETA * N_PHI];
         {
             let edges = [
@@ -103,7 +103,7 @@ impl TabulatedSampler {
             }
             let total: f64 = w.iter().map(|&x| x as f64).sum();
             if total > 0.0 {
-                let (table, _) = Alias2D::new(&w, N_PHI, N_THETA);
+                let (table, _) = Cdf2D::new(&w, N_PHI, N_THETA);
                 for it in 0..N_THETA {
                     for ip in 0..N_PHI {
                         let (t0, t1, p0, p1) = cell_bounds(it, ip);

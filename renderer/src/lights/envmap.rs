@@ -10,14 +10,20 @@
 //! renderers. `to_world` (a rotation) maps local directions to world ones, and `scale`
 //! multiplies the radiance.
 //!
-//! Sampling: a piecewise-constant 2D distribution over the W x (H - 1) cells of the
-//! bilinear grid, weighted by the mean luminance of each cell's corners times sin(theta)
-//! at the cell centre: positive wherever the radiance is, so the estimator stays unbiased.
+//! Sampling: the density over the (u, v) square is the bilinear interpolation of corner
+//! weights luminance x sin(theta) of each pixel (as Mitsuba 3's bilinear `Hierarchical2D`
+//! warp of its envmap): a cell of the W x (H - 1) grid is drawn by CDF inversion with the
+//! mean of its corner weights (the integral of its bilinear patch), then a point within
+//! it with pbrt-v4's `SampleBilinear`. The ratio radiance / pdf is then smooth across
+//! cells (no step per cell), and the warp is monotone, so low-discrepancy samples stay
+//! stratified. The density is positive wherever the radiance is (away from the poles,
+//! which have no solid angle), so the estimator stays unbiased.
 
 use crate::Rgb;
 use crate::error::{Error, Result};
 use glam::{Mat3, Vec2, Vec3};
-use lobe_materials::distribution::Alias2D;
+use lobe_materials::distribution::Cdf2D;
+use lobe_materials::sampling::square_to_bilinear;
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
 
@@ -32,9 +38,9 @@ pub struct EnvMap {
     to_local: Mat3,
     /// Cell sampler; a cell's density is recomputed from the same four corners the
     /// radiance lookup reads, so sampling and evaluation touch the same cache lines.
-    cells: Alias2D,
-    /// sin(theta) at the centre of each row of cells.
-    sin_centre: Vec<f32>,
+    cells: Cdf2D,
+    /// sin(theta) of each row of pixels (theta = pi j / (H - 1)).
+    sin_row: Vec<f32>,
     /// 1 / mean cell weight (0 when the map is black: uniform sampling).
     inv_mean: f32,
 }
@@ -63,18 +69,19 @@ impl EnvMap {
             data.extend_from_slice(row);
             data.push(row[0]);
         }
-        let sin_centre: Vec<f32> = (0..h - 1)
-            .map(|j| ((j as f32 + 0.5) / (h - 1) as f32 * PI).sin())
+        let sin_row: Vec<f32> = (0..h)
+            .map(|j| (j as f32 / (h - 1) as f32 * PI).sin().max(0.0))
             .collect();
         let mut cells = vec![0.0f32; w * (h - 1)];
         for j in 0..h - 1 {
             for i in 0..w {
-                let k = j * (w + 1) + i;
-                cells[j * w + i] = Self::corner_weight(&data, k, w) * sin_centre[j];
+                // The integral of the bilinear patch: the mean of its corner weights.
+                let c = Self::corner_weights(&data, &sin_row, w, i, j);
+                cells[j * w + i] = 0.25 * (c[0] + c[1] + c[2] + c[3]);
             }
         }
         let black = !cells.iter().any(|&c| c > 0.0);
-        let (table, mean) = Alias2D::new(&cells, w, h - 1);
+        let (table, mean) = Cdf2D::new(&cells, w, h - 1);
         Self {
             width: w,
             height: h,
@@ -83,29 +90,23 @@ impl EnvMap {
             to_world,
             to_local: to_world.transpose(),
             cells: table,
-            sin_centre,
+            sin_row,
             inv_mean: if black { 0.0 } else { (1.0 / mean) as f32 },
         }
     }
 
-    /// Mean luminance of the four corners of the cell whose top-left pixel is `k`.
+    /// Sampling weights of the four corners of cell (ix, iy), [top-left, top-right,
+    /// bottom-left, bottom-right]: luminance x sin(theta) of each corner's pixel row.
     #[inline]
-    fn corner_weight(d: &[Rgb], k: usize, w: usize) -> f32 {
-        0.25 * (d[k].luminance().max(0.0)
-            + d[k + 1].luminance().max(0.0)
-            + d[k + w + 1].luminance().max(0.0)
-            + d[k + w + 2].luminance().max(0.0))
-    }
-
-    /// Density of the cell sampler over the unit square for the cell at (ix, iy).
-    #[inline]
-    fn cell_density(&self, ix: usize, iy: usize) -> f32 {
-        if self.inv_mean == 0.0 {
-            return 1.0;
-        }
-        Self::corner_weight(&self.data, iy * (self.width + 1) + ix, self.width)
-            * self.sin_centre[iy]
-            * self.inv_mean
+    fn corner_weights(d: &[Rgb], sin_row: &[f32], w: usize, ix: usize, iy: usize) -> [f32; 4] {
+        let k = iy * (w + 1) + ix;
+        let (st, sb) = (sin_row[iy], sin_row[iy + 1]);
+        [
+            d[k].luminance().max(0.0) * st,
+            d[k + 1].luminance().max(0.0) * st,
+            d[k + w + 1].luminance().max(0.0) * sb,
+            d[k + w + 2].luminance().max(0.0) * sb,
+        ]
     }
 
     pub fn resolution(&self) -> (usize, usize) {
@@ -115,12 +116,15 @@ impl EnvMap {
     /// Bilinear lookup at Mitsuba's texture coordinates (u, v).
     #[inline]
     fn lookup(&self, u: f32, v: f32) -> Rgb {
-        self.lookup_cell(u, v).0
+        self.lookup_density(u, v).0 * self.scale
     }
 
-    /// Bilinear lookup, and the cell (ix, iy) of the sampling grid that holds (u, v).
+    /// Bilinear lookup (without `scale`) and the density of [`EnvMap::sample`] over the unit
+    /// square of (u, v): the bilinear interpolation of the corner weights
+    /// (luminance x sin(theta) of the row) over their mean, which is the cell's probability
+    /// times the bilinear density within it. Both come from the same four texels.
     #[inline]
-    fn lookup_cell(&self, u: f32, v: f32) -> (Rgb, usize, usize) {
+    fn lookup_density(&self, u: f32, v: f32) -> (Rgb, f32) {
         let (w, h) = (self.width, self.height);
         let mut x = u - 0.5 / w as f32;
         x -= x.floor();
@@ -136,7 +140,16 @@ impl EnvMap {
         let d = &self.data;
         let top = d[k] * (1.0 - fx) + d[k + 1] * fx;
         let bottom = d[k + w + 1] * (1.0 - fx) + d[k + w + 2] * fx;
-        ((top * (1.0 - fy) + bottom * fy) * self.scale, ix, iy)
+        let texel = top * (1.0 - fy) + bottom * fy;
+        // Luminance is linear: that of the interpolated rows is the interpolated luminance.
+        let density = if self.inv_mean == 0.0 {
+            1.0
+        } else {
+            ((1.0 - fy) * top.luminance().max(0.0) * self.sin_row[iy]
+                + fy * bottom.luminance().max(0.0) * self.sin_row[iy + 1])
+                * self.inv_mean
+        };
+        (texel, density)
     }
 
     /// Local direction -> Mitsuba texture coordinates.
@@ -162,15 +175,13 @@ impl EnvMap {
     pub fn eval_pdf(&self, d: Vec3) -> (Rgb, f32) {
         let l = self.to_local * d;
         let uv = Self::uv_of(l);
-        let (radiance, ix, iy) = self.lookup_cell(uv.x, uv.y);
+        let (texel, density) = self.lookup_density(uv.x, uv.y);
+        let radiance = texel * self.scale;
         let sin_theta = (l.x * l.x + l.z * l.z).sqrt();
         if sin_theta <= 1e-7 {
             return (radiance, 0.0);
         }
-        (
-            radiance,
-            self.cell_density(ix, iy) / (2.0 * PI * PI * sin_theta),
-        )
+        (radiance, density / (2.0 * PI * PI * sin_theta))
     }
 
     /// Solid-angle density of [`EnvMap::sample`] for world direction `d`.
@@ -183,14 +194,20 @@ impl EnvMap {
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, Rgb, f32)> {
         let (ix, iy, r) = self.cells.sample(u);
+        // Within the cell, the bilinear density of the corner luminances (uniform for a
+        // black map): the radiance over the density is then smooth, not stepped per cell.
+        let f = if self.inv_mean == 0.0 {
+            r
+        } else {
+            square_to_bilinear(
+                r,
+                Self::corner_weights(&self.data, &self.sin_row, self.width, ix, iy),
+            )
+        };
         let ab = Vec2::new(
-            ((ix as f32 + r.x) / self.width as f32).min(1.0 - f32::EPSILON / 2.0),
-            ((iy as f32 + r.y) / (self.height - 1) as f32).min(1.0 - f32::EPSILON / 2.0),
+            ((ix as f32 + f.x) / self.width as f32).min(1.0 - f32::EPSILON / 2.0),
+            ((iy as f32 + f.y) / (self.height - 1) as f32).min(1.0 - f32::EPSILON / 2.0),
         );
-        let pdf_ab = self.cell_density(ix, iy);
-        if pdf_ab <= 0.0 {
-            return None;
-        }
         let mut uu = ab.x + 0.5 / self.width as f32;
         if uu >= 1.0 {
             uu -= 1.0;
@@ -202,9 +219,14 @@ impl EnvMap {
         if st <= 1e-7 {
             return None;
         }
+        // The density from the same lookup `eval_pdf` makes, so the two always agree.
+        let (texel, pdf_ab) = self.lookup_density(uu, ab.y);
+        if !(pdf_ab > 0.0) {
+            return None;
+        }
         let local = Vec3::new(st * sp, ct, -st * cp);
         let pdf = pdf_ab / (2.0 * PI * PI * st);
-        Some((self.to_world * local, self.lookup(uu, ab.y), pdf))
+        Some((self.to_world * local, texel * self.scale, pdf))
     }
 }
 
