@@ -81,6 +81,29 @@ fn samples_agree_with_eval_and_pdf() {
     }
 }
 
+/// Pixels an in-memory image may hold but a file may not (negative, NaN, infinite) read as
+/// zero: radiance and density stay finite and agree between `sample` and `eval_pdf`.
+#[test]
+fn bad_pixels_read_as_zero() {
+    let mut img = synthetic(32, 16);
+    img.pixels[5] = Rgb::new(-3.0, 1.0, 2.0);
+    img.pixels[40] = Rgb::new(f32::NAN, 1.0, 1.0);
+    img.pixels[41] = Rgb::new(f32::INFINITY, 0.5, 0.5);
+    let e = EnvMap::new(&img, 1.0, Mat3::IDENTITY);
+    for i in 0..4000 {
+        let u = Vec2::new(((i as f32) * 0.618034).fract(), (i as f32 + 0.5) / 4000.0);
+        let Some((d, li, pdf)) = e.sample(u) else {
+            continue;
+        };
+        assert!(li.is_finite() && li.min_component() >= 0.0 && pdf.is_finite() && pdf > 0.0);
+        let (l2, p2) = e.eval_pdf(d);
+        assert!(
+            l2.is_finite() && (pdf - p2).abs() <= 2e-3 * pdf,
+            "pdf {pdf} vs {p2}"
+        );
+    }
+}
+
 /// Counts of sampled directions over an equal-area (cos theta, phi) grid.
 fn histogram(e: &EnvMap, samples: impl Iterator<Item = Vec2>, nz: usize, np: usize) -> Vec<f64> {
     let mut observed = vec![0.0f64; nz * np];

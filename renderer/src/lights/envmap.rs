@@ -59,15 +59,20 @@ pub static DISTRIBUTIONS_BUILT: std::sync::atomic::AtomicUsize =
     std::sync::atomic::AtomicUsize::new(0);
 
 impl EnvMap {
-    /// From linear RGB pixels; `to_world` must be a rotation (an orthonormal matrix).
+    /// From linear RGB pixels (negative and non-finite components read as zero);
+    /// `to_world` must be a rotation (an orthonormal matrix).
     pub fn new(img: &RgbImage, scale: f32, to_world: Mat3) -> Self {
         DISTRIBUTIONS_BUILT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let (w, h) = (img.width, img.height);
         assert!(w >= 2 && h >= 3 && img.pixels.len() == w * h);
         let mut data = Vec::with_capacity((w + 1) * h);
+        // Negative and non-finite components are zero (as `load_rgb_image` makes them), so
+        // luminance is non-negative and linear over the bilinear lookup, which the density
+        // relies on.
+        let clean = |c: &Rgb| c.map(|x| if x.is_finite() { x.max(0.0) } else { 0.0 });
         for row in img.pixels.chunks(w) {
-            data.extend_from_slice(row);
-            data.push(row[0]);
+            data.extend(row.iter().map(clean));
+            data.push(clean(&row[0]));
         }
         let sin_row: Vec<f32> = (0..h)
             .map(|j| (j as f32 / (h - 1) as f32 * PI).sin().max(0.0))
