@@ -250,4 +250,40 @@ mod tests {
         }
         assert!((acc / n as f64 - 0.5).abs() < 0.01);
     }
+
+    /// Every dimension pair of a pixel's samples is a (0, m, 2)-net in base 2: for
+    /// spp = 2^m, each of the m + 1 grids of 2^a x 2^(m - a) elementary intervals holds
+    /// exactly one point per cell (the 4x4 test above checks one grid only).
+    #[test]
+    fn every_dimension_pair_is_a_net() {
+        for spp in [16u32, 64, 256] {
+            let m = spp.trailing_zeros();
+            for pair in 0..4 {
+                for px in 0..8u32 {
+                    let mut s = Sampler::new(3, spp);
+                    let pts: Vec<Vec2> = (0..spp)
+                        .map(|i| {
+                            s.start(px, 1, i);
+                            (0..pair).for_each(|_| {
+                                s.next_2d();
+                            });
+                            s.next_2d()
+                        })
+                        .collect();
+                    for a in 0..=m {
+                        let (nx, ny) = (1u32 << a, 1u32 << (m - a));
+                        let mut cells = vec![0u32; (nx * ny) as usize];
+                        for p in &pts {
+                            let (cx, cy) = ((p.x * nx as f32) as u32, (p.y * ny as f32) as u32);
+                            cells[(cy * nx + cx) as usize] += 1;
+                        }
+                        assert!(
+                            cells.iter().all(|&c| c == 1),
+                            "spp {spp}, pair {pair}, pixel {px}: not stratified on {nx}x{ny}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 }
