@@ -17,32 +17,18 @@ pub struct Distribution1D {
 impl Distribution1D {
     /// From non-negative cell values. An all-zero (or empty) function becomes uniform.
     pub fn new(values: &[f32]) -> Self {
-        let n = values.len().max(1);
-        let mut func: Vec<f32> = values
-            .iter()
-            .map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 })
-            .collect();
+        let clean = |v: f32| if v.is_finite() { v.max(0.0) } else { 0.0 };
+        let mut func: Vec<f32> = values.iter().map(|&v| clean(v)).collect();
         if func.is_empty() {
             func.push(0.0);
         }
-        let mut cdf = vec![0.0f32; n + 1];
-        let mut acc = 0.0f64;
-        for i in 0..n {
-            acc += func[i] as f64 / n as f64;
-            cdf[i + 1] = acc as f32;
-        }
-        let integral = acc as f32;
-        if integral > 0.0 {
-            for c in &mut cdf[1..] {
-                *c /= integral;
-            }
-        } else {
-            for (i, c) in cdf.iter_mut().enumerate() {
-                *c = i as f32 / n as f32;
-            }
+        let n = func.len();
+        let mut cdf = Vec::with_capacity(n + 1);
+        let sum = cdf_into(func.iter().map(|&v| v as f64), &mut cdf);
+        let integral = (sum / n as f64) as f32;
+        if !(integral > 0.0) {
             func.iter_mut().for_each(|f| *f = 1.0);
         }
-        cdf[n] = 1.0;
         Self {
             func,
             cdf,
@@ -67,15 +53,8 @@ impl Distribution1D {
     #[inline]
     pub fn sample(&self, u: f32) -> (f32, f32, usize) {
         let n = self.func.len();
-        // Last cell whose CDF start is <= u, skipping empty cells.
-        let i = (self.cdf.partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1);
-        let width = self.cdf[i + 1] - self.cdf[i];
-        let du = if width > 0.0 {
-            (u - self.cdf[i]) / width
-        } else {
-            0.5
-        };
-        let x = ((i as f32 + du.clamp(0.0, 1.0)) / n as f32).min(1.0 - f32::EPSILON / 2.0);
+        let (i, du) = invert(&self.cdf, u);
+        let x = ((i as f32 + du) / n as f32).min(1.0 - f32::EPSILON / 2.0);
         (x, self.func[i] / self.integral, i)
     }
 
@@ -91,15 +70,8 @@ impl Distribution1D {
     /// `u` rescaled to [0, 1) within the cell, for reuse).
     #[inline]
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
-        let n = self.func.len();
-        let i = (self.cdf.partition_point(|&c| c <= u).saturating_sub(1)).min(n - 1);
-        let p = self.cdf[i + 1] - self.cdf[i];
-        let ur = if p > 0.0 {
-            ((u - self.cdf[i]) / p).clamp(0.0, 1.0 - f32::EPSILON)
-        } else {
-            0.5
-        };
-        (i, p, ur)
+        let (i, ur) = invert(&self.cdf, u);
+        (i, self.cell_probability(i), ur)
     }
 
     /// Probability of cell i.

@@ -462,31 +462,40 @@ fn fit_writes_a_report_that_loads_as_a_material() {
     );
 }
 
+/// Writes isotropic binned data of `material` (no acquisition noise, every bin filled):
+/// `n_theta` bins of theta_i and theta_o over 0-80 degrees, `n_phi` of phi_d over 0-180.
+fn write_binned(material: serde_json::Value, (n_theta, n_phi): (usize, usize), path: &Path) {
+    use lobe_materials::measured::binned::{Axis, Binned};
+    let mat = lobe_materials::registry::Registry::builtin()
+        .create(&material, "m")
+        .unwrap();
+    let mut b = Binned::empty(
+        false,
+        vec![
+            Axis::new(n_theta, 0.0, 80.0),
+            Axis::new(n_theta, 0.0, 80.0),
+            Axis::new(n_phi, 0.0, 180.0),
+        ],
+    );
+    for i in 0..b.len() {
+        let (wi, wo) = b.directions(i);
+        b.values[i] = Some(mat.eval(wo, wi).to_array());
+    }
+    b.write(path).unwrap();
+}
+
 #[test]
 fn batch_fits_are_sharded_resumable_and_merge_into_tables() {
-    use lobe_materials::measured::binned::{Axis, Binned};
-    use lobe_materials::registry::Registry;
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
     std::fs::create_dir(&data).unwrap();
     // Three coarse binned tables of Cook-Torrance materials.
     for (k, m) in [0.1, 0.2, 0.3].iter().enumerate() {
-        let mat = Registry::builtin()
-            .create(&serde_json::json!({"type": "cook-torrance", "diffuse": 0.1, "specular": 0.5, "m": m}), "m")
-            .unwrap();
-        let mut b = Binned::empty(
-            false,
-            vec![
-                Axis::new(16, 0.0, 80.0),
-                Axis::new(16, 0.0, 80.0),
-                Axis::new(36, 0.0, 180.0),
-            ],
+        write_binned(
+            serde_json::json!({"type": "cook-torrance", "diffuse": 0.1, "specular": 0.5, "m": m}),
+            (16, 36),
+            &data.join(format!("ct{k}.bin")),
         );
-        for i in 0..b.len() {
-            let (wi, wo) = b.directions(i);
-            b.values[i] = Some(mat.eval(wo, wi).to_array());
-        }
-        b.write(&data.join(format!("ct{k}.bin"))).unwrap();
     }
     std::fs::write(data.join("notes.txt"), "ignored").unwrap();
     let out = dir.path().join("reports");
@@ -998,26 +1007,14 @@ fn ctrl_c_stops_a_render_without_output_and_a_batch_fit_without_losing_reports()
     assert!(err.contains("interrupted"), "{err}");
     assert!(listing(&out).is_empty(), "{:?}", listing(&out));
     // A batch fit: interrupt after the first report, then resume.
-    use lobe_materials::measured::binned::{Axis, Binned};
     let data = dir.path().join("data");
     std::fs::create_dir(&data).unwrap();
     for k in 0..6 {
-        let mat = lobe_materials::registry::Registry::builtin()
-            .create(&serde_json::json!({"type": "ward", "diffuse": 0.1, "specular": 0.4, "alpha": 0.1 + 0.05 * k as f64}), "m")
-            .unwrap();
-        let mut b = Binned::empty(
-            false,
-            vec![
-                Axis::new(20, 0.0, 80.0),
-                Axis::new(20, 0.0, 80.0),
-                Axis::new(45, 0.0, 180.0),
-            ],
+        write_binned(
+            serde_json::json!({"type": "ward", "diffuse": 0.1, "specular": 0.4, "alpha": 0.1 + 0.05 * k as f64}),
+            (20, 45),
+            &data.join(format!("m{k}.bin")),
         );
-        for i in 0..b.len() {
-            let (wi, wo) = b.directions(i);
-            b.values[i] = Some(mat.eval(wo, wi).to_array());
-        }
-        b.write(&data.join(format!("m{k}.bin"))).unwrap();
     }
     let reports = dir.path().join("reports");
     let args = [

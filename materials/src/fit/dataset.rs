@@ -120,12 +120,10 @@ impl Dataset {
     /// the RGB channels (midpoint rule, 1 x 2 degree cells).
     pub fn albedo_of(f: &(dyn Fn(Vec3, Vec3) -> Option<Rgb> + Sync)) -> f64 {
         use rayon::prelude::*;
-        (0..=80)
-            .step_by(10)
-            .collect::<Vec<i32>>()
+        (0..=8)
             .into_par_iter()
-            .map(|ti| {
-                let wi = dir(ti as f64, 0.0);
+            .map(|k| {
+                let wi = dir(10.0 * k as f64, 0.0);
                 let mut acc = [0.0f64; 3];
                 for a in 0..90 {
                     let to = a as f64 + 0.5;

@@ -545,18 +545,12 @@ pub fn fit(
     }) {
         candidates.push(other.1.clone());
     }
-    // When the coarse stand-in is not all the data, the candidates are ranked on a finer
-    // stand-in (REFINE_SAMPLES bins, or all of them for smaller data) and the better one
-    // is refined there; the winner is then judged on all the bins.
+    // When the coarse stand-in was all the data, the best coarse optimum is the answer.
+    // Otherwise the candidates are ranked on a finer stand-in (REFINE_SAMPLES bins, or all
+    // of them for smaller data) and the better one is refined there; the winner is then
+    // judged on all the bins.
     let best = if coarse_data.samples.len() == data.samples.len() {
-        let ranked: Vec<(f64, &Vec<f64>)> = candidates.iter().map(|x| (pr.error(x).0, x)).collect();
-        evaluations += ranked.len();
-        ranked
-            .into_iter()
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .expect("at least one start")
-            .1
-            .clone()
+        candidates.swap_remove(0)
     } else {
         let fine_data = data.coarse(REFINE_SAMPLES);
         let fine = Problem {
