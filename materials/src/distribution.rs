@@ -11,6 +11,8 @@ use glam::Vec2;
 pub struct Distribution1D {
     func: Vec<f32>,
     cdf: Vec<f32>,
+    /// Block summary of `cdf` for [`invert`] (see [`coarse_into`]).
+    coarse: Vec<f32>,
     integral: f32,
 }
 
@@ -29,9 +31,12 @@ impl Distribution1D {
         if !(integral > 0.0) {
             func.iter_mut().for_each(|f| *f = 1.0);
         }
+        let mut coarse = Vec::new();
+        coarse_into(&cdf, &mut coarse);
         Self {
             func,
             cdf,
+            coarse,
             integral: if integral > 0.0 { integral } else { 1.0 },
         }
     }
@@ -53,7 +58,7 @@ impl Distribution1D {
     #[inline]
     pub fn sample(&self, u: f32) -> (f32, f32, usize) {
         let n = self.func.len();
-        let (i, du) = invert(&self.cdf, u);
+        let (i, du) = invert(&self.cdf, &self.coarse, u);
         let x = ((i as f32 + du) / n as f32).min(1.0 - f32::EPSILON / 2.0);
         (x, self.func[i] / self.integral, i)
     }
@@ -70,7 +75,7 @@ impl Distribution1D {
     /// `u` rescaled to [0, 1) within the cell, for reuse).
     #[inline]
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
-        let (i, ur) = invert(&self.cdf, u);
+        let (i, ur) = invert(&self.cdf, &self.coarse, u);
         (i, self.cell_probability(i), ur)
     }
 
@@ -96,6 +101,11 @@ pub struct Cdf2D {
     marginal: Vec<f32>,
     /// nv rows of nu + 1 entries, each 0 to 1 (uniform for an all-zero row).
     conditional: Vec<f32>,
+    /// Block summaries ([`coarse_into`]) of `marginal` and of each row of `conditional`
+    /// (`coarse_stride` entries per row).
+    coarse_marginal: Vec<f32>,
+    coarse_conditional: Vec<f32>,
+    coarse_stride: usize,
 }
 
 /// Normalized running sums of `values` (cleaned: negative and non-finite count as zero)
@@ -122,15 +132,38 @@ fn cdf_into(values: impl ExactSizeIterator<Item = f64>, out: &mut Vec<f32>) -> f
     acc
 }
 
-/// Index of the cell of `cdf` (n + 1 entries) holding `u`, skipping empty cells, and `u`
-/// rescaled within it to [0, 1).
+/// Entries of a CDF per block of the two-level search in [`invert`].
+const BLOCK: usize = 16;
+
+/// Appends the block summary of `cdf` to `out`: the last entry of each block of
+/// [`BLOCK`] entries (the final block may be short).
+fn coarse_into(cdf: &[f32], out: &mut Vec<f32>) {
+    out.extend(cdf.chunks(BLOCK).map(|b| b[b.len() - 1]));
+}
+
+/// How many entries of `s` are <= u: compares with no branch and no dependent load, which
+/// the compiler vectorizes.
 #[inline]
-fn invert(cdf: &[f32], u: f32) -> (usize, f32) {
+fn count_le(s: &[f32], u: f32) -> usize {
+    s.iter().map(|&c| (c <= u) as u32).sum::<u32>() as usize
+}
+
+/// Index of the cell of `cdf` (n + 1 entries, non-decreasing) holding `u`, skipping empty
+/// cells, and `u` rescaled within it to [0, 1). `coarse` is the block summary of `cdf`
+/// ([`coarse_into`]): the number of entries <= u is found by counting the blocks that
+/// end at or below `u` and then the entries of the next block, two short vector scans
+/// instead of a binary search's chain of dependent loads (a 512-entry row takes two steps
+/// instead of nine), with the same result.
+#[inline]
+fn invert(cdf: &[f32], coarse: &[f32], u: f32) -> (usize, f32) {
     let n = cdf.len() - 1;
-    let i = cdf
-        .partition_point(|&c| c <= u)
-        .saturating_sub(1)
-        .min(n - 1);
+    let start = count_le(coarse, u) * BLOCK;
+    let below = if start < cdf.len() {
+        start + count_le(&cdf[start..(start + BLOCK).min(cdf.len())], u)
+    } else {
+        cdf.len()
+    };
+    let i = below.saturating_sub(1).min(n - 1);
     let width = cdf[i + 1] - cdf[i];
     let r = if width > 0.0 {
         ((u - cdf[i]) / width).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
@@ -142,7 +175,11 @@ fn invert(cdf: &[f32], u: f32) -> (usize, f32) {
 
 impl Cdf2D {
     pub fn memory_bytes(&self) -> usize {
-        (self.marginal.len() + self.conditional.len()) * 4
+        (self.marginal.len()
+            + self.conditional.len()
+            + self.coarse_marginal.len()
+            + self.coarse_conditional.len())
+            * 4
     }
 
     /// From non-negative cell values (an all-zero grid is uniform). Returns the table and
@@ -158,11 +195,21 @@ impl Cdf2D {
         let mut marginal = Vec::with_capacity(nv + 1);
         let total = cdf_into(row_sums.into_iter(), &mut marginal);
         let mean = total / (nu * nv) as f64;
+        let mut coarse_marginal = Vec::new();
+        coarse_into(&marginal, &mut coarse_marginal);
+        let coarse_stride = (nu + 1).div_ceil(BLOCK);
+        let mut coarse_conditional = Vec::with_capacity(nv * coarse_stride);
+        for row in conditional.chunks(nu + 1) {
+            coarse_into(row, &mut coarse_conditional);
+        }
         let t = Self {
             nu,
             nv,
             marginal,
             conditional,
+            coarse_marginal,
+            coarse_conditional,
+            coarse_stride,
         };
         (t, if mean > 0.0 { mean } else { 1.0 })
     }
@@ -170,9 +217,14 @@ impl Cdf2D {
     /// (column, row, position within the cell in [0, 1)^2).
     #[inline]
     pub fn sample(&self, u: Vec2) -> (usize, usize, Vec2) {
-        let (row, ry) = invert(&self.marginal, u.y);
+        let (row, ry) = invert(&self.marginal, &self.coarse_marginal, u.y);
         let k = row * (self.nu + 1);
-        let (col, rx) = invert(&self.conditional[k..k + self.nu + 1], u.x);
+        let c = row * self.coarse_stride;
+        let (col, rx) = invert(
+            &self.conditional[k..k + self.nu + 1],
+            &self.coarse_conditional[c..c + self.coarse_stride],
+            u.x,
+        );
         (col, row, Vec2::new(rx, ry))
     }
 }
@@ -233,6 +285,48 @@ impl Distribution2D {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The two-level search finds the same cell as a binary search, for lengths around
+    /// the block size, empty runs, u at entries exactly, 0, 1 and NaN.
+    #[test]
+    fn two_level_search_equals_binary_search() {
+        let mut h = 0x9e37_79b9_u32;
+        let mut next = || {
+            h ^= h << 13;
+            h ^= h >> 17;
+            h ^= h << 5;
+            h
+        };
+        for n in [1usize, 2, 15, 16, 17, 31, 32, 33, 64, 100, 511, 512, 513] {
+            for _ in 0..8 {
+                let vals: Vec<f64> = (0..n)
+                    .map(|_| {
+                        if next() % 4 == 0 {
+                            0.0
+                        } else {
+                            (next() % 1000) as f64
+                        }
+                    })
+                    .collect();
+                let mut cdf = Vec::new();
+                cdf_into(vals.into_iter(), &mut cdf);
+                let mut coarse = Vec::new();
+                coarse_into(&cdf, &mut coarse);
+                let mut us: Vec<f32> = cdf.clone();
+                us.extend((0..200).map(|_| (next() >> 8) as f32 / 16_777_216.0));
+                us.extend([0.0, 1.0, 1.0 - f32::EPSILON / 2.0, f32::NAN, -0.5, 2.0]);
+                for u in us {
+                    let i = cdf
+                        .partition_point(|&c| c <= u)
+                        .saturating_sub(1)
+                        .min(n - 1);
+                    let (j, r) = invert(&cdf, &coarse, u);
+                    assert_eq!(i, j, "n {n}, u {u}");
+                    assert!(u.is_nan() || (0.0..1.0).contains(&r), "n {n}, u {u}: r {r}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn one_d_inverts_its_cdf() {

@@ -24,6 +24,7 @@ pub mod bsdf;
 pub mod composite;
 pub mod distribution;
 pub mod error;
+pub mod fastmath;
 pub mod fit;
 pub mod frame;
 pub mod io;

@@ -18,7 +18,7 @@ pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
     } else {
         (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
     };
-    let (s, c) = theta.sin_cos();
+    let (s, c) = crate::fastmath::sin_cos(theta);
     Vec2::new(r * c, r * s)
 }
 
@@ -40,7 +40,7 @@ pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
 pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.y;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (TAU * u.x).sin_cos();
+    let (s, c) = crate::fastmath::sin_cos(TAU * u.x);
     Vec3::new(r * c, r * s, z)
 }
 
@@ -51,7 +51,7 @@ pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
 pub fn square_to_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
     let cos_t = (1.0 - u.y) + u.y * cos_max;
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let (s, c) = (TAU * u.x).sin_cos();
+    let (s, c) = crate::fastmath::sin_cos(TAU * u.x);
     Vec3::new(sin_t * c, sin_t * s, cos_t)
 }
 

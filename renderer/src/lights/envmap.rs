@@ -23,6 +23,7 @@ use crate::Rgb;
 use crate::error::{Error, Result};
 use glam::{Mat3, Vec2, Vec3};
 use lobe_materials::distribution::Cdf2D;
+use lobe_materials::fastmath;
 use lobe_materials::sampling::square_to_bilinear;
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
@@ -160,11 +161,11 @@ impl EnvMap {
     /// Local direction -> Mitsuba texture coordinates.
     #[inline]
     fn uv_of(d: Vec3) -> Vec2 {
-        let mut u = d.x.atan2(-d.z) * (1.0 / TAU);
+        let mut u = fastmath::atan2(d.x, -d.z) * (1.0 / TAU);
         if u < 0.0 {
             u += 1.0;
         }
-        Vec2::new(u, d.y.clamp(-1.0, 1.0).acos() * (1.0 / PI))
+        Vec2::new(u, fastmath::acos(d.y.clamp(-1.0, 1.0)) * (1.0 / PI))
     }
 
     /// Radiance arriving from world direction `d` (unit; pointing away from the scene).
@@ -219,8 +220,8 @@ impl EnvMap {
         }
         let theta = ab.y * PI;
         let phi = uu * TAU;
-        let (st, ct) = theta.sin_cos();
-        let (sp, cp) = phi.sin_cos();
+        let (st, ct) = fastmath::sin_cos(theta);
+        let (sp, cp) = fastmath::sin_cos(phi);
         if st <= 1e-7 {
             return None;
         }

@@ -1,0 +1,190 @@
+//! Branch-free f32 `sin_cos`, `atan2` and `acos` for the renderer's hot paths (env-map
+//! lookups and sampling, direction warps), a few times faster than the C library's.
+//!
+//! Each is a Cody-Waite range reduction followed by the minimax polynomials of Cephes'
+//! single-precision `sinf`/`cosf`, `atanf` and `asinf` (S. L. Moshier, "Methods and
+//! Programs for Mathematical Functions", 1989; the same approximations Dr.Jit, and so
+//! Mitsuba 3, uses). Written with selects instead of branches so that the compiler can
+//! schedule several calls at once and vectorize loops of them. Accuracy, checked against
+//! f64 over dense grids by the tests below: absolute error under 2.5e-7 for `sin_cos`
+//! (|x| <= 1e4; larger arguments fall back to the C library), under 4e-7 for `acos`
+//! (below 2 ulp of its result near pi), relative error under 4e-7 for `atan2`. NaN
+//! inputs give NaN.
+
+use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+
+/// Beyond this |x| the three-part reduction of `sin_cos` loses accuracy.
+const SIN_COS_REDUCTION_LIMIT: f32 = 1.0e4;
+
+/// (sin x, cos x).
+#[inline]
+pub fn sin_cos(x: f32) -> (f32, f32) {
+    if !(x.abs() <= SIN_COS_REDUCTION_LIMIT) {
+        // Huge (or NaN) arguments: the C library's exact reduction.
+        return x.sin_cos();
+    }
+    // x = k pi/2 + r, |r| <= pi/4, with pi/2 split in three parts (Cephes' DP1..DP3
+    // doubled) so that k * part is exact.
+    let k = (x * std::f32::consts::FRAC_2_PI).round_ties_even();
+    let r = ((x - k * 1.570_312_5) - k * 4.837_512_969_970_703e-4) - k * 7.549_789_948_768_648e-8;
+    let z = r * r;
+    let s = r + r * z * ((-1.951_529_589_1e-4 * z + 8.332_160_873_6e-3) * z - 1.666_665_461_1e-1);
+    let c = 1.0 - 0.5 * z
+        + z * z
+            * ((2.443_315_711_809_948e-5 * z - 1.388_731_625_493_765e-3) * z
+                + 4.166_664_568_298_827e-2);
+    let q = (k as i32) & 3;
+    let (s1, c1) = if q & 1 == 0 { (s, c) } else { (c, s) };
+    let sin = if q & 2 == 0 { s1 } else { -s1 };
+    let cos = if (q + 1) & 2 == 0 { c1 } else { -c1 };
+    (sin, cos)
+}
+
+/// atan(t) for t in [0, 1].
+#[inline]
+fn atan_unit(t: f32) -> f32 {
+    // Above tan(pi/8), atan t = pi/4 + atan((t - 1) / (t + 1)).
+    let big = t > 0.414_213_57;
+    let x = if big { (t - 1.0) / (t + 1.0) } else { t };
+    let z = x * x;
+    let p = (((8.053_744_495_38e-2 * z - 1.387_768_560_32e-1) * z + 1.997_771_064_78e-1) * z
+        - 3.333_294_915_39e-1)
+        * z
+        * x
+        + x;
+    if big { p + FRAC_PI_4 } else { p }
+}
+
+/// atan2(y, x) in [-pi, pi], with the C library's signs and special cases for finite
+/// inputs (atan2(±0, +0) = ±0, atan2(±0, -0) = ±pi).
+#[inline]
+pub fn atan2(y: f32, x: f32) -> f32 {
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = (ax.min(ay), ax.max(ay));
+    let t = if hi > 0.0 { lo / hi } else { 0.0 };
+    let mut a = atan_unit(t);
+    if ay > ax {
+        a = FRAC_PI_2 - a;
+    }
+    if x.is_sign_negative() {
+        a = PI - a;
+    }
+    let a = a.copysign(y);
+    if x.is_nan() || y.is_nan() {
+        f32::NAN
+    } else {
+        a
+    }
+}
+
+/// asin(x) for x in [0, 1].
+#[inline]
+fn asin_unit(x: f32) -> f32 {
+    let big = x > 0.5;
+    let z = if big { 0.5 * (1.0 - x) } else { x * x };
+    let s = if big { z.sqrt() } else { x };
+    let p = ((((4.216_319_904_8e-2 * z + 2.418_131_104_9e-2) * z + 4.547_002_599_8e-2) * z
+        + 7.495_300_268_6e-2)
+        * z
+        + 1.666_675_242_2e-1)
+        * z
+        * s
+        + s;
+    if big { FRAC_PI_2 - 2.0 * p } else { p }
+}
+
+/// acos(x) for x in [-1, 1] (NaN outside, as the C library).
+#[inline]
+pub fn acos(x: f32) -> f32 {
+    let a = FRAC_PI_2 - asin_unit(x.abs());
+    let r = if x < 0.0 { PI - a } else { a };
+    if x.abs() <= 1.0 { r } else { f32::NAN }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sin_cos_matches_f64() {
+        let mut worst = 0.0f64;
+        let n = 400_000;
+        for i in 0..=n {
+            let x = -1.0e4 + 2.0e4 * i as f64 / n as f64;
+            let xf = x as f32;
+            let (s, c) = sin_cos(xf);
+            let (se, ce) = (xf as f64).sin_cos();
+            worst = worst.max((s as f64 - se).abs()).max((c as f64 - ce).abs());
+        }
+        for i in 0..=n {
+            let xf = -7.0 + 14.0 * i as f32 / n as f32;
+            let (s, c) = sin_cos(xf);
+            let (se, ce) = (xf as f64).sin_cos();
+            worst = worst.max((s as f64 - se).abs()).max((c as f64 - ce).abs());
+        }
+        assert!(worst < 2.5e-7, "sin_cos error {worst:e}");
+        // Exact at 0; fallback for huge and NaN inputs.
+        assert_eq!(sin_cos(0.0), (0.0, 1.0));
+        let (s, c) = sin_cos(3.0e6);
+        assert!((s - 3.0e6f32.sin()).abs() < 1e-6 && (c - 3.0e6f32.cos()).abs() < 1e-6);
+        assert!(sin_cos(f32::NAN).0.is_nan() && sin_cos(f32::INFINITY).1.is_nan());
+    }
+
+    #[test]
+    fn atan2_matches_f64() {
+        let mut worst = 0.0f64;
+        let n = 1000;
+        for i in 0..=n {
+            for j in 0..=n {
+                let a = std::f64::consts::TAU * i as f64 / n as f64;
+                let r = 1e-3 + 10.0 * j as f64 / n as f64;
+                let (y, x) = ((r * a.sin()) as f32, (r * a.cos()) as f32);
+                let e = (y as f64).atan2(x as f64);
+                let g = atan2(y, x) as f64;
+                worst = worst.max((g - e).abs() / e.abs().max(1e-30));
+            }
+        }
+        assert!(worst < 4e-7, "atan2 relative error {worst:e}");
+        for (y, x) in [
+            (0.0f32, 0.0f32),
+            (-0.0, 0.0),
+            (0.0, -0.0),
+            (-0.0, -0.0),
+            (1.0, 0.0),
+            (-1.0, 0.0),
+            (0.0, -1.0),
+            (-0.0, -1.0),
+            (1e-30, 1e30),
+            (1e30, -1e-30),
+        ] {
+            let (g, e) = (atan2(y, x), y.atan2(x));
+            assert!(
+                (g - e).abs() <= 1e-7 * e.abs().max(1e-30)
+                    && g.is_sign_negative() == e.is_sign_negative(),
+                "atan2({y}, {x}) = {g}, expected {e}"
+            );
+        }
+        assert!(atan2(f32::NAN, 1.0).is_nan() && atan2(1.0, f32::NAN).is_nan());
+    }
+
+    #[test]
+    fn acos_matches_f64() {
+        let mut worst = 0.0f64;
+        let n = 2_000_000;
+        for i in 0..=n {
+            let x = (-1.0 + 2.0 * i as f64 / n as f64) as f32;
+            worst = worst.max((acos(x) as f64 - (x as f64).acos()).abs());
+        }
+        // Next to +-1, where acos is steepest.
+        let mut x = 1.0f32;
+        for _ in 0..4096 {
+            x = f32::from_bits(x.to_bits() - 1);
+            worst = worst.max((acos(x) as f64 - (x as f64).acos()).abs());
+            worst = worst.max((acos(-x) as f64 - (-x as f64).acos()).abs());
+        }
+        assert!(worst < 4e-7, "acos error {worst:e}");
+        assert_eq!(acos(1.0), 0.0);
+        assert!((acos(-1.0) - PI).abs() <= f32::EPSILON * PI);
+        assert!(acos(1.0 + 1e-6).is_nan() && acos(f32::NAN).is_nan());
+    }
+}
