@@ -11,6 +11,9 @@
 //! (below 2 ulp of its result near pi), relative error under 4e-7 for `atan2`. NaN
 //! inputs give NaN.
 
+// The coefficients are Cephes' published decimal values, kept as printed.
+#![allow(clippy::excessive_precision)]
+
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 /// Beyond this |x| the three-part reduction of `sin_cos` loses accuracy.
