@@ -26,6 +26,13 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
         // Huge (or NaN) arguments: the C library's exact reduction.
         return x.sin_cos();
     }
+    sin_cos_moderate(x)
+}
+
+/// (sin x, cos x) for |x| <= 1e4 (inaccurate beyond), without the branch to the C
+/// library, so that loops of it vectorize.
+#[inline]
+pub fn sin_cos_moderate(x: f32) -> (f32, f32) {
     // x = k pi/2 + r, |r| <= pi/4, with pi/2 split in three parts (Cephes' DP1..DP3
     // doubled) so that k * part is exact.
     let k = (x * std::f32::consts::FRAC_2_PI).round_ties_even();

@@ -16,6 +16,8 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 const TILE: u32 = 16;
+/// Samples of one pixel traced together by the wavefront integrator.
+const BATCH: u32 = 64;
 
 /// How to run a render.
 #[derive(Clone, Debug, Default)]
@@ -97,6 +99,12 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
     let mut var = Vec::with_capacity((w * h) as usize);
     let mut dropped = 0u64;
     let inv = Vec2::new(1.0 / scene.width as f32, 1.0 / scene.height as f32);
+    // The samples of a pixel go through the integrator together, BATCH at a time.
+    let batch = spp.min(BATCH) as usize;
+    let mut rays = Vec::with_capacity(batch);
+    let mut samplers = Vec::with_capacity(batch);
+    let mut radiance = vec![Rgb::ZERO; batch];
+    let mut ws = crate::integrators::path::Workspace::default();
     for y in y0..y0 + h {
         for x in x0..x0 + w {
             if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
@@ -105,21 +113,32 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
             let mut sum = [0.0f64; 3];
             let mut sum2 = [0.0f64; 3];
             let mut n = 0u32;
-            for s in 0..spp {
-                sampler.start(x, y, s);
-                let jitter = sampler.next_2d();
-                let film = (Vec2::new(x as f32, y as f32) + jitter) * inv;
-                let ray = scene.camera.ray(film);
-                let l = scene.integrator.li(scene, ray, &mut sampler);
-                if !l.is_finite() {
-                    dropped += 1;
-                    continue;
+            for first in (0..spp).step_by(batch) {
+                let count = (spp - first).min(batch as u32);
+                rays.clear();
+                samplers.clear();
+                for s in first..first + count {
+                    sampler.start(x, y, s);
+                    let jitter = sampler.next_2d();
+                    let film = (Vec2::new(x as f32, y as f32) + jitter) * inv;
+                    rays.push(scene.camera.ray(film));
+                    samplers.push(sampler.clone());
                 }
-                n += 1;
-                for (k, c) in l.to_array().into_iter().enumerate() {
-                    let c = c as f64;
-                    sum[k] += c;
-                    sum2[k] += c * c;
+                let out = &mut radiance[..count as usize];
+                scene
+                    .integrator
+                    .li_many(scene, &rays, &mut samplers, out, &mut ws);
+                for &l in out.iter() {
+                    if !l.is_finite() {
+                        dropped += 1;
+                        continue;
+                    }
+                    n += 1;
+                    for (k, c) in l.to_array().into_iter().enumerate() {
+                        let c = c as f64;
+                        sum[k] += c;
+                        sum2[k] += c * c;
+                    }
                 }
             }
             let nf = n.max(1) as f64;

@@ -48,6 +48,30 @@ impl Integrator {
         }
     }
 
+    /// Radiance along many camera rays, `out[i]` for `rays[i]` and `samplers[i]`: the same
+    /// values as [`Integrator::li`] of each, computed together (the path integrator's
+    /// wavefront form, [`path::li_many`]).
+    pub fn li_many(
+        &self,
+        scene: &Scene,
+        rays: &[Ray],
+        samplers: &mut [Sampler],
+        out: &mut [Rgb],
+        ws: &mut path::Workspace,
+    ) {
+        match *self {
+            Integrator::Path {
+                max_depth,
+                rr_depth,
+            } => path::li_many(scene, rays, samplers, max_depth, rr_depth, out, ws),
+            Integrator::Direct { .. } => {
+                for ((o, &ray), s) in out.iter_mut().zip(rays).zip(samplers) {
+                    *o = self.li(scene, ray, s);
+                }
+            }
+        }
+    }
+
     pub fn describe(&self) -> String {
         match self {
             Integrator::Path {

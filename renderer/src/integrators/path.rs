@@ -5,10 +5,11 @@
 
 use super::{Shading, sample_one_light, unoccluded};
 use crate::Rgb;
-use crate::geometry::{Ray, spawn_ray};
+use crate::geometry::{Interaction, Ray, spawn_ray};
+use crate::lights::{Light, LightSample};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use lobe_materials::sampling::power_heuristic;
 
 /// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
@@ -107,4 +108,247 @@ pub fn li(
         }
     }
     l
+}
+
+/// One path of [`li_many`] between bounces.
+#[derive(Clone, Copy)]
+struct PathState {
+    ray: Ray,
+    beta: Rgb,
+    l: Rgb,
+    prev_pdf: f32,
+    prev_p: Vec3,
+    depth: u32,
+}
+
+/// Buffers of [`li_many`], kept between calls so that a tile allocates them once.
+#[derive(Default)]
+pub struct Workspace {
+    paths: Vec<PathState>,
+    active: Vec<u32>,
+    next: Vec<u32>,
+    its: Vec<Option<Interaction>>,
+    /// Escaped paths and their directions, and the env-map values there.
+    escaped: Vec<u32>,
+    dirs: Vec<Vec3>,
+    env_eval: Vec<(Rgb, f32)>,
+    /// Paths that go on to next-event estimation, and their light samples.
+    hits: Vec<u32>,
+    light_samples: Vec<Option<(LightSample, f32)>>,
+    /// Light-sample requests to an env map: (path, light index), point.
+    env_lanes: Vec<(u32, u32)>,
+    env_u: Vec<Vec2>,
+    env_out: Vec<Option<(Vec3, Rgb, f32)>>,
+}
+
+/// [`li`] of many camera rays at once, `out[i]` for `rays[i]` with `samplers[i]`, bit for
+/// bit the same: a wavefront formulation (Laine, Karras and Aila, "Megakernels Considered
+/// Harmful", 2013; pbrt-v4's `WavefrontPathIntegrator`) in which every bounce runs stage
+/// by stage over all live paths. Each path makes exactly the scalar integrator's
+/// operations in the same order (so the same sampler dimensions and the same sums), but
+/// the environment-map lookups of all escaping rays and the environment-map light samples
+/// of all hits run as batches ([`EnvMap::eval_pdf_many`], [`EnvMap::sample_many`]),
+/// whose independent lookups overlap instead of forming one long dependency chain per
+/// path.
+pub fn li_many(
+    scene: &Scene,
+    rays: &[Ray],
+    samplers: &mut [Sampler],
+    max_depth: Option<u32>,
+    rr_depth: u32,
+    out: &mut [Rgb],
+    ws: &mut Workspace,
+) {
+    assert!(rays.len() == samplers.len() && rays.len() == out.len());
+    let max_depth = max_depth.unwrap_or(DEPTH_CAP).min(DEPTH_CAP);
+    let n_lights = scene.lights.len();
+    let sel_pdf = if n_lights == 0 {
+        0.0
+    } else {
+        1.0 / n_lights as f32
+    };
+    ws.paths.clear();
+    ws.paths.extend(rays.iter().map(|&ray| PathState {
+        ray,
+        beta: Rgb::ONE,
+        l: Rgb::ZERO,
+        prev_pdf: 0.0,
+        prev_p: Vec3::ZERO,
+        depth: 0,
+    }));
+    ws.active.clear();
+    if max_depth > 0 {
+        ws.active.extend(0..rays.len() as u32);
+    }
+    ws.its.clear();
+    ws.its.resize(rays.len(), None);
+    ws.light_samples.clear();
+    ws.light_samples.resize(rays.len(), None);
+    while !ws.active.is_empty() {
+        // Intersection.
+        for &i in &ws.active {
+            ws.its[i as usize] = scene.geometry.intersect(&ws.paths[i as usize].ray);
+        }
+        // Escaped paths gather the infinite lights; env maps in one batch per light.
+        ws.escaped.clear();
+        ws.escaped.extend(
+            ws.active
+                .iter()
+                .copied()
+                .filter(|&i| ws.its[i as usize].is_none()),
+        );
+        if !ws.escaped.is_empty() {
+            ws.dirs.clear();
+            ws.dirs
+                .extend(ws.escaped.iter().map(|&i| ws.paths[i as usize].ray.d));
+            for &k in &scene.infinite_lights {
+                let light = &scene.lights[k as usize];
+                ws.env_eval.clear();
+                if let Light::Env(env) = light {
+                    ws.env_eval.resize(ws.dirs.len(), (Rgb::ZERO, 0.0));
+                    env.eval_pdf_many(&ws.dirs, &mut ws.env_eval);
+                } else {
+                    ws.env_eval
+                        .extend(ws.dirs.iter().map(|&d| light.le_pdf_infinite(d)));
+                }
+                for (&i, &(le, pdf)) in ws.escaped.iter().zip(&ws.env_eval) {
+                    if le.is_black() {
+                        continue;
+                    }
+                    let p = &mut ws.paths[i as usize];
+                    let w = if p.depth == 0 {
+                        1.0
+                    } else {
+                        power_heuristic(p.prev_pdf, sel_pdf * pdf)
+                    };
+                    p.l += p.beta * le * w;
+                }
+            }
+        }
+        // Hits: emission, then the light-sample choice of next-event estimation.
+        ws.hits.clear();
+        ws.env_lanes.clear();
+        ws.env_u.clear();
+        for &i in &ws.active {
+            let Some(it) = &ws.its[i as usize] else {
+                continue;
+            };
+            let p = &mut ws.paths[i as usize];
+            let shape = &scene.shapes[it.shape as usize];
+            if let Some(k) = shape.light {
+                let light = &scene.lights[k as usize];
+                let le = light.le_area(it, -p.ray.d);
+                if !le.is_black() {
+                    let w = if p.depth == 0 {
+                        1.0
+                    } else {
+                        power_heuristic(p.prev_pdf, sel_pdf * light.pdf_area(p.prev_p, it))
+                    };
+                    p.l += p.beta * le * w;
+                }
+            }
+            if p.depth + 1 >= max_depth {
+                continue;
+            }
+            ws.hits.push(i);
+            let sampler = &mut samplers[i as usize];
+            let uc = sampler.next_1d();
+            let u = sampler.next_2d();
+            ws.light_samples[i as usize] = None;
+            if n_lights == 0 {
+                continue;
+            }
+            let idx = ((uc * n_lights as f32) as usize).min(n_lights - 1);
+            match &scene.lights[idx] {
+                Light::Env(_) => {
+                    ws.env_lanes.push((i, idx as u32));
+                    ws.env_u.push(u);
+                }
+                light => {
+                    ws.light_samples[i as usize] = light
+                        .sample_li(it.p, u)
+                        .filter(|ls| !ls.li.is_black() && ls.pdf > 0.0)
+                        .map(|ls| (ls, sel_pdf));
+                }
+            }
+        }
+        if !ws.env_lanes.is_empty() {
+            ws.env_out.clear();
+            ws.env_out.resize(ws.env_u.len(), None);
+            // Usually one env map; several are sampled one after another, each in a batch.
+            let first = ws.env_lanes[0].1;
+            if ws.env_lanes.iter().all(|&(_, k)| k == first) {
+                if let Light::Env(env) = &scene.lights[first as usize] {
+                    env.sample_many(&ws.env_u, &mut ws.env_out);
+                }
+            } else {
+                for (j, &(_, k)) in ws.env_lanes.iter().enumerate() {
+                    if let Light::Env(env) = &scene.lights[k as usize] {
+                        ws.env_out[j] = env.sample(ws.env_u[j]);
+                    }
+                }
+            }
+            for (&(i, _), s) in ws.env_lanes.iter().zip(&ws.env_out) {
+                ws.light_samples[i as usize] = s
+                    .map(|(wi, li, pdf)| LightSample {
+                        wi,
+                        li,
+                        pdf,
+                        delta: false,
+                        p: None,
+                    })
+                    .filter(|ls| !ls.li.is_black() && ls.pdf > 0.0)
+                    .map(|ls| (ls, sel_pdf));
+            }
+        }
+        // Next-event estimation, BSDF sampling and Russian roulette.
+        ws.next.clear();
+        for &i in &ws.hits {
+            let iu = i as usize;
+            let Some(it) = &ws.its[iu] else {
+                continue;
+            };
+            let p = &mut ws.paths[iu];
+            let sampler = &mut samplers[iu];
+            let sh = Shading::new(scene, it, p.ray.d);
+            if let Some((ls, sel)) = &ws.light_samples[iu] {
+                let wi = sh.frame.to_local(ls.wi);
+                let f = sh.bsdf.eval(sh.wo, wi) * wi.z.max(0.0);
+                if !f.is_black() && unoccluded(scene, it, ls) {
+                    let light_pdf = ls.pdf * sel;
+                    let w = if ls.delta {
+                        1.0
+                    } else {
+                        power_heuristic(light_pdf, sh.bsdf.pdf(sh.wo, wi))
+                    };
+                    p.l += p.beta * f * ls.li * (w / light_pdf);
+                }
+            }
+            let uc = sampler.next_1d();
+            let u = sampler.next_2d();
+            let Some(bs) = sh.bsdf.sample(sh.wo, u, uc) else {
+                continue;
+            };
+            p.beta *= bs.weight;
+            if p.beta.is_black() || !p.beta.is_finite() {
+                continue;
+            }
+            p.prev_pdf = bs.pdf;
+            p.prev_p = it.p;
+            p.ray = spawn_ray(it, sh.frame.to_world(bs.wi));
+            p.depth += 1;
+            if p.depth >= rr_depth {
+                let q = p.beta.max_component().min(0.95);
+                if sampler.next_1d() >= q {
+                    continue;
+                }
+                p.beta = p.beta / q;
+            }
+            ws.next.push(i);
+        }
+        std::mem::swap(&mut ws.active, &mut ws.next);
+    }
+    for (o, p) in out.iter_mut().zip(&ws.paths) {
+        *o = p.l;
+    }
 }

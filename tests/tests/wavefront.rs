@@ -1,0 +1,127 @@
+//! The wavefront path integrator (`path::li_many`, what `render` runs) gives bit for bit
+//! the radiance of the scalar one (`path::li`) for every sample: same sampler dimensions,
+//! same operations, same sums, whatever the lights (env maps, several of them, constant,
+//! point, area), the materials, the depth limits and Russian roulette.
+
+use glam::Vec2;
+use lobe_renderer::Rgb;
+use lobe_renderer::integrators::path::Workspace;
+use lobe_renderer::sampler::Sampler;
+use lobe_renderer::scene::{LoadOptions, Scene, from_value, load};
+use serde_json::json;
+use std::path::Path;
+
+fn check(scene: &Scene, batch: usize) {
+    let inv = Vec2::new(1.0 / scene.width as f32, 1.0 / scene.height as f32);
+    let mut ws = Workspace::default();
+    let mut checked = 0;
+    for y in (0..scene.height).step_by(3) {
+        for x in (0..scene.width).step_by(3) {
+            let mut base = Sampler::new(scene.seed, scene.spp);
+            let mut rays = Vec::new();
+            let mut samplers = Vec::new();
+            let mut scalar = Vec::new();
+            for s in 0..scene.spp {
+                base.start(x, y, s);
+                let film = (Vec2::new(x as f32, y as f32) + base.next_2d()) * inv;
+                let ray = scene.camera.ray(film);
+                rays.push(ray);
+                samplers.push(base.clone());
+                let mut own = base.clone();
+                scalar.push(scene.integrator.li(scene, ray, &mut own));
+            }
+            let mut many = vec![Rgb::ZERO; rays.len()];
+            for ((r, s), o) in rays
+                .chunks(batch)
+                .zip(samplers.chunks_mut(batch))
+                .zip(many.chunks_mut(batch))
+            {
+                scene.integrator.li_many(scene, r, s, o, &mut ws);
+            }
+            for (s, (a, b)) in scalar.iter().zip(&many).enumerate() {
+                assert_eq!(
+                    a.to_array().map(f32::to_bits),
+                    b.to_array().map(f32::to_bits),
+                    "{}: pixel ({x}, {y}) sample {s}: scalar {a:?}, wavefront {b:?}",
+                    scene.file
+                );
+            }
+            checked += scalar.len();
+        }
+    }
+    assert!(checked > 100, "{}: only {checked} samples", scene.file);
+}
+
+#[test]
+fn mixed_lights_and_materials() {
+    let v = json!({
+        "camera": {"type": "perspective", "fov": 45, "origin": [0, 1, 5], "target": [0, 0, 0]},
+        "film": {"width": 30, "height": 24},
+        "sampler": {"spp": 12, "seed": 5},
+        "integrator": {"type": "path", "max_depth": -1, "rr_depth": 2},
+        "shapes": [
+            {"type": "sphere", "center": [-0.6, 0, 0], "radius": 0.5,
+             "material": {"type": "ashikhmin-shirley", "diffuse": [0.3, 0.2, 0.1], "specular": 0.4, "n": 60}},
+            {"type": "sphere", "center": [0.7, 0.2, 0], "radius": 0.4, "emitter": {"radiance": 3}},
+            {"type": "sphere", "center": [0.0, 0.6, -0.8], "radius": 0.3,
+             "material": {"type": "ngan-fit", "material": "green-metallic-paint", "model": "cook-torrance"}},
+            {"type": "rectangle", "to_world": [{"scale": 5}, {"rotate": {"axis": [1, 0, 0], "angle": -90}}, {"translate": [0, -0.5, 0]}]}
+        ],
+        "lights": [
+            {"type": "envmap", "file": "builtin:studio", "scale": 0.5},
+            {"type": "envmap", "file": "builtin:studio", "scale": 0.3, "to_world": {"rotate": {"axis": [0, 1, 0], "angle": 70}}},
+            {"type": "constant", "radiance": 0.1},
+            {"type": "point", "position": [0, 3, 2], "intensity": 5}
+        ]
+    });
+    let scene = from_value(
+        &v,
+        "mixed.json",
+        Path::new("."),
+        &LoadOptions::with_builtins(),
+    )
+    .unwrap();
+    // Batches that split a pixel's samples unevenly, and one sample at a time.
+    check(&scene, 5);
+    check(&scene, 1);
+}
+
+#[test]
+fn one_env_map_and_depth_limits() {
+    for depth in [1, 2, 3, 8] {
+        let v = json!({
+            "camera": {"type": "perspective", "fov": 30, "origin": [0, 0, 4.5], "target": [0, 0, 0]},
+            "film": {"width": 24, "height": 24},
+            "sampler": {"spp": 16, "seed": 1},
+            "integrator": {"type": "path", "max_depth": depth},
+            "shapes": [
+                {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"type": "lambert", "reflectance": 0.6}},
+                {"type": "sphere", "center": [0.9, 0.9, 0.5], "radius": 0.3, "material": {"type": "lambert", "reflectance": 0.9}}
+            ],
+            "lights": [{"type": "envmap", "file": "builtin:studio"}]
+        });
+        let scene = from_value(
+            &v,
+            "env.json",
+            Path::new("."),
+            &LoadOptions::with_builtins(),
+        )
+        .unwrap();
+        check(&scene, 16);
+    }
+}
+
+#[test]
+fn scene_files() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    for name in [
+        "cornell-box.json",
+        "spheres-envmap.json",
+        "bunny-obj.json",
+        "ngan-fits-green-metallic-paint.json",
+    ] {
+        let mut scene = load(&root.join(name)).unwrap();
+        scene.spp = 4;
+        check(&scene, 64);
+    }
+}
