@@ -102,7 +102,8 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
     // The samples of a pixel go through the integrator together, BATCH at a time.
     let batch = spp.min(BATCH) as usize;
     let mut rays = Vec::with_capacity(batch);
-    let mut samplers = Vec::with_capacity(batch);
+    let mut indices = Vec::with_capacity(batch);
+    let mut jitter = Vec::with_capacity(batch);
     let mut radiance = vec![Rgb::ZERO; batch];
     let mut ws = crate::integrators::path::Workspace::default();
     for y in y0..y0 + h {
@@ -115,19 +116,23 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
             let mut n = 0u32;
             for first in (0..spp).step_by(batch) {
                 let count = (spp - first).min(batch as u32);
+                indices.clear();
+                indices.extend(first..first + count);
+                // The camera's dimension for all the samples at once.
+                sampler.start(x, y, first);
+                jitter.resize(indices.len(), Vec2::ZERO);
+                sampler.next_2d_lanes(&indices, &mut jitter);
                 rays.clear();
-                samplers.clear();
-                for s in first..first + count {
-                    sampler.start(x, y, s);
-                    let jitter = sampler.next_2d();
-                    let film = (Vec2::new(x as f32, y as f32) + jitter) * inv;
-                    rays.push(scene.camera.ray(film));
-                    samplers.push(sampler.clone());
-                }
+                rays.extend(
+                    jitter
+                        .iter()
+                        .map(|&j| scene.camera.ray((Vec2::new(x as f32, y as f32) + j) * inv)),
+                );
+                // `sampler` is now at the dimension after the camera's, as every sample is.
                 let out = &mut radiance[..count as usize];
                 scene
                     .integrator
-                    .li_many(scene, &rays, &mut samplers, out, &mut ws);
+                    .li_many(scene, &rays, &indices, &mut sampler, out, &mut ws);
                 for &l in out.iter() {
                     if !l.is_finite() {
                         dropped += 1;

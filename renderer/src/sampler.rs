@@ -27,42 +27,84 @@ fn hash3(a: u64, b: u64, c: u64) -> u64 {
     mix64(a ^ mix64(b ^ mix64(c.wrapping_add(0x9e3779b97f4a7c15))))
 }
 
-/// Kensler's permutation of `i` within [0, n), keyed by `seed`.
-#[inline]
-fn permute(mut i: u32, n: u32, seed: u32) -> u32 {
-    if n <= 1 {
-        return 0;
-    }
+/// One round of Kensler's permutation of `i` within [0, w] (`w` = 2^k - 1 covering n - 1).
+#[inline(always)]
+fn permute_round(mut i: u32, w: u32, seed: u32) -> u32 {
+    i ^= seed;
+    i = i.wrapping_mul(0xe170893d);
+    i ^= seed >> 16;
+    i ^= (i & w) >> 4;
+    i ^= seed >> 8;
+    i = i.wrapping_mul(0x0929eb3f);
+    i ^= seed >> 23;
+    i ^= (i & w) >> 1;
+    i = i.wrapping_mul(1 | seed >> 27);
+    i = i.wrapping_mul(0x6935fa69);
+    i ^= (i & w) >> 11;
+    i = i.wrapping_mul(0x74dcb303);
+    i ^= (i & w) >> 2;
+    i = i.wrapping_mul(0x9e501cc3);
+    i ^= (i & w) >> 2;
+    i = i.wrapping_mul(0xc860a3df);
+    i &= w;
+    i ^= i >> 5;
+    i
+}
+
+/// The smallest 2^k - 1 >= n - 1.
+#[inline(always)]
+fn permute_mask(n: u32) -> u32 {
     let mut w = n - 1;
     w |= w >> 1;
     w |= w >> 2;
     w |= w >> 4;
     w |= w >> 8;
     w |= w >> 16;
+    w
+}
+
+/// Kensler's permutation of `i` within [0, n), keyed by `seed`: rounds are repeated
+/// (cycle walking) until the value lands below n, which takes one round when n is a power
+/// of two.
+#[inline]
+fn permute(mut i: u32, n: u32, seed: u32) -> u32 {
+    if n <= 1 {
+        return 0;
+    }
+    let w = permute_mask(n);
     loop {
-        i ^= seed;
-        i = i.wrapping_mul(0xe170893d);
-        i ^= seed >> 16;
-        i ^= (i & w) >> 4;
-        i ^= seed >> 8;
-        i = i.wrapping_mul(0x0929eb3f);
-        i ^= seed >> 23;
-        i ^= (i & w) >> 1;
-        i = i.wrapping_mul(1 | seed >> 27);
-        i = i.wrapping_mul(0x6935fa69);
-        i ^= (i & w) >> 11;
-        i = i.wrapping_mul(0x74dcb303);
-        i ^= (i & w) >> 2;
-        i = i.wrapping_mul(0x9e501cc3);
-        i ^= (i & w) >> 2;
-        i = i.wrapping_mul(0xc860a3df);
-        i &= w;
-        i ^= i >> 5;
+        i = permute_round(i, w, seed);
         if i < n {
             break;
         }
     }
     (i.wrapping_add(seed)) % n
+}
+
+/// [`permute`] of many indices with one seed: a first round over all lanes with no
+/// branch (it vectorizes), then cycle walking only for the lanes that need it.
+#[inline]
+fn permute_lanes(idx: &[u32], n: u32, seed: u32, out: &mut [u32]) {
+    if n <= 1 {
+        out.fill(0);
+        return;
+    }
+    let w = permute_mask(n);
+    for (o, &i) in out.iter_mut().zip(idx) {
+        *o = permute_round(i, w, seed);
+    }
+    if n.is_power_of_two() {
+        for o in out.iter_mut() {
+            *o = o.wrapping_add(seed) & (n - 1);
+        }
+    } else {
+        for o in out.iter_mut() {
+            while *o >= n {
+                *o = permute_round(*o, w, seed);
+            }
+            *o = o.wrapping_add(seed) % n;
+        }
+    }
 }
 
 /// Laine-Karras style permutation of the bits of `x`, applied from the low bits up.
@@ -112,6 +154,9 @@ fn to_unit(x: u32) -> f32 {
     // 24 significant bits: the result is strictly below 1.
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
+
+/// Samples per step of the lane functions ([`Sampler::next_1d_lanes`]).
+const LANE_CHUNK: usize = 64;
 
 /// The sampler state of one pixel sample.
 #[derive(Clone, Debug)]
@@ -174,6 +219,51 @@ impl Sampler {
         Vec2::new(to_unit(s0), to_unit(s1))
     }
 
+    /// The current sample index.
+    pub fn index(&self) -> u32 {
+        self.index
+    }
+
+    /// This sampler's state for another sample of the same pixel at the same dimension.
+    pub fn with_index(&self, index: u32) -> Sampler {
+        Sampler {
+            index,
+            ..self.clone()
+        }
+    }
+
+    /// [`Sampler::next_1d`] for many samples of this pixel at once, all at this sampler's
+    /// dimension: `out[k]` is what the sampler of sample `idx[k]` would return (bit for
+    /// bit). Advances the dimension by one; the sample index is left alone. The
+    /// per-dimension hash is computed once for all samples and the rest vectorizes.
+    pub fn next_1d_lanes(&mut self, idx: &[u32], out: &mut [f32]) {
+        let h = self.dim_hash();
+        let mut perm = [0u32; LANE_CHUNK];
+        for (ic, oc) in idx.chunks(LANE_CHUNK).zip(out.chunks_mut(LANE_CHUNK)) {
+            let perm = &mut perm[..ic.len()];
+            permute_lanes(ic, self.spp, h as u32, perm);
+            for (o, &j) in oc.iter_mut().zip(perm.iter()) {
+                *o = to_unit(scrambled(sobol0_reversed(j), (h >> 32) as u32));
+            }
+        }
+    }
+
+    /// [`Sampler::next_2d`] for many samples of this pixel at once (see
+    /// [`Sampler::next_1d_lanes`]).
+    pub fn next_2d_lanes(&mut self, idx: &[u32], out: &mut [Vec2]) {
+        let h = self.dim_hash();
+        let mut perm = [0u32; LANE_CHUNK];
+        for (ic, oc) in idx.chunks(LANE_CHUNK).zip(out.chunks_mut(LANE_CHUNK)) {
+            let perm = &mut perm[..ic.len()];
+            permute_lanes(ic, self.spp, h as u32, perm);
+            for (o, &j) in oc.iter_mut().zip(perm.iter()) {
+                let s0 = scrambled(sobol0_reversed(j), (h >> 32) as u32);
+                let s1 = scrambled(sobol1_reversed(j), (h as u32).rotate_left(16) ^ 0x5bd1e995);
+                *o = Vec2::new(to_unit(s0), to_unit(s1));
+            }
+        }
+    }
+
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         let h = self.dim_hash();
@@ -197,6 +287,34 @@ mod tests {
                 let p = s.shuffled_index(0x1234_5678_9abc_def0) as usize;
                 assert!(!seen[p], "spp {spp}: {p} twice");
                 seen[p] = true;
+            }
+        }
+    }
+
+    /// The lane functions give bit for bit what per-sample samplers give, for power-of-two
+    /// and other sample counts, index lists in any order and longer than a chunk.
+    #[test]
+    fn lanes_equal_single_samples() {
+        for spp in [1u32, 3, 16, 64, 100, 256] {
+            let idx: Vec<u32> = (0..spp).rev().chain((0..spp).step_by(3)).collect();
+            let mut batch = Sampler::new(9, spp);
+            batch.start(4, 7, 0);
+            let _ = batch.next_2d();
+            let mut singles: Vec<Sampler> = idx.iter().map(|&i| batch.with_index(i)).collect();
+            for step in 0..6 {
+                if step % 2 == 0 {
+                    let mut out = vec![0.0f32; idx.len()];
+                    batch.next_1d_lanes(&idx, &mut out);
+                    for (s, o) in singles.iter_mut().zip(&out) {
+                        assert_eq!(s.next_1d().to_bits(), o.to_bits(), "spp {spp} step {step}");
+                    }
+                } else {
+                    let mut out = vec![Vec2::ZERO; idx.len()];
+                    batch.next_2d_lanes(&idx, &mut out);
+                    for (s, o) in singles.iter_mut().zip(&out) {
+                        assert_eq!(s.next_2d(), *o, "spp {spp} step {step}");
+                    }
+                }
             }
         }
     }

@@ -30,13 +30,18 @@ fn check(scene: &Scene, batch: usize) {
                 let mut own = base.clone();
                 scalar.push(scene.integrator.li(scene, ray, &mut own));
             }
+            let indices: Vec<u32> = (0..scene.spp).collect();
             let mut many = vec![Rgb::ZERO; rays.len()];
-            for ((r, s), o) in rays
+            for ((r, idx), o) in rays
                 .chunks(batch)
-                .zip(samplers.chunks_mut(batch))
+                .zip(indices.chunks(batch))
                 .zip(many.chunks_mut(batch))
             {
-                scene.integrator.li_many(scene, r, s, o, &mut ws);
+                // The pixel's sampler at the dimension after the camera's.
+                let mut pixel = samplers[0].clone();
+                scene
+                    .integrator
+                    .li_many(scene, r, idx, &mut pixel, o, &mut ws);
             }
             for (s, (a, b)) in scalar.iter().zip(&many).enumerate() {
                 assert_eq!(
@@ -84,6 +89,17 @@ fn mixed_lights_and_materials() {
     // Batches that split a pixel's samples unevenly, and one sample at a time.
     check(&scene, 5);
     check(&scene, 1);
+    // The direct integrator, which runs sample by sample.
+    let mut v = v;
+    v["integrator"] = json!({"type": "direct", "emitter_samples": 2, "bsdf_samples": 1});
+    let scene = from_value(
+        &v,
+        "direct.json",
+        Path::new("."),
+        &LoadOptions::with_builtins(),
+    )
+    .unwrap();
+    check(&scene, 7);
 }
 
 #[test]

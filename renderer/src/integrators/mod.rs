@@ -48,14 +48,16 @@ impl Integrator {
         }
     }
 
-    /// Radiance along many camera rays, `out[i]` for `rays[i]` and `samplers[i]`: the same
-    /// values as [`Integrator::li`] of each, computed together (the path integrator's
-    /// wavefront form, [`path::li_many`]).
+    /// Radiance along many camera rays of one pixel, `out[i]` for `rays[i]` with the
+    /// sampler of sample `indices[i]` (`sampler`: the pixel's, at the dimension the camera
+    /// left it): the same values as [`Integrator::li`] of each, computed together (the
+    /// path integrator's wavefront form, [`path::li_many`]).
     pub fn li_many(
         &self,
         scene: &Scene,
         rays: &[Ray],
-        samplers: &mut [Sampler],
+        indices: &[u32],
+        sampler: &mut Sampler,
         out: &mut [Rgb],
         ws: &mut path::Workspace,
     ) {
@@ -63,10 +65,10 @@ impl Integrator {
             Integrator::Path {
                 max_depth,
                 rr_depth,
-            } => path::li_many(scene, rays, samplers, max_depth, rr_depth, out, ws),
+            } => path::li_many(scene, rays, indices, sampler, max_depth, rr_depth, out, ws),
             Integrator::Direct { .. } => {
-                for ((o, &ray), s) in out.iter_mut().zip(rays).zip(samplers) {
-                    *o = self.li(scene, ray, s);
+                for ((o, &ray), &i) in out.iter_mut().zip(rays).zip(indices) {
+                    *o = self.li(scene, ray, &mut sampler.with_index(i));
                 }
             }
         }

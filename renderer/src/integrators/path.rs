@@ -134,6 +134,12 @@ pub struct Workspace {
     env_eval: Vec<(Rgb, f32)>,
     /// Paths that go on to next-event estimation, and their light samples.
     hits: Vec<u32>,
+    /// Sample indices of a list of paths, and the sampler values drawn for them.
+    lane_index: Vec<u32>,
+    nee_uc: Vec<f32>,
+    nee_u: Vec<Vec2>,
+    bsdf_uc: Vec<f32>,
+    bsdf_u: Vec<Vec2>,
     light_samples: Vec<Option<(LightSample, f32)>>,
     /// Light-sample requests to an env map: (path, light index), point.
     env_lanes: Vec<(u32, u32)>,
@@ -141,25 +147,31 @@ pub struct Workspace {
     env_out: Vec<Option<(Vec3, Rgb, f32)>>,
 }
 
-/// [`li`] of many camera rays at once, `out[i]` for `rays[i]` with `samplers[i]`, bit for
-/// bit the same: a wavefront formulation (Laine, Karras and Aila, "Megakernels Considered
+/// [`li`] of many camera rays of one pixel at once, `out[i]` for `rays[i]` with the
+/// sampler of sample `indices[i]` (`sampler` holds the pixel and the dimension the camera
+/// left it at), bit for bit the same: a wavefront formulation (Laine, Karras and Aila, "Megakernels Considered
 /// Harmful", 2013; pbrt-v4's `WavefrontPathIntegrator`) in which every bounce runs stage
 /// by stage over all live paths. Each path makes exactly the scalar integrator's
 /// operations in the same order (so the same sampler dimensions and the same sums), but
 /// the environment-map lookups of all escaping rays and the environment-map light samples
 /// of all hits run as batches ([`EnvMap::eval_pdf_many`], [`EnvMap::sample_many`]),
 /// whose independent lookups overlap instead of forming one long dependency chain per
-/// path.
+/// path. All live paths are at the same depth, so they are at the same sampler dimension
+/// too, and each dimension is drawn for all of them at once ([`Sampler::next_1d_lanes`]).
+///
+/// [`EnvMap::eval_pdf_many`]: crate::lights::EnvMap::eval_pdf_many
+/// [`EnvMap::sample_many`]: crate::lights::EnvMap::sample_many
 pub fn li_many(
     scene: &Scene,
     rays: &[Ray],
-    samplers: &mut [Sampler],
+    indices: &[u32],
+    sampler: &mut Sampler,
     max_depth: Option<u32>,
     rr_depth: u32,
     out: &mut [Rgb],
     ws: &mut Workspace,
 ) {
-    assert!(rays.len() == samplers.len() && rays.len() == out.len());
+    assert!(rays.len() == indices.len() && rays.len() == out.len());
     let max_depth = max_depth.unwrap_or(DEPTH_CAP).min(DEPTH_CAP);
     let n_lights = scene.lights.len();
     let sel_pdf = if n_lights == 0 {
@@ -225,10 +237,8 @@ pub fn li_many(
                 }
             }
         }
-        // Hits: emission, then the light-sample choice of next-event estimation.
+        // Hits: emission, and the paths that go on.
         ws.hits.clear();
-        ws.env_lanes.clear();
-        ws.env_u.clear();
         for &i in &ws.active {
             let Some(it) = &ws.its[i as usize] else {
                 continue;
@@ -247,24 +257,46 @@ pub fn li_many(
                     p.l += p.beta * le * w;
                 }
             }
-            if p.depth + 1 >= max_depth {
-                continue;
+            if p.depth + 1 < max_depth {
+                ws.hits.push(i);
             }
-            ws.hits.push(i);
-            let sampler = &mut samplers[i as usize];
-            let uc = sampler.next_1d();
-            let u = sampler.next_2d();
+        }
+        if ws.hits.is_empty() {
+            break;
+        }
+        // The sampler dimensions of this bounce for every path that goes on: light choice
+        // and point, BSDF lobe and direction (Russian roulette's comes below).
+        let m = ws.hits.len();
+        ws.lane_index.clear();
+        ws.lane_index
+            .extend(ws.hits.iter().map(|&i| indices[i as usize]));
+        ws.nee_uc.resize(m, 0.0);
+        ws.nee_u.resize(m, Vec2::ZERO);
+        ws.bsdf_uc.resize(m, 0.0);
+        ws.bsdf_u.resize(m, Vec2::ZERO);
+        sampler.next_1d_lanes(&ws.lane_index, &mut ws.nee_uc);
+        sampler.next_2d_lanes(&ws.lane_index, &mut ws.nee_u);
+        sampler.next_1d_lanes(&ws.lane_index, &mut ws.bsdf_uc);
+        sampler.next_2d_lanes(&ws.lane_index, &mut ws.bsdf_u);
+        // Light samples: env maps in batches, other lights one by one.
+        ws.env_lanes.clear();
+        ws.env_u.clear();
+        for (j, &i) in ws.hits.iter().enumerate() {
             ws.light_samples[i as usize] = None;
             if n_lights == 0 {
                 continue;
             }
-            let idx = ((uc * n_lights as f32) as usize).min(n_lights - 1);
+            let idx = ((ws.nee_uc[j] * n_lights as f32) as usize).min(n_lights - 1);
+            let u = ws.nee_u[j];
             match &scene.lights[idx] {
                 Light::Env(_) => {
                     ws.env_lanes.push((i, idx as u32));
                     ws.env_u.push(u);
                 }
                 light => {
+                    let Some(it) = &ws.its[i as usize] else {
+                        continue;
+                    };
                     ws.light_samples[i as usize] = light
                         .sample_li(it.p, u)
                         .filter(|ls| !ls.li.is_black() && ls.pdf > 0.0)
@@ -301,15 +333,15 @@ pub fn li_many(
                     .map(|ls| (ls, sel_pdf));
             }
         }
-        // Next-event estimation, BSDF sampling and Russian roulette.
+        // Next-event estimation and BSDF sampling.
         ws.next.clear();
-        for &i in &ws.hits {
+        let mut depth = 0;
+        for (j, &i) in ws.hits.iter().enumerate() {
             let iu = i as usize;
             let Some(it) = &ws.its[iu] else {
                 continue;
             };
             let p = &mut ws.paths[iu];
-            let sampler = &mut samplers[iu];
             let sh = Shading::new(scene, it, p.ray.d);
             if let Some((ls, sel)) = &ws.light_samples[iu] {
                 let wi = sh.frame.to_local(ls.wi);
@@ -324,9 +356,7 @@ pub fn li_many(
                     p.l += p.beta * f * ls.li * (w / light_pdf);
                 }
             }
-            let uc = sampler.next_1d();
-            let u = sampler.next_2d();
-            let Some(bs) = sh.bsdf.sample(sh.wo, u, uc) else {
+            let Some(bs) = sh.bsdf.sample(sh.wo, ws.bsdf_u[j], ws.bsdf_uc[j]) else {
                 continue;
             };
             p.beta *= bs.weight;
@@ -337,14 +367,29 @@ pub fn li_many(
             p.prev_p = it.p;
             p.ray = spawn_ray(it, sh.frame.to_world(bs.wi));
             p.depth += 1;
-            if p.depth >= rr_depth {
+            depth = p.depth;
+            ws.next.push(i);
+        }
+        // Russian roulette, one dimension for all paths (they share their depth).
+        if depth >= rr_depth && !ws.next.is_empty() {
+            ws.lane_index.clear();
+            ws.lane_index
+                .extend(ws.next.iter().map(|&i| indices[i as usize]));
+            ws.nee_uc.resize(ws.next.len(), 0.0);
+            sampler.next_1d_lanes(&ws.lane_index, &mut ws.nee_uc[..ws.next.len()]);
+            let mut kept = 0;
+            for j in 0..ws.next.len() {
+                let i = ws.next[j];
+                let p = &mut ws.paths[i as usize];
                 let q = p.beta.max_component().min(0.95);
-                if sampler.next_1d() >= q {
+                if ws.nee_uc[j] >= q {
                     continue;
                 }
                 p.beta = p.beta / q;
+                ws.next[kept] = i;
+                kept += 1;
             }
-            ws.next.push(i);
+            ws.next.truncate(kept);
         }
         std::mem::swap(&mut ws.active, &mut ws.next);
     }
