@@ -161,6 +161,7 @@ pub struct Workspace {
 ///
 /// [`EnvMap::eval_pdf_many`]: crate::lights::EnvMap::eval_pdf_many
 /// [`EnvMap::sample_many`]: crate::lights::EnvMap::sample_many
+#[allow(clippy::too_many_arguments)] // the scalar `li`'s arguments, plus the batch's
 pub fn li_many(
     scene: &Scene,
     rays: &[Ray],
