@@ -107,7 +107,7 @@ impl EnvMap {
 
     /// Sampling weights of the four corners of cell (ix, iy), [top-left, top-right,
     /// bottom-left, bottom-right]: luminance x sin(theta) of each corner's pixel row.
-    #[inline]
+    #[inline(always)]
     fn corner_weights(d: &[Rgb], sin_row: &[f32], w: usize, ix: usize, iy: usize) -> [f32; 4] {
         let k = iy * (w + 1) + ix;
         let (st, sb) = (sin_row[iy], sin_row[iy + 1]);
@@ -281,10 +281,9 @@ impl EnvMap {
         let (w, h) = (self.width as f32, (self.height - 1) as f32);
         for (uc, oc) in us.chunks(LANES).zip(out.chunks_mut(LANES)) {
             let n = uc.len();
-            let mut cell = [(0usize, 0usize, Vec2::ZERO); LANES];
-            for i in 0..n {
-                cell[i] = self.cells.sample(uc[i]);
-            }
+            let mut lane_u = [Vec2::ZERO; LANES];
+            lane_u[..n].copy_from_slice(uc);
+            let cell = self.cells.sample_lanes(&lane_u);
             let mut f = [Vec2::ZERO; LANES];
             for i in 0..LANES {
                 let (ix, iy, r) = cell[i];
