@@ -10,6 +10,7 @@ use crate::lights::{Light, LightSample};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
+use lobe_materials::frame::Frame;
 use lobe_materials::sampling::power_heuristic;
 
 /// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
@@ -127,6 +128,7 @@ pub struct Workspace {
     paths: Vec<PathState>,
     active: Vec<u32>,
     next: Vec<u32>,
+    closest: Vec<Option<(f32, u32)>>,
     its: Vec<Option<Interaction>>,
     /// Escaped paths and their directions, and the env-map values there.
     escaped: Vec<u32>,
@@ -134,6 +136,10 @@ pub struct Workspace {
     env_eval: Vec<(Rgb, f32)>,
     /// Paths that go on to next-event estimation, and their light samples.
     hits: Vec<u32>,
+    /// Per hit: shading frame and local outgoing direction.
+    frames: Vec<(Frame, Vec3)>,
+    /// Light samples the BSDF reflects: (hit, BSDF value x cosine, local direction).
+    nee: Vec<(u32, Rgb, Vec3)>,
     /// Sample indices of a list of paths, and the sampler values drawn for them.
     lane_index: Vec<u32>,
     nee_uc: Vec<f32>,
@@ -195,12 +201,20 @@ pub fn li_many(
     }
     ws.its.clear();
     ws.its.resize(rays.len(), None);
+    ws.closest.clear();
+    ws.closest.resize(rays.len(), None);
     ws.light_samples.clear();
     ws.light_samples.resize(rays.len(), None);
     while !ws.active.is_empty() {
-        // Intersection.
+        // Intersection: the closest hits of all paths, then the local geometry of each
+        // (two passes, so that neither waits on the other's long dependency chains).
         for &i in &ws.active {
-            ws.its[i as usize] = scene.geometry.intersect(&ws.paths[i as usize].ray);
+            ws.closest[i as usize] = scene.geometry.closest(&ws.paths[i as usize].ray);
+        }
+        for &i in &ws.active {
+            let i = i as usize;
+            ws.its[i] = ws.closest[i]
+                .map(|(t, prim)| scene.geometry.interaction(&ws.paths[i].ray, t, prim));
         }
         // Escaped paths gather the infinite lights; env maps in one batch per light.
         ws.escaped.clear();
@@ -334,39 +348,70 @@ pub fn li_many(
                     .map(|ls| (ls, sel_pdf));
             }
         }
-        // Next-event estimation and BSDF sampling.
+        // Shading frames, then next-event estimation: BSDF values, shadow rays, sums.
+        ws.frames.clear();
+        for &i in &ws.hits {
+            let iu = i as usize;
+            let Some(it) = &ws.its[iu] else {
+                unreachable!("hits have interactions")
+            };
+            let sh = Shading::new(scene, it, ws.paths[iu].ray.d);
+            ws.frames.push((sh.frame, sh.wo));
+        }
+        ws.nee.clear();
+        for (j, &i) in ws.hits.iter().enumerate() {
+            let iu = i as usize;
+            let Some((ls, _)) = &ws.light_samples[iu] else {
+                continue;
+            };
+            let (frame, wo) = ws.frames[j];
+            let it = ws.its[iu].as_ref().expect("hits have interactions");
+            let bsdf = scene.shapes[it.shape as usize].material.as_ref();
+            let wi = frame.to_local(ls.wi);
+            let f = bsdf.eval(wo, wi) * wi.z.max(0.0);
+            if !f.is_black() {
+                ws.nee.push((j as u32, f, wi));
+            }
+        }
+        for &(j, f, wi) in &ws.nee {
+            let iu = ws.hits[j as usize] as usize;
+            let it = ws.its[iu].as_ref().expect("hits have interactions");
+            let Some((ls, sel)) = &ws.light_samples[iu] else {
+                continue;
+            };
+            if !unoccluded(scene, it, ls) {
+                continue;
+            }
+            let wo = ws.frames[j as usize].1;
+            let bsdf = scene.shapes[it.shape as usize].material.as_ref();
+            let light_pdf = ls.pdf * sel;
+            let w = if ls.delta {
+                1.0
+            } else {
+                power_heuristic(light_pdf, bsdf.pdf(wo, wi))
+            };
+            let p = &mut ws.paths[iu];
+            p.l += p.beta * f * ls.li * (w / light_pdf);
+        }
+        // BSDF sampling.
         ws.next.clear();
         let mut depth = 0;
         for (j, &i) in ws.hits.iter().enumerate() {
             let iu = i as usize;
-            let Some(it) = &ws.its[iu] else {
+            let it = ws.its[iu].as_ref().expect("hits have interactions");
+            let (frame, wo) = ws.frames[j];
+            let bsdf = scene.shapes[it.shape as usize].material.as_ref();
+            let Some(bs) = bsdf.sample(wo, ws.bsdf_u[j], ws.bsdf_uc[j]) else {
                 continue;
             };
             let p = &mut ws.paths[iu];
-            let sh = Shading::new(scene, it, p.ray.d);
-            if let Some((ls, sel)) = &ws.light_samples[iu] {
-                let wi = sh.frame.to_local(ls.wi);
-                let f = sh.bsdf.eval(sh.wo, wi) * wi.z.max(0.0);
-                if !f.is_black() && unoccluded(scene, it, ls) {
-                    let light_pdf = ls.pdf * sel;
-                    let w = if ls.delta {
-                        1.0
-                    } else {
-                        power_heuristic(light_pdf, sh.bsdf.pdf(sh.wo, wi))
-                    };
-                    p.l += p.beta * f * ls.li * (w / light_pdf);
-                }
-            }
-            let Some(bs) = sh.bsdf.sample(sh.wo, ws.bsdf_u[j], ws.bsdf_uc[j]) else {
-                continue;
-            };
             p.beta *= bs.weight;
             if p.beta.is_black() || !p.beta.is_finite() {
                 continue;
             }
             p.prev_pdf = bs.pdf;
             p.prev_p = it.p;
-            p.ray = spawn_ray(it, sh.frame.to_world(bs.wi));
+            p.ray = spawn_ray(it, frame.to_world(bs.wi));
             p.depth += 1;
             depth = p.depth;
             ws.next.push(i);
