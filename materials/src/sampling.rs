@@ -6,20 +6,25 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
-/// Concentric square-to-disk map (Shirley and Chiu 1997).
+/// Concentric square-to-disk map (Shirley and Chiu 1997). Both wedges' angles are
+/// computed and one is selected, with no branch: which wedge a uniform point falls in is a
+/// coin flip the branch predictor would miss half the time.
 #[inline]
 pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;
+    let wide = o.x.abs() > o.y.abs();
+    let r = if wide { o.x } else { o.y };
+    let theta_x = FRAC_PI_4 * (o.y / o.x);
+    let theta_y = FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y);
+    let theta = if wide { theta_x } else { theta_y };
+    // |theta| <= 3 pi / 4 (NaN only at the centre, which is replaced below).
+    let (s, c) = crate::fastmath::sin_cos_moderate(theta);
+    let d = Vec2::new(r * c, r * s);
     if o.x == 0.0 && o.y == 0.0 {
-        return Vec2::ZERO;
-    }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, FRAC_PI_4 * (o.y / o.x))
+        Vec2::ZERO
     } else {
-        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
-    };
-    let (s, c) = crate::fastmath::sin_cos(theta);
-    Vec2::new(r * c, r * s)
+        d
+    }
 }
 
 /// Cosine-weighted hemisphere around +z (Malley's method).
