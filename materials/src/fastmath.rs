@@ -50,6 +50,16 @@ pub fn sin_cos_moderate(x: f32) -> (f32, f32) {
     (sin, cos)
 }
 
+/// `if c { a } else { b }` by bit masks, kept branch-free: for choices a branch predictor
+/// cannot learn (which half of a random square a point falls in), where a mispredicted
+/// branch costs more than computing both sides. The mask goes through `black_box` since
+/// the compiler otherwise turns the masks back into a branch.
+#[inline(always)]
+pub fn select(c: bool, a: f32, b: f32) -> f32 {
+    let m = std::hint::black_box(0u32.wrapping_sub(c as u32));
+    f32::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+}
+
 /// atan(t) for t in [0, 1].
 #[inline]
 fn atan_unit(t: f32) -> f32 {

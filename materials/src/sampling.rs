@@ -13,10 +13,10 @@ use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
 pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;
     let wide = o.x.abs() > o.y.abs();
-    let r = if wide { o.x } else { o.y };
+    let r = crate::fastmath::select(wide, o.x, o.y);
     let theta_x = FRAC_PI_4 * (o.y / o.x);
     let theta_y = FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y);
-    let theta = if wide { theta_x } else { theta_y };
+    let theta = crate::fastmath::select(wide, theta_x, theta_y);
     // |theta| <= 3 pi / 4 (NaN only at the centre, which is replaced below).
     let (s, c) = crate::fastmath::sin_cos_moderate(theta);
     let d = Vec2::new(r * c, r * s);

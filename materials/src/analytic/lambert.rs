@@ -6,6 +6,7 @@
 
 use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::fastmath::select;
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
@@ -29,10 +30,9 @@ impl Lambert {
 
 impl Bsdf for Lambert {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Rgb::ZERO;
-        }
-        self.reflectance * FRAC_1_PI
+        // Without a branch: light samples fall below the surface half the time, at random.
+        let above = wo.z > 0.0 && wi.z > 0.0;
+        self.reflectance * select(above, FRAC_1_PI, 0.0)
     }
 
     fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<BsdfSample> {
@@ -52,10 +52,7 @@ impl Bsdf for Lambert {
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        cosine_hemisphere_pdf(wi.z)
+        select(wo.z > 0.0 && wi.z > 0.0, cosine_hemisphere_pdf(wi.z), 0.0)
     }
 
     fn flags(&self) -> Flags {

@@ -358,7 +358,11 @@ pub fn li_many(
             let sh = Shading::new(scene, it, ws.paths[iu].ray.d);
             ws.frames.push((sh.frame, sh.wo));
         }
+        // Samples the BSDF reflects are kept by a branch-free compaction: whether a light
+        // sample lies above the surface is a coin flip a branch would mispredict.
         ws.nee.clear();
+        ws.nee.resize(ws.hits.len(), (0, Rgb::ZERO, Vec3::ZERO));
+        let mut kept = 0;
         for (j, &i) in ws.hits.iter().enumerate() {
             let iu = i as usize;
             let Some((ls, _)) = &ws.light_samples[iu] else {
@@ -369,10 +373,10 @@ pub fn li_many(
             let bsdf = scene.shapes[it.shape as usize].material.as_ref();
             let wi = frame.to_local(ls.wi);
             let f = bsdf.eval(wo, wi) * wi.z.max(0.0);
-            if !f.is_black() {
-                ws.nee.push((j as u32, f, wi));
-            }
+            ws.nee[kept] = (j as u32, f, wi);
+            kept += !f.is_black() as usize;
         }
+        ws.nee.truncate(kept);
         for &(j, f, wi) in &ws.nee {
             let iu = ws.hits[j as usize] as usize;
             let it = ws.its[iu].as_ref().expect("hits have interactions");
