@@ -284,16 +284,20 @@ impl EnvMap {
             let mut lane_u = [Vec2::ZERO; LANES];
             lane_u[..n].copy_from_slice(uc);
             let cell = self.cells.sample_lanes(&lane_u);
+            // The corner texels of all cells first (independent reads, in flight together),
+            // then the bilinear warps.
+            let mut corners = [[0.0f32; 4]; LANES];
+            for i in 0..LANES {
+                let (ix, iy, _) = cell[i];
+                corners[i] = Self::corner_weights(&self.data, &self.sin_row, self.width, ix, iy);
+            }
             let mut f = [Vec2::ZERO; LANES];
             for i in 0..LANES {
-                let (ix, iy, r) = cell[i];
+                let r = cell[i].2;
                 f[i] = if self.inv_mean == 0.0 {
                     r
                 } else {
-                    square_to_bilinear(
-                        r,
-                        Self::corner_weights(&self.data, &self.sin_row, self.width, ix, iy),
-                    )
+                    square_to_bilinear(r, corners[i])
                 };
             }
             let mut uu = [0.0f32; LANES];
