@@ -2,6 +2,11 @@
 //! multiple importance sampling with the power heuristic (Veach 1997, ch. 9), and Russian
 //! roulette (Arvo and Kirk 1990) from depth `rr_depth` with continuation probability
 //! min(max throughput, 0.95), as Mitsuba 3's `path` plugin does.
+//!
+//! Two forms compute the same radiance bit for bit: [`li`], one path at a time (the
+//! reference, behind `Integrator::li`), and [`li_many`], the wavefront
+//! form the renderer runs, in which the samples of a pixel go through each stage of a
+//! bounce together (tests/tests/wavefront.rs checks that they agree).
 
 use super::{Shading, sample_one_light, unoccluded};
 use crate::Rgb;
