@@ -135,6 +135,13 @@ impl EnvMap {
     /// times the bilinear density within it. Both come from the same four texels.
     #[inline]
     fn lookup_density(&self, u: f32, v: f32) -> (Rgb, f32) {
+        self.blend(self.texel_cell(u, v))
+    }
+
+    /// The bilinear cell of texture coordinates (u, v): (index of its top-left texel in
+    /// `data`, its row, fractional position within it).
+    #[inline(always)]
+    fn texel_cell(&self, u: f32, v: f32) -> (usize, usize, f32, f32) {
         let (w, h) = (self.width, self.height);
         let mut x = u - 0.5 / w as f32;
         x -= x.floor();
@@ -144,10 +151,14 @@ impl EnvMap {
         let y = y * (h - 1) as f32;
         let ix = (x as usize).min(w - 1);
         let iy = (y as usize).min(h - 2);
-        let fx = x - ix as f32;
-        let fy = y - iy as f32;
-        let k = iy * (w + 1) + ix;
-        let d = &self.data;
+        (iy * (w + 1) + ix, iy, x - ix as f32, y - iy as f32)
+    }
+
+    /// Radiance (without `scale`) and sampling density at a point of a cell from
+    /// [`EnvMap::texel_cell`]: both interpolate the same four texels.
+    #[inline(always)]
+    fn blend(&self, (k, iy, fx, fy): (usize, usize, f32, f32)) -> (Rgb, f32) {
+        let (d, w) = (&self.data, self.width);
         let top = d[k] * (1.0 - fx) + d[k + 1] * fx;
         let bottom = d[k + w + 1] * (1.0 - fx) + d[k + w + 2] * fx;
         let texel = top * (1.0 - fy) + bottom * fy;
@@ -204,37 +215,13 @@ impl EnvMap {
         v: &[f32; LANES],
         n: usize,
     ) -> ([Rgb; LANES], [f32; LANES]) {
-        let (w, h) = (self.width, self.height);
-        let mut k = [0usize; LANES];
-        let mut iy = [0usize; LANES];
-        let mut fx = [0.0f32; LANES];
-        let mut fy = [0.0f32; LANES];
-        for i in 0..LANES {
-            let mut x = u[i] - 0.5 / w as f32;
-            x -= x.floor();
-            let mut y = v[i];
-            y -= y.floor();
-            let x = x * w as f32;
-            let y = y * (h - 1) as f32;
-            let ix = (x as usize).min(w - 1);
-            iy[i] = (y as usize).min(h - 2);
-            fx[i] = x - ix as f32;
-            fy[i] = y - iy[i] as f32;
-            k[i] = iy[i] * (w + 1) + ix;
-        }
-        let d = &self.data;
+        // All cells first (arithmetic that vectorizes), then the texel reads.
+        let cells: [(usize, usize, f32, f32); LANES] =
+            std::array::from_fn(|i| self.texel_cell(u[i], v[i]));
         let mut texel = [Rgb::ZERO; LANES];
         let mut density = [1.0f32; LANES];
         for i in 0..n {
-            let (fx, fy, k) = (fx[i], fy[i], k[i]);
-            let top = d[k] * (1.0 - fx) + d[k + 1] * fx;
-            let bottom = d[k + w + 1] * (1.0 - fx) + d[k + w + 2] * fx;
-            texel[i] = top * (1.0 - fy) + bottom * fy;
-            if self.inv_mean != 0.0 {
-                density[i] = ((1.0 - fy) * top.luminance().max(0.0) * self.sin_row[iy[i]]
-                    + fy * bottom.luminance().max(0.0) * self.sin_row[iy[i] + 1])
-                    * self.inv_mean;
-            }
+            (texel[i], density[i]) = self.blend(cells[i]);
         }
         (texel, density)
     }
