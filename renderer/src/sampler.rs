@@ -211,20 +211,6 @@ impl Sampler {
         h
     }
 
-    #[inline]
-    pub fn next_2d(&mut self) -> Vec2 {
-        let h = self.dim_hash();
-        let i = self.shuffled_index(h);
-        let s0 = scrambled(sobol0_reversed(i), (h >> 32) as u32);
-        let s1 = scrambled(sobol1_reversed(i), (h as u32).rotate_left(16) ^ 0x5bd1e995);
-        Vec2::new(to_unit(s0), to_unit(s1))
-    }
-
-    /// The current sample index.
-    pub fn index(&self) -> u32 {
-        self.index
-    }
-
     /// This sampler's state for another sample of the same pixel at the same dimension.
     pub fn with_index(&self, index: u32) -> Sampler {
         Sampler {
@@ -238,39 +224,54 @@ impl Sampler {
     /// bit). Advances the dimension by one; the sample index is left alone. The
     /// per-dimension hash is computed once for all samples and the rest vectorizes.
     pub fn next_1d_lanes(&mut self, idx: &[u32], out: &mut [f32]) {
-        let h = self.dim_hash();
-        let mut perm = [0u32; LANE_CHUNK];
-        for (ic, oc) in idx.chunks(LANE_CHUNK).zip(out.chunks_mut(LANE_CHUNK)) {
-            let perm = &mut perm[..ic.len()];
-            permute_lanes(ic, self.spp, h as u32, perm);
-            for (o, &j) in oc.iter_mut().zip(perm.iter()) {
-                *o = to_unit(scrambled(sobol0_reversed(j), (h >> 32) as u32));
-            }
-        }
+        self.lanes(idx, out, value_1d);
     }
 
     /// [`Sampler::next_2d`] for many samples of this pixel at once (see
     /// [`Sampler::next_1d_lanes`]).
     pub fn next_2d_lanes(&mut self, idx: &[u32], out: &mut [Vec2]) {
+        self.lanes(idx, out, value_2d);
+    }
+
+    /// One dimension for the samples `idx`: their shuffled indices, then `value` of each.
+    #[inline(always)]
+    fn lanes<T>(&mut self, idx: &[u32], out: &mut [T], value: impl Fn(u64, u32) -> T) {
         let h = self.dim_hash();
         let mut perm = [0u32; LANE_CHUNK];
         for (ic, oc) in idx.chunks(LANE_CHUNK).zip(out.chunks_mut(LANE_CHUNK)) {
             let perm = &mut perm[..ic.len()];
             permute_lanes(ic, self.spp, h as u32, perm);
             for (o, &j) in oc.iter_mut().zip(perm.iter()) {
-                let s0 = scrambled(sobol0_reversed(j), (h >> 32) as u32);
-                let s1 = scrambled(sobol1_reversed(j), (h as u32).rotate_left(16) ^ 0x5bd1e995);
-                *o = Vec2::new(to_unit(s0), to_unit(s1));
+                *o = value(h, j);
             }
         }
     }
 
     #[inline]
+    pub fn next_2d(&mut self) -> Vec2 {
+        let h = self.dim_hash();
+        value_2d(h, self.shuffled_index(h))
+    }
+
+    #[inline]
     pub fn next_1d(&mut self) -> f32 {
         let h = self.dim_hash();
-        let i = self.shuffled_index(h);
-        to_unit(scrambled(sobol0_reversed(i), (h >> 32) as u32))
+        value_1d(h, self.shuffled_index(h))
     }
+}
+
+/// The 1D value of shuffled sample index `j` in the dimension with hash `h`.
+#[inline(always)]
+fn value_1d(h: u64, j: u32) -> f32 {
+    to_unit(scrambled(sobol0_reversed(j), (h >> 32) as u32))
+}
+
+/// The 2D value of shuffled sample index `j` in the dimension pair with hash `h`.
+#[inline(always)]
+fn value_2d(h: u64, j: u32) -> Vec2 {
+    let s0 = scrambled(sobol0_reversed(j), (h >> 32) as u32);
+    let s1 = scrambled(sobol1_reversed(j), (h as u32).rotate_left(16) ^ 0x5bd1e995);
+    Vec2::new(to_unit(s0), to_unit(s1))
 }
 
 #[cfg(test)]

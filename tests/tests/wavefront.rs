@@ -8,7 +8,7 @@ use lobe_renderer::Rgb;
 use lobe_renderer::integrators::path::Workspace;
 use lobe_renderer::sampler::Sampler;
 use lobe_renderer::scene::{LoadOptions, Scene, from_value, load};
-use serde_json::json;
+use serde_json::{Value, json};
 use std::path::Path;
 
 fn check(scene: &Scene, batch: usize) {
@@ -57,6 +57,11 @@ fn check(scene: &Scene, batch: usize) {
     assert!(checked > 100, "{}: only {checked} samples", scene.file);
 }
 
+/// A scene from JSON, with the built-in images.
+fn built(v: &Value, name: &str) -> Scene {
+    from_value(v, name, Path::new("."), &LoadOptions::with_builtins()).unwrap()
+}
+
 #[test]
 fn mixed_lights_and_materials() {
     let v = json!({
@@ -79,26 +84,14 @@ fn mixed_lights_and_materials() {
             {"type": "point", "position": [0, 3, 2], "intensity": 5}
         ]
     });
-    let scene = from_value(
-        &v,
-        "mixed.json",
-        Path::new("."),
-        &LoadOptions::with_builtins(),
-    )
-    .unwrap();
+    let scene = built(&v, "mixed.json");
     // Batches that split a pixel's samples unevenly, and one sample at a time.
     check(&scene, 5);
     check(&scene, 1);
     // The direct integrator, which runs sample by sample.
     let mut v = v;
     v["integrator"] = json!({"type": "direct", "emitter_samples": 2, "bsdf_samples": 1});
-    let scene = from_value(
-        &v,
-        "direct.json",
-        Path::new("."),
-        &LoadOptions::with_builtins(),
-    )
-    .unwrap();
+    let scene = built(&v, "direct.json");
     check(&scene, 7);
 }
 
@@ -116,13 +109,7 @@ fn one_env_map_and_depth_limits() {
             ],
             "lights": [{"type": "envmap", "file": "builtin:studio"}]
         });
-        let scene = from_value(
-            &v,
-            "env.json",
-            Path::new("."),
-            &LoadOptions::with_builtins(),
-        )
-        .unwrap();
+        let scene = built(&v, "env.json");
         check(&scene, 16);
     }
 }
