@@ -94,7 +94,7 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
     let w = TILE.min(scene.width - x0);
     let h = TILE.min(scene.height - y0);
     let spp = scene.spp;
-    let mut sampler = Sampler::new(scene.seed, spp);
+    let mut sampler = Sampler::with_scramble(scene.seed, spp, scene.scramble);
     let mut mean = Vec::with_capacity((w * h) as usize);
     let mut var = Vec::with_capacity((w * h) as usize);
     let mut dropped = 0u64;

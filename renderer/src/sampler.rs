@@ -1,13 +1,20 @@
-//! A per-pixel seeded, padded 2D Sobol sampler with hash-based Owen scrambling.
+//! A per-pixel seeded, padded 2D Sobol sampler, randomized by a random digit scramble
+//! (XOR, the default) or by Burley's hash-based Owen scrambling.
 //!
 //! Every (pixel, sample index, dimension pair) gets its numbers from a pure function of
 //! the scene seed, so an image is bit-identical whatever the number of threads or the
 //! order of tiles. Each pair of dimensions uses the first two Sobol' dimensions (a (0,2)
-//! sequence: stratified in 2D for every power-of-two prefix), scrambled with Burley's
-//! nested uniform scramble ("Practical Hash-based Owen Scrambling", JCGT 2020) and with
-//! the sample index shuffled per dimension by Kensler's hashed permutation ("Correlated
-//! Multi-Jittered Sampling", 2013) so that dimensions do not correlate. This is the
-//! structure of pbrt-v4's PaddedSobolSampler, written from the papers.
+//! sequence: stratified in 2D for every power-of-two prefix), with the sample index
+//! shuffled per dimension by Kensler's hashed permutation ("Correlated Multi-Jittered
+//! Sampling", 2013) so that dimensions do not correlate: the structure of pbrt-v4's
+//! PaddedSobolSampler and of Mitsuba 3's `ldsampler`, written from the papers. The points
+//! are randomized per pixel and dimension by [`Scramble`]: an XOR with a random value
+//! (a random digit scramble: pbrt-v4's `PermuteDigits` in base 2, Mitsuba's `ldsampler`),
+//! or a nested uniform (Owen) scramble with the hash of Burley, "Practical Hash-based
+//! Owen Scrambling" (JCGT 2020; pbrt-v4's `FastOwen`). Both keep the (0,2) net property.
+//! Measured per-pixel variance at equal spp (docs/performance.md, "Sampler
+//! randomization"): XOR is 3-37 % lower at 16-128 spp on the env-map, Cornell and bunny
+//! scenes; Owen's faster asymptotic convergence wins on some scenes from 256 spp.
 
 use glam::Vec2;
 
@@ -144,16 +151,50 @@ fn sobol1_reversed(i: u32) -> u32 {
     x
 }
 
-/// Owen-scrambled Sobol' value from its bit-reversed form.
-#[inline]
-fn scrambled(reversed: u32, seed: u32) -> u32 {
-    laine_karras(reversed, seed).reverse_bits()
+/// A Sobol' value from its bit-reversed form, Owen-scrambled (`OWEN`) or XORed with
+/// `seed`.
+#[inline(always)]
+fn scrambled<const OWEN: bool>(reversed: u32, seed: u32) -> u32 {
+    if OWEN {
+        laine_karras(reversed, seed).reverse_bits()
+    } else {
+        reversed.reverse_bits() ^ seed
+    }
 }
 
 #[inline]
 fn to_unit(x: u32) -> f32 {
     // 24 significant bits: the result is strictly below 1.
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// How the Sobol' points are randomized (scene file: `sampler.scramble`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Scramble {
+    /// A random digit scramble: the bits XORed with a random value per pixel and dimension.
+    #[default]
+    Xor,
+    /// A nested uniform (Owen) scramble by Burley's hash.
+    Owen,
+}
+
+impl Scramble {
+    pub const NAMES: [&'static str; 2] = ["xor", "owen"];
+
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "xor" => Some(Scramble::Xor),
+            "owen" => Some(Scramble::Owen),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Scramble::Xor => "xor",
+            Scramble::Owen => "owen",
+        }
+    }
 }
 
 /// Samples per step of the lane functions ([`Sampler::next_1d_lanes`]).
@@ -169,10 +210,16 @@ pub struct Sampler {
     pixel: Option<(u32, u32)>,
     index: u32,
     dim: u32,
+    scramble: Scramble,
 }
 
 impl Sampler {
+    /// A sampler with the default [`Scramble`].
     pub fn new(seed: u64, spp: u32) -> Self {
+        Self::with_scramble(seed, spp, Scramble::default())
+    }
+
+    pub fn with_scramble(seed: u64, spp: u32, scramble: Scramble) -> Self {
         Self {
             seed,
             spp: spp.max(1),
@@ -180,6 +227,7 @@ impl Sampler {
             pixel: None,
             index: 0,
             dim: 0,
+            scramble,
         }
     }
 
@@ -224,13 +272,19 @@ impl Sampler {
     /// bit). Advances the dimension by one; the sample index is left alone. The
     /// per-dimension hash is computed once for all samples and the rest vectorizes.
     pub fn next_1d_lanes(&mut self, idx: &[u32], out: &mut [f32]) {
-        self.lanes(idx, out, value_1d);
+        match self.scramble {
+            Scramble::Xor => self.lanes(idx, out, value_1d::<false>),
+            Scramble::Owen => self.lanes(idx, out, value_1d::<true>),
+        }
     }
 
     /// [`Sampler::next_2d`] for many samples of this pixel at once (see
     /// [`Sampler::next_1d_lanes`]).
     pub fn next_2d_lanes(&mut self, idx: &[u32], out: &mut [Vec2]) {
-        self.lanes(idx, out, value_2d);
+        match self.scramble {
+            Scramble::Xor => self.lanes(idx, out, value_2d::<false>),
+            Scramble::Owen => self.lanes(idx, out, value_2d::<true>),
+        }
     }
 
     /// One dimension for the samples `idx`: their shuffled indices, then `value` of each.
@@ -250,27 +304,35 @@ impl Sampler {
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
         let h = self.dim_hash();
-        value_2d(h, self.shuffled_index(h))
+        let j = self.shuffled_index(h);
+        match self.scramble {
+            Scramble::Xor => value_2d::<false>(h, j),
+            Scramble::Owen => value_2d::<true>(h, j),
+        }
     }
 
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         let h = self.dim_hash();
-        value_1d(h, self.shuffled_index(h))
+        let j = self.shuffled_index(h);
+        match self.scramble {
+            Scramble::Xor => value_1d::<false>(h, j),
+            Scramble::Owen => value_1d::<true>(h, j),
+        }
     }
 }
 
 /// The 1D value of shuffled sample index `j` in the dimension with hash `h`.
 #[inline(always)]
-fn value_1d(h: u64, j: u32) -> f32 {
-    to_unit(scrambled(sobol0_reversed(j), (h >> 32) as u32))
+fn value_1d<const OWEN: bool>(h: u64, j: u32) -> f32 {
+    to_unit(scrambled::<OWEN>(sobol0_reversed(j), (h >> 32) as u32))
 }
 
 /// The 2D value of shuffled sample index `j` in the dimension pair with hash `h`.
 #[inline(always)]
-fn value_2d(h: u64, j: u32) -> Vec2 {
-    let s0 = scrambled(sobol0_reversed(j), (h >> 32) as u32);
-    let s1 = scrambled(sobol1_reversed(j), (h as u32).rotate_left(16) ^ 0x5bd1e995);
+fn value_2d<const OWEN: bool>(h: u64, j: u32) -> Vec2 {
+    let s0 = scrambled::<OWEN>(sobol0_reversed(j), (h >> 32) as u32);
+    let s1 = scrambled::<OWEN>(sobol1_reversed(j), (h as u32).rotate_left(16) ^ 0x5bd1e995);
     Vec2::new(to_unit(s0), to_unit(s1))
 }
 
@@ -297,9 +359,12 @@ mod tests {
     /// and other sample counts, index lists in any order and longer than a chunk.
     #[test]
     fn lanes_equal_single_samples() {
-        for spp in [1u32, 3, 16, 64, 100, 256] {
+        for (spp, scramble) in [1u32, 3, 16, 64, 100, 256]
+            .into_iter()
+            .flat_map(|n| [(n, Scramble::Xor), (n, Scramble::Owen)])
+        {
             let idx: Vec<u32> = (0..spp).rev().chain((0..spp).step_by(3)).collect();
-            let mut batch = Sampler::new(9, spp);
+            let mut batch = Sampler::with_scramble(9, spp, scramble);
             batch.start(4, 7, 0);
             let _ = batch.next_2d();
             let mut singles: Vec<Sampler> = idx.iter().map(|&i| batch.with_index(i)).collect();
@@ -363,31 +428,35 @@ mod tests {
     fn two_d_points_are_stratified() {
         // 16 samples of one pixel in one dimension pair: one per 4x4 cell (a (0,2)-net is
         // stratified on every elementary interval of area 1/16, including the 4x4 grid).
-        let mut s = Sampler::new(7, 16);
-        let mut cells = [0u32; 16];
-        for i in 0..16 {
-            s.start(3, 5, i);
-            let _ = s.next_2d();
-            let u = s.next_2d();
-            assert!((0.0..1.0).contains(&u.x) && (0.0..1.0).contains(&u.y));
-            cells[(u.x * 4.0) as usize + 4 * (u.y * 4.0) as usize] += 1;
+        for scramble in [Scramble::Xor, Scramble::Owen] {
+            let mut s = Sampler::with_scramble(7, 16, scramble);
+            let mut cells = [0u32; 16];
+            for i in 0..16 {
+                s.start(3, 5, i);
+                let _ = s.next_2d();
+                let u = s.next_2d();
+                assert!((0.0..1.0).contains(&u.x) && (0.0..1.0).contains(&u.y));
+                cells[(u.x * 4.0) as usize + 4 * (u.y * 4.0) as usize] += 1;
+            }
+            assert!(cells.iter().all(|&c| c == 1), "{scramble:?}: {cells:?}");
         }
-        assert!(cells.iter().all(|&c| c == 1), "{cells:?}");
     }
 
     #[test]
     fn mean_is_unbiased() {
-        let mut s = Sampler::new(1, 64);
-        let mut acc = 0.0f64;
-        let mut n = 0;
-        for px in 0..50 {
-            for i in 0..64 {
-                s.start(px, 0, i);
-                acc += s.next_1d() as f64;
-                n += 1;
+        for scramble in [Scramble::Xor, Scramble::Owen] {
+            let mut s = Sampler::with_scramble(1, 64, scramble);
+            let mut acc = 0.0f64;
+            let mut n = 0;
+            for px in 0..50 {
+                for i in 0..64 {
+                    s.start(px, 0, i);
+                    acc += s.next_1d() as f64;
+                    n += 1;
+                }
             }
+            assert!((acc / n as f64 - 0.5).abs() < 0.01, "{scramble:?}");
         }
-        assert!((acc / n as f64 - 0.5).abs() < 0.01);
     }
 
     /// Every dimension pair of a pixel's samples is a (0, m, 2)-net in base 2: for
@@ -395,11 +464,14 @@ mod tests {
     /// exactly one point per cell (the 4x4 test above checks one grid only).
     #[test]
     fn every_dimension_pair_is_a_net() {
-        for spp in [16u32, 64, 256] {
+        for (spp, scramble) in [16u32, 64, 256]
+            .into_iter()
+            .flat_map(|n| [(n, Scramble::Xor), (n, Scramble::Owen)])
+        {
             let m = spp.trailing_zeros();
             for pair in 0..4 {
                 for px in 0..8u32 {
-                    let mut s = Sampler::new(3, spp);
+                    let mut s = Sampler::with_scramble(3, spp, scramble);
                     let pts: Vec<Vec2> = (0..spp)
                         .map(|i| {
                             s.start(px, 1, i);
@@ -418,7 +490,7 @@ mod tests {
                         }
                         assert!(
                             cells.iter().all(|&c| c == 1),
-                            "spp {spp}, pair {pair}, pixel {px}: not stratified on {nx}x{ny}"
+                            "{scramble:?} spp {spp}, pair {pair}, pixel {px}: not stratified on {nx}x{ny}"
                         );
                     }
                 }

@@ -95,6 +95,10 @@ fn bad_values_are_named_by_file_path_and_expectation() {
             &["film.width", "integer"],
         ),
         (
+            with(base(), "/sampler", json!({"spp": 4, "scramble": "sobol"})),
+            &["bad.json: sampler.scramble: expected one of xor, owen, found \"sobol\""],
+        ),
+        (
             with(base(), "/camera/fov", json!(200)),
             &["camera.fov", "(0, 180)", "200"],
         ),

@@ -17,7 +17,7 @@ fn check(scene: &Scene, batch: usize) {
     let mut checked = 0;
     for y in (0..scene.height).step_by(3) {
         for x in (0..scene.width).step_by(3) {
-            let mut base = Sampler::new(scene.seed, scene.spp);
+            let mut base = Sampler::with_scramble(scene.seed, scene.spp, scene.scramble);
             let mut rays = Vec::new();
             let mut samplers = Vec::new();
             let mut scalar = Vec::new();

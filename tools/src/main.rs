@@ -327,6 +327,7 @@ fn stats_json(
     let o = v.as_object_mut().expect("object");
     o.insert("scene".into(), scene.file.clone().into());
     o.insert("seed".into(), scene.seed.into());
+    o.insert("scramble".into(), scene.scramble.name().into());
     o.insert("integrator".into(), scene.integrator.describe().into());
     o.insert("exr".into(), exr.display().to_string().into());
     if let Some(p) = png {

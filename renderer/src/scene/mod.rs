@@ -17,6 +17,7 @@ use crate::geometry::{Geometry, Mesh, Rectangle, Sphere, Triangle};
 use crate::integrators::Integrator;
 use crate::lights::envmap::{EnvMap, RgbImage, load_rgb_image};
 use crate::lights::{AreaShape, Light};
+use crate::sampler::Scramble;
 use glam::{Mat3, Mat4, Vec3};
 use json::{Obj, describe};
 use lobe_materials::Bsdf;
@@ -43,6 +44,8 @@ pub struct Scene {
     pub height: u32,
     pub spp: u32,
     pub seed: u64,
+    /// How the sampler randomizes its points (`sampler.scramble`).
+    pub scramble: Scramble,
     /// Exposure (stops) for the PNG output.
     pub exposure: f32,
     pub integrator: Integrator,
@@ -235,13 +238,26 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
             )
         }
     };
-    let (spp, seed) = match top.get("sampler") {
-        None => (16, 0),
+    let (spp, seed, scramble) = match top.get("sampler") {
+        None => (16, 0, Scramble::default()),
         Some(sv) => {
-            let s = Obj::new(file, "sampler", sv, &["spp", "seed"])?;
+            let s = Obj::new(file, "sampler", sv, &["spp", "seed", "scramble"])?;
+            let scramble = match s.str_opt("scramble")? {
+                None => Scramble::default(),
+                Some(name) => Scramble::parse(name).ok_or_else(|| {
+                    s.err(
+                        "scramble",
+                        format!(
+                            "expected one of {}, found \"{name}\"",
+                            Scramble::NAMES.join(", ")
+                        ),
+                    )
+                })?,
+            };
             (
                 s.int_opt("spp", 1, 1 << 24)?.unwrap_or(16) as u32,
                 s.int_opt("seed", 0, i64::MAX)?.unwrap_or(0) as u64,
+                scramble,
             )
         }
     };
@@ -471,6 +487,7 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
         height,
         spp,
         seed,
+        scramble,
         exposure,
         integrator,
         geometry,
