@@ -133,13 +133,17 @@ pub struct Workspace {
     paths: Vec<PathState>,
     active: Vec<u32>,
     next: Vec<u32>,
+    /// Per active path: its closest hit.
     closest: Vec<Option<(f32, u32)>>,
-    its: Vec<Option<Interaction>>,
+    /// The paths that hit a surface this bounce, and their interactions.
+    hit_paths: Vec<u32>,
+    its: Vec<Interaction>,
     /// Escaped paths and their directions, and the env-map values there.
     escaped: Vec<u32>,
     dirs: Vec<Vec3>,
     env_eval: Vec<(Rgb, f32)>,
-    /// Paths that go on to next-event estimation, and their light samples.
+    /// Hits (positions in `its`) that go on to next-event estimation, and their light
+    /// samples.
     hits: Vec<u32>,
     /// Per hit: shading frame and local outgoing direction.
     frames: Vec<(Frame, Vec3)>,
@@ -204,31 +208,33 @@ pub fn li_many(
     if max_depth > 0 {
         ws.active.extend(0..rays.len() as u32);
     }
-    ws.its.clear();
-    ws.its.resize(rays.len(), None);
-    ws.closest.clear();
-    ws.closest.resize(rays.len(), None);
-    ws.light_samples.clear();
-    ws.light_samples.resize(rays.len(), None);
     while !ws.active.is_empty() {
-        // Intersection: the closest hits of all paths, then the local geometry of each
-        // (two passes, so that neither waits on the other's long dependency chains).
-        for &i in &ws.active {
-            ws.closest[i as usize] = scene.geometry.closest(&ws.paths[i as usize].ray);
-        }
-        for &i in &ws.active {
-            let i = i as usize;
-            ws.its[i] = ws.closest[i]
-                .map(|(t, prim)| scene.geometry.interaction(&ws.paths[i].ray, t, prim));
-        }
-        // Escaped paths gather the infinite lights; env maps in one batch per light.
-        ws.escaped.clear();
-        ws.escaped.extend(
+        // Intersection: the closest hits of all paths, then the local geometry of the hits
+        // (two passes, so that neither waits on the other's long dependency chains). Hits
+        // are kept in a compact list: `its[j]` is the interaction of path `hit_paths[j]`.
+        ws.closest.clear();
+        ws.closest.extend(
             ws.active
                 .iter()
-                .copied()
-                .filter(|&i| ws.its[i as usize].is_none()),
+                .map(|&i| scene.geometry.closest(&ws.paths[i as usize].ray)),
         );
+        ws.escaped.clear();
+        ws.hit_paths.clear();
+        ws.its.clear();
+        for (&i, c) in ws.active.iter().zip(&ws.closest) {
+            match *c {
+                None => ws.escaped.push(i),
+                Some((t, prim)) => {
+                    ws.hit_paths.push(i);
+                    ws.its.push(
+                        scene
+                            .geometry
+                            .interaction(&ws.paths[i as usize].ray, t, prim),
+                    );
+                }
+            }
+        }
+        // Escaped paths gather the infinite lights; env maps in one batch per light.
         if !ws.escaped.is_empty() {
             ws.dirs.clear();
             ws.dirs
@@ -257,12 +263,9 @@ pub fn li_many(
                 }
             }
         }
-        // Hits: emission, and the paths that go on.
+        // Hits: emission, and the paths that go on (positions in `its`).
         ws.hits.clear();
-        for &i in &ws.active {
-            let Some(it) = &ws.its[i as usize] else {
-                continue;
-            };
+        for (j, (&i, it)) in ws.hit_paths.iter().zip(&ws.its).enumerate() {
             let p = &mut ws.paths[i as usize];
             let shape = &scene.shapes[it.shape as usize];
             if let Some(k) = shape.light {
@@ -278,7 +281,7 @@ pub fn li_many(
                 }
             }
             if p.depth + 1 < max_depth {
-                ws.hits.push(i);
+                ws.hits.push(j as u32);
             }
         }
         if ws.hits.is_empty() {
@@ -288,8 +291,11 @@ pub fn li_many(
         // and point, BSDF lobe and direction (Russian roulette's comes below).
         let m = ws.hits.len();
         ws.lane_index.clear();
-        ws.lane_index
-            .extend(ws.hits.iter().map(|&i| indices[i as usize]));
+        ws.lane_index.extend(
+            ws.hits
+                .iter()
+                .map(|&j| indices[ws.hit_paths[j as usize] as usize]),
+        );
         ws.nee_uc.resize(m, 0.0);
         ws.nee_u.resize(m, Vec2::ZERO);
         ws.bsdf_uc.resize(m, 0.0);
@@ -298,29 +304,27 @@ pub fn li_many(
         sampler.next_2d_lanes(&ws.lane_index, &mut ws.nee_u);
         sampler.next_1d_lanes(&ws.lane_index, &mut ws.bsdf_uc);
         sampler.next_2d_lanes(&ws.lane_index, &mut ws.bsdf_u);
-        // Light samples: env maps in batches, other lights one by one.
+        // Light samples (`light_samples[h]` for `hits[h]`): env maps in batches, other
+        // lights one by one.
         ws.env_lanes.clear();
         ws.env_u.clear();
-        for (j, &i) in ws.hits.iter().enumerate() {
-            ws.light_samples[i as usize] = None;
-            if n_lights == 0 {
-                continue;
-            }
-            let idx = ((ws.nee_uc[j] * n_lights as f32) as usize).min(n_lights - 1);
-            let u = ws.nee_u[j];
-            match &scene.lights[idx] {
-                Light::Env(_) => {
-                    ws.env_lanes.push((i, idx as u32));
-                    ws.env_u.push(u);
-                }
-                light => {
-                    let Some(it) = &ws.its[i as usize] else {
-                        continue;
-                    };
-                    ws.light_samples[i as usize] = light
-                        .sample_li(it.p, u)
-                        .filter(|ls| !ls.li.is_black() && ls.pdf > 0.0)
-                        .map(|ls| (ls, sel_pdf));
+        ws.light_samples.clear();
+        ws.light_samples.resize(m, None);
+        if n_lights > 0 {
+            for (h, &j) in ws.hits.iter().enumerate() {
+                let idx = ((ws.nee_uc[h] * n_lights as f32) as usize).min(n_lights - 1);
+                let u = ws.nee_u[h];
+                match &scene.lights[idx] {
+                    Light::Env(_) => {
+                        ws.env_lanes.push((h as u32, idx as u32));
+                        ws.env_u.push(u);
+                    }
+                    light => {
+                        ws.light_samples[h] = light
+                            .sample_li(ws.its[j as usize].p, u)
+                            .filter(|ls| !ls.li.is_black() && ls.pdf > 0.0)
+                            .map(|ls| (ls, sel_pdf));
+                    }
                 }
             }
         }
@@ -334,14 +338,14 @@ pub fn li_many(
                     env.sample_many(&ws.env_u, &mut ws.env_out);
                 }
             } else {
-                for (j, &(_, k)) in ws.env_lanes.iter().enumerate() {
+                for (e, &(_, k)) in ws.env_lanes.iter().enumerate() {
                     if let Light::Env(env) = &scene.lights[k as usize] {
-                        ws.env_out[j] = env.sample(ws.env_u[j]);
+                        ws.env_out[e] = env.sample(ws.env_u[e]);
                     }
                 }
             }
-            for (&(i, _), s) in ws.env_lanes.iter().zip(&ws.env_out) {
-                ws.light_samples[i as usize] = s
+            for (&(h, _), s) in ws.env_lanes.iter().zip(&ws.env_out) {
+                ws.light_samples[h as usize] = s
                     .map(|(wi, li, pdf)| LightSample {
                         wi,
                         li,
@@ -355,43 +359,41 @@ pub fn li_many(
         }
         // Shading frames, then next-event estimation: BSDF values, shadow rays, sums.
         ws.frames.clear();
-        for &i in &ws.hits {
-            let iu = i as usize;
-            let Some(it) = &ws.its[iu] else {
-                unreachable!("hits have interactions")
-            };
-            let sh = Shading::new(scene, it, ws.paths[iu].ray.d);
+        for &j in &ws.hits {
+            let j = j as usize;
+            let sh = Shading::new(scene, &ws.its[j], ws.paths[ws.hit_paths[j] as usize].ray.d);
             ws.frames.push((sh.frame, sh.wo));
         }
         // Samples the BSDF reflects are kept by a branch-free compaction: whether a light
         // sample lies above the surface is a coin flip a branch would mispredict.
         ws.nee.clear();
-        ws.nee.resize(ws.hits.len(), (0, Rgb::ZERO, Vec3::ZERO));
+        ws.nee.resize(m, (0, Rgb::ZERO, Vec3::ZERO));
         let mut kept = 0;
-        for (j, &i) in ws.hits.iter().enumerate() {
-            let iu = i as usize;
-            let Some((ls, _)) = &ws.light_samples[iu] else {
+        for (h, &j) in ws.hits.iter().enumerate() {
+            let Some((ls, _)) = &ws.light_samples[h] else {
                 continue;
             };
-            let (frame, wo) = ws.frames[j];
-            let it = ws.its[iu].as_ref().expect("hits have interactions");
-            let bsdf = scene.shapes[it.shape as usize].material.as_ref();
+            let (frame, wo) = ws.frames[h];
+            let bsdf = scene.shapes[ws.its[j as usize].shape as usize]
+                .material
+                .as_ref();
             let wi = frame.to_local(ls.wi);
             let f = bsdf.eval(wo, wi) * wi.z.max(0.0);
-            ws.nee[kept] = (j as u32, f, wi);
+            ws.nee[kept] = (h as u32, f, wi);
             kept += !f.is_black() as usize;
         }
         ws.nee.truncate(kept);
-        for &(j, f, wi) in &ws.nee {
-            let iu = ws.hits[j as usize] as usize;
-            let it = ws.its[iu].as_ref().expect("hits have interactions");
-            let Some((ls, sel)) = &ws.light_samples[iu] else {
+        for &(h, f, wi) in &ws.nee {
+            let h = h as usize;
+            let j = ws.hits[h] as usize;
+            let it = &ws.its[j];
+            let Some((ls, sel)) = &ws.light_samples[h] else {
                 continue;
             };
             if !unoccluded(scene, it, ls) {
                 continue;
             }
-            let wo = ws.frames[j as usize].1;
+            let wo = ws.frames[h].1;
             let bsdf = scene.shapes[it.shape as usize].material.as_ref();
             let light_pdf = ls.pdf * sel;
             let w = if ls.delta {
@@ -399,21 +401,21 @@ pub fn li_many(
             } else {
                 power_heuristic(light_pdf, bsdf.pdf(wo, wi))
             };
-            let p = &mut ws.paths[iu];
+            let p = &mut ws.paths[ws.hit_paths[j] as usize];
             p.l += p.beta * f * ls.li * (w / light_pdf);
         }
         // BSDF sampling.
         ws.next.clear();
         let mut depth = 0;
-        for (j, &i) in ws.hits.iter().enumerate() {
-            let iu = i as usize;
-            let it = ws.its[iu].as_ref().expect("hits have interactions");
-            let (frame, wo) = ws.frames[j];
+        for (h, &j) in ws.hits.iter().enumerate() {
+            let it = &ws.its[j as usize];
+            let (frame, wo) = ws.frames[h];
             let bsdf = scene.shapes[it.shape as usize].material.as_ref();
-            let Some(bs) = bsdf.sample(wo, ws.bsdf_u[j], ws.bsdf_uc[j]) else {
+            let Some(bs) = bsdf.sample(wo, ws.bsdf_u[h], ws.bsdf_uc[h]) else {
                 continue;
             };
-            let p = &mut ws.paths[iu];
+            let i = ws.hit_paths[j as usize];
+            let p = &mut ws.paths[i as usize];
             p.beta *= bs.weight;
             if p.beta.is_black() || !p.beta.is_finite() {
                 continue;
