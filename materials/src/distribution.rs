@@ -270,19 +270,15 @@ impl Cdf2D {
 struct Level {
     /// Packets per row (half the padded width).
     packets_per_row: usize,
-    data: Vec<f32>,
+    /// One 2x2 packet per node of the next coarser level: [top-left, top-right,
+    /// bottom-left, bottom-right] (one 16-byte load, one bounds check).
+    data: Vec<[f32; 4]>,
 }
 
 impl Level {
     #[inline(always)]
     fn packet(&self, x: usize, y: usize) -> [f32; 4] {
-        let k = (y * self.packets_per_row + x) * 4;
-        [
-            self.data[k],
-            self.data[k + 1],
-            self.data[k + 2],
-            self.data[k + 3],
-        ]
+        self.data[y * self.packets_per_row + x]
     }
 }
 
@@ -324,12 +320,12 @@ impl Hierarchy2D {
         let mut levels = Vec::new();
         loop {
             let (pw, ph) = (w.div_ceil(2), h.div_ceil(2));
-            let mut data = vec![0.0f32; pw * ph * 4];
+            let mut data = vec![[0.0f32; 4]; pw * ph];
             let mut next = vec![0.0f32; pw * ph];
             for y in 0..h {
                 for x in 0..w {
                     let v = cur[y * w + x];
-                    data[((y / 2) * pw + x / 2) * 4 + (y % 2) * 2 + x % 2] = v;
+                    data[(y / 2) * pw + x / 2][(y % 2) * 2 + x % 2] = v;
                     next[(y / 2) * pw + x / 2] += v;
                 }
             }
@@ -351,7 +347,7 @@ impl Hierarchy2D {
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.levels.iter().map(|l| l.data.len() * 4).sum()
+        self.levels.iter().map(|l| l.data.len() * 16).sum()
     }
 
     /// (column, row, position within the cell in [0, 1)^2).
