@@ -13,9 +13,9 @@ high-spp lobe reference rendered with another seed, and the equal-error time rat
 
 i.e. how much longer renderer X needs than lobe to reach the same error (RMSE^2 falls as
 1/spp for these unbiased renderers, and about so for the low-discrepancy samplers at these
-spp). lobe's Owen-scrambled Sobol' sampler has less variance per sample than Mitsuba's
-default `independent` sampler, so `llvm_ad_rgb` is also run with Mitsuba's `ldsampler`
-(low-discrepancy (0,2)-sequences per dimension pair, the closest peer of lobe's sampler):
+spp). lobe's padded, XOR-scrambled Sobol' sampler has less variance per sample than
+Mitsuba's default `independent` sampler, so `llvm_ad_rgb` is also run with Mitsuba's
+`ldsampler` (the same construction: XOR-scrambled (0,2)-sequences per dimension pair):
 that row is the like-for-like equal-error comparison. Prints a Markdown table (with the
 machine) and writes it to --out if given.
 """
