@@ -146,22 +146,37 @@ fn expected_counts(e: &EnvMap, nz: usize, np: usize, n: usize) -> Vec<f64> {
 
 #[test]
 fn chi_square_of_sampled_directions() {
-    let e = env();
-    let (nz, np, n) = (24usize, 48usize, 400_000usize);
-    let mut state = 0x1234_5678_9abc_def0u64;
-    let mut rnd = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 40) as f32) / (1u64 << 24) as f32
-    };
-    let observed = histogram(&e, (0..n).map(|_| Vec2::new(rnd(), rnd())), nz, np);
-    let (stat, dof, p) = chi2_test(&observed, &expected_counts(&e, nz, np, n), 5.0);
-    eprintln!("chi2 = {stat:.1}, dof = {dof}, p = {p:.4}");
-    assert!(
-        p > 0.01,
-        "chi-square test rejects the sampler: chi2 = {stat:.1}, dof = {dof}, p = {p:.2e}"
-    );
+    // The synthetic map, and an odd-sized one (the sampling hierarchy zero-pads both
+    // dimensions at several levels) with a one-pixel sun 2500 times the sky.
+    let mut odd = synthetic(37, 19);
+    for (k, px) in odd.pixels.iter_mut().enumerate() {
+        if k % 37 == 30 && k / 37 == 5 {
+            *px = Rgb::splat(500.0);
+        } else if px.max_component() > 100.0 {
+            *px = Rgb::splat(0.2);
+        }
+    }
+    let rot = Mat3::from_axis_angle(Vec3::new(-0.2, 1.0, 0.5).normalize(), 1.1);
+    for (name, e) in [
+        ("synthetic 64x32", env()),
+        ("odd 37x19 with a sun", EnvMap::new(&odd, 1.0, rot)),
+    ] {
+        let (nz, np, n) = (24usize, 48usize, 400_000usize);
+        let mut state = 0x1234_5678_9abc_def0u64;
+        let mut rnd = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        let observed = histogram(&e, (0..n).map(|_| Vec2::new(rnd(), rnd())), nz, np);
+        let (stat, dof, p) = chi2_test(&observed, &expected_counts(&e, nz, np, n), 5.0);
+        eprintln!("{name}: chi2 = {stat:.1}, dof = {dof}, p = {p:.4}");
+        assert!(
+            p > 0.01,
+            "{name}: chi-square test rejects the sampler: chi2 = {stat:.1}, dof = {dof}, p = {p:.2e}"
+        );
+    }
 }
 
 #[test]
