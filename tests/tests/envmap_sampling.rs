@@ -36,6 +36,13 @@ fn env() -> EnvMap {
     EnvMap::new(&synthetic(64, 32), 1.5, rot)
 }
 
+/// The synthetic map with MIS compensation: zero density wherever the map is darker than
+/// its mean.
+fn env_compensated() -> EnvMap {
+    let rot = Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.7);
+    EnvMap::with_mis_compensation(&synthetic(64, 32), 1.5, rot, true)
+}
+
 /// Unit direction from (cos theta, phi) around +z.
 fn dir(z: f64, phi: f64) -> Vec3 {
     let r = (1.0 - z * z).max(0.0).sqrt();
@@ -44,40 +51,53 @@ fn dir(z: f64, phi: f64) -> Vec3 {
 
 #[test]
 fn density_integrates_to_one() {
-    let e = env();
-    // Midpoint rule in (cos theta, phi): equal-area cells.
-    let (nz, np) = (800, 1600);
-    let mut acc = 0.0f64;
-    for a in 0..nz {
-        for b in 0..np {
-            let z = -1.0 + 2.0 * (a as f64 + 0.5) / nz as f64;
-            let phi = 2.0 * PI * (b as f64 + 0.5) / np as f64;
-            acc += e.pdf(dir(z, phi)) as f64;
+    for (name, e) in [("plain", env()), ("MIS-compensated", env_compensated())] {
+        // Midpoint rule in (cos theta, phi): equal-area cells.
+        let (nz, np) = (800, 1600);
+        let (mut acc, mut zero) = (0.0f64, 0usize);
+        for a in 0..nz {
+            for b in 0..np {
+                let z = -1.0 + 2.0 * (a as f64 + 0.5) / nz as f64;
+                let phi = 2.0 * PI * (b as f64 + 0.5) / np as f64;
+                let p = e.pdf(dir(z, phi)) as f64;
+                acc += p;
+                zero += (p == 0.0) as usize;
+            }
+        }
+        let integral = acc * 4.0 * PI / (nz * np) as f64;
+        assert!(
+            (integral - 1.0).abs() < 5e-3,
+            "{name}: integral of the pdf: {integral}"
+        );
+        // Compensation leaves the darker part of the map to BSDF sampling.
+        if name == "plain" {
+            assert!(zero < nz * np / 8, "{name}: {zero} zero-density cells");
+        } else {
+            assert!(zero > nz * np / 4, "{name}: only {zero} zero-density cells");
         }
     }
-    let integral = acc * 4.0 * PI / (nz * np) as f64;
-    assert!(
-        (integral - 1.0).abs() < 5e-3,
-        "integral of the pdf: {integral}"
-    );
 }
 
 #[test]
 fn samples_agree_with_eval_and_pdf() {
-    let e = env();
-    for i in 0..2000 {
-        let u = Vec2::new(((i as f32) * 0.618034).fract(), (i as f32 + 0.5) / 2000.0);
-        let Some((d, li, pdf)) = e.sample(u) else {
-            continue;
-        };
-        assert!((d.length() - 1.0).abs() < 1e-4);
-        let (l2, p2) = e.eval_pdf(d);
-        assert!(
-            (li - l2).max_component().abs() <= 1e-3 * li.max_component().max(1.0),
-            "{li:?} vs {l2:?}"
-        );
-        assert!((pdf - p2).abs() <= 2e-3 * pdf, "pdf {pdf} vs {p2}");
-        assert!(li.max_component() > 0.0, "sampled a black direction");
+    for e in [env(), env_compensated()] {
+        for i in 0..2000 {
+            let u = Vec2::new(((i as f32) * 0.618034).fract(), (i as f32 + 0.5) / 2000.0);
+            let Some((d, li, pdf)) = e.sample(u) else {
+                continue;
+            };
+            assert!((d.length() - 1.0).abs() < 1e-4);
+            let (l2, p2) = e.eval_pdf(d);
+            assert!(
+                (li - l2).max_component().abs() <= 1e-3 * li.max_component().max(1.0),
+                "{li:?} vs {l2:?}"
+            );
+            assert!((pdf - p2).abs() <= 2e-3 * pdf, "pdf {pdf} vs {p2}");
+            assert!(
+                pdf > 0.0 && li.max_component() > 0.0,
+                "sampled a black direction"
+            );
+        }
     }
 }
 
@@ -159,6 +179,7 @@ fn chi_square_of_sampled_directions() {
     let rot = Mat3::from_axis_angle(Vec3::new(-0.2, 1.0, 0.5).normalize(), 1.1);
     for (name, e) in [
         ("synthetic 64x32", env()),
+        ("synthetic 64x32, MIS-compensated", env_compensated()),
         ("odd 37x19 with a sun", EnvMap::new(&odd, 1.0, rot)),
     ] {
         let (nz, np, n) = (24usize, 48usize, 400_000usize);

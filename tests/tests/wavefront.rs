@@ -79,7 +79,7 @@ fn mixed_lights_and_materials() {
         ],
         "lights": [
             {"type": "envmap", "file": "builtin:studio", "scale": 0.5},
-            {"type": "envmap", "file": "builtin:studio", "scale": 0.3, "to_world": {"rotate": {"axis": [0, 1, 0], "angle": 70}}},
+            {"type": "envmap", "file": "builtin:studio", "scale": 0.3, "mis_compensation": true, "to_world": {"rotate": {"axis": [0, 1, 0], "angle": 70}}},
             {"type": "constant", "radiance": 0.1},
             {"type": "point", "position": [0, 3, 2], "intensity": 5}
         ]

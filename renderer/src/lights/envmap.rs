@@ -46,6 +46,9 @@ pub struct EnvMap {
     sin_row: Vec<f32>,
     /// 1 / mean cell weight (0 when the map is black: uniform sampling).
     inv_mean: f32,
+    /// Luminance subtracted from every pixel's sampling weight (MIS compensation; 0 when
+    /// off).
+    offset: f32,
 }
 
 /// Points processed together by the batched lookups ([`EnvMap::eval_pdf_many`],
@@ -69,6 +72,23 @@ impl EnvMap {
     /// From linear RGB pixels (negative and non-finite components read as zero);
     /// `to_world` must be a rotation (an orthonormal matrix).
     pub fn new(img: &RgbImage, scale: f32, to_world: Mat3) -> Self {
+        Self::with_mis_compensation(img, scale, to_world, false)
+    }
+
+    /// [`EnvMap::new`], optionally with MIS compensation (Karlik et al., "MIS
+    /// Compensation: Optimizing Sampling Techniques in Multiple Importance Sampling",
+    /// SIGGRAPH Asia 2019; Mitsuba 3's `mis_compensation`): the sampling weights are
+    /// max(luminance - mean luminance, 0) x sin(theta), so light samples go only where the
+    /// map is brighter than average and BSDF samples, combined by MIS, cover the rest.
+    /// Unbiased only when every path vertex also samples its BSDF (the scene loader
+    /// checks it). Left off for nearly constant maps (mean - minimum <= 1 % of the mean),
+    /// as Mitsuba does.
+    pub fn with_mis_compensation(
+        img: &RgbImage,
+        scale: f32,
+        to_world: Mat3,
+        compensate: bool,
+    ) -> Self {
         DISTRIBUTIONS_BUILT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let (w, h) = (img.width, img.height);
         assert!(w >= 2 && h >= 3 && img.pixels.len() == w * h);
@@ -84,11 +104,23 @@ impl EnvMap {
         let sin_row: Vec<f32> = (0..h)
             .map(|j| (j as f32 / (h - 1) as f32 * PI).sin().max(0.0))
             .collect();
+        let offset = if compensate {
+            let (mut sum, mut min) = (0.0f64, f32::INFINITY);
+            for p in &img.pixels {
+                let l = clean(p).luminance().max(0.0);
+                sum += l as f64;
+                min = min.min(l);
+            }
+            let mean = (sum / img.pixels.len() as f64) as f32;
+            if mean - min <= 0.01 * mean { 0.0 } else { mean }
+        } else {
+            0.0
+        };
         let mut cells = vec![0.0f32; w * (h - 1)];
         for j in 0..h - 1 {
             for i in 0..w {
                 // The integral of the bilinear patch: the mean of its corner weights.
-                let c = Self::corner_weights(&data, &sin_row, w, i, j);
+                let c = Self::corner_weights(&data, &sin_row, offset, w, i, j);
                 cells[j * w + i] = 0.25 * (c[0] + c[1] + c[2] + c[3]);
             }
         }
@@ -104,20 +136,29 @@ impl EnvMap {
             cells: table,
             sin_row,
             inv_mean: if black { 0.0 } else { (1.0 / mean) as f32 },
+            offset,
         }
     }
 
     /// Sampling weights of the four corners of cell (ix, iy), [top-left, top-right,
-    /// bottom-left, bottom-right]: luminance x sin(theta) of each corner's pixel row.
+    /// bottom-left, bottom-right]: (luminance - `offset`, at least 0) x sin(theta) of each
+    /// corner's pixel row.
     #[inline(always)]
-    fn corner_weights(d: &[Rgb], sin_row: &[f32], w: usize, ix: usize, iy: usize) -> [f32; 4] {
+    fn corner_weights(
+        d: &[Rgb],
+        sin_row: &[f32],
+        offset: f32,
+        w: usize,
+        ix: usize,
+        iy: usize,
+    ) -> [f32; 4] {
         let k = iy * (w + 1) + ix;
         let (st, sb) = (sin_row[iy], sin_row[iy + 1]);
         [
-            d[k].luminance().max(0.0) * st,
-            d[k + 1].luminance().max(0.0) * st,
-            d[k + w + 1].luminance().max(0.0) * sb,
-            d[k + w + 2].luminance().max(0.0) * sb,
+            (d[k].luminance() - offset).max(0.0) * st,
+            (d[k + 1].luminance() - offset).max(0.0) * st,
+            (d[k + w + 1].luminance() - offset).max(0.0) * sb,
+            (d[k + w + 2].luminance() - offset).max(0.0) * sb,
         ]
     }
 
@@ -167,6 +208,12 @@ impl EnvMap {
         // Luminance is linear: that of the interpolated rows is the interpolated luminance.
         let density = if self.inv_mean == 0.0 {
             1.0
+        } else if self.offset > 0.0 {
+            // With MIS compensation the weights are clamped per pixel, so they are
+            // interpolated one by one.
+            let c = Self::corner_weights(d, &self.sin_row, self.offset, w, k % (w + 1), iy);
+            ((1.0 - fy) * (c[0] * (1.0 - fx) + c[1] * fx) + fy * (c[2] * (1.0 - fx) + c[3] * fx))
+                * self.inv_mean
         } else {
             ((1.0 - fy) * top.luminance().max(0.0) * self.sin_row[iy]
                 + fy * bottom.luminance().max(0.0) * self.sin_row[iy + 1])
@@ -278,7 +325,14 @@ impl EnvMap {
             let mut corners = [[0.0f32; 4]; LANES];
             for i in 0..LANES {
                 let (ix, iy, _) = cell[i];
-                corners[i] = Self::corner_weights(&self.data, &self.sin_row, self.width, ix, iy);
+                corners[i] = Self::corner_weights(
+                    &self.data,
+                    &self.sin_row,
+                    self.offset,
+                    self.width,
+                    ix,
+                    iy,
+                );
             }
             let mut f = [Vec2::ZERO; LANES];
             for i in 0..LANES {
@@ -339,7 +393,7 @@ impl EnvMap {
         } else {
             square_to_bilinear(
                 r,
-                Self::corner_weights(&self.data, &self.sin_row, self.width, ix, iy),
+                Self::corner_weights(&self.data, &self.sin_row, self.offset, self.width, ix, iy),
             )
         };
         let ab = Vec2::new(

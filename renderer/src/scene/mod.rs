@@ -454,7 +454,7 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
             )
         })?;
         for (i, l) in list.iter().enumerate() {
-            lights.push(parse_light(&ld, &format!("lights[{i}]"), l)?);
+            lights.push(parse_light(&ld, &format!("lights[{i}]"), l, &integrator)?);
         }
     }
     let infinite_lights = lights
@@ -659,13 +659,31 @@ fn parse_camera(file: &str, v: &Value, width: u32, height: u32) -> Result<Camera
     }
 }
 
-fn parse_light(ld: &Loader, path: &str, v: &Value) -> Result<Light> {
+fn parse_light(ld: &Loader, path: &str, v: &Value, integrator: &Integrator) -> Result<Light> {
     let file = ld.file;
     let kind = v.get("type").and_then(Value::as_str).unwrap_or("");
     match kind {
         "envmap" => {
-            let o = Obj::new(file, path, v, &["type", "file", "scale", "to_world"])?;
+            let o = Obj::new(
+                file,
+                path,
+                v,
+                &["type", "file", "scale", "to_world", "mis_compensation"],
+            )?;
             let scale = o.f32_or("scale", 1.0, "a non-negative scale", non_negative)?;
+            let compensate = o.bool_or("mis_compensation", false)?;
+            let bsdf_sampling = match integrator {
+                Integrator::Path { .. } => true,
+                Integrator::Direct { bsdf_samples, .. } => *bsdf_samples > 0,
+            };
+            if compensate && !bsdf_sampling {
+                // Without BSDF samples, directions darker than the map's mean would never
+                // be sampled: the image would be too dark.
+                return Err(o.err(
+                    "mis_compensation",
+                    "expected false with this integrator: compensation needs BSDF sampling (the path integrator, or direct with bsdf_samples >= 1)",
+                ));
+            }
             let rot = match o.get("to_world") {
                 Some(t) => {
                     let m = transform::parse(file, &o.key_path("to_world"), t)?;
@@ -674,7 +692,9 @@ fn parse_light(ld: &Loader, path: &str, v: &Value) -> Result<Light> {
                 None => Mat3::IDENTITY,
             };
             let img = ld.image(&o, "file")?;
-            Ok(Light::Env(Box::new(EnvMap::new(&img, scale, rot))))
+            Ok(Light::Env(Box::new(EnvMap::with_mis_compensation(
+                &img, scale, rot, compensate,
+            ))))
         }
         "constant" => {
             let o = Obj::new(file, path, v, &["type", "radiance"])?;

@@ -129,6 +129,8 @@ class Converter:
             if f.startswith("builtin:"):
                 raise SceneError("built-in environment maps have no file Mitsuba could read")
             d = {"type": "envmap", "filename": self.resolve(f), "scale": float(l.get("scale", 1.0))}
+            if l.get("mis_compensation"):
+                d["mis_compensation"] = True
             if "to_world" in l:
                 d["to_world"] = transform(l["to_world"])
             return d
