@@ -18,8 +18,11 @@
 //! with pbrt-v4's `SampleBilinear`. The ratio radiance / pdf is then smooth across cells
 //! (no step per cell), and nearby samples land nearby at every scale, so low-discrepancy
 //! samples stay stratified (light samples alone on sphere-envmap at 64 spp: 1.9x lower
-//! variance than the rows-then-columns CDF inversion used before). The density is positive wherever the radiance is (away from the poles,
-//! which have no solid angle), so the estimator stays unbiased.
+//! variance than the rows-then-columns CDF inversion used before). The density is
+//! positive wherever the radiance is (away from the poles, which have no solid angle), so
+//! the estimator stays unbiased. With MIS compensation (Karlik et al. 2019, optional) the
+//! weights are max(luminance - mean, 0) x sin(theta): zero where the map is darker than
+//! its mean, which BSDF sampling must then cover (the scene loader checks that it does).
 
 use crate::Rgb;
 use crate::error::{Error, Result};
