@@ -157,13 +157,7 @@ fn count_le(s: &[f32], u: f32) -> usize {
 /// instead of nine), with the same result.
 #[inline]
 fn invert(cdf: &[f32], coarse: &[f32], u: f32) -> (usize, f32) {
-    invert_from(cdf, count_le(coarse, u) * BLOCK, u)
-}
-
-/// [`invert`] once the block count is known: `start` = BLOCK x (blocks ending at or below
-/// `u`).
-#[inline]
-fn invert_from(cdf: &[f32], start: usize, u: f32) -> (usize, f32) {
+    let start = count_le(coarse, u) * BLOCK;
     let n = cdf.len() - 1;
     let below = if start < cdf.len() {
         start + count_le(&cdf[start..(start + BLOCK).min(cdf.len())], u)
@@ -233,34 +227,6 @@ impl Cdf2D {
             u.x,
         );
         (col, row, Vec2::new(rx, ry))
-    }
-}
-
-impl Cdf2D {
-    /// [`Cdf2D::sample`] of `N` points at once, bit for bit the same, stage by stage over
-    /// all points (rows, then each row's block, then columns) so that their independent
-    /// memory reads overlap instead of waiting one after another.
-    #[inline]
-    pub fn sample_lanes<const N: usize>(&self, u: &[Vec2; N]) -> [(usize, usize, Vec2); N] {
-        let mut row = [(0usize, 0.0f32); N];
-        for i in 0..N {
-            row[i] = invert(&self.marginal, &self.coarse_marginal, u[i].y);
-        }
-        let stride = self.nu + 1;
-        let mut start = [0usize; N];
-        for i in 0..N {
-            let c = row[i].0 * self.coarse_stride;
-            start[i] =
-                count_le(&self.coarse_conditional[c..c + self.coarse_stride], u[i].x) * BLOCK;
-        }
-        let mut out = [(0usize, 0usize, Vec2::ZERO); N];
-        for i in 0..N {
-            let k = row[i].0 * stride;
-            let cdf = &self.conditional[k..k + stride];
-            let (col, rx) = invert_from(cdf, start[i], u[i].x);
-            out[i] = (col, row[i].0, Vec2::new(rx, row[i].1));
-        }
-        out
     }
 }
 
@@ -521,30 +487,6 @@ mod tests {
                     assert_eq!(i, j, "n {n}, u {u}");
                     assert!(u.is_nan() || (0.0..1.0).contains(&r), "n {n}, u {u}: r {r}");
                 }
-            }
-        }
-    }
-
-    #[test]
-    fn lanes_equal_single_samples() {
-        let vals: Vec<f32> = (0..37 * 19)
-            .map(|i| {
-                if i % 5 == 2 {
-                    0.0
-                } else {
-                    ((i * 7919) % 101) as f32
-                }
-            })
-            .collect();
-        let (t, _) = Cdf2D::new(&vals, 37, 19);
-        for k in 0..200 {
-            let u: [Vec2; 8] = std::array::from_fn(|i| {
-                let j = (k * 8 + i) as f32;
-                Vec2::new((j * 0.618_034).fract(), (j * 0.754_878).fract())
-            });
-            let lanes = t.sample_lanes(&u);
-            for i in 0..8 {
-                assert_eq!(format!("{:?}", lanes[i]), format!("{:?}", t.sample(u[i])));
             }
         }
     }

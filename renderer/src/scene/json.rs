@@ -144,6 +144,25 @@ impl<'a> Obj<'a> {
         }
     }
 
+    /// An optional string naming one of `names`, converted by `parse`.
+    pub fn name_opt<T>(
+        &self,
+        key: &str,
+        names: &[&str],
+        parse: impl Fn(&str) -> Option<T>,
+    ) -> Result<Option<T>> {
+        let Some(s) = self.str_opt(key)? else {
+            return Ok(None);
+        };
+        let v = parse(s).ok_or_else(|| {
+            self.err(
+                key,
+                format!("expected one of {}, found \"{s}\"", names.join(", ")),
+            )
+        })?;
+        Ok(Some(v))
+    }
+
     pub fn str_req(&self, key: &str, what: &str) -> Result<&'a str> {
         match self.require(key, what)? {
             Value::String(s) => Ok(s),

@@ -242,18 +242,9 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
         None => (16, 0, Scramble::default()),
         Some(sv) => {
             let s = Obj::new(file, "sampler", sv, &["spp", "seed", "scramble"])?;
-            let scramble = match s.str_opt("scramble")? {
-                None => Scramble::default(),
-                Some(name) => Scramble::parse(name).ok_or_else(|| {
-                    s.err(
-                        "scramble",
-                        format!(
-                            "expected one of {}, found \"{name}\"",
-                            Scramble::NAMES.join(", ")
-                        ),
-                    )
-                })?,
-            };
+            let scramble = s
+                .name_opt("scramble", &Scramble::NAMES, Scramble::parse)?
+                .unwrap_or_default();
             (
                 s.int_opt("spp", 1, 1 << 24)?.unwrap_or(16) as u32,
                 s.int_opt("seed", 0, i64::MAX)?.unwrap_or(0) as u64,
@@ -600,18 +591,9 @@ fn parse_camera(file: &str, v: &Value, width: u32, height: u32) -> Result<Camera
                 "a field of view in degrees in (0, 180)",
                 |x| x > 0.0 && x < 180.0,
             )?;
-            let axis = match o.str_opt("fov_axis")? {
-                None => FovAxis::X,
-                Some(s) => FovAxis::parse(s).ok_or_else(|| {
-                    o.err(
-                        "fov_axis",
-                        format!(
-                            "expected one of {}, found \"{s}\"",
-                            FovAxis::NAMES.join(", ")
-                        ),
-                    )
-                })?,
-            };
+            let axis = o
+                .name_opt("fov_axis", FovAxis::NAMES, FovAxis::parse)?
+                .unwrap_or(FovAxis::X);
             let near = o.f32_or("near_clip", 0.01, "a non-negative distance", non_negative)?;
             let m = camera_frame(&o, file)?;
             Ok(Camera::perspective(
