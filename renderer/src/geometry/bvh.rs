@@ -184,7 +184,9 @@ impl Geometry {
         best
     }
 
-    /// Local geometry of a hit found by [`Geometry::closest`].
+    /// Local geometry of a hit found by [`Geometry::closest`]. Inlined, so that callers
+    /// build it in place (spheres and rectangles here; triangles out of line).
+    #[inline]
     pub fn interaction(&self, ray: &Ray, t: f32, prim: u32) -> Interaction {
         let p = &self.prims[prim as usize];
         let sg = self.shapes[p.shape as usize];
@@ -199,42 +201,7 @@ impl Geometry {
                 let uv = r.uv(ray.at(t));
                 (r.point(uv), r.n, r.n, r.eu.normalize(), uv)
             }
-            PrimKind::Triangle(tri) => {
-                let b = tri
-                    .intersect_bary(&Ray {
-                        tmin: f32::NEG_INFINITY,
-                        tmax: f32::INFINITY,
-                        ..*ray
-                    })
-                    .map(|(_, b)| b)
-                    .unwrap_or(Vec2::splat(1.0 / 3.0));
-                let mesh = &self.meshes[tri.mesh as usize];
-                let idx = mesh.indices[tri.index as usize];
-                let mut ng = tri.normal();
-                let w = [1.0 - b.x - b.y, b.x, b.y];
-                let mut ns = ng;
-                if !sg.face_normals && !mesh.normals.is_empty() {
-                    let n = idx
-                        .iter()
-                        .zip(w)
-                        .fold(Vec3::ZERO, |a, (&k, wk)| a + mesh.normals[k as usize] * wk);
-                    if n.length_squared() > 0.0 {
-                        ns = n.normalize();
-                        // The file's normals say where the outside is (pbrt-v4's rule).
-                        if ng.dot(ns) < 0.0 {
-                            ng = -ng;
-                        }
-                    }
-                }
-                let uv = if mesh.texcoords.is_empty() {
-                    b
-                } else {
-                    idx.iter().zip(w).fold(Vec2::ZERO, |a, (&k, wk)| {
-                        a + mesh.texcoords[k as usize] * wk
-                    })
-                };
-                (tri.point(b), ng, ns, tri.e1.normalize_or_zero(), uv)
-            }
+            PrimKind::Triangle(tri) => self.triangle_geometry(ray, tri, sg),
         };
         if sg.flip_normals {
             ng = -ng;
@@ -251,6 +218,51 @@ impl Geometry {
             prim,
             exit,
         }
+    }
+
+    /// Position, geometric and shading normals, tangent and texture coordinates of a hit
+    /// on a mesh triangle.
+    #[inline(never)]
+    fn triangle_geometry(
+        &self,
+        ray: &Ray,
+        tri: &Triangle,
+        sg: ShapeGeom,
+    ) -> (Vec3, Vec3, Vec3, Vec3, Vec2) {
+        let b = tri
+            .intersect_bary(&Ray {
+                tmin: f32::NEG_INFINITY,
+                tmax: f32::INFINITY,
+                ..*ray
+            })
+            .map(|(_, b)| b)
+            .unwrap_or(Vec2::splat(1.0 / 3.0));
+        let mesh = &self.meshes[tri.mesh as usize];
+        let idx = mesh.indices[tri.index as usize];
+        let mut ng = tri.normal();
+        let w = [1.0 - b.x - b.y, b.x, b.y];
+        let mut ns = ng;
+        if !sg.face_normals && !mesh.normals.is_empty() {
+            let n = idx
+                .iter()
+                .zip(w)
+                .fold(Vec3::ZERO, |a, (&k, wk)| a + mesh.normals[k as usize] * wk);
+            if n.length_squared() > 0.0 {
+                ns = n.normalize();
+                // The file's normals say where the outside is (pbrt-v4's rule).
+                if ng.dot(ns) < 0.0 {
+                    ng = -ng;
+                }
+            }
+        }
+        let uv = if mesh.texcoords.is_empty() {
+            b
+        } else {
+            idx.iter().zip(w).fold(Vec2::ZERO, |a, (&k, wk)| {
+                a + mesh.texcoords[k as usize] * wk
+            })
+        };
+        (tri.point(b), ng, ns, tri.e1.normalize_or_zero(), uv)
     }
 
     /// True when queries go through the BVH (more than [`SMALL_SCENE`] primitives).

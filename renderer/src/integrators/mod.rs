@@ -138,9 +138,21 @@ pub(crate) fn sample_one_light(
 /// True when the light sample `ls` is visible from `it`.
 #[inline]
 pub(crate) fn unoccluded(scene: &Scene, it: &Interaction, ls: &LightSample) -> bool {
-    let ray = match ls.p {
+    unoccluded_to(scene, it, ls.wi, ls.p)
+}
+
+/// True when nothing blocks direction `wi` from `it` up to the light point `at` (a point
+/// and its normal, zero for none; None: at infinity), as [`LightSample::p`].
+#[inline]
+pub(crate) fn unoccluded_to(
+    scene: &Scene,
+    it: &Interaction,
+    wi: Vec3,
+    at: Option<(Vec3, Vec3)>,
+) -> bool {
+    let ray = match at {
         Some((q, n)) => spawn_ray_to(it, q, if n == Vec3::ZERO { None } else { Some(n) }),
-        None => spawn_ray(it, ls.wi),
+        None => spawn_ray(it, wi),
     };
     !scene.geometry.occluded(&ray)
 }

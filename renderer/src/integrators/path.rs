@@ -8,10 +8,10 @@
 //! form the renderer runs, in which the samples of a pixel go through each stage of a
 //! bounce together (tests/tests/wavefront.rs checks that they agree).
 
-use super::{Shading, sample_one_light, unoccluded};
+use super::{Shading, sample_one_light, unoccluded, unoccluded_to};
 use crate::Rgb;
 use crate::geometry::{Interaction, Ray, spawn_ray};
-use crate::lights::{Light, LightSample};
+use crate::lights::Light;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -116,21 +116,34 @@ pub fn li(
     l
 }
 
-/// One path of [`li_many`] between bounces.
+/// The state of one path of [`li_many`] between bounces, besides its ray.
 #[derive(Clone, Copy)]
-struct PathState {
-    ray: Ray,
+struct PathVars {
     beta: Rgb,
     l: Rgb,
-    prev_pdf: f32,
     prev_p: Vec3,
+    prev_pdf: f32,
     depth: u32,
 }
 
-/// Buffers of [`li_many`], kept between calls so that a tile allocates them once.
+impl PathVars {
+    const START: Self = Self {
+        beta: Rgb::ONE,
+        l: Rgb::ZERO,
+        prev_p: Vec3::ZERO,
+        prev_pdf: 0.0,
+        depth: 0,
+    };
+}
+
+/// Buffers of [`li_many`], kept between calls so that a tile allocates them once. Data
+/// passed between stages is kept in flat arrays of plain values (no per-element `Option`
+/// or packed records), which the stages read and write with straight loads and stores.
 #[derive(Default)]
 pub struct Workspace {
-    paths: Vec<PathState>,
+    /// Per path: its ray and the rest of its state.
+    rays: Vec<Ray>,
+    vars: Vec<PathVars>,
     active: Vec<u32>,
     next: Vec<u32>,
     /// Per active path: its closest hit.
@@ -142,8 +155,7 @@ pub struct Workspace {
     escaped: Vec<u32>,
     dirs: Vec<Vec3>,
     env_eval: Vec<(Rgb, f32)>,
-    /// Hits (positions in `its`) that go on to next-event estimation, and their light
-    /// samples.
+    /// Hits (positions in `its`) that go on to next-event estimation.
     hits: Vec<u32>,
     /// Per hit: shading frame and local outgoing direction.
     frames: Vec<(Frame, Vec3)>,
@@ -155,11 +167,21 @@ pub struct Workspace {
     nee_u: Vec<Vec2>,
     bsdf_uc: Vec<f32>,
     bsdf_u: Vec<Vec2>,
-    light_samples: Vec<Option<(LightSample, f32)>>,
-    /// Light-sample requests to an env map: (path, light index), point.
+    /// Per hit, its light sample: direction, radiance, solid-angle pdf (0: no sample),
+    /// whether it is a delta light, and the point on the light
+    /// ([`LightSample::p`](crate::lights::LightSample::p)).
+    ls_wi: Vec<Vec3>,
+    ls_li: Vec<Rgb>,
+    ls_pdf: Vec<f32>,
+    ls_delta: Vec<bool>,
+    ls_at: Vec<Option<(Vec3, Vec3)>>,
+    /// Light-sample requests to env maps when the scene has other lights too: (hit, light
+    /// index), point, and the samples.
     env_lanes: Vec<(u32, u32)>,
     env_u: Vec<Vec2>,
-    env_out: Vec<Option<(Vec3, Rgb, f32)>>,
+    env_wi: Vec<Vec3>,
+    env_li: Vec<Rgb>,
+    env_pdf: Vec<f32>,
 }
 
 /// [`li`] of many camera rays of one pixel at once, `out[i]` for `rays[i]` with the
@@ -195,19 +217,19 @@ pub fn li_many(
     } else {
         1.0 / n_lights as f32
     };
-    ws.paths.clear();
-    ws.paths.extend(rays.iter().map(|&ray| PathState {
-        ray,
-        beta: Rgb::ONE,
-        l: Rgb::ZERO,
-        prev_pdf: 0.0,
-        prev_p: Vec3::ZERO,
-        depth: 0,
-    }));
+    ws.rays.clear();
+    ws.rays.extend_from_slice(rays);
+    ws.vars.clear();
+    ws.vars.resize(rays.len(), PathVars::START);
     ws.active.clear();
     if max_depth > 0 {
         ws.active.extend(0..rays.len() as u32);
     }
+    // A scene lit by one env map alone samples it for every hit, in one batch.
+    let env_only = match scene.lights.as_slice() {
+        [Light::Env(env)] => Some(env),
+        _ => None,
+    };
     while !ws.active.is_empty() {
         // Intersection: the closest hits of all paths, then the local geometry of the hits
         // (two passes, so that neither waits on the other's long dependency chains). Hits
@@ -216,7 +238,7 @@ pub fn li_many(
         ws.closest.extend(
             ws.active
                 .iter()
-                .map(|&i| scene.geometry.closest(&ws.paths[i as usize].ray)),
+                .map(|&i| scene.geometry.closest(&ws.rays[i as usize])),
         );
         ws.escaped.clear();
         ws.hit_paths.clear();
@@ -226,11 +248,8 @@ pub fn li_many(
                 None => ws.escaped.push(i),
                 Some((t, prim)) => {
                     ws.hit_paths.push(i);
-                    ws.its.push(
-                        scene
-                            .geometry
-                            .interaction(&ws.paths[i as usize].ray, t, prim),
-                    );
+                    ws.its
+                        .push(scene.geometry.interaction(&ws.rays[i as usize], t, prim));
                 }
             }
         }
@@ -238,7 +257,7 @@ pub fn li_many(
         if !ws.escaped.is_empty() {
             ws.dirs.clear();
             ws.dirs
-                .extend(ws.escaped.iter().map(|&i| ws.paths[i as usize].ray.d));
+                .extend(ws.escaped.iter().map(|&i| ws.rays[i as usize].d));
             for &k in &scene.infinite_lights {
                 let light = &scene.lights[k as usize];
                 ws.env_eval.clear();
@@ -253,7 +272,7 @@ pub fn li_many(
                     if le.is_black() {
                         continue;
                     }
-                    let p = &mut ws.paths[i as usize];
+                    let p = &mut ws.vars[i as usize];
                     let w = if p.depth == 0 {
                         1.0
                     } else {
@@ -266,11 +285,11 @@ pub fn li_many(
         // Hits: emission, and the paths that go on (positions in `its`).
         ws.hits.clear();
         for (j, (&i, it)) in ws.hit_paths.iter().zip(&ws.its).enumerate() {
-            let p = &mut ws.paths[i as usize];
+            let p = &mut ws.vars[i as usize];
             let shape = &scene.shapes[it.shape as usize];
             if let Some(k) = shape.light {
                 let light = &scene.lights[k as usize];
-                let le = light.le_area(it, -p.ray.d);
+                let le = light.le_area(it, -ws.rays[i as usize].d);
                 if !le.is_black() {
                     let w = if p.depth == 0 {
                         1.0
@@ -304,13 +323,21 @@ pub fn li_many(
         sampler.next_2d_lanes(&ws.lane_index, &mut ws.nee_u);
         sampler.next_1d_lanes(&ws.lane_index, &mut ws.bsdf_uc);
         sampler.next_2d_lanes(&ws.lane_index, &mut ws.bsdf_u);
-        // Light samples (`light_samples[h]` for `hits[h]`): env maps in batches, other
-        // lights one by one.
-        ws.env_lanes.clear();
-        ws.env_u.clear();
-        ws.light_samples.clear();
-        ws.light_samples.resize(m, None);
-        if n_lights > 0 {
+        // Light samples (`ls_*[h]` for `hits[h]`): env maps in batches, other lights one
+        // by one.
+        ws.ls_wi.resize(m, Vec3::ZERO);
+        ws.ls_li.resize(m, Rgb::ZERO);
+        ws.ls_pdf.clear();
+        ws.ls_pdf.resize(m, 0.0);
+        ws.ls_delta.clear();
+        ws.ls_delta.resize(m, false);
+        ws.ls_at.clear();
+        ws.ls_at.resize(m, None);
+        if let Some(env) = env_only {
+            env.sample_many(&ws.nee_u, &mut ws.ls_wi, &mut ws.ls_li, &mut ws.ls_pdf);
+        } else if n_lights > 0 {
+            ws.env_lanes.clear();
+            ws.env_u.clear();
             for (h, &j) in ws.hits.iter().enumerate() {
                 let idx = ((ws.nee_uc[h] * n_lights as f32) as usize).min(n_lights - 1);
                 let u = ws.nee_u[h];
@@ -320,64 +347,65 @@ pub fn li_many(
                         ws.env_u.push(u);
                     }
                     light => {
-                        ws.light_samples[h] = light
-                            .sample_li(ws.its[j as usize].p, u)
-                            .filter(|ls| !ls.li.is_black() && ls.pdf > 0.0)
-                            .map(|ls| (ls, sel_pdf));
+                        if let Some(ls) = light.sample_li(ws.its[j as usize].p, u) {
+                            ws.ls_wi[h] = ls.wi;
+                            ws.ls_li[h] = ls.li;
+                            ws.ls_pdf[h] = ls.pdf;
+                            ws.ls_delta[h] = ls.delta;
+                            ws.ls_at[h] = ls.p;
+                        }
                     }
                 }
             }
-        }
-        if !ws.env_lanes.is_empty() {
-            ws.env_out.clear();
-            ws.env_out.resize(ws.env_u.len(), None);
-            // Usually one env map; several are sampled one after another, each in a batch.
-            let first = ws.env_lanes[0].1;
-            if ws.env_lanes.iter().all(|&(_, k)| k == first) {
-                if let Light::Env(env) = &scene.lights[first as usize] {
-                    env.sample_many(&ws.env_u, &mut ws.env_out);
-                }
-            } else {
-                for (e, &(_, k)) in ws.env_lanes.iter().enumerate() {
-                    if let Light::Env(env) = &scene.lights[k as usize] {
-                        ws.env_out[e] = env.sample(ws.env_u[e]);
+            if !ws.env_lanes.is_empty() {
+                let e = ws.env_lanes.len();
+                ws.env_wi.resize(e, Vec3::ZERO);
+                ws.env_li.resize(e, Rgb::ZERO);
+                ws.env_pdf.resize(e, 0.0);
+                // Several env maps are sampled one after another, each in a batch.
+                let first = ws.env_lanes[0].1;
+                if ws.env_lanes.iter().all(|&(_, k)| k == first) {
+                    if let Light::Env(env) = &scene.lights[first as usize] {
+                        env.sample_many(&ws.env_u, &mut ws.env_wi, &mut ws.env_li, &mut ws.env_pdf);
+                    }
+                } else {
+                    for (q, &(_, k)) in ws.env_lanes.iter().enumerate() {
+                        if let Light::Env(env) = &scene.lights[k as usize] {
+                            (ws.env_wi[q], ws.env_li[q], ws.env_pdf[q]) = env
+                                .sample(ws.env_u[q])
+                                .unwrap_or((Vec3::ZERO, Rgb::ZERO, 0.0));
+                        }
                     }
                 }
-            }
-            for (&(h, _), s) in ws.env_lanes.iter().zip(&ws.env_out) {
-                ws.light_samples[h as usize] = s
-                    .map(|(wi, li, pdf)| LightSample {
-                        wi,
-                        li,
-                        pdf,
-                        delta: false,
-                        p: None,
-                    })
-                    .filter(|ls| !ls.li.is_black() && ls.pdf > 0.0)
-                    .map(|ls| (ls, sel_pdf));
+                for (q, &(h, _)) in ws.env_lanes.iter().enumerate() {
+                    let h = h as usize;
+                    (ws.ls_wi[h], ws.ls_li[h], ws.ls_pdf[h]) =
+                        (ws.env_wi[q], ws.env_li[q], ws.env_pdf[q]);
+                }
             }
         }
         // Shading frames, then next-event estimation: BSDF values, shadow rays, sums.
         ws.frames.clear();
         for &j in &ws.hits {
             let j = j as usize;
-            let sh = Shading::new(scene, &ws.its[j], ws.paths[ws.hit_paths[j] as usize].ray.d);
+            let sh = Shading::new(scene, &ws.its[j], ws.rays[ws.hit_paths[j] as usize].d);
             ws.frames.push((sh.frame, sh.wo));
         }
         // Samples the BSDF reflects are kept by a branch-free compaction: whether a light
-        // sample lies above the surface is a coin flip a branch would mispredict.
+        // sample lies above the surface is a coin flip a branch would mispredict. A light
+        // sample counts when its pdf is positive and its radiance is not black.
         ws.nee.clear();
         ws.nee.resize(m, (0, Rgb::ZERO, Vec3::ZERO));
         let mut kept = 0;
         for (h, &j) in ws.hits.iter().enumerate() {
-            let Some((ls, _)) = &ws.light_samples[h] else {
+            if !(ws.ls_pdf[h] > 0.0) || ws.ls_li[h].is_black() {
                 continue;
-            };
+            }
             let (frame, wo) = ws.frames[h];
             let bsdf = scene.shapes[ws.its[j as usize].shape as usize]
                 .material
                 .as_ref();
-            let wi = frame.to_local(ls.wi);
+            let wi = frame.to_local(ws.ls_wi[h]);
             let f = bsdf.eval(wo, wi) * wi.z.max(0.0);
             ws.nee[kept] = (h as u32, f, wi);
             kept += !f.is_black() as usize;
@@ -387,22 +415,19 @@ pub fn li_many(
             let h = h as usize;
             let j = ws.hits[h] as usize;
             let it = &ws.its[j];
-            let Some((ls, sel)) = &ws.light_samples[h] else {
-                continue;
-            };
-            if !unoccluded(scene, it, ls) {
+            if !unoccluded_to(scene, it, ws.ls_wi[h], ws.ls_at[h]) {
                 continue;
             }
             let wo = ws.frames[h].1;
             let bsdf = scene.shapes[it.shape as usize].material.as_ref();
-            let light_pdf = ls.pdf * sel;
-            let w = if ls.delta {
+            let light_pdf = ws.ls_pdf[h] * sel_pdf;
+            let w = if ws.ls_delta[h] {
                 1.0
             } else {
                 power_heuristic(light_pdf, bsdf.pdf(wo, wi))
             };
-            let p = &mut ws.paths[ws.hit_paths[j] as usize];
-            p.l += p.beta * f * ls.li * (w / light_pdf);
+            let p = &mut ws.vars[ws.hit_paths[j] as usize];
+            p.l += p.beta * f * ws.ls_li[h] * (w / light_pdf);
         }
         // BSDF sampling.
         ws.next.clear();
@@ -415,16 +440,16 @@ pub fn li_many(
                 continue;
             };
             let i = ws.hit_paths[j as usize];
-            let p = &mut ws.paths[i as usize];
+            let p = &mut ws.vars[i as usize];
             p.beta *= bs.weight;
             if p.beta.is_black() || !p.beta.is_finite() {
                 continue;
             }
             p.prev_pdf = bs.pdf;
             p.prev_p = it.p;
-            p.ray = spawn_ray(it, frame.to_world(bs.wi));
             p.depth += 1;
             depth = p.depth;
+            ws.rays[i as usize] = spawn_ray(it, frame.to_world(bs.wi));
             ws.next.push(i);
         }
         // Russian roulette, one dimension for all paths (they share their depth).
@@ -437,7 +462,7 @@ pub fn li_many(
             let mut kept = 0;
             for j in 0..ws.next.len() {
                 let i = ws.next[j];
-                let p = &mut ws.paths[i as usize];
+                let p = &mut ws.vars[i as usize];
                 let q = p.beta.max_component().min(0.95);
                 if ws.nee_uc[j] >= q {
                     continue;
@@ -450,7 +475,7 @@ pub fn li_many(
         }
         std::mem::swap(&mut ws.active, &mut ws.next);
     }
-    for (o, p) in out.iter_mut().zip(&ws.paths) {
+    for (o, p) in out.iter_mut().zip(&ws.vars) {
         *o = p.l;
     }
 }

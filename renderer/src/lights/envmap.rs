@@ -313,13 +313,16 @@ impl EnvMap {
         }
     }
 
-    /// [`EnvMap::sample`] of many points, `out[i]` for `u[i]`, bit for bit the same,
-    /// [`LANES`] at a time as [`EnvMap::eval_pdf_many`].
-    pub fn sample_many(&self, us: &[Vec2], out: &mut [Option<(Vec3, Rgb, f32)>]) {
-        assert_eq!(us.len(), out.len());
+    /// [`EnvMap::sample`] of many points, bit for bit the same, [`LANES`] at a time as
+    /// [`EnvMap::eval_pdf_many`]: for `us[i]`, the direction `wi[i]`, radiance `li[i]` and
+    /// pdf `pdf[i]`, or a pdf of 0 (and zero direction and radiance) where `sample` gives
+    /// None.
+    pub fn sample_many(&self, us: &[Vec2], wi: &mut [Vec3], li: &mut [Rgb], pdf: &mut [f32]) {
+        assert!(us.len() == wi.len() && us.len() == li.len() && us.len() == pdf.len());
         let (w, h) = (self.width as f32, (self.height - 1) as f32);
-        for (uc, oc) in us.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        for (c, uc) in us.chunks(LANES).enumerate() {
             let n = uc.len();
+            let base = c * LANES;
             let mut lane_u = [Vec2::ZERO; LANES];
             lane_u[..n].copy_from_slice(uc);
             let cell = self.cells.sample_lanes(&lane_u);
@@ -368,12 +371,16 @@ impl EnvMap {
             let (texel, pdf_ab) = self.lookup_density_lanes(&uu, &vv, n);
             for i in 0..n {
                 let (st, ct, sp, cp) = trig[i];
-                oc[i] = if st <= 1e-7 || !(pdf_ab[i] > 0.0) {
-                    None
+                let o = base + i;
+                (wi[o], li[o], pdf[o]) = if st <= 1e-7 || !(pdf_ab[i] > 0.0) {
+                    (Vec3::ZERO, Rgb::ZERO, 0.0)
                 } else {
                     let local = Vec3::new(st * sp, ct, -st * cp);
-                    let pdf = pdf_ab[i] / (2.0 * PI * PI * st);
-                    Some((self.to_world * local, texel[i] * self.scale, pdf))
+                    (
+                        self.to_world * local,
+                        texel[i] * self.scale,
+                        pdf_ab[i] / (2.0 * PI * PI * st),
+                    )
                 };
             }
         }
