@@ -5,7 +5,9 @@
 //! measured BRDFs), and hierarchical sample warping of a 2D grid (Clarberg et al. 2005,
 //! "Wavelet Importance Sampling"; Mitsuba 3's `Hierarchical2D`) for environment maps.
 
+use crate::fastmath::x8;
 use glam::Vec2;
+use wide::{f32x8, u32x8};
 
 /// A piecewise-constant density on [0, 1) with `n` equal cells.
 #[derive(Clone, Debug)]
@@ -331,31 +333,31 @@ impl Hierarchy2D {
         (x, y, Vec2::new(ux, uy))
     }
 
-    /// [`Hierarchy2D::sample`] of `N` points at once, bit for bit the same, level by level
-    /// over all points: their independent memory reads overlap, and the arithmetic of a
-    /// level runs in SIMD lanes.
+    /// [`Hierarchy2D::sample`] of eight points at once, bit for bit the same, level by
+    /// level in SIMD lanes (their independent memory reads overlap): (columns, rows,
+    /// positions within the cells).
     #[inline]
-    pub fn sample_lanes<const N: usize>(&self, u: &[Vec2; N]) -> [(usize, usize, Vec2); N] {
-        let (mut x, mut y) = ([0u32; N], [0u32; N]);
-        let mut ux: [f32; N] = std::array::from_fn(|i| u[i].x.clamp(0.0, ONE_MINUS_EPS));
-        let mut uy: [f32; N] = std::array::from_fn(|i| u[i].y.clamp(0.0, ONE_MINUS_EPS));
+    pub fn sample_x8(&self, ux: f32x8, uy: f32x8) -> (u32x8, u32x8, f32x8, f32x8) {
+        let (mut x, mut y) = (u32x8::splat(0), u32x8::splat(0));
+        let mut ux = x8::clamp(ux, 0.0, ONE_MINUS_EPS);
+        let mut uy = x8::clamp(uy, 0.0, ONE_MINUS_EPS);
+        let one = u32x8::splat(1);
         for level in self.levels.iter().rev() {
-            let packets: [[f32; 4]; N] =
-                std::array::from_fn(|i| level.packet(x[i] as usize, y[i] as usize));
-            for i in 0..N {
-                let (right, lower);
-                (right, lower, ux[i], uy[i]) = descend(packets[i], ux[i], uy[i]);
-                x[i] = 2 * x[i] + right;
-                y[i] = 2 * y[i] + lower;
-            }
+            let idx = (y * u32x8::splat(level.packets_per_row as u32) + x).to_array();
+            let p: [[f32; 4]; 8] = std::array::from_fn(|i| level.data[idx[i] as usize]);
+            let q: [f32x8; 4] =
+                std::array::from_fn(|c| f32x8::new(std::array::from_fn(|i| p[i][c])));
+            let (right, lower);
+            (right, lower, ux, uy) = descend_x8(q, ux, uy);
+            x = (x << 1) + (right.to_bits() & one);
+            y = (y << 1) + (lower.to_bits() & one);
         }
-        std::array::from_fn(|i| {
-            (
-                (x[i] as usize).min(self.nu - 1),
-                (y[i] as usize).min(self.nv - 1),
-                Vec2::new(ux[i], uy[i]),
-            )
-        })
+        (
+            x.min(u32x8::splat(self.nu as u32 - 1)),
+            y.min(u32x8::splat(self.nv as u32 - 1)),
+            ux,
+            uy,
+        )
     }
 }
 
@@ -364,7 +366,7 @@ const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
 /// One step of [`Hierarchy2D::sample`]: in a 2x2 block `p` = [top-left, top-right,
 /// bottom-left, bottom-right], picks the row with `uy` and the column within it with `ux`,
 /// never a child of zero mass, and rescales both to [0, 1): (right, lower, ux', uy').
-/// Written with selects only (no branch), so that [`Hierarchy2D::sample_lanes`]
+/// Written with selects only (no branch), so that [`Hierarchy2D::sample_x8`]
 /// vectorizes.
 #[inline(always)]
 fn descend(p: [f32; 4], ux: f32, uy: f32) -> (u32, u32, f32, f32) {
@@ -390,6 +392,32 @@ fn descend(p: [f32; 4], ux: f32, uy: f32) -> (u32, u32, f32, f32) {
         ux
     };
     (right as u32, lower as u32, nx, ny)
+}
+
+/// [`descend`] in eight lanes, with the same operations: (right, lower) as lane masks.
+#[inline(always)]
+fn descend_x8(p: [f32x8; 4], ux: f32x8, uy: f32x8) -> (f32x8, f32x8, f32x8, f32x8) {
+    let zero = f32x8::splat(0.0);
+    let (r0, r1) = (p[0] + p[1], p[2] + p[3]);
+    let ty = uy * (r0 + r1);
+    let lower = (ty.simd_ge(r0) & r1.simd_gt(zero)) | r0.simd_le(zero);
+    let c0 = x8::sel(lower, p[2], p[0]);
+    let c1 = x8::sel(lower, p[3], p[1]);
+    let dy = x8::sel(lower, r1, r0);
+    let tx = ux * dy;
+    let right = (tx.simd_ge(c0) & c1.simd_gt(zero)) | c0.simd_le(zero);
+    let dx = x8::sel(right, c1, c0);
+    let ny = x8::sel(
+        dy.simd_gt(zero),
+        x8::clamp((ty - x8::sel(lower, r0, zero)) / dy, 0.0, ONE_MINUS_EPS),
+        uy,
+    );
+    let nx = x8::sel(
+        dx.simd_gt(zero),
+        x8::clamp((tx - x8::sel(right, c0, zero)) / dx, 0.0, ONE_MINUS_EPS),
+        ux,
+    );
+    (right, lower, nx, ny)
 }
 
 /// A piecewise-constant density on [0, 1)^2 over an `nu` x `nv` grid, sampled with
@@ -687,10 +715,13 @@ mod tests {
                     _ => Vec2::new((j * 0.618_034).fract(), (j * 0.754_878).fract()),
                 }
             });
-            let lanes = t.sample_lanes(&u);
+            let (cx, cy, fx, fy) =
+                t.sample_x8(f32x8::new(u.map(|v| v.x)), f32x8::new(u.map(|v| v.y)));
+            let (cx, cy, fx, fy) = (cx.to_array(), cy.to_array(), fx.to_array(), fy.to_array());
             for i in 0..8 {
-                assert_eq!(format!("{:?}", lanes[i]), format!("{:?}", t.sample(u[i])));
-                assert!(vals[lanes[i].1 * 37 + lanes[i].0] > 0.0 || u[i].is_nan());
+                let lane = (cx[i] as usize, cy[i] as usize, Vec2::new(fx[i], fy[i]));
+                assert_eq!(format!("{lane:?}"), format!("{:?}", t.sample(u[i])));
+                assert!(vals[lane.1 * 37 + lane.0] > 0.0 || u[i].is_nan());
             }
         }
     }

@@ -190,33 +190,52 @@ impl Geometry {
     pub fn interaction(&self, ray: &Ray, t: f32, prim: u32) -> Interaction {
         let p = &self.prims[prim as usize];
         let sg = self.shapes[p.shape as usize];
-        let mut exit = Vec3::ZERO;
-        let (pos, mut ng, mut ns, dpdu, uv) = match &p.kind {
+        let orient = |n: Vec3| if sg.flip_normals { -n } else { n };
+        // Each arm builds the interaction itself (no intermediate tuple, which the
+        // compiler would pass through the stack).
+        match &p.kind {
             PrimKind::Sphere(s) => {
                 let (pos, n, dpdu) = s.surface(ray.at(t));
-                exit = n;
-                (pos, n, n, dpdu, Vec2::ZERO)
+                Interaction {
+                    t,
+                    p: pos,
+                    ng: orient(n),
+                    ns: orient(n),
+                    dpdu,
+                    uv: Vec2::ZERO,
+                    shape: p.shape,
+                    prim,
+                    exit: n,
+                }
             }
             PrimKind::Rectangle(r) => {
                 let uv = r.uv(ray.at(t));
-                (r.point(uv), r.n, r.n, r.eu.normalize(), uv)
+                Interaction {
+                    t,
+                    p: r.point(uv),
+                    ng: orient(r.n),
+                    ns: orient(r.n),
+                    dpdu: r.eu.normalize(),
+                    uv,
+                    shape: p.shape,
+                    prim,
+                    exit: Vec3::ZERO,
+                }
             }
-            PrimKind::Triangle(tri) => self.triangle_geometry(ray, tri, sg),
-        };
-        if sg.flip_normals {
-            ng = -ng;
-            ns = -ns;
-        }
-        Interaction {
-            t,
-            p: pos,
-            ng,
-            ns,
-            dpdu,
-            uv,
-            shape: p.shape,
-            prim,
-            exit,
+            PrimKind::Triangle(tri) => {
+                let (pos, ng, ns, dpdu, uv) = self.triangle_geometry(ray, tri, sg);
+                Interaction {
+                    t,
+                    p: pos,
+                    ng: orient(ng),
+                    ns: orient(ns),
+                    dpdu,
+                    uv,
+                    shape: p.shape,
+                    prim,
+                    exit: Vec3::ZERO,
+                }
+            }
         }
     }
 

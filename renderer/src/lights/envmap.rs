@@ -28,10 +28,11 @@ use crate::Rgb;
 use crate::error::{Error, Result};
 use glam::{Mat3, Vec2, Vec3};
 use lobe_materials::distribution::Hierarchy2D;
-use lobe_materials::fastmath;
-use lobe_materials::sampling::square_to_bilinear;
+use lobe_materials::fastmath::{self, x8};
+use lobe_materials::sampling::{square_to_bilinear, square_to_bilinear_x8};
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
+use wide::{f32x8, i32x8};
 
 #[derive(Clone, Debug)]
 pub struct EnvMap {
@@ -53,10 +54,6 @@ pub struct EnvMap {
     /// off).
     offset: f32,
 }
-
-/// Points processed together by the batched lookups ([`EnvMap::eval_pdf_many`],
-/// [`EnvMap::sample_many`]).
-pub const LANES: usize = 8;
 
 /// An RGB float image, row-major, top row first.
 #[derive(Clone, Debug)]
@@ -257,130 +254,178 @@ impl EnvMap {
         (radiance, density / (2.0 * PI * PI * sin_theta))
     }
 
-    /// [`EnvMap::lookup_density`] of [`LANES`] points at once (the first `n` are used), step
-    /// by step over all lanes so that their independent loads overlap and the arithmetic
-    /// vectorizes, with exactly the scalar function's operations.
+    /// The four corner texels of the cells starting at `k` (indices into `data`) in eight
+    /// lanes: [top-left, top-right, bottom-left, bottom-right].
     #[inline(always)]
-    fn lookup_density_lanes(
+    fn gather_corners(&self, k: [usize; 8]) -> [Rgb8; 4] {
+        let row = self.width + 1;
+        [
+            Rgb8::gather(&self.data, k, 0),
+            Rgb8::gather(&self.data, k, 1),
+            Rgb8::gather(&self.data, k, row),
+            Rgb8::gather(&self.data, k, row + 1),
+        ]
+    }
+
+    /// [`EnvMap::blend`] in eight lanes, with the same operations: radiance (without
+    /// `scale`) and density at (`fx`, `fy`) in cells with corner texels `t`, whose rows
+    /// have sin(theta) `s_top` and `s_bottom`.
+    #[inline(always)]
+    fn blend_x8(
         &self,
-        u: &[f32; LANES],
-        v: &[f32; LANES],
-        n: usize,
-    ) -> ([Rgb; LANES], [f32; LANES]) {
-        // All cells first (arithmetic that vectorizes), then the texel reads.
-        let cells: [(usize, usize, f32, f32); LANES] =
-            std::array::from_fn(|i| self.texel_cell(u[i], v[i]));
-        let mut texel = [Rgb::ZERO; LANES];
-        let mut density = [1.0f32; LANES];
-        for i in 0..n {
-            (texel[i], density[i]) = self.blend(cells[i]);
-        }
+        t: &[Rgb8; 4],
+        s_top: f32x8,
+        s_bottom: f32x8,
+        fx: f32x8,
+        fy: f32x8,
+    ) -> (Rgb8, f32x8) {
+        let one = f32x8::splat(1.0);
+        let zero = f32x8::splat(0.0);
+        let top = t[0].lerp_weights(one - fx, t[1], fx);
+        let bottom = t[2].lerp_weights(one - fx, t[3], fx);
+        let texel = top.lerp_weights(one - fy, bottom, fy);
+        let inv_mean = f32x8::splat(self.inv_mean);
+        let density = if self.inv_mean == 0.0 {
+            one
+        } else if self.offset > 0.0 {
+            let c = self.corner_weights_x8(t, s_top, s_bottom);
+            ((one - fy) * (c[0] * (one - fx) + c[1] * fx) + fy * (c[2] * (one - fx) + c[3] * fx))
+                * inv_mean
+        } else {
+            ((one - fy) * top.luminance().max(zero) * s_top
+                + fy * bottom.luminance().max(zero) * s_bottom)
+                * inv_mean
+        };
         (texel, density)
     }
 
+    /// [`EnvMap::corner_weights`] in eight lanes.
+    #[inline(always)]
+    fn corner_weights_x8(&self, t: &[Rgb8; 4], s_top: f32x8, s_bottom: f32x8) -> [f32x8; 4] {
+        let (offset, zero) = (f32x8::splat(self.offset), f32x8::splat(0.0));
+        let w = |c: &Rgb8, s: f32x8| (c.luminance() - offset).max(zero) * s;
+        [
+            w(&t[0], s_top),
+            w(&t[1], s_top),
+            w(&t[2], s_bottom),
+            w(&t[3], s_bottom),
+        ]
+    }
+
+    /// sin(theta) of the rows `iy` and `iy + 1` of eight cells.
+    #[inline(always)]
+    fn row_sines(&self, iy: [usize; 8]) -> (f32x8, f32x8) {
+        (
+            f32x8::new(x8::lanes(|i| self.sin_row[iy[i]])),
+            f32x8::new(x8::lanes(|i| self.sin_row[iy[i] + 1])),
+        )
+    }
+
     /// [`EnvMap::eval_pdf`] of many directions, `out[i]` for `dirs[i]`, bit for bit the
-    /// same. Works on [`LANES`] directions at a time, step by step, so that independent
-    /// lookups overlap instead of running one long dependency chain after another (about
-    /// twice the throughput of a loop of `eval_pdf`).
+    /// same: eight at a time in SIMD lanes (`wide`'s AVX vectors), with the lane forms of
+    /// the same functions ([`fastmath::x8`]), so that the independent texel reads of eight
+    /// lookups overlap and the arithmetic runs once per eight directions.
     pub fn eval_pdf_many(&self, dirs: &[Vec3], out: &mut [(Rgb, f32)]) {
         assert_eq!(dirs.len(), out.len());
-        for (dc, oc) in dirs.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        let (w, h) = (self.width, self.height);
+        let zero = f32x8::splat(0.0);
+        for (dc, oc) in dirs.chunks(8).zip(out.chunks_mut(8)) {
             let n = dc.len();
-            let mut lx = [0.0f32; LANES];
-            let mut ly = [0.0f32; LANES];
-            let mut lz = [0.0f32; LANES];
-            for i in 0..LANES {
-                let l = self.to_local * dc[i.min(n - 1)];
-                (lx[i], ly[i], lz[i]) = (l.x, l.y, l.z);
-            }
-            let mut u = [0.0f32; LANES];
-            let mut v = [0.0f32; LANES];
-            let mut st = [0.0f32; LANES];
-            for i in 0..LANES {
-                let uv = Self::uv_of(Vec3::new(lx[i], ly[i], lz[i]));
-                (u[i], v[i]) = (uv.x, uv.y);
-                st[i] = (lx[i] * lx[i] + lz[i] * lz[i]).sqrt();
-            }
-            let (texel, density) = self.lookup_density_lanes(&u, &v, n);
-            for i in 0..n {
-                let radiance = texel[i] * self.scale;
-                oc[i] = if st[i] <= 1e-7 {
-                    (radiance, 0.0)
-                } else {
-                    (radiance, density[i] / (2.0 * PI * PI * st[i]))
-                };
+            let d = x8::lanes(|i| dc[i.min(n - 1)]);
+            let [lx, ly, lz] = mat3_mul_x8(
+                &self.to_local,
+                f32x8::new(x8::lanes(|i| d[i].x)),
+                f32x8::new(x8::lanes(|i| d[i].y)),
+                f32x8::new(x8::lanes(|i| d[i].z)),
+            );
+            // Texture coordinates ([`EnvMap::uv_of`]).
+            let u = x8::atan2(lx, -lz) * f32x8::splat(1.0 / TAU);
+            let u = x8::sel(u.simd_lt(zero), u + f32x8::splat(1.0), u);
+            let v = x8::acos(x8::clamp(ly, -1.0, 1.0)) * f32x8::splat(1.0 / PI);
+            let st = (lx * lx + lz * lz).sqrt();
+            // The bilinear cell ([`EnvMap::texel_cell`]).
+            let x = u - f32x8::splat(0.5 / w as f32);
+            let x = (x - x.floor()) * f32x8::splat(w as f32);
+            let y = (v - v.floor()) * f32x8::splat((h - 1) as f32);
+            let ix = x
+                .trunc_int()
+                .max(i32x8::splat(0))
+                .min(i32x8::splat(w as i32 - 1));
+            let iy = y
+                .trunc_int()
+                .max(i32x8::splat(0))
+                .min(i32x8::splat(h as i32 - 2));
+            let fx = x - f32x8::from_i32x8(ix);
+            let fy = y - f32x8::from_i32x8(iy);
+            let (ix, iy) = (ix.to_array(), iy.to_array());
+            let iy = x8::lanes(|i| iy[i] as usize);
+            let k = x8::lanes(|i| iy[i] * (w + 1) + ix[i] as usize);
+            let t = self.gather_corners(k);
+            let (s_top, s_bottom) = self.row_sines(iy);
+            let (texel, density) = self.blend_x8(&t, s_top, s_bottom, fx, fy);
+            let radiance = texel.scale(self.scale);
+            let pdf = x8::sel(
+                st.simd_le(f32x8::splat(1e-7)),
+                zero,
+                density / (f32x8::splat(2.0 * PI * PI) * st),
+            )
+            .to_array();
+            for (i, o) in oc.iter_mut().enumerate() {
+                *o = (radiance.lane(i), pdf[i]);
             }
         }
     }
 
-    /// [`EnvMap::sample`] of many points, bit for bit the same, [`LANES`] at a time as
-    /// [`EnvMap::eval_pdf_many`]: for `us[i]`, the direction `wi[i]`, radiance `li[i]` and
-    /// pdf `pdf[i]`, or a pdf of 0 (and zero direction and radiance) where `sample` gives
-    /// None.
+    /// [`EnvMap::sample`] of many points, bit for bit the same, eight at a time in SIMD
+    /// lanes as [`EnvMap::eval_pdf_many`]: for `us[i]`, the direction `wi[i]`, radiance
+    /// `li[i]` and pdf `pdf[i]`, or a pdf of 0 (and zero direction and radiance) where
+    /// `sample` gives None.
     pub fn sample_many(&self, us: &[Vec2], wi: &mut [Vec3], li: &mut [Rgb], pdf: &mut [f32]) {
         assert!(us.len() == wi.len() && us.len() == li.len() && us.len() == pdf.len());
         let (w, h) = (self.width as f32, (self.height - 1) as f32);
-        for (c, uc) in us.chunks(LANES).enumerate() {
+        let zero = f32x8::splat(0.0);
+        let one_minus_eps = f32x8::splat(1.0 - f32::EPSILON / 2.0);
+        for (c, uc) in us.chunks(8).enumerate() {
             let n = uc.len();
-            let base = c * LANES;
-            let mut lane_u = [Vec2::ZERO; LANES];
-            lane_u[..n].copy_from_slice(uc);
-            let cell = self.cells.sample_lanes(&lane_u);
-            // The corner texels of all cells first (independent reads, in flight together),
-            // then the bilinear warps.
-            let mut corners = [[0.0f32; 4]; LANES];
-            for i in 0..LANES {
-                let (ix, iy, _) = cell[i];
-                corners[i] = Self::corner_weights(
-                    &self.data,
-                    &self.sin_row,
-                    self.offset,
-                    self.width,
-                    ix,
-                    iy,
-                );
-            }
-            let mut f = [Vec2::ZERO; LANES];
-            for i in 0..LANES {
-                let r = cell[i].2;
-                f[i] = if self.inv_mean == 0.0 {
-                    r
-                } else {
-                    square_to_bilinear(r, corners[i])
-                };
-            }
-            let mut uu = [0.0f32; LANES];
-            let mut vv = [0.0f32; LANES];
-            let mut trig = [(0.0f32, 0.0f32, 0.0f32, 0.0f32); LANES];
-            for i in 0..LANES {
-                let (ix, iy, _) = cell[i];
-                let ax = ((ix as f32 + f[i].x) / w).min(1.0 - f32::EPSILON / 2.0);
-                vv[i] = ((iy as f32 + f[i].y) / h).min(1.0 - f32::EPSILON / 2.0);
-                let mut x = ax + 0.5 / w;
-                if x >= 1.0 {
-                    x -= 1.0;
-                }
-                uu[i] = x;
-            }
-            for i in 0..LANES {
-                // Both angles lie in [0, 2 pi]: no huge-argument fallback needed.
-                let (st, ct) = fastmath::sin_cos_moderate(vv[i] * PI);
-                let (sp, cp) = fastmath::sin_cos_moderate(uu[i] * TAU);
-                trig[i] = (st, ct, sp, cp);
-            }
-            let (texel, pdf_ab) = self.lookup_density_lanes(&uu, &vv, n);
+            let u = x8::lanes(|i| uc[i.min(n - 1)]);
+            let (cx, cy, rx, ry) = self.cells.sample_x8(
+                f32x8::new(x8::lanes(|i| u[i].x)),
+                f32x8::new(x8::lanes(|i| u[i].y)),
+            );
+            let (ix, iy) = (cx.to_array(), cy.to_array());
+            let iy_us = x8::lanes(|i| iy[i] as usize);
+            let k = x8::lanes(|i| iy_us[i] * (self.width + 1) + ix[i] as usize);
+            let t = self.gather_corners(k);
+            let (s_top, s_bottom) = self.row_sines(iy_us);
+            // Within the cell, the bilinear density of the corner weights.
+            let (fx, fy) = if self.inv_mean == 0.0 {
+                (rx, ry)
+            } else {
+                let cw = self.corner_weights_x8(&t, s_top, s_bottom);
+                square_to_bilinear_x8(rx, ry, cw)
+            };
+            let cxf = f32x8::new(x8::lanes(|i| ix[i] as f32));
+            let cyf = f32x8::new(x8::lanes(|i| iy[i] as f32));
+            let ax = ((cxf + fx) / f32x8::splat(w)).min(one_minus_eps);
+            let vv = ((cyf + fy) / f32x8::splat(h)).min(one_minus_eps);
+            let x = ax + f32x8::splat(0.5 / w);
+            let uu = x8::sel(x.simd_ge(f32x8::splat(1.0)), x - f32x8::splat(1.0), x);
+            let (st, ct) = x8::sin_cos_moderate(vv * f32x8::splat(PI));
+            let (sp, cp) = x8::sin_cos_moderate(uu * f32x8::splat(TAU));
+            let (texel, pdf_ab) = self.blend_x8(&t, s_top, s_bottom, fx, fy);
+            let valid = st.simd_gt(f32x8::splat(1e-7)) & pdf_ab.simd_gt(zero);
+            let [dx, dy, dz] = mat3_mul_x8(&self.to_world, st * sp, ct, -(st * cp));
+            let radiance = texel.scale(self.scale);
+            let p = pdf_ab / (f32x8::splat(2.0 * PI * PI) * st);
+            let (dx, dy, dz) = (dx.to_array(), dy.to_array(), dz.to_array());
+            let (valid, p) = (valid.to_array(), p.to_array());
+            let base = c * 8;
             for i in 0..n {
-                let (st, ct, sp, cp) = trig[i];
                 let o = base + i;
-                (wi[o], li[o], pdf[o]) = if st <= 1e-7 || !(pdf_ab[i] > 0.0) {
-                    (Vec3::ZERO, Rgb::ZERO, 0.0)
+                (wi[o], li[o], pdf[o]) = if valid[i] != 0.0 {
+                    (Vec3::new(dx[i], dy[i], dz[i]), radiance.lane(i), p[i])
                 } else {
-                    let local = Vec3::new(st * sp, ct, -st * cp);
-                    (
-                        self.to_world * local,
-                        texel[i] * self.scale,
-                        pdf_ab[i] / (2.0 * PI * PI * st),
-                    )
+                    (Vec3::ZERO, Rgb::ZERO, 0.0)
                 };
             }
         }
@@ -421,8 +466,9 @@ impl EnvMap {
         if st <= 1e-7 {
             return None;
         }
-        // The density from the same lookup `eval_pdf` makes, so the two always agree.
-        let (texel, pdf_ab) = self.lookup_density(uu, ab.y);
+        // Radiance and density at the sampled point of the cell: the lookup `eval_pdf`
+        // makes at the sampled direction, without finding the cell again.
+        let (texel, pdf_ab) = self.blend((iy * (self.width + 1) + ix, iy, f.x, f.y));
         if !(pdf_ab > 0.0) {
             return None;
         }
@@ -430,6 +476,75 @@ impl EnvMap {
         let pdf = pdf_ab / (2.0 * PI * PI * st);
         Some((self.to_world * local, texel * self.scale, pdf))
     }
+}
+
+/// Eight RGB values, one per SIMD lane.
+#[derive(Clone, Copy)]
+struct Rgb8 {
+    r: f32x8,
+    g: f32x8,
+    b: f32x8,
+}
+
+impl Rgb8 {
+    /// `d[k[i] + offset]` in lane i.
+    #[inline(always)]
+    fn gather(d: &[Rgb], k: [usize; 8], offset: usize) -> Self {
+        let t = x8::lanes(|i| d[k[i] + offset]);
+        Self {
+            r: f32x8::new(x8::lanes(|i| t[i].r)),
+            g: f32x8::new(x8::lanes(|i| t[i].g)),
+            b: f32x8::new(x8::lanes(|i| t[i].b)),
+        }
+    }
+
+    /// `self * a + o * b` with [`Rgb`]'s operations.
+    #[inline(always)]
+    fn lerp_weights(&self, a: f32x8, o: Rgb8, b: f32x8) -> Self {
+        Self {
+            r: self.r * a + o.r * b,
+            g: self.g * a + o.g * b,
+            b: self.b * a + o.b * b,
+        }
+    }
+
+    /// [`Rgb::luminance`] per lane.
+    #[inline(always)]
+    fn luminance(&self) -> f32x8 {
+        f32x8::splat(0.212671) * self.r
+            + f32x8::splat(0.715160) * self.g
+            + f32x8::splat(0.072169) * self.b
+    }
+
+    #[inline(always)]
+    fn scale(&self, s: f32) -> Self {
+        let s = f32x8::splat(s);
+        Self {
+            r: self.r * s,
+            g: self.g * s,
+            b: self.b * s,
+        }
+    }
+
+    #[inline(always)]
+    fn lane(&self, i: usize) -> Rgb {
+        Rgb::new(
+            self.r.as_array()[i],
+            self.g.as_array()[i],
+            self.b.as_array()[i],
+        )
+    }
+}
+
+/// `m * (x, y, z)` in eight lanes, with glam's `Mat3 * Vec3` operations.
+#[inline(always)]
+fn mat3_mul_x8(m: &Mat3, x: f32x8, y: f32x8, z: f32x8) -> [f32x8; 3] {
+    let row = |c: usize| {
+        f32x8::splat(m.x_axis[c]) * x
+            + f32x8::splat(m.y_axis[c]) * y
+            + f32x8::splat(m.z_axis[c]) * z
+    };
+    [row(0), row(1), row(2)]
 }
 
 /// Reads an environment map image (see [`read_rgb_image`]) and checks it: at least 2x3
