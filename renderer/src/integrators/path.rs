@@ -235,11 +235,9 @@ pub fn li_many(
         // (two passes, so that neither waits on the other's long dependency chains). Hits
         // are kept in a compact list: `its[j]` is the interaction of path `hit_paths[j]`.
         ws.closest.clear();
-        ws.closest.extend(
-            ws.active
-                .iter()
-                .map(|&i| scene.geometry.closest(&ws.rays[i as usize])),
-        );
+        scene
+            .geometry
+            .closest_many(&ws.rays, &ws.active, &mut ws.closest);
         ws.escaped.clear();
         ws.hit_paths.clear();
         ws.its.clear();
