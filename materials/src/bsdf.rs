@@ -186,6 +186,14 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample>;
     /// Solid-angle density with which `sample` produces `wi`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// [`Bsdf::sample`] of many queries at once, `out[k]` for (`wo[k]`, `u[k]`, `uc[k]`),
+    /// bit for bit the same: the renderer's wavefront integrator samples all hits on one
+    /// material in one call. Models may override it with a batched (SIMD) form.
+    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+        for (((o, &wo), &u), &uc) in out.iter_mut().zip(wo).zip(u).zip(uc) {
+            *o = self.sample(wo, u, uc);
+        }
+    }
     fn flags(&self) -> Flags;
     /// Registry name of the model, for reports.
     fn name(&self) -> &str;

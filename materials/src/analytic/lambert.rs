@@ -6,15 +6,18 @@
 
 use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
-use crate::fastmath::select;
+use crate::fastmath::{select, x8};
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
-use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::sampling::{
+    cosine_hemisphere_pdf, square_to_cosine_hemisphere, square_to_cosine_hemisphere_x8,
+};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
+use wide::f32x8;
 
 /// f_r = reflectance / pi.
 #[derive(Clone, Debug)]
@@ -53,6 +56,30 @@ impl Bsdf for Lambert {
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         select(wo.z > 0.0 && wi.z > 0.0, cosine_hemisphere_pdf(wi.z), 0.0)
+    }
+
+    /// Eight queries per SIMD warp ([`square_to_cosine_hemisphere_x8`]).
+    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
+        assert!(wo.len() == out.len() && u.len() == out.len());
+        for ((wc, uc), oc) in wo.chunks(8).zip(u.chunks(8)).zip(out.chunks_mut(8)) {
+            let n = oc.len();
+            let uu = x8::lanes(|i| uc[i.min(n - 1)]);
+            let [x, y, z] = square_to_cosine_hemisphere_x8(
+                f32x8::new(x8::lanes(|i| uu[i].x)),
+                f32x8::new(x8::lanes(|i| uu[i].y)),
+            );
+            // cosine_hemisphere_pdf, per lane.
+            let pdf = (z.max(f32x8::splat(0.0)) * f32x8::splat(FRAC_1_PI)).to_array();
+            let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
+            for i in 0..n {
+                // The scalar form's tests, negated as written there (NaN goes through).
+                oc[i] = (!(wc[i].z <= 0.0) && !(pdf[i] <= 0.0)).then(|| BsdfSample {
+                    wi: Vec3::new(x[i], y[i], z[i]),
+                    weight: self.reflectance,
+                    pdf: pdf[i],
+                });
+            }
+        }
     }
 
     fn flags(&self) -> Flags {

@@ -15,6 +15,7 @@ use crate::lights::Light;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
+use lobe_materials::BsdfSample;
 use lobe_materials::frame::Frame;
 use lobe_materials::sampling::power_heuristic;
 
@@ -157,8 +158,10 @@ pub struct Workspace {
     env_eval: Vec<(Rgb, f32)>,
     /// Hits (positions in `its`) that go on to next-event estimation.
     hits: Vec<u32>,
-    /// Per hit: shading frame and local outgoing direction.
-    frames: Vec<(Frame, Vec3)>,
+    /// Per hit: shading frame, local outgoing direction, and BSDF sample.
+    frames: Vec<Frame>,
+    wo: Vec<Vec3>,
+    bsdf_samples: Vec<Option<BsdfSample>>,
     /// Light samples the BSDF reflects: (hit, BSDF value x cosine, local direction).
     nee: Vec<(u32, Rgb, Vec3)>,
     /// Sample indices of a list of paths, and the sampler values drawn for them.
@@ -384,10 +387,12 @@ pub fn li_many(
         }
         // Shading frames, then next-event estimation: BSDF values, shadow rays, sums.
         ws.frames.clear();
+        ws.wo.clear();
         for &j in &ws.hits {
             let j = j as usize;
             let sh = Shading::new(scene, &ws.its[j], ws.rays[ws.hit_paths[j] as usize].d);
-            ws.frames.push((sh.frame, sh.wo));
+            ws.frames.push(sh.frame);
+            ws.wo.push(sh.wo);
         }
         // Samples the BSDF reflects are kept by a branch-free compaction: whether a light
         // sample lies above the surface is a coin flip a branch would mispredict. A light
@@ -399,7 +404,7 @@ pub fn li_many(
             if !(ws.ls_pdf[h] > 0.0) || ws.ls_li[h].is_black() {
                 continue;
             }
-            let (frame, wo) = ws.frames[h];
+            let (frame, wo) = (ws.frames[h], ws.wo[h]);
             let bsdf = scene.shapes[ws.its[j as usize].shape as usize]
                 .material
                 .as_ref();
@@ -416,7 +421,7 @@ pub fn li_many(
             if !unoccluded_to(scene, it, ws.ls_wi[h], ws.ls_at[h]) {
                 continue;
             }
-            let wo = ws.frames[h].1;
+            let wo = ws.wo[h];
             let bsdf = scene.shapes[it.shape as usize].material.as_ref();
             let light_pdf = ws.ls_pdf[h] * sel_pdf;
             let w = if ws.ls_delta[h] {
@@ -427,16 +432,32 @@ pub fn li_many(
             let p = &mut ws.vars[ws.hit_paths[j] as usize];
             p.l += p.beta * f * ws.ls_li[h] * (w / light_pdf);
         }
-        // BSDF sampling.
+        // BSDF sampling: one batched call per run of hits on the same shape.
+        ws.bsdf_samples.clear();
+        ws.bsdf_samples.resize(m, None);
+        let mut a = 0;
+        while a < m {
+            let shape = ws.its[ws.hits[a] as usize].shape;
+            let mut b = a + 1;
+            while b < m && ws.its[ws.hits[b] as usize].shape == shape {
+                b += 1;
+            }
+            scene.shapes[shape as usize].material.sample_many(
+                &ws.wo[a..b],
+                &ws.bsdf_u[a..b],
+                &ws.bsdf_uc[a..b],
+                &mut ws.bsdf_samples[a..b],
+            );
+            a = b;
+        }
         ws.next.clear();
         let mut depth = 0;
         for (h, &j) in ws.hits.iter().enumerate() {
             let it = &ws.its[j as usize];
-            let (frame, wo) = ws.frames[h];
-            let bsdf = scene.shapes[it.shape as usize].material.as_ref();
-            let Some(bs) = bsdf.sample(wo, ws.bsdf_u[h], ws.bsdf_uc[h]) else {
+            let Some(bs) = ws.bsdf_samples[h] else {
                 continue;
             };
+            let frame = ws.frames[h];
             let i = ws.hit_paths[j as usize];
             let p = &mut ws.vars[i as usize];
             p.beta *= bs.weight;
