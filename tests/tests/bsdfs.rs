@@ -351,7 +351,10 @@ fn batched_sampling_equals_single_samples() {
     use glam::Vec2;
     let bits = |s: Option<lobe_materials::BsdfSample>| {
         s.map(|s| {
-            [s.wi.x, s.wi.y, s.wi.z, s.weight.r, s.weight.g, s.weight.b, s.pdf].map(f32::to_bits)
+            [
+                s.wi.x, s.wi.y, s.wi.z, s.weight.r, s.weight.g, s.weight.b, s.pdf,
+            ]
+            .map(f32::to_bits)
         })
     };
     for case in cases() {

@@ -149,15 +149,13 @@ pub struct Workspace {
     next: Vec<u32>,
     /// Per active path: its closest hit.
     closest: Vec<Option<(f32, u32)>>,
-    /// The paths that hit a surface this bounce, and their interactions.
+    /// The paths that hit a surface this bounce and go on, and their interactions.
     hit_paths: Vec<u32>,
     its: Vec<Interaction>,
     /// Escaped paths and their directions, and the env-map values there.
     escaped: Vec<u32>,
     dirs: Vec<Vec3>,
     env_eval: Vec<(Rgb, f32)>,
-    /// Hits (positions in `its`) that go on to next-event estimation.
-    hits: Vec<u32>,
     /// Per hit: shading frame, local outgoing direction, and BSDF sample.
     frames: Vec<Frame>,
     wo: Vec<Vec3>,
@@ -235,23 +233,39 @@ pub fn li_many(
     };
     while !ws.active.is_empty() {
         // Intersection: the closest hits of all paths, then the local geometry of the hits
-        // (two passes, so that neither waits on the other's long dependency chains). Hits
-        // are kept in a compact list: `its[j]` is the interaction of path `hit_paths[j]`.
+        // (two passes, so that neither waits on the other's long dependency chains).
         ws.closest.clear();
         scene
             .geometry
             .closest_many(&ws.rays, &ws.active, &mut ws.closest);
+        // Escaped paths, and hits: emission of the surfaces hit, then the paths that go on
+        // in a compact list (`its[h]` is the interaction of path `hit_paths[h]`).
         ws.escaped.clear();
         ws.hit_paths.clear();
         ws.its.clear();
         for (&i, c) in ws.active.iter().zip(&ws.closest) {
-            match *c {
-                None => ws.escaped.push(i),
-                Some((t, prim)) => {
-                    ws.hit_paths.push(i);
-                    ws.its
-                        .push(scene.geometry.interaction(&ws.rays[i as usize], t, prim));
+            let Some((t, prim)) = *c else {
+                ws.escaped.push(i);
+                continue;
+            };
+            let ray = &ws.rays[i as usize];
+            let it = scene.geometry.interaction(ray, t, prim);
+            let p = &mut ws.vars[i as usize];
+            if let Some(k) = scene.shapes[it.shape as usize].light {
+                let light = &scene.lights[k as usize];
+                let le = light.le_area(&it, -ray.d);
+                if !le.is_black() {
+                    let w = if p.depth == 0 {
+                        1.0
+                    } else {
+                        power_heuristic(p.prev_pdf, sel_pdf * light.pdf_area(p.prev_p, &it))
+                    };
+                    p.l += p.beta * le * w;
                 }
+            }
+            if p.depth + 1 < max_depth {
+                ws.hit_paths.push(i);
+                ws.its.push(it);
             }
         }
         // Escaped paths gather the infinite lights; env maps in one batch per light.
@@ -283,39 +297,15 @@ pub fn li_many(
                 }
             }
         }
-        // Hits: emission, and the paths that go on (positions in `its`).
-        ws.hits.clear();
-        for (j, (&i, it)) in ws.hit_paths.iter().zip(&ws.its).enumerate() {
-            let p = &mut ws.vars[i as usize];
-            let shape = &scene.shapes[it.shape as usize];
-            if let Some(k) = shape.light {
-                let light = &scene.lights[k as usize];
-                let le = light.le_area(it, -ws.rays[i as usize].d);
-                if !le.is_black() {
-                    let w = if p.depth == 0 {
-                        1.0
-                    } else {
-                        power_heuristic(p.prev_pdf, sel_pdf * light.pdf_area(p.prev_p, it))
-                    };
-                    p.l += p.beta * le * w;
-                }
-            }
-            if p.depth + 1 < max_depth {
-                ws.hits.push(j as u32);
-            }
-        }
-        if ws.hits.is_empty() {
+        let m = ws.hit_paths.len();
+        if m == 0 {
             break;
         }
         // The sampler dimensions of this bounce for every path that goes on: light choice
         // and point, BSDF lobe and direction (Russian roulette's comes below).
-        let m = ws.hits.len();
         ws.lane_index.clear();
-        ws.lane_index.extend(
-            ws.hits
-                .iter()
-                .map(|&j| indices[ws.hit_paths[j as usize] as usize]),
-        );
+        ws.lane_index
+            .extend(ws.hit_paths.iter().map(|&i| indices[i as usize]));
         ws.nee_uc.resize(m, 0.0);
         ws.nee_u.resize(m, Vec2::ZERO);
         ws.bsdf_uc.resize(m, 0.0);
@@ -324,8 +314,7 @@ pub fn li_many(
         sampler.next_2d_lanes(&ws.lane_index, &mut ws.nee_u);
         sampler.next_1d_lanes(&ws.lane_index, &mut ws.bsdf_uc);
         sampler.next_2d_lanes(&ws.lane_index, &mut ws.bsdf_u);
-        // Light samples (`ls_*[h]` for `hits[h]`): env maps in batches, other lights one
-        // by one.
+        // Light samples (`ls_*[h]` for hit h): env maps in batches, other lights one by one.
         ws.ls_wi.resize(m, Vec3::ZERO);
         ws.ls_li.resize(m, Rgb::ZERO);
         ws.ls_pdf.clear();
@@ -339,7 +328,7 @@ pub fn li_many(
         } else if n_lights > 0 {
             ws.env_lanes.clear();
             ws.env_u.clear();
-            for (h, &j) in ws.hits.iter().enumerate() {
+            for (h, it) in ws.its.iter().enumerate() {
                 let idx = ((ws.nee_uc[h] * n_lights as f32) as usize).min(n_lights - 1);
                 let u = ws.nee_u[h];
                 match &scene.lights[idx] {
@@ -348,7 +337,7 @@ pub fn li_many(
                         ws.env_u.push(u);
                     }
                     light => {
-                        if let Some(ls) = light.sample_li(ws.its[j as usize].p, u) {
+                        if let Some(ls) = light.sample_li(it.p, u) {
                             ws.ls_wi[h] = ls.wi;
                             ws.ls_li[h] = ls.li;
                             ws.ls_pdf[h] = ls.pdf;
@@ -388,9 +377,8 @@ pub fn li_many(
         // Shading frames, then next-event estimation: BSDF values, shadow rays, sums.
         ws.frames.clear();
         ws.wo.clear();
-        for &j in &ws.hits {
-            let j = j as usize;
-            let sh = Shading::new(scene, &ws.its[j], ws.rays[ws.hit_paths[j] as usize].d);
+        for (it, &i) in ws.its.iter().zip(&ws.hit_paths) {
+            let sh = Shading::new(scene, it, ws.rays[i as usize].d);
             ws.frames.push(sh.frame);
             ws.wo.push(sh.wo);
         }
@@ -400,15 +388,20 @@ pub fn li_many(
         ws.nee.clear();
         ws.nee.resize(m, (0, Rgb::ZERO, Vec3::ZERO));
         let mut kept = 0;
-        for (h, &j) in ws.hits.iter().enumerate() {
-            if !(ws.ls_pdf[h] > 0.0) || ws.ls_li[h].is_black() {
+        for (h, ((((it, frame), &wo), &wi_world), (&pdf, li))) in ws
+            .its
+            .iter()
+            .zip(&ws.frames)
+            .zip(&ws.wo)
+            .zip(&ws.ls_wi)
+            .zip(ws.ls_pdf.iter().zip(&ws.ls_li))
+            .enumerate()
+        {
+            if !(pdf > 0.0) || li.is_black() {
                 continue;
             }
-            let (frame, wo) = (ws.frames[h], ws.wo[h]);
-            let bsdf = scene.shapes[ws.its[j as usize].shape as usize]
-                .material
-                .as_ref();
-            let wi = frame.to_local(ws.ls_wi[h]);
+            let bsdf = scene.shapes[it.shape as usize].material.as_ref();
+            let wi = frame.to_local(wi_world);
             let f = bsdf.eval(wo, wi) * wi.z.max(0.0);
             ws.nee[kept] = (h as u32, f, wi);
             kept += !f.is_black() as usize;
@@ -416,20 +409,18 @@ pub fn li_many(
         ws.nee.truncate(kept);
         for &(h, f, wi) in &ws.nee {
             let h = h as usize;
-            let j = ws.hits[h] as usize;
-            let it = &ws.its[j];
+            let it = &ws.its[h];
             if !unoccluded_to(scene, it, ws.ls_wi[h], ws.ls_at[h]) {
                 continue;
             }
-            let wo = ws.wo[h];
             let bsdf = scene.shapes[it.shape as usize].material.as_ref();
             let light_pdf = ws.ls_pdf[h] * sel_pdf;
             let w = if ws.ls_delta[h] {
                 1.0
             } else {
-                power_heuristic(light_pdf, bsdf.pdf(wo, wi))
+                power_heuristic(light_pdf, bsdf.pdf(ws.wo[h], wi))
             };
-            let p = &mut ws.vars[ws.hit_paths[j] as usize];
+            let p = &mut ws.vars[ws.hit_paths[h] as usize];
             p.l += p.beta * f * ws.ls_li[h] * (w / light_pdf);
         }
         // BSDF sampling: one batched call per run of hits on the same shape.
@@ -437,11 +428,11 @@ pub fn li_many(
         ws.bsdf_samples.resize(m, None);
         let mut a = 0;
         while a < m {
-            let shape = ws.its[ws.hits[a] as usize].shape;
-            let mut b = a + 1;
-            while b < m && ws.its[ws.hits[b] as usize].shape == shape {
-                b += 1;
-            }
+            let shape = ws.its[a].shape;
+            let b = a + ws.its[a..]
+                .iter()
+                .take_while(|it| it.shape == shape)
+                .count();
             scene.shapes[shape as usize].material.sample_many(
                 &ws.wo[a..b],
                 &ws.bsdf_u[a..b],
@@ -452,13 +443,16 @@ pub fn li_many(
         }
         ws.next.clear();
         let mut depth = 0;
-        for (h, &j) in ws.hits.iter().enumerate() {
-            let it = &ws.its[j as usize];
-            let Some(bs) = ws.bsdf_samples[h] else {
+        for (((it, frame), bs), &i) in ws
+            .its
+            .iter()
+            .zip(&ws.frames)
+            .zip(&ws.bsdf_samples)
+            .zip(&ws.hit_paths)
+        {
+            let Some(bs) = bs else {
                 continue;
             };
-            let frame = ws.frames[h];
-            let i = ws.hit_paths[j as usize];
             let p = &mut ws.vars[i as usize];
             p.beta *= bs.weight;
             if p.beta.is_black() || !p.beta.is_finite() {
