@@ -12,6 +12,8 @@
 
 use crate::geometry::Ray;
 use glam::{Mat4, Vec2, Vec3};
+use lobe_materials::fastmath::x8;
+use wide::f32x8;
 
 /// The axis along which a perspective field of view is measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -151,6 +153,66 @@ impl Camera {
     }
 }
 
+impl Camera {
+    /// [`Camera::ray`] of the film positions `(pixel + j) * inv` for each `j` in
+    /// `jitter`, appended to `out`, bit for bit the same: perspective rays eight at a time
+    /// in SIMD lanes with the scalar form's operations.
+    pub fn rays_many(&self, pixel: Vec2, jitter: &[Vec2], inv: Vec2, out: &mut Vec<Ray>) {
+        let Camera::Perspective {
+            to_world,
+            tan_half,
+            aspect,
+            near_clip,
+        } = self
+        else {
+            out.extend(jitter.iter().map(|&j| self.ray((pixel + j) * inv)));
+            return;
+        };
+        let one = f32x8::splat(1.0);
+        let two = f32x8::splat(2.0);
+        let tan_half = f32x8::splat(*tan_half);
+        let o = to_world.w_axis.truncate();
+        let axis = |c: usize| {
+            [
+                f32x8::splat(to_world.x_axis[c]),
+                f32x8::splat(to_world.y_axis[c]),
+                f32x8::splat(to_world.z_axis[c]),
+            ]
+        };
+        let m = [axis(0), axis(1), axis(2)];
+        for jc in jitter.chunks(8) {
+            let n = jc.len();
+            let j = x8::lanes(|i| jc[i.min(n - 1)]);
+            let sx =
+                (f32x8::splat(pixel.x) + f32x8::new(x8::lanes(|i| j[i].x))) * f32x8::splat(inv.x);
+            let sy =
+                (f32x8::splat(pixel.y) + f32x8::new(x8::lanes(|i| j[i].y))) * f32x8::splat(inv.y);
+            let x = (one - two * sx) * tan_half;
+            let y = (one - two * sy) * tan_half / f32x8::splat(*aspect);
+            let len = (x * x + y * y + one).sqrt();
+            // glam's Mat4::transform_vector3 then Vec3::normalize, per lane.
+            let t = |r: &[f32x8; 3]| r[1] * y + r[0] * x + r[2];
+            let d = [t(&m[0]), t(&m[1]), t(&m[2])];
+            let inv_len = one / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let d = [d[0] * inv_len, d[1] * inv_len, d[2] * inv_len];
+            let s = f32x8::splat(*near_clip) * len;
+            let org = [
+                f32x8::splat(o.x) + d[0] * s,
+                f32x8::splat(o.y) + d[1] * s,
+                f32x8::splat(o.z) + d[2] * s,
+            ];
+            let d = [d[0].to_array(), d[1].to_array(), d[2].to_array()];
+            let org = [org[0].to_array(), org[1].to_array(), org[2].to_array()];
+            out.extend((0..n).map(|i| {
+                Ray::new(
+                    Vec3::new(org[0][i], org[1][i], org[2][i]),
+                    Vec3::new(d[0][i], d[1][i], d[2][i]),
+                )
+            }));
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,5 +236,45 @@ mod tests {
         let fx = fov_x_degrees(40.0, FovAxis::Y, 200, 100);
         assert!(((fx.to_radians() / 2.0).tan() - 2.0 * (20f32.to_radians()).tan()).abs() < 1e-5);
         assert_eq!(fov_x_degrees(40.0, FovAxis::Smaller, 200, 100), fx);
+    }
+    /// The batched rays (eight perspective rays per SIMD op) equal `ray` bit for bit.
+    #[test]
+    fn batched_rays_equal_single_rays() {
+        let m = look_at(Vec3::new(0.3, 1.0, 5.0), Vec3::new(0.1, -0.2, 0.0), Vec3::Y).unwrap();
+        let cams = [
+            Camera::perspective(m, 30.0, 256, 256, 0.0),
+            Camera::perspective(m, 75.0, 384, 160, 0.25),
+            Camera::Orthographic {
+                to_world: m,
+                scale: 2.0,
+                aspect: 2.0,
+                near_clip: 0.1,
+            },
+        ];
+        let bits =
+            |r: &Ray| [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax].map(f32::to_bits);
+        for cam in &cams {
+            for n in [1usize, 8, 13, 64] {
+                let jitter: Vec<Vec2> = (0..n)
+                    .map(|k| {
+                        let t = k as f32;
+                        Vec2::new((t * 0.618_034).fract(), (t * 0.754_878).fract())
+                    })
+                    .collect();
+                let inv = Vec2::new(1.0 / 384.0, 1.0 / 160.0);
+                for pixel in [Vec2::ZERO, Vec2::new(17.0, 93.0), Vec2::new(383.0, 159.0)] {
+                    let mut out = Vec::new();
+                    cam.rays_many(pixel, &jitter, inv, &mut out);
+                    assert_eq!(out.len(), n);
+                    for (r, &j) in out.iter().zip(&jitter) {
+                        assert_eq!(
+                            bits(r),
+                            bits(&cam.ray((pixel + j) * inv)),
+                            "{cam:?} {pixel} {j}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }

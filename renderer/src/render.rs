@@ -123,11 +123,9 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
                 jitter.resize(indices.len(), Vec2::ZERO);
                 sampler.next_2d_lanes(&indices, &mut jitter);
                 rays.clear();
-                rays.extend(
-                    jitter
-                        .iter()
-                        .map(|&j| scene.camera.ray((Vec2::new(x as f32, y as f32) + j) * inv)),
-                );
+                scene
+                    .camera
+                    .rays_many(Vec2::new(x as f32, y as f32), &jitter, inv, &mut rays);
                 // `sampler` is now at the dimension after the camera's, as every sample is.
                 let out = &mut radiance[..count as usize];
                 scene
