@@ -233,57 +233,53 @@ impl Geometry {
         best
     }
 
-    /// Local geometry of a hit found by [`Geometry::closest`]. Inlined, so that callers
-    /// build it in place (spheres and rectangles here; triangles out of line).
-    #[inline(always)]
+    /// Local geometry of a hit found by [`Geometry::closest`].
+    #[inline]
     pub fn interaction(&self, ray: &Ray, t: f32, prim: u32) -> Interaction {
+        let mut it = Interaction::ZERO;
+        self.interaction_into(ray, t, prim, &mut it);
+        it
+    }
+
+    /// [`Geometry::interaction`] written field by field into `it` (every field is set):
+    /// the wavefront integrator fills its list in place this way, with no copy of a whole
+    /// record through the stack. Inlined (spheres and rectangles here; triangles out of
+    /// line).
+    #[inline(always)]
+    pub fn interaction_into(&self, ray: &Ray, t: f32, prim: u32, it: &mut Interaction) {
         let p = &self.prims[prim as usize];
         let sg = self.shapes[p.shape as usize];
         let orient = |n: Vec3| if sg.flip_normals { -n } else { n };
-        // Each arm builds the interaction itself (no intermediate tuple, which the
-        // compiler would pass through the stack).
+        it.t = t;
+        it.shape = p.shape;
+        it.prim = prim;
         match &p.kind {
             PrimKind::Sphere(s) => {
                 let (pos, n, dpdu) = s.surface(ray.at(t));
-                Interaction {
-                    t,
-                    p: pos,
-                    ng: orient(n),
-                    ns: orient(n),
-                    dpdu,
-                    uv: Vec2::ZERO,
-                    shape: p.shape,
-                    prim,
-                    exit: n,
-                }
+                it.p = pos;
+                it.ng = orient(n);
+                it.ns = orient(n);
+                it.dpdu = dpdu;
+                it.uv = Vec2::ZERO;
+                it.exit = n;
             }
             PrimKind::Rectangle(r) => {
                 let uv = r.uv(ray.at(t));
-                Interaction {
-                    t,
-                    p: r.point(uv),
-                    ng: orient(r.n),
-                    ns: orient(r.n),
-                    dpdu: r.eu.normalize(),
-                    uv,
-                    shape: p.shape,
-                    prim,
-                    exit: Vec3::ZERO,
-                }
+                it.p = r.point(uv);
+                it.ng = orient(r.n);
+                it.ns = orient(r.n);
+                it.dpdu = r.eu.normalize();
+                it.uv = uv;
+                it.exit = Vec3::ZERO;
             }
             PrimKind::Triangle(tri) => {
                 let (pos, ng, ns, dpdu, uv) = self.triangle_geometry(ray, tri, sg);
-                Interaction {
-                    t,
-                    p: pos,
-                    ng: orient(ng),
-                    ns: orient(ns),
-                    dpdu,
-                    uv,
-                    shape: p.shape,
-                    prim,
-                    exit: Vec3::ZERO,
-                }
+                it.p = pos;
+                it.ng = orient(ng);
+                it.ns = orient(ns);
+                it.dpdu = dpdu;
+                it.uv = uv;
+                it.exit = Vec3::ZERO;
             }
         }
     }

@@ -75,6 +75,19 @@ pub struct Interaction {
 }
 
 impl Interaction {
+    /// All zero: a slot that [`Geometry::interaction_into`] fills.
+    pub const ZERO: Self = Self {
+        t: 0.0,
+        p: Vec3::ZERO,
+        ng: Vec3::ZERO,
+        ns: Vec3::ZERO,
+        dpdu: Vec3::ZERO,
+        uv: Vec2::ZERO,
+        shape: 0,
+        prim: 0,
+        exit: Vec3::ZERO,
+    };
+
     /// The primitive a ray leaving along `d` may skip (see [`Ray::skip`]).
     #[inline]
     pub fn skip_for(&self, d: Vec3) -> u32 {

@@ -249,23 +249,28 @@ pub fn li_many(
                 continue;
             };
             let ray = &ws.rays[i as usize];
-            let it = scene.geometry.interaction(ray, t, prim);
+            // Filled in place; dropped again below if the path ends here.
+            ws.its.push(Interaction::ZERO);
+            let it = ws.its.last_mut().expect("just pushed");
+            scene.geometry.interaction_into(ray, t, prim, it);
+            let it = &*it;
             let p = &mut ws.vars[i as usize];
             if let Some(k) = scene.shapes[it.shape as usize].light {
                 let light = &scene.lights[k as usize];
-                let le = light.le_area(&it, -ray.d);
+                let le = light.le_area(it, -ray.d);
                 if !le.is_black() {
                     let w = if p.depth == 0 {
                         1.0
                     } else {
-                        power_heuristic(p.prev_pdf, sel_pdf * light.pdf_area(p.prev_p, &it))
+                        power_heuristic(p.prev_pdf, sel_pdf * light.pdf_area(p.prev_p, it))
                     };
                     p.l += p.beta * le * w;
                 }
             }
             if p.depth + 1 < max_depth {
                 ws.hit_paths.push(i);
-                ws.its.push(it);
+            } else {
+                ws.its.pop();
             }
         }
         // Escaped paths gather the infinite lights; env maps in one batch per light.
