@@ -41,11 +41,15 @@ impl Rgb {
     pub fn luminance(self) -> f32 {
         0.212671 * self.r + 0.715160 * self.g + 0.072169 * self.b
     }
+    /// All three components finite (tested together, without a branch per component).
+    #[inline]
     pub fn is_finite(self) -> bool {
-        self.r.is_finite() && self.g.is_finite() && self.b.is_finite()
+        self.r.is_finite() & self.g.is_finite() & self.b.is_finite()
     }
+    /// All three components zero (tested together, without a branch per component).
+    #[inline]
     pub fn is_black(self) -> bool {
-        self.r == 0.0 && self.g == 0.0 && self.b == 0.0
+        (self.r == 0.0) & (self.g == 0.0) & (self.b == 0.0)
     }
     pub fn map(self, f: impl Fn(f32) -> f32) -> Rgb {
         Rgb::new(f(self.r), f(self.g), f(self.b))

@@ -230,9 +230,10 @@ fn spawned_rays_skip_only_what_they_cannot_hit() {
     );
 }
 
-/// `closest_many` (eight rays per SIMD sphere test in small scenes of spheres, ray by ray
-/// otherwise) returns `closest` of each ray bit for bit: rays from outside, inside and on
-/// the spheres, with finite and infinite ranges, skipped primitives, and partial batches.
+/// `closest_many` and `occluded_many` (eight rays per SIMD sphere test in small scenes of
+/// spheres, ray by ray otherwise) return `closest` (bit for bit) and `occluded` of each
+/// ray: rays from outside, inside and on the spheres, with finite and infinite ranges,
+/// skipped primitives, and partial batches.
 #[test]
 fn batched_closest_hits_equal_single_ones() {
     let mut r = Lcg(11);
@@ -300,6 +301,12 @@ fn batched_closest_hits_equal_single_ones() {
                     rays[i as usize]
                 );
             }
+        }
+        let mut occluded = Vec::new();
+        g.occluded_many(&rays, &mut occluded);
+        assert_eq!(occluded.len(), rays.len());
+        for (ray, &o) in rays.iter().zip(&occluded) {
+            assert_eq!(o, g.occluded(ray), "occluded_many on {ray:?}");
         }
         let hits = rays.iter().filter(|ray| g.closest(ray).is_some()).count();
         assert!(

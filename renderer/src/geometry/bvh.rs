@@ -147,31 +147,14 @@ impl Geometry {
     /// at a time against each sphere in SIMD lanes ([`Sphere::intersect_x8`]); other
     /// scenes go ray by ray.
     pub fn closest_many(&self, rays: &[Ray], idx: &[u32], out: &mut Vec<Option<(f32, u32)>>) {
-        let spheres_only = self.bvh.is_none()
-            && self
-                .prims
-                .iter()
-                .all(|p| matches!(p.kind, PrimKind::Sphere(_)));
-        if !spheres_only {
+        if !self.spheres_only() {
             out.extend(idx.iter().map(|&i| self.closest(&rays[i as usize])));
             return;
         }
         for ic in idx.chunks(8) {
             let n = ic.len();
             let r = x8::lanes(|k| rays[ic[k.min(n - 1)] as usize]);
-            let o = [
-                f32x8::new(x8::lanes(|k| r[k].o.x)),
-                f32x8::new(x8::lanes(|k| r[k].o.y)),
-                f32x8::new(x8::lanes(|k| r[k].o.z)),
-            ];
-            let d = [
-                f32x8::new(x8::lanes(|k| r[k].d.x)),
-                f32x8::new(x8::lanes(|k| r[k].d.y)),
-                f32x8::new(x8::lanes(|k| r[k].d.z)),
-            ];
-            let tmin = f32x8::new(x8::lanes(|k| r[k].tmin));
-            let mut tmax = f32x8::new(x8::lanes(|k| r[k].tmax));
-            let skip = u32x8::new(x8::lanes(|k| r[k].skip));
+            let (o, d, tmin, mut tmax, skip) = Self::ray_lanes(&r);
             let mut best = u32x8::splat(u32::MAX);
             for (j, p) in self.prims.iter().enumerate() {
                 let PrimKind::Sphere(s) = &p.kind else {
@@ -187,6 +170,63 @@ impl Geometry {
             let (t, best) = (tmax.to_array(), best.to_array());
             out.extend((0..n).map(|k| (best[k] != u32::MAX).then_some((t[k], best[k]))));
         }
+    }
+
+    /// [`Geometry::occluded`] of each ray, appended to `out`, the same answers: small
+    /// scenes of spheres alone test eight rays at a time per sphere in SIMD lanes (as
+    /// [`Geometry::closest_many`]); other scenes go ray by ray.
+    pub fn occluded_many(&self, rays: &[Ray], out: &mut Vec<bool>) {
+        if !self.spheres_only() {
+            out.extend(rays.iter().map(|r| self.occluded(r)));
+            return;
+        }
+        for rc in rays.chunks(8) {
+            let n = rc.len();
+            let (o, d, tmin, tmax, skip) = Self::ray_lanes(rc);
+            let mut hit = f32x8::splat(0.0);
+            for (j, p) in self.prims.iter().enumerate() {
+                let PrimKind::Sphere(s) = &p.kind else {
+                    unreachable!("spheres only")
+                };
+                let t = s.intersect_x8(o, d, tmin, tmax);
+                let not_skipped = f32x8::from_bits(!skip.simd_eq(u32x8::splat(j as u32)));
+                hit |= t.simd_lt(tmax) & not_skipped;
+            }
+            let hit = hit.to_array();
+            out.extend(hit[..n].iter().map(|&h| h != 0.0));
+        }
+    }
+
+    /// No BVH, and every primitive a sphere: the case the SIMD batch queries handle.
+    fn spheres_only(&self) -> bool {
+        self.bvh.is_none()
+            && self
+                .prims
+                .iter()
+                .all(|p| matches!(p.kind, PrimKind::Sphere(_)))
+    }
+
+    /// Up to eight rays in SIMD lanes (the last repeated into unused lanes): origins,
+    /// directions, tmin, tmax, skipped primitives.
+    #[inline(always)]
+    fn ray_lanes(rc: &[Ray]) -> ([f32x8; 3], [f32x8; 3], f32x8, f32x8, u32x8) {
+        let n = rc.len();
+        let r = x8::lanes(|k| rc[k.min(n - 1)]);
+        (
+            [
+                f32x8::new(x8::lanes(|k| r[k].o.x)),
+                f32x8::new(x8::lanes(|k| r[k].o.y)),
+                f32x8::new(x8::lanes(|k| r[k].o.z)),
+            ],
+            [
+                f32x8::new(x8::lanes(|k| r[k].d.x)),
+                f32x8::new(x8::lanes(|k| r[k].d.y)),
+                f32x8::new(x8::lanes(|k| r[k].d.z)),
+            ],
+            f32x8::new(x8::lanes(|k| r[k].tmin)),
+            f32x8::new(x8::lanes(|k| r[k].tmax)),
+            u32x8::new(x8::lanes(|k| r[k].skip)),
+        )
     }
 
     /// Closest hit with its local geometry.

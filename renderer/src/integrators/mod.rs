@@ -150,9 +150,14 @@ pub(crate) fn unoccluded_to(
     wi: Vec3,
     at: Option<(Vec3, Vec3)>,
 ) -> bool {
-    let ray = match at {
+    !scene.geometry.occluded(&shadow_ray(it, wi, at))
+}
+
+/// The shadow ray [`unoccluded_to`] tests.
+#[inline]
+pub(crate) fn shadow_ray(it: &Interaction, wi: Vec3, at: Option<(Vec3, Vec3)>) -> Ray {
+    match at {
         Some((q, n)) => spawn_ray_to(it, q, if n == Vec3::ZERO { None } else { Some(n) }),
         None => spawn_ray(it, wi),
-    };
-    !scene.geometry.occluded(&ray)
+    }
 }

@@ -8,7 +8,7 @@
 //! form the renderer runs, in which the samples of a pixel go through each stage of a
 //! bounce together (tests/tests/wavefront.rs checks that they agree).
 
-use super::{Shading, sample_one_light, unoccluded, unoccluded_to};
+use super::{Shading, sample_one_light, shadow_ray, unoccluded};
 use crate::Rgb;
 use crate::geometry::{Interaction, Ray, spawn_ray};
 use crate::lights::Light;
@@ -160,8 +160,11 @@ pub struct Workspace {
     frames: Vec<Frame>,
     wo: Vec<Vec3>,
     bsdf_samples: Vec<Option<BsdfSample>>,
-    /// Light samples the BSDF reflects: (hit, BSDF value x cosine, local direction).
+    /// Light samples the BSDF reflects: (hit, BSDF value x cosine, local direction), and
+    /// their shadow rays and whether they are blocked.
     nee: Vec<(u32, Rgb, Vec3)>,
+    shadow_rays: Vec<Ray>,
+    occluded: Vec<bool>,
     /// Sample indices of a list of paths, and the sampler values drawn for them.
     lane_index: Vec<u32>,
     nee_uc: Vec<f32>,
@@ -412,12 +415,22 @@ pub fn li_many(
             kept += !f.is_black() as usize;
         }
         ws.nee.truncate(kept);
-        for &(h, f, wi) in &ws.nee {
+        // Shadow rays of all of them, tested together.
+        ws.shadow_rays.clear();
+        ws.shadow_rays.extend(ws.nee.iter().map(|&(h, _, _)| {
             let h = h as usize;
-            let it = &ws.its[h];
-            if !unoccluded_to(scene, it, ws.ls_wi[h], ws.ls_at[h]) {
+            shadow_ray(&ws.its[h], ws.ls_wi[h], ws.ls_at[h])
+        }));
+        ws.occluded.clear();
+        scene
+            .geometry
+            .occluded_many(&ws.shadow_rays, &mut ws.occluded);
+        for (&(h, f, wi), &occluded) in ws.nee.iter().zip(&ws.occluded) {
+            if occluded {
                 continue;
             }
+            let h = h as usize;
+            let it = &ws.its[h];
             let bsdf = scene.shapes[it.shape as usize].material.as_ref();
             let light_pdf = ws.ls_pdf[h] * sel_pdf;
             let w = if ws.ls_delta[h] {
