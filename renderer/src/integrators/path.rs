@@ -8,7 +8,7 @@
 //! form the renderer runs, in which the samples of a pixel go through each stage of a
 //! bounce together (tests/tests/wavefront.rs checks that they agree).
 
-use super::{Shading, sample_one_light, shadow_ray, unoccluded};
+use super::{Shading, sample_one_light, shading_x8, shadow_ray, unoccluded};
 use crate::Rgb;
 use crate::geometry::{Interaction, Ray, spawn_ray};
 use crate::lights::Light;
@@ -16,6 +16,7 @@ use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use lobe_materials::BsdfSample;
+use lobe_materials::fastmath::x8;
 use lobe_materials::frame::Frame;
 use lobe_materials::sampling::power_heuristic;
 
@@ -383,12 +384,18 @@ pub fn li_many(
             }
         }
         // Shading frames, then next-event estimation: BSDF values, shadow rays, sums.
+        // (Eight hits at a time in SIMD lanes: `shading_x8`, bit for bit `Shading::new`.)
         ws.frames.clear();
         ws.wo.clear();
-        for (it, &i) in ws.its.iter().zip(&ws.hit_paths) {
-            let sh = Shading::new(scene, it, ws.rays[i as usize].d);
-            ws.frames.push(sh.frame);
-            ws.wo.push(sh.wo);
+        for (ic, pc) in ws.its.chunks(8).zip(ws.hit_paths.chunks(8)) {
+            let n = ic.len();
+            let (frames, wo) = shading_x8(
+                x8::lanes(|k| ic[k.min(n - 1)].ns),
+                x8::lanes(|k| ic[k.min(n - 1)].dpdu),
+                x8::lanes(|k| ws.rays[pc[k.min(n - 1)] as usize].d),
+            );
+            ws.frames.extend_from_slice(&frames[..n]);
+            ws.wo.extend_from_slice(&wo[..n]);
         }
         // Samples the BSDF reflects are kept by a branch-free compaction: whether a light
         // sample lies above the surface is a coin flip a branch would mispredict. A light
