@@ -343,10 +343,24 @@ impl Hierarchy2D {
         let mut uy = x8::clamp(uy, 0.0, ONE_MINUS_EPS);
         let one = u32x8::splat(1);
         for level in self.levels.iter().rev() {
-            let idx = (y * u32x8::splat(level.packets_per_row as u32) + x).to_array();
-            let p: [[f32; 4]; 8] = std::array::from_fn(|i| level.data[idx[i] as usize]);
-            let q: [f32x8; 4] =
-                std::array::from_fn(|c| f32x8::new(std::array::from_fn(|i| p[i][c])));
+            let q = if let [p] = level.data.as_slice() {
+                // The root: one packet for every lane.
+                [
+                    f32x8::splat(p[0]),
+                    f32x8::splat(p[1]),
+                    f32x8::splat(p[2]),
+                    f32x8::splat(p[3]),
+                ]
+            } else {
+                let idx = (y * u32x8::splat(level.packets_per_row as u32) + x).to_array();
+                let p = x8::lanes(|i| level.data[idx[i] as usize]);
+                [
+                    f32x8::new(x8::lanes(|i| p[i][0])),
+                    f32x8::new(x8::lanes(|i| p[i][1])),
+                    f32x8::new(x8::lanes(|i| p[i][2])),
+                    f32x8::new(x8::lanes(|i| p[i][3])),
+                ]
+            };
             let (right, lower);
             (right, lower, ux, uy) = descend_x8(q, ux, uy);
             x = (x << 1) + (right.to_bits() & one);

@@ -259,11 +259,20 @@ impl EnvMap {
     #[inline(always)]
     fn gather_corners(&self, k: [usize; 8]) -> [Rgb8; 4] {
         let row = self.width + 1;
+        // Each lane's top and bottom texel pairs as two slices: two bounds checks, not four.
+        let top = x8::lanes(|i| {
+            let p = &self.data[k[i]..k[i] + 2];
+            (p[0], p[1])
+        });
+        let bottom = x8::lanes(|i| {
+            let p = &self.data[k[i] + row..k[i] + row + 2];
+            (p[0], p[1])
+        });
         [
-            Rgb8::gather(&self.data, k, 0),
-            Rgb8::gather(&self.data, k, 1),
-            Rgb8::gather(&self.data, k, row),
-            Rgb8::gather(&self.data, k, row + 1),
+            Rgb8::from_lanes(x8::lanes(|i| top[i].0)),
+            Rgb8::from_lanes(x8::lanes(|i| top[i].1)),
+            Rgb8::from_lanes(x8::lanes(|i| bottom[i].0)),
+            Rgb8::from_lanes(x8::lanes(|i| bottom[i].1)),
         ]
     }
 
@@ -487,10 +496,9 @@ struct Rgb8 {
 }
 
 impl Rgb8 {
-    /// `d[k[i] + offset]` in lane i.
+    /// `t[i]` in lane i.
     #[inline(always)]
-    fn gather(d: &[Rgb], k: [usize; 8], offset: usize) -> Self {
-        let t = x8::lanes(|i| d[k[i] + offset]);
+    fn from_lanes(t: [Rgb; 8]) -> Self {
         Self {
             r: f32x8::new(x8::lanes(|i| t[i].r)),
             g: f32x8::new(x8::lanes(|i| t[i].g)),
