@@ -131,6 +131,7 @@ pub fn acos(x: f32) -> f32 {
 /// lane's result equals the scalar function's bit for bit (tested below), and the
 /// renderer's batched lookups agree exactly with its one-at-a-time ones.
 pub mod x8 {
+    use glam::Vec3;
     use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
     use wide::{f32x8, u32x8};
 
@@ -141,6 +142,28 @@ pub mod x8 {
     #[inline(always)]
     pub fn lanes<T>(f: impl Fn(usize) -> T) -> [T; 8] {
         [f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7)]
+    }
+
+    /// Eight vectors as their x, y and z components in three SIMD registers.
+    #[inline(always)]
+    pub fn vec3s(v: &[Vec3; 8]) -> [f32x8; 3] {
+        [
+            f32x8::new(lanes(|i| v[i].x)),
+            f32x8::new(lanes(|i| v[i].y)),
+            f32x8::new(lanes(|i| v[i].z)),
+        ]
+    }
+
+    /// The components of [`vec3s`] back as arrays (`[x, y, z]`, eight lanes each).
+    #[inline(always)]
+    pub fn arrays3(v: [f32x8; 3]) -> [[f32; 8]; 3] {
+        [v[0].to_array(), v[1].to_array(), v[2].to_array()]
+    }
+
+    /// glam's `Vec3::dot` per lane: (a.x b.x + a.y b.y) + a.z b.z.
+    #[inline(always)]
+    pub fn dot3(a: [f32x8; 3], b: [f32x8; 3]) -> f32x8 {
+        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
     }
 
     /// `if m { a } else { b }` per lane (`m` from a comparison).

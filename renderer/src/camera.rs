@@ -201,8 +201,7 @@ impl Camera {
                 f32x8::splat(o.y) + d[1] * s,
                 f32x8::splat(o.z) + d[2] * s,
             ];
-            let d = [d[0].to_array(), d[1].to_array(), d[2].to_array()];
-            let org = [org[0].to_array(), org[1].to_array(), org[2].to_array()];
+            let (d, org) = (x8::arrays3(d), x8::arrays3(org));
             out.extend((0..n).map(|i| {
                 Ray::new(
                     Vec3::new(org[0][i], org[1][i], org[2][i]),

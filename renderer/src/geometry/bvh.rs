@@ -213,16 +213,8 @@ impl Geometry {
         let n = rc.len();
         let r = x8::lanes(|k| rc[k.min(n - 1)]);
         (
-            [
-                f32x8::new(x8::lanes(|k| r[k].o.x)),
-                f32x8::new(x8::lanes(|k| r[k].o.y)),
-                f32x8::new(x8::lanes(|k| r[k].o.z)),
-            ],
-            [
-                f32x8::new(x8::lanes(|k| r[k].d.x)),
-                f32x8::new(x8::lanes(|k| r[k].d.y)),
-                f32x8::new(x8::lanes(|k| r[k].d.z)),
-            ],
+            x8::vec3s(&x8::lanes(|k| r[k].o)),
+            x8::vec3s(&x8::lanes(|k| r[k].d)),
             f32x8::new(x8::lanes(|k| r[k].tmin)),
             f32x8::new(x8::lanes(|k| r[k].tmax)),
             u32x8::new(x8::lanes(|k| r[k].skip)),

@@ -50,7 +50,7 @@ impl Sphere {
     /// (`tmin`, `tmax`), one per lane), with the same operations: bit for bit the same.
     #[inline(always)]
     pub fn intersect_x8(&self, o: [f32x8; 3], d: [f32x8; 3], tmin: f32x8, tmax: f32x8) -> f32x8 {
-        let dot = |a: [f32x8; 3], b: [f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let dot = x8::dot3;
         let c = self.center;
         let r2 = f32x8::splat(self.radius * self.radius);
         let zero = f32x8::splat(0.0);

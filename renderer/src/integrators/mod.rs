@@ -120,15 +120,8 @@ impl<'a> Shading<'a> {
 /// arithmetic of [`Frame::from_normal_tangent`], `to_local` and `normalize` in SIMD lanes;
 /// lanes whose tangent is degenerate take the scalar fallback.
 pub(crate) fn shading_x8(ns: [Vec3; 8], dpdu: [Vec3; 8], d: [Vec3; 8]) -> ([Frame; 8], [Vec3; 8]) {
-    let v3 = |a: &[Vec3; 8]| {
-        [
-            f32x8::new(x8::lanes(|i| a[i].x)),
-            f32x8::new(x8::lanes(|i| a[i].y)),
-            f32x8::new(x8::lanes(|i| a[i].z)),
-        ]
-    };
-    let dot = |a: [f32x8; 3], b: [f32x8; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let (n, u, dir) = (v3(&ns), v3(&dpdu), v3(&d));
+    let dot = x8::dot3;
+    let (n, u, dir) = (x8::vec3s(&ns), x8::vec3s(&dpdu), x8::vec3s(&d));
     // s = dpdu - n (n . dpdu), normalized by division; t = n x s (glam's cross).
     let nd = dot(n, u);
     let s = [u[0] - n[0] * nd, u[1] - n[1] * nd, u[2] - n[2] * nd];
@@ -145,8 +138,12 @@ pub(crate) fn shading_x8(ns: [Vec3; 8], dpdu: [Vec3; 8], d: [Vec3; 8]) -> ([Fram
     let wl = [dot(w, s), dot(w, t), dot(w, n)];
     let inv = f32x8::splat(1.0) / dot(wl, wl).sqrt();
     let wl = [wl[0] * inv, wl[1] * inv, wl[2] * inv];
-    let a = |v: [f32x8; 3]| [v[0].to_array(), v[1].to_array(), v[2].to_array()];
-    let (sa, ta, wa, l2) = (a(s), a(t), a(wl), len2.to_array());
+    let (sa, ta, wa, l2) = (
+        x8::arrays3(s),
+        x8::arrays3(t),
+        x8::arrays3(wl),
+        len2.to_array(),
+    );
     let mut frames = x8::lanes(|i| Frame {
         s: Vec3::new(sa[0][i], sa[1][i], sa[2][i]),
         t: Vec3::new(ta[0][i], ta[1][i], ta[2][i]),
@@ -187,22 +184,11 @@ pub(crate) fn sample_one_light(
 /// True when the light sample `ls` is visible from `it`.
 #[inline]
 pub(crate) fn unoccluded(scene: &Scene, it: &Interaction, ls: &LightSample) -> bool {
-    unoccluded_to(scene, it, ls.wi, ls.p)
+    !scene.geometry.occluded(&shadow_ray(it, ls.wi, ls.p))
 }
 
-/// True when nothing blocks direction `wi` from `it` up to the light point `at` (a point
-/// and its normal, zero for none; None: at infinity), as [`LightSample::p`].
-#[inline]
-pub(crate) fn unoccluded_to(
-    scene: &Scene,
-    it: &Interaction,
-    wi: Vec3,
-    at: Option<(Vec3, Vec3)>,
-) -> bool {
-    !scene.geometry.occluded(&shadow_ray(it, wi, at))
-}
-
-/// The shadow ray [`unoccluded_to`] tests.
+/// The shadow ray from `it` toward direction `wi`, up to the light point `at` (a point and
+/// its normal, zero for none; None: at infinity), as [`LightSample::p`].
 #[inline]
 pub(crate) fn shadow_ray(it: &Interaction, wi: Vec3, at: Option<(Vec3, Vec3)>) -> Ray {
     match at {

@@ -341,12 +341,8 @@ impl EnvMap {
         for (dc, oc) in dirs.chunks(8).zip(out.chunks_mut(8)) {
             let n = dc.len();
             let d = x8::lanes(|i| dc[i.min(n - 1)]);
-            let [lx, ly, lz] = mat3_mul_x8(
-                &self.to_local,
-                f32x8::new(x8::lanes(|i| d[i].x)),
-                f32x8::new(x8::lanes(|i| d[i].y)),
-                f32x8::new(x8::lanes(|i| d[i].z)),
-            );
+            let [dx, dy, dz] = x8::vec3s(&d);
+            let [lx, ly, lz] = mat3_mul_x8(&self.to_local, dx, dy, dz);
             // Texture coordinates ([`EnvMap::uv_of`]).
             let u = x8::atan2(lx, -lz) * f32x8::splat(1.0 / TAU);
             let u = x8::sel(u.simd_lt(zero), u + f32x8::splat(1.0), u);
@@ -426,7 +422,7 @@ impl EnvMap {
             let [dx, dy, dz] = mat3_mul_x8(&self.to_world, st * sp, ct, -(st * cp));
             let radiance = texel.scale(self.scale);
             let p = pdf_ab / (f32x8::splat(2.0 * PI * PI) * st);
-            let (dx, dy, dz) = (dx.to_array(), dy.to_array(), dz.to_array());
+            let [dx, dy, dz] = x8::arrays3([dx, dy, dz]);
             let (valid, p) = (valid.to_array(), p.to_array());
             let base = c * 8;
             for i in 0..n {
