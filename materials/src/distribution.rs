@@ -353,13 +353,7 @@ impl Hierarchy2D {
                 ]
             } else {
                 let idx = (y * u32x8::splat(level.packets_per_row as u32) + x).to_array();
-                let p = x8::lanes(|i| level.data[idx[i] as usize]);
-                [
-                    f32x8::new(x8::lanes(|i| p[i][0])),
-                    f32x8::new(x8::lanes(|i| p[i][1])),
-                    f32x8::new(x8::lanes(|i| p[i][2])),
-                    f32x8::new(x8::lanes(|i| p[i][3])),
-                ]
+                x8::transpose4x8(&x8::lanes(|i| level.data[idx[i] as usize]))
             };
             let (right, lower);
             (right, lower, ux, uy) = descend_x8(q, ux, uy);

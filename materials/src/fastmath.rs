@@ -144,6 +144,49 @@ pub mod x8 {
         [f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7)]
     }
 
+    /// Eight 4-float records as four lane vectors, `[r[0][k], .., r[7][k]]` for k = 0..4:
+    /// with AVX, eight 16-byte loads and eight shuffles (a 4x8 transpose) instead of 32
+    /// scalar loads and inserts.
+    #[inline(always)]
+    pub fn transpose4x8(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+        {
+            // SAFETY: only needs AVX, which this build enables (the cfg above).
+            unsafe { transpose4x8_avx(r) }
+        }
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
+        {
+            lanes(|k| f32x8::new(lanes(|i| r[i][k])))
+        }
+    }
+
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+    #[target_feature(enable = "avx")]
+    #[inline]
+    fn transpose4x8_avx(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
+        use core::arch::x86_64::{
+            __m128, _mm256_castpd_ps, _mm256_castps_pd, _mm256_set_m128, _mm256_unpackhi_pd,
+            _mm256_unpackhi_ps, _mm256_unpacklo_pd, _mm256_unpacklo_ps,
+        };
+        let q = |k: usize| __m128::from(wide::f32x4::new(r[k]));
+        // Records k and k + 4 side by side: [r0 | r4], [r1 | r5], [r2 | r6], [r3 | r7].
+        let a = _mm256_set_m128(q(4), q(0));
+        let b = _mm256_set_m128(q(5), q(1));
+        let c = _mm256_set_m128(q(6), q(2));
+        let d = _mm256_set_m128(q(7), q(3));
+        // Interleave pairs of records, then pairs of pairs (within each 128-bit half).
+        let ab_lo = _mm256_castps_pd(_mm256_unpacklo_ps(a, b));
+        let ab_hi = _mm256_castps_pd(_mm256_unpackhi_ps(a, b));
+        let cd_lo = _mm256_castps_pd(_mm256_unpacklo_ps(c, d));
+        let cd_hi = _mm256_castps_pd(_mm256_unpackhi_ps(c, d));
+        [
+            f32x8::from(_mm256_castpd_ps(_mm256_unpacklo_pd(ab_lo, cd_lo))),
+            f32x8::from(_mm256_castpd_ps(_mm256_unpackhi_pd(ab_lo, cd_lo))),
+            f32x8::from(_mm256_castpd_ps(_mm256_unpacklo_pd(ab_hi, cd_hi))),
+            f32x8::from(_mm256_castpd_ps(_mm256_unpackhi_pd(ab_hi, cd_hi))),
+        ]
+    }
+
     /// Eight vectors as their x, y and z components in three SIMD registers.
     #[inline(always)]
     pub fn vec3s(v: &[Vec3; 8]) -> [f32x8; 3] {
@@ -273,6 +316,15 @@ pub mod x8 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn transpose4x8_puts_component_k_of_record_i_in_lane_i() {
+        let r: [[f32; 4]; 8] = x8::lanes(|i| [0, 1, 2, 3].map(|k| (10 * i + k) as f32));
+        let t = x8::transpose4x8(&r);
+        for (k, v) in t.iter().enumerate() {
+            assert_eq!(v.to_array(), x8::lanes(|i| r[i][k]), "component {k}");
+        }
+    }
 
     #[test]
     fn sin_cos_matches_f64() {

@@ -38,8 +38,10 @@ use wide::{f32x8, i32x8};
 pub struct EnvMap {
     width: usize,
     height: usize,
-    /// H rows of W + 1 pixels: the last column repeats the first (periodic boundary).
-    data: Vec<Rgb>,
+    /// H rows of W + 1 pixels, three floats (r, g, b) each: the last column repeats the
+    /// first (periodic boundary). Flat, so that the SIMD lookups load a pixel pair of
+    /// eight cells as 16-byte rows and transpose them ([`x8::transpose4x8`]).
+    data: Vec<f32>,
     scale: f32,
     to_world: Mat3,
     to_local: Mat3,
@@ -92,14 +94,15 @@ impl EnvMap {
         DISTRIBUTIONS_BUILT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let (w, h) = (img.width, img.height);
         assert!(w >= 2 && h >= 3 && img.pixels.len() == w * h);
-        let mut data = Vec::with_capacity((w + 1) * h);
+        let mut data = Vec::with_capacity((w + 1) * h * 3);
         // Negative and non-finite components are zero (as `load_rgb_image` makes them), so
         // luminance is non-negative and linear over the bilinear lookup, which the density
         // relies on.
         let clean = |c: &Rgb| c.map(|x| if x.is_finite() { x.max(0.0) } else { 0.0 });
         for row in img.pixels.chunks(w) {
-            data.extend(row.iter().map(clean));
-            data.push(clean(&row[0]));
+            for c in row.iter().chain(&row[..1]).map(clean) {
+                data.extend([c.r, c.g, c.b]);
+            }
         }
         let sin_row: Vec<f32> = (0..h)
             .map(|j| (j as f32 / (h - 1) as f32 * PI).sin().max(0.0))
@@ -145,7 +148,7 @@ impl EnvMap {
     /// corner's pixel row.
     #[inline(always)]
     fn corner_weights(
-        d: &[Rgb],
+        d: &[f32],
         sin_row: &[f32],
         offset: f32,
         w: usize,
@@ -154,11 +157,12 @@ impl EnvMap {
     ) -> [f32; 4] {
         let k = iy * (w + 1) + ix;
         let (st, sb) = (sin_row[iy], sin_row[iy + 1]);
+        let l = |k| (texel(d, k).luminance() - offset).max(0.0);
         [
-            (d[k].luminance() - offset).max(0.0) * st,
-            (d[k + 1].luminance() - offset).max(0.0) * st,
-            (d[k + w + 1].luminance() - offset).max(0.0) * sb,
-            (d[k + w + 2].luminance() - offset).max(0.0) * sb,
+            l(k) * st,
+            l(k + 1) * st,
+            l(k + w + 1) * sb,
+            l(k + w + 2) * sb,
         ]
     }
 
@@ -202,8 +206,8 @@ impl EnvMap {
     #[inline(always)]
     fn blend(&self, (k, iy, fx, fy): (usize, usize, f32, f32)) -> (Rgb, f32) {
         let (d, w) = (&self.data, self.width);
-        let top = d[k] * (1.0 - fx) + d[k + 1] * fx;
-        let bottom = d[k + w + 1] * (1.0 - fx) + d[k + w + 2] * fx;
+        let top = texel(d, k) * (1.0 - fx) + texel(d, k + 1) * fx;
+        let bottom = texel(d, k + w + 1) * (1.0 - fx) + texel(d, k + w + 2) * fx;
         let texel = top * (1.0 - fy) + bottom * fy;
         // Luminance is linear: that of the interpolated rows is the interpolated luminance.
         let density = if self.inv_mean == 0.0 {
@@ -254,26 +258,36 @@ impl EnvMap {
         (radiance, density / (2.0 * PI * PI * sin_theta))
     }
 
-    /// The four corner texels of the cells starting at `k` (indices into `data`) in eight
-    /// lanes: [top-left, top-right, bottom-left, bottom-right].
+    /// The four corner texels of the cells starting at `k` (pixel indices into `data`) in
+    /// eight lanes: [top-left, top-right, bottom-left, bottom-right].
     #[inline(always)]
     fn gather_corners(&self, k: [usize; 8]) -> [Rgb8; 4] {
-        let row = self.width + 1;
-        // Each lane's top and bottom texel pairs as two slices: two bounds checks, not four.
-        let top = x8::lanes(|i| {
-            let p = &self.data[k[i]..k[i] + 2];
-            (p[0], p[1])
-        });
-        let bottom = x8::lanes(|i| {
-            let p = &self.data[k[i] + row..k[i] + row + 2];
-            (p[0], p[1])
-        });
-        [
-            Rgb8::from_lanes(x8::lanes(|i| top[i].0)),
-            Rgb8::from_lanes(x8::lanes(|i| top[i].1)),
-            Rgb8::from_lanes(x8::lanes(|i| bottom[i].0)),
-            Rgb8::from_lanes(x8::lanes(|i| bottom[i].1)),
-        ]
+        let row = 3 * (self.width + 1);
+        // A pixel pair is six floats, r0 g0 b0 r1 g1 b1: its first four and its last four
+        // (overlapping) in eight lanes are two 4x8 transposes; one bounds check per lane.
+        let pair = |offset: usize| {
+            let p = x8::lanes(|i| {
+                let s = &self.data[3 * k[i] + offset..3 * k[i] + offset + 6];
+                ([s[0], s[1], s[2], s[3]], [s[2], s[3], s[4], s[5]])
+            });
+            let a = x8::transpose4x8(&x8::lanes(|i| p[i].0));
+            let b = x8::transpose4x8(&x8::lanes(|i| p[i].1));
+            (
+                Rgb8 {
+                    r: a[0],
+                    g: a[1],
+                    b: a[2],
+                },
+                Rgb8 {
+                    r: a[3],
+                    g: b[2],
+                    b: b[3],
+                },
+            )
+        };
+        let (tl, tr) = pair(0);
+        let (bl, br) = pair(row);
+        [tl, tr, bl, br]
     }
 
     /// [`EnvMap::blend`] in eight lanes, with the same operations: radiance (without
@@ -492,16 +506,6 @@ struct Rgb8 {
 }
 
 impl Rgb8 {
-    /// `t[i]` in lane i.
-    #[inline(always)]
-    fn from_lanes(t: [Rgb; 8]) -> Self {
-        Self {
-            r: f32x8::new(x8::lanes(|i| t[i].r)),
-            g: f32x8::new(x8::lanes(|i| t[i].g)),
-            b: f32x8::new(x8::lanes(|i| t[i].b)),
-        }
-    }
-
     /// `self * a + o * b` with [`Rgb`]'s operations.
     #[inline(always)]
     fn lerp_weights(&self, a: f32x8, o: Rgb8, b: f32x8) -> Self {
@@ -538,6 +542,13 @@ impl Rgb8 {
             self.b.as_array()[i],
         )
     }
+}
+
+/// Pixel `k` of flat r, g, b data.
+#[inline(always)]
+fn texel(d: &[f32], k: usize) -> Rgb {
+    let p = &d[3 * k..3 * k + 3];
+    Rgb::new(p[0], p[1], p[2])
 }
 
 /// `m * (x, y, z)` in eight lanes, with glam's `Mat3 * Vec3` operations.
