@@ -262,32 +262,34 @@ impl EnvMap {
     /// eight lanes: [top-left, top-right, bottom-left, bottom-right].
     #[inline(always)]
     fn gather_corners(&self, k: [usize; 8]) -> [Rgb8; 4] {
-        let row = 3 * (self.width + 1);
-        // A pixel pair is six floats, r0 g0 b0 r1 g1 b1: its first four and its last four
-        // (overlapping) in eight lanes are two 4x8 transposes; one bounds check per lane.
-        let pair = |offset: usize| {
-            let p = x8::lanes(|i| {
-                let s = &self.data[3 * k[i] + offset..3 * k[i] + offset + 6];
-                ([s[0], s[1], s[2], s[3]], [s[2], s[3], s[4], s[5]])
-            });
-            let a = x8::transpose4x8(&x8::lanes(|i| p[i].0));
-            let b = x8::transpose4x8(&x8::lanes(|i| p[i].1));
-            (
-                Rgb8 {
-                    r: a[0],
-                    g: a[1],
-                    b: a[2],
-                },
-                Rgb8 {
-                    r: a[3],
-                    g: b[2],
-                    b: b[3],
-                },
-            )
-        };
-        let (tl, tr) = pair(0);
-        let (bl, br) = pair(row);
+        let (tl, tr) = self.pixel_pairs(&k, 0);
+        let (bl, br) = self.pixel_pairs(&k, 3 * (self.width + 1));
         [tl, tr, bl, br]
+    }
+
+    /// The pixel pairs starting `offset` floats after pixels `k` in eight lanes. A pair is
+    /// six floats, r0 g0 b0 r1 g1 b1: its first four and its last four (overlapping) are
+    /// read as two 4x8 transposes, with one bounds check per lane.
+    #[inline(always)]
+    fn pixel_pairs(&self, k: &[usize; 8], offset: usize) -> (Rgb8, Rgb8) {
+        let p = x8::lanes(|i| {
+            let s = &self.data[3 * k[i] + offset..3 * k[i] + offset + 6];
+            ([s[0], s[1], s[2], s[3]], [s[2], s[3], s[4], s[5]])
+        });
+        let a = x8::transpose4x8(&x8::lanes(|i| p[i].0));
+        let b = x8::transpose4x8(&x8::lanes(|i| p[i].1));
+        (
+            Rgb8 {
+                r: a[0],
+                g: a[1],
+                b: a[2],
+            },
+            Rgb8 {
+                r: a[3],
+                g: b[2],
+                b: b[3],
+            },
+        )
     }
 
     /// [`EnvMap::blend`] in eight lanes, with the same operations: radiance (without
