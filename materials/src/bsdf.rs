@@ -198,6 +198,16 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
             *o = self.sample(wo, u, uc);
         }
     }
+    /// [`Bsdf::eval`] and [`Bsdf::pdf`] of many direction pairs at once, `f[k]` and
+    /// `pdf[k]` for (`wo[k]`, `wi[k]`), bit for bit the same: the renderer's wavefront
+    /// integrator evaluates the light samples of all hits on one material in one call.
+    /// Models may override it with a batched (SIMD) form.
+    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
+        for (((f, pdf), &wo), &wi) in f.iter_mut().zip(pdf.iter_mut()).zip(wo).zip(wi) {
+            *f = self.eval(wo, wi);
+            *pdf = self.pdf(wo, wi);
+        }
+    }
     fn flags(&self) -> Flags;
     /// Registry name of the model, for reports.
     fn name(&self) -> &str;

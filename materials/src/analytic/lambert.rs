@@ -58,6 +58,30 @@ impl Bsdf for Lambert {
         select(wo.z > 0.0 && wi.z > 0.0, cosine_hemisphere_pdf(wi.z), 0.0)
     }
 
+    /// Eight pairs per SIMD warp, with `eval`'s and `pdf`'s operations.
+    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
+        assert!(wo.len() == f.len() && wi.len() == f.len() && pdf.len() == f.len());
+        let zero = f32x8::splat(0.0);
+        let inv_pi = f32x8::splat(FRAC_1_PI);
+        for (((oc, ic), fc), pc) in wo
+            .chunks(8)
+            .zip(wi.chunks(8))
+            .zip(f.chunks_mut(8))
+            .zip(pdf.chunks_mut(8))
+        {
+            let n = fc.len();
+            let zo = f32x8::new(x8::lanes(|i| oc[i.min(n - 1)].z));
+            let zi = f32x8::new(x8::lanes(|i| ic[i.min(n - 1)].z));
+            let above = zo.simd_gt(zero) & zi.simd_gt(zero);
+            let s = x8::sel(above, inv_pi, zero).to_array();
+            let p = x8::sel(above, zi.max(zero) * inv_pi, zero).to_array();
+            for i in 0..n {
+                fc[i] = self.reflectance * s[i];
+                pc[i] = p[i];
+            }
+        }
+    }
+
     /// Eight queries per SIMD warp ([`square_to_cosine_hemisphere_x8`]).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
         assert!(wo.len() == out.len() && u.len() == out.len());

@@ -161,6 +161,13 @@ pub struct Workspace {
     frames: Vec<Frame>,
     wo: Vec<Vec3>,
     bsdf_samples: Vec<Option<BsdfSample>>,
+    /// Per hit: its light sample's local direction, and the BSDF's value and pdf there.
+    ls_local: Vec<Vec3>,
+    ls_f: Vec<Rgb>,
+    ls_bsdf_pdf: Vec<f32>,
+    /// Runs of consecutive hits on the same shape: (first, end), one batched BSDF call
+    /// each.
+    runs: Vec<(usize, usize)>,
     /// Light samples the BSDF reflects: (hit, BSDF value x cosine, local direction), and
     /// their shadow rays and whether they are blocked.
     nee: Vec<(u32, Rgb, Vec3)>,
@@ -397,27 +404,56 @@ pub fn li_many(
             ws.frames.extend_from_slice(&frames[..n]);
             ws.wo.extend_from_slice(&wo[..n]);
         }
+        // Runs of hits on one shape, for batched BSDF calls.
+        ws.runs.clear();
+        let mut a = 0;
+        while a < m {
+            let shape = ws.its[a].shape;
+            let b = a + ws.its[a..]
+                .iter()
+                .take_while(|it| it.shape == shape)
+                .count();
+            ws.runs.push((a, b));
+            a = b;
+        }
+        // BSDF values and pdfs of every hit's light sample, one call per run (hits without
+        // a sample have a zero direction; their values are not used).
+        ws.ls_local.clear();
+        ws.ls_local.extend(
+            ws.frames
+                .iter()
+                .zip(&ws.ls_wi)
+                .map(|(frame, &wi)| frame.to_local(wi)),
+        );
+        ws.ls_f.resize(m, Rgb::ZERO);
+        ws.ls_bsdf_pdf.resize(m, 0.0);
+        for &(a, b) in &ws.runs {
+            scene.shapes[ws.its[a].shape as usize]
+                .material
+                .eval_pdf_many(
+                    &ws.wo[a..b],
+                    &ws.ls_local[a..b],
+                    &mut ws.ls_f[a..b],
+                    &mut ws.ls_bsdf_pdf[a..b],
+                );
+        }
         // Samples the BSDF reflects are kept by a branch-free compaction: whether a light
         // sample lies above the surface is a coin flip a branch would mispredict. A light
         // sample counts when its pdf is positive and its radiance is not black.
         ws.nee.clear();
         ws.nee.resize(m, (0, Rgb::ZERO, Vec3::ZERO));
         let mut kept = 0;
-        for (h, ((((it, frame), &wo), &wi_world), (&pdf, li))) in ws
-            .its
+        for (h, ((&wi, &f), (&pdf, li))) in ws
+            .ls_local
             .iter()
-            .zip(&ws.frames)
-            .zip(&ws.wo)
-            .zip(&ws.ls_wi)
+            .zip(&ws.ls_f)
             .zip(ws.ls_pdf.iter().zip(&ws.ls_li))
             .enumerate()
         {
             if !(pdf > 0.0) || li.is_black() {
                 continue;
             }
-            let bsdf = scene.shapes[it.shape as usize].material.as_ref();
-            let wi = frame.to_local(wi_world);
-            let f = bsdf.eval(wo, wi) * wi.z.max(0.0);
+            let f = f * wi.z.max(0.0);
             ws.nee[kept] = (h as u32, f, wi);
             kept += !f.is_black() as usize;
         }
@@ -432,18 +468,16 @@ pub fn li_many(
         scene
             .geometry
             .occluded_many(&ws.shadow_rays, &mut ws.occluded);
-        for (&(h, f, wi), &occluded) in ws.nee.iter().zip(&ws.occluded) {
+        for (&(h, f, _), &occluded) in ws.nee.iter().zip(&ws.occluded) {
             if occluded {
                 continue;
             }
             let h = h as usize;
-            let it = &ws.its[h];
-            let bsdf = scene.shapes[it.shape as usize].material.as_ref();
             let light_pdf = ws.ls_pdf[h] * sel_pdf;
             let w = if ws.ls_delta[h] {
                 1.0
             } else {
-                power_heuristic(light_pdf, bsdf.pdf(ws.wo[h], wi))
+                power_heuristic(light_pdf, ws.ls_bsdf_pdf[h])
             };
             let p = &mut ws.vars[ws.hit_paths[h] as usize];
             p.l += p.beta * f * ws.ls_li[h] * (w / light_pdf);
@@ -451,20 +485,13 @@ pub fn li_many(
         // BSDF sampling: one batched call per run of hits on the same shape.
         ws.bsdf_samples.clear();
         ws.bsdf_samples.resize(m, None);
-        let mut a = 0;
-        while a < m {
-            let shape = ws.its[a].shape;
-            let b = a + ws.its[a..]
-                .iter()
-                .take_while(|it| it.shape == shape)
-                .count();
-            scene.shapes[shape as usize].material.sample_many(
+        for &(a, b) in &ws.runs {
+            scene.shapes[ws.its[a].shape as usize].material.sample_many(
                 &ws.wo[a..b],
                 &ws.bsdf_u[a..b],
                 &ws.bsdf_uc[a..b],
                 &mut ws.bsdf_samples[a..b],
             );
-            a = b;
         }
         ws.next.clear();
         let mut depth = 0;
