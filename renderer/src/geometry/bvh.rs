@@ -153,8 +153,8 @@ impl Geometry {
         }
         for ic in idx.chunks(8) {
             let n = ic.len();
-            let r = x8::lanes(|k| rays[ic[k.min(n - 1)] as usize]);
-            let (o, d, tmin, mut tmax, skip) = Self::ray_lanes(&r);
+            let (o, d, tmin, mut tmax, skip) =
+                Self::ray_lanes(|k| &rays[ic[k.min(n - 1)] as usize]);
             let mut best = u32x8::splat(u32::MAX);
             for (j, p) in self.prims.iter().enumerate() {
                 let PrimKind::Sphere(s) = &p.kind else {
@@ -182,7 +182,7 @@ impl Geometry {
         }
         for rc in rays.chunks(8) {
             let n = rc.len();
-            let (o, d, tmin, tmax, skip) = Self::ray_lanes(rc);
+            let (o, d, tmin, tmax, skip) = Self::ray_lanes(|k| &rc[k.min(n - 1)]);
             let mut hit = f32x8::splat(0.0);
             for (j, p) in self.prims.iter().enumerate() {
                 let PrimKind::Sphere(s) = &p.kind else {
@@ -206,18 +206,27 @@ impl Geometry {
                 .all(|p| matches!(p.kind, PrimKind::Sphere(_)))
     }
 
-    /// Up to eight rays in SIMD lanes (the last repeated into unused lanes): origins,
-    /// directions, tmin, tmax, skipped primitives.
+    /// Eight rays in SIMD lanes, `ray(k)` in lane k: origins, directions, tmin, tmax,
+    /// skipped primitives. A ray's first 32 bytes are two rows of four floats (o, d.x and
+    /// d.y, d.z, tmin, tmax), read as two 4x8 transposes.
     #[inline(always)]
-    fn ray_lanes(rc: &[Ray]) -> ([f32x8; 3], [f32x8; 3], f32x8, f32x8, u32x8) {
-        let n = rc.len();
-        let r = x8::lanes(|k| rc[k.min(n - 1)]);
+    fn ray_lanes<'a>(
+        ray: impl Fn(usize) -> &'a Ray,
+    ) -> ([f32x8; 3], [f32x8; 3], f32x8, f32x8, u32x8) {
+        let a = x8::transpose4x8(&x8::lanes(|k| {
+            let r = ray(k);
+            [r.o.x, r.o.y, r.o.z, r.d.x]
+        }));
+        let b = x8::transpose4x8(&x8::lanes(|k| {
+            let r = ray(k);
+            [r.d.y, r.d.z, r.tmin, r.tmax]
+        }));
         (
-            x8::vec3s(&x8::lanes(|k| r[k].o)),
-            x8::vec3s(&x8::lanes(|k| r[k].d)),
-            f32x8::new(x8::lanes(|k| r[k].tmin)),
-            f32x8::new(x8::lanes(|k| r[k].tmax)),
-            u32x8::new(x8::lanes(|k| r[k].skip)),
+            [a[0], a[1], a[2]],
+            [a[3], b[0], b[1]],
+            b[2],
+            b[3],
+            u32x8::new(x8::lanes(|k| ray(k).skip)),
         )
     }
 

@@ -19,8 +19,10 @@ pub use mesh::{Mesh, Triangle};
 pub use rectangle::Rectangle;
 pub use sphere::Sphere;
 
-/// A ray with a parametric range (tmin, tmax).
+/// A ray with a parametric range (tmin, tmax). `repr(C)`: the SIMD batch queries read
+/// o, d, tmin and tmax as two rows of four floats.
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub struct Ray {
     pub o: Vec3,
     pub d: Vec3,
