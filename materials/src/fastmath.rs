@@ -160,6 +160,13 @@ pub mod x8 {
         }
     }
 
+    /// [`transpose4x8`] of the rows `row(0)`, .., `row(7)`: fields that lie four floats in a
+    /// row in memory are read as one 16-byte load per lane.
+    #[inline(always)]
+    pub fn rows4(row: impl Fn(usize) -> [f32; 4]) -> [f32x8; 4] {
+        transpose4x8(&lanes(row))
+    }
+
     #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
     #[target_feature(enable = "avx")]
     #[inline]

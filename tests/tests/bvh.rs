@@ -262,6 +262,21 @@ fn batched_closest_hits_equal_single_ones() {
             Geometry::build(prims, vec![], vec![ShapeGeom::default()])
         })
         .collect();
+    // Inward normals (flip_normals) on a scene of spheres too.
+    geometries.push(Geometry::build(
+        sphere_scenes[1]
+            .iter()
+            .map(|&s| Primitive {
+                kind: PrimKind::Sphere(s),
+                shape: 0,
+            })
+            .collect(),
+        vec![],
+        vec![ShapeGeom {
+            flip_normals: true,
+            ..ShapeGeom::default()
+        }],
+    ));
     geometries.push(scene());
     for g in &geometries {
         let n_prims = g.prims.len() as u32;
@@ -301,6 +316,30 @@ fn batched_closest_hits_equal_single_ones() {
                     rays[i as usize]
                 );
             }
+        }
+        // interactions_many: every field of every hit's interaction, bit for bit.
+        let idx: Vec<u32> = (0..rays.len() as u32).collect();
+        let mut closest = Vec::new();
+        g.closest_many(&rays, &idx, &mut closest);
+        let hits: Vec<(u32, f32, u32)> = closest
+            .iter()
+            .enumerate()
+            .filter_map(|(i, c)| c.map(|(t, p)| (i as u32, t, p)))
+            .collect();
+        let mut its = Vec::new();
+        g.interactions_many(&rays, &hits, &mut its);
+        assert_eq!(its.len(), hits.len());
+        let bits = |it: &lobe_renderer::geometry::Interaction| {
+            let mut v = vec![it.t.to_bits(), it.shape, it.prim];
+            for w in [it.p, it.ng, it.ns, it.dpdu, it.exit] {
+                v.extend(w.to_array().map(f32::to_bits));
+            }
+            v.extend(it.uv.to_array().map(f32::to_bits));
+            v
+        };
+        for (it, &(i, t, prim)) in its.iter().zip(&hits) {
+            let e = g.interaction(&rays[i as usize], t, prim);
+            assert_eq!(bits(it), bits(&e), "ray {i}");
         }
         let mut occluded = Vec::new();
         g.occluded_many(&rays, &mut occluded);

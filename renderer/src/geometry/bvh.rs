@@ -197,6 +197,60 @@ impl Geometry {
         }
     }
 
+    /// [`Geometry::interaction`] of many hits, appended to `out` in order: hit (i, t, prim)
+    /// of ray `rays[i]`. Scenes of spheres alone compute eight at a time in SIMD lanes
+    /// ([`Sphere::surface_x8`]: its square roots and divisions are a long dependency chain
+    /// per hit), bit for bit the same; other scenes go hit by hit.
+    pub fn interactions_many(
+        &self,
+        rays: &[Ray],
+        hits: &[(u32, f32, u32)],
+        out: &mut Vec<Interaction>,
+    ) {
+        if !self.spheres_only() {
+            out.extend(
+                hits.iter()
+                    .map(|&(i, t, prim)| self.interaction(&rays[i as usize], t, prim)),
+            );
+            return;
+        }
+        for hc in hits.chunks(8) {
+            let n = hc.len();
+            let hit = |k: usize| hc[k.min(n - 1)];
+            let (o, d, _, _, _) = Self::ray_lanes(|k| &rays[hit(k).0 as usize]);
+            let t = f32x8::new(x8::lanes(|k| hit(k).1));
+            let cr = x8::rows4(|k| match &self.prims[hit(k).2 as usize].kind {
+                PrimKind::Sphere(s) => [s.center.x, s.center.y, s.center.z, s.radius],
+                _ => unreachable!("spheres only"),
+            });
+            // Ray::at: o + d t.
+            let at = [o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t];
+            let (p, nrm, dpdu) = Sphere::surface_x8(at, [cr[0], cr[1], cr[2]], cr[3]);
+            let (p, nrm, dpdu) = (x8::arrays3(p), x8::arrays3(nrm), x8::arrays3(dpdu));
+            for (k, &(_, t, prim)) in hc.iter().enumerate() {
+                let shape = self.prims[prim as usize].shape;
+                let v = |a: &[[f32; 8]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
+                let nk = v(&nrm);
+                let oriented = if self.shapes[shape as usize].flip_normals {
+                    -nk
+                } else {
+                    nk
+                };
+                out.push(Interaction {
+                    t,
+                    p: v(&p),
+                    ng: oriented,
+                    ns: oriented,
+                    dpdu: v(&dpdu),
+                    uv: Vec2::ZERO,
+                    shape,
+                    prim,
+                    exit: nk,
+                });
+            }
+        }
+    }
+
     /// No BVH, and every primitive a sphere: the case the SIMD batch queries handle.
     fn spheres_only(&self) -> bool {
         self.bvh.is_none()

@@ -102,6 +102,43 @@ impl Sphere {
         (p, n, dpdu)
     }
 
+    /// [`Sphere::surface`] of eight points on eight spheres (centres `c`, radii `r`, one per
+    /// lane), with the same operations: bit for bit the same.
+    #[inline(always)]
+    pub fn surface_x8(
+        p_approx: [f32x8; 3],
+        c: [f32x8; 3],
+        r: f32x8,
+    ) -> ([f32x8; 3], [f32x8; 3], [f32x8; 3]) {
+        let (zero, one) = (f32x8::splat(0.0), f32x8::splat(1.0));
+        let local = [p_approx[0] - c[0], p_approx[1] - c[1], p_approx[2] - c[2]];
+        let len = x8::dot3(local, local).sqrt();
+        // local *= radius / len where len > 0, else (0, 0, radius).
+        let pos = len.simd_gt(zero);
+        let k = r / len;
+        let local = [
+            x8::sel(pos, local[0] * k, zero),
+            x8::sel(pos, local[1] * k, zero),
+            x8::sel(pos, local[2] * k, r),
+        ];
+        // (local / radius).normalize(): times 1 / length.
+        let q = [local[0] / r, local[1] / r, local[2] / r];
+        let inv = one / x8::dot3(q, q).sqrt();
+        let n = [q[0] * inv, q[1] * inv, q[2] * inv];
+        let p = [c[0] + local[0], c[1] + local[1], c[2] + local[2]];
+        // dpdu = (-local.y, local.x, 0), normalized where not zero, else +x.
+        let u = [-local[1], local[0], zero];
+        let l2 = x8::dot3(u, u);
+        let some = l2.simd_gt(zero);
+        let inv = one / l2.sqrt();
+        let dpdu = [
+            x8::sel(some, u[0] * inv, one),
+            x8::sel(some, u[1] * inv, zero),
+            x8::sel(some, u[2] * inv, zero),
+        ];
+        (p, n, dpdu)
+    }
+
     /// Mitsuba 3's (u, v) of a point on the sphere: u = phi / 2 pi around +z, v = theta / pi.
     pub fn uv(&self, p: Vec3) -> Vec2 {
         let local = (p - self.center) / self.radius;
@@ -114,5 +151,58 @@ impl Sphere {
 
     pub fn area(&self) -> f32 {
         4.0 * PI * self.radius * self.radius
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The eight-lane surface equals `surface` bit for bit, including points at the centre
+    /// (no direction: the +z pole) and on the z axis (no tangent: +x).
+    #[test]
+    fn surface_x8_is_bit_identical() {
+        let spheres = [
+            Sphere {
+                center: Vec3::new(0.3, -1.2, 2.0),
+                radius: 0.7,
+            },
+            Sphere {
+                center: Vec3::ZERO,
+                radius: 1.0,
+            },
+            Sphere {
+                center: Vec3::new(-5.0, 0.1, 0.0),
+                radius: 130.0,
+            },
+        ];
+        for round in 0..96 {
+            let s = x8::lanes(|k| spheres[(round + k) % 3]);
+            let p = x8::lanes(|k| {
+                let t = (round * 8 + k) as f32;
+                let c = s[k].center;
+                match (round + k) % 9 {
+                    0 => c,
+                    1 => c + Vec3::new(0.0, 0.0, -0.5 * s[k].radius),
+                    _ => {
+                        c + Vec3::new((t * 0.7).sin(), (t * 1.3).cos(), (t * 0.37).sin())
+                            * s[k].radius
+                            * (1.0 + 1e-3 * (t * 0.11).sin())
+                    }
+                }
+            });
+            let c = x8::vec3s(&x8::lanes(|k| s[k].center));
+            let r = f32x8::new(x8::lanes(|k| s[k].radius));
+            let (pp, n, u) = Sphere::surface_x8(x8::vec3s(&p), c, r);
+            let (pp, n, u) = (x8::arrays3(pp), x8::arrays3(n), x8::arrays3(u));
+            for k in 0..8 {
+                let (ep, en, eu) = s[k].surface(p[k]);
+                let v = |a: &[[f32; 8]; 3]| [a[0][k], a[1][k], a[2][k]].map(f32::to_bits);
+                let b = |w: Vec3| w.to_array().map(f32::to_bits);
+                assert_eq!(v(&pp), b(ep), "point, lane {k} of round {round}");
+                assert_eq!(v(&n), b(en), "normal, lane {k} of round {round}");
+                assert_eq!(v(&u), b(eu), "tangent, lane {k} of round {round}");
+            }
+        }
     }
 }

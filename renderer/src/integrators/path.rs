@@ -150,6 +150,8 @@ pub struct Workspace {
     next: Vec<u32>,
     /// Per active path: its closest hit.
     closest: Vec<Option<(f32, u32)>>,
+    /// The hits of this bounce: (path, t, primitive).
+    hits: Vec<(u32, f32, u32)>,
     /// The paths that hit a surface this bounce and go on, and their interactions.
     hit_paths: Vec<u32>,
     its: Vec<Interaction>,
@@ -252,19 +254,23 @@ pub fn li_many(
         // Escaped paths, and hits: emission of the surfaces hit, then the paths that go on
         // in a compact list (`its[h]` is the interaction of path `hit_paths[h]`).
         ws.escaped.clear();
-        ws.hit_paths.clear();
-        ws.its.clear();
+        ws.hits.clear();
         for (&i, c) in ws.active.iter().zip(&ws.closest) {
-            let Some((t, prim)) = *c else {
-                ws.escaped.push(i);
-                continue;
-            };
-            let ray = &ws.rays[i as usize];
-            // Filled in place; dropped again below if the path ends here.
-            ws.its.push(Interaction::ZERO);
-            let it = ws.its.last_mut().expect("just pushed");
-            scene.geometry.interaction_into(ray, t, prim, it);
-            let it = &*it;
+            match *c {
+                Some((t, prim)) => ws.hits.push((i, t, prim)),
+                None => ws.escaped.push(i),
+            }
+        }
+        ws.its.clear();
+        scene
+            .geometry
+            .interactions_many(&ws.rays, &ws.hits, &mut ws.its);
+        // Emission; the interactions of paths that end here are dropped (all live paths
+        // share their depth, so either all go on or none: nothing moves in practice).
+        ws.hit_paths.clear();
+        for k in 0..ws.hits.len() {
+            let i = ws.hits[k].0;
+            let (ray, it) = (&ws.rays[i as usize], &ws.its[k]);
             let p = &mut ws.vars[i as usize];
             if let Some(k) = scene.shapes[it.shape as usize].light {
                 let light = &scene.lights[k as usize];
@@ -279,11 +285,11 @@ pub fn li_many(
                 }
             }
             if p.depth + 1 < max_depth {
+                ws.its[ws.hit_paths.len()] = ws.its[k];
                 ws.hit_paths.push(i);
-            } else {
-                ws.its.pop();
             }
         }
+        ws.its.truncate(ws.hit_paths.len());
         // Escaped paths gather the infinite lights; env maps in one batch per light.
         if !ws.escaped.is_empty() {
             ws.dirs.clear();
