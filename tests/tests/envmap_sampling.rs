@@ -250,7 +250,7 @@ fn batched_lookups_equal_single_ones() {
         [v.x, v.y, v.z, c.r, c.g, c.b, p].map(|x| if x == 0.0 { 0 } else { x.to_bits() })
     };
     for e in &maps {
-        for n in [1usize, 7, 8, 9, 203] {
+        for n in [1usize, 7, 8, 9, 16, 24, 203] {
             let mut us: Vec<Vec2> = (0..n)
                 .map(|i| {
                     Vec2::new(

@@ -406,48 +406,71 @@ impl EnvMap {
         let (w, h) = (self.width as f32, (self.height - 1) as f32);
         let zero = f32x8::splat(0.0);
         let one_minus_eps = f32x8::splat(1.0 - f32::EPSILON / 2.0);
-        for (c, uc) in us.chunks(8).enumerate() {
-            let n = uc.len();
-            let u = x8::lanes(|i| uc[i.min(n - 1)]);
-            let (cx, cy, rx, ry) = self.cells.sample_x8(
-                f32x8::new(x8::lanes(|i| u[i].x)),
-                f32x8::new(x8::lanes(|i| u[i].y)),
-            );
-            let (ix, iy) = (cx.to_array(), cy.to_array());
-            let iy_us = x8::lanes(|i| iy[i] as usize);
-            let k = x8::lanes(|i| iy_us[i] * (self.width + 1) + ix[i] as usize);
-            let t = self.gather_corners(k);
-            let (s_top, s_bottom) = self.row_sines(iy_us);
-            // Within the cell, the bilinear density of the corner weights.
-            let (fx, fy) = if self.inv_mean == 0.0 {
-                (rx, ry)
-            } else {
-                let cw = self.corner_weights_x8(&t, s_top, s_bottom);
-                square_to_bilinear_x8(rx, ry, cw)
+        // Sixteen points at a time: two groups of eight descend the hierarchy side by side
+        // (two independent dependency chains the core overlaps; more groups spill
+        // registers), then each goes on alone.
+        const GROUPS: usize = 2;
+        for (c2, uc2) in us.chunks(8 * GROUPS).enumerate() {
+            let group = |uc: &[Vec2]| {
+                let n = uc.len().min(8);
+                let u = x8::lanes(|i| uc[i.min(n - 1)]);
+                (
+                    f32x8::new(x8::lanes(|i| u[i].x)),
+                    f32x8::new(x8::lanes(|i| u[i].y)),
+                )
             };
-            let cxf = f32x8::new(x8::lanes(|i| ix[i] as f32));
-            let cyf = f32x8::new(x8::lanes(|i| iy[i] as f32));
-            let ax = ((cxf + fx) / f32x8::splat(w)).min(one_minus_eps);
-            let vv = ((cyf + fy) / f32x8::splat(h)).min(one_minus_eps);
-            let x = ax + f32x8::splat(0.5 / w);
-            let uu = x8::sel(x.simd_ge(f32x8::splat(1.0)), x - f32x8::splat(1.0), x);
-            let (st, ct) = x8::sin_cos_moderate(vv * f32x8::splat(PI));
-            let (sp, cp) = x8::sin_cos_moderate(uu * f32x8::splat(TAU));
-            let (texel, pdf_ab) = self.blend_x8(&t, s_top, s_bottom, fx, fy);
-            let valid = st.simd_gt(f32x8::splat(1e-7)) & pdf_ab.simd_gt(zero);
-            let [dx, dy, dz] = mat3_mul_x8(&self.to_world, st * sp, ct, -(st * cp));
-            let radiance = texel.scale(self.scale);
-            let p = pdf_ab / (f32x8::splat(2.0 * PI * PI) * st);
-            let [dx, dy, dz] = x8::arrays3([dx, dy, dz]);
-            let (valid, p) = (valid.to_array(), p.to_array());
-            let base = c * 8;
-            for i in 0..n {
-                let o = base + i;
-                (wi[o], li[o], pdf[o]) = if valid[i] != 0.0 {
-                    (Vec3::new(dx[i], dy[i], dz[i]), radiance.lane(i), p[i])
+            let g0 = group(uc2);
+            let cells = match uc2.get(8..) {
+                Some(rest) if !rest.is_empty() => {
+                    let g1 = group(rest);
+                    self.cells.sample_x8s([g0.0, g1.0], [g0.1, g1.1])
+                }
+                // A lone group descends alone.
+                _ => {
+                    let [c] = self.cells.sample_x8s([g0.0], [g0.1]);
+                    [c, c]
+                }
+            };
+            for (c, uc) in uc2.chunks(8).enumerate() {
+                let c = 2 * c2 + c;
+                let n = uc.len();
+                let (cx, cy, rx, ry) = cells[c % 2];
+                let (ix, iy) = (cx.to_array(), cy.to_array());
+                let iy_us = x8::lanes(|i| iy[i] as usize);
+                let k = x8::lanes(|i| iy_us[i] * (self.width + 1) + ix[i] as usize);
+                let t = self.gather_corners(k);
+                let (s_top, s_bottom) = self.row_sines(iy_us);
+                // Within the cell, the bilinear density of the corner weights.
+                let (fx, fy) = if self.inv_mean == 0.0 {
+                    (rx, ry)
                 } else {
-                    (Vec3::ZERO, Rgb::ZERO, 0.0)
+                    let cw = self.corner_weights_x8(&t, s_top, s_bottom);
+                    square_to_bilinear_x8(rx, ry, cw)
                 };
+                let cxf = f32x8::new(x8::lanes(|i| ix[i] as f32));
+                let cyf = f32x8::new(x8::lanes(|i| iy[i] as f32));
+                let ax = ((cxf + fx) / f32x8::splat(w)).min(one_minus_eps);
+                let vv = ((cyf + fy) / f32x8::splat(h)).min(one_minus_eps);
+                let x = ax + f32x8::splat(0.5 / w);
+                let uu = x8::sel(x.simd_ge(f32x8::splat(1.0)), x - f32x8::splat(1.0), x);
+                let (st, ct) = x8::sin_cos_moderate(vv * f32x8::splat(PI));
+                let (sp, cp) = x8::sin_cos_moderate(uu * f32x8::splat(TAU));
+                let (texel, pdf_ab) = self.blend_x8(&t, s_top, s_bottom, fx, fy);
+                let valid = st.simd_gt(f32x8::splat(1e-7)) & pdf_ab.simd_gt(zero);
+                let [dx, dy, dz] = mat3_mul_x8(&self.to_world, st * sp, ct, -(st * cp));
+                let radiance = texel.scale(self.scale);
+                let p = pdf_ab / (f32x8::splat(2.0 * PI * PI) * st);
+                let [dx, dy, dz] = x8::arrays3([dx, dy, dz]);
+                let (valid, p) = (valid.to_array(), p.to_array());
+                let base = c * 8;
+                for i in 0..n {
+                    let o = base + i;
+                    (wi[o], li[o], pdf[o]) = if valid[i] != 0.0 {
+                        (Vec3::new(dx[i], dy[i], dz[i]), radiance.lane(i), p[i])
+                    } else {
+                        (Vec3::ZERO, Rgb::ZERO, 0.0)
+                    };
+                }
             }
         }
     }
