@@ -156,7 +156,8 @@ pub mod x8 {
         }
         #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
         {
-            lanes(|k| f32x8::new(lanes(|i| r[i][k])))
+            let c = |k: usize| f32x8::new(lanes(|i| r[i][k]));
+            [c(0), c(1), c(2), c(3)]
         }
     }
 
