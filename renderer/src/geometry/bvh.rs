@@ -208,10 +208,11 @@ impl Geometry {
         out: &mut Vec<Interaction>,
     ) {
         if !self.spheres_only() {
-            out.extend(
-                hits.iter()
-                    .map(|&(i, t, prim)| self.interaction(&rays[i as usize], t, prim)),
-            );
+            for &(i, t, prim) in hits {
+                out.push(Interaction::ZERO);
+                let it = out.last_mut().expect("just pushed");
+                self.interaction_into(&rays[i as usize], t, prim, it);
+            }
             return;
         }
         for hc in hits.chunks(8) {
@@ -337,8 +338,8 @@ impl Geometry {
     }
 
     /// [`Geometry::interaction`] written field by field into `it` (every field is set):
-    /// the wavefront integrator fills its list in place this way, with no copy of a whole
-    /// record through the stack. Inlined (spheres and rectangles here; triangles out of
+    /// [`Geometry::interactions_many`] fills its list in place this way, with no copy of
+    /// a whole record through the stack. Inlined (spheres and rectangles here; triangles out of
     /// line).
     #[inline(always)]
     pub fn interaction_into(&self, ray: &Ray, t: f32, prim: u32, it: &mut Interaction) {

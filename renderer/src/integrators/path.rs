@@ -265,13 +265,13 @@ pub fn li_many(
         scene
             .geometry
             .interactions_many(&ws.rays, &ws.hits, &mut ws.its);
-        // Emission; the interactions of paths that end here are dropped (all live paths
-        // share their depth, so either all go on or none: nothing moves in practice).
-        ws.hit_paths.clear();
-        for k in 0..ws.hits.len() {
-            let i = ws.hits[k].0;
-            let (ray, it) = (&ws.rays[i as usize], &ws.its[k]);
+        // Emission. All live paths share their depth (they start together and each
+        // bounce moves them on by one), so either every hit goes on or none does.
+        let goes_on = ws.vars[ws.active[0] as usize].depth + 1 < max_depth;
+        for (&(i, _, _), it) in ws.hits.iter().zip(&ws.its) {
+            let ray = &ws.rays[i as usize];
             let p = &mut ws.vars[i as usize];
+            debug_assert_eq!(p.depth + 1 < max_depth, goes_on, "paths share their depth");
             if let Some(k) = scene.shapes[it.shape as usize].light {
                 let light = &scene.lights[k as usize];
                 let le = light.le_area(it, -ray.d);
@@ -284,12 +284,13 @@ pub fn li_many(
                     p.l += p.beta * le * w;
                 }
             }
-            if p.depth + 1 < max_depth {
-                ws.its[ws.hit_paths.len()] = ws.its[k];
-                ws.hit_paths.push(i);
-            }
         }
-        ws.its.truncate(ws.hit_paths.len());
+        ws.hit_paths.clear();
+        if goes_on {
+            ws.hit_paths.extend(ws.hits.iter().map(|&(i, _, _)| i));
+        } else {
+            ws.its.clear();
+        }
         // Escaped paths gather the infinite lights; env maps in one batch per light.
         if !ws.escaped.is_empty() {
             ws.dirs.clear();
@@ -422,8 +423,9 @@ pub fn li_many(
             ws.runs.push((a, b));
             a = b;
         }
-        // BSDF values and pdfs of every hit's light sample, one call per run (hits without
-        // a sample have a zero direction; their values are not used).
+        // BSDF values and pdfs of every hit's light sample, one call per run (for hits
+        // without a sample, pdf 0, the direction is whatever the buffer held: their values
+        // are not used).
         ws.ls_local.clear();
         ws.ls_local.extend(
             ws.frames

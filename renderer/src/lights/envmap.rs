@@ -431,10 +431,9 @@ impl EnvMap {
                     [c, c]
                 }
             };
-            for (c, uc) in uc2.chunks(8).enumerate() {
-                let c = 2 * c2 + c;
+            for (g, uc) in uc2.chunks(8).enumerate() {
                 let n = uc.len();
-                let (cx, cy, rx, ry) = cells[c % 2];
+                let (cx, cy, rx, ry) = cells[g];
                 let (ix, iy) = (cx.to_array(), cy.to_array());
                 let iy_us = x8::lanes(|i| iy[i] as usize);
                 let k = x8::lanes(|i| iy_us[i] * (self.width + 1) + ix[i] as usize);
@@ -462,7 +461,7 @@ impl EnvMap {
                 let p = pdf_ab / (f32x8::splat(2.0 * PI * PI) * st);
                 let [dx, dy, dz] = x8::arrays3([dx, dy, dz]);
                 let (valid, p) = (valid.to_array(), p.to_array());
-                let base = c * 8;
+                let base = 8 * (GROUPS * c2 + g);
                 for i in 0..n {
                     let o = base + i;
                     (wi[o], li[o], pdf[o]) = if valid[i] != 0.0 {
