@@ -44,6 +44,12 @@ pub struct RenderStats {
     /// Samples whose radiance was NaN or infinite, dropped from the image.
     pub nonfinite_dropped: u64,
     pub threads: usize,
+    /// The scene's geometry: primitives, seconds to build the BVH (part of loading, not
+    /// of `seconds`), and bytes of the BVH and of the primitives and mesh data.
+    pub primitives: usize,
+    pub bvh_build_seconds: f64,
+    pub bvh_bytes: usize,
+    pub primitive_bytes: usize,
 }
 
 impl RenderStats {
@@ -75,6 +81,12 @@ impl RenderStats {
             "msamples_per_second": self.msamples_per_second(),
             "nonfinite_dropped": self.nonfinite_dropped,
             "threads": self.threads,
+            "geometry": {
+                "primitives": self.primitives,
+                "bvh_build_seconds": self.bvh_build_seconds,
+                "bvh_bytes": self.bvh_bytes,
+                "primitive_bytes": self.primitive_bytes,
+            },
         })
     }
 }
@@ -262,6 +274,10 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
         samples: scene.width as u64 * scene.height as u64 * scene.spp as u64,
         nonfinite_dropped: dropped,
         threads,
+        primitives: scene.geometry.prims.len(),
+        bvh_build_seconds: scene.geometry.build_seconds,
+        bvh_bytes: scene.geometry.bvh_memory_bytes(),
+        primitive_bytes: scene.geometry.primitive_memory_bytes(),
     };
     Ok((img, stats))
 }

@@ -60,7 +60,7 @@ fn scene() -> Geometry {
             shape: 2,
         });
     }
-    Geometry::build(prims, vec![mesh], vec![ShapeGeom::default(); 3])
+    Geometry::build(prims, vec![mesh], vec![ShapeGeom::default(); 3]).expect("BVH")
 }
 
 #[test]
@@ -129,7 +129,8 @@ fn spawned_rays_do_not_self_intersect_at_grazing_angles() {
         ],
         vec![],
         vec![ShapeGeom::default(); 2],
-    );
+    )
+    .expect("small scene");
     let mut r = Lcg(3);
     let mut naive_self_hits = 0;
     for k in 0..20_000 {
@@ -259,24 +260,27 @@ fn batched_closest_hits_equal_single_ones() {
                     shape: 0,
                 })
                 .collect();
-            Geometry::build(prims, vec![], vec![ShapeGeom::default()])
+            Geometry::build(prims, vec![], vec![ShapeGeom::default()]).expect("spheres")
         })
         .collect();
     // Inward normals (flip_normals) on a scene of spheres too.
-    geometries.push(Geometry::build(
-        sphere_scenes[1]
-            .iter()
-            .map(|&s| Primitive {
-                kind: PrimKind::Sphere(s),
-                shape: 0,
-            })
-            .collect(),
-        vec![],
-        vec![ShapeGeom {
-            flip_normals: true,
-            ..ShapeGeom::default()
-        }],
-    ));
+    geometries.push(
+        Geometry::build(
+            sphere_scenes[1]
+                .iter()
+                .map(|&s| Primitive {
+                    kind: PrimKind::Sphere(s),
+                    shape: 0,
+                })
+                .collect(),
+            vec![],
+            vec![ShapeGeom {
+                flip_normals: true,
+                ..ShapeGeom::default()
+            }],
+        )
+        .expect("spheres"),
+    );
     geometries.push(scene());
     for g in &geometries {
         let n_prims = g.prims.len() as u32;

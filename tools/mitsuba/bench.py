@@ -1,13 +1,20 @@
 #!/usr/bin/env python3
-"""lobe against Mitsuba 3 on the same scenes, in the same run (issue 8 benchmark).
+"""lobe against Mitsuba 3 on the same scenes, in the same run.
 
+    tools/mitsuba/bench.sh --suite [MANIFEST] [--runs 11]     # the users' workloads
     tools/mitsuba/bench.sh [SCENE.json ...] [--spp 64] [--reference-spp 2048] [--runs 3]
 
-For each scene (default: scenes/sphere-envmap.json and scenes/spheres-envmap.json) it
-renders with lobe (`lobe render`, release build), Mitsuba `llvm_ad_rgb` (after one
-untimed run that compiles the kernel) and Mitsuba `scalar_rgb`, all at the same spp on all
-cores, and reports the median time of --runs renders, Msamples/s, the RMSE against a
-high-spp lobe reference rendered with another seed, and the equal-error time ratio
+`--suite` runs the scenes of scenes/bench/suite.json (measured materials of every kind on a
+sphere, the study's analytic fits, a million-triangle mesh, a mesh on a floor, the Cornell
+box's area light, the env-map sphere scenes), after making the generated inputs
+(bench_assets.py). Without it, the named scenes (default: scenes/sphere-envmap.json and
+scenes/spheres-envmap.json).
+
+For each scene it renders with lobe (`lobe render`, release build), Mitsuba `llvm_ad_rgb`
+(after one untimed run that compiles the kernel) and Mitsuba `scalar_rgb`, all at the same
+spp on all cores, and reports times, Msamples/s, the RMSE against a high-spp lobe reference
+rendered with another seed, and two ratios per Mitsuba configuration, both above 1 when lobe
+is faster: lobe's speed over Mitsuba's, and the equal-error time ratio
 
     (t_X RMSE_X^2) / (t_lobe RMSE_lobe^2)
 
@@ -16,18 +23,20 @@ i.e. how much longer renderer X needs than lobe to reach the same error (RMSE^2 
 spp). lobe's padded, XOR-scrambled Sobol' sampler has less variance per sample than
 Mitsuba's default `independent` sampler, so `llvm_ad_rgb` is also run with Mitsuba's
 `ldsampler` (the same construction: XOR-scrambled (0,2)-sequences per dimension pair):
-that row is the like-for-like equal-error comparison. Prints a Markdown table (with the
-machine) and writes it to --out if given.
+that column is the like-for-like equal-error comparison. Materials Mitsuba cannot load
+(MERL tables, binned data) are compared with Mitsuba's render of the suite's `mitsuba_peer`
+scene (the same RGL measurement that the tables tabulate), each against its own reference.
+Prints a Markdown table (with the machine) and writes it to --out if given; the per-renderer
+details go to stderr as each scene finishes and follow the table.
 
 The machine may be shared and its speed drift over a run, so lobe and each `llvm_ad_rgb`
 configuration run in rounds: each round renders once with lobe and once with Mitsuba, one
-after the other, and the speed and equal-error ratios against lobe are the medians of the
-per-round ratios (paired), not ratios of medians taken minutes apart. One Mitsuba scene is
-alive at a time, as when a user renders a scene: with a second copy of the scene loaded
-in the same process, Dr.Jit compiles a different kernel for it that runs 1.3-1.4x faster
-on sphere-envmap (measured: 15-17 against 20-24 Msamples/s), a state no single-scene
-render reaches. `scalar_rgb`, tens of
-times slower, runs after the rounds.
+after the other, and the speed and equal-error ratios are the medians of the per-round
+ratios (paired), not ratios of medians taken minutes apart. One Mitsuba scene is alive at
+a time, as when a user renders a scene: with a second copy of the scene loaded in the same
+process, Dr.Jit compiles a different kernel for it that runs 1.3-1.4x faster on
+sphere-envmap (measured: 15-17 against 20-24 Msamples/s), a state no single-scene render
+reaches. `scalar_rgb`, tens of times slower, runs after the rounds.
 """
 
 import argparse
@@ -75,6 +84,9 @@ class MitsubaScene:
 
     def __init__(self, variant, scene, spp, sampler="independent"):
         mi.set_variant(variant)
+        # Mitsuba warns once per negative sample of measured data (RGL tables hold small
+        # negative values); thousands of lines per render would drown the table.
+        mi.set_log_level(mi.LogLevel.Error)
         from lobe_mitsuba import bsdfs
         from lobe_mitsuba.convert import Converter
         bsdfs.register()
@@ -97,77 +109,161 @@ def rmse(a, b):
     return float(np.sqrt(np.mean((a - b) ** 2)))
 
 
+def suite_scenes(path):
+    """(scene, Mitsuba peer or None) pairs of a suite manifest (scenes/bench/suite.json)."""
+    with open(path) as f:
+        m = json.load(f)
+    base = os.path.dirname(os.path.abspath(path))
+    out = []
+    for e in m["scenes"]:
+        peer = e.get("mitsuba_peer")
+        out.append((os.path.normpath(os.path.join(base, e["scene"])),
+                    os.path.normpath(os.path.join(base, peer)) if peer else None))
+    return out
+
+
+class Measure:
+    """One scene's figures: lobe's paired times, each Mitsuba configuration's (time pairs,
+    RMSE), all against a high-spp lobe reference."""
+
+    def __init__(self, name, samples):
+        self.name, self.samples = name, samples
+        self.lobe_times, self.lobe_rmse = [], None
+        self.rows = {}  # config -> (pairs [(t_lobe, t_mitsuba)], rmse)
+        self.peer = None  # name of the scene Mitsuba rendered instead, if any
+
+    def ratios(self, config):
+        """(Mitsuba time, speed of lobe over Mitsuba, equal-error time Mitsuba over lobe)."""
+        pairs, e = self.rows[config]
+        t = statistics.median(tm for _, tm in pairs)
+        speed = statistics.median(tm / tl for tl, tm in pairs)
+        return t, speed, speed * (e * e) / (self.lobe_rmse ** 2)
+
+
+def measure(exe, scene, a, peer=None):
+    """Renders `scene` with lobe and, in paired rounds, with Mitsuba (the scene itself, or
+    `peer` when Mitsuba cannot load this one's material)."""
+    name = os.path.splitext(os.path.basename(scene))[0]
+    tmp = tempfile.mkdtemp(prefix="lobe-bench-")
+    ref, _ = lobe_render(exe, scene, a.reference_spp, 1000, os.path.join(tmp, "ref.exr"))
+    h, w = ref.shape[:2]
+    m = Measure(name, w * h * a.spp)
+    mts = scene
+    peer_ref = ref
+    if peer is not None:
+        m.peer = os.path.splitext(os.path.basename(peer))[0]
+        mts = peer
+        peer_ref, _ = lobe_render(exe, peer, a.reference_spp, 1000, os.path.join(tmp, "peer-ref.exr"))
+    lobe_img = None
+    for smp in ("independent", "ldsampler"):
+        try:
+            ms = MitsubaScene("llvm_ad_rgb", mts, a.spp, smp)
+        except Exception as e:  # noqa: BLE001 - a missing variant or plugin is reported, not fatal
+            print(f"{name}: Mitsuba llvm_ad_rgb ({smp}) unavailable: {e}", file=sys.stderr)
+            break
+        pairs, img = [], None
+        for k in range(a.runs):
+            lobe_img, tl = lobe_render(exe, scene, a.spp, k, os.path.join(tmp, f"lobe{k}.exr"))
+            img, tm = ms.render(k)
+            m.lobe_times.append(tl)
+            pairs.append((tl, tm))
+        m.rows[f"llvm_ad_rgb ({smp})"] = (pairs, rmse(img, peer_ref))
+        del ms
+        gc.collect()
+    if not m.lobe_times:
+        for k in range(a.runs):
+            lobe_img, tl = lobe_render(exe, scene, a.spp, k, os.path.join(tmp, f"lobe{k}.exr"))
+            m.lobe_times.append(tl)
+    m.lobe_rmse = rmse(lobe_img, ref)
+    if a.scalar_runs > 0:
+        try:
+            ms = MitsubaScene("scalar_rgb", mts, a.spp)
+            ts, img = [], None
+            for k in range(a.scalar_runs):
+                img, t = ms.render(k)
+                ts.append(t)
+            tl = statistics.median(m.lobe_times)
+            m.rows["scalar_rgb (independent)"] = ([(tl, t) for t in ts], rmse(img, peer_ref))
+        except Exception as e:  # noqa: BLE001
+            print(f"{name}: Mitsuba scalar_rgb unavailable: {e}", file=sys.stderr)
+    return m
+
+
+CONFIGS = ("llvm_ad_rgb (independent)", "llvm_ad_rgb (ldsampler)", "scalar_rgb (independent)")
+
+
+def detail_lines(m):
+    lines = []
+    tl = statistics.median(m.lobe_times)
+    lines.append(f"| {m.name} | lobe | {tl:.3f} | {m.samples / tl / 1e6:.2f} | {m.lobe_rmse:.4e} | 1 | 1 |")
+    for c in CONFIGS:
+        if c in m.rows:
+            t, speed, eq = m.ratios(c)
+            who = f"Mitsuba {c}" + (f" on {m.peer}" if m.peer else "")
+            lines.append(f"| {m.name} | {who} | {t:.3f} | {m.samples / t / 1e6:.2f} | "
+                         f"{m.rows[c][1]:.4e} | {speed:.2f} | {eq:.2f} |")
+    return lines
+
+
+def summary_line(m):
+    tl = statistics.median(m.lobe_times)
+    cells = []
+    for c in CONFIGS:
+        if c in m.rows:
+            _, speed, eq = m.ratios(c)
+            cells.append(f"{speed:.2f} / {eq:.2f}")
+        else:
+            cells.append("n/a")
+    name = m.name + (f" (Mitsuba: {m.peer})" if m.peer else "")
+    return f"| {name} | {m.samples / tl / 1e6:.2f} | " + " | ".join(cells) + " |"
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("scenes", nargs="*")
+    ap.add_argument("--suite", nargs="?", const=os.path.join(root, "scenes", "bench", "suite.json"),
+                    help="run the scenes of a suite manifest (default scenes/bench/suite.json)")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--reference-spp", type=int, default=2048)
     ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--scalar-runs", type=int, default=None,
+                    help="scalar_rgb renders per scene (default min(runs, 3); 0 skips scalar_rgb)")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
-    scenes = a.scenes or [os.path.join(root, "scenes", "sphere-envmap.json"),
-                          os.path.join(root, "scenes", "spheres-envmap.json")]
+    if a.scalar_runs is None:
+        a.scalar_runs = min(a.runs, 3)
     exe = lobe_bin()
-    tmp = tempfile.mkdtemp(prefix="lobe-bench-")
+    if a.suite:
+        subprocess.run([sys.executable, os.path.join(here, "bench_assets.py"), "--lobe", exe], check=True)
+        scenes = suite_scenes(a.suite)
+    else:
+        scenes = [(s, None) for s in (a.scenes or [os.path.join(root, "scenes", "sphere-envmap.json"),
+                                                    os.path.join(root, "scenes", "spheres-envmap.json")])]
     cpu = "unknown CPU"
     try:
         with open("/proc/cpuinfo") as f:
             cpu = next(l.split(":", 1)[1].strip() for l in f if l.startswith("model name"))
     except (OSError, StopIteration):
         pass
+    results = []
+    for scene, peer in scenes:
+        results.append(measure(exe, scene, a, peer))
+        print("\n".join(detail_lines(results[-1])), file=sys.stderr)
     lines = [f"Machine: {cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
-             f"Mitsuba {mi.__version__}; {a.spp} spp, median of {a.runs} runs (lobe and llvm_ad_rgb "
-             f"alternating, ratios paired per round), reference: lobe at "
+             f"Mitsuba {mi.__version__}; {a.spp} spp, medians of {a.runs} rounds (lobe and each "
+             f"llvm_ad_rgb configuration alternating, ratios paired per round; scalar_rgb: "
+             f"{a.scalar_runs} renders against lobe's median), RMSE against lobe at "
              f"{a.reference_spp} spp with another seed; {time.strftime('%Y-%m-%d')}.", "",
-             "| scene | renderer | seconds | Msamples/s | RMSE | speed vs lobe | equal-error time vs lobe |",
-             "|---|---|---|---|---|---|---|"]
-    for scene in scenes:
-        name = os.path.splitext(os.path.basename(scene))[0]
-        ref, _ = lobe_render(exe, scene, a.reference_spp, 1000, os.path.join(tmp, "ref.exr"))
-        h, w = ref.shape[:2]
-        samples = w * h * a.spp
-        # lobe and each LLVM configuration in rounds (see the module docs); one Mitsuba
-        # scene alive at a time, as when a user renders one scene.
-        lobe_times, lobe_img = [], None
-        rows = []
-        for smp in ("independent", "ldsampler"):
-            try:
-                ms = MitsubaScene("llvm_ad_rgb", scene, a.spp, smp)
-            except Exception as e:  # noqa: BLE001 - a missing variant (no libLLVM) is reported, not fatal
-                print(f"{name}: Mitsuba llvm_ad_rgb unavailable: {e}", file=sys.stderr)
-                break
-            pairs, img = [], None
-            for k in range(a.runs):
-                lobe_img, tl = lobe_render(exe, scene, a.spp, k, os.path.join(tmp, f"lobe{k}.exr"))
-                img, tm = ms.render(k)
-                lobe_times.append(tl)
-                pairs.append((tl, tm))
-            rows.append((f"Mitsuba llvm_ad_rgb ({smp})", pairs, rmse(img, ref)))
-            del ms
-            gc.collect()
-        if not lobe_times:
-            for k in range(a.runs):
-                lobe_img, tl = lobe_render(exe, scene, a.spp, k, os.path.join(tmp, f"lobe{k}.exr"))
-                lobe_times.append(tl)
-        rows.insert(0, ("lobe", [(t, t) for t in lobe_times], rmse(lobe_img, ref)))
-        try:
-            ms = MitsubaScene("scalar_rgb", scene, a.spp)
-            ts, img = [], None
-            for k in range(min(a.runs, 3)):
-                img, t = ms.render(k)
-                ts.append(t)
-            m = statistics.median(lobe_times)
-            rows.append(("Mitsuba scalar_rgb (independent)", [(m, t) for t in ts], rmse(img, ref)))
-        except Exception as e:  # noqa: BLE001
-            print(f"{name}: Mitsuba scalar_rgb unavailable: {e}", file=sys.stderr)
-        e0 = rows[0][2]
-        for r, pairs, e in rows:
-            # Paired: the median over rounds of lobe's time over this renderer's (scalar_rgb,
-            # not run in rounds: lobe's median time over its).
-            t = statistics.median(tm for _, tm in pairs)
-            speed = statistics.median(tl / tm for tl, tm in pairs)
-            lines.append(f"| {name} | {r} | {t:.3f} | {samples / t / 1e6:.2f} | {e:.4e} | "
-                         f"{speed:.2f} | {(e * e) / (speed * e0 * e0):.2f} |")
+             "Per scene: lobe's Msamples/s, then for each Mitsuba configuration `speed / "
+             "equal-error`: lobe's speed over Mitsuba's (above 1: lobe is faster) and the "
+             "time Mitsuba needs to reach lobe's error, over lobe's (above 1: lobe is faster).", "",
+             "| scene | lobe Msamples/s | llvm_ad_rgb independent | llvm_ad_rgb ldsampler | scalar_rgb |",
+             "|---|---|---|---|---|"]
+    lines += [summary_line(m) for m in results]
+    lines += ["", "| scene | renderer | seconds | Msamples/s | RMSE | lobe speed over it | its equal-error time over lobe's |",
+              "|---|---|---|---|---|---|---|"]
+    for m in results:
+        lines += detail_lines(m)
     text = "\n".join(lines) + "\n"
     print(text)
     if a.out:

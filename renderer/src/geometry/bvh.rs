@@ -1,15 +1,13 @@
-//! All primitives of a scene under one BVH: obvhs builds a binary BVH with PLOC
-//! (Meister and Bittner 2018) plus reinsertion, converts it to a compressed 8-wide BVH
-//! (Ylitie et al. 2017), and traverses it for closest-hit and occlusion queries.
+//! All primitives of a scene under one BVH ([`Bvh8`]: eight-wide nodes and leaf blocks
+//! tested in SIMD lanes) for closest-hit and occlusion queries, the local geometry of
+//! hits, and the batched forms of these queries that the wavefront integrator calls.
 
+use super::bvh8::Bvh8;
 use super::{Interaction, Mesh, Ray, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3, Vec3A};
 use lobe_materials::fastmath::x8;
+use obvhs::Boundable;
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::CwBvh;
-use obvhs::ray::{Ray as BvhRay, RayHit};
-use obvhs::{Boundable, BvhBuildParams};
-use std::time::Duration;
 use wide::{f32x8, u32x8};
 
 /// The shape of one primitive.
@@ -87,59 +85,64 @@ pub struct Geometry {
     pub prims: Vec<Primitive>,
     pub meshes: Vec<Mesh>,
     pub shapes: Vec<ShapeGeom>,
-    bvh: Option<CwBvh>,
+    bvh: Option<Bvh8>,
+    /// Seconds spent building the BVH.
+    pub build_seconds: f64,
 }
 
 impl Geometry {
-    /// Builds the BVH. Primitives are reordered to the BVH's leaf order. Scenes of at most
-    /// [`SMALL_SCENE`] primitives are tested exhaustively: cheaper than any traversal.
-    pub fn build(prims: Vec<Primitive>, meshes: Vec<Mesh>, shapes: Vec<ShapeGeom>) -> Self {
-        if prims.len() <= SMALL_SCENE {
-            return Self {
-                prims,
-                meshes,
-                shapes,
-                bvh: None,
-            };
-        }
-        let bvh = obvhs::cwbvh::builder::build_cwbvh(
-            &prims,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
-        let ordered: Vec<Primitive> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| prims[i as usize])
-            .collect();
-        Self {
-            prims: ordered,
+    /// Builds the BVH over the primitives (kept in their order: hits name them by their
+    /// index into `prims`). Scenes of at most [`SMALL_SCENE`] primitives are tested
+    /// exhaustively: cheaper than any traversal. Errors only for a tree deeper than the
+    /// traversal supports ([`Bvh8::build`]).
+    pub fn build(
+        prims: Vec<Primitive>,
+        meshes: Vec<Mesh>,
+        shapes: Vec<ShapeGeom>,
+    ) -> Result<Self, String> {
+        let start = std::time::Instant::now();
+        let bvh = if prims.len() <= SMALL_SCENE {
+            None
+        } else {
+            Some(Bvh8::build(&prims)?)
+        };
+        Ok(Self {
+            prims,
             meshes,
             shapes,
-            bvh: Some(bvh),
-        }
+            bvh,
+            build_seconds: start.elapsed().as_secs_f64(),
+        })
     }
 
-    fn bvh_ray(ray: &Ray) -> BvhRay {
-        BvhRay::new(Vec3A::from(ray.o), Vec3A::from(ray.d), ray.tmin, ray.tmax)
+    /// Bytes of the BVH (nodes and leaf blocks), 0 without one.
+    pub fn bvh_memory_bytes(&self) -> usize {
+        self.bvh.as_ref().map_or(0, Bvh8::memory_bytes)
+    }
+
+    /// Bytes of the primitive list and the meshes' vertex data.
+    pub fn primitive_memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.prims.len() * size_of::<Primitive>()
+            + self
+                .meshes
+                .iter()
+                .map(|m| {
+                    m.positions.len() * size_of::<Vec3>()
+                        + m.normals.len() * size_of::<Vec3>()
+                        + m.texcoords.len() * size_of::<Vec2>()
+                        + m.indices.len() * size_of::<[u32; 3]>()
+                })
+                .sum::<usize>()
     }
 
     /// Closest hit: (t, primitive index), without computing the local geometry.
     #[inline]
     pub fn closest(&self, ray: &Ray) -> Option<(f32, u32)> {
-        let Some(bvh) = self.bvh.as_ref() else {
-            return self.closest_brute_force(ray);
-        };
-        let mut hit = RayHit::none();
-        let mut r = *ray;
-        let found = bvh.ray_traverse(Self::bvh_ray(ray), &mut hit, |br, id| {
-            if id as u32 == ray.skip {
-                return f32::INFINITY;
-            }
-            r.tmax = br.tmax;
-            self.prims[id].intersect(&r)
-        });
-        found.then_some((hit.t, hit.primitive_id))
+        match self.bvh.as_ref() {
+            Some(bvh) => bvh.closest(ray),
+            None => self.closest_brute_force(ray),
+        }
     }
 
     /// [`Geometry::closest`] of the rays `rays[i]` for each `i` in `idx`, appended to
@@ -301,13 +304,7 @@ impl Geometry {
                 .iter()
                 .enumerate()
                 .any(|(i, p)| i as u32 != ray.skip && p.intersect(ray) < ray.tmax),
-            Some(bvh) => !bvh.ray_traverse_miss(Self::bvh_ray(ray), |_, id| {
-                if id as u32 == ray.skip {
-                    f32::INFINITY
-                } else {
-                    self.prims[id].intersect(ray)
-                }
-            }),
+            Some(bvh) => bvh.occluded(ray),
         }
     }
 

@@ -8,6 +8,7 @@
 //! so its error is a few ULPs, as pbrt-v4 does with its error bounds.
 
 pub mod bvh;
+pub mod bvh8;
 pub mod mesh;
 pub mod rectangle;
 pub mod sphere;

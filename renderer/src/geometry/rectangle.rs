@@ -68,6 +68,16 @@ impl Rectangle {
         }
     }
 
+    /// Dual vector of `eu`: (p - corner) . du is the local u of a point p on the plane.
+    pub fn du(&self) -> Vec3 {
+        self.du
+    }
+
+    /// Dual vector of `ev`.
+    pub fn dv(&self) -> Vec3 {
+        self.dv
+    }
+
     /// Local (u, v) in [0, 1]^2 of a point on the plane.
     pub fn uv(&self, p: Vec3) -> Vec2 {
         let rel = p - self.corner;

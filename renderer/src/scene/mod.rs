@@ -470,7 +470,8 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
         },
     };
 
-    let geometry = Geometry::build(prims, meshes, shape_geom);
+    let geometry =
+        Geometry::build(prims, meshes, shape_geom).map_err(|e| Error::scene(file, "shapes", e))?;
     Ok(Scene {
         file: file.to_string(),
         camera,
