@@ -7,6 +7,7 @@
 use crate::Rgb;
 use crate::error::{Error, Result};
 use crate::film::Image;
+use crate::integrators::wavefront::{CameraQueue, Wavefront};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::Vec2;
@@ -114,11 +115,8 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
     let inv = Vec2::new(1.0 / scene.width as f32, 1.0 / scene.height as f32);
     // The samples of a pixel go through the integrator together, BATCH at a time.
     let batch = spp.min(BATCH) as usize;
-    let mut rays = Vec::with_capacity(batch);
-    let mut indices = Vec::with_capacity(batch);
-    let mut jitter = Vec::with_capacity(batch);
     let mut radiance = vec![Rgb::ZERO; batch];
-    let mut ws = crate::integrators::path::Workspace::default();
+    let (mut camera, mut wf) = (CameraQueue::default(), Wavefront::default());
     for y in y0..y0 + h {
         for x in x0..x0 + w {
             if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
@@ -131,21 +129,13 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
             let mut n = 0u32;
             for first in (0..spp).step_by(batch) {
                 let count = (spp - first).min(batch as u32);
-                indices.clear();
-                indices.extend(first..first + count);
-                // The camera's dimension for all the samples at once.
-                sampler.start(x, y, first);
-                jitter.resize(indices.len(), Vec2::ZERO);
-                sampler.next_2d_lanes(&indices, &mut jitter);
-                rays.clear();
-                scene
-                    .camera
-                    .rays_many(Vec2::new(x as f32, y as f32), &jitter, inv, &mut rays);
-                // `sampler` is now at the dimension after the camera's, as every sample is.
+                // `sampler` is left at the dimension after the camera's, as every sample is.
+                camera.generate(&scene.camera, (x, y), first, count, inv, &mut sampler);
                 let out = &mut radiance[..count as usize];
+                let (rays, indices) = (&camera.ray, &camera.index);
                 scene
                     .integrator
-                    .li_many(scene, &rays, &indices, &mut sampler, out, &mut ws);
+                    .li_many(scene, rays, indices, &mut sampler, out, &mut wf);
                 for &l in out.iter() {
                     if !l.is_finite() {
                         dropped += 1;

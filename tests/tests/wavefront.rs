@@ -1,11 +1,11 @@
-//! The wavefront path integrator (`path::li_many`, what `render` runs) gives bit for bit
+//! The wavefront path integrator (`Wavefront::trace`, what `render` runs) gives bit for bit
 //! the radiance of the scalar one (`path::li`) for every sample: same sampler dimensions,
 //! same operations, same sums, whatever the lights (env maps, several of them, constant,
 //! point, area), the materials, the depth limits and Russian roulette.
 
 use glam::Vec2;
 use lobe_renderer::Rgb;
-use lobe_renderer::integrators::path::Workspace;
+use lobe_renderer::integrators::Wavefront;
 use lobe_renderer::sampler::Sampler;
 use lobe_renderer::scene::{LoadOptions, Scene, from_value, load};
 use serde_json::{Value, json};
@@ -13,7 +13,7 @@ use std::path::Path;
 
 fn check(scene: &Scene, batch: usize) {
     let inv = Vec2::new(1.0 / scene.width as f32, 1.0 / scene.height as f32);
-    let mut ws = Workspace::default();
+    let mut ws = Wavefront::default();
     let mut checked = 0;
     for y in (0..scene.height).step_by(3) {
         for x in (0..scene.width).step_by(3) {

@@ -5,6 +5,9 @@
 
 pub mod direct;
 pub mod path;
+pub mod wavefront;
+
+pub use wavefront::Wavefront;
 
 use crate::geometry::{Interaction, spawn_ray, spawn_ray_to};
 use crate::lights::LightSample;
@@ -53,7 +56,8 @@ impl Integrator {
     /// Radiance along many camera rays of one pixel, `out[i]` for `rays[i]` with the
     /// sampler of sample `indices[i]` (`sampler`: the pixel's, at the dimension the camera
     /// left it): the same values as [`Integrator::li`] of each, computed together (the
-    /// path integrator's wavefront form, [`path::li_many`]).
+    /// path integrator's wavefront form, [`Wavefront::trace`], with the buffers of `wf`;
+    /// the direct integrator's single bounce goes sample by sample).
     pub fn li_many(
         &self,
         scene: &Scene,
@@ -61,13 +65,13 @@ impl Integrator {
         indices: &[u32],
         sampler: &mut Sampler,
         out: &mut [Rgb],
-        ws: &mut path::Workspace,
+        wf: &mut Wavefront,
     ) {
         match *self {
             Integrator::Path {
                 max_depth,
                 rr_depth,
-            } => path::li_many(scene, rays, indices, sampler, max_depth, rr_depth, out, ws),
+            } => wf.trace(scene, rays, indices, sampler, max_depth, rr_depth, out),
             Integrator::Direct { .. } => {
                 for ((o, &ray), &i) in out.iter_mut().zip(rays).zip(indices) {
                     *o = self.li(scene, ray, &mut sampler.with_index(i));

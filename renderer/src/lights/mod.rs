@@ -77,7 +77,85 @@ pub struct LightSample {
     pub p: Option<(Vec3, Vec3)>,
 }
 
+/// Light samples of a batch of points, struct of arrays (index k for point k): direction
+/// toward the light, radiance, solid-angle density (0: no sample), delta flag, and the
+/// point on the light with its normal ([`LightSample::p`]).
+#[derive(Clone, Debug, Default)]
+pub struct LightSamples {
+    pub wi: Vec<Vec3>,
+    pub li: Vec<Rgb>,
+    pub pdf: Vec<f32>,
+    pub delta: Vec<bool>,
+    pub at: Vec<Option<(Vec3, Vec3)>>,
+}
+
+impl LightSamples {
+    /// `n` entries, all "no sample".
+    pub fn reset(&mut self, n: usize) {
+        self.wi.clear();
+        self.wi.resize(n, Vec3::ZERO);
+        self.li.clear();
+        self.li.resize(n, Rgb::ZERO);
+        self.pdf.clear();
+        self.pdf.resize(n, 0.0);
+        self.delta.clear();
+        self.delta.resize(n, false);
+        self.at.clear();
+        self.at.resize(n, None);
+    }
+
+    /// Sets entry `k` to a sample.
+    #[inline]
+    pub fn set(&mut self, k: usize, ls: &LightSample) {
+        self.wi[k] = ls.wi;
+        self.li[k] = ls.li;
+        self.pdf[k] = ls.pdf;
+        self.delta[k] = ls.delta;
+        self.at[k] = ls.p;
+    }
+
+    /// Copies entry `from` of `src` to entry `k`.
+    #[inline]
+    pub fn copy_from(&mut self, k: usize, src: &LightSamples, from: usize) {
+        self.wi[k] = src.wi[from];
+        self.li[k] = src.li[from];
+        self.pdf[k] = src.pdf[from];
+        self.delta[k] = src.delta[from];
+        self.at[k] = src.at[from];
+    }
+}
+
 impl Light {
+    /// [`Light::sample_li`] of the points `p(k)` with samples `u[k]` into `out` (reset to
+    /// `u.len()` entries), the same values: environment maps, which do not depend on the
+    /// point, sample the whole batch in SIMD lanes ([`EnvMap::sample_many`]), other lights
+    /// one point at a time.
+    pub fn sample_li_many(&self, p: impl Fn(usize) -> Vec3, u: &[Vec2], out: &mut LightSamples) {
+        out.reset(u.len());
+        if let Light::Env(env) = self {
+            env.sample_many(u, &mut out.wi, &mut out.li, &mut out.pdf);
+            return;
+        }
+        for (k, &u) in u.iter().enumerate() {
+            if let Some(ls) = self.sample_li(p(k), u) {
+                out.set(k, &ls);
+            }
+        }
+    }
+
+    /// [`Light::le_pdf_infinite`] of many directions, the same values (environment maps
+    /// in SIMD lanes: [`EnvMap::eval_pdf_many`]).
+    pub fn le_pdf_infinite_many(&self, dirs: &[Vec3], out: &mut [(Rgb, f32)]) {
+        match self {
+            Light::Env(env) => env.eval_pdf_many(dirs, out),
+            _ => {
+                for (o, &d) in out.iter_mut().zip(dirs) {
+                    *o = self.le_pdf_infinite(d);
+                }
+            }
+        }
+    }
+
     pub fn is_infinite(&self) -> bool {
         matches!(
             self,

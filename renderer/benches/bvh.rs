@@ -1,0 +1,111 @@
+//! Criterion benchmarks of the BVH (docs/performance.md): building it over the benchmark
+//! suite's million-triangle displaced sphere (the same surface as
+//! tools/mitsuba/bench_assets.py makes for scenes/bench/mesh-1m-rgl.json), and closest-hit
+//! and occlusion queries of incoherent rays (random origins around the mesh aimed at random
+//! points inside it, as a path tracer's bounces are) against it. Prints the tree's memory
+//! once.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::Vec3;
+use lobe_renderer::geometry::bvh::{PrimKind, Primitive, ShapeGeom};
+use lobe_renderer::geometry::{Geometry, Mesh, Ray, Triangle};
+use std::hint::black_box;
+
+/// The displaced sphere of bench_assets.py: `rings` latitude rings of `segments`
+/// segments, radius 1 + a sum of sinusoids.
+fn displaced_sphere(rings: u32, segments: u32) -> Mesh {
+    let mut m = Mesh::default();
+    m.positions.push(Vec3::Y);
+    for i in 1..rings {
+        let t = std::f32::consts::PI * i as f32 / rings as f32;
+        for j in 0..segments {
+            let p = std::f32::consts::TAU * j as f32 / segments as f32;
+            let r = 1.0
+                + 0.04 * (7.0 * t).sin() * (9.0 * p).cos()
+                + 0.02 * (23.0 * t + 1.0).sin() * (17.0 * p).sin()
+                + 0.008 * (61.0 * t).sin() * (47.0 * p + 2.0).cos();
+            m.positions.push(Vec3::new(
+                r * t.sin() * p.cos(),
+                r * t.cos(),
+                r * t.sin() * p.sin(),
+            ));
+        }
+    }
+    m.positions.push(-Vec3::Y);
+    let vid = |i: u32, j: u32| 1 + i * segments + j % segments;
+    let south = m.positions.len() as u32 - 1;
+    let n = rings - 1;
+    for j in 0..segments {
+        m.indices.push([0, vid(0, j + 1), vid(0, j)]);
+        m.indices.push([vid(n - 1, j), vid(n - 1, j + 1), south]);
+    }
+    for i in 0..n - 1 {
+        for j in 0..segments {
+            let (a, b, c, d) = (vid(i, j), vid(i, j + 1), vid(i + 1, j), vid(i + 1, j + 1));
+            m.indices.push([a, b, d]);
+            m.indices.push([a, d, c]);
+        }
+    }
+    m
+}
+
+fn prims(mesh: &Mesh) -> Vec<Primitive> {
+    (0..mesh.indices.len() as u32)
+        .map(|t| Primitive {
+            kind: PrimKind::Triangle(Triangle::new(0, mesh, t)),
+            shape: 0,
+        })
+        .collect()
+}
+
+fn bench(c: &mut Criterion) {
+    let mesh = displaced_sphere(512, 1024);
+    let tris = prims(&mesh);
+    let mut g = c.benchmark_group("bvh build");
+    g.sample_size(10);
+    g.bench_function("displaced sphere, 1046528 triangles", |b| {
+        b.iter(|| {
+            Geometry::build(tris.clone(), vec![], vec![ShapeGeom::default()])
+                .expect("BVH")
+                .bvh_memory_bytes()
+        })
+    });
+    g.finish();
+    let geo = Geometry::build(tris, vec![mesh], vec![ShapeGeom::default()]).expect("BVH");
+    println!(
+        "BVH of {} triangles: {:.1} MB of nodes and leaf blocks, {:.1} MB of primitives and mesh data",
+        geo.prims.len(),
+        geo.bvh_memory_bytes() as f64 / 1e6,
+        geo.primitive_memory_bytes() as f64 / 1e6
+    );
+    let mut s = 7u64;
+    let mut rnd = move || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+    };
+    let rays: Vec<Ray> = (0..1 << 16)
+        .map(|_| {
+            let o = Vec3::new(rnd(), rnd(), rnd()) * 2.5;
+            let target = Vec3::new(rnd(), rnd(), rnd()) * 0.5;
+            Ray::new(o, (target - o).normalize())
+        })
+        .collect();
+    let mut g = c.benchmark_group("bvh queries, 1M triangles");
+    g.throughput(Throughput::Elements(rays.len() as u64));
+    g.bench_function("closest", |b| {
+        b.iter(|| {
+            rays.iter()
+                .filter_map(|r| geo.closest(black_box(r)))
+                .count()
+        })
+    });
+    g.bench_function("occluded", |b| {
+        b.iter(|| rays.iter().filter(|r| geo.occluded(black_box(r))).count())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,681 @@
+//! The wavefront form of the path integrator, the one the renderer runs: the camera
+//! samples of a pixel are traced together, and every bounce runs stage by stage over all
+//! live paths, each stage one method over typed struct-of-arrays queues (pbrt-v4's
+//! `WavefrontPathIntegrator`, `src/pbrt/wavefront/integrator.h`; Laine, Karras and Aila,
+//! "Megakernels Considered Harmful: Wavefront Path Tracing on GPUs", 2013):
+//!
+//! | stage | reads | writes |
+//! |---|---|---|
+//! | [`CameraQueue::generate`] | camera, sampler | camera rays |
+//! | [`Wavefront::intersect`] | active paths' rays | [`HitQueue`], [`EscapedQueue`] |
+//! | [`Wavefront::escaped`] | escaped rays | radiance of infinite lights |
+//! | [`Wavefront::emission`] | hits | radiance of area lights hit |
+//! | [`Wavefront::scatter_setup`] | hits that go on | [`ScatterQueue`]: frames, sampler values, material groups |
+//! | [`Wavefront::light_samples`] | scatter queue | [`LightSampleQueue`] (one batch per light) |
+//! | [`Wavefront::bsdf_eval`] | light samples | BSDF values and pdfs (one batch per material) |
+//! | [`Wavefront::shadow_rays`] | light samples | [`ShadowQueue`], radiance of unoccluded samples |
+//! | [`Wavefront::bsdf_samples`] | scatter queue | BSDF samples (one batch per material) |
+//! | [`Wavefront::spawn`] | BSDF samples | next bounce's rays, Russian roulette |
+//!
+//! Each path makes exactly the operations of the scalar [`path::li`](super::path::li) in
+//! the same order (the same sampler dimensions and the same sums), so the two agree bit
+//! for bit (tests/tests/wavefront.rs); what the stages add is that the independent work of
+//! many paths runs as batches: the lights' and the materials' batched calls
+//! ([`Light::sample_li_many`], [`Bsdf::eval_pdf_many`], [`Bsdf::sample_many`]) on all
+//! requests to one light or one material, and the geometry's batched queries. All live
+//! paths start together and each bounce moves them on by one, so they share their depth
+//! and their sampler dimension, drawn for all at once ([`Sampler::next_1d_lanes`]).
+
+use super::{shading_x8, shadow_ray};
+use crate::Rgb;
+use crate::camera::Camera;
+use crate::geometry::{Interaction, Ray, spawn_ray};
+#[cfg(doc)]
+use crate::lights::Light;
+use crate::lights::LightSamples;
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+use lobe_materials::fastmath::x8;
+use lobe_materials::frame::Frame;
+use lobe_materials::sampling::power_heuristic;
+use lobe_materials::{Bsdf, BsdfSample};
+
+/// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
+/// long before; this only guards against pathological scenes).
+pub const DEPTH_CAP: u32 = 1 << 16;
+
+/// The state of every path of the wavefront, indexed by path: its ray, its other
+/// variables (one record per path: the stages reach paths through the queues' indices,
+/// and one record is one cache line), and its sample index within the pixel (its sampler
+/// stream).
+#[derive(Default)]
+pub struct Paths {
+    pub ray: Vec<Ray>,
+    pub vars: Vec<PathVars>,
+    pub index: Vec<u32>,
+}
+
+/// A path's throughput, radiance so far, and previous vertex and its BSDF density (for
+/// the MIS weights of emitters that BSDF sampling hits).
+#[derive(Clone, Copy, Debug)]
+pub struct PathVars {
+    pub beta: Rgb,
+    pub l: Rgb,
+    pub prev_p: Vec3,
+    pub prev_pdf: f32,
+}
+
+impl PathVars {
+    const START: Self = Self {
+        beta: Rgb::ONE,
+        l: Rgb::ZERO,
+        prev_p: Vec3::ZERO,
+        prev_pdf: 0.0,
+    };
+}
+
+/// The closest hits of a bounce: path, and its hit's distance, primitive and local
+/// geometry.
+#[derive(Default)]
+pub struct HitQueue {
+    pub path: Vec<u32>,
+    pub closest: Vec<Option<(f32, u32)>>,
+    pub hits: Vec<(u32, f32, u32)>,
+    pub it: Vec<Interaction>,
+}
+
+/// Paths whose ray left the scene, their directions, and an infinite light's value and
+/// density there.
+#[derive(Default)]
+pub struct EscapedQueue {
+    pub path: Vec<u32>,
+    pub dir: Vec<Vec3>,
+    pub le_pdf: Vec<(Rgb, f32)>,
+}
+
+/// The hits that scatter (paths that go on), indexed like [`HitQueue::it`]: shading
+/// frames, local outgoing directions, this bounce's sampler values, and the hits grouped
+/// by material.
+#[derive(Default)]
+pub struct ScatterQueue {
+    pub frame: Vec<Frame>,
+    pub wo: Vec<Vec3>,
+    pub sample_index: Vec<u32>,
+    pub light_uc: Vec<f32>,
+    pub light_u: Vec<Vec2>,
+    pub bsdf_uc: Vec<f32>,
+    pub bsdf_u: Vec<Vec2>,
+    pub groups: MaterialGroups,
+}
+
+/// Light samples of the scattering hits, indexed like them ([`LightSamples`]: pdf 0 for
+/// none), then the local direction and the BSDF's value and density there.
+#[derive(Default)]
+pub struct LightSampleQueue {
+    pub samples: LightSamples,
+    pub wi_local: Vec<Vec3>,
+    pub f: Vec<Rgb>,
+    pub bsdf_pdf: Vec<f32>,
+    /// Requests grouped by light: hit indices, ordered by light, and each light's range;
+    /// one light's batch of points, samples and results.
+    order: Vec<u32>,
+    ranges: Vec<(usize, usize)>,
+    u: Vec<Vec2>,
+    batch: LightSamples,
+}
+
+/// Light samples the BSDF reflects: hit, BSDF value times cosine, shadow ray, and
+/// whether it is blocked.
+#[derive(Default)]
+pub struct ShadowQueue {
+    pub hit: Vec<u32>,
+    pub f: Vec<Rgb>,
+    pub ray: Vec<Ray>,
+    pub occluded: Vec<bool>,
+}
+
+/// Hits grouped by material, for the materials' batched calls: `order` lists hit indices
+/// material by material (stable), `ranges` each material's span of it; `contiguous` when
+/// `order` is the identity (hits already grouped), so the batches read the queues in
+/// place.
+#[derive(Default)]
+pub struct MaterialGroups {
+    order: Vec<u32>,
+    ranges: Vec<(usize, usize, u32)>,
+    contiguous: bool,
+    key: Vec<usize>,
+    /// Gathered inputs and outputs of one batch (when not contiguous).
+    wo: Vec<Vec3>,
+    wi: Vec<Vec3>,
+    u: Vec<Vec2>,
+    uc: Vec<f32>,
+    f: Vec<Rgb>,
+    pdf: Vec<f32>,
+    samples: Vec<Option<BsdfSample>>,
+}
+
+/// The camera stage's queue: the sample indices, film jitters and rays of a batch of
+/// one pixel's samples.
+#[derive(Default)]
+pub struct CameraQueue {
+    pub index: Vec<u32>,
+    pub ray: Vec<Ray>,
+    jitter: Vec<Vec2>,
+}
+
+impl CameraQueue {
+    /// Camera rays of samples `first..first + count` of pixel (x, y): the sampler's
+    /// camera dimension for all of them at once, then the camera's batched rays.
+    /// Leaves `sampler` at the dimension after the camera's, as every sample is.
+    pub fn generate(
+        &mut self,
+        camera: &Camera,
+        pixel: (u32, u32),
+        first: u32,
+        count: u32,
+        inv_res: Vec2,
+        sampler: &mut Sampler,
+    ) {
+        self.index.clear();
+        self.index.extend(first..first + count);
+        sampler.start(pixel.0, pixel.1, first);
+        self.jitter.resize(count as usize, Vec2::ZERO);
+        sampler.next_2d_lanes(&self.index, &mut self.jitter);
+        self.ray.clear();
+        camera.rays_many(
+            Vec2::new(pixel.0 as f32, pixel.1 as f32),
+            &self.jitter,
+            inv_res,
+            &mut self.ray,
+        );
+    }
+}
+
+/// Buffers of the wavefront, kept between pixels so that a tile allocates them once.
+#[derive(Default)]
+pub struct Wavefront {
+    pub paths: Paths,
+    pub active: Vec<u32>,
+    pub next: Vec<u32>,
+    pub hits: HitQueue,
+    pub escaped: EscapedQueue,
+    pub scatter: ScatterQueue,
+    pub lights: LightSampleQueue,
+    pub shadow: ShadowQueue,
+    pub bsdf_samples: Vec<Option<BsdfSample>>,
+    /// Depth shared by all live paths.
+    depth: u32,
+}
+
+impl Wavefront {
+    /// Traces the paths of `rays` (samples `indices` of the pixel whose `sampler` is at
+    /// the dimension after the camera's) to `out`: the bounce loop over the stages.
+    #[allow(clippy::too_many_arguments)] // the scalar `li`'s arguments, plus the batch's
+    pub fn trace(
+        &mut self,
+        scene: &Scene,
+        rays: &[Ray],
+        indices: &[u32],
+        sampler: &mut Sampler,
+        max_depth: Option<u32>,
+        rr_depth: u32,
+        out: &mut [Rgb],
+    ) {
+        assert!(rays.len() == indices.len() && rays.len() == out.len());
+        let max_depth = max_depth.unwrap_or(DEPTH_CAP).min(DEPTH_CAP);
+        self.start(rays, indices, max_depth);
+        while !self.active.is_empty() {
+            self.intersect(scene);
+            self.escaped(scene);
+            self.emission(scene);
+            let goes_on = self.depth + 1 < max_depth;
+            if !goes_on || self.hits.it.is_empty() {
+                break;
+            }
+            self.scatter_setup(scene, sampler);
+            self.light_samples(scene);
+            self.bsdf_eval(scene);
+            self.shadow_rays(scene);
+            self.bsdf_samples(scene);
+            self.spawn(sampler, rr_depth);
+        }
+        for (o, v) in out.iter_mut().zip(&self.paths.vars) {
+            *o = v.l;
+        }
+    }
+
+    fn start(&mut self, rays: &[Ray], indices: &[u32], max_depth: u32) {
+        let n = rays.len();
+        let p = &mut self.paths;
+        p.ray.clear();
+        p.ray.extend_from_slice(rays);
+        p.index.clear();
+        p.index.extend_from_slice(indices);
+        p.vars.clear();
+        p.vars.resize(n, PathVars::START);
+        self.depth = 0;
+        self.active.clear();
+        if max_depth > 0 {
+            self.active.extend(0..n as u32);
+        }
+    }
+
+    /// Closest hits of the active paths, split into hits (with their local geometry,
+    /// computed in a second pass so that neither waits on the other's long dependency
+    /// chains) and escaped rays.
+    pub fn intersect(&mut self, scene: &Scene) {
+        let h = &mut self.hits;
+        h.closest.clear();
+        scene
+            .geometry
+            .closest_many(&self.paths.ray, &self.active, &mut h.closest);
+        h.hits.clear();
+        h.path.clear();
+        self.escaped.path.clear();
+        for (&i, c) in self.active.iter().zip(&h.closest) {
+            match *c {
+                Some((t, prim)) => {
+                    h.hits.push((i, t, prim));
+                    h.path.push(i);
+                }
+                None => self.escaped.path.push(i),
+            }
+        }
+        h.it.clear();
+        scene
+            .geometry
+            .interactions_many(&self.paths.ray, &h.hits, &mut h.it);
+    }
+
+    /// Escaped paths gather the infinite lights, each light's values in one batch.
+    pub fn escaped(&mut self, scene: &Scene) {
+        let e = &mut self.escaped;
+        if e.path.is_empty() {
+            return;
+        }
+        let p = &mut self.paths;
+        e.dir.clear();
+        e.dir.extend(e.path.iter().map(|&i| p.ray[i as usize].d));
+        let sel_pdf = select_pdf(scene);
+        for &k in &scene.infinite_lights {
+            let light = &scene.lights[k as usize];
+            e.le_pdf.clear();
+            e.le_pdf.resize(e.dir.len(), (Rgb::ZERO, 0.0));
+            light.le_pdf_infinite_many(&e.dir, &mut e.le_pdf);
+            for (&i, &(le, pdf)) in e.path.iter().zip(&e.le_pdf) {
+                if le.is_black() {
+                    continue;
+                }
+                let v = &mut p.vars[i as usize];
+                let w = if self.depth == 0 {
+                    1.0
+                } else {
+                    power_heuristic(v.prev_pdf, sel_pdf * pdf)
+                };
+                v.l += v.beta * le * w;
+            }
+        }
+    }
+
+    /// Hits on emitters add their emission (MIS-weighted against light sampling after
+    /// the first bounce).
+    pub fn emission(&mut self, scene: &Scene) {
+        let sel_pdf = select_pdf(scene);
+        let p = &mut self.paths;
+        for (&i, it) in self.hits.path.iter().zip(&self.hits.it) {
+            let Some(k) = scene.shapes[it.shape as usize].light else {
+                continue;
+            };
+            let i = i as usize;
+            let light = &scene.lights[k as usize];
+            let le = light.le_area(it, -p.ray[i].d);
+            if le.is_black() {
+                continue;
+            }
+            let v = &mut p.vars[i];
+            let w = if self.depth == 0 {
+                1.0
+            } else {
+                power_heuristic(v.prev_pdf, sel_pdf * light.pdf_area(v.prev_p, it))
+            };
+            v.l += v.beta * le * w;
+        }
+    }
+
+    /// Shading frames and outgoing directions of the scattering hits (eight at a time in
+    /// SIMD lanes: [`shading_x8`]), the sampler dimensions of this bounce for all of them
+    /// (light choice and point, BSDF lobe and direction), and the hits grouped by
+    /// material.
+    pub fn scatter_setup(&mut self, scene: &Scene, sampler: &mut Sampler) {
+        let (h, s, p) = (&self.hits, &mut self.scatter, &self.paths);
+        let m = h.it.len();
+        s.frame.clear();
+        s.wo.clear();
+        for (ic, pc) in h.it.chunks(8).zip(h.path.chunks(8)) {
+            let n = ic.len();
+            let (frames, wo) = shading_x8(
+                x8::lanes(|k| ic[k.min(n - 1)].ns),
+                x8::lanes(|k| ic[k.min(n - 1)].dpdu),
+                x8::lanes(|k| p.ray[pc[k.min(n - 1)] as usize].d),
+            );
+            s.frame.extend_from_slice(&frames[..n]);
+            s.wo.extend_from_slice(&wo[..n]);
+        }
+        s.sample_index.clear();
+        s.sample_index
+            .extend(h.path.iter().map(|&i| p.index[i as usize]));
+        s.light_uc.resize(m, 0.0);
+        s.light_u.resize(m, Vec2::ZERO);
+        s.bsdf_uc.resize(m, 0.0);
+        s.bsdf_u.resize(m, Vec2::ZERO);
+        sampler.next_1d_lanes(&s.sample_index, &mut s.light_uc);
+        sampler.next_2d_lanes(&s.sample_index, &mut s.light_u);
+        sampler.next_1d_lanes(&s.sample_index, &mut s.bsdf_uc);
+        sampler.next_2d_lanes(&s.sample_index, &mut s.bsdf_u);
+        s.groups.build(scene, &h.it);
+    }
+
+    /// One light sample per scattering hit: the light chosen uniformly by the hit's
+    /// light-choice value, the requests to each light sampled in one batch
+    /// ([`Light::sample_li_many`]; when one light takes every request, as in scenes of one
+    /// light, the queue itself is the batch).
+    pub fn light_samples(&mut self, scene: &Scene) {
+        let (s, q) = (&self.scatter, &mut self.lights);
+        let m = self.hits.it.len();
+        q.samples.reset(m);
+        let n_lights = scene.lights.len();
+        if n_lights == 0 {
+            return;
+        }
+        // Requests grouped by light (a counting sort, stable).
+        let choice = |uc: f32| ((uc * n_lights as f32) as usize).min(n_lights - 1);
+        q.ranges.clear();
+        q.ranges.resize(n_lights, (0, 0));
+        for &uc in &s.light_uc {
+            q.ranges[choice(uc)].1 += 1;
+        }
+        let its = &self.hits.it;
+        if let Some(k) = q.ranges.iter().position(|r| r.1 == m) {
+            scene.lights[k].sample_li_many(|h| its[h].p, &s.light_u, &mut q.samples);
+            return;
+        }
+        let mut start = 0;
+        for r in &mut q.ranges {
+            let len = r.1;
+            *r = (start, start);
+            start += len;
+        }
+        q.order.resize(m, 0);
+        for (h, &uc) in s.light_uc.iter().enumerate() {
+            let r = &mut q.ranges[choice(uc)];
+            q.order[r.1] = h as u32;
+            r.1 += 1;
+        }
+        for (k, &(a, b)) in q.ranges.iter().enumerate() {
+            let hits = &q.order[a..b];
+            if hits.is_empty() {
+                continue;
+            }
+            q.u.clear();
+            q.u.extend(hits.iter().map(|&h| s.light_u[h as usize]));
+            let point = |j: usize| its[hits[j] as usize].p;
+            scene.lights[k].sample_li_many(point, &q.u, &mut q.batch);
+            for (j, &h) in hits.iter().enumerate() {
+                q.samples.copy_from(h as usize, &q.batch, j);
+            }
+        }
+    }
+
+    /// The BSDF's value and density at every light sample, one batched call per material
+    /// (for hits without a sample, pdf 0, the direction is whatever the buffer held: their
+    /// values are not used).
+    pub fn bsdf_eval(&mut self, scene: &Scene) {
+        let (s, q) = (&mut self.scatter, &mut self.lights);
+        let m = s.frame.len();
+        q.wi_local.clear();
+        q.wi_local.extend(
+            s.frame
+                .iter()
+                .zip(&q.samples.wi)
+                .map(|(frame, &wi)| frame.to_local(wi)),
+        );
+        q.f.resize(m, Rgb::ZERO);
+        q.bsdf_pdf.resize(m, 0.0);
+        s.groups
+            .eval_pdf(scene, &s.wo, &q.wi_local, &mut q.f, &mut q.bsdf_pdf);
+    }
+
+    /// Light samples the BSDF reflects are tested for occlusion together; the unoccluded
+    /// ones add their MIS-weighted contribution. A light sample counts when its pdf is
+    /// positive, its radiance and the reflected value are not black; these are kept by a
+    /// branch-free compaction (whether a light sample lies above the surface is a coin
+    /// flip a branch would mispredict).
+    pub fn shadow_rays(&mut self, scene: &Scene) {
+        let (ls, q, sq) = (&self.lights.samples, &self.lights, &mut self.shadow);
+        let m = q.wi_local.len();
+        sq.hit.resize(m, 0);
+        sq.f.resize(m, Rgb::ZERO);
+        let mut kept = 0;
+        for (h, ((&wi, &f), (&pdf, li))) in q
+            .wi_local
+            .iter()
+            .zip(&q.f)
+            .zip(ls.pdf.iter().zip(&ls.li))
+            .enumerate()
+        {
+            if !(pdf > 0.0) || li.is_black() {
+                continue;
+            }
+            let f = f * wi.z.max(0.0);
+            sq.hit[kept] = h as u32;
+            sq.f[kept] = f;
+            kept += !f.is_black() as usize;
+        }
+        sq.hit.truncate(kept);
+        sq.f.truncate(kept);
+        sq.ray.clear();
+        sq.ray.extend(sq.hit.iter().map(|&h| {
+            let h = h as usize;
+            shadow_ray(&self.hits.it[h], ls.wi[h], ls.at[h])
+        }));
+        sq.occluded.clear();
+        scene.geometry.occluded_many(&sq.ray, &mut sq.occluded);
+        let sel_pdf = select_pdf(scene);
+        let p = &mut self.paths;
+        for ((&h, &f), &occluded) in sq.hit.iter().zip(&sq.f).zip(&sq.occluded) {
+            if occluded {
+                continue;
+            }
+            let h = h as usize;
+            let light_pdf = ls.pdf[h] * sel_pdf;
+            let w = if ls.delta[h] {
+                1.0
+            } else {
+                power_heuristic(light_pdf, q.bsdf_pdf[h])
+            };
+            let v = &mut p.vars[self.hits.path[h] as usize];
+            v.l += v.beta * f * ls.li[h] * (w / light_pdf);
+        }
+    }
+
+    /// BSDF samples of every scattering hit, one batched call per material.
+    pub fn bsdf_samples(&mut self, scene: &Scene) {
+        let s = &mut self.scatter;
+        self.bsdf_samples.clear();
+        self.bsdf_samples.resize(s.frame.len(), None);
+        s.groups
+            .sample(scene, &s.wo, &s.bsdf_u, &s.bsdf_uc, &mut self.bsdf_samples);
+    }
+
+    /// Paths whose BSDF sample carries throughput go on along it; then Russian roulette
+    /// (one sampler dimension for all, since they share their depth).
+    pub fn spawn(&mut self, sampler: &mut Sampler, rr_depth: u32) {
+        let p = &mut self.paths;
+        self.next.clear();
+        for (((it, frame), bs), &i) in self
+            .hits
+            .it
+            .iter()
+            .zip(&self.scatter.frame)
+            .zip(&self.bsdf_samples)
+            .zip(&self.hits.path)
+        {
+            let Some(bs) = bs else {
+                continue;
+            };
+            let v = &mut p.vars[i as usize];
+            v.beta *= bs.weight;
+            if v.beta.is_black() || !v.beta.is_finite() {
+                continue;
+            }
+            v.prev_pdf = bs.pdf;
+            v.prev_p = it.p;
+            p.ray[i as usize] = spawn_ray(it, frame.to_world(bs.wi));
+            self.next.push(i);
+        }
+        self.depth += 1;
+        if self.depth >= rr_depth && !self.next.is_empty() {
+            let s = &mut self.scatter;
+            s.sample_index.clear();
+            s.sample_index
+                .extend(self.next.iter().map(|&i| p.index[i as usize]));
+            let n = self.next.len();
+            s.light_uc.resize(n, 0.0);
+            sampler.next_1d_lanes(&s.sample_index, &mut s.light_uc[..n]);
+            let mut kept = 0;
+            for j in 0..n {
+                let i = self.next[j];
+                let v = &mut p.vars[i as usize];
+                let q = v.beta.max_component().min(0.95);
+                if s.light_uc[j] >= q {
+                    continue;
+                }
+                v.beta = v.beta / q;
+                self.next[kept] = i;
+                kept += 1;
+            }
+            self.next.truncate(kept);
+        }
+        std::mem::swap(&mut self.active, &mut self.next);
+    }
+}
+
+/// Probability of choosing each light (uniform selection, Mitsuba's), 0 without lights.
+fn select_pdf(scene: &Scene) -> f32 {
+    if scene.lights.is_empty() {
+        0.0
+    } else {
+        1.0 / scene.lights.len() as f32
+    }
+}
+
+impl MaterialGroups {
+    /// Groups the hits `its` by material (shapes sharing a material share its batch).
+    /// When each material's hits already form one run (scenes of one material, or hits
+    /// that arrive grouped), the runs are the groups and the batches read the queues in
+    /// place; otherwise hits are listed material by material (stable).
+    fn build(&mut self, scene: &Scene, its: &[Interaction]) {
+        let key = |it: &Interaction| {
+            std::sync::Arc::as_ptr(&scene.shapes[it.shape as usize].material) as *const () as usize
+        };
+        self.key.clear();
+        self.key.extend(its.iter().map(key));
+        self.ranges.clear();
+        let mut a = 0;
+        while a < its.len() {
+            let k = self.key[a];
+            let b = a + self.key[a..].iter().take_while(|&&kk| kk == k).count();
+            self.ranges.push((a, b, its[a].shape));
+            a = b;
+        }
+        // Runs of one material that appear twice make the grouping necessary.
+        self.contiguous = (1..self.ranges.len()).all(|r| {
+            let k = self.key[self.ranges[r].0];
+            self.ranges[..r].iter().all(|g| self.key[g.0] != k)
+        });
+        if self.contiguous {
+            return;
+        }
+        let runs = std::mem::take(&mut self.ranges);
+        self.order.clear();
+        for (r, &(a, _, shape)) in runs.iter().enumerate() {
+            let k = self.key[a];
+            if runs[..r].iter().any(|g| self.key[g.0] == k) {
+                continue; // grouped with its first run
+            }
+            let start = self.order.len();
+            for &(ga, gb, _) in &runs[r..] {
+                if self.key[ga] == k {
+                    self.order.extend(ga as u32..gb as u32);
+                }
+            }
+            self.ranges.push((start, self.order.len(), shape));
+        }
+    }
+
+    fn material(scene: &Scene, shape: u32) -> &dyn Bsdf {
+        scene.shapes[shape as usize].material.as_ref()
+    }
+
+    /// [`Bsdf::eval_pdf_many`] of every hit, one call per material.
+    fn eval_pdf(
+        &mut self,
+        scene: &Scene,
+        wo: &[Vec3],
+        wi: &[Vec3],
+        f: &mut [Rgb],
+        pdf: &mut [f32],
+    ) {
+        for &(a, b, shape) in &self.ranges {
+            let bsdf = Self::material(scene, shape);
+            if self.contiguous {
+                bsdf.eval_pdf_many(&wo[a..b], &wi[a..b], &mut f[a..b], &mut pdf[a..b]);
+                continue;
+            }
+            let hits = &self.order[a..b];
+            gather(&mut self.wo, wo, hits);
+            gather(&mut self.wi, wi, hits);
+            self.f.resize(hits.len(), Rgb::ZERO);
+            self.pdf.resize(hits.len(), 0.0);
+            bsdf.eval_pdf_many(&self.wo, &self.wi, &mut self.f, &mut self.pdf);
+            for (j, &h) in hits.iter().enumerate() {
+                f[h as usize] = self.f[j];
+                pdf[h as usize] = self.pdf[j];
+            }
+        }
+    }
+
+    /// [`Bsdf::sample_many`] of every hit, one call per material.
+    fn sample(
+        &mut self,
+        scene: &Scene,
+        wo: &[Vec3],
+        u: &[Vec2],
+        uc: &[f32],
+        out: &mut [Option<BsdfSample>],
+    ) {
+        for &(a, b, shape) in &self.ranges {
+            let bsdf = Self::material(scene, shape);
+            if self.contiguous {
+                bsdf.sample_many(&wo[a..b], &u[a..b], &uc[a..b], &mut out[a..b]);
+                continue;
+            }
+            let hits = &self.order[a..b];
+            gather(&mut self.wo, wo, hits);
+            gather(&mut self.u, u, hits);
+            gather(&mut self.uc, uc, hits);
+            self.samples.resize(hits.len(), None);
+            bsdf.sample_many(&self.wo, &self.u, &self.uc, &mut self.samples);
+            for (j, &h) in hits.iter().enumerate() {
+                out[h as usize] = self.samples[j];
+            }
+        }
+    }
+}
+
+/// `dst[j] = src[idx[j]]`.
+fn gather<T: Copy>(dst: &mut Vec<T>, src: &[T], idx: &[u32]) {
+    dst.clear();
+    dst.extend(idx.iter().map(|&i| src[i as usize]));
+}
