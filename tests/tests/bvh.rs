@@ -234,7 +234,9 @@ fn spawned_rays_skip_only_what_they_cannot_hit() {
 /// `closest_many` and `occluded_many` (eight rays per SIMD sphere test in small scenes of
 /// spheres, ray by ray otherwise) return `closest` (bit for bit) and `occluded` of each
 /// ray: rays from outside, inside and on the spheres, with finite and infinite ranges,
-/// skipped primitives, and partial batches.
+/// skipped primitives, and partial batches; on scenes of spheres, on a small scene of
+/// triangles, spheres and rectangles (exhaustive tests in ray lanes), and on a large one
+/// (the BVH).
 #[test]
 fn batched_closest_hits_equal_single_ones() {
     let mut r = Lcg(11);
@@ -281,6 +283,29 @@ fn batched_closest_hits_equal_single_ones() {
         )
         .expect("spheres"),
     );
+    // A small scene of every kind (tested exhaustively in ray lanes, no BVH).
+    let small: Vec<Primitive> = scene()
+        .prims
+        .iter()
+        .step_by(600)
+        .copied()
+        .chain(scene().prims.iter().rev().take(5).copied())
+        .collect();
+    assert!(small.len() <= lobe_renderer::geometry::bvh::SMALL_SCENE);
+    for kind in ["triangle", "sphere", "rectangle"] {
+        assert!(
+            small.iter().any(|p| match p.kind {
+                PrimKind::Triangle(_) => kind == "triangle",
+                PrimKind::Sphere(_) => kind == "sphere",
+                PrimKind::Rectangle(_) => kind == "rectangle",
+            }),
+            "the small scene lacks a {kind}"
+        );
+    }
+    let small = Geometry::build(small, scene().meshes.clone(), vec![ShapeGeom::default(); 3])
+        .expect("small scene");
+    assert!(!small.has_bvh());
+    geometries.push(small);
     geometries.push(scene());
     for g in &geometries {
         let n_prims = g.prims.len() as u32;

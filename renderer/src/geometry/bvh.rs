@@ -3,6 +3,7 @@
 //! hits, and the batched forms of these queries that the wavefront integrator calls.
 
 use super::bvh8::Bvh8;
+use super::kernels::{self, RayLanes};
 use super::{Interaction, Mesh, Ray, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3, Vec3A};
 use lobe_materials::fastmath::x8;
@@ -32,6 +33,25 @@ impl Primitive {
             PrimKind::Sphere(s) => s.intersect(ray),
             PrimKind::Triangle(t) => t.intersect(ray),
             PrimKind::Rectangle(r) => r.intersect(ray),
+        }
+    }
+}
+
+impl Primitive {
+    /// [`Primitive::intersect`] of eight rays in SIMD lanes, bit for bit the same.
+    #[inline(always)]
+    pub fn intersect_lanes(&self, r: &RayLanes) -> f32x8 {
+        use kernels::splat3;
+        match &self.kind {
+            PrimKind::Sphere(s) => kernels::sphere(r, splat3(s.center), f32x8::splat(s.radius)),
+            PrimKind::Triangle(t) => kernels::triangle(r, splat3(t.p0), splat3(t.e1), splat3(t.e2)),
+            PrimKind::Rectangle(q) => kernels::rectangle(
+                r,
+                splat3(q.corner),
+                splat3(q.n),
+                splat3(q.du()),
+                splat3(q.dv()),
+            ),
         }
     }
 }
@@ -69,7 +89,7 @@ impl Boundable for Primitive {
 }
 
 /// Scenes with at most this many primitives skip the BVH.
-pub const SMALL_SCENE: usize = 4;
+pub const SMALL_SCENE: usize = 16;
 
 /// Per-shape data the intersection routine needs.
 #[derive(Clone, Copy, Debug, Default)]
@@ -146,54 +166,47 @@ impl Geometry {
     }
 
     /// [`Geometry::closest`] of the rays `rays[i]` for each `i` in `idx`, appended to
-    /// `out`, bit for bit the same. Small scenes of spheres alone (no BVH) test eight rays
-    /// at a time against each sphere in SIMD lanes ([`Sphere::intersect_x8`]); other
-    /// scenes go ray by ray.
+    /// `out`, bit for bit the same. With a BVH, ray by ray ([`Bvh8::closest`]); small
+    /// scenes test eight rays at a time against each primitive in SIMD lanes
+    /// ([`kernels`]).
     pub fn closest_many(&self, rays: &[Ray], idx: &[u32], out: &mut Vec<Option<(f32, u32)>>) {
-        if !self.spheres_only() {
-            out.extend(idx.iter().map(|&i| self.closest(&rays[i as usize])));
+        if let Some(bvh) = &self.bvh {
+            out.extend(idx.iter().map(|&i| bvh.closest(&rays[i as usize])));
             return;
         }
         for ic in idx.chunks(8) {
             let n = ic.len();
-            let (o, d, tmin, mut tmax, skip) =
-                Self::ray_lanes(|k| &rays[ic[k.min(n - 1)] as usize]);
+            let (mut lanes, skip) = Self::ray_lanes(|k| &rays[ic[k.min(n - 1)] as usize]);
             let mut best = u32x8::splat(u32::MAX);
             for (j, p) in self.prims.iter().enumerate() {
-                let PrimKind::Sphere(s) = &p.kind else {
-                    unreachable!("spheres only")
-                };
-                let t = s.intersect_x8(o, d, tmin, tmax);
+                let t = p.intersect_lanes(&lanes);
                 // A lane's skipped primitive counts as a miss, as in `closest_brute_force`.
                 let not_skipped = f32x8::from_bits(!skip.simd_eq(u32x8::splat(j as u32)));
-                let closer = t.simd_lt(tmax) & not_skipped;
-                tmax = x8::sel(closer, t, tmax);
+                let closer = t.simd_lt(lanes.tmax) & not_skipped;
+                lanes.tmax = x8::sel(closer, t, lanes.tmax);
                 best = closer.to_bits().select(u32x8::splat(j as u32), best);
             }
-            let (t, best) = (tmax.to_array(), best.to_array());
+            let (t, best) = (lanes.tmax.to_array(), best.to_array());
             out.extend((0..n).map(|k| (best[k] != u32::MAX).then_some((t[k], best[k]))));
         }
     }
 
-    /// [`Geometry::occluded`] of each ray, appended to `out`, the same answers: small
-    /// scenes of spheres alone test eight rays at a time per sphere in SIMD lanes (as
-    /// [`Geometry::closest_many`]); other scenes go ray by ray.
+    /// [`Geometry::occluded`] of each ray, appended to `out`, the same answers: ray by ray
+    /// through the BVH, or in small scenes eight rays at a time per primitive in SIMD lanes
+    /// (as [`Geometry::closest_many`]).
     pub fn occluded_many(&self, rays: &[Ray], out: &mut Vec<bool>) {
-        if !self.spheres_only() {
-            out.extend(rays.iter().map(|r| self.occluded(r)));
+        if let Some(bvh) = &self.bvh {
+            out.extend(rays.iter().map(|r| bvh.occluded(r)));
             return;
         }
         for rc in rays.chunks(8) {
             let n = rc.len();
-            let (o, d, tmin, tmax, skip) = Self::ray_lanes(|k| &rc[k.min(n - 1)]);
+            let (lanes, skip) = Self::ray_lanes(|k| &rc[k.min(n - 1)]);
             let mut hit = f32x8::splat(0.0);
             for (j, p) in self.prims.iter().enumerate() {
-                let PrimKind::Sphere(s) = &p.kind else {
-                    unreachable!("spheres only")
-                };
-                let t = s.intersect_x8(o, d, tmin, tmax);
+                let t = p.intersect_lanes(&lanes);
                 let not_skipped = f32x8::from_bits(!skip.simd_eq(u32x8::splat(j as u32)));
-                hit |= t.simd_lt(tmax) & not_skipped;
+                hit |= t.simd_lt(lanes.tmax) & not_skipped;
             }
             let hit = hit.to_array();
             out.extend(hit[..n].iter().map(|&h| h != 0.0));
@@ -201,76 +214,88 @@ impl Geometry {
     }
 
     /// [`Geometry::interaction`] of many hits, appended to `out` in order: hit (i, t, prim)
-    /// of ray `rays[i]`. Scenes of spheres alone compute eight at a time in SIMD lanes
+    /// of ray `rays[i]`. Hits on spheres are computed eight at a time in SIMD lanes
     /// ([`Sphere::surface_x8`]: its square roots and divisions are a long dependency chain
-    /// per hit), bit for bit the same; other scenes go hit by hit.
+    /// per hit), bit for bit the same; other hits one by one.
     pub fn interactions_many(
         &self,
         rays: &[Ray],
         hits: &[(u32, f32, u32)],
         out: &mut Vec<Interaction>,
     ) {
-        if !self.spheres_only() {
-            for &(i, t, prim) in hits {
-                out.push(Interaction::ZERO);
-                let it = out.last_mut().expect("just pushed");
-                self.interaction_into(&rays[i as usize], t, prim, it);
+        let first = out.len();
+        out.resize(first + hits.len(), Interaction::ZERO);
+        let out = &mut out[first..];
+        let mut spheres = [0usize; 8];
+        let mut n = 0;
+        for (h, &(i, t, prim)) in hits.iter().enumerate() {
+            if matches!(self.prims[prim as usize].kind, PrimKind::Sphere(_)) {
+                spheres[n] = h;
+                n += 1;
+                if n == 8 {
+                    self.sphere_interactions(rays, hits, &spheres, out);
+                    n = 0;
+                }
+            } else {
+                self.interaction_into(&rays[i as usize], t, prim, &mut out[h]);
             }
-            return;
         }
-        for hc in hits.chunks(8) {
-            let n = hc.len();
-            let hit = |k: usize| hc[k.min(n - 1)];
-            let (o, d, _, _, _) = Self::ray_lanes(|k| &rays[hit(k).0 as usize]);
-            let t = f32x8::new(x8::lanes(|k| hit(k).1));
-            let cr = x8::rows4(|k| match &self.prims[hit(k).2 as usize].kind {
-                PrimKind::Sphere(s) => [s.center.x, s.center.y, s.center.z, s.radius],
-                _ => unreachable!("spheres only"),
-            });
-            // Ray::at: o + d t.
-            let at = [o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t];
-            let (p, nrm, dpdu) = Sphere::surface_x8(at, [cr[0], cr[1], cr[2]], cr[3]);
-            let (p, nrm, dpdu) = (x8::arrays3(p), x8::arrays3(nrm), x8::arrays3(dpdu));
-            for (k, &(_, t, prim)) in hc.iter().enumerate() {
-                let shape = self.prims[prim as usize].shape;
-                let v = |a: &[[f32; 8]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
-                let nk = v(&nrm);
-                let oriented = if self.shapes[shape as usize].flip_normals {
-                    -nk
-                } else {
-                    nk
-                };
-                out.push(Interaction {
-                    t,
-                    p: v(&p),
-                    ng: oriented,
-                    ns: oriented,
-                    dpdu: v(&dpdu),
-                    uv: Vec2::ZERO,
-                    shape,
-                    prim,
-                    exit: nk,
-                });
-            }
+        if n > 0 {
+            self.sphere_interactions(rays, hits, &spheres[..n], out);
         }
     }
 
-    /// No BVH, and every primitive a sphere: the case the SIMD batch queries handle.
-    fn spheres_only(&self) -> bool {
-        self.bvh.is_none()
-            && self
-                .prims
-                .iter()
-                .all(|p| matches!(p.kind, PrimKind::Sphere(_)))
+    /// The interactions of up to eight hits `which` (indices into `hits` and `out`), all
+    /// on spheres, in SIMD lanes.
+    fn sphere_interactions(
+        &self,
+        rays: &[Ray],
+        hits: &[(u32, f32, u32)],
+        which: &[usize],
+        out: &mut [Interaction],
+    ) {
+        let n = which.len();
+        let hit = |k: usize| hits[which[k.min(n - 1)]];
+        let (lanes, _) = Self::ray_lanes(|k| &rays[hit(k).0 as usize]);
+        let (o, d) = (lanes.o, lanes.d);
+        let t = f32x8::new(x8::lanes(|k| hit(k).1));
+        let cr = x8::rows4(|k| match &self.prims[hit(k).2 as usize].kind {
+            PrimKind::Sphere(s) => [s.center.x, s.center.y, s.center.z, s.radius],
+            _ => unreachable!("sphere hits only"),
+        });
+        // Ray::at: o + d t.
+        let at = [o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t];
+        let (p, nrm, dpdu) = Sphere::surface_x8(at, [cr[0], cr[1], cr[2]], cr[3]);
+        let (p, nrm, dpdu) = (x8::arrays3(p), x8::arrays3(nrm), x8::arrays3(dpdu));
+        for (k, &h) in which.iter().enumerate() {
+            let (_, t, prim) = hits[h];
+            let shape = self.prims[prim as usize].shape;
+            let v = |a: &[[f32; 8]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
+            let nk = v(&nrm);
+            let oriented = if self.shapes[shape as usize].flip_normals {
+                -nk
+            } else {
+                nk
+            };
+            out[h] = Interaction {
+                t,
+                p: v(&p),
+                ng: oriented,
+                ns: oriented,
+                dpdu: v(&dpdu),
+                uv: Vec2::ZERO,
+                shape,
+                prim,
+                exit: nk,
+            };
+        }
     }
 
-    /// Eight rays in SIMD lanes, `ray(k)` in lane k: origins, directions, tmin, tmax,
-    /// skipped primitives. A ray's first 32 bytes are two rows of four floats (o, d.x and
-    /// d.y, d.z, tmin, tmax), read as two 4x8 transposes.
+    /// Eight rays in SIMD lanes, `ray(k)` in lane k, and their skipped primitives. A
+    /// ray's first 32 bytes are two rows of four floats (o, d.x and d.y, d.z, tmin, tmax),
+    /// read as two 4x8 transposes.
     #[inline(always)]
-    fn ray_lanes<'a>(
-        ray: impl Fn(usize) -> &'a Ray,
-    ) -> ([f32x8; 3], [f32x8; 3], f32x8, f32x8, u32x8) {
+    fn ray_lanes<'a>(ray: impl Fn(usize) -> &'a Ray) -> (RayLanes, u32x8) {
         let a = x8::transpose4x8(&x8::lanes(|k| {
             let r = ray(k);
             [r.o.x, r.o.y, r.o.z, r.d.x]
@@ -279,13 +304,13 @@ impl Geometry {
             let r = ray(k);
             [r.d.y, r.d.z, r.tmin, r.tmax]
         }));
-        (
-            [a[0], a[1], a[2]],
-            [a[3], b[0], b[1]],
-            b[2],
-            b[3],
-            u32x8::new(x8::lanes(|k| ray(k).skip)),
-        )
+        let lanes = RayLanes {
+            o: [a[0], a[1], a[2]],
+            d: [a[3], b[0], b[1]],
+            tmin: b[2],
+            tmax: b[3],
+        };
+        (lanes, u32x8::new(x8::lanes(|k| ray(k).skip)))
     }
 
     /// Closest hit with its local geometry.

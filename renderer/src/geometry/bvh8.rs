@@ -19,8 +19,10 @@
 
 use super::Ray;
 use super::bvh::{PrimKind, Primitive};
+use super::kernels::{self, RayLanes};
 #[cfg(doc)]
 use super::{Rectangle, Sphere, Triangle};
+use lobe_materials::fastmath::x8::sel;
 use obvhs::bvh2::Bvh2;
 use obvhs::{Boundable, BvhBuildParams};
 use std::mem::MaybeUninit;
@@ -133,7 +135,7 @@ impl BoxRay {
     }
 }
 
-/// A ray in SIMD lanes for leaf tests: origin, direction and range splatted.
+/// A ray splatted into SIMD lanes for leaf tests, and the primitive it skips.
 struct LaneRay {
     o: [f32x8; 3],
     d: [f32x8; 3],
@@ -145,129 +147,21 @@ impl LaneRay {
     #[inline(always)]
     fn new(ray: &Ray) -> Self {
         Self {
-            o: ray.o.to_array().map(f32x8::splat),
-            d: ray.d.to_array().map(f32x8::splat),
+            o: kernels::splat3(ray.o),
+            d: kernels::splat3(ray.d),
             tmin: f32x8::splat(ray.tmin),
             skip: u32x8::splat(ray.skip),
         }
     }
-}
 
-#[inline(always)]
-fn dot(a: [f32x8; 3], b: [f32x8; 3]) -> f32x8 {
-    // glam's order: (x x) + (y y) + (z z).
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline(always)]
-fn cross(a: [f32x8; 3], b: [f32x8; 3]) -> [f32x8; 3] {
-    // glam's order.
-    [
-        a[1] * b[2] - b[1] * a[2],
-        a[2] * b[0] - b[2] * a[0],
-        a[0] * b[1] - b[0] * a[1],
-    ]
-}
-
-#[inline(always)]
-fn sub(a: [f32x8; 3], b: [f32x8; 3]) -> [f32x8; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-use lobe_materials::fastmath::x8::sel;
-
-impl TriBlock {
-    /// [`Triangle::intersect`] in each lane: the distance in (tmin, `tmax`), else infinity.
     #[inline(always)]
-    fn intersect(&self, r: &LaneRay, tmax: f32x8) -> f32x8 {
-        let (zero, one, inf) = (
-            f32x8::splat(0.0),
-            f32x8::splat(1.0),
-            f32x8::splat(f32::INFINITY),
-        );
-        let pvec = cross(r.d, self.e2);
-        let det = dot(self.e1, pvec);
-        let inv_det = one / det;
-        let tvec = sub(r.o, self.p0);
-        let u = dot(tvec, pvec) * inv_det;
-        let qvec = cross(tvec, self.e1);
-        let v = dot(r.d, qvec) * inv_det;
-        let t = dot(self.e2, qvec) * inv_det;
-        // The scalar test's conditions, NaN cases included: det nonzero and finite, u in
-        // [0, 1], not v < 0, not u + v > 1, t in (tmin, tmax).
-        let ok = !det.simd_eq(zero)
-            & det.abs().simd_lt(inf)
-            & u.simd_ge(zero)
-            & u.simd_le(one)
-            & !v.simd_lt(zero)
-            & !(u + v).simd_gt(one)
-            & t.simd_gt(r.tmin)
-            & t.simd_lt(tmax);
-        sel(ok, t, inf)
-    }
-}
-
-impl SphereBlock {
-    /// [`Sphere::intersect`] in each lane.
-    #[inline(always)]
-    fn intersect(&self, r: &LaneRay, tmax: f32x8) -> f32x8 {
-        let (zero, one, inf) = (
-            f32x8::splat(0.0),
-            f32x8::splat(1.0),
-            f32x8::splat(f32::INFINITY),
-        );
-        let d = r.d;
-        let r2 = self.radius * self.radius;
-        let d_len2 = dot(d, d);
-        let inv_len2 = one / d_len2;
-        let f = sub(r.o, self.center);
-        let b = -dot(f, d);
-        let s = b * inv_len2;
-        let l = [f[0] + d[0] * s, f[1] + d[1] * s, f[2] + d[2] * s];
-        let disc = (r2 - dot(l, l)) * d_len2;
-        let c = dot(f, f) - r2;
-        let sq = disc.sqrt();
-        let q = sel(b.simd_ge(zero), b + sq, b - sq);
-        let (a0, a1) = (c / q, q * inv_len2);
-        let swap = a0.simd_gt(a1);
-        let (t0, t1) = (sel(swap, a1, a0), sel(swap, a0, a1));
-        let t = sel(
-            t0.simd_gt(r.tmin) & t0.simd_lt(tmax),
-            t0,
-            sel(t1.simd_gt(r.tmin) & t1.simd_lt(tmax), t1, inf),
-        );
-        sel(disc.simd_lt(zero), inf, t)
-    }
-}
-
-impl RectBlock {
-    /// [`Rectangle::intersect`] in each lane.
-    #[inline(always)]
-    fn intersect(&self, r: &LaneRay, tmax: f32x8) -> f32x8 {
-        let (zero, one, inf) = (
-            f32x8::splat(0.0),
-            f32x8::splat(1.0),
-            f32x8::splat(f32::INFINITY),
-        );
-        let denom = dot(r.d, self.n);
-        let t = dot(sub(self.corner, r.o), self.n) / denom;
-        // ray.at(t) - corner: o + d t - corner.
-        let at = [
-            r.o[0] + r.d[0] * t,
-            r.o[1] + r.d[1] * t,
-            r.o[2] + r.d[2] * t,
-        ];
-        let rel = sub(at, self.corner);
-        let u = dot(rel, self.du);
-        let v = dot(rel, self.dv);
-        let ok = !denom.simd_eq(zero)
-            & t.simd_gt(r.tmin)
-            & t.simd_lt(tmax)
-            & u.simd_ge(zero)
-            & u.simd_le(one)
-            & v.simd_ge(zero)
-            & v.simd_le(one);
-        sel(ok, t, inf)
+    fn with_tmax(&self, tmax: f32x8) -> RayLanes {
+        RayLanes {
+            o: self.o,
+            d: self.d,
+            tmin: self.tmin,
+            tmax,
+        }
     }
 }
 
@@ -547,20 +441,21 @@ impl Bvh8 {
 
     /// Distances to the primitives of leaf block `r` (infinity where missed).
     #[inline(always)]
-    fn leaf(&self, r: u32, ray: &LaneRay, tmax: f32x8) -> (f32x8, u32x8) {
-        let i = (r & INDEX_MASK) as usize;
-        match r >> KIND_SHIFT {
+    fn leaf(&self, leaf: u32, ray: &LaneRay, tmax: f32x8) -> (f32x8, u32x8) {
+        let i = (leaf & INDEX_MASK) as usize;
+        let r = ray.with_tmax(tmax);
+        match leaf >> KIND_SHIFT {
             TRIANGLES => {
                 let b = &self.tris[i];
-                (b.intersect(ray, tmax), b.id)
+                (kernels::triangle(&r, b.p0, b.e1, b.e2), b.id)
             }
             SPHERES => {
                 let b = &self.spheres[i];
-                (b.intersect(ray, tmax), b.id)
+                (kernels::sphere(&r, b.center, b.radius), b.id)
             }
             _ => {
                 let b = &self.rects[i];
-                (b.intersect(ray, tmax), b.id)
+                (kernels::rectangle(&r, b.corner, b.n, b.du, b.dv), b.id)
             }
         }
     }

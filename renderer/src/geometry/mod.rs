@@ -9,6 +9,7 @@
 
 pub mod bvh;
 pub mod bvh8;
+pub mod kernels;
 pub mod mesh;
 pub mod rectangle;
 pub mod sphere;

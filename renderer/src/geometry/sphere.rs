@@ -46,40 +46,6 @@ impl Sphere {
         }
     }
 
-    /// [`Sphere::intersect`] of eight rays (origins `o`, directions `d`, ranges
-    /// (`tmin`, `tmax`), one per lane), with the same operations: bit for bit the same.
-    #[inline(always)]
-    pub fn intersect_x8(&self, o: [f32x8; 3], d: [f32x8; 3], tmin: f32x8, tmax: f32x8) -> f32x8 {
-        let dot = x8::dot3;
-        let c = self.center;
-        let r2 = f32x8::splat(self.radius * self.radius);
-        let zero = f32x8::splat(0.0);
-        let inf = f32x8::splat(f32::INFINITY);
-        let d_len2 = dot(d, d);
-        let inv_len2 = f32x8::splat(1.0) / d_len2;
-        let f = [
-            o[0] - f32x8::splat(c.x),
-            o[1] - f32x8::splat(c.y),
-            o[2] - f32x8::splat(c.z),
-        ];
-        let b = -dot(f, d);
-        let s = b * inv_len2;
-        let l = [f[0] + d[0] * s, f[1] + d[1] * s, f[2] + d[2] * s];
-        let disc = (r2 - dot(l, l)) * d_len2;
-        let cc = dot(f, f) - r2;
-        let sq = disc.sqrt();
-        let q = x8::sel(b.simd_ge(zero), b + sq, b - sq);
-        let (a0, a1) = (cc / q, q * inv_len2);
-        let swap = a0.simd_gt(a1);
-        let (t0, t1) = (x8::sel(swap, a1, a0), x8::sel(swap, a0, a1));
-        let t = x8::sel(
-            t0.simd_gt(tmin) & t0.simd_lt(tmax),
-            t0,
-            x8::sel(t1.simd_gt(tmin) & t1.simd_lt(tmax), t1, inf),
-        );
-        x8::sel(disc.simd_lt(zero), inf, t)
-    }
-
     /// Hit point re-projected onto the surface, outward unit normal and tangent (along
     /// increasing phi around +z, Mitsuba 3's dp/du).
     #[inline]

@@ -144,7 +144,9 @@ pub struct MaterialGroups {
     order: Vec<u32>,
     ranges: Vec<(usize, usize, u32)>,
     contiguous: bool,
+    /// Per hit, its material's number; per material, (pointer, first shape, hit count).
     key: Vec<usize>,
+    distinct: Vec<(usize, u32, usize)>,
     /// Gathered inputs and outputs of one batch (when not contiguous).
     wo: Vec<Vec3>,
     wi: Vec<Vec3>,
@@ -571,47 +573,40 @@ fn select_pdf(scene: &Scene) -> f32 {
 }
 
 impl MaterialGroups {
-    /// Groups the hits `its` by material (shapes sharing a material share its batch).
-    /// When each material's hits already form one run (scenes of one material, or hits
-    /// that arrive grouped), the runs are the groups and the batches read the queues in
-    /// place; otherwise hits are listed material by material (stable).
+    /// Groups the hits `its` by material (shapes sharing a material share its batch):
+    /// each hit's material numbered in order of first appearance (scenes have few
+    /// materials, so a linear search of the list beats hashing), then a stable counting
+    /// sort. When the hits already come grouped (scenes of one material), the batches read
+    /// the queues in place.
     fn build(&mut self, scene: &Scene, its: &[Interaction]) {
-        let key = |it: &Interaction| {
-            std::sync::Arc::as_ptr(&scene.shapes[it.shape as usize].material) as *const () as usize
-        };
         self.key.clear();
-        self.key.extend(its.iter().map(key));
-        self.ranges.clear();
-        let mut a = 0;
-        while a < its.len() {
-            let k = self.key[a];
-            let b = a + self.key[a..].iter().take_while(|&&kk| kk == k).count();
-            self.ranges.push((a, b, its[a].shape));
-            a = b;
-        }
-        // Runs of one material that appear twice make the grouping necessary.
-        self.contiguous = (1..self.ranges.len()).all(|r| {
-            let k = self.key[self.ranges[r].0];
-            self.ranges[..r].iter().all(|g| self.key[g.0] != k)
-        });
-        if self.contiguous {
-            return;
-        }
-        let runs = std::mem::take(&mut self.ranges);
-        self.order.clear();
-        for (r, &(a, _, shape)) in runs.iter().enumerate() {
-            let k = self.key[a];
-            if runs[..r].iter().any(|g| self.key[g.0] == k) {
-                continue; // grouped with its first run
-            }
-            let start = self.order.len();
-            for &(ga, gb, _) in &runs[r..] {
-                if self.key[ga] == k {
-                    self.order.extend(ga as u32..gb as u32);
+        self.distinct.clear();
+        for it in its {
+            let ptr = std::sync::Arc::as_ptr(&scene.shapes[it.shape as usize].material) as *const ()
+                as usize;
+            let g = match self.distinct.iter().position(|&(p, _, _)| p == ptr) {
+                Some(g) => g,
+                None => {
+                    self.distinct.push((ptr, it.shape, 0));
+                    self.distinct.len() - 1
                 }
-            }
-            self.ranges.push((start, self.order.len(), shape));
+            };
+            self.distinct[g].2 += 1;
+            self.key.push(g);
         }
+        self.ranges.clear();
+        let mut start = 0;
+        for &(_, shape, count) in &self.distinct {
+            self.ranges.push((start, start, shape));
+            start += count;
+        }
+        self.order.resize(its.len(), 0);
+        for (h, &g) in self.key.iter().enumerate() {
+            let r = &mut self.ranges[g];
+            self.order[r.1] = h as u32;
+            r.1 += 1;
+        }
+        self.contiguous = self.order.iter().enumerate().all(|(j, &h)| j == h as usize);
     }
 
     fn material(scene: &Scene, shape: u32) -> &dyn Bsdf {
