@@ -4,7 +4,7 @@
 
 use super::{Interaction, Mesh, Ray, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3, Vec3A};
-use lobe_materials::fastmath::x8;
+use lobe_materials::simd;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray as BvhRay, RayHit};
@@ -164,7 +164,7 @@ impl Geometry {
                 // A lane's skipped primitive counts as a miss, as in `closest_brute_force`.
                 let not_skipped = f32x8::from_bits(!skip.simd_eq(u32x8::splat(j as u32)));
                 let closer = t.simd_lt(tmax) & not_skipped;
-                tmax = x8::sel(closer, t, tmax);
+                tmax = simd::sel(closer, t, tmax);
                 best = closer.to_bits().select(u32x8::splat(j as u32), best);
             }
             let (t, best) = (tmax.to_array(), best.to_array());
@@ -219,15 +219,15 @@ impl Geometry {
             let n = hc.len();
             let hit = |k: usize| hc[k.min(n - 1)];
             let (o, d, _, _, _) = Self::ray_lanes(|k| &rays[hit(k).0 as usize]);
-            let t = f32x8::new(x8::lanes(|k| hit(k).1));
-            let cr = x8::rows4(|k| match &self.prims[hit(k).2 as usize].kind {
+            let t = f32x8::new(simd::lanes(|k| hit(k).1));
+            let cr = simd::rows4(|k| match &self.prims[hit(k).2 as usize].kind {
                 PrimKind::Sphere(s) => [s.center.x, s.center.y, s.center.z, s.radius],
                 _ => unreachable!("spheres only"),
             });
             // Ray::at: o + d t.
             let at = [o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t];
             let (p, nrm, dpdu) = Sphere::surface_x8(at, [cr[0], cr[1], cr[2]], cr[3]);
-            let (p, nrm, dpdu) = (x8::arrays3(p), x8::arrays3(nrm), x8::arrays3(dpdu));
+            let (p, nrm, dpdu) = (simd::arrays3(p), simd::arrays3(nrm), simd::arrays3(dpdu));
             for (k, &(_, t, prim)) in hc.iter().enumerate() {
                 let shape = self.prims[prim as usize].shape;
                 let v = |a: &[[f32; 8]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
@@ -268,11 +268,11 @@ impl Geometry {
     fn ray_lanes<'a>(
         ray: impl Fn(usize) -> &'a Ray,
     ) -> ([f32x8; 3], [f32x8; 3], f32x8, f32x8, u32x8) {
-        let a = x8::transpose4x8(&x8::lanes(|k| {
+        let a = simd::transpose4x8(&simd::lanes(|k| {
             let r = ray(k);
             [r.o.x, r.o.y, r.o.z, r.d.x]
         }));
-        let b = x8::transpose4x8(&x8::lanes(|k| {
+        let b = simd::transpose4x8(&simd::lanes(|k| {
             let r = ray(k);
             [r.d.y, r.d.z, r.tmin, r.tmax]
         }));
@@ -281,7 +281,7 @@ impl Geometry {
             [a[3], b[0], b[1]],
             b[2],
             b[3],
-            u32x8::new(x8::lanes(|k| ray(k).skip)),
+            u32x8::new(simd::lanes(|k| ray(k).skip)),
         )
     }
 

@@ -5,7 +5,7 @@
 
 use super::Ray;
 use glam::{Vec2, Vec3};
-use lobe_materials::fastmath::x8;
+use lobe_materials::simd;
 use std::f32::consts::{PI, TAU};
 use wide::f32x8;
 
@@ -50,7 +50,7 @@ impl Sphere {
     /// (`tmin`, `tmax`), one per lane), with the same operations: bit for bit the same.
     #[inline(always)]
     pub fn intersect_x8(&self, o: [f32x8; 3], d: [f32x8; 3], tmin: f32x8, tmax: f32x8) -> f32x8 {
-        let dot = x8::dot3;
+        let dot = simd::dot3;
         let c = self.center;
         let r2 = f32x8::splat(self.radius * self.radius);
         let zero = f32x8::splat(0.0);
@@ -68,16 +68,16 @@ impl Sphere {
         let disc = (r2 - dot(l, l)) * d_len2;
         let cc = dot(f, f) - r2;
         let sq = disc.sqrt();
-        let q = x8::sel(b.simd_ge(zero), b + sq, b - sq);
+        let q = simd::sel(b.simd_ge(zero), b + sq, b - sq);
         let (a0, a1) = (cc / q, q * inv_len2);
         let swap = a0.simd_gt(a1);
-        let (t0, t1) = (x8::sel(swap, a1, a0), x8::sel(swap, a0, a1));
-        let t = x8::sel(
+        let (t0, t1) = (simd::sel(swap, a1, a0), simd::sel(swap, a0, a1));
+        let t = simd::sel(
             t0.simd_gt(tmin) & t0.simd_lt(tmax),
             t0,
-            x8::sel(t1.simd_gt(tmin) & t1.simd_lt(tmax), t1, inf),
+            simd::sel(t1.simd_gt(tmin) & t1.simd_lt(tmax), t1, inf),
         );
-        x8::sel(disc.simd_lt(zero), inf, t)
+        simd::sel(disc.simd_lt(zero), inf, t)
     }
 
     /// Hit point re-projected onto the surface, outward unit normal and tangent (along
@@ -112,29 +112,29 @@ impl Sphere {
     ) -> ([f32x8; 3], [f32x8; 3], [f32x8; 3]) {
         let (zero, one) = (f32x8::splat(0.0), f32x8::splat(1.0));
         let local = [p_approx[0] - c[0], p_approx[1] - c[1], p_approx[2] - c[2]];
-        let len = x8::dot3(local, local).sqrt();
+        let len = simd::dot3(local, local).sqrt();
         // local *= radius / len where len > 0, else (0, 0, radius).
         let pos = len.simd_gt(zero);
         let k = r / len;
         let local = [
-            x8::sel(pos, local[0] * k, zero),
-            x8::sel(pos, local[1] * k, zero),
-            x8::sel(pos, local[2] * k, r),
+            simd::sel(pos, local[0] * k, zero),
+            simd::sel(pos, local[1] * k, zero),
+            simd::sel(pos, local[2] * k, r),
         ];
         // (local / radius).normalize(): times 1 / length.
         let q = [local[0] / r, local[1] / r, local[2] / r];
-        let inv = one / x8::dot3(q, q).sqrt();
+        let inv = one / simd::dot3(q, q).sqrt();
         let n = [q[0] * inv, q[1] * inv, q[2] * inv];
         let p = [c[0] + local[0], c[1] + local[1], c[2] + local[2]];
         // dpdu = (-local.y, local.x, 0), normalized where not zero, else +x.
         let u = [-local[1], local[0], zero];
-        let l2 = x8::dot3(u, u);
+        let l2 = simd::dot3(u, u);
         let some = l2.simd_gt(zero);
         let inv = one / l2.sqrt();
         let dpdu = [
-            x8::sel(some, u[0] * inv, one),
-            x8::sel(some, u[1] * inv, zero),
-            x8::sel(some, u[2] * inv, zero),
+            simd::sel(some, u[0] * inv, one),
+            simd::sel(some, u[1] * inv, zero),
+            simd::sel(some, u[2] * inv, zero),
         ];
         (p, n, dpdu)
     }
@@ -177,8 +177,8 @@ mod tests {
             },
         ];
         for round in 0..96 {
-            let s = x8::lanes(|k| spheres[(round + k) % 3]);
-            let p = x8::lanes(|k| {
+            let s = simd::lanes(|k| spheres[(round + k) % 3]);
+            let p = simd::lanes(|k| {
                 let t = (round * 8 + k) as f32;
                 let c = s[k].center;
                 match (round + k) % 9 {
@@ -191,10 +191,10 @@ mod tests {
                     }
                 }
             });
-            let c = x8::vec3s(&x8::lanes(|k| s[k].center));
-            let r = f32x8::new(x8::lanes(|k| s[k].radius));
-            let (pp, n, u) = Sphere::surface_x8(x8::vec3s(&p), c, r);
-            let (pp, n, u) = (x8::arrays3(pp), x8::arrays3(n), x8::arrays3(u));
+            let c = simd::vec3s(&simd::lanes(|k| s[k].center));
+            let r = f32x8::new(simd::lanes(|k| s[k].radius));
+            let (pp, n, u) = Sphere::surface_x8(simd::vec3s(&p), c, r);
+            let (pp, n, u) = (simd::arrays3(pp), simd::arrays3(n), simd::arrays3(u));
             for k in 0..8 {
                 let (ep, en, eu) = s[k].surface(p[k]);
                 let v = |a: &[[f32; 8]; 3]| [a[0][k], a[1][k], a[2][k]].map(f32::to_bits);

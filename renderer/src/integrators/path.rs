@@ -16,9 +16,9 @@ use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use lobe_materials::BsdfSample;
-use lobe_materials::fastmath::x8;
 use lobe_materials::frame::Frame;
 use lobe_materials::sampling::power_heuristic;
+use lobe_materials::simd;
 
 /// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
 /// long before; this only guards against pathological scenes).
@@ -404,9 +404,9 @@ pub fn li_many(
         for (ic, pc) in ws.its.chunks(8).zip(ws.hit_paths.chunks(8)) {
             let n = ic.len();
             let (frames, wo) = shading_x8(
-                x8::lanes(|k| ic[k.min(n - 1)].ns),
-                x8::lanes(|k| ic[k.min(n - 1)].dpdu),
-                x8::lanes(|k| ws.rays[pc[k.min(n - 1)] as usize].d),
+                simd::lanes(|k| ic[k.min(n - 1)].ns),
+                simd::lanes(|k| ic[k.min(n - 1)].dpdu),
+                simd::lanes(|k| ws.rays[pc[k.min(n - 1)] as usize].d),
             );
             ws.frames.extend_from_slice(&frames[..n]);
             ws.wo.extend_from_slice(&wo[..n]);
