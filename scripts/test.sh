@@ -5,9 +5,10 @@ cd "$(dirname "$0")/.."
 cargo fmt --all -- --check
 cargo clippy --release --workspace --all-targets -- -D warnings
 cargo test --release --workspace
-# The portable forms of the SIMD helpers (what a build for baseline x86-64 without AVX
-# uses, RUSTFLAGS="-C target-cpu=x86-64": see .cargo/config.toml), tested too.
+# The portable forms of the SIMD helpers (materials/src/simd.rs and fastmath::x8: what a
+# build for baseline x86-64 without AVX uses, RUSTFLAGS="-C target-cpu=x86-64": see
+# .cargo/config.toml), tested too.
 if [ "$(uname -m)" = "x86_64" ]; then
   RUSTFLAGS="-C target-cpu=x86-64" cargo test --release -p lobe-materials \
-    --target-dir target/x86-64-baseline fastmath
+    --target-dir target/x86-64-baseline -- fastmath simd
 fi

@@ -5,7 +5,7 @@
 //! measured BRDFs), and hierarchical sample warping of a 2D grid (Clarberg et al. 2005,
 //! "Wavelet Importance Sampling"; Mitsuba 3's `Hierarchical2D`) for environment maps.
 
-use crate::fastmath::x8;
+use crate::simd;
 use glam::Vec2;
 use wide::{f32x8, u32x8};
 
@@ -353,8 +353,8 @@ impl Hierarchy2D {
     ) -> [(u32x8, u32x8, f32x8, f32x8); N] {
         let mut x = [u32x8::splat(0); N];
         let mut y = [u32x8::splat(0); N];
-        let mut ux = ux.map(|u| x8::clamp(u, 0.0, ONE_MINUS_EPS));
-        let mut uy = uy.map(|u| x8::clamp(u, 0.0, ONE_MINUS_EPS));
+        let mut ux = ux.map(|u| simd::clamp(u, 0.0, ONE_MINUS_EPS));
+        let mut uy = uy.map(|u| simd::clamp(u, 0.0, ONE_MINUS_EPS));
         let one = u32x8::splat(1);
         for level in self.levels.iter().rev() {
             for j in 0..N {
@@ -368,7 +368,7 @@ impl Hierarchy2D {
                     ]
                 } else {
                     let idx = (y[j] * u32x8::splat(level.packets_per_row as u32) + x[j]).to_array();
-                    x8::transpose4x8(&x8::lanes(|i| level.data[idx[i] as usize]))
+                    simd::transpose4x8(&simd::lanes(|i| level.data[idx[i] as usize]))
                 };
                 let (right, lower);
                 (right, lower, ux[j], uy[j]) = descend_x8(q, ux[j], uy[j]);
@@ -424,20 +424,20 @@ fn descend_x8(p: [f32x8; 4], ux: f32x8, uy: f32x8) -> (f32x8, f32x8, f32x8, f32x
     let (r0, r1) = (p[0] + p[1], p[2] + p[3]);
     let ty = uy * (r0 + r1);
     let lower = (ty.simd_ge(r0) & r1.simd_gt(zero)) | r0.simd_le(zero);
-    let c0 = x8::sel(lower, p[2], p[0]);
-    let c1 = x8::sel(lower, p[3], p[1]);
-    let dy = x8::sel(lower, r1, r0);
+    let c0 = simd::sel(lower, p[2], p[0]);
+    let c1 = simd::sel(lower, p[3], p[1]);
+    let dy = simd::sel(lower, r1, r0);
     let tx = ux * dy;
     let right = (tx.simd_ge(c0) & c1.simd_gt(zero)) | c0.simd_le(zero);
-    let dx = x8::sel(right, c1, c0);
-    let ny = x8::sel(
+    let dx = simd::sel(right, c1, c0);
+    let ny = simd::sel(
         dy.simd_gt(zero),
-        x8::clamp((ty - x8::sel(lower, r0, zero)) / dy, 0.0, ONE_MINUS_EPS),
+        simd::clamp((ty - simd::sel(lower, r0, zero)) / dy, 0.0, ONE_MINUS_EPS),
         uy,
     );
-    let nx = x8::sel(
+    let nx = simd::sel(
         dx.simd_gt(zero),
-        x8::clamp((tx - x8::sel(right, c0, zero)) / dx, 0.0, ONE_MINUS_EPS),
+        simd::clamp((tx - simd::sel(right, c0, zero)) / dx, 0.0, ONE_MINUS_EPS),
         ux,
     );
     (right, lower, nx, ny)

@@ -14,7 +14,8 @@
 //! [`x8`] has eight-lane forms of the same functions on `wide`'s AVX vectors, for the
 //! renderer's SIMD batches: the same operations lane by lane, so each lane equals the
 //! scalar function bit for bit (tested), and batched and one-at-a-time renders agree
-//! exactly.
+//! exactly. The other SIMD building blocks (lane types, transposes, selects, gathers) are
+//! in [`crate::simd`].
 
 // The coefficients are Cephes' published decimal values, kept as printed.
 #![allow(clippy::excessive_precision)]
@@ -131,105 +132,11 @@ pub fn acos(x: f32) -> f32 {
 /// lane's result equals the scalar function's bit for bit (tested below), and the
 /// renderer's batched lookups agree exactly with its one-at-a-time ones.
 pub mod x8 {
-    use glam::Vec3;
+    use crate::simd::sel;
     use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
     use wide::{f32x8, u32x8};
 
     const SIGN: u32 = 0x8000_0000;
-
-    /// `[f(0), .., f(7)]`, written out so that it always inlines (`array::map` and
-    /// `array::from_fn` do not reliably, which costs a call per lane).
-    #[inline(always)]
-    pub fn lanes<T>(f: impl Fn(usize) -> T) -> [T; 8] {
-        [f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7)]
-    }
-
-    /// Eight 4-float records as four lane vectors, `[r[0][k], .., r[7][k]]` for k = 0..4:
-    /// with AVX, eight 16-byte loads and eight shuffles (a 4x8 transpose) instead of 32
-    /// scalar loads and inserts.
-    #[inline(always)]
-    pub fn transpose4x8(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
-        {
-            // SAFETY: only needs AVX, which this build enables (the cfg above).
-            unsafe { transpose4x8_avx(r) }
-        }
-        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
-        {
-            let c = |k: usize| f32x8::new(lanes(|i| r[i][k]));
-            [c(0), c(1), c(2), c(3)]
-        }
-    }
-
-    /// [`transpose4x8`] of the rows `row(0)`, .., `row(7)`: fields that lie four floats in a
-    /// row in memory are read as one 16-byte load per lane.
-    #[inline(always)]
-    pub fn rows4(row: impl Fn(usize) -> [f32; 4]) -> [f32x8; 4] {
-        transpose4x8(&lanes(row))
-    }
-
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
-    #[target_feature(enable = "avx")]
-    #[inline]
-    fn transpose4x8_avx(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
-        use core::arch::x86_64::{
-            __m128, _mm256_castpd_ps, _mm256_castps_pd, _mm256_set_m128, _mm256_unpackhi_pd,
-            _mm256_unpackhi_ps, _mm256_unpacklo_pd, _mm256_unpacklo_ps,
-        };
-        let q = |k: usize| __m128::from(wide::f32x4::new(r[k]));
-        // Records k and k + 4 side by side: [r0 | r4], [r1 | r5], [r2 | r6], [r3 | r7].
-        let a = _mm256_set_m128(q(4), q(0));
-        let b = _mm256_set_m128(q(5), q(1));
-        let c = _mm256_set_m128(q(6), q(2));
-        let d = _mm256_set_m128(q(7), q(3));
-        // Interleave pairs of records, then pairs of pairs (within each 128-bit half).
-        let ab_lo = _mm256_castps_pd(_mm256_unpacklo_ps(a, b));
-        let ab_hi = _mm256_castps_pd(_mm256_unpackhi_ps(a, b));
-        let cd_lo = _mm256_castps_pd(_mm256_unpacklo_ps(c, d));
-        let cd_hi = _mm256_castps_pd(_mm256_unpackhi_ps(c, d));
-        [
-            f32x8::from(_mm256_castpd_ps(_mm256_unpacklo_pd(ab_lo, cd_lo))),
-            f32x8::from(_mm256_castpd_ps(_mm256_unpackhi_pd(ab_lo, cd_lo))),
-            f32x8::from(_mm256_castpd_ps(_mm256_unpacklo_pd(ab_hi, cd_hi))),
-            f32x8::from(_mm256_castpd_ps(_mm256_unpackhi_pd(ab_hi, cd_hi))),
-        ]
-    }
-
-    /// Eight vectors as their x, y and z components in three SIMD registers.
-    #[inline(always)]
-    pub fn vec3s(v: &[Vec3; 8]) -> [f32x8; 3] {
-        [
-            f32x8::new(lanes(|i| v[i].x)),
-            f32x8::new(lanes(|i| v[i].y)),
-            f32x8::new(lanes(|i| v[i].z)),
-        ]
-    }
-
-    /// The components of [`vec3s`] back as arrays (`[x, y, z]`, eight lanes each).
-    #[inline(always)]
-    pub fn arrays3(v: [f32x8; 3]) -> [[f32; 8]; 3] {
-        [v[0].to_array(), v[1].to_array(), v[2].to_array()]
-    }
-
-    /// glam's `Vec3::dot` per lane: (a.x b.x + a.y b.y) + a.z b.z.
-    #[inline(always)]
-    pub fn dot3(a: [f32x8; 3], b: [f32x8; 3]) -> f32x8 {
-        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-    }
-
-    /// `if m { a } else { b }` per lane (`m` from a comparison).
-    #[inline(always)]
-    pub fn sel(m: f32x8, a: f32x8, b: f32x8) -> f32x8 {
-        m.select(a, b)
-    }
-
-    /// `f32::clamp` per lane (NaN stays NaN).
-    #[inline(always)]
-    pub fn clamp(x: f32x8, lo: f32, hi: f32) -> f32x8 {
-        let (lo, hi) = (f32x8::splat(lo), f32x8::splat(hi));
-        let x = sel(x.simd_lt(lo), lo, x);
-        sel(x.simd_gt(hi), hi, x)
-    }
 
     /// [`super::sin_cos_moderate`] per lane.
     #[inline(always)]
@@ -324,15 +231,6 @@ pub mod x8 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn transpose4x8_puts_component_k_of_record_i_in_lane_i() {
-        let r: [[f32; 4]; 8] = x8::lanes(|i| [0, 1, 2, 3].map(|k| (10 * i + k) as f32));
-        let t = x8::transpose4x8(&r);
-        for (k, v) in t.iter().enumerate() {
-            assert_eq!(v.to_array(), x8::lanes(|i| r[i][k]), "component {k}");
-        }
-    }
 
     #[test]
     fn sin_cos_matches_f64() {

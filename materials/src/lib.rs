@@ -36,6 +36,7 @@ pub mod ngan_fit;
 pub mod quadrature;
 pub mod registry;
 pub mod sampling;
+pub mod simd;
 
 pub use bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 pub use error::{FileError, ParamError};

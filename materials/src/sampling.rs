@@ -4,6 +4,7 @@
 //! 1997) and Malley's method for the cosine-weighted hemisphere.
 
 use crate::fastmath::x8;
+use crate::simd;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
 use wide::f32x8;
@@ -36,13 +37,16 @@ pub fn square_to_disk_concentric_x8(ux: f32x8, uy: f32x8) -> (f32x8, f32x8) {
     let (one, two, zero) = (f32x8::splat(1.0), f32x8::splat(2.0), f32x8::splat(0.0));
     let (ox, oy) = (two * ux - one, two * uy - one);
     let wide = ox.abs().simd_gt(oy.abs());
-    let r = x8::sel(wide, ox, oy);
+    let r = simd::sel(wide, ox, oy);
     let theta_x = f32x8::splat(FRAC_PI_4) * (oy / ox);
     let theta_y = f32x8::splat(FRAC_PI_2) - f32x8::splat(FRAC_PI_4) * (ox / oy);
-    let theta = x8::sel(wide, theta_x, theta_y);
+    let theta = simd::sel(wide, theta_x, theta_y);
     let (s, c) = x8::sin_cos_moderate(theta);
     let centre = ox.simd_eq(zero) & oy.simd_eq(zero);
-    (x8::sel(centre, zero, r * c), x8::sel(centre, zero, r * s))
+    (
+        simd::sel(centre, zero, r * c),
+        simd::sel(centre, zero, r * s),
+    )
 }
 
 /// [`square_to_cosine_hemisphere`] in eight lanes (bit for bit the same): (x, y, z).
@@ -143,8 +147,8 @@ pub fn sample_linear_x8(u: f32x8, a: f32x8, b: f32x8) -> f32x8 {
     let (zero, one) = (f32x8::splat(0.0), f32x8::splat(1.0));
     let denom = a + ((one - u) * a * a + u * b * b).max(zero).sqrt();
     let x = (u * (a + b) / denom).min(f32x8::splat(1.0 - f32::EPSILON / 2.0));
-    let x = x8::sel(denom.simd_gt(zero), x, u);
-    x8::sel(u.simd_eq(zero) & a.simd_eq(zero), zero, x)
+    let x = simd::sel(denom.simd_gt(zero), x, u);
+    simd::sel(u.simd_eq(zero) & a.simd_eq(zero), zero, x)
 }
 
 /// [`square_to_bilinear`] in eight lanes (bit for bit the same): `w` holds the corner

@@ -12,7 +12,7 @@
 
 use crate::geometry::Ray;
 use glam::{Mat4, Vec2, Vec3};
-use lobe_materials::fastmath::x8;
+use lobe_materials::simd;
 use wide::f32x8;
 
 /// The axis along which a perspective field of view is measured.
@@ -182,11 +182,11 @@ impl Camera {
         let m = [axis(0), axis(1), axis(2)];
         for jc in jitter.chunks(8) {
             let n = jc.len();
-            let j = x8::lanes(|i| jc[i.min(n - 1)]);
+            let j = simd::lanes(|i| jc[i.min(n - 1)]);
             let sx =
-                (f32x8::splat(pixel.x) + f32x8::new(x8::lanes(|i| j[i].x))) * f32x8::splat(inv.x);
+                (f32x8::splat(pixel.x) + f32x8::new(simd::lanes(|i| j[i].x))) * f32x8::splat(inv.x);
             let sy =
-                (f32x8::splat(pixel.y) + f32x8::new(x8::lanes(|i| j[i].y))) * f32x8::splat(inv.y);
+                (f32x8::splat(pixel.y) + f32x8::new(simd::lanes(|i| j[i].y))) * f32x8::splat(inv.y);
             let x = (one - two * sx) * tan_half;
             let y = (one - two * sy) * tan_half / f32x8::splat(*aspect);
             let len = (x * x + y * y + one).sqrt();
@@ -201,7 +201,7 @@ impl Camera {
                 f32x8::splat(o.y) + d[1] * s,
                 f32x8::splat(o.z) + d[2] * s,
             ];
-            let (d, org) = (x8::arrays3(d), x8::arrays3(org));
+            let (d, org) = (simd::arrays3(d), simd::arrays3(org));
             out.extend((0..n).map(|i| {
                 Ray::new(
                     Vec3::new(org[0][i], org[1][i], org[2][i]),

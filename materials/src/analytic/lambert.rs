@@ -6,7 +6,7 @@
 
 use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
-use crate::fastmath::{select, x8};
+use crate::fastmath::select;
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
@@ -14,6 +14,7 @@ use crate::registry::{
 use crate::sampling::{
     cosine_hemisphere_pdf, square_to_cosine_hemisphere, square_to_cosine_hemisphere_x8,
 };
+use crate::simd;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -70,11 +71,11 @@ impl Bsdf for Lambert {
             .zip(pdf.chunks_mut(8))
         {
             let n = fc.len();
-            let zo = f32x8::new(x8::lanes(|i| oc[i.min(n - 1)].z));
-            let zi = f32x8::new(x8::lanes(|i| ic[i.min(n - 1)].z));
+            let zo = f32x8::new(simd::lanes(|i| oc[i.min(n - 1)].z));
+            let zi = f32x8::new(simd::lanes(|i| ic[i.min(n - 1)].z));
             let above = zo.simd_gt(zero) & zi.simd_gt(zero);
-            let s = x8::sel(above, inv_pi, zero).to_array();
-            let p = x8::sel(above, zi.max(zero) * inv_pi, zero).to_array();
+            let s = simd::sel(above, inv_pi, zero).to_array();
+            let p = simd::sel(above, zi.max(zero) * inv_pi, zero).to_array();
             for i in 0..n {
                 fc[i] = self.reflectance * s[i];
                 pc[i] = p[i];
@@ -87,10 +88,10 @@ impl Bsdf for Lambert {
         assert!(wo.len() == out.len() && u.len() == out.len());
         for ((wc, uc), oc) in wo.chunks(8).zip(u.chunks(8)).zip(out.chunks_mut(8)) {
             let n = oc.len();
-            let uu = x8::lanes(|i| uc[i.min(n - 1)]);
+            let uu = simd::lanes(|i| uc[i.min(n - 1)]);
             let [x, y, z] = square_to_cosine_hemisphere_x8(
-                f32x8::new(x8::lanes(|i| uu[i].x)),
-                f32x8::new(x8::lanes(|i| uu[i].y)),
+                f32x8::new(simd::lanes(|i| uu[i].x)),
+                f32x8::new(simd::lanes(|i| uu[i].y)),
             );
             // cosine_hemisphere_pdf, per lane.
             let pdf = (z.max(f32x8::splat(0.0)) * f32x8::splat(FRAC_1_PI)).to_array();

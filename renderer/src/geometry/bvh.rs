@@ -6,7 +6,7 @@ use super::bvh8::Bvh8;
 use super::kernels::{self, RayLanes};
 use super::{Interaction, Mesh, Ray, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3, Vec3A};
-use lobe_materials::fastmath::x8;
+use lobe_materials::simd;
 use obvhs::Boundable;
 use obvhs::aabb::Aabb;
 use wide::{f32x8, u32x8};
@@ -183,7 +183,7 @@ impl Geometry {
                 // A lane's skipped primitive counts as a miss, as in `closest_brute_force`.
                 let not_skipped = f32x8::from_bits(!skip.simd_eq(u32x8::splat(j as u32)));
                 let closer = t.simd_lt(lanes.tmax) & not_skipped;
-                lanes.tmax = x8::sel(closer, t, lanes.tmax);
+                lanes.tmax = simd::sel(closer, t, lanes.tmax);
                 best = closer.to_bits().select(u32x8::splat(j as u32), best);
             }
             let (t, best) = (lanes.tmax.to_array(), best.to_array());
@@ -258,15 +258,15 @@ impl Geometry {
         let hit = |k: usize| hits[which[k.min(n - 1)]];
         let (lanes, _) = Self::ray_lanes(|k| &rays[hit(k).0 as usize]);
         let (o, d) = (lanes.o, lanes.d);
-        let t = f32x8::new(x8::lanes(|k| hit(k).1));
-        let cr = x8::rows4(|k| match &self.prims[hit(k).2 as usize].kind {
+        let t = f32x8::new(simd::lanes(|k| hit(k).1));
+        let cr = simd::rows4(|k| match &self.prims[hit(k).2 as usize].kind {
             PrimKind::Sphere(s) => [s.center.x, s.center.y, s.center.z, s.radius],
             _ => unreachable!("sphere hits only"),
         });
         // Ray::at: o + d t.
         let at = [o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t];
         let (p, nrm, dpdu) = Sphere::surface_x8(at, [cr[0], cr[1], cr[2]], cr[3]);
-        let (p, nrm, dpdu) = (x8::arrays3(p), x8::arrays3(nrm), x8::arrays3(dpdu));
+        let (p, nrm, dpdu) = (simd::arrays3(p), simd::arrays3(nrm), simd::arrays3(dpdu));
         for (k, &h) in which.iter().enumerate() {
             let (_, t, prim) = hits[h];
             let shape = self.prims[prim as usize].shape;
@@ -296,11 +296,11 @@ impl Geometry {
     /// read as two 4x8 transposes.
     #[inline(always)]
     fn ray_lanes<'a>(ray: impl Fn(usize) -> &'a Ray) -> (RayLanes, u32x8) {
-        let a = x8::transpose4x8(&x8::lanes(|k| {
+        let a = simd::transpose4x8(&simd::lanes(|k| {
             let r = ray(k);
             [r.o.x, r.o.y, r.o.z, r.d.x]
         }));
-        let b = x8::transpose4x8(&x8::lanes(|k| {
+        let b = simd::transpose4x8(&simd::lanes(|k| {
             let r = ray(k);
             [r.d.y, r.d.z, r.tmin, r.tmax]
         }));
@@ -310,7 +310,7 @@ impl Geometry {
             tmin: b[2],
             tmax: b[3],
         };
-        (lanes, u32x8::new(x8::lanes(|k| ray(k).skip)))
+        (lanes, u32x8::new(simd::lanes(|k| ray(k).skip)))
     }
 
     /// Closest hit with its local geometry.

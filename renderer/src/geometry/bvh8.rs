@@ -22,7 +22,7 @@ use super::bvh::{PrimKind, Primitive};
 use super::kernels::{self, RayLanes};
 #[cfg(doc)]
 use super::{Rectangle, Sphere, Triangle};
-use lobe_materials::fastmath::x8::sel;
+use lobe_materials::simd::sel;
 use obvhs::bvh2::Bvh2;
 use obvhs::{Boundable, BvhBuildParams};
 use std::mem::MaybeUninit;

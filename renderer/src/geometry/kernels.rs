@@ -8,7 +8,7 @@
 
 #[cfg(doc)]
 use super::{Rectangle, Sphere, Triangle};
-use lobe_materials::fastmath::x8::{dot3 as dot, sel};
+use lobe_materials::simd::{dot3 as dot, sel};
 use wide::f32x8;
 
 /// Eight lanes of a 3-vector, one array per axis.

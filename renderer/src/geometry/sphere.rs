@@ -5,7 +5,7 @@
 
 use super::Ray;
 use glam::{Vec2, Vec3};
-use lobe_materials::fastmath::x8;
+use lobe_materials::simd;
 use std::f32::consts::{PI, TAU};
 use wide::f32x8;
 
@@ -78,29 +78,29 @@ impl Sphere {
     ) -> ([f32x8; 3], [f32x8; 3], [f32x8; 3]) {
         let (zero, one) = (f32x8::splat(0.0), f32x8::splat(1.0));
         let local = [p_approx[0] - c[0], p_approx[1] - c[1], p_approx[2] - c[2]];
-        let len = x8::dot3(local, local).sqrt();
+        let len = simd::dot3(local, local).sqrt();
         // local *= radius / len where len > 0, else (0, 0, radius).
         let pos = len.simd_gt(zero);
         let k = r / len;
         let local = [
-            x8::sel(pos, local[0] * k, zero),
-            x8::sel(pos, local[1] * k, zero),
-            x8::sel(pos, local[2] * k, r),
+            simd::sel(pos, local[0] * k, zero),
+            simd::sel(pos, local[1] * k, zero),
+            simd::sel(pos, local[2] * k, r),
         ];
         // (local / radius).normalize(): times 1 / length.
         let q = [local[0] / r, local[1] / r, local[2] / r];
-        let inv = one / x8::dot3(q, q).sqrt();
+        let inv = one / simd::dot3(q, q).sqrt();
         let n = [q[0] * inv, q[1] * inv, q[2] * inv];
         let p = [c[0] + local[0], c[1] + local[1], c[2] + local[2]];
         // dpdu = (-local.y, local.x, 0), normalized where not zero, else +x.
         let u = [-local[1], local[0], zero];
-        let l2 = x8::dot3(u, u);
+        let l2 = simd::dot3(u, u);
         let some = l2.simd_gt(zero);
         let inv = one / l2.sqrt();
         let dpdu = [
-            x8::sel(some, u[0] * inv, one),
-            x8::sel(some, u[1] * inv, zero),
-            x8::sel(some, u[2] * inv, zero),
+            simd::sel(some, u[0] * inv, one),
+            simd::sel(some, u[1] * inv, zero),
+            simd::sel(some, u[2] * inv, zero),
         ];
         (p, n, dpdu)
     }
@@ -143,8 +143,8 @@ mod tests {
             },
         ];
         for round in 0..96 {
-            let s = x8::lanes(|k| spheres[(round + k) % 3]);
-            let p = x8::lanes(|k| {
+            let s = simd::lanes(|k| spheres[(round + k) % 3]);
+            let p = simd::lanes(|k| {
                 let t = (round * 8 + k) as f32;
                 let c = s[k].center;
                 match (round + k) % 9 {
@@ -157,10 +157,10 @@ mod tests {
                     }
                 }
             });
-            let c = x8::vec3s(&x8::lanes(|k| s[k].center));
-            let r = f32x8::new(x8::lanes(|k| s[k].radius));
-            let (pp, n, u) = Sphere::surface_x8(x8::vec3s(&p), c, r);
-            let (pp, n, u) = (x8::arrays3(pp), x8::arrays3(n), x8::arrays3(u));
+            let c = simd::vec3s(&simd::lanes(|k| s[k].center));
+            let r = f32x8::new(simd::lanes(|k| s[k].radius));
+            let (pp, n, u) = Sphere::surface_x8(simd::vec3s(&p), c, r);
+            let (pp, n, u) = (simd::arrays3(pp), simd::arrays3(n), simd::arrays3(u));
             for k in 0..8 {
                 let (ep, en, eu) = s[k].surface(p[k]);
                 let v = |a: &[[f32; 8]; 3]| [a[0][k], a[1][k], a[2][k]].map(f32::to_bits);

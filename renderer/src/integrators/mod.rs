@@ -15,8 +15,8 @@ use crate::scene::Scene;
 use crate::{Rgb, geometry::Ray, sampler::Sampler};
 use glam::Vec3;
 use lobe_materials::Bsdf;
-use lobe_materials::fastmath::x8;
 use lobe_materials::frame::Frame;
+use lobe_materials::simd;
 use wide::f32x8;
 
 /// Which light transport algorithm renders the image.
@@ -124,8 +124,8 @@ impl<'a> Shading<'a> {
 /// arithmetic of [`Frame::from_normal_tangent`], `to_local` and `normalize` in SIMD lanes;
 /// lanes whose tangent is degenerate take the scalar fallback.
 pub(crate) fn shading_x8(ns: [Vec3; 8], dpdu: [Vec3; 8], d: [Vec3; 8]) -> ([Frame; 8], [Vec3; 8]) {
-    let dot = x8::dot3;
-    let (n, u, dir) = (x8::vec3s(&ns), x8::vec3s(&dpdu), x8::vec3s(&d));
+    let dot = simd::dot3;
+    let (n, u, dir) = (simd::vec3s(&ns), simd::vec3s(&dpdu), simd::vec3s(&d));
     // s = dpdu - n (n . dpdu), normalized by division; t = n x s (glam's cross).
     let nd = dot(n, u);
     let s = [u[0] - n[0] * nd, u[1] - n[1] * nd, u[2] - n[2] * nd];
@@ -143,17 +143,17 @@ pub(crate) fn shading_x8(ns: [Vec3; 8], dpdu: [Vec3; 8], d: [Vec3; 8]) -> ([Fram
     let inv = f32x8::splat(1.0) / dot(wl, wl).sqrt();
     let wl = [wl[0] * inv, wl[1] * inv, wl[2] * inv];
     let (sa, ta, wa, l2) = (
-        x8::arrays3(s),
-        x8::arrays3(t),
-        x8::arrays3(wl),
+        simd::arrays3(s),
+        simd::arrays3(t),
+        simd::arrays3(wl),
         len2.to_array(),
     );
-    let mut frames = x8::lanes(|i| Frame {
+    let mut frames = simd::lanes(|i| Frame {
         s: Vec3::new(sa[0][i], sa[1][i], sa[2][i]),
         t: Vec3::new(ta[0][i], ta[1][i], ta[2][i]),
         n: ns[i],
     });
-    let mut wo = x8::lanes(|i| Vec3::new(wa[0][i], wa[1][i], wa[2][i]));
+    let mut wo = simd::lanes(|i| Vec3::new(wa[0][i], wa[1][i], wa[2][i]));
     for i in 0..8 {
         if !(l2[i] > 1e-12) || !l2[i].is_finite() {
             frames[i] = Frame::from_normal_tangent(ns[i], dpdu[i]);
@@ -215,14 +215,14 @@ mod tests {
             Vec3::new(t.sin(), (1.7 * t).cos(), (0.3 * t).sin() + 0.2).normalize()
         };
         for round in 0..64 {
-            let ns = x8::lanes(|i| v(round * 8 + i, 0.77));
-            let dpdu = x8::lanes(|i| match (round + i) % 11 {
+            let ns = simd::lanes(|i| v(round * 8 + i, 0.77));
+            let dpdu = simd::lanes(|i| match (round + i) % 11 {
                 0 => Vec3::ZERO,
                 1 => ns[i] * 2.0,
                 2 => Vec3::new(f32::NAN, 0.0, 1.0),
                 _ => v(round * 8 + i, 1.31) * 3.0,
             });
-            let d = x8::lanes(|i| -v(round * 8 + i, 0.53));
+            let d = simd::lanes(|i| -v(round * 8 + i, 0.53));
             let (frames, wo) = shading_x8(ns, dpdu, d);
             for i in 0..8 {
                 let f = Frame::from_normal_tangent(ns[i], dpdu[i]);

@@ -36,9 +36,9 @@ use crate::lights::LightSamples;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
-use lobe_materials::fastmath::x8;
 use lobe_materials::frame::Frame;
 use lobe_materials::sampling::power_heuristic;
+use lobe_materials::simd;
 use lobe_materials::{Bsdf, BsdfSample};
 
 /// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
@@ -357,9 +357,9 @@ impl Wavefront {
         for (ic, pc) in h.it.chunks(8).zip(h.path.chunks(8)) {
             let n = ic.len();
             let (frames, wo) = shading_x8(
-                x8::lanes(|k| ic[k.min(n - 1)].ns),
-                x8::lanes(|k| ic[k.min(n - 1)].dpdu),
-                x8::lanes(|k| p.ray[pc[k.min(n - 1)] as usize].d),
+                simd::lanes(|k| ic[k.min(n - 1)].ns),
+                simd::lanes(|k| ic[k.min(n - 1)].dpdu),
+                simd::lanes(|k| p.ray[pc[k.min(n - 1)] as usize].d),
             );
             s.frame.extend_from_slice(&frames[..n]);
             s.wo.extend_from_slice(&wo[..n]);

@@ -30,6 +30,7 @@ use glam::{Mat3, Vec2, Vec3};
 use lobe_materials::distribution::Hierarchy2D;
 use lobe_materials::fastmath::{self, x8};
 use lobe_materials::sampling::{square_to_bilinear, square_to_bilinear_x8};
+use lobe_materials::simd;
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
 use wide::{f32x8, i32x8};
@@ -40,7 +41,7 @@ pub struct EnvMap {
     height: usize,
     /// H rows of W + 1 pixels, three floats (r, g, b) each: the last column repeats the
     /// first (periodic boundary). Flat, so that the SIMD lookups load a pixel pair of
-    /// eight cells as 16-byte rows and transpose them ([`x8::transpose4x8`]).
+    /// eight cells as 16-byte rows and transpose them ([`simd::transpose4x8`]).
     data: Vec<f32>,
     scale: f32,
     to_world: Mat3,
@@ -272,12 +273,12 @@ impl EnvMap {
     /// read as two 4x8 transposes, with one bounds check per lane.
     #[inline(always)]
     fn pixel_pairs(&self, k: &[usize; 8], offset: usize) -> (Rgb8, Rgb8) {
-        let p = x8::lanes(|i| {
+        let p = simd::lanes(|i| {
             let s = &self.data[3 * k[i] + offset..3 * k[i] + offset + 6];
             ([s[0], s[1], s[2], s[3]], [s[2], s[3], s[4], s[5]])
         });
-        let a = x8::transpose4x8(&x8::lanes(|i| p[i].0));
-        let b = x8::transpose4x8(&x8::lanes(|i| p[i].1));
+        let a = simd::transpose4x8(&simd::lanes(|i| p[i].0));
+        let b = simd::transpose4x8(&simd::lanes(|i| p[i].1));
         (
             Rgb8 {
                 r: a[0],
@@ -341,8 +342,8 @@ impl EnvMap {
     #[inline(always)]
     fn row_sines(&self, iy: [usize; 8]) -> (f32x8, f32x8) {
         (
-            f32x8::new(x8::lanes(|i| self.sin_row[iy[i]])),
-            f32x8::new(x8::lanes(|i| self.sin_row[iy[i] + 1])),
+            f32x8::new(simd::lanes(|i| self.sin_row[iy[i]])),
+            f32x8::new(simd::lanes(|i| self.sin_row[iy[i] + 1])),
         )
     }
 
@@ -356,13 +357,13 @@ impl EnvMap {
         let zero = f32x8::splat(0.0);
         for (dc, oc) in dirs.chunks(8).zip(out.chunks_mut(8)) {
             let n = dc.len();
-            let d = x8::lanes(|i| dc[i.min(n - 1)]);
-            let [dx, dy, dz] = x8::vec3s(&d);
+            let d = simd::lanes(|i| dc[i.min(n - 1)]);
+            let [dx, dy, dz] = simd::vec3s(&d);
             let [lx, ly, lz] = mat3_mul_x8(&self.to_local, dx, dy, dz);
             // Texture coordinates ([`EnvMap::uv_of`]).
             let u = x8::atan2(lx, -lz) * f32x8::splat(1.0 / TAU);
-            let u = x8::sel(u.simd_lt(zero), u + f32x8::splat(1.0), u);
-            let v = x8::acos(x8::clamp(ly, -1.0, 1.0)) * f32x8::splat(1.0 / PI);
+            let u = simd::sel(u.simd_lt(zero), u + f32x8::splat(1.0), u);
+            let v = x8::acos(simd::clamp(ly, -1.0, 1.0)) * f32x8::splat(1.0 / PI);
             let st = (lx * lx + lz * lz).sqrt();
             // The bilinear cell ([`EnvMap::texel_cell`]).
             let x = u - f32x8::splat(0.5 / w as f32);
@@ -379,13 +380,13 @@ impl EnvMap {
             let fx = x - f32x8::from_i32x8(ix);
             let fy = y - f32x8::from_i32x8(iy);
             let (ix, iy) = (ix.to_array(), iy.to_array());
-            let iy = x8::lanes(|i| iy[i] as usize);
-            let k = x8::lanes(|i| iy[i] * (w + 1) + ix[i] as usize);
+            let iy = simd::lanes(|i| iy[i] as usize);
+            let k = simd::lanes(|i| iy[i] * (w + 1) + ix[i] as usize);
             let t = self.gather_corners(k);
             let (s_top, s_bottom) = self.row_sines(iy);
             let (texel, density) = self.blend_x8(&t, s_top, s_bottom, fx, fy);
             let radiance = texel.scale(self.scale);
-            let pdf = x8::sel(
+            let pdf = simd::sel(
                 st.simd_le(f32x8::splat(1e-7)),
                 zero,
                 density / (f32x8::splat(2.0 * PI * PI) * st),
@@ -413,10 +414,10 @@ impl EnvMap {
         for (c2, uc2) in us.chunks(8 * GROUPS).enumerate() {
             let group = |uc: &[Vec2]| {
                 let n = uc.len().min(8);
-                let u = x8::lanes(|i| uc[i.min(n - 1)]);
+                let u = simd::lanes(|i| uc[i.min(n - 1)]);
                 (
-                    f32x8::new(x8::lanes(|i| u[i].x)),
-                    f32x8::new(x8::lanes(|i| u[i].y)),
+                    f32x8::new(simd::lanes(|i| u[i].x)),
+                    f32x8::new(simd::lanes(|i| u[i].y)),
                 )
             };
             let g0 = group(uc2);
@@ -435,8 +436,8 @@ impl EnvMap {
                 let n = uc.len();
                 let (cx, cy, rx, ry) = cells[g];
                 let (ix, iy) = (cx.to_array(), cy.to_array());
-                let iy_us = x8::lanes(|i| iy[i] as usize);
-                let k = x8::lanes(|i| iy_us[i] * (self.width + 1) + ix[i] as usize);
+                let iy_us = simd::lanes(|i| iy[i] as usize);
+                let k = simd::lanes(|i| iy_us[i] * (self.width + 1) + ix[i] as usize);
                 let t = self.gather_corners(k);
                 let (s_top, s_bottom) = self.row_sines(iy_us);
                 // Within the cell, the bilinear density of the corner weights.
@@ -446,12 +447,12 @@ impl EnvMap {
                     let cw = self.corner_weights_x8(&t, s_top, s_bottom);
                     square_to_bilinear_x8(rx, ry, cw)
                 };
-                let cxf = f32x8::new(x8::lanes(|i| ix[i] as f32));
-                let cyf = f32x8::new(x8::lanes(|i| iy[i] as f32));
+                let cxf = f32x8::new(simd::lanes(|i| ix[i] as f32));
+                let cyf = f32x8::new(simd::lanes(|i| iy[i] as f32));
                 let ax = ((cxf + fx) / f32x8::splat(w)).min(one_minus_eps);
                 let vv = ((cyf + fy) / f32x8::splat(h)).min(one_minus_eps);
                 let x = ax + f32x8::splat(0.5 / w);
-                let uu = x8::sel(x.simd_ge(f32x8::splat(1.0)), x - f32x8::splat(1.0), x);
+                let uu = simd::sel(x.simd_ge(f32x8::splat(1.0)), x - f32x8::splat(1.0), x);
                 let (st, ct) = x8::sin_cos_moderate(vv * f32x8::splat(PI));
                 let (sp, cp) = x8::sin_cos_moderate(uu * f32x8::splat(TAU));
                 let (texel, pdf_ab) = self.blend_x8(&t, s_top, s_bottom, fx, fy);
@@ -459,7 +460,7 @@ impl EnvMap {
                 let [dx, dy, dz] = mat3_mul_x8(&self.to_world, st * sp, ct, -(st * cp));
                 let radiance = texel.scale(self.scale);
                 let p = pdf_ab / (f32x8::splat(2.0 * PI * PI) * st);
-                let [dx, dy, dz] = x8::arrays3([dx, dy, dz]);
+                let [dx, dy, dz] = simd::arrays3([dx, dy, dz]);
                 let (valid, p) = (valid.to_array(), p.to_array());
                 let base = 8 * (GROUPS * c2 + g);
                 for i in 0..n {

@@ -1,0 +1,595 @@
+//! SIMD building blocks of lobe: eight-lane types and helpers over `wide`'s AVX vectors,
+//! shared by the materials' batched kernels (`Bsdf::eval_pdf_many`, `Bsdf::sample_many`)
+//! and the renderer's wavefront stages (camera rays, sphere tests, shading frames, env-map
+//! lookups and sampling).
+//!
+//! Every batched kernel of lobe must give, in each lane, bit for bit what its one-at-a-time
+//! scalar form gives (the wavefront integrator is tested against the scalar one), so the
+//! operations here are the scalar ones in the same order per lane: [`Vec3x8::dot`] is
+//! glam's `(x x' + y y') + z z'`, [`Vec3x8::normalize`] multiplies by `1 / length` as glam
+//! does, [`fmadd`] is fused in every build as `f32::mul_add` is, and [`Rgbx8::luminance`]
+//! is [`Rgb::luminance`]. The eight-lane forms of the transcendental approximations
+//! (`sin_cos`, `atan2`, `acos`, `asin`) live beside their scalar forms in
+//! [`crate::fastmath::x8`].
+//!
+//! Contents: [`lanes`] and [`padded`] (arrays of eight, written out so they inline),
+//! transposes of eight records into lane vectors ([`transpose4x8`], [`rows4`], [`vec3s`],
+//! [`arrays3`]), per-lane select and clamp ([`sel`], [`clamp`]), masks ([`Mask8`],
+//! [`mask_from_bools`], [`mask_bits`]), [`gather`], [`fmadd`], and the small types
+//! [`Vec3x8`] and [`Rgbx8`].
+
+use crate::Rgb;
+use glam::Vec3;
+use std::ops::{Add, Mul, Neg, Sub};
+pub use wide::{f32x8, i32x8, u32x8};
+
+/// Lanes per vector.
+pub const LANES: usize = 8;
+
+/// A per-lane condition: all bits set (true) or clear (false) in each lane, as `wide`'s
+/// comparisons (`simd_lt`, `simd_eq`, ...) return it; `&`, `|` and `!` combine masks.
+pub type Mask8 = f32x8;
+
+/// `[f(0), .., f(7)]`, written out so that it always inlines (`array::map` and
+/// `array::from_fn` do not reliably, which costs a call per lane).
+#[inline(always)]
+pub fn lanes<T>(f: impl Fn(usize) -> T) -> [T; 8] {
+    [f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7)]
+}
+
+/// The first eight elements of a chunk of one to eight, the last repeated into the lanes
+/// past its end (so that those lanes compute something valid, to be ignored).
+#[inline(always)]
+pub fn padded<T: Copy>(chunk: &[T]) -> [T; 8] {
+    let n = chunk.len();
+    assert!((1..=LANES).contains(&n), "a chunk of 1 to 8 elements");
+    lanes(|i| chunk[i.min(n - 1)])
+}
+
+/// Eight 4-float records as four lane vectors, `[r[0][k], .., r[7][k]]` for k = 0..4:
+/// with AVX, eight 16-byte loads and eight shuffles (a 4x8 transpose) instead of 32
+/// scalar loads and inserts.
+#[inline(always)]
+pub fn transpose4x8(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+    {
+        // SAFETY: only needs AVX, which this build enables (the cfg above).
+        unsafe { transpose4x8_avx(r) }
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
+    {
+        let c = |k: usize| f32x8::new(lanes(|i| r[i][k]));
+        [c(0), c(1), c(2), c(3)]
+    }
+}
+
+/// [`transpose4x8`] of the rows `row(0)`, .., `row(7)`: fields that lie four floats in a
+/// row in memory are read as one 16-byte load per lane.
+#[inline(always)]
+pub fn rows4(row: impl Fn(usize) -> [f32; 4]) -> [f32x8; 4] {
+    transpose4x8(&lanes(row))
+}
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+#[target_feature(enable = "avx")]
+#[inline]
+fn transpose4x8_avx(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
+    use core::arch::x86_64::{
+        __m128, _mm256_castpd_ps, _mm256_castps_pd, _mm256_set_m128, _mm256_unpackhi_pd,
+        _mm256_unpackhi_ps, _mm256_unpacklo_pd, _mm256_unpacklo_ps,
+    };
+    let q = |k: usize| __m128::from(wide::f32x4::new(r[k]));
+    // Records k and k + 4 side by side: [r0 | r4], [r1 | r5], [r2 | r6], [r3 | r7].
+    let a = _mm256_set_m128(q(4), q(0));
+    let b = _mm256_set_m128(q(5), q(1));
+    let c = _mm256_set_m128(q(6), q(2));
+    let d = _mm256_set_m128(q(7), q(3));
+    // Interleave pairs of records, then pairs of pairs (within each 128-bit half).
+    let ab_lo = _mm256_castps_pd(_mm256_unpacklo_ps(a, b));
+    let ab_hi = _mm256_castps_pd(_mm256_unpackhi_ps(a, b));
+    let cd_lo = _mm256_castps_pd(_mm256_unpacklo_ps(c, d));
+    let cd_hi = _mm256_castps_pd(_mm256_unpackhi_ps(c, d));
+    [
+        f32x8::from(_mm256_castpd_ps(_mm256_unpacklo_pd(ab_lo, cd_lo))),
+        f32x8::from(_mm256_castpd_ps(_mm256_unpackhi_pd(ab_lo, cd_lo))),
+        f32x8::from(_mm256_castpd_ps(_mm256_unpacklo_pd(ab_hi, cd_hi))),
+        f32x8::from(_mm256_castpd_ps(_mm256_unpackhi_pd(ab_hi, cd_hi))),
+    ]
+}
+
+/// Eight vectors as their x, y and z components in three SIMD registers.
+#[inline(always)]
+pub fn vec3s(v: &[Vec3; 8]) -> [f32x8; 3] {
+    [
+        f32x8::new(lanes(|i| v[i].x)),
+        f32x8::new(lanes(|i| v[i].y)),
+        f32x8::new(lanes(|i| v[i].z)),
+    ]
+}
+
+/// The components of [`vec3s`] back as arrays (`[x, y, z]`, eight lanes each).
+#[inline(always)]
+pub fn arrays3(v: [f32x8; 3]) -> [[f32; 8]; 3] {
+    [v[0].to_array(), v[1].to_array(), v[2].to_array()]
+}
+
+/// glam's `Vec3::dot` per lane: (a.x b.x + a.y b.y) + a.z b.z.
+#[inline(always)]
+pub fn dot3(a: [f32x8; 3], b: [f32x8; 3]) -> f32x8 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `if m { a } else { b }` per lane (`m` from a comparison).
+#[inline(always)]
+pub fn sel(m: Mask8, a: f32x8, b: f32x8) -> f32x8 {
+    m.select(a, b)
+}
+
+/// `f32::clamp` per lane (NaN stays NaN).
+#[inline(always)]
+pub fn clamp(x: f32x8, lo: f32, hi: f32) -> f32x8 {
+    let (lo, hi) = (f32x8::splat(lo), f32x8::splat(hi));
+    let x = sel(x.simd_lt(lo), lo, x);
+    sel(x.simd_gt(hi), hi, x)
+}
+
+/// A mask with lane i set where `b[i]`.
+#[inline(always)]
+pub fn mask_from_bools(b: [bool; 8]) -> Mask8 {
+    f32x8::from_bits(u32x8::new(lanes(|i| 0u32.wrapping_sub(b[i] as u32))))
+}
+
+/// Bit i set where lane i of the mask is set.
+#[inline(always)]
+pub fn mask_bits(m: Mask8) -> u32 {
+    m.to_bitmask()
+}
+
+/// `table[idx[i]]` in lane i (eight scalar loads: on the CPUs lobe is measured on, AVX2's
+/// gather instruction is slower than that; docs/performance.md).
+#[inline(always)]
+pub fn gather(table: &[f32], idx: [usize; 8]) -> f32x8 {
+    f32x8::new(lanes(|i| table[idx[i]]))
+}
+
+/// The scalar twin of `f32x8::max` (`wide`'s): `if lo < x { x } else { lo }`, so NaN and
+/// -0.0 against +0.0 give `lo`. Scalar forms of batched kernels use it where they clamp:
+/// `f32::max` gives -0.0 for `(-0.0).max(0.0)` in some builds and +0.0 in others.
+#[inline(always)]
+pub fn max_lane(x: f32, lo: f32) -> f32 {
+    if lo < x { x } else { lo }
+}
+
+/// `a * b + c` per lane with a single rounding, as `f32::mul_add` gives it, in every build
+/// (`wide`'s `mul_add` rounds twice when the target has no FMA unit).
+#[inline(always)]
+pub fn fmadd(a: f32x8, b: f32x8, c: f32x8) -> f32x8 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "fma"))]
+    {
+        a.mul_add(b, c)
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "fma")))]
+    {
+        let (a, b, c) = (a.to_array(), b.to_array(), c.to_array());
+        f32x8::new(lanes(|i| a[i].mul_add(b[i], c[i])))
+    }
+}
+
+/// Eight 3-vectors, one component per register.
+#[derive(Clone, Copy, Debug)]
+pub struct Vec3x8 {
+    pub x: f32x8,
+    pub y: f32x8,
+    pub z: f32x8,
+}
+
+impl Vec3x8 {
+    #[inline(always)]
+    pub fn new(x: f32x8, y: f32x8, z: f32x8) -> Self {
+        Self { x, y, z }
+    }
+
+    /// The same vector in every lane.
+    #[inline(always)]
+    pub fn splat(v: Vec3) -> Self {
+        Self::new(f32x8::splat(v.x), f32x8::splat(v.y), f32x8::splat(v.z))
+    }
+
+    /// Eight vectors, vector i in lane i.
+    #[inline(always)]
+    pub fn from_array(v: &[Vec3; 8]) -> Self {
+        Self::from(vec3s(v))
+    }
+
+    /// A chunk of one to eight vectors ([`padded`]).
+    #[inline(always)]
+    pub fn from_chunk(chunk: &[Vec3]) -> Self {
+        Self::from_array(&padded(chunk))
+    }
+
+    /// Lane i as a glam vector.
+    #[inline(always)]
+    pub fn lane(&self, i: usize) -> Vec3 {
+        Vec3::new(
+            self.x.as_array()[i],
+            self.y.as_array()[i],
+            self.z.as_array()[i],
+        )
+    }
+
+    /// The eight vectors.
+    #[inline(always)]
+    pub fn to_array(self) -> [Vec3; 8] {
+        let [x, y, z] = arrays3(self.into());
+        lanes(|i| Vec3::new(x[i], y[i], z[i]))
+    }
+
+    /// glam's `dot` per lane.
+    #[inline(always)]
+    pub fn dot(self, o: Self) -> f32x8 {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+
+    #[inline(always)]
+    pub fn length_squared(self) -> f32x8 {
+        self.dot(self)
+    }
+
+    /// glam's `cross` per lane.
+    #[inline(always)]
+    pub fn cross(self, o: Self) -> Self {
+        Self::new(
+            self.y * o.z - o.y * self.z,
+            self.z * o.x - o.z * self.x,
+            self.x * o.y - o.x * self.y,
+        )
+    }
+
+    /// glam's `normalize` per lane: `self * (1 / length)` (no check).
+    #[inline(always)]
+    pub fn normalize(self) -> Self {
+        self * (f32x8::splat(1.0) / self.length_squared().sqrt())
+    }
+
+    /// glam's `normalize_or_zero` per lane: zero where `1 / length` is not finite and
+    /// positive.
+    #[inline(always)]
+    pub fn normalize_or_zero(self) -> Self {
+        let rcp = f32x8::splat(1.0) / self.length_squared().sqrt();
+        let ok = rcp.is_finite() & rcp.simd_gt(f32x8::splat(0.0));
+        let n = self * rcp;
+        let zero = f32x8::splat(0.0);
+        Self::new(sel(ok, n.x, zero), sel(ok, n.y, zero), sel(ok, n.z, zero))
+    }
+
+    /// `self * a + b` per component, fused ([`fmadd`]).
+    #[inline(always)]
+    pub fn mul_add(self, a: f32x8, b: Self) -> Self {
+        Self::new(
+            fmadd(self.x, a, b.x),
+            fmadd(self.y, a, b.y),
+            fmadd(self.z, a, b.z),
+        )
+    }
+
+    /// `if m { a } else { b }` per lane.
+    #[inline(always)]
+    pub fn select(m: Mask8, a: Self, b: Self) -> Self {
+        Self::new(sel(m, a.x, b.x), sel(m, a.y, b.y), sel(m, a.z, b.z))
+    }
+}
+
+impl From<[f32x8; 3]> for Vec3x8 {
+    #[inline(always)]
+    fn from(v: [f32x8; 3]) -> Self {
+        Self::new(v[0], v[1], v[2])
+    }
+}
+
+impl From<Vec3x8> for [f32x8; 3] {
+    #[inline(always)]
+    fn from(v: Vec3x8) -> Self {
+        [v.x, v.y, v.z]
+    }
+}
+
+impl Add for Vec3x8 {
+    type Output = Self;
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Self::new(self.x + o.x, self.y + o.y, self.z + o.z)
+    }
+}
+
+impl Sub for Vec3x8 {
+    type Output = Self;
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        Self::new(self.x - o.x, self.y - o.y, self.z - o.z)
+    }
+}
+
+impl Mul<f32x8> for Vec3x8 {
+    type Output = Self;
+    #[inline(always)]
+    fn mul(self, s: f32x8) -> Self {
+        Self::new(self.x * s, self.y * s, self.z * s)
+    }
+}
+
+impl Mul for Vec3x8 {
+    type Output = Self;
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        Self::new(self.x * o.x, self.y * o.y, self.z * o.z)
+    }
+}
+
+impl Neg for Vec3x8 {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Self::new(-self.x, -self.y, -self.z)
+    }
+}
+
+/// Eight RGB triples, one channel per register, with [`Rgb`]'s operations per lane.
+#[derive(Clone, Copy, Debug)]
+pub struct Rgbx8 {
+    pub r: f32x8,
+    pub g: f32x8,
+    pub b: f32x8,
+}
+
+impl Rgbx8 {
+    #[inline(always)]
+    pub fn new(r: f32x8, g: f32x8, b: f32x8) -> Self {
+        Self { r, g, b }
+    }
+
+    /// The same colour in every lane.
+    #[inline(always)]
+    pub fn splat(c: Rgb) -> Self {
+        Self::new(f32x8::splat(c.r), f32x8::splat(c.g), f32x8::splat(c.b))
+    }
+
+    /// Eight colours, colour i in lane i.
+    #[inline(always)]
+    pub fn from_array(c: &[Rgb; 8]) -> Self {
+        Self::new(
+            f32x8::new(lanes(|i| c[i].r)),
+            f32x8::new(lanes(|i| c[i].g)),
+            f32x8::new(lanes(|i| c[i].b)),
+        )
+    }
+
+    /// Lane i.
+    #[inline(always)]
+    pub fn lane(&self, i: usize) -> Rgb {
+        Rgb::new(
+            self.r.as_array()[i],
+            self.g.as_array()[i],
+            self.b.as_array()[i],
+        )
+    }
+
+    /// The eight colours.
+    #[inline(always)]
+    pub fn to_array(self) -> [Rgb; 8] {
+        let (r, g, b) = (self.r.to_array(), self.g.to_array(), self.b.to_array());
+        lanes(|i| Rgb::new(r[i], g[i], b[i]))
+    }
+
+    /// [`Rgb::luminance`] per lane.
+    #[inline(always)]
+    pub fn luminance(self) -> f32x8 {
+        f32x8::splat(0.212671) * self.r
+            + f32x8::splat(0.715160) * self.g
+            + f32x8::splat(0.072169) * self.b
+    }
+
+    /// [`max_lane`] per channel (`wide`'s `max`).
+    #[inline(always)]
+    pub fn max(self, lo: f32) -> Self {
+        let lo = f32x8::splat(lo);
+        Self::new(self.r.max(lo), self.g.max(lo), self.b.max(lo))
+    }
+
+    /// [`Rgb::is_finite`] per lane.
+    #[inline(always)]
+    pub fn is_finite(self) -> Mask8 {
+        self.r.is_finite() & self.g.is_finite() & self.b.is_finite()
+    }
+
+    /// `if m { a } else { b }` per lane.
+    #[inline(always)]
+    pub fn select(m: Mask8, a: Self, b: Self) -> Self {
+        Self::new(sel(m, a.r, b.r), sel(m, a.g, b.g), sel(m, a.b, b.b))
+    }
+}
+
+impl Add for Rgbx8 {
+    type Output = Self;
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Self::new(self.r + o.r, self.g + o.g, self.b + o.b)
+    }
+}
+
+impl Mul for Rgbx8 {
+    type Output = Self;
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        Self::new(self.r * o.r, self.g * o.g, self.b * o.b)
+    }
+}
+
+impl Mul<f32x8> for Rgbx8 {
+    type Output = Self;
+    #[inline(always)]
+    fn mul(self, s: f32x8) -> Self {
+        Self::new(self.r * s, self.g * s, self.b * s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Awkward values: zeros of both signs, tiny and huge magnitudes, NaN and infinities.
+    fn values() -> Vec<f32> {
+        let mut v: Vec<f32> = (0..200)
+            .map(|k| ((k as f32 * 0.618_034).fract() - 0.5) * 4.0)
+            .collect();
+        v.extend([
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            1e-30,
+            -1e-30,
+            3e38,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MIN_POSITIVE,
+        ]);
+        v
+    }
+
+    fn same(a: f32, b: f32) -> bool {
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+
+    fn vecs() -> Vec<Vec3> {
+        let v = values();
+        (0..v.len())
+            .map(|k| Vec3::new(v[k], v[(k * 7 + 3) % v.len()], v[(k * 13 + 5) % v.len()]))
+            .collect()
+    }
+
+    #[test]
+    fn transpose4x8_puts_component_k_of_record_i_in_lane_i() {
+        let r: [[f32; 4]; 8] = lanes(|i| [0, 1, 2, 3].map(|k| (10 * i + k) as f32));
+        let t = transpose4x8(&r);
+        for (k, v) in t.iter().enumerate() {
+            assert_eq!(v.to_array(), lanes(|i| r[i][k]), "component {k}");
+        }
+        let t = rows4(|i| r[7 - i]);
+        assert_eq!(t[2].to_array(), lanes(|i| r[7 - i][2]));
+    }
+
+    #[test]
+    fn padded_repeats_the_last_element() {
+        assert_eq!(padded(&[1, 2, 3]), [1, 2, 3, 3, 3, 3, 3, 3]);
+        assert_eq!(padded(&[1, 2, 3, 4, 5, 6, 7, 8]), [1, 2, 3, 4, 5, 6, 7, 8]);
+    }
+
+    #[test]
+    fn vec3x8_operations_equal_glams_per_lane() {
+        let v = vecs();
+        for (a, b) in v.chunks(8).zip(v.chunks(8).skip(1).chain(v.chunks(8))) {
+            let (a, b) = (padded(a), padded(b));
+            let (va, vb) = (Vec3x8::from_array(&a), Vec3x8::from_array(&b));
+            let s = f32x8::new(lanes(|i| b[i].y));
+            let dot = va.dot(vb).to_array();
+            let cross = va.cross(vb).to_array();
+            let norm = va.normalize().to_array();
+            let nz = va.normalize_or_zero().to_array();
+            let ma = va.mul_add(s, vb).to_array();
+            let sum = (va + vb).to_array();
+            let diff = (va - vb).to_array();
+            let prod = (va * vb).to_array();
+            let scaled = (va * s).to_array();
+            let neg = (-va).to_array();
+            let sv = |x: Vec3, y: Vec3| same(x.x, y.x) && same(x.y, y.y) && same(x.z, y.z);
+            for i in 0..8 {
+                let (x, y) = (a[i], b[i]);
+                assert!(same(dot[i], x.dot(y)), "dot {x} {y}");
+                assert!(sv(cross[i], x.cross(y)), "cross {x} {y}");
+                assert!(sv(norm[i], x * (1.0 / x.length())), "normalize {x}");
+                assert!(sv(nz[i], x.normalize_or_zero()), "normalize_or_zero {x}");
+                let fused = Vec3::new(
+                    x.x.mul_add(y.y, y.x),
+                    x.y.mul_add(y.y, y.y),
+                    x.z.mul_add(y.y, y.z),
+                );
+                assert!(sv(ma[i], fused), "mul_add {x} {y}");
+                assert!(sv(sum[i], x + y) && sv(diff[i], x - y) && sv(prod[i], x * y));
+                assert!(sv(scaled[i], x * y.y) && sv(neg[i], -x));
+                assert!(sv(va.lane(i), x));
+            }
+        }
+    }
+
+    #[test]
+    fn rgbx8_operations_equal_rgbs_per_lane() {
+        let v = vecs();
+        let rgb: Vec<Rgb> = v.iter().map(|v| Rgb::new(v.x, v.y, v.z)).collect();
+        for (a, b) in rgb
+            .chunks(8)
+            .zip(rgb.chunks(8).skip(3).chain(rgb.chunks(8)))
+        {
+            let (a, b) = (padded(a), padded(b));
+            let (ca, cb) = (Rgbx8::from_array(&a), Rgbx8::from_array(&b));
+            let s = f32x8::new(lanes(|i| b[i].g));
+            let sr = |x: Rgb, y: Rgb| same(x.r, y.r) && same(x.g, y.g) && same(x.b, y.b);
+            let (lum, max, fin) = (ca.luminance().to_array(), ca.max(0.0), ca.is_finite());
+            let fin = mask_bits(fin);
+            for i in 0..8 {
+                assert!(same(lum[i], a[i].luminance()), "luminance {:?}", a[i]);
+                let m = a[i].map(|x| max_lane(x, 0.0));
+                assert!(sr(max.lane(i), m), "max {:?}", a[i]);
+                assert_eq!(fin >> i & 1 == 1, a[i].is_finite());
+                assert!(sr((ca + cb).lane(i), a[i] + b[i]));
+                assert!(sr((ca * cb).lane(i), a[i] * b[i]));
+                assert!(sr((ca * s).to_array()[i], a[i] * b[i].g));
+            }
+        }
+    }
+
+    #[test]
+    fn fmadd_is_fused_as_f32_mul_add() {
+        let v = values();
+        for c in v.chunks(8) {
+            let a = padded(c);
+            let b = lanes(|i| a[(i + 3) % 8] * 1.000_001);
+            let d = lanes(|i| -a[(i + 5) % 8]);
+            let r = fmadd(f32x8::new(a), f32x8::new(b), f32x8::new(d)).to_array();
+            for i in 0..8 {
+                assert!(
+                    same(r[i], a[i].mul_add(b[i], d[i])),
+                    "{} {} {}",
+                    a[i],
+                    b[i],
+                    d[i]
+                );
+            }
+        }
+        // A case where one rounding and two differ: (1 + e)(1 - e) - 1 = -e^2 exactly.
+        let e = f32::EPSILON;
+        let r = fmadd(
+            f32x8::splat(1.0 + e),
+            f32x8::splat(1.0 - e),
+            f32x8::splat(-1.0),
+        );
+        assert_eq!(r.to_array()[0], -e * e);
+    }
+
+    #[test]
+    fn gather_masks_and_clamp() {
+        let table: Vec<f32> = (0..100).map(|k| k as f32 * 0.5).collect();
+        let g = gather(&table, [3, 99, 0, 7, 7, 50, 1, 2]).to_array();
+        assert_eq!(g, [1.5, 49.5, 0.0, 3.5, 3.5, 25.0, 0.5, 1.0]);
+        let b = [true, false, false, true, true, false, true, false];
+        let m = mask_from_bools(b);
+        assert_eq!(mask_bits(m), 0b0101_1001);
+        let x = f32x8::new([-2.0, 0.5, 3.0, f32::NAN, 1.0, 0.0, -0.0, 9.0]);
+        let c = clamp(x, 0.0, 1.0).to_array();
+        for (c, x) in c.into_iter().zip(x.to_array()) {
+            assert!(same(c, x.clamp(0.0, 1.0)), "clamp {x}");
+        }
+        let s = sel(m, f32x8::splat(1.0), f32x8::splat(2.0)).to_array();
+        assert_eq!(s, b.map(|t| if t { 1.0 } else { 2.0 }));
+    }
+}
