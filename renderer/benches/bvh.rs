@@ -1,9 +1,8 @@
 //! Criterion benchmarks of the BVH (docs/performance.md): building it over the benchmark
 //! suite's million-triangle displaced sphere (the same surface as
 //! tools/mitsuba/bench_assets.py makes for scenes/bench/mesh-1m-rgl.json), and closest-hit
-//! and occlusion queries of incoherent rays (random origins around the mesh aimed at random
-//! points inside it, as a path tracer's bounces are) against it. Prints the tree's memory
-//! once.
+//! and occlusion queries of incoherent bounce rays (from random points of the surface in
+//! random directions) against it. Prints the tree's memory once.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
@@ -85,11 +84,20 @@ fn bench(c: &mut Criterion) {
             .wrapping_add(1442695040888963407);
         (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
     };
+    // Bounce rays: from the centre of a random triangle (pushed off it along its
+    // normal) in a uniformly random direction, so that about half leave the surface and
+    // half cross the inside to the other side, as a path tracer's secondary rays do. Each
+    // ray starts somewhere else on the mesh, so these queries measure the tree's cache
+    // misses as well (a render's rays from one pixel are far more coherent).
     let rays: Vec<Ray> = (0..1 << 16)
         .map(|_| {
-            let o = Vec3::new(rnd(), rnd(), rnd()) * 2.5;
-            let target = Vec3::new(rnd(), rnd(), rnd()) * 0.5;
-            Ray::new(o, (target - o).normalize())
+            let k = ((rnd() * 0.5 + 0.5) * geo.prims.len() as f32) as usize;
+            let PrimKind::Triangle(t) = geo.prims[k.min(geo.prims.len() - 1)].kind else {
+                unreachable!("triangles only")
+            };
+            let o = t.point(glam::Vec2::splat(1.0 / 3.0)) + t.normal() * 1e-4;
+            let d = Vec3::new(rnd(), rnd(), rnd());
+            Ray::new(o, d.normalize_or(Vec3::Z))
         })
         .collect();
     let mut g = c.benchmark_group("bvh queries, 1M triangles");
