@@ -173,3 +173,72 @@ fn radiance_hdr_env_maps_load() {
         img.pixels[5]
     );
 }
+
+/// `sample_li_many` gives bit for bit what `sample_li` gives at each point, for every
+/// light kind (area lights of each shape, flipped rectangles, points behind and on the
+/// emitter's plane, a point light, an env map), in batches of odd sizes (partial SIMD
+/// chunks).
+#[test]
+fn batched_light_samples_equal_single_ones() {
+    let mut all = lights();
+    let rect = Rectangle::from_transform(&Mat4::from_rotation_x(0.3)).unwrap();
+    all.push((
+        "rectangle (flipped)",
+        Light::Area {
+            shape: AreaShape::Rectangle { rect, flip: true },
+            radiance: Rgb::new(1.0, 2.0, 3.0),
+        },
+    ));
+    all.push((
+        "point",
+        Light::Point {
+            position: Vec3::new(0.0, 1.0, 0.5),
+            intensity: Rgb::ONE,
+        },
+    ));
+    let img = lobe_renderer::lights::envmap::RgbImage {
+        width: 8,
+        height: 4,
+        pixels: (0..32).map(|k| Rgb::splat(0.1 + k as f32)).collect(),
+    };
+    all.push((
+        "env",
+        Light::Env(Box::new(lobe_renderer::lights::EnvMap::new(
+            &img,
+            1.0,
+            glam::Mat3::IDENTITY,
+        ))),
+    ));
+    let points: Vec<Vec3> = (0..53)
+        .map(|k| match k % 7 {
+            0 => Vec3::ZERO, // on the plane of the rotated rectangle
+            1 => Vec3::new(0.3, 2.0, -0.2),
+            _ => Vec3::new(hash(k, 3), hash(k, 4), hash(k, 5)) * 6.0 - 3.0,
+        })
+        .collect();
+    let us: Vec<Vec2> = (0..53).map(|k| Vec2::new(hash(k, 6), hash(k, 7))).collect();
+    let mut out = lobe_renderer::lights::LightSamples::default();
+    let mut samples = 0;
+    for (name, light) in &all {
+        for len in [53, 8, 5, 1] {
+            light.sample_li_many(|k| points[k], &us[..len], &mut out);
+            assert_eq!(out.pdf.len(), len);
+            for k in 0..len {
+                let one = light.sample_li(points[k], us[k]);
+                match one {
+                    None => assert_eq!(out.pdf[k], 0.0, "{name}, point {k}: no sample"),
+                    Some(ls) => {
+                        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                        assert_eq!(bits(out.wi[k]), bits(ls.wi), "{name}, point {k}");
+                        assert_eq!(out.li[k], ls.li, "{name}, point {k}");
+                        assert_eq!(out.pdf[k].to_bits(), ls.pdf.to_bits(), "{name}, point {k}");
+                        assert_eq!(out.delta[k], ls.delta, "{name}, point {k}");
+                        assert_eq!(out.at[k], ls.p, "{name}, point {k}");
+                        samples += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(samples > 300, "only {samples} samples compared");
+}

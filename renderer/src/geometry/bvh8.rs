@@ -86,10 +86,11 @@ struct RectBlock {
     id: u32x8,
 }
 
-/// A ray prepared for box tests: origin and safe reciprocal direction in all lanes, which
-/// bound of each axis is the near one, and the range.
+/// A ray prepared for box tests: safe reciprocal direction and origin times it in all
+/// lanes (a slab distance is then one fused multiply-subtract), which bound of each axis
+/// is the near one, and the range.
 struct BoxRay {
-    o: [f32x8; 3],
+    o_inv: [f32x8; 3],
     inv: [f32x8; 3],
     near: [usize; 3],
     tmin: f32x8,
@@ -110,8 +111,9 @@ impl BoxRay {
             f32x8::splat(1.0 / c)
         });
         let near = d.map(|c| usize::from(c.is_sign_negative()));
+        let o = ray.o.to_array();
         Self {
-            o: ray.o.to_array().map(f32x8::splat),
+            o_inv: [0, 1, 2].map(|a| f32x8::splat(o[a]) * inv[a]),
             inv,
             near,
             tmin: f32x8::splat(ray.tmin),
@@ -122,15 +124,17 @@ impl BoxRay {
     /// before `tmax`.
     #[inline(always)]
     fn test(&self, node: &Node, tmax: f32) -> (f32x8, u32) {
-        let mut tn = self.tmin;
-        let mut tf = f32x8::splat(tmax);
-        for a in 0..3 {
-            let b = &node.bounds[a];
-            let t0 = (b[self.near[a]] - self.o[a]) * self.inv[a];
-            let t1 = (b[1 - self.near[a]] - self.o[a]) * self.inv[a];
-            tn = tn.fast_max(t0);
-            tf = tf.fast_min(t1 * f32x8::splat(FAR_SCALE));
-        }
+        // bound * inv - o * inv, fused where the target has FMA (the far distance's
+        // conservative factor covers either rounding).
+        let slab = |a: usize, side: usize| node.bounds[a][side].mul_sub(self.inv[a], self.o_inv[a]);
+        let (n, f) = (self.near, self.near.map(|s| 1 - s));
+        let tn = slab(0, n[0])
+            .fast_max(slab(1, n[1]))
+            .fast_max(slab(2, n[2]).fast_max(self.tmin));
+        let tf = slab(0, f[0])
+            .fast_min(slab(1, f[1]))
+            .fast_min(slab(2, f[2]));
+        let tf = (tf * f32x8::splat(FAR_SCALE)).fast_min(f32x8::splat(tmax));
         (tn, tn.simd_le(tf).to_bitmask())
     }
 }
@@ -502,6 +506,15 @@ impl Bvh8 {
         mut mask: u32,
     ) -> usize {
         let tn = tn.to_array();
+        if mask & (mask - 1) == 0 {
+            // One child (the common case deep in the tree): no ordering to do.
+            if mask != 0 {
+                let k = mask.trailing_zeros() as usize;
+                stack[sp].write((node.child[k], tn[k]));
+                sp += 1;
+            }
+            return sp;
+        }
         let first = sp;
         while mask != 0 {
             let k = mask.trailing_zeros() as usize;
