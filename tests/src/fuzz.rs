@@ -26,8 +26,20 @@ pub const TARGETS: &[&str] = &[
     "envmap_hdr",
 ];
 
-/// Runs target `name` on `data`.
+/// Runs target `name` on `data`. A panic that [`lobe_materials::guard`] caught inside a
+/// third-party reader is a failure too: the guard is the last line of defence, each input
+/// reaching it needs a proper check.
 pub fn run(name: &str, data: &[u8], scratch: &Path) {
+    let caught = lobe_materials::guard::caught_panics();
+    run_target(name, data, scratch);
+    assert_eq!(
+        lobe_materials::guard::caught_panics(),
+        caught,
+        "a third-party reader panicked (caught by the guard)"
+    );
+}
+
+fn run_target(name: &str, data: &[u8], scratch: &Path) {
     match name {
         "scene_json" => scene_json(data, scratch),
         "merl" => merl(data),
