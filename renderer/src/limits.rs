@@ -20,6 +20,11 @@ pub const MAX_THREADS: usize = 1024;
 /// 5 GiB with the BVH), above the largest scanned meshes in common use.
 pub const MAX_TRIANGLES: usize = 1 << 26;
 
+/// Largest mesh vertex coordinate (after the shape's transform): ray-triangle tests form
+/// products of three coordinates and the BVH sums box areas, which overflow f32 (or turn
+/// the BVH build's costs to NaN) for coordinates near 1e13; 1e9 scene units leave room.
+pub const MAX_COORDINATE: f32 = 1e9;
+
 /// Deepest glTF node hierarchy: real files nest a few levels; a deeper one is malformed.
 pub const MAX_GLTF_DEPTH: usize = 64;
 

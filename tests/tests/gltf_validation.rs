@@ -284,3 +284,41 @@ fn buffer_uris_must_be_data_or_regular_files() {
     .unwrap();
     assert_eq!(load_gltf(&p).unwrap().mesh.indices.len(), 1);
 }
+
+#[test]
+fn documents_serde_json_cannot_parse_are_refused_before_the_gltf_crate() {
+    // An unknown key with invalid UTF-8 hides "accessors": the gltf crate skipped the key
+    // and its validation indexed the missing accessors (a panic, found by fuzzing).
+    let dir = tempfile::tempdir().unwrap();
+    let text = triangle()
+        .to_string()
+        .replace("\"accessors\"", "\"acc\u{1}essors\"");
+    let mut bytes = text.into_bytes();
+    let k = bytes.iter().position(|&b| b == 1).unwrap();
+    bytes[k] = 0xff;
+    let p = dir.path().join("m.gltf");
+    std::fs::write(&p, bytes).unwrap();
+    let e = load_gltf(&p).err().expect("refused").to_string();
+    assert!(e.contains("m.gltf") && e.contains("invalid JSON"), "{e}");
+}
+
+#[test]
+fn vertices_beyond_the_coordinate_limit_are_refused() {
+    // Coordinates near 1e37 (finite) made the BVH build's costs NaN (found by fuzzing).
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = triangle_bytes();
+    b[12..16].copy_from_slice(&1e37f32.to_le_bytes());
+    let mut v = triangle();
+    v["buffers"][0]["uri"] = json!(format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&b)
+    ));
+    let e = error(dir.path(), &v);
+    assert!(e.contains("vertex 1") && e.contains("within 1e9"), "{e}");
+    let obj = dir.path().join("m.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1e30 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let e = lobe_renderer::scene::mesh_io::load_obj(&obj)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("vertex 1") && e.contains("within 1e9"), "{e}");
+}

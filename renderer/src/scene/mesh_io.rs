@@ -5,7 +5,7 @@
 use crate::camera::{Camera, look_at};
 use crate::error::{Error, Result};
 use crate::geometry::Mesh;
-use crate::limits::MAX_TRIANGLES;
+use crate::limits::{MAX_COORDINATE, MAX_TRIANGLES};
 use glam::{Mat4, Vec2, Vec3};
 use std::path::Path;
 
@@ -17,17 +17,7 @@ fn check_mesh(mesh: &Mesh, shown: &str) -> Result<()> {
             "contains no triangles; expected a triangle mesh",
         ));
     }
-    if let Some((i, _)) = mesh
-        .positions
-        .iter()
-        .enumerate()
-        .find(|(_, p)| !p.is_finite())
-    {
-        return Err(Error::file(
-            shown,
-            format!("vertex {i} has a non-finite position; expected finite coordinates"),
-        ));
-    }
+    check_positions(mesh, shown)?;
     if let Some((i, t)) = mesh
         .indices
         .iter()
@@ -39,6 +29,24 @@ fn check_mesh(mesh: &Mesh, shown: &str) -> Result<()> {
             format!(
                 "triangle {i} refers to vertex {:?}, but the mesh has {n} vertices",
                 t
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Every vertex finite and within [`MAX_COORDINATE`] (of the origin, per axis).
+pub fn check_positions(mesh: &Mesh, shown: &str) -> Result<()> {
+    if let Some((i, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !(p.abs().max_element() <= MAX_COORDINATE))
+    {
+        return Err(Error::file(
+            shown,
+            format!(
+                "vertex {i} is at {p}; expected finite coordinates within {MAX_COORDINATE:e} (after the shape's transform)"
             ),
         ));
     }
@@ -156,8 +164,11 @@ pub fn load_gltf(path: &Path) -> Result<GltfScene> {
         std::fs::read(path).map_err(|e| Error::file(&shown, format!("cannot read: {e}")))?;
     let fail = |m: String| Error::file(&shown, m);
     let parts = check::container(&bytes).map_err(fail)?;
-    // Not JSON: the gltf crate's parse below names the problem.
+    // Everything the gltf crate reads must pass the checks, so a document they cannot
+    // parse is refused here (serde_json skips unknown keys without validating their UTF-8
+    // when deserializing the crate's types, so the crate would accept more).
     let (buffers, visits) = match serde_json::from_slice::<serde_json::Value>(parts.json) {
+        Err(e) => return Err(fail(format!("cannot read glTF: invalid JSON ({e})"))),
         Ok(v) => {
             check::check_indices(&v).map_err(fail)?;
             let base = path.parent().unwrap_or(Path::new("."));
@@ -180,7 +191,6 @@ pub fn load_gltf(path: &Path) -> Result<GltfScene> {
             }
             (buffers, visits)
         }
-        Err(_) => (Vec::new(), Vec::new()),
     };
     let gltf = lobe_materials::guard::third_party("glTF", || gltf::Gltf::from_slice(&bytes))
         .map_err(fail)?

@@ -388,6 +388,7 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
                     ));
                 }
                 mesh.transform(&to_world);
+                mesh_io::check_positions(&mesh, &fpath.display().to_string())?;
                 let mesh_id = meshes.len() as u32;
                 let mut emit_tris = Vec::new();
                 for t in 0..mesh.indices.len() as u32 {
