@@ -14,6 +14,7 @@
 pub mod camera;
 pub mod compare;
 pub mod error;
+pub mod error_stats;
 pub mod film;
 pub mod geometry;
 pub mod integrators;
