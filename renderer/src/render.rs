@@ -253,7 +253,6 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
         Some(p) => p.install(run),
         None => run(),
     };
-    drop(film);
     let seconds = start.elapsed().as_secs_f64();
     if let Some(pb) = bar {
         pb.finish_and_clear();

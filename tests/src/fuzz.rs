@@ -318,11 +318,11 @@ fn base64_payload(uri: &Value) -> Vec<u8> {
 /// A GLB container of a glTF document and its BIN chunk.
 fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
     let mut json = doc.to_string().into_bytes();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let mut bin = bin.to_vec();
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let mut out = b"glTF".to_vec();

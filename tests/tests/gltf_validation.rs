@@ -84,7 +84,7 @@ fn valid_triangles_load_from_gltf_and_glb_with_shared_nodes() {
     let mut v = triangle();
     v["buffers"] = json!([{"byteLength": 44}]);
     let mut json_chunk = v.to_string().into_bytes();
-    while json_chunk.len() % 4 != 0 {
+    while !json_chunk.len().is_multiple_of(4) {
         json_chunk.push(b' ');
     }
     let bin = triangle_bytes();
