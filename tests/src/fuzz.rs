@@ -316,7 +316,7 @@ fn base64_payload(uri: &Value) -> Vec<u8> {
 }
 
 /// A GLB container of a glTF document and its BIN chunk.
-fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
+pub fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
     let mut json = doc.to_string().into_bytes();
     while !json.len().is_multiple_of(4) {
         json.push(b' ');

@@ -83,20 +83,7 @@ fn valid_triangles_load_from_gltf_and_glb_with_shared_nodes() {
     // The same triangle as a GLB with a BIN chunk.
     let mut v = triangle();
     v["buffers"] = json!([{"byteLength": 44}]);
-    let mut json_chunk = v.to_string().into_bytes();
-    while !json_chunk.len().is_multiple_of(4) {
-        json_chunk.push(b' ');
-    }
-    let bin = triangle_bytes();
-    let mut glb = b"glTF".to_vec();
-    glb.extend_from_slice(&2u32.to_le_bytes());
-    glb.extend_from_slice(&((12 + 8 + json_chunk.len() + 8 + bin.len()) as u32).to_le_bytes());
-    glb.extend_from_slice(&(json_chunk.len() as u32).to_le_bytes());
-    glb.extend_from_slice(b"JSON");
-    glb.extend_from_slice(&json_chunk);
-    glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    glb.extend_from_slice(b"BIN\0");
-    glb.extend_from_slice(&bin);
+    let glb = lobe_tests::fuzz::glb(&v, &triangle_bytes());
     let p = dir.path().join("t.glb");
     std::fs::write(&p, glb).unwrap();
     assert_eq!(load_gltf(&p).unwrap().mesh.indices.len(), 1);

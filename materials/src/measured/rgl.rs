@@ -212,42 +212,31 @@ impl Rgl {
         Ok(table)
     }
 
-    /// Evaluates, and samples, the table on a grid of direction pairs (viewer at 16
-    /// elevations to 89.9 degrees and 4 azimuths, light over 16 x 16 directions) and
-    /// refuses it at the first non-finite value, density or weight: values within range
+    /// Evaluates, and samples, the table on the grid of [`crate::bsdf::probe_directions`]
+    /// and refuses it at the first non-finite value, density or weight: values within range
     /// can still combine badly (a vanishing `sigma` under the Jacobian, a slice of the
     /// luminance whose integral is too small to normalize in f32).
     fn probe(&self) -> Result<(), String> {
-        let dir = |t: f32, p: f32| {
-            let (t, p) = (t.to_radians(), p.to_radians());
-            Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
-        };
-        for a in 0..16 {
-            let theta_o = 89.9 * a as f32 / 15.0;
-            for phi_o in [0.0, 45.0, 130.0, 270.0] {
-                let wo = dir(theta_o, phi_o);
-                for b in 0..16 {
-                    let theta_i = 89.9 * b as f32 / 15.0;
-                    for c in 0..16 {
-                        let wi = dir(theta_i, 22.5 * c as f32);
-                        let u = Vec2::new((b as f32 + 0.5) / 16.0, (c as f32 + 0.5) / 16.0);
-                        let v = self.eval_projected_raw(wo, wi);
-                        let pdf = self.pdf_raw(wo, wi);
-                        let s = self.sample(wo, u);
-                        let w = s.map_or(Rgb::ZERO, |(wi, p)| self.eval_projected_raw(wo, wi) / p);
-                        if !(v.is_finite() && pdf.is_finite() && w.is_finite()) {
-                            return Err(format!(
-                                "at theta_o {theta_o:.1}, phi_o {phi_o}, theta_i {theta_i:.1}, phi_i {} degrees the table gives value {:?}, density {pdf}, sample weight {:?}; expected finite values (its fields combine to overflow f32)",
-                                22.5 * c as f32,
-                                v.to_array(),
-                                w.to_array()
-                            ));
-                        }
-                    }
-                }
-            }
+        let bad = crate::bsdf::probe_directions(|wo, wi, u, _| {
+            let v = self.eval_projected_raw(wo, wi);
+            let pdf = self.pdf_raw(wo, wi);
+            let w = self
+                .sample(wo, u)
+                .map_or(Rgb::ZERO, |(wi, p)| self.eval_projected_raw(wo, wi) / p);
+            (!(v.is_finite() && pdf.is_finite() && w.is_finite())).then(|| {
+                format!(
+                    "value {:?}, density {pdf}, sample weight {:?}",
+                    v.to_array(),
+                    w.to_array()
+                )
+            })
+        });
+        match bad {
+            None => Ok(()),
+            Some(m) => Err(format!(
+                "at {m}; expected finite values (its fields combine to overflow f32)"
+            )),
         }
-        Ok(())
     }
 
     pub fn is_isotropic(&self) -> bool {
