@@ -216,3 +216,56 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
         std::mem::size_of_val(self)
     }
 }
+
+/// Runs `check(wo, wi, u, uc)` over a grid of direction pairs (viewer at 16 elevations to
+/// 89.9 degrees and 4 azimuths, light over 16 x 16 directions of the hemisphere, with a
+/// stratified 2D sample and a 1D sample each) and returns the first message it gives,
+/// prefixed with the pair's angles.
+pub fn probe_directions(
+    mut check: impl FnMut(Vec3, Vec3, Vec2, f32) -> Option<String>,
+) -> Option<String> {
+    let dir = |t: f32, p: f32| {
+        let (t, p) = (t.to_radians(), p.to_radians());
+        Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+    };
+    for a in 0..16 {
+        let theta_o = 89.9 * a as f32 / 15.0;
+        for phi_o in [0.0f32, 45.0, 130.0, 270.0] {
+            let wo = dir(theta_o, phi_o);
+            for i in 0..16 {
+                let theta_i = 89.9 * i as f32 / 15.0;
+                for j in 0..16 {
+                    let phi_i = 22.5 * j as f32;
+                    let u = Vec2::new((i as f32 + 0.5) / 16.0, (j as f32 + 0.5) / 16.0);
+                    let uc = (a * 16 + j) as f32 / 256.0;
+                    if let Some(m) = check(wo, dir(theta_i, phi_i), u, uc) {
+                        return Some(format!(
+                            "theta_o {theta_o:.1}, phi_o {phi_o}, theta_i {theta_i:.1}, phi_i {phi_i} degrees: {m}"
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    None
+}
+
+/// The first direction pair of [`probe_directions`] where `b`'s value, density or sample
+/// weight is not finite, described with its angles; None when all are finite. Readers use
+/// it to refuse a file whose values combine to overflow f32.
+pub fn first_nonfinite(b: &dyn Bsdf) -> Option<String> {
+    probe_directions(|wo, wi, u, uc| {
+        let (f, pdf) = (b.eval(wo, wi), b.pdf(wo, wi));
+        let s = b.sample(wo, u, uc);
+        let ok = f.is_finite()
+            && pdf.is_finite()
+            && s.is_none_or(|s| s.weight.is_finite() && s.pdf.is_finite());
+        (!ok).then(|| {
+            format!(
+                "value {:?}, density {pdf}, sample {:?}",
+                f.to_array(),
+                s.map(|s| (s.weight.to_array(), s.pdf))
+            )
+        })
+    })
+}

@@ -72,8 +72,10 @@ pub const MAX_IMAGE_PIXELS: usize = 1 << 27;
 /// Checks an OpenEXR file's declared layer sizes before its pixels are allocated (a header
 /// can declare any size; found by fuzzing).
 pub fn check_exr_size(path: &Path) -> Result<(), String> {
-    let meta = exr::meta::MetaData::read_from_file(path, false)
-        .map_err(|e| format!("cannot read OpenEXR header: {e}"))?;
+    let meta = crate::guard::third_party("OpenEXR", || {
+        exr::meta::MetaData::read_from_file(path, false)
+    })?
+    .map_err(|e| format!("cannot read OpenEXR header: {e}"))?;
     for h in &meta.headers {
         let (w, hh) = (h.layer_size.width(), h.layer_size.height());
         if w.checked_mul(hh).is_none_or(|n| n > MAX_IMAGE_PIXELS) {

@@ -27,6 +27,7 @@ pub mod error;
 pub mod fastmath;
 pub mod fit;
 pub mod frame;
+pub mod guard;
 pub mod io;
 pub mod lobe;
 pub mod math;

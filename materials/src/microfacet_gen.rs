@@ -286,13 +286,16 @@ impl Table {
         use exr::prelude::*;
         let name = path.display();
         crate::io::check_exr_size(path).map_err(|m| format!("{name}: {m}"))?;
-        let img = read_first_rgba_layer_from_file(
-            path,
-            |res, _| (res.width(), vec![0.0f64; res.width() * res.height()]),
-            |(w, px): &mut (usize, Vec<f64>), pos, (r, _g, _b, _a): (f32, f32, f32, f32)| {
-                px[pos.y() * *w + pos.x()] = r as f64;
-            },
-        )
+        let img = crate::guard::third_party("OpenEXR", || {
+            read_first_rgba_layer_from_file(
+                path,
+                |res, _| (res.width(), vec![0.0f64; res.width() * res.height()]),
+                |(w, px): &mut (usize, Vec<f64>), pos, (r, _g, _b, _a): (f32, f32, f32, f32)| {
+                    px[pos.y() * *w + pos.x()] = r as f64;
+                },
+            )
+        })
+        .map_err(|m| format!("{name}: {m}"))?
         .map_err(|e| format!("{name}: cannot read the distribution EXR: {e}"))?;
         let (w, px) = img.layer_data.channel_data.pixels;
         if w * w != px.len() {

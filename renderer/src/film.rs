@@ -6,6 +6,7 @@
 
 use crate::Rgb;
 use crate::error::{Error, Result};
+use crate::limits::{MAX_FILM_PIXELS, try_vec};
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
@@ -32,6 +33,25 @@ impl Image {
             variance: vec![Rgb::ZERO; n],
             variance_dof: f64::INFINITY,
         }
+    }
+
+    /// A black film, allocated fallibly: a film above [`MAX_FILM_PIXELS`] or one that does
+    /// not fit in memory is an error naming its size, not an abort.
+    pub fn try_new(width: u32, height: u32) -> Result<Self> {
+        let n = width as u64 * height as u64;
+        if n > MAX_FILM_PIXELS {
+            return Err(Error::Other(format!(
+                "a {width}x{height} film has {n} pixels; expected at most {MAX_FILM_PIXELS}"
+            )));
+        }
+        let what = format!("the {width}x{height} film");
+        Ok(Self {
+            width,
+            height,
+            pixels: try_vec(n as usize, Rgb::ZERO, &what)?,
+            variance: try_vec(n as usize, Rgb::ZERO, &what)?,
+            variance_dof: f64::INFINITY,
+        })
     }
 
     pub fn get(&self, x: u32, y: u32) -> Rgb {
@@ -74,14 +94,13 @@ pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Rgb]) -> Result
         (p.r, p.g, p.b)
     });
     let image = exr::image::Image::from_channels((width as usize, height as usize), channels);
+    // Straight into the (seekable) temporary file, block by block: no copy of the whole
+    // image in memory.
     atomic_write(path, |out| {
-        // exr needs a seekable writer: encode into memory, then write the bytes out.
-        let mut buf = std::io::Cursor::new(Vec::new());
         image
             .write()
-            .to_buffered(&mut buf)
-            .map_err(std::io::Error::other)?;
-        out.write_all(buf.get_ref())
+            .to_buffered(out)
+            .map_err(std::io::Error::other)
     })
 }
 

@@ -14,10 +14,12 @@
 pub mod camera;
 pub mod compare;
 pub mod error;
+pub mod error_stats;
 pub mod film;
 pub mod geometry;
 pub mod integrators;
 pub mod lights;
+pub mod limits;
 pub mod render;
 pub mod sampler;
 pub mod scene;

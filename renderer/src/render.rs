@@ -8,6 +8,7 @@ use crate::Rgb;
 use crate::error::{Error, Result};
 use crate::film::Image;
 use crate::integrators::wavefront::{CameraQueue, Wavefront};
+use crate::limits::MAX_THREADS;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::Vec2;
@@ -172,12 +173,22 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
     })
 }
 
-/// Renders the scene.
+/// Renders the scene. Refuses a film above [`MAX_FILM_PIXELS`] or more than
+/// [`MAX_THREADS`] threads, allocates the film fallibly (an error, not an abort, under a
+/// memory limit) and starts no more threads than there are tiles.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats)> {
+    let tiles: Vec<(u32, u32)> = (0..scene.height.div_ceil(TILE))
+        .flat_map(|ty| (0..scene.width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
     let pool = match opts.threads {
+        Some(n) if n > MAX_THREADS => {
+            return Err(Error::Other(format!(
+                "{n} render threads requested; expected 1 to {MAX_THREADS} (more threads than cores only slow a render down)"
+            )));
+        }
         Some(n) => Some(
             rayon::ThreadPoolBuilder::new()
-                .num_threads(n.max(1))
+                .num_threads(n.clamp(1, tiles.len().max(1)))
                 .build()
                 .map_err(|e| Error::Other(format!("cannot start {n} render threads: {e}")))?,
         ),
@@ -186,9 +197,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
     let threads = pool
         .as_ref()
         .map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
-    let tiles: Vec<(u32, u32)> = (0..scene.height.div_ceil(TILE))
-        .flat_map(|ty| (0..scene.width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
+    let mut img = Image::try_new(scene.width, scene.height)?;
+    img.variance_dof = (scene.spp.max(2) - 1) as f64;
     let bar = if opts.progress {
         let pb = indicatif::ProgressBar::new(tiles.len() as u64);
         pb.set_style(
@@ -203,33 +213,45 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
         None
     };
     let cancelled = AtomicBool::new(false);
-    let done = AtomicU64::new(0);
+    let dropped = AtomicU64::new(0);
     let start = Instant::now();
-    let run = || -> Vec<Option<TileResult>> {
-        tiles
-            .par_iter()
-            .map(|&(x0, y0)| {
-                if opts
-                    .cancel
+    // Each finished tile goes straight into the film, so memory is the film plus a tile
+    // per thread; every pixel's value is computed by one tile alone, so the order in
+    // which tiles finish changes nothing.
+    let film = std::sync::Mutex::new(&mut img);
+    let run = || {
+        tiles.par_iter().for_each(|&(x0, y0)| {
+            let stop = || {
+                opts.cancel
                     .as_ref()
                     .is_some_and(|c| c.load(Ordering::Relaxed))
-                {
-                    cancelled.store(true, Ordering::Relaxed);
-                    return None;
+            };
+            if stop() || cancelled.load(Ordering::Relaxed) {
+                cancelled.store(true, Ordering::Relaxed);
+                return;
+            }
+            let Some(t) = render_tile(scene, x0, y0, opts.cancel.as_deref()) else {
+                cancelled.store(true, Ordering::Relaxed);
+                return;
+            };
+            dropped.fetch_add(t.dropped, Ordering::Relaxed);
+            {
+                let mut img = film.lock().unwrap_or_else(|e| e.into_inner());
+                for j in 0..t.h {
+                    for i in 0..t.w {
+                        let dst = ((t.y0 + j) * scene.width + t.x0 + i) as usize;
+                        let src = (j * t.w + i) as usize;
+                        img.pixels[dst] = t.mean[src];
+                        img.variance[dst] = t.var[src];
+                    }
                 }
-                let Some(t) = render_tile(scene, x0, y0, opts.cancel.as_deref()) else {
-                    cancelled.store(true, Ordering::Relaxed);
-                    return None;
-                };
-                done.fetch_add(1, Ordering::Relaxed);
-                if let Some(pb) = &bar {
-                    pb.inc(1);
-                }
-                Some(t)
-            })
-            .collect()
+            }
+            if let Some(pb) = &bar {
+                pb.inc(1);
+            }
+        })
     };
-    let results = match &pool {
+    match &pool {
         Some(p) => p.install(run),
         None => run(),
     };
@@ -242,27 +264,13 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
             "render interrupted; nothing was written".into(),
         ));
     }
-    let mut img = Image::new(scene.width, scene.height);
-    img.variance_dof = (scene.spp.max(2) - 1) as f64;
-    let mut dropped = 0;
-    for t in results.into_iter().flatten() {
-        dropped += t.dropped;
-        for j in 0..t.h {
-            for i in 0..t.w {
-                let dst = ((t.y0 + j) * scene.width + t.x0 + i) as usize;
-                let src = (j * t.w + i) as usize;
-                img.pixels[dst] = t.mean[src];
-                img.variance[dst] = t.var[src];
-            }
-        }
-    }
     let stats = RenderStats {
         width: scene.width,
         height: scene.height,
         spp: scene.spp,
         seconds,
         samples: scene.width as u64 * scene.height as u64 * scene.spp as u64,
-        nonfinite_dropped: dropped,
+        nonfinite_dropped: dropped.into_inner(),
         threads,
         primitives: scene.geometry.prims.len(),
         bvh_build_seconds: scene.geometry.build_seconds,

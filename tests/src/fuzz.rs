@@ -26,8 +26,20 @@ pub const TARGETS: &[&str] = &[
     "envmap_hdr",
 ];
 
-/// Runs target `name` on `data`.
+/// Runs target `name` on `data`. A panic that [`lobe_materials::guard`] caught inside a
+/// third-party reader is a failure too: the guard is the last line of defence, each input
+/// reaching it needs a proper check.
 pub fn run(name: &str, data: &[u8], scratch: &Path) {
+    let caught = lobe_materials::guard::caught_panics();
+    run_target(name, data, scratch);
+    assert_eq!(
+        lobe_materials::guard::caught_panics(),
+        caught,
+        "a third-party reader panicked (caught by the guard)"
+    );
+}
+
+fn run_target(name: &str, data: &[u8], scratch: &Path) {
     match name {
         "scene_json" => scene_json(data, scratch),
         "merl" => merl(data),
@@ -169,7 +181,19 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
         "lights": [{"type": "envmap", "file": "builtin:studio"}, {"type": "point", "position": [0, 3, 0], "intensity": 5}]
     });
     match name {
-        "scene_json" => vec![serde_json::to_vec_pretty(&scene).expect("json")],
+        "scene_json" => {
+            let mut v = vec![serde_json::to_vec_pretty(&scene).expect("json")];
+            if let Ok(rd) = std::fs::read_dir(crate::workspace().join("scenes")) {
+                let mut files: Vec<_> = rd
+                    .flatten()
+                    .map(|e| e.path())
+                    .filter(|p| p.extension().is_some_and(|e| e == "json"))
+                    .collect();
+                files.sort();
+                v.extend(files.iter().filter_map(|p| std::fs::read(p).ok()));
+            }
+            v
+        }
         "merl" => {
             // A full table is 35 MB; the seeds are its header and one real table.
             let t = Merl::from_fn(|wi, wo, _| Some([wi.z as f64 * 0.1, wo.z as f64 * 0.1, 0.05]));
@@ -189,41 +213,76 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
             for k in (0..b.len()).step_by(3) {
                 b.values[k] = Some([0.1, 0.2, 0.3]);
             }
-            vec![b.to_bytes()]
+            let mut iso = Binned::empty(
+                false,
+                vec![
+                    Axis::new(6, 0.0, 90.0),
+                    Axis::new(6, 0.0, 90.0),
+                    Axis::new(8, 0.0, 180.0),
+                ],
+            );
+            for k in 0..iso.len() {
+                iso.values[k] = (k % 5 != 0).then_some([0.05, 0.1 * (k % 7) as f32, 2.0]);
+            }
+            vec![b.to_bytes(), iso.to_bytes()]
         }
         "rgl" => {
             // The real files when present (read-only), else a tensor-file header.
             let mut v = vec![b"tensor_file\0\x01\x00\x00\x00\x00\x00".to_vec()];
             if let Some(d) = crate::shared_data()
-                && let Ok(b) = std::fs::read(d.join("rgl/paper_white_rgb.bsdf"))
+                && let Ok(rd) = std::fs::read_dir(d.join("rgl"))
             {
-                v.push(b);
+                let mut files: Vec<_> = rd.flatten().map(|e| e.path()).collect();
+                files.sort();
+                v.extend(files.iter().filter_map(|p| std::fs::read(p).ok()));
             }
             v
         }
         "fit_json" => vec![
             serde_json::to_vec(&json!({"material": "x", "models": {
                 "ward": {"material": {"type": "ward", "diffuse": 0.1, "specular": 0.2, "alpha": 0.2}, "error": 0.01},
+                "cook-torrance": {"material": {"type": "cook-torrance", "diffuse": [0.1, 0.2, 0.3], "specular": 0.5, "m": 0.15}, "error": 0.02},
+                "he": {"material": {"type": "he", "diffuse": 0.05, "specular": 1.2, "sigma0": 0.3, "tau": 4, "eta": 1.6}, "error": 0.02},
                 "lafortune-2": {"material": {"type": "composite", "diffuse": 0.1, "lobes": [
                     {"type": "lafortune", "specular": 0.3, "cx": -0.7, "cy": -0.7, "cz": 0.6, "n": 20},
                     {"type": "lafortune", "specular": 0.1, "cx": -0.3, "cy": -0.3, "cz": 0.9, "n": 3}]}}
             }}))
             .expect("json"),
         ],
-        "obj" => vec![
-            b"v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 1\nvt 0 0\nf 1/1/1 2/1/1 3/1/1\nf 1 3 4\n"
-                .to_vec(),
-        ],
-        "gltf" => vec![
-            // One triangle with an embedded base64 buffer (3 VEC3 floats + 3 u16 indices).
-            br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0,"translation":[0,0,0]}],
+        "obj" => {
+            let mut v = vec![
+                b"v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 1\nvt 0 0\nf 1/1/1 2/1/1 3/1/1\nf 1 3 4\n"
+                    .to_vec(),
+            ];
+            v.extend(std::fs::read(crate::workspace().join("scenes/meshes/bunny.obj")));
+            v
+        }
+        "gltf" => {
+            // One triangle with an embedded base64 buffer (3 VEC3 floats + 3 u16 indices),
+            // the same as a GLB with a BIN chunk, and the repository's glTF stage as a GLB.
+            let triangle = br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0,"translation":[0,0,0]}],
 "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
 "buffers":[{"byteLength":42,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIA"}],
 "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
 "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
 {"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#
-                .to_vec(),
-        ],
+                .to_vec();
+            let mut v = vec![triangle.clone()];
+            let mut doc: Value = serde_json::from_slice(&triangle).expect("json");
+            let bin = base64_payload(&doc["buffers"][0]["uri"]);
+            doc["buffers"][0] = json!({"byteLength": 42});
+            v.push(glb(&doc, &bin));
+            let stage = crate::workspace().join("scenes/meshes");
+            if let (Ok(text), Ok(bin)) = (
+                std::fs::read(stage.join("bunny-stage.gltf")),
+                std::fs::read(stage.join("bunny-stage.bin")),
+            ) && let Ok(mut doc) = serde_json::from_slice::<Value>(&text)
+            {
+                doc["buffers"][0] = json!({"byteLength": bin.len()});
+                v.push(glb(&doc, &bin));
+            }
+            v
+        }
         "envmap_exr" => {
             let dir = tempfile::tempdir().expect("tempdir");
             let p = dir.path().join("e.exr");
@@ -231,7 +290,9 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
                 .map(|k| lobe_materials::Rgb::new(k as f32 * 0.1, 0.5, 1.0))
                 .collect();
             lobe_renderer::film::write_exr(&p, 8, 4, &px).expect("exr");
-            vec![std::fs::read(p).expect("read")]
+            let mut v = vec![std::fs::read(p).expect("read")];
+            v.extend(std::fs::read(crate::workspace().join("scenes/envmaps/studio-512.exr")));
+            v
         }
         "envmap_hdr" => {
             let mut v = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 8\n".to_vec();
@@ -242,6 +303,38 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
         }
         _ => panic!("unknown fuzz target {name}"),
     }
+}
+
+/// The bytes of a base64 `data:` URI.
+fn base64_payload(uri: &Value) -> Vec<u8> {
+    use base64::Engine;
+    let s = uri.as_str().expect("a uri");
+    let (_, b) = s.split_once(";base64,").expect("base64");
+    base64::engine::general_purpose::STANDARD
+        .decode(b)
+        .expect("base64")
+}
+
+/// A GLB container of a glTF document and its BIN chunk.
+pub fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut json = doc.to_string().into_bytes();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    let mut bin = bin.to_vec();
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let mut out = b"glTF".to_vec();
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&((12 + 8 + json.len() + 8 + bin.len()) as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    out
 }
 
 /// Deterministic mutations of `seed` (bit flips, byte overwrites, truncations, insertions,

@@ -298,6 +298,39 @@ fn glossy_sampling_beats_cosine_sampling() {
 }
 
 #[test]
+fn ward_duer_sample_weights_stay_bounded_at_grazing_views() {
+    // Duer's 1 / (cos_i cos_o) made the weight grow as 1 / cos(theta_o): 1860 per unit
+    // specular at 89.99 degrees for alpha 0.68, fireflies at a sphere's silhouette. With
+    // the cosines floored at cos(89 degrees), no weight exceeds 1 / cos(89 degrees).
+    let bound = 1.0 / 89f32.to_radians().cos();
+    for alpha in [0.05, 0.2, 0.68, 2.0] {
+        let b = Registry::builtin()
+            .create(
+                &json!({"type": "ward-duer", "specular": 1, "alpha": alpha}),
+                "m",
+            )
+            .unwrap();
+        let mut max = 0.0f32;
+        for theta in [80.0f32, 89.0, 89.9, 89.99, 89.999] {
+            let t = theta.to_radians();
+            let wo = Vec3::new(t.sin(), 0.0, t.cos()).normalize();
+            for i in 0..64 {
+                for j in 0..64 {
+                    let u = glam::Vec2::new((i as f32 + 0.5) / 64.0, (j as f32 + 0.5) / 64.0);
+                    if let Some(s) = b.sample(wo, u, 0.5) {
+                        max = max.max(s.weight.max_component());
+                    }
+                }
+            }
+        }
+        assert!(
+            max <= bound,
+            "alpha {alpha}: largest weight {max} > {bound}"
+        );
+    }
+}
+
+#[test]
 fn out_of_range_parameters_are_rejected_with_their_range() {
     use lobe_materials::registry::{ParamKind, Registry};
     let reg = Registry::builtin();

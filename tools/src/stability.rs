@@ -3,7 +3,9 @@
 //! 1e-4 above an open zero, a middle value and its upper bound capped at 1e6; every choice
 //! of every setting) and over direction pairs including normal and grazing incidence (to
 //! 89.99 degrees), wi = wo and wi = mirror(wo); the sampled-microfacet generator and the
-//! measured readers (a MERL table, the RGL files if present) over the same directions.
+//! measured readers (a MERL table, the RGL files if present, and MERL and binned tables of
+//! extreme values: the largest accepted, denormal, zero, checkerboard peaks, mostly
+//! missing, negative) over the same directions.
 //! Counts per model: non-finite and negative values (of f32 and f64 evaluation, pdf and
 //! sampling weights), reciprocity violations (models flagged reciprocal), energy violations
 //! (directional albedo above 1 for models flagged energy-bounded) and f32/f64 disagreements.
@@ -18,7 +20,8 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct StabilityArgs {
-    /// Comma-separated models (default: every analytic model, sampled-microfacet, merl, rgl).
+    /// Comma-separated models (default: every analytic model, sampled-microfacet, merl,
+    /// measured-extremes, rgl).
     #[arg(long)]
     models: Option<String>,
     /// Fewer parameter values and directions (for CI).
@@ -272,6 +275,67 @@ fn sweep_materials(
     c
 }
 
+/// MERL and binned tables of extreme values (as measured readers accept them): every bin
+/// at the largest accepted value (MAX_VALUE), denormal, zero, a checkerboard of the largest
+/// value and zero (the sharpest possible peaks), mostly missing, and for binned data
+/// negative bins too; both MERL lookups.
+fn extreme_tables(dir: &std::path::Path, quick: bool) -> Result<Vec<Value>, Error> {
+    use lobe_materials::measured::MAX_VALUE;
+    use lobe_materials::measured::binned::{Axis, Binned};
+    use lobe_materials::measured::merl::Merl;
+    type Fill = fn(usize) -> Option<[f64; 3]>;
+    let mut fills: Vec<(&str, Fill)> = vec![
+        ("max", |_| Some([MAX_VALUE; 3])),
+        ("checker", |k| {
+            Some([if k % 2 == 0 { MAX_VALUE } else { 0.0 }; 3])
+        }),
+    ];
+    if !quick {
+        fills.extend([
+            ("denormal", (|_| Some([1e-41; 3])) as Fill),
+            ("zero", |_| Some([0.0; 3])),
+            ("sparse", |k| {
+                (k % 97 == 0).then_some([MAX_VALUE, 1.0, 1e-41])
+            }),
+            ("negative", |k| {
+                Some([if k % 3 == 0 { -MAX_VALUE } else { MAX_VALUE }, -1.0, 0.5])
+            }),
+        ]);
+    }
+    let to_err = |path: &std::path::Path, e: lobe_materials::FileError| {
+        Error::file(path.display(), e.message)
+    };
+    let mut descs = Vec::new();
+    for (name, fill) in fills {
+        if name != "negative" {
+            // MERL stores no negative values (they mark missing samples).
+            let path = dir.join(format!("extreme-{name}.binary"));
+            Merl::from_fn(|_, _, (a, b, c)| fill(a + b + c))
+                .write(&path)
+                .map_err(|e| to_err(&path, e))?;
+            for interp in [true, false] {
+                descs.push(json!({"type": "merl", "file": path.display().to_string(), "interpolate": interp}));
+            }
+        }
+        let mut t = Binned::empty(
+            false,
+            vec![
+                Axis::new(18, 0.0, 90.0),
+                Axis::new(18, 0.0, 90.0),
+                Axis::new(36, 0.0, 180.0),
+            ],
+        );
+        for k in 0..t.len() {
+            let b = t.unindex(k);
+            t.values[k] = fill(b.iter().sum()).map(|v| v.map(|x| x as f32));
+        }
+        let path = dir.join(format!("extreme-{name}.bin"));
+        t.write(&path).map_err(|e| to_err(&path, e))?;
+        descs.push(json!({"type": "binned", "file": path.display().to_string()}));
+    }
+    Ok(descs)
+}
+
 pub fn cmd_stability(args: StabilityArgs, quiet: bool) -> Result<(), Error> {
     let reg = Registry::builtin();
     let pairs = pairs(args.quick);
@@ -325,6 +389,13 @@ pub fn cmd_stability(args: StabilityArgs, quiet: bool) -> Result<(), Error> {
             }
         }
         rows.push(("merl".into(), sweep_materials(&descs, tmp.path(), &pairs)));
+    }
+    if want("measured-extremes") {
+        let descs = extreme_tables(tmp.path(), args.quick)?;
+        rows.push((
+            "measured-extremes".into(),
+            sweep_materials(&descs, tmp.path(), &pairs),
+        ));
     }
     if want("rgl") {
         let folder = args.rgl.clone().or_else(|| {

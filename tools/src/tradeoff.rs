@@ -4,8 +4,10 @@
 //! estimated from it (section 5), and every analytic fit (section 4). For each it measures
 //! the Eq. (1) error, the image error against a high-spp render of the measured table (RMSE
 //! and FLIP), eval and sample cost per call, memory, render time at a fixed spp, and the
-//! image error at equal render time (from a convergence curve over spp); writes Markdown,
-//! CSV and a Pareto plot (render time against image error).
+//! image error at equal render time (from a convergence curve over spp); each image error
+//! also as the median-of-means RMSE with its outlier pixels (lobe_renderer::error_stats), so
+//! that a firefly cannot decide a published number; writes Markdown, CSV and a Pareto plot
+//! (render time against median-of-means image error).
 
 use crate::figures::{H, PALETTE, W, plot_err, register_font, save};
 use lobe_materials::Bsdf;
@@ -14,6 +16,7 @@ use lobe_materials::microfacet_gen::estimate;
 use lobe_materials::registry::{BuildContext, Registry};
 use lobe_renderer::Error;
 use lobe_renderer::compare::metrics;
+use lobe_renderer::error_stats::robust_error;
 use lobe_renderer::film::Image;
 use lobe_renderer::render::{RenderOptions, render};
 use lobe_renderer::scene::{LoadOptions, from_value};
@@ -60,9 +63,14 @@ struct Row {
     memory: usize,
     seconds: f64,
     rmse: f64,
+    /// Median-of-means RMSE and outlier pixels (lobe_renderer::error_stats).
+    robust_rmse: f64,
+    outliers: usize,
     flip: f64,
     curve: Vec<(f64, f64)>,
+    robust_curve: Vec<(f64, f64)>,
     equal_time_rmse: f64,
+    equal_time_robust_rmse: f64,
 }
 
 fn default_scene(size: u32) -> Value {
@@ -263,18 +271,27 @@ pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
             .map_err(|e| Error::Other(e.to_string()))?;
         let (eval_ns, sample_ns) = cost(b.as_ref());
         let mut curve = Vec::new();
+        let mut robust_curve = Vec::new();
         let mut last = None;
         for &spp in &spps {
             let (img, secs) = render_with(&desc, spp)?;
             let (m, _) = metrics(&img, &reference, 0.0)?;
+            let r = robust_error(&img, &reference)?;
             curve.push((secs, m.rmse));
-            last = Some((secs, m));
+            robust_curve.push((secs, r.median_of_means_rmse));
+            last = Some((secs, m, r));
         }
-        let (seconds, m) = last.expect("three renders");
+        let (seconds, m, r) = last.expect("three renders");
         say(format!(
-            "  {name}: {seconds:.2} s at {} spp, RMSE {:.4e}, FLIP {:.4}",
-            args.spp, m.rmse, m.flip
+            "  {name}: {seconds:.2} s at {} spp, RMSE {:.4e} (median of means {:.4e}), FLIP {:.4}",
+            args.spp, m.rmse, r.median_of_means_rmse, m.flip
         ));
+        if r.outliers > 0 {
+            say(format!(
+                "  warning: {name}: {} outlier pixel(s) (worst at ({}, {}), squared error {:.3e}) decide its RMSE; compare the median-of-means column",
+                r.outliers, r.worst.1, r.worst.2, r.worst.0
+            ));
+        }
         rows.push(Row {
             name,
             desc,
@@ -284,9 +301,13 @@ pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
             memory: b.memory_bytes(),
             seconds,
             rmse: m.rmse,
+            robust_rmse: r.median_of_means_rmse,
+            outliers: r.outliers,
             flip: m.flip,
             curve,
+            robust_curve,
             equal_time_rmse: f64::NAN,
+            equal_time_robust_rmse: f64::NAN,
         });
     }
     // Equal time: each representation rendered again with the spp that fits the measured
@@ -301,8 +322,12 @@ pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
             let (m, _) = metrics(&img, &reference, 0.0)?;
             r.curve.push((secs, m.rmse));
             r.curve.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let e = robust_error(&img, &reference)?;
+            r.robust_curve.push((secs, e.median_of_means_rmse));
+            r.robust_curve.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
         r.equal_time_rmse = at_time(&r.curve, budget);
+        r.equal_time_robust_rmse = at_time(&r.robust_curve, budget);
     }
     write_outputs(&rows, &args, budget, data.max_albedo, &source)?;
     Ok(())
@@ -321,9 +346,12 @@ fn write_outputs(
          equal-time error at the measured table's render time ({budget:.2} s): each \
          representation is rendered again with the spp its rate allows in that time (at most \
          16x), and the error interpolated on its convergence curve ({}, {}, {} spp and that \
-         one). The reference's own noise is part of every image error.\n\n\
-         | representation | Eq. (1) error (normalized) | image RMSE | FLIP | eval ns | sample ns | memory | render s | RMSE at equal time |\n\
-         |---|---|---|---|---|---|---|---|---|\n",
+         one). The reference's own noise is part of every image error. Next to each RMSE, the \
+         median-of-means RMSE (median of 16 pixel groups' mean squared errors, \
+         lobe_renderer::error_stats), which a few firefly pixels cannot decide; outliers are \
+         pixels whose squared error exceeds 1000x that median.\n\n\
+         | representation | Eq. (1) error (normalized) | image RMSE | median-of-means RMSE | outlier pixels | FLIP | eval ns | sample ns | memory | render s | RMSE at equal time | median-of-means RMSE at equal time |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
         args.reference_spp,
         args.spp,
         args.spp / 16,
@@ -331,7 +359,7 @@ fn write_outputs(
         args.spp
     );
     let mut csv = String::from(
-        "representation,eq1_error,eq1_error_normalized,image_rmse,flip,eval_ns,sample_ns,memory_bytes,render_seconds,equal_time_rmse,material\n",
+        "representation,eq1_error,eq1_error_normalized,image_rmse,median_of_means_rmse,outlier_pixels,flip,eval_ns,sample_ns,memory_bytes,render_seconds,equal_time_rmse,equal_time_median_of_means_rmse,material\n",
     );
     for r in rows {
         let mem = if r.memory >= 1 << 20 {
@@ -340,29 +368,35 @@ fn write_outputs(
             format!("{:.1} KiB", r.memory as f64 / 1024.0)
         };
         md.push_str(&format!(
-            "| {} | {:.3e} ({:.3e}) | {:.3e} | {:.4} | {:.0} | {:.0} | {mem} | {:.2} | {:.3e} |\n",
+            "| {} | {:.3e} ({:.3e}) | {:.3e} | {:.3e} | {} | {:.4} | {:.0} | {:.0} | {mem} | {:.2} | {:.3e} | {:.3e} |\n",
             r.name,
             r.brdf_error,
             r.brdf_error / max_albedo.max(1e-300),
             r.rmse,
+            r.robust_rmse,
+            r.outliers,
             r.flip,
             r.eval_ns,
             r.sample_ns,
             r.seconds,
-            r.equal_time_rmse
+            r.equal_time_rmse,
+            r.equal_time_robust_rmse
         ));
         csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"\n",
             r.name,
             r.brdf_error,
             r.brdf_error / max_albedo.max(1e-300),
             r.rmse,
+            r.robust_rmse,
+            r.outliers,
             r.flip,
             r.eval_ns,
             r.sample_ns,
             r.memory,
             r.seconds,
             r.equal_time_rmse,
+            r.equal_time_robust_rmse,
             r.desc.to_string().replace('"', "\"\"")
         ));
     }
@@ -381,7 +415,7 @@ fn write_outputs(
 fn pareto(rows: &[Row], path: &Path) -> Result<(), Error> {
     register_font();
     let xs = rows.iter().map(|r| r.seconds.max(1e-4).log10());
-    let ys = rows.iter().map(|r| r.rmse.max(1e-9).log10());
+    let ys = rows.iter().map(|r| r.robust_rmse.max(1e-9).log10());
     let (x0, x1) = xs.fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)));
     let (y0, y1) = ys.fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
     let mut buf = vec![255u8; (W * H * 3) as usize];
@@ -401,12 +435,12 @@ fn pareto(rows: &[Row], path: &Path) -> Result<(), Error> {
         chart
             .configure_mesh()
             .x_desc("log10 render seconds at fixed spp")
-            .y_desc("log10 image RMSE")
+            .y_desc("log10 median-of-means image RMSE")
             .draw()
             .map_err(plot_err)?;
         for (k, r) in rows.iter().enumerate() {
             let c = PALETTE[k % PALETTE.len()];
-            let p = (r.seconds.max(1e-4).log10(), r.rmse.max(1e-9).log10());
+            let p = (r.seconds.max(1e-4).log10(), r.robust_rmse.max(1e-9).log10());
             chart
                 .draw_series(std::iter::once(Circle::new(p, 6, c.filled())))
                 .map_err(plot_err)?;

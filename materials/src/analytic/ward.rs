@@ -23,6 +23,11 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
 
+/// Ward-Duer's cosines are floored at cos(89 degrees) (module docs of
+/// [`super::ward_duer`]): the lobe is Duer's exactly up to 89 degrees, and its sample weight
+/// is at most 1 / cos(89 degrees) (about 57) instead of growing as 1 / cos(theta_o).
+pub const DUER_COS_FLOOR: f64 = 0.017_452_406_437_283_5;
+
 /// Ward (`duer = false`) or Ward-Duer (`duer = true`).
 #[derive(Clone, Debug)]
 pub struct Ward {
@@ -62,7 +67,12 @@ impl Ward {
             return T::zero();
         }
         let norm = T::c(4.0) * T::PI() * T::c(self.alpha_x * self.alpha_y);
-        let cos_term = if self.duer { ci * co } else { (ci * co).sqrt() };
+        let cos_term = if self.duer {
+            let floor = T::c(DUER_COS_FLOOR);
+            ci.max(floor) * co.max(floor)
+        } else {
+            (ci * co).sqrt()
+        };
         let v = e / (norm * cos_term);
         if v.is_finite() { v } else { T::zero() }
     }

@@ -675,7 +675,27 @@ fn build_fit(
                 ),
             )
         })?;
-    Registry::builtin().create_with(m, &format!("{}(from {})", p.path, path.display()), ctx)
+    // A report holds the fitter's output: an analytic model or a composite of lobes (a
+    // report naming another report, even itself, would recurse without end).
+    let reg = Registry::builtin();
+    let ty = m.get("type").and_then(Value::as_str).unwrap_or("");
+    let at = format!("{}(from {})", p.path, path.display());
+    if ty != crate::registry::COMPOSITE && !reg.is_lobe_model(ty) {
+        return Err(crate::ParamError::new(
+            format!("{at}.type"),
+            format!(
+                "\"{ty}\" in model \"{label}\"; expected an analytic model or a composite, as lobe fit writes"
+            ),
+        ));
+    }
+    let b = reg.create_with(m, &at, ctx)?;
+    if let Some(bad) = crate::bsdf::first_nonfinite(b.as_ref()) {
+        return Err(err(format!(
+            "{}: model \"{label}\" is not finite in f32 at {bad}; expected parameters whose BRDF f32 holds",
+            path.display()
+        )));
+    }
+    Ok(b)
 }
 
 pub fn register(r: &mut Registry) {

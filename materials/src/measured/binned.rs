@@ -304,6 +304,14 @@ impl Binned {
     }
 
     pub fn from_bytes(b: &[u8], name: &str) -> Result<Self, FileError> {
+        let b_unindex = |axes: &[Axis], k: usize| {
+            Self {
+                anisotropic: false,
+                axes: axes.to_vec(),
+                values: Vec::new(),
+            }
+            .unindex(k)
+        };
         let err = |m: String| FileError::new(name, m);
         let mut pos = 0usize;
         let mut take = |n: usize, what: &str| -> Result<&[u8], FileError> {
@@ -393,8 +401,17 @@ impl Binned {
             if mask[k / 8] & (1 << (k % 8)) != 0 {
                 let f = |o: usize| f32::from_le_bytes(b[o..o + 4].try_into().expect("4"));
                 let x = [f(p), f(p + 4), f(p + 8)];
-                if !x.iter().all(|c| c.is_finite()) {
-                    return Err(err(format!("bin {k} holds {x:?}; expected finite values")));
+                if !x.iter().all(|c| c.abs() as f64 <= super::MAX_VALUE) {
+                    let at: Vec<String> = b_unindex(&axes, k)
+                        .iter()
+                        .zip(&axes)
+                        .map(|(&i, a)| format!("{}", a.centre(i)))
+                        .collect();
+                    return Err(err(format!(
+                        "bin {k} (centre at [{}] degrees) holds {x:?}; expected finite values of magnitude up to {:e} 1/sr",
+                        at.join(", "),
+                        super::MAX_VALUE
+                    )));
                 }
                 *v = Some(x);
                 p += 12;

@@ -56,8 +56,10 @@ impl Table for BinnedTable {
     fn memory_bytes(&self) -> usize {
         self.table.values.len() * std::mem::size_of::<Option<[f32; 3]>>()
     }
+    /// Negative bins (noise of a measurement, e.g. tabulated from an unclamped RGL file)
+    /// render as zero.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        self.table.lookup(wi, wo)
+        self.table.lookup(wi, wo).map(|x| x.max(0.0))
     }
     fn is_isotropic(&self) -> bool {
         !self.table.anisotropic

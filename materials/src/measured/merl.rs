@@ -118,11 +118,19 @@ impl Merl {
             for (i, d) in data.iter_mut().enumerate() {
                 let o = base + 8 * i;
                 let v = f64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
-                if !v.is_finite() {
+                // The scaled value must be a BRDF f32 holds with room to spare.
+                if !v.is_finite() || v * SCALE[c] > super::MAX_VALUE {
+                    let (ith, itd, ipd) = (
+                        i / (RES_THETA_D * RES_PHI_D),
+                        (i / RES_PHI_D) % RES_THETA_D,
+                        i % RES_PHI_D,
+                    );
                     return Err(FileError::new(
                         name,
                         format!(
-                            "sample {i} of channel {c} is {v}; expected a finite value (negative for missing)"
+                            "sample {i} (theta_h bin {ith}, theta_d bin {itd}, phi_d bin {ipd}) of channel {c} is {v}, {:e} 1/sr after the channel scale; expected a finite value up to {:e} 1/sr (negative for missing)",
+                            v * SCALE[c],
+                            super::MAX_VALUE
                         ),
                     ));
                 }

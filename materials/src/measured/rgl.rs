@@ -72,6 +72,49 @@ fn mulsign_neg(v: f32, s: f32) -> f32 {
     if s.is_sign_positive() { -v } else { v }
 }
 
+/// What a field's values may be.
+#[derive(Clone, Copy)]
+enum Range {
+    /// Angles in radians, strictly increasing (the parameter axes).
+    Angles,
+    /// Densities: in [0, MAX_VALUE].
+    Density,
+    /// A divisor: in (0, MAX_VALUE].
+    Positive,
+    /// Values (BRDF x cosine): magnitude up to MAX_VALUE (small negatives occur).
+    Value,
+}
+
+/// Checks every field's values, naming the first bad entry.
+fn check_fields(fields: &[(&str, &[f32], Range)]) -> Result<(), String> {
+    let max = super::MAX_VALUE as f32;
+    for &(name, v, range) in fields {
+        for (k, &x) in v.iter().enumerate() {
+            let (ok, expected) = match range {
+                Range::Angles => (
+                    x.abs() <= 2.0 * PI && (k == 0 || x > v[k - 1]),
+                    "increasing angles within [-2 pi, 2 pi] radians".to_string(),
+                ),
+                Range::Density => (
+                    (0.0..=max).contains(&x),
+                    format!("a density in [0, {max:e}]"),
+                ),
+                Range::Positive => (x > 0.0 && x <= max, format!("a value in (0, {max:e}]")),
+                Range::Value => (
+                    x.abs() <= max,
+                    format!("a value of magnitude up to {max:e}"),
+                ),
+            };
+            if !ok {
+                return Err(format!(
+                    "field \"{name}\": value {k} is {x}; expected {expected}"
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 impl Rgl {
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let t = TensorFile::read(path)?;
@@ -99,6 +142,16 @@ impl Rgl {
             .get("jacobian")
             .and_then(|f| f.bytes.first())
             .is_some_and(|&b| b != 0);
+        check_fields(&[
+            ("theta_i", &theta_i, Range::Angles),
+            ("phi_i", &phi_i, Range::Angles),
+            ("ndf", &ndf, Range::Density),
+            ("sigma", &sigma, Range::Positive),
+            ("vndf", &vndf, Range::Density),
+            ("luminance", &lum, Range::Density),
+            ("rgb", &rgb, Range::Value),
+        ])
+        .map_err(err)?;
         let (np, nt) = (phi_i.len(), theta_i.len());
         if np == 0 || nt == 0 {
             return Err(err(
@@ -144,7 +197,7 @@ impl Rgl {
             }
             Marginal2D::new(&d, n, n, params.clone(), false)
         };
-        Ok(Self {
+        let table = Self {
             description: desc,
             isotropic,
             reduction,
@@ -154,7 +207,36 @@ impl Rgl {
             vndf: Marginal2D::new(&vndf, vndf_s[3], vndf_s[2], params.clone(), true),
             luminance: Marginal2D::new(&lum, lum_s[3], lum_s[2], params.clone(), true),
             rgb: [channel(0), channel(1), channel(2)],
-        })
+        };
+        table.probe().map_err(err)?;
+        Ok(table)
+    }
+
+    /// Evaluates, and samples, the table on the grid of [`crate::bsdf::probe_directions`]
+    /// and refuses it at the first non-finite value, density or weight: values within range
+    /// can still combine badly (a vanishing `sigma` under the Jacobian, a slice of the
+    /// luminance whose integral is too small to normalize in f32).
+    fn probe(&self) -> Result<(), String> {
+        let bad = crate::bsdf::probe_directions(|wo, wi, u, _| {
+            let v = self.eval_projected_raw(wo, wi);
+            let pdf = self.pdf_raw(wo, wi);
+            let w = self
+                .sample(wo, u)
+                .map_or(Rgb::ZERO, |(wi, p)| self.eval_projected_raw(wo, wi) / p);
+            (!(v.is_finite() && pdf.is_finite() && w.is_finite())).then(|| {
+                format!(
+                    "value {:?}, density {pdf}, sample weight {:?}",
+                    v.to_array(),
+                    w.to_array()
+                )
+            })
+        });
+        match bad {
+            None => Ok(()),
+            Some(m) => Err(format!(
+                "at {m}; expected finite values (its fields combine to overflow f32)"
+            )),
+        }
     }
 
     pub fn is_isotropic(&self) -> bool {
@@ -205,6 +287,11 @@ impl Rgl {
 
     /// BRDF x cos(theta_i) for viewer `wo` and light `wi` (Mitsuba's `eval`, negative values included).
     pub fn eval_projected(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        let v = self.eval_projected_raw(wo, wi);
+        if v.is_finite() { v } else { Rgb::ZERO }
+    }
+
+    fn eval_projected_raw(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
@@ -212,8 +299,7 @@ impl Rgl {
         let m = (wo_f + wi_f).normalize_or_zero();
         let (u_m, params, _) = self.coords(wo_f, m);
         let (s, _) = self.vndf.invert(u_m, &params);
-        let v = self.spectrum(s, &params, u_m, wo_f);
-        if v.is_finite() { v } else { Rgb::ZERO }
+        self.spectrum(s, &params, u_m, wo_f)
     }
 
     /// The BRDF (1/sr).
@@ -227,6 +313,11 @@ impl Rgl {
 
     /// Density of `sample`.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let p = self.pdf_raw(wo, wi);
+        if p.is_finite() && p > 0.0 { p } else { 0.0 }
+    }
+
+    fn pdf_raw(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
@@ -236,8 +327,7 @@ impl Rgl {
         let (s, p_vndf) = self.vndf.invert(u_m, &params);
         let p_lum = self.luminance.eval(s, &params);
         let jac = (2.0 * PI * PI * u_m[0] * sin_m).max(1e-6) * 4.0 * wo_f.dot(m);
-        let p = p_vndf * p_lum / jac;
-        if p.is_finite() && p > 0.0 { p } else { 0.0 }
+        p_vndf * p_lum / jac
     }
 
     /// Samples the light direction for viewer `wo`: (wi, pdf).

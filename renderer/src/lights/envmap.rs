@@ -613,24 +613,29 @@ pub fn read_rgb_image(path: &Path) -> Result<RgbImage> {
         "exr" => {
             use exr::prelude::*;
             lobe_materials::io::check_exr_size(path).map_err(|m| crate::Error::file(&shown, m))?;
-            let image = read_first_rgba_layer_from_file(
-                path,
-                |res, _| RgbImage {
-                    width: res.width(),
-                    height: res.height(),
-                    pixels: vec![Rgb::ZERO; res.width() * res.height()],
-                },
-                |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                    img.pixels[pos.y() * img.width + pos.x()] = Rgb::new(r, g, b);
-                },
-            )
+            let image = lobe_materials::guard::third_party("OpenEXR", || {
+                read_first_rgba_layer_from_file(
+                    path,
+                    |res, _| RgbImage {
+                        width: res.width(),
+                        height: res.height(),
+                        pixels: vec![Rgb::ZERO; res.width() * res.height()],
+                    },
+                    |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                        img.pixels[pos.y() * img.width + pos.x()] = Rgb::new(r, g, b);
+                    },
+                )
+            })
+            .map_err(|m| crate::Error::file(&shown, m))?
             .map_err(|e| crate::Error::file(&shown, format!("cannot read OpenEXR image: {e}")))?;
             image.layer_data.channel_data.pixels
         }
         "hdr" | "pic" => {
-            let dynimg = image::open(path)
-                .map_err(|e| Error::file(&shown, format!("cannot read Radiance HDR image: {e}")))?;
-            let rgb = dynimg.into_rgb32f();
+            let rgb = lobe_materials::guard::third_party("Radiance HDR", || {
+                image::open(path).map(|i| i.into_rgb32f())
+            })
+            .map_err(|m| Error::file(&shown, m))?
+            .map_err(|e| Error::file(&shown, format!("cannot read Radiance HDR image: {e}")))?;
             RgbImage {
                 width: rgb.width() as usize,
                 height: rgb.height() as usize,

@@ -5,6 +5,7 @@
 use crate::camera::{Camera, look_at};
 use crate::error::{Error, Result};
 use crate::geometry::Mesh;
+use crate::limits::{MAX_COORDINATE, MAX_TRIANGLES};
 use glam::{Mat4, Vec2, Vec3};
 use std::path::Path;
 
@@ -16,17 +17,7 @@ fn check_mesh(mesh: &Mesh, shown: &str) -> Result<()> {
             "contains no triangles; expected a triangle mesh",
         ));
     }
-    if let Some((i, _)) = mesh
-        .positions
-        .iter()
-        .enumerate()
-        .find(|(_, p)| !p.is_finite())
-    {
-        return Err(Error::file(
-            shown,
-            format!("vertex {i} has a non-finite position; expected finite coordinates"),
-        ));
-    }
+    check_positions(mesh, shown)?;
     if let Some((i, t)) = mesh
         .indices
         .iter()
@@ -38,6 +29,24 @@ fn check_mesh(mesh: &Mesh, shown: &str) -> Result<()> {
             format!(
                 "triangle {i} refers to vertex {:?}, but the mesh has {n} vertices",
                 t
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Every vertex finite and within [`MAX_COORDINATE`] (of the origin, per axis).
+pub fn check_positions(mesh: &Mesh, shown: &str) -> Result<()> {
+    if let Some((i, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !(p.abs().max_element() <= MAX_COORDINATE))
+    {
+        return Err(Error::file(
+            shown,
+            format!(
+                "vertex {i} is at {p}; expected finite coordinates within {MAX_COORDINATE:e} (after the shape's transform)"
             ),
         ));
     }
@@ -56,8 +65,10 @@ pub fn load_obj(path: &Path) -> Result<Mesh> {
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _materials) = tobj::load_obj(path, &opts)
-        .map_err(|e| Error::file(&shown, format!("cannot read OBJ: {e}")))?;
+    let (models, _materials) =
+        lobe_materials::guard::third_party("OBJ", || tobj::load_obj(path, &opts))
+            .map_err(|m| Error::file(&shown, m))?
+            .map_err(|e| Error::file(&shown, format!("cannot read OBJ: {e}")))?;
     let mut mesh = Mesh::default();
     let mut all_have_normals = true;
     for m in &models {
@@ -139,250 +150,84 @@ impl GltfCamera {
 }
 
 /// Loads the default scene of a glTF 2.0 file (.gltf or .glb): every triangle primitive of
-/// every mesh node, transformed by its node's world transform, as one mesh.
-/// Checks every index between glTF objects before the `gltf` crate validates the document:
-/// its validation indexes some arrays unchecked (found by fuzzing: a primitive's `indices`
-/// naming a missing accessor panics inside gltf-json 1.4), so a malformed file must be
-/// refused first. Binary .glb files are checked through their JSON chunk.
-fn check_gltf_indices(bytes: &[u8]) -> std::result::Result<(), String> {
-    let json: &[u8] = if bytes.starts_with(b"glTF") {
-        // The GLB container (its header arithmetic is unchecked in gltf 1.4 too).
-        let u32_at = |o: usize| -> Option<usize> {
-            bytes
-                .get(o..o + 4)
-                .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
-        };
-        let (Some(version), Some(length), Some(json_len)) = (u32_at(4), u32_at(8), u32_at(12))
-        else {
-            return Err("truncated GLB header; expected a 12-byte header and a JSON chunk".into());
-        };
-        if version != 2 {
-            return Err(format!("GLB version {version}; expected 2"));
-        }
-        if length < 20 || length > bytes.len() {
-            return Err(format!(
-                "GLB header declares {length} bytes, the file has {}; expected 20 to {}",
-                bytes.len(),
-                bytes.len()
-            ));
-        }
-        if bytes.get(16..20) != Some(b"JSON".as_slice()) {
-            return Err("the first GLB chunk is not JSON; expected a JSON chunk".into());
-        }
-        let json_end = 20usize.saturating_add(json_len);
-        if json_end > length {
-            return Err(format!(
-                "GLB JSON chunk of {json_len} bytes runs past the declared length {length}"
-            ));
-        }
-        // An optional BIN chunk must fit as well.
-        let bin_at = json_end.next_multiple_of(4);
-        if bin_at + 8 <= length
-            && let Some(bin_len) = u32_at(bin_at)
-            && bin_at + 8 + bin_len > length
-        {
-            return Err(format!(
-                "GLB BIN chunk of {bin_len} bytes runs past the declared length {length}"
-            ));
-        }
-        &bytes[20..json_end]
-    } else {
-        bytes
-    };
-    // Not JSON: leave the error message to the gltf crate.
-    let Ok(v) = serde_json::from_slice::<serde_json::Value>(json) else {
-        return Ok(());
-    };
-    let count = |k: &str| v.get(k).and_then(|a| a.as_array()).map_or(0, |a| a.len());
-    let check =
-        |what: String, idx: &serde_json::Value, target: &str| -> std::result::Result<(), String> {
-            match idx.as_u64() {
-                Some(i) if (i as usize) < count(target) => Ok(()),
-                _ => Err(format!(
-                    "{what}: {idx} is not an index into \"{target}\" (which has {} entries)",
-                    count(target)
-                )),
-            }
-        };
-    let arr = |o: &serde_json::Value, k: &str| -> Vec<serde_json::Value> {
-        o.get(k)
-            .and_then(|a| a.as_array())
-            .cloned()
-            .unwrap_or_default()
-    };
-    for (m, mesh) in arr(&v, "meshes").iter().enumerate() {
-        for (p, prim) in arr(mesh, "primitives").iter().enumerate() {
-            let at = format!("meshes[{m}].primitives[{p}]");
-            if let Some(a) = prim.get("attributes").and_then(|a| a.as_object()) {
-                for (name, idx) in a {
-                    check(format!("{at}.attributes.{name}"), idx, "accessors")?;
-                }
-            }
-            if let Some(i) = prim.get("indices") {
-                check(format!("{at}.indices"), i, "accessors")?;
-            }
-            for (t, target) in arr(prim, "targets").iter().enumerate() {
-                if let Some(a) = target.as_object() {
-                    for (name, idx) in a {
-                        check(format!("{at}.targets[{t}].{name}"), idx, "accessors")?;
-                    }
-                }
-            }
-            if let Some(i) = prim.get("material") {
-                check(format!("{at}.material"), i, "materials")?;
-            }
-        }
-    }
-    for (a, acc) in arr(&v, "accessors").iter().enumerate() {
-        if let Some(i) = acc.get("bufferView") {
-            check(format!("accessors[{a}].bufferView"), i, "bufferViews")?;
-        }
-    }
-    for (b, view) in arr(&v, "bufferViews").iter().enumerate() {
-        if let Some(i) = view.get("buffer") {
-            check(format!("bufferViews[{b}].buffer"), i, "buffers")?;
-        }
-    }
-    for (n, node) in arr(&v, "nodes").iter().enumerate() {
-        if let Some(i) = node.get("mesh") {
-            check(format!("nodes[{n}].mesh"), i, "meshes")?;
-        }
-        if let Some(i) = node.get("camera") {
-            check(format!("nodes[{n}].camera"), i, "cameras")?;
-        }
-        for (c, child) in arr(node, "children").iter().enumerate() {
-            check(format!("nodes[{n}].children[{c}]"), child, "nodes")?;
-        }
-    }
-    for (sc, scene) in arr(&v, "scenes").iter().enumerate() {
-        for (k, node) in arr(scene, "nodes").iter().enumerate() {
-            check(format!("scenes[{sc}].nodes[{k}]"), node, "nodes")?;
-        }
-    }
-    if let Some(i) = v.get("scene") {
-        check("scene".into(), i, "scenes")?;
-    }
-    Ok(())
-}
-
+/// every mesh node, transformed by its node's world transform, as one mesh, and the first
+/// camera in depth-first order. The file is checked first ([`super::gltf_check`]: container,
+/// cross-references, buffers, accessors, node graph), then the `gltf` crate parses it and
+/// reads the accessors, each call under [`lobe_materials::guard::third_party`].
 pub fn load_gltf(path: &Path) -> Result<GltfScene> {
+    use super::gltf_check as check;
     let shown = path.display().to_string();
     if path.is_dir() {
         return Err(Error::file(&shown, "is a directory; expected a glTF file"));
     }
     let bytes =
         std::fs::read(path).map_err(|e| Error::file(&shown, format!("cannot read: {e}")))?;
-    check_gltf_indices(&bytes).map_err(|m| Error::file(&shown, m))?;
-    let gltf = gltf::Gltf::from_slice(&bytes)
+    let fail = |m: String| Error::file(&shown, m);
+    let parts = check::container(&bytes).map_err(fail)?;
+    // Everything the gltf crate reads must pass the checks, so a document they cannot
+    // parse is refused here (serde_json skips unknown keys without validating their UTF-8
+    // when deserializing the crate's types, so the crate would accept more).
+    let (buffers, visits) = match serde_json::from_slice::<serde_json::Value>(parts.json) {
+        Err(e) => return Err(fail(format!("cannot read glTF: invalid JSON ({e})"))),
+        Ok(v) => {
+            check::check_indices(&v).map_err(fail)?;
+            let base = path.parent().unwrap_or(Path::new("."));
+            let buffers = check::load_buffers(&v, base, parts.bin).map_err(fail)?;
+            check::check_accessors(&v, &buffers).map_err(fail)?;
+            let scene = v
+                .get("scene")
+                .and_then(serde_json::Value::as_u64)
+                .unwrap_or(0) as usize;
+            let visits = if v.get("scenes").and_then(|s| s.get(scene)).is_some() {
+                check::walk(&v, scene).map_err(fail)?
+            } else {
+                Vec::new()
+            };
+            let tris = check::triangle_count(&v, &visits);
+            if tris > MAX_TRIANGLES as u64 {
+                return Err(fail(format!(
+                    "its meshes and node instances expand to {tris} triangles; expected at most {MAX_TRIANGLES}"
+                )));
+            }
+            (buffers, visits)
+        }
+    };
+    let gltf = lobe_materials::guard::third_party("glTF", || gltf::Gltf::from_slice(&bytes))
+        .map_err(fail)?
         .map_err(|e| Error::file(&shown, format!("cannot read glTF: {e}")))?;
-    let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
-        .map_err(|e| Error::file(&shown, format!("cannot load glTF buffers: {e}")))?;
     let doc = &gltf.document;
-    let scene = doc
-        .default_scene()
-        .or_else(|| doc.scenes().next())
-        .ok_or_else(|| Error::file(&shown, "has no scene; expected at least one glTF scene"))?;
+    if doc.scenes().next().is_none() {
+        return Err(Error::file(
+            &shown,
+            "has no scene; expected at least one glTF scene",
+        ));
+    }
+    let nodes: Vec<gltf::Node> = doc.nodes().collect();
     let mut out = GltfScene {
         mesh: Mesh::default(),
         camera: None,
     };
     let mut any_missing_normals = false;
-    let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
-    stack.reverse();
-    while let Some((node, parent)) = stack.pop() {
+    let mut worlds: Vec<Mat4> = Vec::with_capacity(visits.len());
+    for visit in &visits {
+        let node = &nodes[visit.node];
+        let parent = visit.parent.map_or(Mat4::IDENTITY, |k| worlds[k]);
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        if let Some(cam) = node.camera()
-            && out.camera.is_none()
+        worlds.push(world);
+        if out.camera.is_none()
+            && let Some(cam) = node.camera()
         {
-            let origin = world.transform_point3(Vec3::ZERO);
-            let fwd = world.transform_vector3(Vec3::NEG_Z);
-            let up = world.transform_vector3(Vec3::Y);
-            let to_world = look_at(origin, origin + fwd, up).ok_or_else(|| {
-                Error::file(
-                    &shown,
-                    format!("camera node {} has a degenerate transform", node.index()),
-                )
-            })?;
-            out.camera = Some(match cam.projection() {
-                gltf::camera::Projection::Perspective(p) => GltfCamera::Perspective {
-                    to_world,
-                    yfov_deg: p.yfov().to_degrees(),
-                },
-                gltf::camera::Projection::Orthographic(o) => GltfCamera::Orthographic {
-                    to_world,
-                    xmag: o.xmag(),
-                },
-            });
+            out.camera = Some(gltf_camera(&cam, world, node.index(), &shown)?);
         }
         if let Some(mesh) = node.mesh() {
-            let normal_m = world.inverse().transpose();
-            let mirror = world.determinant() < 0.0;
             for prim in mesh.primitives() {
                 if prim.mode() != gltf::mesh::Mode::Triangles {
                     continue;
                 }
-                let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-                let Some(positions) = reader.read_positions() else {
-                    continue;
-                };
-                let base = out.mesh.positions.len() as u32;
-                let pos: Vec<Vec3> = positions
-                    .map(|p| world.transform_point3(Vec3::from_array(p)))
-                    .collect();
-                let n = pos.len() as u32;
-                match reader.read_normals() {
-                    Some(ns) => {
-                        let ns: Vec<Vec3> = ns
-                            .map(|v| {
-                                normal_m
-                                    .transform_vector3(Vec3::from_array(v))
-                                    .normalize_or_zero()
-                            })
-                            .collect();
-                        if ns.len() == pos.len() {
-                            out.mesh.normals.extend(ns);
-                        } else {
-                            any_missing_normals = true;
-                        }
-                    }
-                    None => any_missing_normals = true,
-                }
-                let idx: Vec<u32> = match reader.read_indices() {
-                    Some(i) => i.into_u32().collect(),
-                    None => (0..n).collect(),
-                };
-                if !idx.len().is_multiple_of(3) {
-                    return Err(Error::file(
-                        &shown,
-                        format!(
-                            "mesh {} has an index count that is not a multiple of 3",
-                            mesh.index()
-                        ),
-                    ));
-                }
-                if let Some(bad) = idx.iter().find(|&&k| k >= n) {
-                    return Err(Error::file(
-                        &shown,
-                        format!(
-                            "mesh {} refers to vertex {bad}, but has {n} vertices",
-                            mesh.index()
-                        ),
-                    ));
-                }
-                out.mesh.positions.extend(pos);
-                out.mesh.indices.extend(idx.chunks(3).map(|c| {
-                    if mirror {
-                        [c[0] + base, c[2] + base, c[1] + base]
-                    } else {
-                        [c[0] + base, c[1] + base, c[2] + base]
-                    }
-                }));
+                let missing = add_primitive(&mut out.mesh, (mesh.index(), &prim), &buffers, world)
+                    .map_err(fail)?;
+                any_missing_normals |= missing;
             }
-        }
-        let children: Vec<_> = node.children().collect();
-        for child in children.into_iter().rev() {
-            stack.push((child, world));
         }
     }
     if out.mesh.indices.is_empty() {
@@ -399,4 +244,98 @@ pub fn load_gltf(path: &Path) -> Result<GltfScene> {
         out.mesh.compute_vertex_normals();
     }
     Ok(out)
+}
+
+/// The camera of a glTF node with world transform `world`.
+fn gltf_camera(cam: &gltf::Camera, world: Mat4, node: usize, shown: &str) -> Result<GltfCamera> {
+    let origin = world.transform_point3(Vec3::ZERO);
+    let fwd = world.transform_vector3(Vec3::NEG_Z);
+    let up = world.transform_vector3(Vec3::Y);
+    let to_world = look_at(origin, origin + fwd, up).ok_or_else(|| {
+        Error::file(
+            shown,
+            format!("camera node {node} has a degenerate transform"),
+        )
+    })?;
+    Ok(match cam.projection() {
+        gltf::camera::Projection::Perspective(p) => GltfCamera::Perspective {
+            to_world,
+            yfov_deg: p.yfov().to_degrees(),
+        },
+        gltf::camera::Projection::Orthographic(o) => GltfCamera::Orthographic {
+            to_world,
+            xmag: o.xmag(),
+        },
+    })
+}
+
+/// Appends one triangle primitive (its accessors already checked), transformed by
+/// `world`, within [`MAX_TRIANGLES`]; returns true when it has no usable normals.
+fn add_primitive(
+    mesh: &mut Mesh,
+    (mesh_index, prim): (usize, &gltf::Primitive),
+    buffers: &[Vec<u8>],
+    world: Mat4,
+) -> std::result::Result<bool, String> {
+    let at = format!("meshes[{mesh_index}].primitives[{}]", prim.index());
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
+    let guarded =
+        |f: &dyn Fn() -> Option<Vec<Vec3>>| lobe_materials::guard::third_party("glTF accessor", f);
+    let Some(pos) = guarded(&|| {
+        reader
+            .read_positions()
+            .map(|ps| ps.map(Vec3::from_array).collect())
+    })?
+    else {
+        return Ok(false);
+    };
+    let idx: Vec<u32> = match lobe_materials::guard::third_party("glTF accessor", || {
+        reader.read_indices().map(|i| i.into_u32().collect())
+    })? {
+        Some(i) => i,
+        None => (0..pos.len() as u32).collect(),
+    };
+    let n = pos.len() as u32;
+    let (tris, verts) = (
+        mesh.indices.len() + idx.len() / 3,
+        mesh.positions.len() + pos.len(),
+    );
+    if tris > MAX_TRIANGLES || verts > 3 * MAX_TRIANGLES {
+        return Err(format!(
+            "{at}: the scene's meshes and their instances reach {tris} triangles and {verts} vertices; expected at most {MAX_TRIANGLES} triangles (and three times as many vertices)"
+        ));
+    }
+    if let Some(bad) = idx.iter().find(|&&k| k >= n) {
+        return Err(format!(
+            "{at}: refers to vertex {bad}, but has {n} vertices"
+        ));
+    }
+    let normals = guarded(&|| {
+        reader
+            .read_normals()
+            .map(|ns| ns.map(Vec3::from_array).collect())
+    })?;
+    let normal_m = world.inverse().transpose();
+    let mut missing = true;
+    if let Some(ns) = normals
+        && ns.len() == pos.len()
+    {
+        mesh.normals.extend(
+            ns.iter()
+                .map(|&v| normal_m.transform_vector3(v).normalize_or_zero()),
+        );
+        missing = false;
+    }
+    let base = mesh.positions.len() as u32;
+    mesh.positions
+        .extend(pos.iter().map(|&p| world.transform_point3(p)));
+    let mirror = world.determinant() < 0.0;
+    mesh.indices.extend(idx.chunks(3).map(|c| {
+        if mirror {
+            [c[0] + base, c[2] + base, c[1] + base]
+        } else {
+            [c[0] + base, c[1] + base, c[2] + base]
+        }
+    }));
+    Ok(missing)
 }

@@ -6,6 +6,7 @@
 //! materials are built once, only if a shape uses them, and shared), reads meshes and
 //! environment maps, and builds one BVH over all primitives.
 
+pub mod gltf_check;
 pub mod json;
 pub mod mesh_io;
 pub mod transform;
@@ -376,7 +377,18 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
                     }
                     g.mesh
                 };
+                if prims.len() + mesh.indices.len() > crate::limits::MAX_TRIANGLES {
+                    return Err(o.err(
+                        "file",
+                        format!(
+                            "brings the scene to {} primitives; expected at most {} triangles in all",
+                            prims.len() + mesh.indices.len(),
+                            crate::limits::MAX_TRIANGLES
+                        ),
+                    ));
+                }
                 mesh.transform(&to_world);
+                mesh_io::check_positions(&mesh, &fpath.display().to_string())?;
                 let mesh_id = meshes.len() as u32;
                 let mut emit_tris = Vec::new();
                 for t in 0..mesh.indices.len() as u32 {

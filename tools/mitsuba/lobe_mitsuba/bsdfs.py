@@ -106,7 +106,10 @@ class Lobe:
         h = dr.normalize(hu)
         if t in ("ward", "ward-duer", "ward-anisotropic"):
             e = dr.exp(-(hu.x * hu.x / (self.ax * self.ax) + hu.y * hu.y / (self.ay * self.ay)) / (hu.z * hu.z))
-            den = 4 * math.pi * self.ax * self.ay * (cl * cv if t == "ward-duer" else dr.sqrt(cl * cv))
+            # Ward-Duer's cosines are floored at cos(89 deg), as lobe's (materials/src/analytic/ward_duer.rs).
+            floor = 0.0174524064372835
+            duer = dr.maximum(cl, floor) * dr.maximum(cv, floor)
+            den = 4 * math.pi * self.ax * self.ay * (duer if t == "ward-duer" else dr.sqrt(cl * cv))
             return mi.Color3f(e / den)
         if t == "blinn-phong":
             n = d.get("n", 100.0)
