@@ -28,6 +28,7 @@ pub mod fastmath;
 pub mod fit;
 pub mod frame;
 pub mod io;
+pub mod json;
 pub mod lobe;
 pub mod math;
 pub mod measured;

@@ -18,6 +18,7 @@ pub mod film;
 pub mod geometry;
 pub mod integrators;
 pub mod lights;
+pub mod outputs;
 pub mod render;
 pub mod sampler;
 pub mod scene;

@@ -119,7 +119,7 @@ fn the_scene_file_is_never_overwritten() {
         .output()
         .unwrap();
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("scene file itself"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("(the scene file), an input"));
     assert_eq!(std::fs::read_to_string(&copy).unwrap(), SCENE);
 }
 

@@ -4,6 +4,7 @@
 //! share it between every shape that uses it.
 
 pub mod binned;
+pub mod format;
 pub mod marginal2d;
 pub mod material;
 pub mod merl;

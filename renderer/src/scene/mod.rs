@@ -6,6 +6,7 @@
 //! materials are built once, only if a shape uses them, and shared), reads meshes and
 //! environment maps, and builds one BVH over all primitives.
 
+pub mod inputs;
 pub mod json;
 pub mod mesh_io;
 pub mod transform;
@@ -79,7 +80,26 @@ impl LoadOptions {
 
 /// Loads a scene file.
 pub fn load(path: &Path) -> Result<Scene> {
+    let value = read_json(path)?;
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    from_value(
+        &value,
+        &path.display().to_string(),
+        &base,
+        &LoadOptions::with_builtins(),
+    )
+}
+
+/// Reads a scene file's JSON (strictly: duplicate keys, such as two materials of one name,
+/// and non-finite numbers are errors naming the file, line and column).
+pub fn read_json(path: &Path) -> Result<Value> {
     let shown = path.display().to_string();
+    if !path.exists() {
+        return Err(Error::file(
+            &shown,
+            "does not exist; expected a scene JSON file",
+        ));
+    }
     if path.is_dir() {
         return Err(Error::file(
             &shown,
@@ -94,10 +114,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             "is empty; expected a JSON scene description",
         ));
     }
-    let value: Value = serde_json::from_str(&text)
-        .map_err(|e| Error::file(&shown, format!("invalid JSON: {e}")))?;
-    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    from_value(&value, &shown, &base, &LoadOptions::with_builtins())
+    lobe_materials::json::parse(&text, &shown).map_err(Error::from)
 }
 
 const TOP_KEYS: &[&str] = &[
@@ -268,7 +285,7 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
         })?;
         for (name, desc) in m {
             ld.registry
-                .validate(desc, &format!("materials.{name}"))
+                .check(desc, &format!("materials.{name}"))
                 .map_err(|e| Error::scene(file, e.path, e.message))?;
             ld.named.insert(name.clone(), desc);
         }
