@@ -115,7 +115,7 @@ fn fit_report(
     data: &Dataset,
     args: &FitArgs,
     quiet: bool,
-    (stop, tick): (&Stop, &dyn Fn()),
+    (stop, tick): (&Stop<'_>, &dyn Fn()),
 ) -> Result<Value, Error> {
     data.check().map_err(|m| Error::file(source, m))?;
     let specs = builtin_specs();
@@ -238,15 +238,15 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
     }
     check_options(&args)?;
     let output = args.output.clone().ok_or_else(|| Error::Other("--output: expected the path of the JSON report (or, for a folder of data, of the report folder)".into()))?;
+    let stop = stop_flag();
     if let Some(dir) = args.data.as_ref().filter(|d| d.is_dir()) {
-        return batch(dir, &output, &args, quiet);
+        return batch(dir, &output, &args, (&stop, quiet));
     }
     if args.shard.is_some() {
         return Err(Error::Other("--shard: only for a folder of data".into()));
     }
     let mut plan = FilePlan::new();
     plan.output(&output, "fit report");
-    let stop = stop_flag();
     let report = match &args.data {
         Some(p) => {
             plan.input(p, "the measured data").check()?;
@@ -303,9 +303,9 @@ fn data_files(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     Ok(files)
 }
 
-/// The report folder of a batch: an existing folder, or a new one whose name does not
-/// look like a file (`-o x.fit.json` for a folder of data is a mistake, not a folder).
-fn report_folder(out: &Path) -> Result<(), Error> {
+/// Checks the report folder of a batch: an existing folder, or a new one whose name does
+/// not look like a file (`-o x.fit.json` for a folder of data is a mistake, not a folder).
+fn check_report_folder(out: &Path) -> Result<(), Error> {
     if out.is_dir() {
         return Ok(());
     }
@@ -321,6 +321,11 @@ fn report_folder(out: &Path) -> Result<(), Error> {
             "looks like a file name, but the data is a folder: -o must name the folder of reports (create it first to use this name)",
         ));
     }
+    Ok(())
+}
+
+/// Creates the report folder of a batch, if needed.
+fn create_report_folder(out: &Path) -> Result<(), Error> {
     std::fs::create_dir_all(out).map_err(|e| {
         Error::file(
             out.display(),
@@ -354,7 +359,13 @@ fn models_guess(args: &FitArgs) -> usize {
 /// Fits every data file of `dir` (sorted by name; this shard's share), writing
 /// `out/<stem>.fit.json` atomically and skipping reports that already exist, so an
 /// interrupted run resumes where it stopped and loses nothing already finished.
-fn batch(dir: &Path, out: &Path, args: &FitArgs, quiet: bool) -> Result<(), Error> {
+fn batch(
+    dir: &Path,
+    out: &Path,
+    args: &FitArgs,
+    (stop, quiet): (&Stop<'_>, bool),
+) -> Result<(), Error> {
+    check_report_folder(out)?;
     let files = data_files(dir)?;
     let (i, n) = match &args.shard {
         Some(s) => parse_shard(s)?,
@@ -374,12 +385,11 @@ fn batch(dir: &Path, out: &Path, args: &FitArgs, quiet: bool) -> Result<(), Erro
         plan.output(report, format!("report of {}", p.display()));
     }
     plan.check_overlaps()?;
-    report_folder(out)?;
+    create_report_folder(out)?;
     plan.check()?;
-    let stop = stop_flag();
     let run = BatchRun {
         args,
-        stop: &stop,
+        stop,
         bar: progress(mine.len(), args, quiet),
         quiet,
         done: Default::default(),
@@ -404,7 +414,7 @@ fn batch(dir: &Path, out: &Path, args: &FitArgs, quiet: bool) -> Result<(), Erro
 /// the counts of reports written and skipped.
 struct BatchRun<'a> {
     args: &'a FitArgs,
-    stop: &'a Stop,
+    stop: &'a Stop<'a>,
     bar: Option<indicatif::ProgressBar>,
     quiet: bool,
     done: std::sync::atomic::AtomicUsize,
@@ -432,8 +442,10 @@ impl BatchRun<'_> {
             let specs = builtin_specs();
             let actual = choose(&specs, &self.args.models, data.anisotropic)
                 .map_or(guess, |c| c.len() as u64);
-            b.inc_length(actual);
-            b.dec_length(guess);
+            if actual != guess {
+                b.dec_length(guess);
+                b.inc_length(actual);
+            }
         }
         let tick = || {
             self.bar.as_ref().inspect(|b| b.inc(1));

@@ -330,3 +330,52 @@ fn bench(scene: &Scene, opts: &RenderOptions, runs: u32, quiet: bool) -> Result<
     );
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::error::ErrorKind;
+    use clap::{CommandFactory, Parser};
+    use std::any::TypeId;
+
+    /// Every floating-point option of every command (found by walking the command tree,
+    /// so a new one is covered too) refuses NaN and infinity as an invalid value, and
+    /// accepts a number.
+    #[test]
+    fn every_float_option_refuses_nan_and_infinity() {
+        let mut stack = vec![(vec!["lobe".to_string()], Cli::command())];
+        let mut checked = Vec::new();
+        while let Some((path, mut cmd)) = stack.pop() {
+            cmd.build();
+            for arg in cmd.get_arguments() {
+                let id = arg.get_value_parser().type_id();
+                let Some(long) = arg.get_long() else { continue };
+                if id != TypeId::of::<f64>() && id != TypeId::of::<f32>() {
+                    continue;
+                }
+                let run = |value: &str| {
+                    let mut argv = path.clone();
+                    argv.push(format!("--{long}={value}"));
+                    Cli::try_parse_from(argv).err().map(|e| e.kind())
+                };
+                for bad in ["nan", "NaN", "inf", "-inf", "1e400"] {
+                    assert_eq!(
+                        run(bad),
+                        Some(ErrorKind::ValueValidation),
+                        "{path:?} --{long} {bad}"
+                    );
+                }
+                assert_ne!(run("0.5"), Some(ErrorKind::ValueValidation), "{long}");
+                checked.push(format!("{} --{long}", path.join(" ")));
+            }
+            for sub in cmd.get_subcommands() {
+                let mut p = path.clone();
+                p.push(sub.get_name().to_string());
+                stack.push((p, sub.clone()));
+            }
+        }
+        // The exposures, the fit's resolution and tolerance, the tabulation's acquisition,
+        // the figures' angles, the microfacet and trade-off options, the compare test.
+        assert!(checked.len() >= 20, "{checked:?}");
+    }
+}

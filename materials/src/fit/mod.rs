@@ -399,7 +399,7 @@ fn minimize(
     max_evals: usize,
     central: bool,
     evaluations: &mut usize,
-    stop: &Stop,
+    stop: &Stop<'_>,
 ) -> (f64, Vec<f64>) {
     let evals = std::cell::Cell::new(0usize);
     let best = std::cell::RefCell::new((f64::INFINITY, x0.to_vec()));
@@ -465,7 +465,7 @@ fn minimize(
 
 /// Polled during a fit (inside every objective evaluation): true asks it to stop, e.g.
 /// `&|| flag.load(Ordering::Relaxed)` for a flag that Ctrl-C sets.
-pub type Stop = dyn Fn() -> bool + Sync;
+pub type Stop<'a> = dyn Fn() -> bool + Sync + 'a;
 
 /// Why a fit returned no result.
 #[derive(Clone, Debug, PartialEq)]
@@ -544,7 +544,7 @@ pub fn fit_until(
     data: &Dataset,
     spec: &ModelSpec,
     max_evals_per_start: usize,
-    stop: &Stop,
+    stop: &Stop<'_>,
 ) -> Result<FitResult, FitError> {
     data.check().map_err(FitError::Data)?;
     let t0 = std::time::Instant::now();
@@ -627,7 +627,7 @@ fn refine(
     bounds: &[(f64, f64)],
     finals: &[(f64, Vec<f64>)],
     evaluations: &mut usize,
-    stop: &Stop,
+    stop: &Stop<'_>,
 ) -> Vec<f64> {
     let best_coarse = finals[0].0;
     let mut candidates = vec![&finals[0].1];

@@ -97,7 +97,7 @@ pub fn read_json(path: &Path) -> Result<Value> {
     if !path.exists() {
         return Err(Error::file(
             &shown,
-            "does not exist; expected a scene JSON file",
+            "cannot read: the file does not exist; expected a scene JSON file",
         ));
     }
     if path.is_dir() {
