@@ -42,13 +42,18 @@ fn writable(path: &Path) -> Result<()> {
             format!("output folder {} does not exist", dir.display()),
         ));
     }
-    if path.is_dir() {
-        return Err(Error::file(
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_dir() => Err(Error::file(
             path.display(),
             "is a directory; expected an output file path",
-        ));
+        )),
+        // A device, pipe or socket would be replaced by the renamed file (/dev/null!).
+        Ok(m) if !m.is_file() => Err(Error::file(
+            path.display(),
+            "is not a regular file (a device, pipe or socket); expected an output file path",
+        )),
+        _ => Ok(()),
     }
-    Ok(())
 }
 
 /// One file of a plan: the path as the user gave it, its canonical form, and what it is
@@ -275,5 +280,23 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("heat map") && e.contains("plot"), "{e}");
+    }
+
+    #[test]
+    fn outputs_must_be_regular_files_in_existing_folders() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let check = |p: &Path| FilePlan::new().output(p, "image").check();
+        assert!(check(&d.join("new.exr")).is_ok());
+        let e = check(&d.join("missing/x.exr")).unwrap_err().to_string();
+        assert!(e.contains("output folder") && e.contains("does not exist"), "{e}");
+        assert!(check(d).unwrap_err().to_string().contains("is a directory"));
+        #[cfg(unix)]
+        {
+            let sock = d.join("s.exr");
+            let _l = std::os::unix::net::UnixListener::bind(&sock).unwrap();
+            let e = check(&sock).unwrap_err().to_string();
+            assert!(e.contains("not a regular file"), "{e}");
+        }
     }
 }
