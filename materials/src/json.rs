@@ -10,7 +10,7 @@ use serde_json::{Map, Value};
 use std::fmt;
 use std::path::Path;
 
-/// Reads and parses a JSON file (see [`parse`]).
+/// Reads and parses a JSON file (see [`parse`]); a folder or an empty file is an error.
 pub fn read(path: &Path) -> Result<Value, FileError> {
     let shown = path.display().to_string();
     if path.is_dir() {
@@ -21,6 +21,9 @@ pub fn read(path: &Path) -> Result<Value, FileError> {
     }
     let text = std::fs::read_to_string(path)
         .map_err(|e| FileError::new(&shown, format!("cannot read: {e}")))?;
+    if text.trim().is_empty() {
+        return Err(FileError::new(&shown, "is empty; expected JSON"));
+    }
     parse(&text, &shown)
 }
 

@@ -56,6 +56,18 @@ pub fn check_finite(pixels: &[Rgb], what: &str) -> Result<()> {
     Ok(())
 }
 
+/// Refuses variances that are non-finite or negative.
+fn check_variance(variance: &[Rgb], what: &str) -> Result<()> {
+    check_finite(variance, what)?;
+    let negative = variance.iter().filter(|v| v.min_component() < 0.0).count();
+    if negative > 0 {
+        return Err(Error::Other(format!(
+            "{what}: {negative} pixels are negative; expected variances >= 0"
+        )));
+    }
+    Ok(())
+}
+
 /// The checks every comparison makes first: equal sizes and finite pixels.
 fn comparable(test: &Image, reference: &Image) -> Result<()> {
     same_size(test, reference)?;
@@ -203,23 +215,8 @@ pub const Z_TEST_SCALES: [u32; 4] = [1, 4, 16, 64];
 /// `1e-6 (1 + |ref|)`.
 pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
     comparable(test, reference)?;
-    check_finite(&test.variance, "the test image's variance")?;
-    check_finite(&reference.variance, "the reference image's variance")?;
-    for (img, what) in [
-        (test, "the test image's"),
-        (reference, "the reference image's"),
-    ] {
-        let negative = img
-            .variance
-            .iter()
-            .filter(|v| v.min_component() < 0.0)
-            .count();
-        if negative > 0 {
-            return Err(Error::Other(format!(
-                "{what} variance: {negative} pixels are negative; expected variances >= 0"
-            )));
-        }
-    }
+    check_variance(&test.variance, "the test image's variance")?;
+    check_variance(&reference.variance, "the reference image's variance")?;
     if !(alpha > 0.0 && alpha < 1.0) {
         return Err(Error::Other(format!(
             "z-test: expected a false-alarm rate in (0, 1), found {alpha}"

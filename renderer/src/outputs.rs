@@ -289,7 +289,10 @@ mod tests {
         let check = |p: &Path| FilePlan::new().output(p, "image").check();
         assert!(check(&d.join("new.exr")).is_ok());
         let e = check(&d.join("missing/x.exr")).unwrap_err().to_string();
-        assert!(e.contains("output folder") && e.contains("does not exist"), "{e}");
+        assert!(
+            e.contains("output folder") && e.contains("does not exist"),
+            "{e}"
+        );
         assert!(check(d).unwrap_err().to_string().contains("is a directory"));
         #[cfg(unix)]
         {

@@ -187,25 +187,7 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             z.worst.1
         )));
     }
-    // A metric that is NaN (SSIM of an image under 8x8 pixels) fails every threshold.
-    let undefined = |name: &str| format!("{name} is undefined (NaN; SSIM needs 8x8 pixels)");
-    let mut failed = Vec::new();
-    for (name, v) in &above {
-        let got = m.get(name).expect("known");
-        if got.is_nan() {
-            failed.push(undefined(name));
-        } else if got > *v {
-            failed.push(format!("{name} {got:.6e} > {v}"));
-        }
-    }
-    for (name, v) in &below {
-        let got = m.get(name).expect("known");
-        if got.is_nan() {
-            failed.push(undefined(name));
-        } else if got < *v {
-            failed.push(format!("{name} {got:.6e} < {v}"));
-        }
-    }
+    let failed = threshold_failures(&m, &above, &below);
     if failed.is_empty() {
         Ok(())
     } else {
@@ -216,4 +198,32 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             failed.join(", ")
         )))
     }
+}
+
+/// The thresholds a metric misses; a metric that is NaN (SSIM of an image under 8x8
+/// pixels) misses every threshold on it.
+fn threshold_failures(
+    m: &lobe_renderer::compare::Metrics,
+    above: &[(String, f64)],
+    below: &[(String, f64)],
+) -> Vec<String> {
+    let undefined = |name: &str| format!("{name} is undefined (NaN; SSIM needs 8x8 pixels)");
+    let mut failed = Vec::new();
+    for (name, v) in above {
+        let got = m.get(name).expect("known");
+        if got.is_nan() {
+            failed.push(undefined(name));
+        } else if got > *v {
+            failed.push(format!("{name} {got:.6e} > {v}"));
+        }
+    }
+    for (name, v) in below {
+        let got = m.get(name).expect("known");
+        if got.is_nan() {
+            failed.push(undefined(name));
+        } else if got < *v {
+            failed.push(format!("{name} {got:.6e} < {v}"));
+        }
+    }
+    failed
 }

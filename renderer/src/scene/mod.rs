@@ -93,28 +93,13 @@ pub fn load(path: &Path) -> Result<Scene> {
 /// Reads a scene file's JSON (strictly: duplicate keys, such as two materials of one name,
 /// and non-finite numbers are errors naming the file, line and column).
 pub fn read_json(path: &Path) -> Result<Value> {
-    let shown = path.display().to_string();
     if !path.exists() {
         return Err(Error::file(
-            &shown,
+            path.display(),
             "cannot read: the file does not exist; expected a scene JSON file",
         ));
     }
-    if path.is_dir() {
-        return Err(Error::file(
-            &shown,
-            "is a directory; expected a scene JSON file",
-        ));
-    }
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::file(&shown, format!("cannot read: {e}")))?;
-    if text.trim().is_empty() {
-        return Err(Error::file(
-            &shown,
-            "is empty; expected a JSON scene description",
-        ));
-    }
-    lobe_materials::json::parse(&text, &shown).map_err(Error::from)
+    Ok(lobe_materials::json::read(path)?)
 }
 
 const TOP_KEYS: &[&str] = &[
