@@ -17,6 +17,15 @@ targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
   targets=(scene_json merl binned rgl fit_json obj gltf envmap_exr envmap_hdr)
 fi
+# fuzz/Cargo.lock is tracked: the run must not rewrite it. A stale one (a dependency of the
+# workspace changed) is refused here, before cargo-fuzz would silently update it.
+if ! cargo metadata --locked --offline --manifest-path fuzz/Cargo.toml --format-version 1 >/dev/null 2>&1 &&
+   ! cargo metadata --locked --manifest-path fuzz/Cargo.toml --format-version 1 >/dev/null; then
+  echo "fuzz/Cargo.lock is out of date: refresh it with" >&2
+  echo "  cargo metadata --manifest-path fuzz/Cargo.toml --format-version 1 >/dev/null" >&2
+  echo "and commit it (scripts/test.sh checks it too)" >&2
+  exit 1
+fi
 rustup toolchain list | grep -q '^nightly' || rustup toolchain install nightly --profile minimal
 command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
 cargo test --release -q -p lobe-tests --test fuzz_smoke -- --ignored write_corpus

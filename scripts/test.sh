@@ -5,6 +5,9 @@ cd "$(dirname "$0")/.."
 cargo fmt --all -- --check
 cargo clippy --release --workspace --all-targets -- -D warnings
 cargo test --release --workspace
+# The fuzz crate (outside the workspace) keeps a tracked lock file; it must match the
+# workspace's dependencies so that scripts/fuzz.sh never rewrites it.
+cargo metadata --locked --offline --manifest-path fuzz/Cargo.toml --format-version 1 >/dev/null
 # The portable forms of the SIMD helpers (materials/src/simd.rs and fastmath::x8: what a
 # build for baseline x86-64 without AVX uses, RUSTFLAGS="-C target-cpu=x86-64": see
 # .cargo/config.toml), tested too.

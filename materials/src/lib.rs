@@ -29,6 +29,7 @@ pub mod fit;
 pub mod frame;
 pub mod guard;
 pub mod io;
+pub mod json;
 pub mod lobe;
 pub mod math;
 pub mod measured;

@@ -41,7 +41,7 @@ use crate::registry::{
 use crate::{Bsdf, Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::f64::consts::PI;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// Default nodes per side of the distribution table.
@@ -794,8 +794,7 @@ fn build(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
         name => match Shape::synthetic(name) {
             Some(shape) => Table::from_fn(n, |h| shape.density(h)).map_err(err)?,
             None => {
-                let path = crate::measured::material::resolve(ctx, name);
-                Table::read_exr(&path).map_err(err)?
+                Table::read_exr(&distribution_file(p, ctx).expect("not built in")).map_err(err)?
             }
         },
     };
@@ -810,6 +809,16 @@ fn build(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
     )))
 }
 
+/// The EXR table a description reads, unless its distribution is a built-in one.
+fn distribution_file(p: &Params, ctx: &BuildContext) -> Option<PathBuf> {
+    let dist = p.text("distribution");
+    (dist != "beckmann" && Shape::synthetic(dist).is_none())
+        .then(|| crate::measured::material::resolve(ctx, dist))
+}
+
 pub fn register(r: &mut Registry) {
     r.register(SCHEMA, build);
+    r.register_inputs(SCHEMA.name, |p, ctx| {
+        distribution_file(p, ctx).into_iter().collect()
+    });
 }

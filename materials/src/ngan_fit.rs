@@ -255,19 +255,24 @@ pub const SCHEMA: ModelSchema = ModelSchema {
     ],
 };
 
-fn build(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
+/// The fits file of a description's model, if its folder can be found.
+fn fits_file(p: &Params, ctx: &BuildContext) -> Option<PathBuf> {
     let model = p.text("model");
     let (_, file, _) = MODELS
         .iter()
         .find(|(m, _, _)| *m == model)
         .expect("validated choice");
-    let dir = locate_fits(p.text("fits"), &ctx.base_dir).ok_or_else(|| {
+    locate_fits(p.text("fits"), &ctx.base_dir).map(|dir| dir.join(file))
+}
+
+fn build(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
+    let model = p.text("model");
+    let path = fits_file(p, ctx).ok_or_else(|| {
         ParamError::new(
             format!("{}.fits", p.path),
             "cannot find the Ngan et al. fits; expected a folder of ngan_<model>.fit files given as \"fits\", in $LOBE_DATA/ngan-fits, or at shared/data/ngan-fits above the scene",
         )
     })?;
-    let path = dir.join(file);
     let fits = read_fits(&path).map_err(|e| ParamError::new(format!("{}.fits", p.path), e))?;
     let name = p.text("material");
     let fit = fits.iter().find(|f| f.material == name).ok_or_else(|| {
@@ -294,6 +299,9 @@ fn build(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
 
 pub fn register(r: &mut Registry) {
     r.register(SCHEMA, build);
+    r.register_inputs(SCHEMA.name, |p, ctx| {
+        fits_file(p, ctx).into_iter().collect()
+    });
 }
 
 #[cfg(test)]

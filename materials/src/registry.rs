@@ -209,6 +209,10 @@ impl BuildContext {
 /// Builds a material from validated parameters.
 pub type Constructor = fn(&Params, &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError>;
 
+/// The files a material reads (tables, reports, distributions), resolved but not read, so
+/// that a command can refuse an output path that is one of its inputs before any work.
+pub type InputsFn = fn(&Params, &BuildContext) -> Vec<PathBuf>;
+
 /// Builds the specular lobe of an analytic model from validated parameters; the material
 /// is then `diffuse * Lambert + specular * lobe` (a [`Composite`]).
 pub type LobeConstructor = fn(&Params) -> Result<Arc<dyn Lobe>, ParamError>;
@@ -222,6 +226,7 @@ enum Builder {
 struct Entry {
     schema: ModelSchema,
     build: Builder,
+    inputs: Option<InputsFn>,
 }
 
 /// Model name -> schema and constructor.
@@ -269,6 +274,7 @@ impl Registry {
             Entry {
                 schema,
                 build: Builder::Material(build),
+                inputs: None,
             },
         );
     }
@@ -285,8 +291,38 @@ impl Registry {
             Entry {
                 schema,
                 build: Builder::Lobe(lobe),
+                inputs: None,
             },
         );
+    }
+
+    /// Declares the files a registered model reads (see [`Registry::inputs`]).
+    pub fn register_inputs(&mut self, name: &str, inputs: InputsFn) {
+        if let Some(e) = self.models.get_mut(name) {
+            e.inputs = Some(inputs);
+        }
+    }
+
+    /// The files a material description reads, resolved against `ctx` but not opened (for
+    /// a `fit` material, its report is read to find the fitted model). A description that
+    /// does not validate reads nothing here; building it reports the error.
+    pub fn inputs(&self, desc: &Value, ctx: &BuildContext) -> Vec<PathBuf> {
+        let Ok(params) = self.validate(desc, "material") else {
+            return Vec::new();
+        };
+        match self.models[params.model].inputs {
+            Some(f) => f(&params, ctx),
+            None => Vec::new(),
+        }
+    }
+
+    /// Checks a description without building it: a model's parameters against its schema,
+    /// a `composite` by building its analytic lobes (cheap; they read no file).
+    pub fn check(&self, desc: &Value, path: &str) -> Result<(), ParamError> {
+        if desc.get("type").and_then(Value::as_str) == Some(COMPOSITE) {
+            return self.create_composite(desc, path).map(|_| ());
+        }
+        self.validate(desc, path).map(|_| ())
     }
 
     /// True when `name` is an analytic model usable as a lobe of a `composite`.

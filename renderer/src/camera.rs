@@ -154,6 +154,35 @@ impl Camera {
 }
 
 impl Camera {
+    /// The film position in [0, 1]^2 (x right, y down) whose ray passes through the world
+    /// point `p` (the inverse of [`Camera::ray`]); None behind a perspective camera.
+    pub fn project(&self, p: Vec3) -> Option<Vec2> {
+        let (to_world, half_x, aspect) = match self {
+            Camera::Perspective {
+                to_world,
+                tan_half,
+                aspect,
+                ..
+            } => (to_world, *tan_half, *aspect),
+            Camera::Orthographic {
+                to_world,
+                scale,
+                aspect,
+                ..
+            } => (to_world, *scale, *aspect),
+        };
+        let c = to_world.inverse().transform_point3(p);
+        let (x, y) = match self {
+            Camera::Perspective { .. } if c.z <= 0.0 => return None,
+            Camera::Perspective { .. } => (c.x / c.z, c.y / c.z),
+            Camera::Orthographic { .. } => (c.x, c.y),
+        };
+        Some(Vec2::new(
+            0.5 * (1.0 - x / half_x),
+            0.5 * (1.0 - y * aspect / half_x),
+        ))
+    }
+
     /// [`Camera::ray`] of the film positions `(pixel + j) * inv` for each `j` in
     /// `jitter`, appended to `out`, bit for bit the same: perspective rays eight at a time
     /// in SIMD lanes with the scalar form's operations.
@@ -236,6 +265,32 @@ mod tests {
         assert!(((fx.to_radians() / 2.0).tan() - 2.0 * (20f32.to_radians()).tan()).abs() < 1e-5);
         assert_eq!(fov_x_degrees(40.0, FovAxis::Smaller, 200, 100), fx);
     }
+    #[test]
+    fn project_inverts_ray() {
+        let m = look_at(Vec3::new(0.3, 1.0, 5.0), Vec3::new(0.1, -0.2, 0.0), Vec3::Y).unwrap();
+        let cams = [
+            Camera::perspective(m, 50.0, 320, 200, 0.01),
+            Camera::Orthographic {
+                to_world: m,
+                scale: 2.0,
+                aspect: 1.6,
+                near_clip: 0.1,
+            },
+        ];
+        for cam in &cams {
+            for s in [
+                Vec2::new(0.5, 0.5),
+                Vec2::new(0.1, 0.8),
+                Vec2::new(0.9, 0.25),
+            ] {
+                let r = cam.ray(s);
+                let p = cam.project(r.o + r.d * 3.0).unwrap();
+                assert!((p - s).length() < 1e-4, "{s} -> {p}");
+            }
+        }
+        assert_eq!(cams[0].project(Vec3::new(0.3, 1.0, 9.0)), None);
+    }
+
     /// The batched rays (eight perspective rays per SIMD op) equal `ray` bit for bit.
     #[test]
     fn batched_rays_equal_single_rays() {

@@ -41,6 +41,40 @@ impl Metrics {
     pub const NAMES: &'static [&'static str] = &["rmse", "relmse", "psnr", "ssim", "flip"];
 }
 
+/// Refuses pixels that are NaN or infinite: every metric of an image holding one would
+/// be NaN or infinite too, and a threshold on it would pass or fail by accident. `what`
+/// names the image ("the test image", a file name) in the one-line error, which counts
+/// them.
+pub fn check_finite(pixels: &[Rgb], what: &str) -> Result<()> {
+    let bad = pixels.iter().filter(|p| !p.is_finite()).count();
+    if bad > 0 {
+        return Err(Error::Other(format!(
+            "{what}: {bad} of {} pixels are non-finite (NaN or infinite); expected finite pixels to compare",
+            pixels.len()
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses variances that are non-finite or negative.
+fn check_variance(variance: &[Rgb], what: &str) -> Result<()> {
+    check_finite(variance, what)?;
+    let negative = variance.iter().filter(|v| v.min_component() < 0.0).count();
+    if negative > 0 {
+        return Err(Error::Other(format!(
+            "{what}: {negative} pixels are negative; expected variances >= 0"
+        )));
+    }
+    Ok(())
+}
+
+/// The checks every comparison makes first: equal sizes and finite pixels.
+fn comparable(test: &Image, reference: &Image) -> Result<()> {
+    same_size(test, reference)?;
+    check_finite(&test.pixels, "the test image")?;
+    check_finite(&reference.pixels, "the reference image")
+}
+
 fn same_size(a: &Image, b: &Image) -> Result<()> {
     if a.width != b.width || a.height != b.height {
         return Err(Error::Other(format!(
@@ -53,7 +87,7 @@ fn same_size(a: &Image, b: &Image) -> Result<()> {
 
 /// RMSE, relative MSE and PSNR.
 pub fn pixel_errors(test: &Image, reference: &Image) -> Result<(f64, f64, f64)> {
-    same_size(test, reference)?;
+    comparable(test, reference)?;
     let (mut se, mut rel, mut peak) = (0.0f64, 0.0f64, 1.0f64);
     for (a, b) in test.pixels.iter().zip(&reference.pixels) {
         for (x, y) in a.to_array().into_iter().zip(b.to_array()) {
@@ -180,7 +214,14 @@ pub const Z_TEST_SCALES: [u32; 4] = [1, 4, 16, 64];
 /// test whose combined variance is zero passes when the difference is within
 /// `1e-6 (1 + |ref|)`.
 pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
-    same_size(test, reference)?;
+    comparable(test, reference)?;
+    check_variance(&test.variance, "the test image's variance")?;
+    check_variance(&reference.variance, "the reference image's variance")?;
+    if !(alpha > 0.0 && alpha < 1.0) {
+        return Err(Error::Other(format!(
+            "z-test: expected a false-alarm rate in (0, 1), found {alpha}"
+        )));
+    }
     let (w, h) = (test.width, test.height);
     let mut scales: Vec<u32> = Z_TEST_SCALES
         .iter()
@@ -261,7 +302,8 @@ pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
                         out.min_p = p;
                         out.worst = (bx, by, s, z);
                     }
-                    if p < threshold {
+                    // NaN fails: a test that cannot be computed cannot pass.
+                    if !(p >= threshold) {
                         out.failures += 1;
                     }
                 }
@@ -276,8 +318,9 @@ pub fn mean_and_variance(renders: &[Image]) -> Result<Image> {
     let first = renders
         .first()
         .ok_or_else(|| Error::Other("no images to combine".into()))?;
-    for r in renders {
+    for (k, r) in renders.iter().enumerate() {
         same_size(r, first)?;
+        check_finite(&r.pixels, &format!("render {}", k + 1))?;
     }
     let k = renders.len() as f64;
     let mut out = Image::new(first.width, first.height);

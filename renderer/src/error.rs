@@ -36,4 +36,13 @@ impl Error {
     }
 }
 
+impl From<lobe_materials::FileError> for Error {
+    fn from(e: lobe_materials::FileError) -> Self {
+        Error::File {
+            file: e.file,
+            message: e.message,
+        }
+    }
+}
+
 pub type Result<T> = std::result::Result<T, Error>;

@@ -79,10 +79,7 @@ pub fn atomic_write(
     path: &Path,
     fill: impl FnOnce(&mut BufWriter<&std::fs::File>) -> std::io::Result<()>,
 ) -> Result<()> {
-    lobe_materials::io::atomic_write(path, fill).map_err(|e| Error::File {
-        file: e.file,
-        message: e.message,
-    })
+    lobe_materials::io::atomic_write(path, fill).map_err(Error::from)
 }
 
 /// Writes linear RGB as a 32-bit float OpenEXR file.

@@ -20,6 +20,7 @@ pub mod geometry;
 pub mod integrators;
 pub mod lights;
 pub mod limits;
+pub mod outputs;
 pub mod render;
 pub mod sampler;
 pub mod scene;

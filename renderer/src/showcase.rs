@@ -94,6 +94,25 @@ pub fn showcase_scene() -> Value {
     })
 }
 
+/// The model name of each showcase sphere, left to right, and where to write it: the
+/// film position (pixels, x right, y down) just in front of the sphere's foot on the floor.
+pub fn labels(scene: &crate::scene::Scene) -> Vec<(String, glam::Vec2)> {
+    let film = glam::Vec2::new(scene.width as f32, scene.height as f32);
+    let desc = showcase_scene();
+    let spheres = desc["shapes"].as_array().into_iter().flatten();
+    spheres
+        .filter(|s| s["type"] == "sphere")
+        .filter_map(|s| {
+            let c = &s["center"];
+            let at = |k: usize| c[k].as_f64().unwrap_or(0.0) as f32;
+            let r = s["radius"].as_f64().unwrap_or(1.0) as f32;
+            let foot = glam::Vec3::new(at(0), 0.0, at(2) + r);
+            let name = s["material"]["type"].as_str()?.to_string();
+            Some((name, scene.camera.project(foot)? * film))
+        })
+        .collect()
+}
+
 /// Loads the showcase scene.
 pub fn showcase() -> crate::error::Result<crate::scene::Scene> {
     crate::scene::from_value(

@@ -7,12 +7,16 @@
 //!   models fit worse;
 //! - the four real RGL measurements fit with every model, and the fitted Cook-Torrance
 //!   renders close to the measured material;
-//! - empty data, data with every bin missing and NaN values give clear errors.
+//! - empty data, data with every bin missing and NaN values give clear errors;
+//! - a stop request (Ctrl-C) ends a fit from inside the optimizer, within a few
+//!   evaluations.
 
 use glam::Vec3;
 use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::{CUTOFF_DEG, Dataset, Sample};
-use lobe_materials::fit::{FitResult, ISOTROPIC_DEFAULT, ModelSpec, builtin_specs, eq1_error, fit};
+use lobe_materials::fit::{
+    FitError, FitResult, ISOTROPIC_DEFAULT, ModelSpec, builtin_specs, eq1_error, fit, fit_until,
+};
 use lobe_materials::measured::binned::{Axis, Binned};
 use lobe_materials::measured::tabulate::{Acquisition, merl_from};
 use lobe_materials::registry::Registry;
@@ -431,4 +435,43 @@ fn empty_missing_and_nan_data_are_clear_errors() {
         ..inf.samples[0]
     });
     assert!(fit(&inf, &ct, 10).unwrap_err().contains("inf"));
+}
+
+#[test]
+fn a_stop_request_ends_a_fit_inside_the_optimizer() {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let truth = Registry::builtin()
+        .create(
+            &json!({"type": "ward", "diffuse": 0.1, "specular": 0.3, "alpha": 0.2}),
+            "m",
+        )
+        .unwrap();
+    let data = Dataset::isotropic(&|wi, wo| Some(truth.eval(wo, wi)), 5.0);
+    let ct = spec("cook-torrance");
+    // Left alone, the fit polls once per objective evaluation, hundreds of times.
+    let polls = AtomicUsize::new(0);
+    let count = || {
+        polls.fetch_add(1, Ordering::Relaxed);
+        false
+    };
+    fit_until(&data, &ct, 300, &count).unwrap();
+    let whole = polls.load(Ordering::Relaxed);
+    assert!(whole > 100, "{whole} polls");
+    // Asked to stop at the 5th poll, inside the first start's SLSQP run, it returns
+    // Cancelled after a handful more (each answered at once), not at the next start.
+    let polls = AtomicUsize::new(0);
+    let stop_at_5 = || polls.fetch_add(1, Ordering::Relaxed) >= 5;
+    assert_eq!(
+        fit_until(&data, &ct, 300, &stop_at_5).unwrap_err(),
+        FitError::Cancelled
+    );
+    let after = polls.load(Ordering::Relaxed) - 6;
+    assert!(after <= 12, "{after} polls after the request (of {whole})");
+    // A flag already set: nothing is fitted.
+    let flag = AtomicBool::new(true);
+    let e = fit_until(&data, &ct, 300, &|| flag.load(Ordering::Relaxed)).unwrap_err();
+    assert_eq!(
+        (e.clone(), e.to_string()),
+        (FitError::Cancelled, "cancelled".into())
+    );
 }

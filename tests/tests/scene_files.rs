@@ -315,6 +315,171 @@ fn bad_files_give_clear_errors() {
 }
 
 #[test]
+fn named_materials_may_be_composites_and_names_are_unique() {
+    let tmp = tempfile::tempdir().unwrap();
+    let two_coat = json!({"type": "composite", "diffuse": 0.1, "lobes": [
+        {"type": "cook-torrance", "specular": 0.2, "m": 0.05},
+        {"type": "cook-torrance", "specular": 0.3, "m": 0.3}]});
+    let mut v = base();
+    v["materials"] = json!({"two-coat": two_coat});
+    v["shapes"][0]["material"] = json!("two-coat");
+    let scene = from_value(&v, "c.json", tmp.path(), &LoadOptions::with_builtins()).unwrap();
+    assert_eq!(scene.shapes[0].material.name(), "composite");
+    // A bad lobe of a named composite is named by its path.
+    v["materials"]["two-coat"]["lobes"][1]["m"] = json!(-1);
+    let e = error_of(v);
+    assert!(e.contains("materials.two-coat.lobes[1].m"), "{e}");
+    // Two materials of one name: an error naming the file and the name, not the last one.
+    let path = tmp.path().join("dup.json");
+    let text = base().to_string().replacen(
+        "{",
+        r#"{"materials": {"m": {"type": "lambert"}, "m": {"type": "ward", "alpha": 0.1}},"#,
+        1,
+    );
+    std::fs::write(&path, text).unwrap();
+    let e = load(&path)
+        .err()
+        .expect("a duplicate name is an error")
+        .to_string();
+    assert!(
+        e.contains("dup.json") && e.contains("materials.m") && e.contains("given twice"),
+        "{e}"
+    );
+}
+
+#[test]
+fn json_numbers_must_be_finite() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (k, bad) in ["1e400", "NaN", "-Infinity"].iter().enumerate() {
+        let path = tmp.path().join(format!("n{k}.json"));
+        let text = format!("{{\"camera\": {{\"type\": \"perspective\",\n \"fov\": {bad}}}}}");
+        std::fs::write(&path, text).unwrap();
+        let e = load(&path).err().expect("accepted").to_string();
+        assert!(
+            e.contains(&format!("n{k}.json: line 2, column"))
+                && e.contains("JSON numbers must be finite"),
+            "{e}"
+        );
+    }
+}
+
+#[test]
+fn scene_inputs_list_every_file_the_scene_reads() {
+    use lobe_renderer::scene::inputs::inputs;
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    std::fs::create_dir(d.join("meshes")).unwrap();
+    std::fs::write(
+        d.join("meshes/m.gltf"),
+        r#"{"buffers": [{"uri": "m.bin", "byteLength": 4}, {"uri": "data:,x", "byteLength": 1}]}"#,
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("r.fit.json"),
+        r#"{"models": {"x": {"material": {"type": "merl", "file": "in-report.binary"}}}}"#,
+    )
+    .unwrap();
+    let v = json!({
+        "materials": {
+            "used": {"type": "binned", "file": "t.bin"},
+            "unused": {"type": "fit", "file": "r.fit.json", "model": "x"},
+            "gen": {"type": "sampled-microfacet", "distribution": "p.exr"},
+            "analytic": {"type": "ward"}
+        },
+        "shapes": [
+            {"type": "gltf", "file": "meshes/m.gltf", "material": "used"},
+            {"type": "obj", "file": "/abs/bunny.obj", "material": {"type": "rgl", "file": "x.bsdf"}}
+        ],
+        "lights": [{"type": "envmap", "file": "env.exr"}, {"type": "envmap", "file": "builtin:studio"}]
+    });
+    let scene = d.join("s.json");
+    std::fs::write(&scene, v.to_string()).unwrap();
+    let found: Vec<(String, String)> = inputs(&scene)
+        .unwrap()
+        .into_iter()
+        .map(|i| {
+            let p = i
+                .path
+                .strip_prefix(d)
+                .unwrap_or(&i.path)
+                .display()
+                .to_string();
+            (p, i.role)
+        })
+        .collect();
+    let paths: Vec<&str> = found.iter().map(|f| f.0.as_str()).collect();
+    for want in [
+        "s.json",
+        "env.exr",
+        "meshes/m.gltf",
+        "meshes/m.bin",
+        "/abs/bunny.obj",
+        "x.bsdf",
+        "t.bin",
+        "r.fit.json",
+        "in-report.binary",
+        "p.exr",
+    ] {
+        assert!(paths.contains(&want), "{want} missing from {found:?}");
+    }
+    assert_eq!(paths.len(), 10, "{found:?}");
+    let role = |p: &str| &found.iter().find(|f| f.0 == p).unwrap().1;
+    assert!(
+        role("env.exr").starts_with("lights[0].file of"),
+        "{found:?}"
+    );
+    assert!(role("t.bin").starts_with("materials.used of"), "{found:?}");
+}
+
+/// Every model that reads a file names it among its inputs (`Registry::inputs`), so that
+/// commands can refuse to write over it: each model is built with its string parameters
+/// naming absent files, and every path its error names must be one of its inputs.
+#[test]
+fn every_file_a_material_reads_is_among_its_inputs() {
+    use lobe_materials::registry::{BuildContext, DefaultValue, ParamKind, Registry};
+    let tmp = tempfile::tempdir().unwrap();
+    let base = tmp.path().join("scene-folder");
+    std::fs::create_dir(&base).unwrap();
+    let reg = Registry::builtin();
+    let mut reading = Vec::new();
+    for name in reg.names().filter(|n| *n != "composite") {
+        let schema = reg.schema(name).unwrap();
+        let mut desc = json!({"type": name});
+        for p in schema.params {
+            match (p.kind, p.default) {
+                (ParamKind::Text, _) => desc[p.name] = json!(format!("absent-{}", p.name)),
+                (_, DefaultValue::Required) => panic!("{name}.{}: fill this in", p.name),
+                _ => {}
+            }
+        }
+        let ctx = BuildContext::new(&base);
+        let Err(e) = reg.create_with(&desc, "m", &ctx) else {
+            continue;
+        };
+        let e = e.to_string();
+        if !e.contains(&base.display().to_string()) {
+            continue;
+        }
+        let inputs = reg.inputs(&desc, &ctx);
+        assert!(
+            inputs.iter().any(|i| e.contains(&i.display().to_string())),
+            "{name} reads a file its inputs {inputs:?} do not name: {e}"
+        );
+        reading.push(name);
+    }
+    for name in [
+        "merl",
+        "binned",
+        "rgl",
+        "fit",
+        "sampled-microfacet",
+        "ngan-fit",
+    ] {
+        assert!(reading.contains(&name), "{name} read no file: {reading:?}");
+    }
+}
+
+#[test]
 fn gltf_camera_and_node_transforms_are_used() {
     let path = lobe_tests::workspace().join("scenes/gltf-stage.json");
     let scene = load(&path).unwrap();
@@ -346,4 +511,36 @@ fn models_doc_has_the_current_parameter_reference() {
         doc[start..end] == generated,
         "docs/models.md is out of date: regenerate its reference with `lobe models`"
     );
+}
+
+/// The showcase names its five models: each label sits under its sphere (the sphere's
+/// centre projects above it, within half a sphere spacing), left to right, inside the film.
+#[test]
+fn showcase_labels_name_each_sphere_below_it() {
+    let scene = lobe_renderer::showcase::showcase().unwrap();
+    let labels = lobe_renderer::showcase::labels(&scene);
+    let names: Vec<&str> = labels.iter().map(|l| l.0.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "cook-torrance",
+            "ashikhmin-shirley",
+            "ward-anisotropic",
+            "he",
+            "lafortune"
+        ]
+    );
+    let film = glam::Vec2::new(scene.width as f32, scene.height as f32);
+    for (k, (name, at)) in labels.iter().enumerate() {
+        let centre = glam::Vec3::new(-2.6 + 1.3 * k as f32, 0.6, 0.0);
+        let c = scene.camera.project(centre).unwrap() * film;
+        assert!(
+            (c.x - at.x).abs() < 0.1 * film.x && at.y > c.y,
+            "{name}: {at} vs {c}"
+        );
+        assert!(at.x > 0.0 && at.x < film.x && at.y < film.y, "{name}: {at}");
+        if k > 0 {
+            assert!(at.x > labels[k - 1].1.x + 0.1 * film.x, "{name}");
+        }
+    }
 }

@@ -1,10 +1,12 @@
 //! `lobe compare TEST.exr REFERENCE.exr`: RMSE, relative MSE, PSNR, SSIM and mean FLIP of a
 //! test image against a reference, a FLIP heat map, thresholds for scripts, JSON output.
 
+use crate::args::finite;
 use lobe_renderer::Error;
-use lobe_renderer::compare::{flip_heatmap, metrics, z_test};
+use lobe_renderer::compare::{check_finite, flip_heatmap, metrics, z_test};
 use lobe_renderer::film::{read_exr, write_png_rgb8};
-use std::path::PathBuf;
+use lobe_renderer::outputs::FilePlan;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct CompareArgs {
@@ -13,7 +15,7 @@ pub struct CompareArgs {
     /// The reference image (EXR or HDR).
     reference: PathBuf,
     /// Exposure in stops applied before tonemapping for SSIM and FLIP.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = finite::<f32>)]
     exposure: f32,
     /// Write the FLIP error map as a colour PNG.
     #[arg(long)]
@@ -32,14 +34,14 @@ pub struct CompareArgs {
     /// Noise-aware test: read each image's variance of the mean from NAME.var.exr next to
     /// it, z-test every pixel and channel, and fail if any is significant at this
     /// family-wise false-alarm rate (Sidak-corrected), e.g. 0.01.
-    #[arg(long, value_name = "ALPHA")]
+    #[arg(long, value_name = "ALPHA", value_parser = finite::<f64>)]
     z_test: Option<f64>,
     /// Degrees of freedom of the test image's variances (its spp - 1; default: normal).
-    #[arg(long)]
+    #[arg(long, value_parser = finite::<f64>)]
     test_dof: Option<f64>,
     /// Degrees of freedom of the reference's variances (e.g. runs - 1 of a Mitsuba
     /// reference; default: normal).
-    #[arg(long)]
+    #[arg(long, value_parser = finite::<f64>)]
     reference_dof: Option<f64>,
 }
 
@@ -62,14 +64,36 @@ fn threshold(spec: &str, flag: &str, allowed: &[&str]) -> Result<(String, f64), 
     Ok((name, v))
 }
 
-fn load(path: &std::path::Path) -> Result<lobe_renderer::film::Image, Error> {
+/// Reads an image, refusing non-finite pixels with their count and the file's name.
+fn load(path: &Path) -> Result<lobe_renderer::film::Image, Error> {
     if !path.exists() {
         return Err(Error::file(
             path.display(),
             "does not exist; expected an EXR or HDR image",
         ));
     }
-    read_exr(path)
+    let img = read_exr(path)?;
+    check_finite(&img.pixels, &path.display().to_string())?;
+    Ok(img)
+}
+
+/// The variance image next to `image` (NAME.var.exr), as `lobe render --variance` writes.
+fn variance_path(image: &Path) -> PathBuf {
+    image.with_extension("var.exr")
+}
+
+fn plan(args: &CompareArgs) -> FilePlan {
+    let mut plan = FilePlan::new();
+    plan.input(&args.test, "the test image")
+        .input(&args.reference, "the reference image");
+    if args.z_test.is_some() {
+        plan.input(variance_path(&args.test), "the test image's variance")
+            .input(variance_path(&args.reference), "the reference's variance");
+    }
+    if let Some(h) = &args.heatmap {
+        plan.output(h, "heat map");
+    }
+    plan
 }
 
 pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
@@ -83,6 +107,7 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
         .iter()
         .map(|s| threshold(s, "fail-below", &["psnr", "ssim"]))
         .collect::<Result<_, _>>()?;
+    plan(&args).check()?;
     let test = load(&args.test)?;
     let reference = load(&args.reference)?;
     let (m, err) = metrics(&test, &reference, args.exposure)?;
@@ -96,8 +121,8 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             }
             let mut t = test.clone();
             let mut r = reference.clone();
-            t.variance = load(&args.test.with_extension("var.exr"))?.pixels;
-            r.variance = load(&args.reference.with_extension("var.exr"))?.pixels;
+            t.variance = load(&variance_path(&args.test))?.pixels;
+            r.variance = load(&variance_path(&args.reference))?.pixels;
             t.variance_dof = args.test_dof.unwrap_or(f64::INFINITY);
             r.variance_dof = args.reference_dof.unwrap_or(f64::INFINITY);
             Some(z_test(&t, &r, alpha)?)
@@ -162,19 +187,7 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             z.worst.1
         )));
     }
-    let mut failed = Vec::new();
-    for (name, v) in &above {
-        let got = m.get(name).expect("known");
-        if got > *v {
-            failed.push(format!("{name} {got:.6e} > {v}"));
-        }
-    }
-    for (name, v) in &below {
-        let got = m.get(name).expect("known");
-        if !(got >= *v) {
-            failed.push(format!("{name} {got:.6e} < {v}"));
-        }
-    }
+    let failed = threshold_failures(&m, &above, &below);
     if failed.is_empty() {
         Ok(())
     } else {
@@ -185,4 +198,32 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             failed.join(", ")
         )))
     }
+}
+
+/// The thresholds a metric misses; a metric that is NaN (SSIM of an image under 8x8
+/// pixels) misses every threshold on it.
+fn threshold_failures(
+    m: &lobe_renderer::compare::Metrics,
+    above: &[(String, f64)],
+    below: &[(String, f64)],
+) -> Vec<String> {
+    let undefined = |name: &str| format!("{name} is undefined (NaN; SSIM needs 8x8 pixels)");
+    let mut failed = Vec::new();
+    for (name, v) in above {
+        let got = m.get(name).expect("known");
+        if got.is_nan() {
+            failed.push(undefined(name));
+        } else if got > *v {
+            failed.push(format!("{name} {got:.6e} > {v}"));
+        }
+    }
+    for (name, v) in below {
+        let got = m.get(name).expect("known");
+        if got.is_nan() {
+            failed.push(undefined(name));
+        } else if got < *v {
+            failed.push(format!("{name} {got:.6e} < {v}"));
+        }
+    }
+    failed
 }

@@ -5,6 +5,7 @@ use lobe_materials::Bsdf;
 use lobe_materials::frame::spherical_direction;
 use lobe_materials::registry::{BuildContext, Registry};
 use lobe_renderer::Error;
+use lobe_renderer::outputs::FilePlan;
 use serde_json::Value;
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
@@ -41,66 +42,103 @@ pub struct MaterialArgs {
     model: Option<String>,
 }
 
-pub fn load_material(args: &MaterialArgs) -> Result<Arc<dyn Bsdf>, Error> {
-    let reg = Registry::builtin();
-    let here = std::env::current_dir().unwrap_or_default();
-    let (desc, file, base): (Value, String, PathBuf) = if let Some(m) = &args.material {
-        if let Some(path) = m.strip_prefix('@') {
-            let p = Path::new(path);
-            let text = std::fs::read_to_string(p)
-                .map_err(|e| Error::file(p.display(), format!("cannot read: {e}")))?;
-            let v = serde_json::from_str(&text)
-                .map_err(|e| Error::file(p.display(), format!("invalid JSON: {e}")))?;
-            (
-                v,
-                p.display().to_string(),
-                p.parent().map(Path::to_path_buf).unwrap_or(here),
-            )
-        } else {
-            let v = serde_json::from_str(m)
-                .map_err(|e| Error::Other(format!("--material: invalid JSON: {e}")))?;
-            (v, "--material".to_string(), here)
+/// A material description from the command line, not yet built: the JSON, the file it
+/// came from (for errors and as an input), its JSON path and the folder its relative
+/// paths resolve against.
+pub struct MaterialSource {
+    desc: Value,
+    shown: String,
+    file: Option<PathBuf>,
+    path: String,
+    base: PathBuf,
+}
+
+impl MaterialSource {
+    pub fn new(args: &MaterialArgs) -> Result<Self, Error> {
+        let here = std::env::current_dir().unwrap_or_default();
+        let folder = |p: &Path| p.parent().map(Path::to_path_buf).unwrap_or(here.clone());
+        if let Some(m) = &args.material {
+            if let Some(path) = m.strip_prefix('@') {
+                let p = PathBuf::from(path);
+                return Ok(Self {
+                    desc: lobe_materials::json::read(&p)?,
+                    shown: p.display().to_string(),
+                    base: folder(&p),
+                    file: Some(p),
+                    path: "material".into(),
+                });
+            }
+            return Ok(Self {
+                desc: lobe_materials::json::parse(m, "--material")?,
+                shown: "--material".into(),
+                file: None,
+                path: "material".into(),
+                base: here,
+            });
         }
-    } else if let Some(scene) = &args.scene {
-        let name = args.name.as_deref().unwrap_or_default();
-        let text = std::fs::read_to_string(scene)
-            .map_err(|e| Error::file(scene.display(), format!("cannot read: {e}")))?;
-        let v: Value = serde_json::from_str(&text)
-            .map_err(|e| Error::file(scene.display(), format!("invalid JSON: {e}")))?;
-        let m = v
-            .get("materials")
-            .and_then(|m| m.get(name))
-            .cloned()
-            .ok_or_else(|| {
-                let names: Vec<String> = v
-                    .get("materials")
-                    .and_then(Value::as_object)
-                    .map(|o| o.keys().cloned().collect())
-                    .unwrap_or_default();
-                Error::scene(
-                    scene.display().to_string(),
-                    format!("materials.{name}"),
-                    format!("no such material; expected one of: {}", names.join(", ")),
-                )
-            })?;
-        (
-            m,
-            scene.display().to_string(),
-            scene.parent().map(Path::to_path_buf).unwrap_or(here),
-        )
-    } else if let Some(mat) = &args.ngan {
-        let v = serde_json::json!({"type": "ngan-fit", "material": mat, "model": args.model.clone().unwrap_or_default()});
-        (v, "--ngan".to_string(), here)
-    } else {
-        return Err(Error::Other("expected a material: --material JSON, --scene FILE --name NAME, or --ngan MATERIAL --model MODEL".into()));
-    };
-    let path = if file == "--material" || file == "--ngan" {
-        "material".to_string()
-    } else {
-        format!("materials.{}", args.name.clone().unwrap_or_default())
-    };
-    reg.create_with(&desc, &path, &BuildContext::new(base))
-        .map_err(|e| Error::scene(file, e.path, e.message))
+        if let Some(scene) = &args.scene {
+            let name = args.name.as_deref().unwrap_or_default();
+            return Ok(Self {
+                desc: scene_material(scene, name)?,
+                shown: scene.display().to_string(),
+                base: folder(scene),
+                file: Some(scene.clone()),
+                path: format!("materials.{name}"),
+            });
+        }
+        if let Some(mat) = &args.ngan {
+            return Ok(Self {
+                desc: serde_json::json!({"type": "ngan-fit", "material": mat, "model": args.model.clone().unwrap_or_default()}),
+                shown: "--ngan".into(),
+                file: None,
+                path: "material".into(),
+                base: here,
+            });
+        }
+        Err(Error::Other("expected a material: --material JSON, --scene FILE --name NAME, or --ngan MATERIAL --model MODEL".into()))
+    }
+
+    /// Adds the files the material reads (its description's file and its tables,
+    /// reports or distributions) to `plan`.
+    pub fn plan_inputs(&self, plan: &mut FilePlan) {
+        if let Some(f) = &self.file {
+            plan.input(f, "the material's description");
+        }
+        let ctx = BuildContext::new(&self.base);
+        for p in Registry::builtin().inputs(&self.desc, &ctx) {
+            plan.input(p, format!("a file the material of {} reads", self.shown));
+        }
+    }
+
+    pub fn build(&self) -> Result<Arc<dyn Bsdf>, Error> {
+        Registry::builtin()
+            .create_with(&self.desc, &self.path, &BuildContext::new(&self.base))
+            .map_err(|e| Error::scene(&self.shown, e.path, e.message))
+    }
+}
+
+/// The description of the material `name` under a scene file's "materials".
+fn scene_material(scene: &Path, name: &str) -> Result<Value, Error> {
+    let v = lobe_renderer::scene::read_json(scene)?;
+    v.get("materials")
+        .and_then(|m| m.get(name))
+        .cloned()
+        .ok_or_else(|| {
+            let names: Vec<String> = v
+                .get("materials")
+                .and_then(Value::as_object)
+                .map(|o| o.keys().cloned().collect())
+                .unwrap_or_default();
+            Error::scene(
+                scene.display().to_string(),
+                format!("materials.{name}"),
+                format!("no such material; expected one of: {}", names.join(", ")),
+            )
+        })
+}
+
+pub fn load_material(args: &MaterialArgs) -> Result<Arc<dyn Bsdf>, Error> {
+    MaterialSource::new(args)?.build()
 }
 
 /// Values of one grid field: `x` or `a..b..step`.
@@ -111,14 +149,11 @@ fn field(s: &str, which: &str) -> Result<Vec<f64>, Error> {
         ))
     };
     let parts: Vec<&str> = s.split("..").collect();
+    let num = |x: &str| crate::args::finite::<f64>(x).map_err(|_| bad());
     match parts.as_slice() {
-        [x] => Ok(vec![x.trim().parse().map_err(|_| bad())?]),
+        [x] => Ok(vec![num(x)?]),
         [a, b, st] => {
-            let (a, b, st): (f64, f64, f64) = (
-                a.trim().parse().map_err(|_| bad())?,
-                b.trim().parse().map_err(|_| bad())?,
-                st.trim().parse().map_err(|_| bad())?,
-            );
+            let (a, b, st) = (num(a)?, num(b)?, num(st)?);
             if !(st > 0.0) || !(b >= a) || (b - a) / st > 1e6 {
                 return Err(bad());
             }

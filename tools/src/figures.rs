@@ -10,9 +10,12 @@
 //! - `lobes`: Figures 7 and 8, iso-contours of a half-vector (H.N) and of a mirror (V.R)
 //!   lobe of the same exponent over the outgoing hemisphere at a chosen incidence.
 
-use crate::eval::{MaterialArgs, load_material};
+use crate::args::finite;
+use crate::eval::{MaterialArgs, MaterialSource};
+use crate::fit::{read_reports, report_files};
 use lobe_materials::Bsdf;
 use lobe_renderer::Error;
+use lobe_renderer::outputs::FilePlan;
 use plotters::prelude::*;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -36,16 +39,19 @@ pub(crate) const PALETTE: [RGBColor; 8] = [
 pub enum FigureCmd {
     /// Figure 14: normalized error per material for every model (log scale).
     Errors {
-        /// Fit reports or folders of them.
+        /// Fit reports or folders of them (their *.fit.json files).
         #[arg(required = true)]
         reports: Vec<PathBuf>,
+        /// Output PNG file.
         #[arg(long, short)]
         output: PathBuf,
     },
     /// Figure 5: one against two lobes (cook-torrance / -2, lafortune / -2).
     Multilobe {
+        /// Fit reports or folders of them (their *.fit.json files).
         #[arg(required = true)]
         reports: Vec<PathBuf>,
+        /// Output PNG file.
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -57,14 +63,15 @@ pub enum FigureCmd {
         #[arg(long)]
         report: Option<PathBuf>,
         /// Comma-separated models of the report (default: all).
-        #[arg(long)]
+        #[arg(long, requires = "report")]
         models: Option<String>,
         /// Incident angle in degrees.
-        #[arg(long, default_value_t = 45.0)]
+        #[arg(long, default_value_t = 45.0, value_parser = finite::<f64>)]
         theta_i: f64,
         /// Colour channel: 0, 1 or 2 (red, green, blue).
         #[arg(long, default_value_t = 1)]
         channel: usize,
+        /// Output PNG file.
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -89,8 +96,9 @@ pub enum FigureCmd {
         #[arg(long, default_value_t = 192)]
         tile: u32,
         /// Exposure in stops.
-        #[arg(long, default_value_t = 0.0)]
+        #[arg(long, default_value_t = 0.0, value_parser = finite::<f32>)]
         exposure: f32,
+        /// Output PNG file.
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -98,11 +106,12 @@ pub enum FigureCmd {
     /// over the outgoing hemisphere (projected disk) for incidence theta_i.
     Lobes {
         /// Incident angle in degrees.
-        #[arg(long, default_value_t = 60.0)]
+        #[arg(long, default_value_t = 60.0, value_parser = finite::<f64>)]
         theta_i: f64,
         /// Lobe exponent n.
-        #[arg(long, default_value_t = 30.0)]
+        #[arg(long, default_value_t = 30.0, value_parser = finite::<f64>)]
         exponent: f64,
+        /// Output PNG file.
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -120,11 +129,60 @@ pub(crate) fn register_font() {
     let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
 }
 
-fn read_reports(inputs: &[PathBuf]) -> Result<Vec<Value>, Error> {
-    Ok(crate::fit::read_reports(inputs)?
-        .into_iter()
-        .map(|(_, v)| v)
-        .collect())
+/// Writes each label centred at its pixel position (its top edge there) onto an 8-bit RGB
+/// image: white text on a translucent dark box, so it reads on any background, at a size
+/// that keeps neighbouring labels apart.
+pub(crate) fn draw_labels(
+    rgb: &mut [u8],
+    (w, h): (u32, u32),
+    labels: &[(String, glam::Vec2)],
+) -> Result<(), Error> {
+    if labels.is_empty() {
+        return Ok(());
+    }
+    register_font();
+    let font = |size: f64| TextStyle::from(("sans-serif", size).into_font());
+    let root = BitMapBackend::with_buffer(rgb, (w, h)).into_drawing_area();
+    // The widest label fits in 90 % of the gap between neighbouring centres.
+    let mut xs: Vec<f32> = labels.iter().map(|l| l.1.x).collect();
+    xs.sort_by(f32::total_cmp);
+    let gap = xs.windows(2).map(|p| p[1] - p[0]).fold(w as f32, f32::min) as f64;
+    let mut size = (h as f64 / 22.0).max(10.0);
+    for (text, _) in labels {
+        let (tw, _) = root
+            .estimate_text_size(text, &font(size))
+            .map_err(plot_err)?;
+        if tw as f64 > 0.9 * gap {
+            size *= 0.9 * gap / tw as f64;
+        }
+    }
+    let size = size.max(8.0);
+    for (text, at) in labels {
+        let (tw, th) = root
+            .estimate_text_size(text, &font(size))
+            .map_err(plot_err)?;
+        let (x, y) = (at.x.round() as i32 - tw as i32 / 2, at.y.round() as i32 + 4);
+        root.draw(&Rectangle::new(
+            [(x - 4, y - 2), (x + tw as i32 + 4, y + th as i32 + 3)],
+            BLACK.mix(0.5).filled(),
+        ))
+        .map_err(plot_err)?;
+        root.draw(&Text::new(text.clone(), (x, y), font(size).color(&WHITE)))
+            .map_err(plot_err)?;
+    }
+    root.present().map_err(plot_err)
+}
+
+/// Reads the reports of `inputs` (files or folders), after checking that `output` is
+/// none of them.
+fn reports_for(inputs: &[PathBuf], output: &Path) -> Result<Vec<Value>, Error> {
+    let files = report_files(inputs)?;
+    let mut plan = FilePlan::new();
+    for f in &files {
+        plan.input(f, "a fit report");
+    }
+    plan.output(output, "figure").check()?;
+    Ok(read_reports(&files)?.into_iter().map(|(_, v)| v).collect())
 }
 
 fn err_of(r: &Value, model: &str) -> Option<f64> {
@@ -521,34 +579,63 @@ fn lobes(theta_i: f64, n: f64, output: &Path) -> Result<(), Error> {
 /// A labelled material.
 type Named = (String, Arc<dyn Bsdf>);
 
-/// The fitted models of a report (those of the comma-separated `models`, or all), built.
+/// The fitted models of a report (those of the comma-separated `models`, or all), built;
+/// a name the report does not have is an error listing those it has.
 fn report_models(report: &Path, models: Option<String>) -> Result<Vec<Named>, Error> {
-    let r = read_reports(&[report.to_path_buf()])?.remove(0);
-    let wanted: Option<Vec<String>> =
-        models.map(|m| m.split(',').map(|s| s.trim().to_string()).collect());
+    let (_, r) = read_reports(&[report.to_path_buf()])?.remove(0);
+    let fitted = r["models"].as_object().expect("checked");
+    let wanted: Vec<String> = match models {
+        Some(m) => m.split(',').map(|s| s.trim().to_string()).collect(),
+        None => fitted.keys().cloned().collect(),
+    };
     let reg = lobe_materials::registry::Registry::builtin();
     let mut out = Vec::new();
-    for (name, v) in r["models"].as_object().expect("checked") {
-        if wanted.as_ref().is_some_and(|w| !w.contains(name)) {
-            continue;
-        }
+    for name in wanted {
+        let v = fitted.get(&name).ok_or_else(|| {
+            Error::Other(format!(
+                "--models: no model \"{name}\" in {}; expected one of: {}",
+                report.display(),
+                fitted.keys().cloned().collect::<Vec<_>>().join(", ")
+            ))
+        })?;
         let m = reg
             .create(&v["material"], &format!("models.{name}"))
             .map_err(|e| Error::file(report.display(), e.to_string()))?;
-        out.push((name.clone(), m));
+        out.push((name, m));
     }
     Ok(out)
+}
+
+/// The material and report of a polar or spheres figure (and an environment map file),
+/// checked against the output.
+fn material_figure_inputs(
+    material: &MaterialArgs,
+    report: Option<&Path>,
+    env: Option<&str>,
+    output: &Path,
+) -> Result<MaterialSource, Error> {
+    let source = MaterialSource::new(material)?;
+    let mut plan = FilePlan::new();
+    source.plan_inputs(&mut plan);
+    if let Some(r) = report {
+        plan.input(r, "the fit report");
+    }
+    if let Some(e) = env.filter(|e| !e.starts_with("builtin:")) {
+        plan.input(e, "the environment map");
+    }
+    plan.output(output, "figure").check()?;
+    Ok(source)
 }
 
 pub fn cmd_figure(cmd: FigureCmd, quiet: bool) -> Result<(), Error> {
     register_font();
     let out = match cmd {
         FigureCmd::Errors { reports, output } => {
-            errors(&read_reports(&reports)?, &output)?;
+            errors(&reports_for(&reports, &output)?, &output)?;
             output
         }
         FigureCmd::Multilobe { reports, output } => {
-            multilobe(&read_reports(&reports)?, &output)?;
+            multilobe(&reports_for(&reports, &output)?, &output)?;
             output
         }
         FigureCmd::Polar {
@@ -559,12 +646,12 @@ pub fn cmd_figure(cmd: FigureCmd, quiet: bool) -> Result<(), Error> {
             channel,
             output,
         } => {
-            let data = load_material(&material)?;
+            let source = material_figure_inputs(&material, report.as_deref(), None, &output)?;
             let fits = match &report {
                 Some(rp) => report_models(rp, models)?,
                 None => Vec::new(),
             };
-            polar(data, fits, theta_i, channel, &output)?;
+            polar(source.build()?, fits, theta_i, channel, &output)?;
             output
         }
         FigureCmd::Spheres {
@@ -577,7 +664,8 @@ pub fn cmd_figure(cmd: FigureCmd, quiet: bool) -> Result<(), Error> {
             exposure,
             output,
         } => {
-            let mut items = vec![("measured".to_string(), load_material(&material)?)];
+            let source = material_figure_inputs(&material, Some(&report), Some(&env), &output)?;
+            let mut items = vec![("measured".to_string(), source.build()?)];
             items.extend(report_models(&report, models)?);
             spheres(&items, &env, spp, tile, exposure, &output)?;
             output

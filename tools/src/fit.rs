@@ -3,13 +3,15 @@
 //! folder, fit every file, resumably and in deterministic shards; `lobe fit merge` joins
 //! reports into CSV and Markdown tables.
 
-use crate::eval::{MaterialArgs, load_material};
+use crate::args::finite;
+use crate::eval::{MaterialArgs, MaterialSource};
 use lobe_materials::fit::dataset::Dataset;
-use lobe_materials::fit::{ISOTROPIC_DEFAULT, ModelSpec, builtin_specs, fit, report_json};
-use lobe_materials::measured::binned::Binned;
-use lobe_materials::measured::merl::Merl;
-use lobe_materials::measured::rgl::Rgl;
+use lobe_materials::fit::{
+    FitError, ISOTROPIC_DEFAULT, ModelSpec, Stop, builtin_specs, fit_until, report_json,
+};
+use lobe_materials::measured::format;
 use lobe_renderer::Error;
+use lobe_renderer::outputs::FilePlan;
 use serde_json::Value;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -19,7 +21,7 @@ use std::path::{Path, PathBuf};
 pub struct FitArgs {
     #[command(subcommand)]
     sub: Option<FitSub>,
-    /// Measured data: a MERL table (.binary), binned data (.bin) or an RGL file (.bsdf), or a
+    /// Measured data: a MERL table, binned data or an RGL file (told apart by content), or a
     /// folder of them (batch mode: one report per file in the --output folder). Without it,
     /// the material given by --material / --ngan (synthetic data).
     data: Option<PathBuf>,
@@ -31,7 +33,7 @@ pub struct FitArgs {
     #[arg(long)]
     models: Option<String>,
     /// Bin size in degrees of the isotropic data (the study: 1).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = finite::<f64>)]
     resolution: f64,
     /// Objective evaluations allowed per SLSQP start.
     #[arg(long, default_value_t = 300)]
@@ -52,7 +54,7 @@ pub struct FitArgs {
     #[arg(long)]
     select: bool,
     /// Relative tolerance of --select: error <= best error x (1 + tolerance).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, value_parser = finite::<f64>)]
     tolerance: f64,
 }
 
@@ -69,46 +71,9 @@ enum FitSub {
     },
 }
 
-pub(crate) fn to_err(e: lobe_materials::FileError) -> Error {
-    Error::File {
-        file: e.file,
-        message: e.message,
-    }
-}
-
-/// The measured-material type of a data file by its extension: merl, binned or rgl.
-pub(crate) fn measured_kind(p: &Path) -> Result<&'static str, Error> {
-    match p.extension().and_then(|e| e.to_str()).unwrap_or("") {
-        "binary" => Ok("merl"),
-        "bin" => Ok("binned"),
-        "bsdf" => Ok("rgl"),
-        ext => Err(Error::file(
-            p.display(),
-            format!(
-                "unknown extension \"{ext}\"; expected .binary (MERL), .bin (binned) or .bsdf (RGL)"
-            ),
-        )),
-    }
-}
-
-pub(crate) fn load_data(p: &Path, resolution: f64) -> Result<Dataset, Error> {
-    if !p.exists() {
-        return Err(Error::file(
-            p.display(),
-            "does not exist; expected a MERL .binary, binned .bin or RGL .bsdf file",
-        ));
-    }
-    Ok(match measured_kind(p)? {
-        "merl" => Dataset::from_merl(&Merl::read(p).map_err(to_err)?, resolution),
-        "binned" => Dataset::from_binned(&Binned::read(p).map_err(to_err)?),
-        _ => {
-            let t = Rgl::read(p).map_err(to_err)?;
-            Dataset::isotropic(&|wi, wo| Some(t.eval(wo, wi)), resolution)
-        }
-    })
-}
-
-fn choose<'a>(
+/// The specs of the comma-separated `models` (an error names an unknown one and lists the
+/// known ones), or the study's defaults for isotropic or anisotropic data.
+pub(crate) fn choose<'a>(
     specs: &'a [ModelSpec],
     models: &Option<String>,
     anisotropic: bool,
@@ -142,32 +107,25 @@ fn choose<'a>(
     }
 }
 
-/// Set by Ctrl-C: fits stop at the next model and nothing unfinished is written.
-fn interrupted() -> bool {
-    INTERRUPTED
-        .get()
-        .is_some_and(|f| f.load(std::sync::atomic::Ordering::SeqCst))
-}
-
-static INTERRUPTED: std::sync::OnceLock<std::sync::Arc<std::sync::atomic::AtomicBool>> =
-    std::sync::OnceLock::new();
-
+/// Fits the chosen models to `data` and builds the report; `stop` is polled inside the
+/// optimizer (Ctrl-C), `tick` is called after each model (the progress bar).
 fn fit_report(
     name: &str,
     source: &str,
     data: &Dataset,
     args: &FitArgs,
     quiet: bool,
+    (stop, tick): (&Stop<'_>, &dyn Fn()),
 ) -> Result<Value, Error> {
     data.check().map_err(|m| Error::file(source, m))?;
     let specs = builtin_specs();
     let chosen = choose(&specs, &args.models, data.anisotropic)?;
     let mut results = Vec::new();
     for spec in chosen {
-        if interrupted() {
-            return Err(Error::Other(format!("{source}: interrupted")));
-        }
-        let r = fit(data, spec, args.max_evals).map_err(|m| Error::file(source, m))?;
+        let r = fit_until(data, spec, args.max_evals, stop).map_err(|e| match e {
+            FitError::Cancelled => Error::Other(format!("{source}: interrupted")),
+            FitError::Data(m) => Error::file(source, m),
+        })?;
         if !quiet {
             eprintln!(
                 "{name}: {:28} error {:.4e}  normalized {:.4e}  ({} of {} starts agree, {:.1} s)",
@@ -175,6 +133,7 @@ fn fit_report(
             );
         }
         results.push(r);
+        tick();
     }
     let mut report = report_json(name, source, args.resolution, data, &results);
     if args.select {
@@ -235,17 +194,8 @@ fn parse_shard(s: &str) -> Result<(usize, usize), Error> {
     Ok((i, n))
 }
 
-pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
-    if let Some(FitSub::Merge { inputs, output }) = &args.sub {
-        return merge(inputs, output, quiet);
-    }
-    if args.list {
-        for s in builtin_specs() {
-            println!("{}", s.label);
-        }
-        return Ok(());
-    }
-    if !(args.tolerance >= 0.0 && args.tolerance.is_finite()) {
+fn check_options(args: &FitArgs) -> Result<(), Error> {
+    if !(args.tolerance >= 0.0) {
         return Err(Error::Other(format!(
             "--tolerance: expected a non-negative relative tolerance, found {}",
             args.tolerance
@@ -257,204 +207,349 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
             args.resolution
         )));
     }
-    INTERRUPTED.get_or_init(crate::install_ctrlc);
-    let output = args.output.clone().ok_or_else(|| Error::Other("--output: expected the path of the JSON report (or, for a folder of data, of the report folder)".into()))?;
-    match &args.data {
-        Some(dir) if dir.is_dir() => batch(dir, &output, &args, quiet),
-        Some(p) => {
-            if args.shard.is_some() {
-                return Err(Error::Other("--shard: only for a folder of data".into()));
-            }
-            let data = load_data(p, args.resolution)?;
-            let name = p
-                .file_stem()
-                .and_then(|s| s.to_str())
-                .unwrap_or("material")
-                .to_string();
-            let report = fit_report(&name, &p.display().to_string(), &data, &args, quiet)?;
-            lobe_renderer::film::write_json(&output, &report)?;
-            if !quiet {
-                eprintln!("wrote {}", output.display());
-            }
-            Ok(())
-        }
-        None => {
-            let m = load_material(&args.material)?;
-            let data = Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), args.resolution);
-            let report = fit_report("synthetic", "material", &data, &args, quiet)?;
-            lobe_renderer::film::write_json(&output, &report)
-        }
-    }
+    Ok(())
 }
 
-/// Fits every data file of `dir` (sorted by name; this shard's share), writing
-/// `out/<stem>.fit.json` atomically and skipping reports that already exist, so an
-/// interrupted run resumes where it stopped and loses nothing already finished.
-fn batch(dir: &Path, out: &Path, args: &FitArgs, quiet: bool) -> Result<(), Error> {
-    if !out.is_dir() {
-        std::fs::create_dir_all(out).map_err(|e| {
-            Error::file(
-                out.display(),
-                format!("cannot create the report folder: {e}"),
-            )
-        })?;
+/// The stem of a data file, naming its material and report.
+fn stem(p: &Path) -> String {
+    p.file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("material")
+        .to_string()
+}
+
+/// The Ctrl-C flag of fits, as the poll the optimizer calls.
+fn stop_flag() -> impl Fn() -> bool + Sync {
+    let flag = crate::args::ctrl_c(
+        "interrupted: stopping the running fits now (finished reports are kept, no partial one is written); Ctrl-C again to abort",
+    );
+    move || flag.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
+    if let Some(FitSub::Merge { inputs, output }) = &args.sub {
+        return merge(inputs, output, quiet);
     }
+    if args.list {
+        for s in builtin_specs() {
+            println!("{}", s.label);
+        }
+        return Ok(());
+    }
+    check_options(&args)?;
+    let output = args.output.clone().ok_or_else(|| Error::Other("--output: expected the path of the JSON report (or, for a folder of data, of the report folder)".into()))?;
+    let stop = stop_flag();
+    if let Some(dir) = args.data.as_ref().filter(|d| d.is_dir()) {
+        return batch(dir, &output, &args, (&stop, quiet));
+    }
+    if args.shard.is_some() {
+        return Err(Error::Other("--shard: only for a folder of data".into()));
+    }
+    let mut plan = FilePlan::new();
+    plan.output(&output, "fit report");
+    let report = match &args.data {
+        Some(p) => {
+            plan.input(p, "the measured data").check()?;
+            let data = Dataset::read(p, args.resolution)?;
+            let source = p.display().to_string();
+            fit_report(&stem(p), &source, &data, &args, quiet, (&stop, &|| {}))?
+        }
+        None => {
+            let source = MaterialSource::new(&args.material)?;
+            source.plan_inputs(&mut plan);
+            plan.check()?;
+            let m = source.build()?;
+            let data = Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), args.resolution);
+            fit_report(
+                "synthetic",
+                "material",
+                &data,
+                &args,
+                quiet,
+                (&stop, &|| {}),
+            )?
+        }
+    };
+    lobe_renderer::film::write_json(&output, &report)?;
+    if !quiet {
+        eprintln!("wrote {}", output.display());
+    }
+    Ok(())
+}
+
+/// The data files of a folder, sorted by name: every file whose content is a measured
+/// format, and files named like one (.binary, .bin, .bsdf) whatever they hold, so that a
+/// broken one is reported rather than skipped. Other files (notes, reports) are ignored.
+fn data_files(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| Error::file(dir.display(), format!("cannot list: {e}")))?
         .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file())
         .filter(|p| {
-            matches!(
+            let named = matches!(
                 p.extension().and_then(|e| e.to_str()),
                 Some("binary" | "bin" | "bsdf")
-            )
+            );
+            named || format::detect(p).is_ok()
         })
         .collect();
     files.sort();
     if files.is_empty() {
         return Err(Error::file(
             dir.display(),
-            "holds no .binary, .bin or .bsdf files to fit",
+            "holds no measured data to fit; expected MERL, binned or RGL files",
         ));
     }
-    let (i, n) = match &args.shard {
-        Some(s) => parse_shard(s)?,
-        None => (0, 1),
-    };
-    let mine: Vec<&PathBuf> = files
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| k % n == i)
-        .map(|(_, p)| p)
-        .collect();
-    let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
-        let pb = indicatif::ProgressBar::new(mine.len() as u64);
+    Ok(files)
+}
+
+/// Checks the report folder of a batch: an existing folder, or a new one whose name does
+/// not look like a file (`-o x.fit.json` for a folder of data is a mistake, not a folder).
+fn check_report_folder(out: &Path) -> Result<(), Error> {
+    if out.is_dir() {
+        return Ok(());
+    }
+    if out.exists() {
+        return Err(Error::file(
+            out.display(),
+            "is a file; expected the folder of reports, since the data is a folder",
+        ));
+    }
+    if out.extension().is_some() {
+        return Err(Error::file(
+            out.display(),
+            "looks like a file name, but the data is a folder: -o must name the folder of reports (create it first to use this name)",
+        ));
+    }
+    Ok(())
+}
+
+/// Creates the report folder of a batch, if needed.
+fn create_report_folder(out: &Path) -> Result<(), Error> {
+    std::fs::create_dir_all(out).map_err(|e| {
+        Error::file(
+            out.display(),
+            format!("cannot create the report folder: {e}"),
+        )
+    })
+}
+
+/// A progress bar over models (files x models each), shown on a terminal.
+fn progress(files: usize, args: &FitArgs, quiet: bool) -> Option<indicatif::ProgressBar> {
+    (!quiet && std::io::stderr().is_terminal()).then(|| {
+        let pb = indicatif::ProgressBar::new((files * models_guess(args)) as u64);
         pb.set_style(
             indicatif::ProgressStyle::with_template(
-                "fitting [{bar:40}] {pos}/{len} {elapsed_precise} ETA {eta} {msg}",
+                "fitting [{bar:40}] {pos}/{len} models {elapsed_precise} ETA {eta} {msg}",
             )
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         pb
-    });
+    })
+}
+
+/// Models per file before the file is read: --models, or the isotropic default (a file of
+/// anisotropic data corrects the bar when it is read).
+fn models_guess(args: &FitArgs) -> usize {
+    args.models
+        .as_ref()
+        .map_or(ISOTROPIC_DEFAULT.len(), |m| m.split(',').count())
+}
+
+/// Fits every data file of `dir` (sorted by name; this shard's share), writing
+/// `out/<stem>.fit.json` atomically and skipping reports that already exist, so an
+/// interrupted run resumes where it stopped and loses nothing already finished.
+fn batch(
+    dir: &Path,
+    out: &Path,
+    args: &FitArgs,
+    (stop, quiet): (&Stop<'_>, bool),
+) -> Result<(), Error> {
+    check_report_folder(out)?;
+    let files = data_files(dir)?;
+    let (i, n) = match &args.shard {
+        Some(s) => parse_shard(s)?,
+        None => (0, 1),
+    };
+    let mine: Vec<(&PathBuf, PathBuf)> = files
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % n == i)
+        .map(|(_, p)| (p, out.join(format!("{}.fit.json", stem(p)))))
+        .collect();
+    let mut plan = FilePlan::new();
+    for p in &files {
+        plan.input(p, "measured data to fit");
+    }
+    for (p, report) in &mine {
+        plan.output(report, format!("report of {}", p.display()));
+    }
+    plan.check_overlaps()?;
+    create_report_folder(out)?;
+    plan.check()?;
+    let run = BatchRun {
+        args,
+        stop,
+        bar: progress(mine.len(), args, quiet),
+        quiet,
+        done: Default::default(),
+        skipped: Default::default(),
+    };
     // Materials in parallel (each fit is parallel over its bins too; rayon balances both).
     // A material that fails is reported and the others go on; it has no report, so a rerun
     // tries it again.
     use rayon::prelude::*;
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    let (done, skipped) = (AtomicUsize::new(0), AtomicUsize::new(0));
     let mut failures: Vec<String> = mine
         .par_iter()
-        .filter_map(|p| {
-            let stem = p
-                .file_stem()
-                .and_then(|s| s.to_str())
-                .unwrap_or("material")
-                .to_string();
-            let report = out.join(format!("{stem}.fit.json"));
-            let result = if report.exists() {
-                skipped.fetch_add(1, Ordering::Relaxed);
-                Ok(())
-            } else if interrupted() {
-                Ok(())
-            } else {
-                if let Some(b) = &bar {
-                    b.set_message(stem.clone());
-                }
-                load_data(p, args.resolution)
-                    .and_then(|data| {
-                        fit_report(
-                            &stem,
-                            &p.display().to_string(),
-                            &data,
-                            args,
-                            quiet || bar.is_some(),
-                        )
-                    })
-                    .and_then(|r| lobe_renderer::film::write_json(&report, &r))
-                    .map(|()| {
-                        done.fetch_add(1, Ordering::Relaxed);
-                    })
-            };
-            if let Some(b) = &bar {
-                b.inc(1);
-            }
-            result.err().map(|e| e.to_string())
-        })
+        .filter_map(|(p, report)| run.fit_one(p, report).err().map(|e| e.to_string()))
         .collect();
     failures.sort();
-    if let Some(b) = bar {
+    if let Some(b) = &run.bar {
         b.finish_and_clear();
     }
-    let (done, skipped) = (done.into_inner(), skipped.into_inner());
-    if interrupted() {
-        return Err(Error::Other(format!(
-            "interrupted: {done} reports written this run ({skipped} were already there), the rest not started or dropped; rerun to resume"
-        )));
-    }
-    if !quiet {
-        eprintln!(
-            "shard {i}/{n}: fitted {done} materials, {skipped} already done, {} failed, reports in {}",
-            failures.len(),
-            out.display()
-        );
-    }
-    match failures.len() {
-        0 => Ok(()),
-        1 => Err(Error::Other(failures.remove(0))),
-        k => {
-            for f in &failures[1..] {
-                eprintln!("error: {f}");
+    run.outcome(failures, (i, n), out)
+}
+
+/// A batch in progress: its options, the Ctrl-C poll, the progress bar (over models) and
+/// the counts of reports written and skipped.
+struct BatchRun<'a> {
+    args: &'a FitArgs,
+    stop: &'a Stop<'a>,
+    bar: Option<indicatif::ProgressBar>,
+    quiet: bool,
+    done: std::sync::atomic::AtomicUsize,
+    skipped: std::sync::atomic::AtomicUsize,
+}
+
+impl BatchRun<'_> {
+    /// One file: skipped when its report exists, else fitted and written.
+    fn fit_one(&self, p: &Path, report: &Path) -> Result<(), Error> {
+        use std::sync::atomic::Ordering;
+        let guess = models_guess(self.args) as u64;
+        if report.exists() {
+            self.skipped.fetch_add(1, Ordering::Relaxed);
+            self.bar.as_ref().inspect(|b| b.inc(guess));
+            return Ok(());
+        }
+        if (self.stop)() {
+            return Ok(());
+        }
+        let name = stem(p);
+        self.bar.as_ref().inspect(|b| b.set_message(name.clone()));
+        let data = Dataset::read(p, self.args.resolution)?;
+        if let Some(b) = &self.bar {
+            // The bar assumed `guess` models; anisotropic data may get another number.
+            let specs = builtin_specs();
+            let actual = choose(&specs, &self.args.models, data.anisotropic)
+                .map_or(guess, |c| c.len() as u64);
+            if actual != guess {
+                b.dec_length(guess);
+                b.inc_length(actual);
             }
-            Err(Error::Other(format!(
-                "{k} materials failed (a rerun retries them); the first: {}",
-                failures[0]
-            )))
+        }
+        let tick = || {
+            self.bar.as_ref().inspect(|b| b.inc(1));
+        };
+        let quiet = self.quiet || self.bar.is_some();
+        let source = p.display().to_string();
+        let r = fit_report(&name, &source, &data, self.args, quiet, (self.stop, &tick))?;
+        lobe_renderer::film::write_json(report, &r)?;
+        self.done.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    }
+
+    /// The summary line and exit status of the batch.
+    fn outcome(
+        self,
+        mut failures: Vec<String>,
+        (i, n): (usize, usize),
+        out: &Path,
+    ) -> Result<(), Error> {
+        let (done, skipped) = (self.done.into_inner(), self.skipped.into_inner());
+        if (self.stop)() {
+            return Err(Error::Other(format!(
+                "interrupted: {done} reports written this run ({skipped} were already there), the rest not started or dropped; rerun to resume"
+            )));
+        }
+        if !self.quiet {
+            eprintln!(
+                "shard {i}/{n}: fitted {done} materials, {skipped} already done, {} failed, reports in {}",
+                failures.len(),
+                out.display()
+            );
+        }
+        match failures.len() {
+            0 => Ok(()),
+            1 => Err(Error::Other(failures.remove(0))),
+            k => {
+                for f in &failures[1..] {
+                    eprintln!("error: {f}");
+                }
+                Err(Error::Other(format!(
+                    "{k} materials failed (a rerun retries them); the first: {}",
+                    failures[0]
+                )))
+            }
         }
     }
 }
 
-/// Reads fit reports: each input is a report or a folder whose `*.fit.json` files are read
-/// in name order. Every report must have a `models` object; no report at all is an error.
-pub(crate) fn read_reports(inputs: &[PathBuf]) -> Result<Vec<(PathBuf, Value)>, Error> {
-    let mut reports: Vec<(PathBuf, Value)> = Vec::new();
+/// The report files of the inputs: each input is a report, or a folder whose `*.fit.json`
+/// files are taken in name order.
+pub(crate) fn report_files(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
+    let mut files = Vec::new();
     for i in inputs {
-        let files: Vec<PathBuf> = if i.is_dir() {
+        if i.is_dir() {
             let mut v: Vec<PathBuf> = std::fs::read_dir(i)
                 .map_err(|e| Error::file(i.display(), format!("cannot list: {e}")))?
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|p| p.to_string_lossy().ends_with(".fit.json"))
                 .collect();
             v.sort();
-            v
+            files.extend(v);
         } else {
-            vec![i.clone()]
-        };
-        for f in files {
-            let text = std::fs::read_to_string(&f)
-                .map_err(|e| Error::file(f.display(), format!("cannot read: {e}")))?;
-            let v: Value = serde_json::from_str(&text)
-                .map_err(|e| Error::file(f.display(), format!("invalid JSON: {e}")))?;
+            files.push(i.clone());
+        }
+    }
+    if files.is_empty() {
+        return Err(Error::Other(
+            "no fit reports (*.fit.json) found in the inputs".into(),
+        ));
+    }
+    Ok(files)
+}
+
+/// Reads fit reports ([`report_files`]); every report must have a `models` object.
+pub(crate) fn read_reports(files: &[PathBuf]) -> Result<Vec<(PathBuf, Value)>, Error> {
+    files
+        .iter()
+        .map(|f| {
+            let v = lobe_materials::json::read(f)?;
             if v.get("models").and_then(Value::as_object).is_none() {
                 return Err(Error::file(
                     f.display(),
                     "no \"models\" object; expected a lobe fit report",
                 ));
             }
-            reports.push((f, v));
-        }
-    }
-    if reports.is_empty() {
-        return Err(Error::Other(
-            "no fit reports (*.fit.json) found in the inputs".into(),
-        ));
-    }
-    Ok(reports)
+            Ok((f.clone(), v))
+        })
+        .collect()
 }
 
 /// Joins reports into STEM.csv and STEM.md: one row per material, per model the
 /// normalized error (and the absolute error in the CSV).
 fn merge(inputs: &[PathBuf], stem: &Path, quiet: bool) -> Result<(), Error> {
-    let mut reports = read_reports(inputs)?;
+    let files = report_files(inputs)?;
+    let csv_path = PathBuf::from(format!("{}.csv", stem.display()));
+    let md_path = PathBuf::from(format!("{}.md", stem.display()));
+    let mut plan = FilePlan::new();
+    for f in &files {
+        plan.input(f, "a fit report");
+    }
+    plan.output(&csv_path, "CSV table")
+        .output(&md_path, "Markdown table")
+        .check()?;
+    let mut reports = read_reports(&files)?;
     reports.sort_by(|a, b| a.1["material"].as_str().cmp(&b.1["material"].as_str()));
     let mut models: Vec<String> = Vec::new();
     for (_, r) in &reports {
@@ -491,8 +586,6 @@ fn merge(inputs: &[PathBuf], stem: &Path, quiet: bool) -> Result<(), Error> {
         csv.push('\n');
         md.push('\n');
     }
-    let csv_path = PathBuf::from(format!("{}.csv", stem.display()));
-    let md_path = PathBuf::from(format!("{}.md", stem.display()));
     lobe_renderer::film::atomic_write(&csv_path, |w| std::io::Write::write_all(w, csv.as_bytes()))?;
     lobe_renderer::film::atomic_write(&md_path, |w| std::io::Write::write_all(w, md.as_bytes()))?;
     if !quiet {

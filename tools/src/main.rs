@@ -4,6 +4,7 @@
 //! Subcommands: `render` (this step); fit, tabulate, compare, figure, tradeoff and
 //! stability arrive with later steps. Errors are one line on stderr and a non-zero exit.
 
+mod args;
 mod compare;
 mod eval;
 mod figures;
@@ -13,15 +14,16 @@ mod stability;
 mod tabulate;
 mod tradeoff;
 
+use args::finite;
 use clap::{Parser, Subcommand};
+use lobe_renderer::film::Image;
+use lobe_renderer::outputs::{FilePlan, RenderFiles};
 use lobe_renderer::render::{RenderOptions, RenderStats, render};
 use lobe_renderer::scene::Scene;
 use lobe_renderer::{Error, film};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 #[derive(Parser)]
 #[command(
@@ -41,7 +43,7 @@ struct Cli {
 enum Command {
     /// Render a scene file (or the built-in showcase) to EXR, PNG and a statistics JSON.
     #[command(
-        after_help = "Examples:\n  lobe render                                  # built-in showcase -> out/showcase.{exr,png,json}\n  lobe render scenes/sphere-envmap.json --spp 256 -o out/sphere.exr\n  lobe render scenes/cornell-box.json --threads 1 --seed 7\n  lobe render --bench                          # Msamples/s on the sphere-under-env-map benchmark"
+        after_help = "Examples:\n  lobe render                                  # built-in showcase -> out/showcase.exr, .png, .stats.json\n  lobe render scenes/sphere-envmap.json --spp 256 -o out/sphere.exr\n  lobe render scenes/cornell-box.json --threads 1 --seed 7\n  lobe render --bench                          # Msamples/s on the sphere-under-env-map benchmark"
     )]
     Render(RenderArgs),
     /// Evaluate f_r (RGB, 1/sr) and the sampling pdf of a material at direction pairs, as CSV.
@@ -86,7 +88,7 @@ enum Command {
     Tabulate(tabulate::TabulateArgs),
     /// Compare a test image with a reference: RMSE, relative MSE, PSNR, SSIM, mean FLIP.
     #[command(
-        after_help = "Examples:\n  lobe compare out/sphere.exr reference-images/sphere-envmap/mitsuba.exr\n  lobe compare a.exr b.exr --heatmap diff.png --json\n  lobe compare a.exr b.exr --fail-above rmse=0.01 --fail-below ssim=0.98"
+        after_help = "Examples:\n  lobe render reference-images/scenes/lambert-envmap.json -o out/lambert.exr --variance\n  lobe compare out/lambert.exr reference-images/lambert-envmap.exr --heatmap out/diff.png --json\n  lobe compare out/lambert.exr reference-images/lambert-envmap.exr --fail-above rmse=0.01 --fail-below ssim=0.98\n  lobe compare out/lambert.exr reference-images/lambert-envmap.exr --z-test 0.01   # reads the .var.exr files\nA non-finite pixel in either image is an error: no metric of such an image means anything."
     )]
     Compare(compare::CompareArgs),
     /// List the material models and their parameters (Markdown, as in docs/models.md).
@@ -104,8 +106,8 @@ enum Command {
 struct RenderArgs {
     /// Scene file (JSON, see docs/scene-format.md). Without it, the built-in showcase.
     scene: Option<PathBuf>,
-    /// Output EXR path; the PNG (.png) and the statistics (.stats.json) go next to it with
-    /// the same stem.
+    /// Output path, NAME.exr or NAME.png: the render writes NAME.exr (linear), NAME.png
+    /// (tonemapped) and NAME.stats.json side by side.
     /// Default: out/<scene name>.exr
     #[arg(long, short)]
     output: Option<PathBuf>,
@@ -119,7 +121,7 @@ struct RenderArgs {
     #[arg(long)]
     threads: Option<usize>,
     /// PNG exposure in stops (overrides the scene's film.exposure).
-    #[arg(long)]
+    #[arg(long, value_parser = finite::<f32>)]
     exposure: Option<f32>,
     /// Do not write the PNG.
     #[arg(long)]
@@ -166,37 +168,21 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("lobe: error: {e}");
-            ExitCode::FAILURE
+            // The shell's convention for a command stopped by SIGINT.
+            if args::cancelled() {
+                ExitCode::from(130)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }
 
-pub(crate) fn install_ctrlc() -> Arc<AtomicBool> {
-    let flag = Arc::new(AtomicBool::new(false));
-    let f = flag.clone();
-    // If a handler cannot be installed (already set), rendering simply cannot be cancelled.
-    let _ = ctrlc::set_handler(move || f.store(true, Ordering::SeqCst));
-    flag
-}
-
-fn load_scene(args: &RenderArgs) -> Result<(Scene, String), Error> {
-    let (mut scene, name) = match &args.scene {
-        Some(p) => {
-            if !p.exists() {
-                return Err(Error::file(
-                    p.display(),
-                    "does not exist; expected a scene JSON file",
-                ));
-            }
-            let name = p
-                .file_stem()
-                .and_then(|s| s.to_str())
-                .unwrap_or("render")
-                .to_string();
-            (lobe_renderer::scene::load(p)?, name)
-        }
-        None if args.bench => (lobe_renderer::showcase::bench_scene()?, "bench".to_string()),
-        None => (lobe_renderer::showcase::showcase()?, "showcase".to_string()),
+fn load_scene(args: &RenderArgs) -> Result<Scene, Error> {
+    let mut scene = match &args.scene {
+        Some(p) => lobe_renderer::scene::load(p)?,
+        None if args.bench => lobe_renderer::showcase::bench_scene()?,
+        None => lobe_renderer::showcase::showcase()?,
     };
     if let Some(spp) = args.spp {
         if spp == 0 {
@@ -212,7 +198,23 @@ fn load_scene(args: &RenderArgs) -> Result<(Scene, String), Error> {
     if let Some(e) = args.exposure {
         scene.exposure = e;
     }
-    Ok((scene, name))
+    Ok(scene)
+}
+
+/// The files a render writes: from -o, or out/<scene name>.exr.
+fn render_files(args: &RenderArgs) -> Result<RenderFiles, Error> {
+    let output = match (&args.output, &args.scene) {
+        (Some(p), _) => p.clone(),
+        (None, Some(scene)) => {
+            let stem = scene
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("render");
+            Path::new("out").join(format!("{stem}.exr"))
+        }
+        (None, None) => PathBuf::from("out/showcase.exr"),
+    };
+    RenderFiles::new(&output, !args.no_png, args.variance)
 }
 
 fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
@@ -221,116 +223,81 @@ fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
             "--threads: expected at least 1 thread, found 0".into(),
         ));
     }
-    let (scene, name) = load_scene(&args)?;
-    let cancel = install_ctrlc();
-    let opts = RenderOptions {
+    let progress = !quiet && !args.bench && std::io::stderr().is_terminal();
+    let opts = |scene_kind: &'static str| RenderOptions {
         threads: args.threads,
-        progress: !quiet && !args.bench && std::io::stderr().is_terminal(),
-        cancel: Some(cancel),
+        progress,
+        cancel: Some(args::ctrl_c(scene_kind)),
     };
     if args.bench {
-        return bench(&scene, &opts, args.runs.max(1), quiet);
+        let ack = "interrupted: stopping the benchmark; Ctrl-C again to abort";
+        return bench(&load_scene(&args)?, &opts(ack), args.runs.max(1), quiet);
     }
-    let exr_path = match &args.output {
-        Some(p) => p.clone(),
-        None => {
-            let dir = PathBuf::from("out");
-            std::fs::create_dir_all(&dir).map_err(|e| {
-                Error::file(
-                    dir.display(),
-                    format!("cannot create the output folder: {e}"),
-                )
-            })?;
-            dir.join(format!("{name}.exr"))
-        }
+    let files = render_files(&args)?;
+    let mut plan = FilePlan::new();
+    if let Some(scene) = &args.scene {
+        plan.scene(scene)?;
+    }
+    files.plan(&mut plan);
+    plan.check_overlaps()?;
+    if args.output.is_none() {
+        std::fs::create_dir_all("out")
+            .map_err(|e| Error::file("out", format!("cannot create the output folder: {e}")))?;
+    }
+    plan.check()?;
+    let scene = load_scene(&args)?;
+    let ack = "interrupted: stopping the render, nothing is written; Ctrl-C again to abort";
+    let (img, stats) = render(&scene, &opts(ack))?;
+    let labels = match args.scene {
+        Some(_) => Vec::new(),
+        None => lobe_renderer::showcase::labels(&scene),
     };
-    check_output_folder(&exr_path)?;
-    let (img, stats) = render(&scene, &opts)?;
-    let png_path = exr_path.with_extension("png");
-    let json_path = exr_path.with_extension("stats.json");
-    // Never write over the scene being rendered (e.g. `-o scenes/x.exr` for scenes/x.json).
-    if let Some(scene_path) = &args.scene {
-        let same = |p: &Path| match (p.canonicalize(), scene_path.canonicalize()) {
-            (Ok(a), Ok(b)) => a == b,
-            _ => false,
-        };
-        for out in [&exr_path, &png_path, &json_path] {
-            if same(out) {
-                return Err(Error::file(
-                    out.display(),
-                    "is the scene file itself; expected a different output path",
-                ));
-            }
-        }
-    }
-    film::write_exr(&exr_path, img.width, img.height, &img.pixels)?;
-    if args.variance {
-        film::write_exr(
-            &exr_path.with_extension("var.exr"),
-            img.width,
-            img.height,
-            &img.variance,
-        )?;
-    }
-    if !args.no_png {
-        film::write_png(
-            &png_path,
-            img.width,
-            img.height,
-            &img.pixels,
-            scene.exposure,
-        )?;
-    }
-    film::write_json(
-        &json_path,
-        &stats_json(
-            &scene,
-            &stats,
-            &exr_path,
-            (!args.no_png).then_some(&png_path),
-        ),
-    )?;
+    write_render(&files, &img, &scene, &stats, &labels)?;
     if !quiet {
         eprintln!("{}", stats.summary());
-        eprintln!("wrote {}", exr_path.display());
+        if !labels.is_empty() {
+            let names: Vec<&str> = labels.iter().map(|l| l.0.as_str()).collect();
+            eprintln!("showcase spheres, left to right: {}", names.join(", "));
+        }
+        let all: Vec<String> = files
+            .all()
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
+        eprintln!("wrote {}", all.join(", "));
     }
     Ok(())
 }
 
-fn check_output_folder(path: &Path) -> Result<(), Error> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        return Err(Error::file(
-            path.display(),
-            format!("output folder {} does not exist", dir.display()),
-        ));
-    }
-    if path.is_dir() {
-        return Err(Error::file(
-            path.display(),
-            "is a directory; expected an output file path",
-        ));
-    }
-    Ok(())
-}
-
-fn stats_json(
+/// Writes every file of a render; the PNG carries `labels` (text at pixel positions).
+fn write_render(
+    files: &RenderFiles,
+    img: &Image,
     scene: &Scene,
     stats: &RenderStats,
-    exr: &Path,
-    png: Option<&PathBuf>,
-) -> serde_json::Value {
+    labels: &[(String, glam::Vec2)],
+) -> Result<(), Error> {
+    film::write_exr(&files.exr, img.width, img.height, &img.pixels)?;
+    if let Some(v) = &files.variance {
+        film::write_exr(v, img.width, img.height, &img.variance)?;
+    }
+    if let Some(png) = &files.png {
+        let mut rgb = film::tonemap(&img.pixels, scene.exposure);
+        figures::draw_labels(&mut rgb, (img.width, img.height), labels)?;
+        film::write_png_rgb8(png, img.width, img.height, &rgb)?;
+    }
+    film::write_json(&files.stats, &stats_json(scene, stats, files))
+}
+
+fn stats_json(scene: &Scene, stats: &RenderStats, files: &RenderFiles) -> serde_json::Value {
     let mut v = stats.to_json();
     let o = v.as_object_mut().expect("object");
     o.insert("scene".into(), scene.file.clone().into());
     o.insert("seed".into(), scene.seed.into());
     o.insert("scramble".into(), scene.scramble.name().into());
     o.insert("integrator".into(), scene.integrator.describe().into());
-    o.insert("exr".into(), exr.display().to_string().into());
-    if let Some(p) = png {
+    o.insert("exr".into(), files.exr.display().to_string().into());
+    if let Some(p) = &files.png {
         o.insert("png".into(), p.display().to_string().into());
         o.insert("exposure".into(), scene.exposure.into());
     }
@@ -362,4 +329,53 @@ fn bench(scene: &Scene, opts: &RenderOptions, runs: u32, quiet: bool) -> Result<
         runs
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::error::ErrorKind;
+    use clap::{CommandFactory, Parser};
+    use std::any::TypeId;
+
+    /// Every floating-point option of every command (found by walking the command tree,
+    /// so a new one is covered too) refuses NaN and infinity as an invalid value, and
+    /// accepts a number.
+    #[test]
+    fn every_float_option_refuses_nan_and_infinity() {
+        let mut stack = vec![(vec!["lobe".to_string()], Cli::command())];
+        let mut checked = Vec::new();
+        while let Some((path, mut cmd)) = stack.pop() {
+            cmd.build();
+            for arg in cmd.get_arguments() {
+                let id = arg.get_value_parser().type_id();
+                let Some(long) = arg.get_long() else { continue };
+                if id != TypeId::of::<f64>() && id != TypeId::of::<f32>() {
+                    continue;
+                }
+                let run = |value: &str| {
+                    let mut argv = path.clone();
+                    argv.push(format!("--{long}={value}"));
+                    Cli::try_parse_from(argv).err().map(|e| e.kind())
+                };
+                for bad in ["nan", "NaN", "inf", "-inf", "1e400"] {
+                    assert_eq!(
+                        run(bad),
+                        Some(ErrorKind::ValueValidation),
+                        "{path:?} --{long} {bad}"
+                    );
+                }
+                assert_ne!(run("0.5"), Some(ErrorKind::ValueValidation), "{long}");
+                checked.push(format!("{} --{long}", path.join(" ")));
+            }
+            for sub in cmd.get_subcommands() {
+                let mut p = path.clone();
+                p.push(sub.get_name().to_string());
+                stack.push((p, sub.clone()));
+            }
+        }
+        // The exposures, the fit's resolution and tolerance, the tabulation's acquisition,
+        // the figures' angles, the microfacet and trade-off options, the compare test.
+        assert!(checked.len() >= 20, "{checked:?}");
+    }
 }

@@ -4,17 +4,19 @@
 //! spherical plot (Figures 11 to 13); `synth` runs the section 5.1 experiment on a synthetic
 //! brushed metal, satin or velvet and prints the comparison with the anisotropic fits.
 
+use crate::args::finite;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::{builtin_specs, fit};
 use lobe_materials::microfacet_gen::{Estimate, Shape, Table, correlation, estimate, sparse_4d};
 use lobe_renderer::Error;
+use lobe_renderer::outputs::FilePlan;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 #[derive(clap::Subcommand)]
 pub enum MicrofacetCmd {
-    /// Estimate p(h) from measured data (MERL .binary, binned .bin, RGL .bsdf): writes
+    /// Estimate p(h) from measured data (MERL, binned or RGL, told apart by content): writes
     /// STEM.exr (the table), STEM.png (log10 p over the projected hemisphere) and
     /// STEM.json (the material description, error and per-iteration changes).
     Estimate {
@@ -25,7 +27,7 @@ pub enum MicrofacetCmd {
         #[command(flatten)]
         opts: EstimateOpts,
         /// Bin size in degrees for isotropic data.
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(long, default_value_t = 1.0, value_parser = finite::<f64>)]
         resolution: f64,
     },
     /// Section 5.1 on a synthetic structure (brushed, satin or velvet): tabulate it through
@@ -40,10 +42,10 @@ pub enum MicrofacetCmd {
         #[command(flatten)]
         opts: EstimateOpts,
         /// 4D bin size in degrees (the study: 2; 2 degrees makes 13 M bins and needs ~1 GB).
-        #[arg(long, default_value_t = 4.0)]
+        #[arg(long, default_value_t = 4.0, value_parser = finite::<f64>)]
         resolution: f64,
         /// Fraction of non-empty bins (the study: about a quarter).
-        #[arg(long, default_value_t = 0.25)]
+        #[arg(long, default_value_t = 0.25, value_parser = finite::<f64>)]
         filled: f64,
     },
 }
@@ -54,7 +56,7 @@ pub struct EstimateOpts {
     #[arg(long, default_value_t = 129)]
     nodes: usize,
     /// Schlick's f0; without it, found by a golden-section search on the Eq. (1) error.
-    #[arg(long)]
+    #[arg(long, value_parser = finite::<f64>)]
     f0: Option<f64>,
     /// Alternations of the p and g estimates (at most 5 in the study).
     #[arg(long, default_value_t = 5)]
@@ -125,12 +127,32 @@ fn plot(table: &Table, path: &Path) -> Result<(), Error> {
     lobe_renderer::film::write_png_rgb8(path, size as u32, size as u32, &rgb)
 }
 
+/// The table and plot files of a stem.
+fn table_files(stem: &Path) -> (PathBuf, PathBuf) {
+    (stem.with_extension("exr"), stem.with_extension("png"))
+}
+
 fn write_table(table: &Table, stem: &Path) -> Result<(PathBuf, PathBuf), Error> {
-    let exr = stem.with_extension("exr");
-    let png = stem.with_extension("png");
-    table.write_exr(&exr).map_err(crate::fit::to_err)?;
+    let (exr, png) = table_files(stem);
+    table.write_exr(&exr)?;
     plot(table, &png)?;
     Ok((exr, png))
+}
+
+/// Refuses outputs of the stems over the inputs or each other.
+fn check_outputs(inputs: &[&Path], stems: &[PathBuf], json: Option<&Path>) -> Result<(), Error> {
+    let mut plan = FilePlan::new();
+    for i in inputs {
+        plan.input(i, "the measured data");
+    }
+    for s in stems {
+        let (exr, png) = table_files(s);
+        plan.output(exr, "distribution table").output(png, "plot");
+    }
+    if let Some(j) = json {
+        plan.output(j, "material description");
+    }
+    plan.check()
 }
 
 fn run_estimate(data: &Dataset, source: &str, opts: &EstimateOpts) -> Result<Estimate, Error> {
@@ -146,11 +168,12 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
             resolution,
         } => {
             opts.check()?;
-            let d = crate::fit::load_data(&data, resolution)?;
+            let json_path = output.with_extension("json");
+            check_outputs(&[&data], std::slice::from_ref(&output), Some(&json_path))?;
+            let d = Dataset::read(&data, resolution)?;
             let source = data.display().to_string();
             let est = run_estimate(&d, &source, &opts)?;
             let (exr, png) = write_table(&est.table, &output)?;
-            let json_path = output.with_extension("json");
             let file = exr
                 .file_name()
                 .map(|f| f.to_string_lossy().to_string())
@@ -198,9 +221,11 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
                     "--resolution {resolution} / --filled {filled}: expected 1 to 15 degrees and a fraction in (0, 1]"
                 )));
             }
+            let stems = ["truth", "estimate"].map(|k| output.join(format!("{structure}-{k}")));
             std::fs::create_dir_all(&output).map_err(|e| {
                 Error::file(output.display(), format!("cannot create the folder: {e}"))
             })?;
+            check_outputs(&[], &stems, None)?;
             let truth =
                 Arc::new(Table::from_fn(opts.nodes, |h| shape.density(h)).map_err(Error::Other)?);
             let f0 = opts.f0.unwrap_or(1.0);
@@ -216,8 +241,8 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
                 1,
             );
             let est = run_estimate(&data, &structure, &opts)?;
-            write_table(&truth, &output.join(format!("{structure}-truth")))?;
-            write_table(&est.table, &output.join(format!("{structure}-estimate")))?;
+            write_table(&truth, &stems[0])?;
+            write_table(&est.table, &stems[1])?;
             let mut rows = vec![(
                 "sampled-microfacet (estimated p)".to_string(),
                 est.error,

@@ -346,6 +346,21 @@ pub fn cmd_stability(args: StabilityArgs, quiet: bool) -> Result<(), Error> {
     let want = |n: &str| wanted.as_ref().is_none_or(|w| w.iter().any(|x| x == n));
     let mut rows: Vec<(String, Counts)> = Vec::new();
     let lobe_models: Vec<&'static str> = reg.names().filter(|n| reg.is_lobe_model(n)).collect();
+    let known: Vec<&str> = lobe_models
+        .iter()
+        .copied()
+        .chain(["sampled-microfacet", "merl", "rgl"])
+        .collect();
+    if let Some(unknown) = wanted
+        .iter()
+        .flatten()
+        .find(|w| !known.contains(&w.as_str()))
+    {
+        return Err(Error::Other(format!(
+            "--models: unknown model \"{unknown}\"; expected one of: {}",
+            known.join(", ")
+        )));
+    }
     for m in lobe_models {
         if want(m) {
             rows.push((m.to_string(), sweep_lobe_model(&reg, m, args.quick, &pairs)));

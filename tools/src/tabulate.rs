@@ -1,9 +1,11 @@
 //! `lobe tabulate`: write any material as a MERL table or as the study's binned data, with
 //! options that emulate a real acquisition.
 
-use crate::eval::{MaterialArgs, load_material};
+use crate::args::finite;
+use crate::eval::{MaterialArgs, MaterialSource};
 use lobe_materials::measured::tabulate::{Acquisition, binned_from, merl_from};
 use lobe_renderer::Error;
+use lobe_renderer::outputs::FilePlan;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -21,16 +23,16 @@ pub struct TabulateArgs {
     #[arg(long, short)]
     output: PathBuf,
     /// Relative standard deviation of multiplicative Gaussian noise.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = finite::<f64>)]
     noise: f64,
     /// No samples within this many degrees of retro-reflection (MERL: 3).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = finite::<f64>)]
     retro_exclusion: f64,
     /// No samples with theta_i or theta_o above this many degrees.
-    #[arg(long, default_value_t = 90.0)]
+    #[arg(long, default_value_t = 90.0, value_parser = finite::<f64>)]
     grazing_cutoff: f64,
     /// Fraction of bins left empty at random.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = finite::<f64>)]
     empty_fraction: f64,
     /// Seed of the noise and of the empty bins.
     #[arg(long, default_value_t = 0)]
@@ -56,7 +58,11 @@ pub fn cmd_tabulate(args: TabulateArgs, quiet: bool) -> Result<(), Error> {
             "--anisotropic: only the binned format has an anisotropic layout".into(),
         ));
     }
-    let m = load_material(&args.material)?;
+    let source = MaterialSource::new(&args.material)?;
+    let mut plan = FilePlan::new();
+    source.plan_inputs(&mut plan);
+    plan.output(&args.output, "table").check()?;
+    let m = source.build()?;
     let acq = Acquisition {
         noise: args.noise,
         retro_exclusion_deg: args.retro_exclusion,
@@ -65,13 +71,9 @@ pub fn cmd_tabulate(args: TabulateArgs, quiet: bool) -> Result<(), Error> {
         seed: args.seed,
     };
     let f = |wo: glam::Vec3, wi: glam::Vec3| m.eval(wo, wi);
-    let to_err = |e: lobe_materials::FileError| Error::File {
-        file: e.file,
-        message: e.message,
-    };
     let (filled, total) = if args.format == "merl" {
         let t = merl_from(&f, &acq);
-        t.write(&args.output).map_err(to_err)?;
+        t.write(&args.output)?;
         let cov = t.coverage();
         (
             (cov * lobe_materials::measured::merl::SAMPLES as f64).round() as usize,
@@ -79,7 +81,7 @@ pub fn cmd_tabulate(args: TabulateArgs, quiet: bool) -> Result<(), Error> {
         )
     } else {
         let t = binned_from(&f, args.anisotropic, &acq);
-        t.write(&args.output).map_err(to_err)?;
+        t.write(&args.output)?;
         (t.filled(), t.len())
     };
     if !quiet {

@@ -9,15 +9,19 @@
 //! that a firefly cannot decide a published number; writes Markdown, CSV and a Pareto plot
 //! (render time against median-of-means image error).
 
+use crate::args::finite;
 use crate::figures::{H, PALETTE, W, plot_err, register_font, save};
 use lobe_materials::Bsdf;
-use lobe_materials::fit::{ISOTROPIC_DEFAULT, builtin_specs, fit};
+use lobe_materials::fit::dataset::Dataset;
+use lobe_materials::fit::{builtin_specs, fit};
+use lobe_materials::measured::format;
 use lobe_materials::microfacet_gen::estimate;
 use lobe_materials::registry::{BuildContext, Registry};
 use lobe_renderer::Error;
 use lobe_renderer::compare::metrics;
 use lobe_renderer::error_stats::robust_error;
 use lobe_renderer::film::Image;
+use lobe_renderer::outputs::FilePlan;
 use lobe_renderer::render::{RenderOptions, render};
 use lobe_renderer::scene::{LoadOptions, from_value};
 use plotters::prelude::*;
@@ -26,7 +30,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct TradeoffArgs {
-    /// Measured data: MERL .binary, binned .bin or RGL .bsdf.
+    /// Measured data: a MERL table, binned data or an RGL file (told apart by content).
     data: PathBuf,
     /// A scene whose `materials` has an entry named "subject", replaced by each
     /// representation (default: a sphere under the built-in studio environment).
@@ -43,7 +47,7 @@ pub struct TradeoffArgs {
     #[arg(long, default_value_t = 128)]
     size: u32,
     /// Bin size in degrees of the fitted data (the study: 1).
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = finite::<f64>)]
     resolution: f64,
     /// Comma-separated fitted models (default: the study's seven, or the three anisotropic
     /// ones for anisotropic data).
@@ -154,6 +158,51 @@ fn at_time(curve: &[(f64, f64)], t: f64) -> f64 {
     (a.1 + f * (b.1 - a.1)).exp()
 }
 
+/// The output files of a stem.
+fn output_files(stem: &Path) -> [(PathBuf, &'static str); 4] {
+    let at = |suffix: &str| PathBuf::from(format!("{}{suffix}", stem.display()));
+    [
+        (at(".md"), "Markdown table"),
+        (at(".csv"), "CSV table"),
+        (at(".png"), "Pareto plot"),
+        (at("-microfacet.exr"), "estimated distribution"),
+    ]
+}
+
+/// What the trade-off reads (the data, the scene and what it refers to) and writes.
+fn plan(args: &TradeoffArgs) -> Result<FilePlan, Error> {
+    let mut plan = FilePlan::new();
+    plan.input(&args.data, "the measured data");
+    if let Some(scene) = &args.scene {
+        plan.scene(scene)?;
+    }
+    for (p, role) in output_files(&args.output) {
+        plan.output(p, role);
+    }
+    Ok(plan)
+}
+
+/// The scene (JSON), its name and its folder: --scene, which must have a material named
+/// "subject", or a sphere under the built-in studio environment.
+fn scene(args: &TradeoffArgs) -> Result<(Value, String, PathBuf), Error> {
+    let Some(p) = &args.scene else {
+        return Ok((
+            default_scene(args.size),
+            "tradeoff-sphere".to_string(),
+            PathBuf::from("."),
+        ));
+    };
+    let v = lobe_renderer::scene::read_json(p)?;
+    if v.pointer("/materials/subject").is_none() {
+        return Err(Error::file(
+            p.display(),
+            "materials.subject: missing; expected the material the representations replace",
+        ));
+    }
+    let base = p.parent().map(Path::to_path_buf).unwrap_or_default();
+    Ok((v, p.display().to_string(), base))
+}
+
 pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
     if args.spp < 16 || args.reference_spp < args.spp {
         return Err(Error::Other(format!(
@@ -164,46 +213,18 @@ pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
     let data_path = std::fs::canonicalize(&args.data).map_err(|e| {
         Error::file(
             args.data.display(),
-            format!("cannot open: {e}; expected a MERL .binary, binned .bin or RGL .bsdf file"),
+            format!("cannot open: {e}; expected a MERL, binned or RGL file"),
         )
     })?;
-    let kind = crate::fit::measured_kind(&data_path)?;
+    plan(&args)?.check()?;
+    let kind = format::detect(&data_path)?.material_type();
     let measured_desc = json!({"type": kind, "file": data_path.display().to_string()});
-    if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty())
-        && !dir.is_dir()
-    {
-        return Err(Error::file(
-            dir.display(),
-            "the output folder does not exist; expected an existing folder for -o",
-        ));
-    }
     let say = |m: String| {
         if !quiet {
             eprintln!("{m}");
         }
     };
-    // The scene and how to put a representation into it.
-    let (scene_v, scene_file, base) = match &args.scene {
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .map_err(|e| Error::file(p.display(), format!("cannot read: {e}")))?;
-            let v: Value = serde_json::from_str(&text)
-                .map_err(|e| Error::file(p.display(), format!("invalid JSON: {e}")))?;
-            if v.pointer("/materials/subject").is_none() {
-                return Err(Error::file(
-                    p.display(),
-                    "materials.subject: missing; expected the material the representations replace",
-                ));
-            }
-            let base = p.parent().map(Path::to_path_buf).unwrap_or_default();
-            (v, p.display().to_string(), base)
-        }
-        None => (
-            default_scene(args.size),
-            "tradeoff-sphere".to_string(),
-            PathBuf::from("."),
-        ),
-    };
+    let (scene_v, scene_file, base) = scene(&args)?;
     let render_with = |desc: &Value, spp: u32| -> Result<(Image, f64), Error> {
         let mut v = scene_v.clone();
         v["materials"]["subject"] = desc.clone();
@@ -213,47 +234,32 @@ pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
         Ok((img, stats.seconds))
     };
     // Fits and the estimated distribution.
-    let data = crate::fit::load_data(&data_path, args.resolution)?;
+    let data = Dataset::read(&data_path, args.resolution)?;
     let source = data_path.display().to_string();
     data.check().map_err(|m| Error::file(&source, m))?;
     let specs = builtin_specs();
-    let labels: Vec<String> = match &args.models {
-        Some(l) => l.split(',').map(|s| s.trim().to_string()).collect(),
-        None if data.anisotropic => vec![
-            "ward-anisotropic".into(),
-            "ashikhmin-shirley-anisotropic".into(),
-            "poulin-fournier".into(),
-        ],
-        None => ISOTROPIC_DEFAULT.iter().map(|s| s.to_string()).collect(),
-    };
+    let chosen = crate::fit::choose(&specs, &args.models, data.anisotropic)?;
     let mut reps: Vec<(String, Value, f64)> = vec![("measured".into(), measured_desc.clone(), 0.0)];
     say(format!(
         "{source}: {} bins; estimating the microfacet distribution",
         data.samples.len()
     ));
     let est = estimate(&data, 129, None, 5).map_err(|m| Error::file(&source, m))?;
-    let stem = args.output.clone();
-    let exr = PathBuf::from(format!("{}-microfacet.exr", stem.display()));
-    est.table.write_exr(&exr).map_err(crate::fit::to_err)?;
+    let [.., (exr, _)] = output_files(&args.output);
+    est.table.write_exr(&exr)?;
     let exr_abs = std::fs::canonicalize(&exr).unwrap_or(exr.clone());
     reps.push((
         "sampled-microfacet".into(),
         est.material(&exr_abs.display().to_string()),
         est.error,
     ));
-    for l in &labels {
-        let spec = specs
-            .iter()
-            .find(|s| s.label == l.as_str())
-            .ok_or_else(|| {
-                Error::Other(format!(
-                    "--models: unknown model \"{l}\"; expected one of: {}",
-                    specs.iter().map(|s| s.label).collect::<Vec<_>>().join(", ")
-                ))
-            })?;
+    for spec in chosen {
         let r = fit(&data, spec, 300).map_err(|m| Error::file(&source, m))?;
-        say(format!("  fitted {l}: Eq. (1) error {:.4e}", r.error));
-        reps.push((l.clone(), r.material, r.error));
+        say(format!(
+            "  fitted {}: Eq. (1) error {:.4e}",
+            spec.label, r.error
+        ));
+        reps.push((spec.label.to_string(), r.material, r.error));
     }
     // The reference.
     say(format!(
@@ -340,7 +346,6 @@ fn write_outputs(
     max_albedo: f64,
     source: &str,
 ) -> Result<(), Error> {
-    let stem = args.output.display().to_string();
     let mut md = format!(
         "# Trade-off for {source}\n\nReference: the measured table at {} spp. Renders at {} spp; \
          equal-time error at the measured table's render time ({budget:.2} s): each \
@@ -400,13 +405,13 @@ fn write_outputs(
             r.desc.to_string().replace('"', "\"\"")
         ));
     }
-    let write = |ext: &str, text: &str| {
-        let p = PathBuf::from(format!("{stem}.{ext}"));
-        lobe_renderer::film::atomic_write(&p, |w| std::io::Write::write_all(w, text.as_bytes()))
+    let [(md_path, _), (csv_path, _), (png_path, _), _] = output_files(&args.output);
+    let write = |p: &Path, text: &str| {
+        lobe_renderer::film::atomic_write(p, |w| std::io::Write::write_all(w, text.as_bytes()))
     };
-    write("md", &md)?;
-    write("csv", &csv)?;
-    pareto(rows, &PathBuf::from(format!("{stem}.png")))?;
+    write(&md_path, &md)?;
+    write(&csv_path, &csv)?;
+    pareto(rows, &png_path)?;
     print!("{md}");
     Ok(())
 }

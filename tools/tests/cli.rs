@@ -119,7 +119,7 @@ fn the_scene_file_is_never_overwritten() {
         .output()
         .unwrap();
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("scene file itself"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("(the scene file), an input"));
     assert_eq!(std::fs::read_to_string(&copy).unwrap(), SCENE);
 }
 
@@ -1067,9 +1067,10 @@ fn ctrl_c_stops_a_render_without_output_and_a_batch_fit_without_losing_reports()
     std::thread::sleep(std::time::Duration::from_millis(1500));
     sigint(&child);
     let o = child.wait_with_output().unwrap();
-    assert!(!o.status.success());
+    assert_eq!(o.status.code(), Some(130));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("interrupted"), "{err}");
+    assert!(err.contains("Ctrl-C again to abort"), "{err}");
     assert!(listing(&out).is_empty(), "{:?}", listing(&out));
     // A batch fit: interrupt after the first report, then resume.
     let data = dir.path().join("data");
@@ -1105,8 +1106,12 @@ fn ctrl_c_stops_a_render_without_output_and_a_batch_fit_without_losing_reports()
     sigint(&child);
     let o = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success(), "{err}");
+    assert_eq!(o.status.code(), Some(130), "{err}");
     assert!(err.contains("interrupted"), "{err}");
+    assert!(
+        err.contains("stopping the running fits now") && err.contains("Ctrl-C again to abort"),
+        "{err}"
+    );
     let kept = listing(&reports);
     assert!(!kept.is_empty() && kept.len() < 6, "{kept:?}");
     for f in &kept {
@@ -1197,4 +1202,704 @@ fn read_only_folders_and_full_disks_are_one_line_errors() {
         left.is_empty(),
         "partial output left on the full disk: {left:?}"
     );
+}
+
+/// Runs lobe in `dir`.
+fn lobe_in(dir: &Path, args: &[&str]) -> std::process::Output {
+    lobe().current_dir(dir).args(args).output().unwrap()
+}
+
+/// Runs lobe in `dir` and checks that it fails with one line holding every needle.
+fn refused_in(dir: &Path, args: &[&str], needles: &[&str]) {
+    let o = lobe_in(dir, args);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{args:?} succeeded: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{args:?}: {stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "{args:?}: no \"{n}\" in {stderr}");
+    }
+}
+
+/// A small linear EXR of `w` x `h` pixels of value `v`.
+fn write_exr(path: &Path, (w, h): (u32, u32), v: f32) {
+    let px = vec![lobe_renderer::Rgb::splat(v); (w * h) as usize];
+    lobe_renderer::film::write_exr(path, w, h, &px).unwrap();
+}
+
+const WARD: &str = r#"{"type": "ward", "diffuse": 0.1, "specular": 0.2, "alpha": 0.2}"#;
+
+#[test]
+fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("sub")).unwrap();
+    write_binned(
+        serde_json::from_str(WARD).unwrap(),
+        (12, 24),
+        &d.join("p.bin"),
+    );
+    let data = std::fs::read(d.join("p.bin")).unwrap();
+    for out in ["p.bin", "./p.bin", "sub/../p.bin"] {
+        refused_in(
+            d,
+            &["fit", "p.bin", "--models", "ward", "-o", out],
+            &["would overwrite", "p.bin (the measured data)"],
+        );
+    }
+    assert_eq!(std::fs::read(d.join("p.bin")).unwrap(), data);
+    // A table read by the material, named directly or through a symlink.
+    write_merl(&d.join("n.binary"));
+    let merl = std::fs::read(d.join("n.binary")).unwrap();
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(d.join("n.binary"), d.join("link.binary")).unwrap();
+    for out in ["n.binary", "link.binary"] {
+        let m = r#"{"type": "merl", "file": "n.binary"}"#;
+        refused_in(
+            d,
+            &["tabulate", "--material", m, "-o", out],
+            &["the table would overwrite", "n.binary"],
+        );
+    }
+    assert!(std::fs::read(d.join("n.binary")).unwrap() == merl);
+    // The heat map over the test image.
+    write_exr(&d.join("t.exr"), (8, 8), 0.5);
+    write_exr(&d.join("r.exr"), (8, 8), 0.4);
+    let t = std::fs::read(d.join("t.exr")).unwrap();
+    refused_in(
+        d,
+        &["compare", "t.exr", "r.exr", "--heatmap", "t.exr"],
+        &["heat map would overwrite t.exr (the test image)"],
+    );
+    assert_eq!(std::fs::read(d.join("t.exr")).unwrap(), t);
+    // Figures over their report.
+    let o = lobe_in(
+        d,
+        &[
+            "fit",
+            "p.bin",
+            "--models",
+            "ward",
+            "-o",
+            "pw.fit.json",
+            "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = std::fs::read(d.join("pw.fit.json")).unwrap();
+    let m = r#"{"type": "binned", "file": "p.bin"}"#;
+    refused_in(
+        d,
+        &[
+            "figure",
+            "polar",
+            "--material",
+            m,
+            "--report",
+            "pw.fit.json",
+            "-o",
+            "pw.fit.json",
+        ],
+        &["figure would overwrite pw.fit.json (the fit report)"],
+    );
+    refused_in(
+        d,
+        &["figure", "errors", ".", "-o", "pw.fit.json"],
+        &["figure would overwrite", "pw.fit.json (a fit report)"],
+    );
+    assert_eq!(std::fs::read(d.join("pw.fit.json")).unwrap(), report);
+    // Merged tables over a report.
+    std::fs::write(d.join("t.md"), &report).unwrap();
+    refused_in(
+        d,
+        &["fit", "merge", "t.md", "-o", "t"],
+        &["Markdown table would overwrite t.md (a fit report)"],
+    );
+    assert_eq!(std::fs::read(d.join("t.md")).unwrap(), report);
+}
+
+#[test]
+fn render_never_writes_over_what_its_scene_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("envmaps")).unwrap();
+    write_exr(&d.join("envmaps/e.exr"), (8, 4), 1.0);
+    let env = std::fs::read(d.join("envmaps/e.exr")).unwrap();
+    std::fs::write(
+        d.join("s.json"),
+        SCENE.replace("builtin:studio", "envmaps/e.exr"),
+    )
+    .unwrap();
+    refused_in(
+        d,
+        &["render", "s.json", "-o", "envmaps/e.exr"],
+        &["rendered EXR would overwrite", "lights[0].file of s.json"],
+    );
+    // Through another spelling of the folder, and from elsewhere.
+    refused_in(
+        d,
+        &["render", "s.json", "-o", "./envmaps/../envmaps/e.png"],
+        &["lights[0].file"],
+    );
+    assert_eq!(std::fs::read(d.join("envmaps/e.exr")).unwrap(), env);
+    assert!(!d.join("envmaps/e.png").exists() && !d.join("envmaps/e.stats.json").exists());
+    // A trade-off scene whose material reads a file the trade-off would write.
+    write_binned(
+        serde_json::from_str(WARD).unwrap(),
+        (8, 12),
+        &d.join("p.bin"),
+    );
+    let scene = serde_json::json!({
+        "camera": {"type": "perspective", "origin": [0, 0, 4]},
+        "materials": {
+            "subject": {"type": "lambert"},
+            "other": {"type": "sampled-microfacet", "distribution": "t-microfacet.exr"}
+        },
+        "shapes": [{"type": "sphere", "material": "subject"}]
+    });
+    std::fs::write(d.join("t.json"), scene.to_string()).unwrap();
+    write_exr(&d.join("t-microfacet.exr"), (9, 9), 1.0);
+    refused_in(
+        d,
+        &["tradeoff", "p.bin", "--scene", "t.json", "-o", "t"],
+        &[
+            "estimated distribution would overwrite",
+            "materials.other of t.json",
+        ],
+    );
+}
+
+#[test]
+fn render_outputs_follow_the_extension_of_o_and_never_collide() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.json"), SCENE).unwrap();
+    let o = lobe_in(d, &["render", "s.json", "-o", "x.png"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("wrote x.exr, x.png, x.stats.json"),
+        "{stderr}"
+    );
+    assert!(
+        std::fs::read(d.join("x.png"))
+            .unwrap()
+            .starts_with(b"\x89PNG")
+    );
+    assert!(
+        std::fs::read(d.join("x.exr"))
+            .unwrap()
+            .starts_with(&[0x76, 0x2f, 0x31, 0x01])
+    );
+    assert!(d.join("x.stats.json").exists());
+    refused_in(
+        d,
+        &["render", "s.json", "-o", "y.jpg"],
+        &["y.jpg", ".exr (or .png)"],
+    );
+    refused_in(d, &["render", "s.json", "-o", "y"], &["has no extension"]);
+    refused_in(
+        d,
+        &["render", "s.json", "-o", "y.png", "--no-png"],
+        &["--no-png writes none"],
+    );
+    assert_eq!(listing(d), ["s.json", "x.exr", "x.png", "x.stats.json"]);
+}
+
+#[test]
+fn batch_fits_refuse_clashing_reports_and_file_like_folders() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("data")).unwrap();
+    for name in ["a.bin", "a.binary"] {
+        write_binned(
+            serde_json::from_str(WARD).unwrap(),
+            (8, 12),
+            &d.join("data").join(name),
+        );
+    }
+    refused_in(
+        d,
+        &["fit", "data", "-o", "reports"],
+        &[
+            "reports/a.fit.json",
+            "report of data/a.binary",
+            "report of data/a.bin",
+        ],
+    );
+    refused_in(
+        d,
+        &["fit", "data", "-o", "x.fit.json"],
+        &["x.fit.json", "looks like a file name", "folder of reports"],
+    );
+    std::fs::write(d.join("file"), "").unwrap();
+    refused_in(d, &["fit", "data", "-o", "file"], &["is a file"]);
+    assert_eq!(listing(d), ["data", "file"]);
+}
+
+#[test]
+fn comparisons_fail_on_non_finite_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_exr(&d.join("a.exr"), (16, 16), 0.5);
+    write_exr(&d.join("a.var.exr"), (16, 16), 1e-4);
+    write_exr(&d.join("b.var.exr"), (16, 16), 1e-4);
+    let mut px = vec![lobe_renderer::Rgb::splat(0.5); 256];
+    px[3] = lobe_renderer::Rgb::splat(f32::NAN);
+    px[200].b = f32::INFINITY;
+    lobe_renderer::film::write_exr(&d.join("b.exr"), 16, 16, &px).unwrap();
+    write_exr(&d.join("all.exr"), (16, 16), f32::NAN);
+    let needle = "b.exr: 2 of 256 pixels are non-finite";
+    refused_in(
+        d,
+        &["compare", "b.exr", "a.exr", "--fail-above", "rmse=0.01"],
+        &[needle],
+    );
+    refused_in(
+        d,
+        &["compare", "a.exr", "b.exr", "--fail-below", "psnr=30"],
+        &[needle],
+    );
+    refused_in(
+        d,
+        &["compare", "a.exr", "b.exr", "--z-test", "0.01"],
+        &[needle],
+    );
+    refused_in(
+        d,
+        &["compare", "all.exr", "a.exr"],
+        &["all.exr: 256 of 256 pixels"],
+    );
+    // NaN variances fail the z-test too, naming their file.
+    write_exr(&d.join("c.exr"), (16, 16), 0.5);
+    write_exr(&d.join("c.var.exr"), (16, 16), f32::NAN);
+    refused_in(
+        d,
+        &["compare", "c.exr", "a.exr", "--z-test", "0.01"],
+        &["c.var.exr: 256 of 256 pixels are non-finite"],
+    );
+    // SSIM is undefined under 8x8 pixels: a threshold on it fails rather than passes.
+    write_exr(&d.join("s1.exr"), (4, 4), 0.5);
+    write_exr(&d.join("s2.exr"), (4, 4), 0.5);
+    refused_in(
+        d,
+        &["compare", "s1.exr", "s2.exr", "--fail-below", "ssim=0.5"],
+        &["ssim is undefined"],
+    );
+}
+
+#[test]
+fn numeric_options_refuse_nan_and_infinity() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.json"), SCENE).unwrap();
+    for args in [
+        &["render", "s.json", "--exposure", "nan"][..],
+        &["compare", "a.exr", "b.exr", "--exposure=-inf"],
+        &[
+            "tabulate",
+            "--material",
+            WARD,
+            "--noise",
+            "NaN",
+            "-o",
+            "t.binary",
+        ],
+        &["fit", "x.bin", "--resolution", "inf", "-o", "r.fit.json"],
+    ] {
+        let o = lobe_in(d, args);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(
+            stderr.contains("expected a finite number"),
+            "{args:?}: {stderr}"
+        );
+    }
+    refused_in(
+        d,
+        &["eval", "--material", WARD, "--grid", "nan,0,0,0"],
+        &["--grid: theta_i"],
+    );
+    assert_eq!(listing(d), ["s.json"]);
+}
+
+#[test]
+fn figure_models_must_be_in_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = lobe_in(
+        d,
+        &[
+            "fit",
+            "--material",
+            WARD,
+            "--models",
+            "ward,he",
+            "--resolution",
+            "5",
+            "-o",
+            "r.fit.json",
+            "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for kind in ["polar", "spheres"] {
+        refused_in(
+            d,
+            &[
+                "figure",
+                kind,
+                "--material",
+                WARD,
+                "--report",
+                "r.fit.json",
+                "--models",
+                "ward,cook-torrance",
+                "-o",
+                "f.png",
+            ],
+            &[
+                "no model \"cook-torrance\" in r.fit.json",
+                "expected one of: he, ward",
+            ],
+        );
+    }
+    refused_in(
+        d,
+        &["stability", "--models", "ward,nope"],
+        &["unknown model \"nope\""],
+    );
+    assert!(!d.join("f.png").exists());
+}
+
+#[test]
+fn measured_files_are_told_apart_by_content() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Binned data named like a MERL table loads as binned.
+    write_binned(
+        serde_json::from_str(WARD).unwrap(),
+        (12, 24),
+        &d.join("b.binary"),
+    );
+    let o = lobe_in(
+        d,
+        &[
+            "fit",
+            "b.binary",
+            "--models",
+            "ward",
+            "-o",
+            "b.fit.json",
+            "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // A MERL table named like binned data loads as MERL.
+    write_merl(&d.join("m.bin"));
+    let o = lobe_in(
+        d,
+        &[
+            "fit",
+            "m.bin",
+            "--models",
+            "ward",
+            "--resolution",
+            "5",
+            "-o",
+            "m.fit.json",
+            "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("m.fit.json")).unwrap()).unwrap();
+    let alpha = r["models"]["ward"]["material"]["alpha"].as_f64().unwrap();
+    assert!((alpha - 0.2).abs() < 0.02, "{alpha}");
+    // Unknown content, and a material type that does not match the content.
+    std::fs::write(d.join("junk.bsdf"), b"PK\x03\x04 not a BRDF").unwrap();
+    refused_in(
+        d,
+        &["fit", "junk.bsdf", "-o", "j.fit.json"],
+        &["junk.bsdf: unknown content", "expected a MERL table"],
+    );
+    refused_in(
+        d,
+        &[
+            "tabulate",
+            "--material",
+            r#"{"type": "merl", "file": "b.binary"}"#,
+            "-o",
+            "x.binary",
+        ],
+        &["b.binary: holds binned data", "{\"type\": \"binned\"}"],
+    );
+}
+
+#[test]
+fn json_mistakes_name_the_file_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("big.json"),
+        SCENE.replace("\"fov\": 40", "\"fov\": 1e400"),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("nan.json"),
+        SCENE.replace("\"fov\": 40", "\"fov\": NaN"),
+    )
+    .unwrap();
+    for (f, token) in [("big.json", "1e400"), ("nan.json", "NaN")] {
+        refused_in(
+            d,
+            &["render", f],
+            &[
+                &format!("{f}: line 2, column"),
+                token,
+                "JSON numbers must be finite",
+            ],
+        );
+    }
+    refused_in(
+        d,
+        &[
+            "eval",
+            "--material",
+            r#"{"type": "ward", "alpha": NaN}"#,
+            "--grid",
+            "0,0,0,0",
+        ],
+        &["--material: line 1, column", "must be finite"],
+    );
+    let dup = SCENE.replacen(
+        "{",
+        r#"{"materials": {"m": {"type": "lambert"}, "m": {"type": "ward"}},"#,
+        1,
+    );
+    std::fs::write(d.join("dup.json"), dup).unwrap();
+    refused_in(
+        d,
+        &["render", "dup.json"],
+        &["dup.json", "materials.m", "given twice"],
+    );
+    assert_eq!(listing(d), ["big.json", "dup.json", "nan.json"]);
+}
+
+#[test]
+fn the_showcase_labels_its_models() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = lobe_in(d, &["render", "--spp", "1", "-o", "x.exr"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("cook-torrance, ashikhmin-shirley, ward-anisotropic, he, lafortune"),
+        "{stderr}"
+    );
+    // The PNG is the tonemapped EXR plus the labels.
+    let exr = lobe_renderer::film::read_exr(&d.join("x.exr")).unwrap();
+    let tonemapped = lobe_renderer::film::tonemap(&exr.pixels, 0.0);
+    let png = image::open(d.join("x.png")).unwrap().to_rgb8().into_raw();
+    assert_eq!(png.len(), tonemapped.len());
+    let changed = png
+        .chunks(3)
+        .zip(tonemapped.chunks(3))
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(changed > 500, "{changed} labelled pixels");
+    assert!(changed < png.len() / 3 / 10, "{changed} labelled pixels");
+}
+
+#[test]
+fn help_texts_name_real_files_and_every_output() {
+    let help = |args: &[&str]| {
+        let o = lobe().args(args).arg("--help").output().unwrap();
+        assert!(o.status.success());
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let render = help(&["render"]);
+    assert!(
+        render.contains("out/showcase.exr, .png, .stats.json"),
+        "{render}"
+    );
+    assert!(!render.contains("showcase.{exr,png,json}"));
+    let compare = help(&["compare"]);
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut named = 0;
+    for word in compare.split_whitespace() {
+        if word.starts_with("reference-images/") {
+            assert!(root.join(word).exists(), "compare --help names {word}");
+            named += 1;
+        }
+    }
+    assert!(named >= 2, "{compare}");
+    for fig in ["errors", "multilobe", "polar", "spheres", "lobes"] {
+        let h = help(&["figure", fig]);
+        let line = h
+            .lines()
+            .find(|l| l.trim_start().starts_with("-o, --output"))
+            .unwrap();
+        assert!(line.contains("Output PNG file"), "figure {fig}: {line}");
+    }
+}
+
+/// A full MERL table (35 MB) of the Ward material [`WARD`].
+fn write_merl(path: &Path) {
+    let ward = lobe_materials::registry::Registry::builtin()
+        .create(&serde_json::from_str(WARD).unwrap(), "m")
+        .unwrap();
+    lobe_materials::measured::tabulate::merl_from(&|wo, wi| ward.eval(wo, wi), &Default::default())
+        .write(path)
+        .unwrap();
+}
+
+/// A second Ctrl-C exits at once, even while the first waits for work that cannot stop
+/// (reading and binning a MERL table, about half a second).
+#[test]
+fn a_second_ctrl_c_exits_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    std::fs::create_dir(&data).unwrap();
+    write_merl(&data.join("m.binary"));
+    let reports = dir.path().join("reports");
+    let mut child = lobe()
+        .args([
+            "fit",
+            data.to_str().unwrap(),
+            "-o",
+            reports.to_str().unwrap(),
+        ])
+        .args(["--models", "he"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The report folder appears just before the table is read.
+    let t0 = std::time::Instant::now();
+    while !reports.is_dir() {
+        assert!(t0.elapsed().as_secs() < 60, "the batch did not start");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    sigint(&child);
+    std::thread::sleep(std::time::Duration::from_millis(20));
+    sigint(&child);
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("Ctrl-C again to abort") && err.contains("lobe: aborted"),
+        "{err}"
+    );
+    assert!(listing(&reports).is_empty(), "{:?}", listing(&reports));
+}
+
+/// The batch progress bar (drawn when stderr is a terminal: `script` provides one) counts
+/// fitted models, files x models, so it moves as soon as the first model is fitted.
+#[test]
+fn the_batch_progress_bar_counts_models() {
+    if Command::new("script").arg("--version").output().is_err() {
+        eprintln!("SKIPPED: no `script` command to run lobe on a pseudo-terminal");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    std::fs::create_dir(&data).unwrap();
+    for k in 0..3 {
+        write_binned(
+            serde_json::from_str(WARD).unwrap(),
+            (8, 12),
+            &data.join(format!("m{k}.bin")),
+        );
+    }
+    let cmd = format!(
+        "{} fit {} -o {} --models ward,blinn-phong",
+        env!("CARGO_BIN_EXE_lobe"),
+        data.display(),
+        dir.path().join("reports").display()
+    );
+    let o = Command::new("script")
+        .args(["-qec", &cmd, "/dev/null"])
+        .output()
+        .unwrap();
+    let shown = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{shown}");
+    assert!(shown.contains("/6 models"), "{shown}");
+    assert!(!shown.contains("/3 "), "{shown}");
+}
+
+/// The README's "Other commands" run as written from the repository root: the binary is
+/// installed first (the text says how), every output goes under out/, and every file a
+/// command reads is in the repository, in ../shared/data, or written by an earlier line.
+#[test]
+fn readme_commands_run_as_written() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let section = readme
+        .split("## Other commands")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("an Other commands section");
+    assert!(section.contains("cargo install --path tools"), "{section}");
+    let block = section.split("```").nth(1).expect("a code block");
+    let mut written: Vec<String> = Vec::new();
+    for line in block.lines().map(str::trim).filter(|l| !l.is_empty()) {
+        let cmd = line.split("  #").next().unwrap().trim();
+        let words: Vec<&str> = cmd.split_whitespace().collect();
+        let first = words.iter().position(|w| *w == "lobe").unwrap_or(0);
+        let known = ["lobe", "mkdir", "tools/mitsuba/bench.sh", "scripts/fuzz.sh"];
+        assert!(known.contains(&words[first]), "{line}");
+        if words[first] != "lobe" {
+            continue;
+        }
+        // Outputs: after -o and --heatmap, all under out/.
+        let mut outputs = Vec::new();
+        for w in words.windows(2) {
+            if ["-o", "--heatmap"].contains(&w[0]) {
+                assert!(w[1].starts_with("out/"), "{line}: writes {}", w[1]);
+                outputs.push(w[1].trim_end_matches('/').to_string());
+            }
+        }
+        // Inputs: path-like words and the "file" of JSON descriptions.
+        let mut inputs: Vec<String> = words
+            .windows(2)
+            .filter(|w| !["-o", "--heatmap"].contains(&w[0]))
+            .map(|w| w[1].trim_matches(['\'', '"', ',', '}']).to_string())
+            .filter(|w| w.contains('/') && !w.starts_with("docs/") && !w.contains(".."))
+            .chain(
+                cmd.split("\"file\": \"")
+                    .skip(1)
+                    .map(|s| s.split('"').next().unwrap().to_string()),
+            )
+            .collect();
+        inputs.extend(
+            words
+                .iter()
+                .filter(|w| w.starts_with("../shared/data"))
+                .map(|w| w.to_string()),
+        );
+        for i in inputs {
+            let shared = i.starts_with("../shared/data");
+            let made = written
+                .iter()
+                .any(|o| i == *o || i.starts_with(&format!("{o}/")));
+            assert!(
+                made || shared || root.join(&i).exists(),
+                "{line}: reads {i}, which is neither in the repository nor written before"
+            );
+            if shared && shared_data().is_some() {
+                assert!(
+                    root.join(&i).exists(),
+                    "{line}: {i} is not in ../shared/data"
+                );
+            }
+        }
+        written.extend(outputs);
+    }
+    assert!(written.len() >= 10, "{written:?}");
+}
+
+/// ../shared/data next to the repository, if present.
+fn shared_data() -> Option<std::path::PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    p.is_dir().then_some(p)
 }

@@ -5,8 +5,11 @@
 //! w = sin(theta_i) sin(theta_o) (the bins are uniform in angle).
 
 use crate::Rgb;
+use crate::error::FileError;
 use crate::measured::binned::Binned;
+use crate::measured::format::{self, Format};
 use crate::measured::merl::Merl;
+use crate::measured::rgl::Rgl;
 use glam::Vec3;
 
 /// One bin: directions at its centre, measured RGB, weight.
@@ -78,6 +81,25 @@ impl Dataset {
             anisotropic: false,
             max_albedo,
         }
+    }
+
+    /// From a measured file of any format (told by its content, see
+    /// [`crate::measured::format`]); isotropic tables are binned at `res_deg`.
+    pub fn read(path: &std::path::Path, res_deg: f64) -> Result<Self, FileError> {
+        if !path.exists() {
+            return Err(FileError::new(
+                path.display(),
+                "does not exist; expected a measured BRDF file (MERL, binned or RGL)",
+            ));
+        }
+        Ok(match format::detect(path)? {
+            Format::Merl => Self::from_merl(&Merl::read(path)?, res_deg),
+            Format::Binned => Self::from_binned(&Binned::read(path)?),
+            Format::Rgl => {
+                let t = Rgl::read(path)?;
+                Self::isotropic(&|wi, wo| Some(t.eval(wo, wi)), res_deg)
+            }
+        })
     }
 
     /// From a MERL table (missing samples skipped).

@@ -389,7 +389,9 @@ pub const REFINE_EVALS: usize = 40;
 /// One SLSQP run from `x0` within `bounds`, with central-difference gradients (`central`)
 /// or forward differences (half the evaluations, for the coarse stage whose optima are
 /// refined anyway); returns the best point the run evaluated (SLSQP's last point is not
-/// always its best) and its error.
+/// always its best) and its error. Once `stop` returns true, every further evaluation
+/// returns at once (the last error, a zero gradient), so SLSQP ends within an iteration
+/// and the caller sees the request without waiting for the run to converge.
 fn minimize(
     pr: &Problem,
     bounds: &[(f64, f64)],
@@ -397,12 +399,21 @@ fn minimize(
     max_evals: usize,
     central: bool,
     evaluations: &mut usize,
+    stop: &Stop<'_>,
 ) -> (f64, Vec<f64>) {
     let evals = std::cell::Cell::new(0usize);
     let best = std::cell::RefCell::new((f64::INFINITY, x0.to_vec()));
+    let last = std::cell::Cell::new(0.0f64);
     let objective = |x: &[f64], grad: Option<&mut [f64]>, _: &mut ()| -> f64 {
+        if stop() {
+            if let Some(g) = grad {
+                g.fill(0.0);
+            }
+            return last.get();
+        }
         evals.set(evals.get() + 1);
         let e = pr.error(x).0;
+        last.set(e);
         if e < best.borrow().0 {
             *best.borrow_mut() = (e, x.to_vec());
         }
@@ -445,12 +456,36 @@ fn minimize(
     let _ = slsqp::minimize(objective, x0, bounds, &no_cons, (), max_evals, Some(tols));
     *evaluations += evals.get();
     let (e, x) = best.into_inner();
-    if e.is_finite() {
+    if e.is_finite() || stop() {
         (e, x)
     } else {
         (pr.error(x0).0, x0.to_vec())
     }
 }
+
+/// Polled during a fit (inside every objective evaluation): true asks it to stop, e.g.
+/// `&|| flag.load(Ordering::Relaxed)` for a flag that Ctrl-C sets.
+pub type Stop<'a> = dyn Fn() -> bool + Sync + 'a;
+
+/// Why a fit returned no result.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FitError {
+    /// Data that cannot be fitted (empty, non-finite), with the reason.
+    Data(String),
+    /// The stop poll asked the fit to end; nothing was produced.
+    Cancelled,
+}
+
+impl std::fmt::Display for FitError {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self {
+            FitError::Data(m) => f.write_str(m),
+            FitError::Cancelled => f.write_str("cancelled"),
+        }
+    }
+}
+
+impl std::error::Error for FitError {}
 
 /// Fits one model to the data; fails (with the reason) on empty or non-finite data.
 pub fn fit(
@@ -458,15 +493,12 @@ pub fn fit(
     spec: &ModelSpec,
     max_evals_per_start: usize,
 ) -> Result<FitResult, String> {
-    data.check()?;
-    let t0 = std::time::Instant::now();
-    let registry = Registry::builtin();
-    let pr = Problem {
-        data,
-        spec,
-        registry: &registry,
-        total_weight: data.total_weight().max(1e-300),
-    };
+    fit_until(data, spec, max_evals_per_start, &|| false).map_err(|e| e.to_string())
+}
+
+/// Optimizer bounds of every parameter (log space for scales) and the grid of starts (for
+/// two lobes, the second lobe starts 4x wider).
+fn bounds_and_starts(spec: &ModelSpec) -> (Vec<(f64, f64)>, Vec<Vec<f64>>) {
     let k = spec.params.len();
     let to_x = |fp: &FitParam, v: f64| if fp.log { v.ln() } else { v };
     let bounds: Vec<(f64, f64)> = (0..spec.lobes * k)
@@ -475,7 +507,6 @@ pub fn fit(
             (to_x(fp, fp.lo), to_x(fp, fp.hi))
         })
         .collect();
-    // The grid of starts (for two lobes, the second lobe starts 4x wider).
     let mut grid: Vec<Vec<f64>> = vec![Vec::new()];
     for fp in &spec.params {
         grid = grid
@@ -489,7 +520,7 @@ pub fn fit(
             })
             .collect();
     }
-    let starts: Vec<Vec<f64>> = grid
+    let starts = grid
         .iter()
         .map(|g| {
             (0..spec.lobes * k)
@@ -504,6 +535,34 @@ pub fn fit(
                 .collect()
         })
         .collect();
+    (bounds, starts)
+}
+
+/// [`fit`], polling `stop` inside the optimizer: once it returns true the fit ends within
+/// one objective evaluation and returns [`FitError::Cancelled`].
+pub fn fit_until(
+    data: &Dataset,
+    spec: &ModelSpec,
+    max_evals_per_start: usize,
+    stop: &Stop<'_>,
+) -> Result<FitResult, FitError> {
+    data.check().map_err(FitError::Data)?;
+    let t0 = std::time::Instant::now();
+    let registry = Registry::builtin();
+    let pr = Problem {
+        data,
+        spec,
+        registry: &registry,
+        total_weight: data.total_weight().max(1e-300),
+    };
+    let (bounds, starts) = bounds_and_starts(spec);
+    let cancelled = || {
+        if stop() {
+            Err(FitError::Cancelled)
+        } else {
+            Ok(())
+        }
+    };
     // Coarse to fine: every start runs on a subset of the data (the specular peak and a
     // stride sample of the rest, about COARSE_SAMPLES bins), then the best coarse optima are
     // refined on a finer subset (REFINE_SAMPLES bins).
@@ -514,63 +573,33 @@ pub fn fit(
         ..pr
     };
     let mut evaluations = 0usize;
-    let mut finals: Vec<(f64, Vec<f64>)> = starts
-        .iter()
-        .map(|x0| {
-            minimize(
-                &coarse,
-                &bounds,
-                x0,
-                max_evals_per_start,
-                false,
-                &mut evaluations,
-            )
-        })
-        .collect();
+    let mut finals: Vec<(f64, Vec<f64>)> = Vec::with_capacity(starts.len());
+    for x0 in &starts {
+        cancelled()?;
+        let run = minimize(
+            &coarse,
+            &bounds,
+            x0,
+            max_evals_per_start,
+            false,
+            &mut evaluations,
+            stop,
+        );
+        finals.push(run);
+    }
+    cancelled()?;
     finals.sort_by(|a, b| a.0.total_cmp(&b.0));
     let best_coarse = finals[0].0;
     let agreeing = finals
         .iter()
         .filter(|f| f.0 <= best_coarse * 1.01 + 1e-15)
         .count();
-    // Candidates: the best coarse optimum and the best one of a different basin, if any is
-    // within 10 % of it.
-    let mut candidates = vec![finals[0].1.clone()];
-    if let Some(other) = finals[1..].iter().find(|f| {
-        f.0 <= best_coarse * 1.1 + 1e-15
-            && f.1
-                .iter()
-                .zip(&finals[0].1)
-                .any(|(a, b)| (a - b).abs() > 0.05)
-    }) {
-        candidates.push(other.1.clone());
-    }
-    // When the coarse stand-in was all the data, the best coarse optimum is the answer.
-    // Otherwise the candidates are ranked on a finer stand-in (REFINE_SAMPLES bins, or all
-    // of them for smaller data) and the better one is refined there; the winner is then
-    // judged on all the bins.
     let best = if coarse_data.samples.len() == data.samples.len() {
-        candidates.swap_remove(0)
+        finals.swap_remove(0).1
     } else {
-        let fine_data = data.coarse(REFINE_SAMPLES);
-        let fine = Problem {
-            data: &fine_data,
-            total_weight: fine_data.total_weight().max(1e-300),
-            ..pr
-        };
-        let x0 = if candidates.len() > 1 {
-            evaluations += candidates.len();
-            candidates
-                .iter()
-                .map(|x| (fine.error(x).0, x))
-                .min_by(|a, b| a.0.total_cmp(&b.0))
-                .expect("two candidates")
-                .1
-        } else {
-            &candidates[0]
-        };
-        minimize(&fine, &bounds, x0, REFINE_EVALS, true, &mut evaluations).1
+        refine(&pr, &bounds, &finals, &mut evaluations, stop)
     };
+    cancelled()?;
     let (error, colours) = pr.error(&best);
     evaluations += 1;
     Ok(FitResult {
@@ -587,6 +616,48 @@ pub fn fit(
         evaluations,
         seconds: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// The refinement of sorted coarse optima `finals`: the candidates (the best one and the
+/// best one of a different basin, if any is within 10 % of it) are ranked on a finer
+/// stand-in (REFINE_SAMPLES bins, or all of them for smaller data) and the better one is
+/// refined there; the caller judges the winner on all the bins.
+fn refine(
+    pr: &Problem,
+    bounds: &[(f64, f64)],
+    finals: &[(f64, Vec<f64>)],
+    evaluations: &mut usize,
+    stop: &Stop<'_>,
+) -> Vec<f64> {
+    let best_coarse = finals[0].0;
+    let mut candidates = vec![&finals[0].1];
+    if let Some(other) = finals[1..].iter().find(|f| {
+        f.0 <= best_coarse * 1.1 + 1e-15
+            && f.1
+                .iter()
+                .zip(&finals[0].1)
+                .any(|(a, b)| (a - b).abs() > 0.05)
+    }) {
+        candidates.push(&other.1);
+    }
+    let fine_data = pr.data.coarse(REFINE_SAMPLES);
+    let fine = Problem {
+        data: &fine_data,
+        total_weight: fine_data.total_weight().max(1e-300),
+        ..*pr
+    };
+    let x0 = if candidates.len() > 1 {
+        *evaluations += candidates.len();
+        candidates
+            .iter()
+            .map(|x| (fine.error(x).0, *x))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .expect("two candidates")
+            .1
+    } else {
+        candidates[0]
+    };
+    minimize(&fine, bounds, x0, REFINE_EVALS, true, evaluations, stop).1
 }
 
 /// The JSON report of fitting one material (loadable as `{"type": "fit", "file": ..., "model": ...}`).
@@ -651,10 +722,7 @@ fn build_fit(
 ) -> Result<Arc<dyn crate::Bsdf>, crate::ParamError> {
     let path = crate::measured::material::resolve(ctx, p.text("file"));
     let err = |m: String| crate::ParamError::new(format!("{}.file", p.path), m);
-    let text = std::fs::read_to_string(&path)
-        .map_err(|e| err(format!("{}: cannot read: {e}", path.display())))?;
-    let v: Value = serde_json::from_str(&text)
-        .map_err(|e| err(format!("{}: invalid JSON: {e}", path.display())))?;
+    let v = crate::json::read(&path).map_err(|e| err(e.to_string()))?;
     let label = p.text("model");
     let models = v.get("models").and_then(Value::as_object).ok_or_else(|| {
         err(format!(
@@ -698,6 +766,24 @@ fn build_fit(
     Ok(b)
 }
 
+/// The report a `fit` description reads, and the files of the model it names.
+fn fit_inputs(
+    p: &crate::registry::Params,
+    ctx: &crate::registry::BuildContext,
+) -> Vec<std::path::PathBuf> {
+    let path = crate::measured::material::resolve(ctx, p.text("file"));
+    let model = crate::json::read(&path).ok().and_then(|v| {
+        v.pointer(&format!("/models/{}/material", p.text("model")))
+            .cloned()
+    });
+    let mut out = vec![path];
+    if let Some(m) = model {
+        out.extend(Registry::builtin().inputs(&m, ctx));
+    }
+    out
+}
+
 pub fn register(r: &mut Registry) {
     r.register(FIT_SCHEMA, build_fit);
+    r.register_inputs(FIT_SCHEMA.name, fit_inputs);
 }

@@ -4,6 +4,7 @@
 //! shares it between shapes; nothing is read unless a shape uses the material.
 
 use super::binned::Binned;
+use super::format::{self, Format};
 use super::merl::Merl;
 use super::rgl::Rgl;
 use super::sampler::TabulatedSampler;
@@ -138,6 +139,20 @@ pub fn resolve(ctx: &BuildContext, file: &str) -> PathBuf {
     }
 }
 
+/// The table file of a `merl`, `binned` or `rgl` description, checked to hold `format`
+/// (by content: a binned file named `.binary` is refused by `merl`, naming `binned`).
+fn table_path(p: &Params, ctx: &BuildContext, format: Format) -> Result<PathBuf, ParamError> {
+    let path = resolve(ctx, p.text("file"));
+    format::expect(&path, format)
+        .map_err(|e| ParamError::new(format!("{}.file", p.path), e.to_string()))?;
+    Ok(path)
+}
+
+/// The file a `merl`, `binned` or `rgl` description reads.
+fn table_inputs(p: &Params, ctx: &BuildContext) -> Vec<PathBuf> {
+    vec![resolve(ctx, p.text("file"))]
+}
+
 /// Measured tables built (with their samplers) since the process started: lets tests show
 /// that a scene builds only the tables its shapes use.
 pub static TABLES_BUILT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
@@ -185,7 +200,7 @@ pub const MERL_SCHEMA: ModelSchema = ModelSchema {
 };
 
 fn build_merl(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
-    let path = resolve(ctx, p.text("file"));
+    let path = table_path(p, ctx, Format::Merl)?;
     let interpolate = p.flag("interpolate");
     let key = format!("merl:{}:{interpolate}", path.display());
     cached(ctx, key, || {
@@ -205,7 +220,7 @@ pub const BINNED_SCHEMA: ModelSchema = ModelSchema {
 };
 
 fn build_binned(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
-    let path = resolve(ctx, p.text("file"));
+    let path = table_path(p, ctx, Format::Binned)?;
     let key = format!("binned:{}", path.display());
     cached(ctx, key, || {
         let table = Binned::read(&path)
@@ -319,7 +334,7 @@ pub const RGL_SCHEMA: ModelSchema = ModelSchema {
 };
 
 fn build_rgl(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
-    let path = resolve(ctx, p.text("file"));
+    let path = table_path(p, ctx, Format::Rgl)?;
     let key = format!("rgl:{}", path.display());
     let mut cache = ctx.tables.lock().unwrap_or_else(|e| e.into_inner());
     if let Some(v) = cache.get(&key)
@@ -339,4 +354,7 @@ pub fn register(r: &mut Registry) {
     r.register(MERL_SCHEMA, build_merl);
     r.register(BINNED_SCHEMA, build_binned);
     r.register(RGL_SCHEMA, build_rgl);
+    for name in [MERL_SCHEMA.name, BINNED_SCHEMA.name, RGL_SCHEMA.name] {
+        r.register_inputs(name, table_inputs);
+    }
 }

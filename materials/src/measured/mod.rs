@@ -9,6 +9,7 @@
 //! cosine share of every sampler) stay finite in f32 with room for the renderer's products.
 
 pub mod binned;
+pub mod format;
 pub mod marginal2d;
 pub mod material;
 pub mod merl;

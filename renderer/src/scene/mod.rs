@@ -7,6 +7,7 @@
 //! environment maps, and builds one BVH over all primitives.
 
 pub mod gltf_check;
+pub mod inputs;
 pub mod json;
 pub mod mesh_io;
 pub mod transform;
@@ -80,25 +81,26 @@ impl LoadOptions {
 
 /// Loads a scene file.
 pub fn load(path: &Path) -> Result<Scene> {
-    let shown = path.display().to_string();
-    if path.is_dir() {
-        return Err(Error::file(
-            &shown,
-            "is a directory; expected a scene JSON file",
-        ));
-    }
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::file(&shown, format!("cannot read: {e}")))?;
-    if text.trim().is_empty() {
-        return Err(Error::file(
-            &shown,
-            "is empty; expected a JSON scene description",
-        ));
-    }
-    let value: Value = serde_json::from_str(&text)
-        .map_err(|e| Error::file(&shown, format!("invalid JSON: {e}")))?;
+    let value = read_json(path)?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    from_value(&value, &shown, &base, &LoadOptions::with_builtins())
+    from_value(
+        &value,
+        &path.display().to_string(),
+        &base,
+        &LoadOptions::with_builtins(),
+    )
+}
+
+/// Reads a scene file's JSON (strictly: duplicate keys, such as two materials of one name,
+/// and non-finite numbers are errors naming the file, line and column).
+pub fn read_json(path: &Path) -> Result<Value> {
+    if !path.exists() {
+        return Err(Error::file(
+            path.display(),
+            "cannot read: the file does not exist; expected a scene JSON file",
+        ));
+    }
+    Ok(lobe_materials::json::read(path)?)
 }
 
 const TOP_KEYS: &[&str] = &[
@@ -269,7 +271,7 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
         })?;
         for (name, desc) in m {
             ld.registry
-                .validate(desc, &format!("materials.{name}"))
+                .check(desc, &format!("materials.{name}"))
                 .map_err(|e| Error::scene(file, e.path, e.message))?;
             ld.named.insert(name.clone(), desc);
         }

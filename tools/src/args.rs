@@ -1,0 +1,52 @@
+//! What every command shares on its command line: the value parser of numeric options
+//! (NaN and infinity are refused by clap itself, naming the option), and the Ctrl-C
+//! handling (the first Ctrl-C asks the running work to stop and says so, a second one
+//! exits at once with status 130).
+
+use std::str::FromStr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
+
+/// Parses a finite number: every floating-point option uses it
+/// (`#[arg(value_parser = finite::<f64>)]`).
+pub fn finite<T: FromStr + Into<f64> + Copy>(s: &str) -> Result<T, String> {
+    let v: T = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a number, found \"{s}\""))?;
+    if v.into().is_finite() {
+        Ok(v)
+    } else {
+        Err(format!(
+            "expected a finite number, found \"{s}\" (NaN and infinity are not accepted)"
+        ))
+    }
+}
+
+static CANCEL: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+
+/// The flag Ctrl-C sets, with the handler installed on first use: the first Ctrl-C sets
+/// it and prints `lobe: ACK` on stderr (what happens now), a second one exits with
+/// status 130 without waiting for anything.
+pub fn ctrl_c(ack: &'static str) -> Arc<AtomicBool> {
+    CANCEL
+        .get_or_init(|| {
+            let flag = Arc::new(AtomicBool::new(false));
+            let f = flag.clone();
+            // Without a handler (one is already set), work simply cannot be cancelled.
+            let _ = ctrlc::set_handler(move || {
+                if f.swap(true, Ordering::SeqCst) {
+                    eprintln!("lobe: aborted");
+                    std::process::exit(130);
+                }
+                eprintln!("lobe: {ack}");
+            });
+            flag
+        })
+        .clone()
+}
+
+/// True once Ctrl-C was pressed (the command then exits with status 130).
+pub fn cancelled() -> bool {
+    CANCEL.get().is_some_and(|f| f.load(Ordering::SeqCst))
+}
