@@ -161,9 +161,10 @@ pub struct BsdfSample {
 }
 
 impl BsdfSample {
-    /// The sample of a drawn `wi`: None below the surface or where the density `pdf()` is
-    /// not positive; otherwise the weight `f() cos(theta_i) / pdf` (both evaluated only
-    /// when needed).
+    /// The sample of a drawn `wi`: None below the surface, where the density `pdf()` is
+    /// not positive, or where the weight `f() cos(theta_i) / pdf` is not finite (a
+    /// direction drawn with a subnormal density: cos / pdf overflows); otherwise that
+    /// weight (both evaluated only when needed).
     pub fn finish(wi: Vec3, pdf: impl FnOnce() -> f32, f: impl FnOnce() -> Rgb) -> Option<Self> {
         if wi.z <= 0.0 {
             return None;
@@ -172,11 +173,8 @@ impl BsdfSample {
         if !(pdf > 0.0) {
             return None;
         }
-        Some(BsdfSample {
-            wi,
-            weight: f() * (wi.z / pdf),
-            pdf,
-        })
+        let weight = f() * (wi.z / pdf);
+        weight.is_finite().then_some(BsdfSample { wi, weight, pdf })
     }
 }
 

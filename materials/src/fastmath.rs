@@ -1,15 +1,17 @@
-//! Branch-free f32 `sin_cos`, `atan2` and `acos` for the renderer's hot paths (env-map
-//! lookups and sampling, direction warps), a few times faster than the C library's.
+//! Branch-free f32 `sin_cos`, `atan2`, `acos` and `asin` for the hot paths (env-map
+//! lookups and sampling, direction warps, measured-BRDF coordinates), a few times faster
+//! than the C library's.
 //!
 //! Each is a Cody-Waite range reduction followed by the minimax polynomials of Cephes'
 //! single-precision `sinf`/`cosf`, `atanf` and `asinf` (S. L. Moshier, "Methods and
 //! Programs for Mathematical Functions", 1989; the same approximations Dr.Jit, and so
-//! Mitsuba 3, uses). Written with selects instead of branches so that the compiler can
-//! schedule several calls at once and vectorize loops of them. Accuracy, checked against
+//! Mitsuba 3, uses). Written with selects ([`select`]) instead of branches, so that no
+//! branch mispredicts on random arguments, the core can overlap consecutive calls, and
+//! loops of them vectorize. Accuracy, checked against
 //! f64 over dense grids by the tests below: absolute error under 2.5e-7 for `sin_cos`
 //! (|x| <= 1e4; larger arguments fall back to the C library), under 4e-7 for `acos`
-//! (below 2 ulp of its result near pi), relative error under 4e-7 for `atan2`. NaN
-//! inputs give NaN.
+//! (below 2 ulp of its result near pi) and `asin`, relative error under 4e-7 for
+//! `atan2`. NaN inputs give NaN.
 //!
 //! [`x8`] has eight-lane forms of the same functions on `wide`'s AVX vectors, for the
 //! renderer's SIMD batches: the same operations lane by lane, so each lane equals the
@@ -119,6 +121,13 @@ fn asin_unit(x: f32) -> f32 {
     if big { FRAC_PI_2 - 2.0 * p } else { p }
 }
 
+/// asin(x) for x in [-1, 1] (NaN outside, as the C library).
+#[inline]
+pub fn asin(x: f32) -> f32 {
+    let r = asin_unit(x.abs()).copysign(x);
+    if x.abs() <= 1.0 { r } else { f32::NAN }
+}
+
 /// acos(x) for x in [-1, 1] (NaN outside, as the C library).
 #[inline]
 pub fn acos(x: f32) -> f32 {
@@ -127,10 +136,10 @@ pub fn acos(x: f32) -> f32 {
     if x.abs() <= 1.0 { r } else { f32::NAN }
 }
 
-/// Eight-lane forms of the functions above ([`sin_cos_moderate`], [`atan2`], [`acos`]) on
-/// `wide`'s AVX vectors: the same operations in the same order on each lane, so every
-/// lane's result equals the scalar function's bit for bit (tested below), and the
-/// renderer's batched lookups agree exactly with its one-at-a-time ones.
+/// Eight-lane forms of the functions above ([`sin_cos_moderate`], [`atan2`], [`acos`],
+/// [`asin`]) on `wide`'s AVX vectors: the same operations in the same order on each
+/// lane, so every lane's result equals the scalar function's bit for bit (tested below),
+/// and batched lookups agree exactly with one-at-a-time ones.
 pub mod x8 {
     use crate::simd::sel;
     use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
@@ -213,6 +222,19 @@ pub mod x8 {
             * s
             + s;
         sel(big, f32x8::splat(FRAC_PI_2) - f32x8::splat(2.0) * p, p)
+    }
+
+    /// [`super::asin`] per lane.
+    #[inline(always)]
+    pub fn asin(x: f32x8) -> f32x8 {
+        let sign = u32x8::splat(SIGN);
+        let a = asin_unit(x.abs());
+        let r = f32x8::from_bits((a.to_bits() & !sign) | (x.to_bits() & sign));
+        sel(
+            x.abs().simd_le(f32x8::splat(1.0)),
+            r,
+            f32x8::splat(f32::NAN),
+        )
     }
 
     /// [`super::acos`] per lane.
@@ -314,6 +336,27 @@ mod tests {
         assert!((acos(-1.0) - PI).abs() <= f32::EPSILON * PI);
         assert!(acos(1.0 + 1e-6).is_nan() && acos(f32::NAN).is_nan());
     }
+    #[test]
+    fn asin_matches_f64() {
+        let mut worst = 0.0f64;
+        let n = 2_000_000;
+        for i in 0..=n {
+            let x = (-1.0 + 2.0 * i as f64 / n as f64) as f32;
+            worst = worst.max((asin(x) as f64 - (x as f64).asin()).abs());
+        }
+        let mut x = 1.0f32;
+        for _ in 0..4096 {
+            x = f32::from_bits(x.to_bits() - 1);
+            worst = worst.max((asin(x) as f64 - (x as f64).asin()).abs());
+            worst = worst.max((asin(-x) as f64 - (-x as f64).asin()).abs());
+        }
+        assert!(worst < 4e-7, "asin error {worst:e}");
+        assert_eq!(asin(0.0).to_bits(), 0.0f32.to_bits());
+        assert_eq!(asin(-0.0).to_bits(), (-0.0f32).to_bits());
+        assert!((asin(1.0) - FRAC_PI_2).abs() <= f32::EPSILON);
+        assert!(asin(1.0 + 1e-6).is_nan() && asin(f32::NAN).is_nan());
+    }
+
     /// The eight-lane forms equal the scalar functions bit for bit.
     #[test]
     fn x8_forms_are_bit_identical() {
@@ -349,6 +392,7 @@ mod tests {
             let (s, c) = (s.to_array(), c.to_array());
             let at = x8::atan2(y, x).to_array();
             let ac = x8::acos(x).to_array();
+            let asn = x8::asin(x).to_array();
             for i in 0..8 {
                 if xa[i].abs() <= 1.0e4 {
                     let (se, ce) = sin_cos_moderate(xa[i]);
@@ -361,6 +405,7 @@ mod tests {
                     xa[i]
                 );
                 assert!(same(ac[i], acos(xa[i])), "acos({})", xa[i]);
+                assert!(same(asn[i], asin(xa[i])), "asin({})", xa[i]);
             }
         }
     }

@@ -12,7 +12,8 @@
 //! (`sin_cos`, `atan2`, `acos`, `asin`) live beside their scalar forms in
 //! [`crate::fastmath::x8`].
 //!
-//! Contents: [`lanes`] and [`padded`] (arrays of eight, written out so they inline),
+//! Contents: [`lanes`], [`padded`] and [`lanes_of`] (arrays of eight, written out so they
+//! inline), [`chunks_where`] (the queries a batched kernel works on, eight at a time),
 //! transposes of eight records into lane vectors ([`transpose4x8`], [`rows4`], [`vec3s`],
 //! [`arrays3`]), per-lane select and clamp ([`sel`], [`clamp`]), masks ([`Mask8`],
 //! [`mask_from_bools`], [`mask_bits`]), [`gather`], [`fmadd`], and the small types
@@ -97,6 +98,36 @@ fn transpose4x8_avx(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
     ]
 }
 
+/// `f(idx[i])` in lane i for a chunk of one to eight indices, the last repeated into the
+/// lanes past its end (as [`padded`]).
+#[inline(always)]
+pub fn lanes_of<T>(idx: &[usize], f: impl Fn(usize) -> T) -> [T; 8] {
+    let n = idx.len();
+    assert!((1..=LANES).contains(&n), "a chunk of 1 to 8 indices");
+    lanes(|i| f(idx[i.min(n - 1)]))
+}
+
+/// Calls `f` with the indices `k` of `0..n` where `keep(k)`, in increasing order, eight at
+/// a time (the last chunk shorter), without allocating: batched kernels give their SIMD
+/// lanes only to the queries that need them (not to light samples below the surface, say).
+#[inline]
+pub fn chunks_where(n: usize, keep: impl Fn(usize) -> bool, mut f: impl FnMut(&[usize])) {
+    let mut buf = [0usize; LANES];
+    let mut len = 0;
+    for k in 0..n {
+        // Written without a branch on `keep`, which is often unpredictable.
+        buf[len] = k;
+        len += keep(k) as usize;
+        if len == LANES {
+            f(&buf);
+            len = 0;
+        }
+    }
+    if len > 0 {
+        f(&buf[..len]);
+    }
+}
+
 /// Eight vectors as their x, y and z components in three SIMD registers.
 #[inline(always)]
 pub fn vec3s(v: &[Vec3; 8]) -> [f32x8; 3] {
@@ -146,10 +177,12 @@ pub fn mask_bits(m: Mask8) -> u32 {
 }
 
 /// `table[idx[i]]` in lane i (eight scalar loads: on the CPUs lobe is measured on, AVX2's
-/// gather instruction is slower than that; docs/performance.md).
+/// gather instruction is slower than that; docs/performance.md). Indices must be
+/// non-negative and in bounds (checked).
 #[inline(always)]
-pub fn gather(table: &[f32], idx: [usize; 8]) -> f32x8 {
-    f32x8::new(lanes(|i| table[idx[i]]))
+pub fn gather(table: &[f32], idx: i32x8) -> f32x8 {
+    let idx = idx.to_array();
+    f32x8::new(lanes(|i| table[idx[i] as usize]))
 }
 
 /// The scalar twin of `f32x8::max` (`wide`'s): `if lo < x { x } else { lo }`, so NaN and
@@ -483,6 +516,26 @@ mod tests {
     fn padded_repeats_the_last_element() {
         assert_eq!(padded(&[1, 2, 3]), [1, 2, 3, 3, 3, 3, 3, 3]);
         assert_eq!(padded(&[1, 2, 3, 4, 5, 6, 7, 8]), [1, 2, 3, 4, 5, 6, 7, 8]);
+        assert_eq!(
+            lanes_of(&[4, 9], |k| 10 * k),
+            [40, 90, 90, 90, 90, 90, 90, 90]
+        );
+    }
+
+    #[test]
+    fn chunks_where_visits_the_kept_indices_in_order_eight_at_a_time() {
+        for n in [0usize, 1, 7, 8, 9, 16, 17, 100] {
+            let keep = |k: usize| k % 3 != 1;
+            let mut seen = Vec::new();
+            let mut sizes = Vec::new();
+            chunks_where(n, keep, |idx| {
+                seen.extend_from_slice(idx);
+                sizes.push(idx.len());
+            });
+            assert_eq!(seen, (0..n).filter(|&k| keep(k)).collect::<Vec<_>>());
+            assert!(sizes.iter().rev().skip(1).all(|&s| s == 8));
+            assert!(sizes.last().is_none_or(|&s| (1..=8).contains(&s)));
+        }
     }
 
     #[test]
@@ -579,7 +632,7 @@ mod tests {
     #[test]
     fn gather_masks_and_clamp() {
         let table: Vec<f32> = (0..100).map(|k| k as f32 * 0.5).collect();
-        let g = gather(&table, [3, 99, 0, 7, 7, 50, 1, 2]).to_array();
+        let g = gather(&table, i32x8::new([3, 99, 0, 7, 7, 50, 1, 2])).to_array();
         assert_eq!(g, [1.5, 49.5, 0.0, 3.5, 3.5, 25.0, 0.5, 1.0]);
         let b = [true, false, false, true, true, false, true, false];
         let m = mask_from_bools(b);

@@ -376,12 +376,147 @@ fn out_of_range_parameters_are_rejected_with_their_range() {
     assert!(checked > 30, "{checked}");
 }
 
-/// `sample_many` (the wavefront integrator's batched call; Lambert's runs in SIMD lanes)
-/// returns `sample` of each query bit for bit, for every case, on directions below,
-/// at and above the horizon and batch lengths that leave lanes empty.
+/// The measured materials, built once per test run: the four RGL files of the shared
+/// data (when present), a MERL table (trilinear and nearest) and binned data (isotropic
+/// and anisotropic) tabulated from a glossy Cook-Torrance material.
+fn measured_cases() -> &'static [Case] {
+    use lobe_materials::measured::binned::{Axis, Binned};
+    use lobe_materials::measured::tabulate::{Acquisition, binned_from, merl_from};
+    static CASES: std::sync::OnceLock<Vec<Case>> = std::sync::OnceLock::new();
+    CASES.get_or_init(|| {
+        let mut v = Vec::new();
+        if let Some(data) = lobe_tests::shared_data() {
+            for f in [
+                "cc_ibiza_sunset",
+                "colodur_napoli_4f",
+                "paper_white",
+                "vch_golden_yellow",
+            ] {
+                let path = data.join("rgl").join(format!("{f}_rgb.bsdf"));
+                for clamp in [true, false] {
+                    v.push(make(
+                        json!({"type": "rgl", "file": path.to_str().unwrap(), "clamp": clamp}),
+                        false,
+                    ));
+                }
+            }
+        } else {
+            eprintln!("RGL cases SKIPPED: ../shared/data (or LOBE_DATA) is absent");
+        }
+        let source = Registry::builtin()
+            .create(
+                &json!({"type": "cook-torrance", "diffuse": [0.3, 0.2, 0.1], "specular": 0.4, "m": 0.2}),
+                "source",
+            )
+            .unwrap();
+        let f = |wo: Vec3, wi: Vec3| source.eval(wo, wi);
+        let dir = tempfile::tempdir().unwrap();
+        let acq = Acquisition {
+            retro_exclusion_deg: 3.0,
+            empty_fraction: 0.1,
+            seed: 5,
+            ..Default::default()
+        };
+        let merl = dir.path().join("ct.binary");
+        merl_from(&f, &acq).write(&merl).unwrap();
+        for interpolate in [true, false] {
+            v.push(make(
+                json!({"type": "merl", "file": merl.to_str().unwrap(), "interpolate": interpolate}),
+                false,
+            ));
+        }
+        let binned = dir.path().join("ct.lobebin");
+        binned_from(&f, false, &acq).write(&binned).unwrap();
+        v.push(make(
+            json!({"type": "binned", "file": binned.to_str().unwrap()}),
+            false,
+        ));
+        // A coarse anisotropic layout (the study's 2-degree one holds 65 M bins).
+        let mut aniso = Binned::empty(
+            true,
+            vec![
+                Axis::new(9, 0.0, 90.0),
+                Axis::new(9, 0.0, 90.0),
+                Axis::new(18, 0.0, 360.0),
+                Axis::new(18, 0.0, 360.0),
+            ],
+        );
+        for k in 0..aniso.len() {
+            let (wi, wo) = aniso.directions(k);
+            aniso.values[k] = (k % 7 != 3).then(|| f(wo, wi).to_array());
+        }
+        let aniso_path = dir.path().join("aniso.lobebin");
+        aniso.write(&aniso_path).unwrap();
+        v.push(make(
+            json!({"type": "binned", "file": aniso_path.to_str().unwrap()}),
+            false,
+        ));
+        v
+    })
+}
+
+/// Queries for the batched-call tests: directions spread over the sphere (a third below
+/// the surface), and every few queries an edge case: grazing (cos 1e-7 and 1e-3),
+/// normal incidence, wi = wo, wi the mirror of wo, wi the zero vector (what the
+/// integrator passes for hits without a light sample), and u at 0 and near 1.
+struct BatchInputs {
+    wo: Vec<Vec3>,
+    wi: Vec<Vec3>,
+    u: Vec<glam::Vec2>,
+    uc: Vec<f32>,
+}
+
+fn batch_inputs(n: usize, seed: usize) -> BatchInputs {
+    let r = |k: usize, a: f32| ((k + seed) as f32 * a + 0.1).fract();
+    let sphere = |k: usize, a: f32, b: f32| {
+        let z = 2.0 * r(k, a) - 1.0;
+        let phi = std::f32::consts::TAU * r(k, b);
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(s * phi.cos(), s * phi.sin(), z)
+    };
+    let grazing = |z: f32, phi: f32| {
+        let s = (1.0 - z * z).sqrt();
+        Vec3::new(s * phi.cos(), s * phi.sin(), z)
+    };
+    let mut wo: Vec<Vec3> = (0..n).map(|k| sphere(k, 0.381_966, 0.618_034)).collect();
+    let mut wi: Vec<Vec3> = (0..n)
+        .map(|k| sphere(k + 7, 0.754_878, 0.569_840))
+        .collect();
+    for k in 0..n {
+        match (k + seed) % 13 {
+            0 => wo[k] = grazing(1e-7, k as f32),
+            1 => wi[k] = grazing(1e-3, 2.0 * k as f32),
+            2 => wi[k] = wo[k],
+            3 => wi[k] = Vec3::new(-wo[k].x, -wo[k].y, wo[k].z),
+            4 => wi[k] = Vec3::ZERO,
+            5 => wo[k] = Vec3::Z,
+            6 => (wo[k], wi[k]) = (grazing(1e-3, 0.5), grazing(1e-7, 3.6)),
+            _ => {}
+        }
+    }
+    let u = (0..n)
+        .map(|k| match (k + seed) % 11 {
+            0 => glam::Vec2::ZERO,
+            1 => glam::Vec2::splat(1.0 - f32::EPSILON / 2.0),
+            2 => glam::Vec2::splat(0.5),
+            _ => glam::Vec2::new(r(k, 0.754_878), r(k, 0.569_840)),
+        })
+        .collect();
+    let uc = (0..n)
+        .map(|k| match (k + seed) % 17 {
+            0 => 0.0,
+            1 => 1.0 - f32::EPSILON / 2.0,
+            _ => r(k, 0.414_214),
+        })
+        .collect();
+    BatchInputs { wo, wi, u, uc }
+}
+
+/// `sample_many` (the wavefront integrator's batched call) returns `sample` of each query
+/// bit for bit, for every material kind, with queries below, at and above the horizon and
+/// batch lengths that leave SIMD lanes empty; every sample it returns is finite.
 #[test]
 fn batched_sampling_equals_single_samples() {
-    use glam::Vec2;
     let bits = |s: Option<lobe_materials::BsdfSample>| {
         s.map(|s| {
             [
@@ -390,89 +525,65 @@ fn batched_sampling_equals_single_samples() {
             .map(f32::to_bits)
         })
     };
-    for case in cases() {
-        for n in [1usize, 8, 13, 200] {
-            let wo: Vec<Vec3> = (0..n)
-                .map(|k| {
-                    let t = k as f32;
-                    let z = match k % 7 {
-                        0 => -0.3,
-                        1 => 0.0,
-                        _ => (t * 0.381_966).fract(),
-                    };
-                    let phi = std::f32::consts::TAU * (t * 0.618_034).fract();
-                    let r = (1.0 - z * z).sqrt();
-                    Vec3::new(r * phi.cos(), r * phi.sin(), z)
-                })
-                .collect();
-            let u: Vec<Vec2> = (0..n)
-                .map(|k| {
-                    let t = k as f32 + 0.5;
-                    if k == 3 {
-                        Vec2::splat(0.5)
-                    } else {
-                        Vec2::new((t * 0.754_878).fract(), (t * 0.569_840).fract())
-                    }
-                })
-                .collect();
-            let uc: Vec<f32> = (0..n).map(|k| (k as f32 * 0.414_214).fract()).collect();
+    let all = cases();
+    let mut some = 0usize;
+    for case in all.iter().chain(measured_cases()) {
+        for (n, seed) in [(1usize, 0usize), (8, 3), (13, 5), (300, 11)] {
+            let q = batch_inputs(n, seed);
             let mut out = vec![None; n];
-            case.bsdf.sample_many(&wo, &u, &uc, &mut out);
-            for k in 0..n {
+            case.bsdf.sample_many(&q.wo, &q.u, &q.uc, &mut out);
+            for (k, &got) in out.iter().enumerate() {
+                let one = case.bsdf.sample(q.wo[k], q.u[k], q.uc[k]);
                 assert_eq!(
-                    bits(out[k]),
-                    bits(case.bsdf.sample(wo[k], u[k], uc[k])),
-                    "{}: wo {:?}, u {:?}",
+                    bits(got),
+                    bits(one),
+                    "{}: wo {:?}, u {:?}, uc {}",
                     case.name,
-                    wo[k],
-                    u[k]
+                    q.wo[k],
+                    q.u[k],
+                    q.uc[k]
                 );
+                if let Some(s) = one {
+                    assert!(
+                        s.wi.is_finite() && s.weight.is_finite() && s.pdf.is_finite(),
+                        "{}: sample {s:?} for wo {:?}",
+                        case.name,
+                        q.wo[k]
+                    );
+                    some += 1;
+                }
             }
         }
     }
+    assert!(some > 1000, "{some} samples");
 }
 
-/// `eval_pdf_many` (the wavefront integrator's batched next-event call; Lambert's runs in
-/// SIMD lanes) returns `eval` and `pdf` of each pair bit for bit, for every case, with
-/// directions below, at and above the horizon (and a zero direction, as the integrator
-/// passes for hits without a light sample) and batch lengths that leave lanes empty.
+/// `eval_pdf_many` (the wavefront integrator's batched next-event call) returns `eval`
+/// and `pdf` of each pair bit for bit, for every material kind, with directions below, at
+/// and above the horizon, grazing, equal and mirrored, the zero vector, and batch lengths
+/// that leave SIMD lanes empty; every value is finite.
 #[test]
 fn batched_evaluation_equals_single_evaluations() {
-    let dir = |k: usize, a: f32, b: f32| {
-        let t = k as f32;
-        let z = match k % 5 {
-            0 => -0.4,
-            1 => 0.0,
-            _ => (t * a).fract(),
-        };
-        let phi = std::f32::consts::TAU * (t * b).fract();
-        let r = (1.0 - z * z).sqrt();
-        Vec3::new(r * phi.cos(), r * phi.sin(), z)
-    };
-    for case in cases() {
-        for n in [1usize, 8, 13, 200] {
-            let wo: Vec<Vec3> = (0..n).map(|k| dir(k, 0.381_966, 0.618_034)).collect();
-            let wi: Vec<Vec3> = (0..n)
-                .map(|k| {
-                    if k % 11 == 4 {
-                        Vec3::ZERO
-                    } else {
-                        dir(k + 2, 0.754_878, 0.569_840)
-                    }
-                })
-                .collect();
+    for case in cases().iter().chain(measured_cases()) {
+        for (n, seed) in [(1usize, 0usize), (8, 3), (13, 5), (300, 11)] {
+            let q = batch_inputs(n, seed);
             let mut f = vec![lobe_materials::Rgb::ZERO; n];
             let mut pdf = vec![0.0f32; n];
-            case.bsdf.eval_pdf_many(&wo, &wi, &mut f, &mut pdf);
+            case.bsdf.eval_pdf_many(&q.wo, &q.wi, &mut f, &mut pdf);
             for k in 0..n {
-                let e = case.bsdf.eval(wo[k], wi[k]);
+                let (wo, wi) = (q.wo[k], q.wi[k]);
+                let e = case.bsdf.eval(wo, wi);
+                let p = case.bsdf.pdf(wo, wi);
                 assert_eq!(
                     [f[k].r, f[k].g, f[k].b, pdf[k]].map(f32::to_bits),
-                    [e.r, e.g, e.b, case.bsdf.pdf(wo[k], wi[k])].map(f32::to_bits),
-                    "{}: wo {:?}, wi {:?}",
+                    [e.r, e.g, e.b, p].map(f32::to_bits),
+                    "{}: wo {wo:?}, wi {wi:?}",
                     case.name,
-                    wo[k],
-                    wi[k]
+                );
+                assert!(
+                    e.is_finite() && p.is_finite(),
+                    "{}: f {e:?}, pdf {p} at wo {wo:?}, wi {wi:?}",
+                    case.name
                 );
             }
         }

@@ -6,12 +6,28 @@
 //! Sampling inverts a marginal CDF over rows and a conditional CDF within the row, both
 //! exact for the bilinear interpolant (trapezoids accumulated in f64), so `sample`,
 //! `invert` and `eval` agree.
+//!
+//! As in Mitsuba, a query first finds its parameter slices and their weights once
+//! ([`Marginal2D::slices`], Mitsuba's `interpolate_weights`), and every table read of the
+//! query then blends those slices with a fixed number of fused multiply-adds
+//! ([`Slices::at`]); the CDFs are inverted by binary search. Queries that share their
+//! parameters and parameter grid (the RGL tables of one `wo`) share one [`Slices`].
+//! A table may hold several values per node (`channels`: the RGL colour table keeps r, g
+//! and b of a node side by side, so that one patch lookup reads all three).
+
+use crate::simd::{clamp, f32x8, fmadd, gather, i32x8, max_lane, rows4, sel};
+use wide::Select;
+
+/// At most this many parameters take part in the interpolation (parameters with a single
+/// value select their slice and cost nothing).
+pub const MAX_PARAMS: usize = 2;
 
 /// The distribution of one table (with `sampling`, normalized to integrate to one per slice).
 #[derive(Clone, Debug)]
 pub struct Marginal2D {
     w: usize,
     h: usize,
+    channels: usize,
     params: Vec<Vec<f32>>,
     strides: Vec<usize>,
     data: Vec<f32>,
@@ -19,10 +35,67 @@ pub struct Marginal2D {
     marg: Vec<f32>,
 }
 
-/// Parameter blend: slice offset and per-parameter weights.
-struct Blend {
-    offset: usize,
-    weights: Vec<(f32, f32)>,
+/// The parameter slices a query reads and their weights: the first slice, and per
+/// interpolated parameter (in parameter order) its stride in slices and its weights
+/// (1 - t, t). Found once per query by [`Marginal2D::slices`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slices {
+    first: usize,
+    dims: usize,
+    stride: [usize; MAX_PARAMS],
+    weight: [(f32, f32); MAX_PARAMS],
+}
+
+impl Slices {
+    /// The only slice of a table without parameters.
+    pub const NONE: Slices = Slices {
+        first: 0,
+        dims: 0,
+        stride: [0; MAX_PARAMS],
+        weight: [(1.0, 0.0); MAX_PARAMS],
+    };
+
+    /// Entry `i` of a table `arr` of `n` entries per slice, blended over the slices as
+    /// Mitsuba's `lookup` does: the last parameter outermost, `fmadd(v0, w0, v1 * w1)`.
+    #[inline(always)]
+    pub fn at(&self, arr: &[f32], n: usize, i: usize) -> f32 {
+        let b = self.first * n + i;
+        let inner = |j: usize| {
+            let (w0, w1) = self.weight[0];
+            arr[j].mul_add(w0, arr[j + self.stride[0] * n] * w1)
+        };
+        match self.dims {
+            0 => arr[b],
+            1 => inner(b),
+            _ => {
+                let (w0, w1) = self.weight[1];
+                inner(b).mul_add(w0, inner(b + self.stride[1] * n) * w1)
+            }
+        }
+    }
+}
+
+/// Index of the first of `n` values `v(0)`, .., `v(n - 1)` (non-decreasing) that is at
+/// least `x`, or `n - 1` when none is: the linear scan's answer by binary search (the
+/// iteration count depends on `n` only).
+#[inline(always)]
+pub fn first_at_least(n: usize, x: f32, v: impl Fn(usize) -> f32) -> usize {
+    // The answer (n: none) lies in [base, base + size] (Khuong and Morin's branch-free
+    // lower bound).
+    let (mut base, mut size) = (0usize, n);
+    while size > 1 {
+        let half = size / 2;
+        if v(base + half) < x {
+            base += half;
+        }
+        size -= half;
+    }
+    (base + (v(base) < x) as usize).min(n - 1)
+}
+
+#[inline(always)]
+fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    b.mul_add(t, (-a).mul_add(t, a))
 }
 
 impl Marginal2D {
@@ -33,7 +106,27 @@ impl Marginal2D {
     /// `data` holds the slices (last parameter fastest), each `h` rows of `w` values.
     /// With `sampling`, each slice is normalized and its CDFs built.
     pub fn new(data: &[f32], w: usize, h: usize, params: Vec<Vec<f32>>, sampling: bool) -> Self {
-        assert!(w >= 2 && h >= 2);
+        let mut out = Self::with_channels(data, w, h, 1, params);
+        if sampling {
+            out.build_cdfs();
+        }
+        out
+    }
+
+    /// A table of `channels` values per node (node-major: the values of a node side by
+    /// side), for evaluation only ([`Marginal2D::eval_channels`]).
+    pub fn with_channels(
+        data: &[f32],
+        w: usize,
+        h: usize,
+        channels: usize,
+        params: Vec<Vec<f32>>,
+    ) -> Self {
+        assert!(w >= 2 && h >= 2 && channels >= 1);
+        assert!(
+            params.iter().filter(|p| p.len() > 1).count() <= MAX_PARAMS,
+            "at most {MAX_PARAMS} interpolated parameters"
+        );
         let mut strides = vec![0usize; params.len()];
         let mut s = 1usize;
         for d in (0..params.len()).rev() {
@@ -41,115 +134,123 @@ impl Marginal2D {
             s *= params[d].len();
         }
         let slices = params.iter().map(|p| p.len()).product::<usize>().max(1);
-        assert_eq!(data.len(), slices * w * h);
-        let mut out = Self {
+        assert_eq!(data.len(), slices * w * h * channels);
+        Self {
             w,
             h,
+            channels,
             params,
             strides,
             data: data.to_vec(),
             cond: Vec::new(),
             marg: Vec::new(),
-        };
-        if sampling {
-            out.cond = vec![0.0; slices * h * (w - 1)];
-            out.marg = vec![0.0; slices * (h - 1)];
-            for sl in 0..slices {
-                let d = &data[sl * w * h..(sl + 1) * w * h];
-                let mut rows = vec![0.0f64; h];
-                for y in 0..h {
-                    let mut acc = 0.0f64;
-                    for x in 0..w - 1 {
-                        acc +=
-                            0.5 / (w - 1) as f64 * (d[y * w + x] as f64 + d[y * w + x + 1] as f64);
-                        out.cond[sl * h * (w - 1) + y * (w - 1) + x] = acc as f32;
-                    }
-                    rows[y] = acc;
-                }
-                let mut acc = 0.0f64;
-                for y in 0..h - 1 {
-                    acc += 0.5 / (h - 1) as f64 * (rows[y] + rows[y + 1]);
-                    out.marg[sl * (h - 1) + y] = acc as f32;
-                }
-                let norm = if acc > 0.0 { (1.0 / acc) as f32 } else { 0.0 };
-                for v in &mut out.cond[sl * h * (w - 1)..(sl + 1) * h * (w - 1)] {
-                    *v *= norm;
-                }
-                for v in &mut out.marg[sl * (h - 1)..(sl + 1) * (h - 1)] {
-                    *v *= norm;
-                }
-                for v in &mut out.data[sl * w * h..(sl + 1) * w * h] {
-                    *v *= norm;
-                }
-            }
         }
-        out
     }
 
-    fn blend(&self, p: &[f32]) -> Blend {
-        let mut offset = 0;
-        let mut weights = Vec::with_capacity(self.params.len());
+    /// Normalizes each slice and builds its conditional and marginal CDFs.
+    fn build_cdfs(&mut self) {
+        let (w, h) = (self.w, self.h);
+        let slices = self.data.len() / (w * h);
+        self.cond = vec![0.0; slices * h * (w - 1)];
+        self.marg = vec![0.0; slices * (h - 1)];
+        for sl in 0..slices {
+            let d = &mut self.data[sl * w * h..(sl + 1) * w * h];
+            let cond = &mut self.cond[sl * h * (w - 1)..(sl + 1) * h * (w - 1)];
+            let marg = &mut self.marg[sl * (h - 1)..(sl + 1) * (h - 1)];
+            let mut rows = vec![0.0f64; h];
+            for y in 0..h {
+                let mut acc = 0.0f64;
+                for x in 0..w - 1 {
+                    acc += 0.5 / (w - 1) as f64 * (d[y * w + x] as f64 + d[y * w + x + 1] as f64);
+                    cond[y * (w - 1) + x] = acc as f32;
+                }
+                rows[y] = acc;
+            }
+            let mut acc = 0.0f64;
+            for y in 0..h - 1 {
+                acc += 0.5 / (h - 1) as f64 * (rows[y] + rows[y + 1]);
+                marg[y] = acc as f32;
+            }
+            let norm = if acc > 0.0 { (1.0 / acc) as f32 } else { 0.0 };
+            for v in cond.iter_mut().chain(marg.iter_mut()).chain(d.iter_mut()) {
+                *v *= norm;
+            }
+        }
+    }
+
+    /// The node values (normalized when the table was built for sampling), slices one
+    /// after the other, each `h` rows of `w` nodes of `channels` values.
+    pub fn values(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// Whether `other` interpolates the same parameter values (so that it can use this
+    /// table's [`Slices`]).
+    pub fn same_params(&self, other: &Marginal2D) -> bool {
+        self.params == other.params
+    }
+
+    /// The slices and weights of parameters `p` (Mitsuba's `interpolate_weights`): per
+    /// parameter the interval [v_i, v_i+1] of its values that holds p (the first or last
+    /// one beyond them) and t = (p - v_i) / (v_i+1 - v_i) clamped to [0, 1].
+    pub fn slices(&self, p: &[f32]) -> Slices {
+        let mut s = Slices::NONE;
         for (d, vals) in self.params.iter().enumerate() {
             let n = vals.len();
             if n <= 1 {
-                weights.push((1.0, 0.0));
                 continue;
             }
             let x = p[d];
-            let mut i = n - 1;
-            for (k, &v) in vals.iter().enumerate().skip(1) {
-                if v >= x {
-                    i = k;
-                    break;
-                }
-            }
-            let i = i - 1;
+            let i = first_at_least(n - 1, x, |k| vals[k + 1]);
             let t = ((x - vals[i]) / (vals[i + 1] - vals[i])).clamp(0.0, 1.0);
-            weights.push((1.0 - t, t));
-            offset += self.strides[d] * i;
+            s.first += self.strides[d] * i;
+            s.stride[s.dims] = self.strides[d];
+            s.weight[s.dims] = (1.0 - t, t);
+            s.dims += 1;
         }
-        Blend { offset, weights }
+        s
     }
 
-    /// Value of `arr` (per-slice size `n`) at local index `i`, blended over the parameters.
-    fn lookup(&self, arr: &[f32], n: usize, b: &Blend, i: usize) -> f32 {
-        fn rec(m: &Marginal2D, arr: &[f32], n: usize, b: &Blend, d: usize, i: usize) -> f32 {
-            if d == 0 {
-                return arr[b.offset * n + i];
-            }
-            let (w0, w1) = b.weights[d - 1];
-            let s = m.strides[d - 1];
-            let a = rec(m, arr, n, b, d - 1, i);
-            if w1 == 0.0 || s == 0 {
-                return a * w0;
-            }
-            let c = rec(m, arr, n, b, d - 1, i + s * n);
-            a.mul_add(w0, c * w1)
-        }
-        rec(self, arr, n, b, self.params.len(), i)
-    }
-
-    #[inline]
-    fn lerp(a: f32, b: f32, t: f32) -> f32 {
-        b.mul_add(t, (-a).mul_add(t, a))
-    }
-
-    /// The (normalized) density at u.
-    pub fn eval(&self, u: [f32; 2], p: &[f32]) -> f32 {
-        let b = self.blend(p);
+    /// The patch of u (clamped to the square): its lower-left node (x, y) and the
+    /// fractions of u within it.
+    #[inline(always)]
+    fn patch(&self, u: [f32; 2]) -> (usize, usize, f32, f32) {
         let (w, h) = (self.w, self.h);
         let px = u[0].clamp(0.0, 1.0) * (w - 1) as f32;
         let py = u[1].clamp(0.0, 1.0) * (h - 1) as f32;
         let ox = (px as usize).min(w - 2);
         let oy = (py as usize).min(h - 2);
-        let (fx, fy) = (px - ox as f32, py - oy as f32);
-        let i = oy * w + ox;
-        let n = w * h;
-        let v00 = self.lookup(&self.data, n, &b, i);
-        let v10 = self.lookup(&self.data, n, &b, i + 1);
-        let v01 = self.lookup(&self.data, n, &b, i + w);
-        let v11 = self.lookup(&self.data, n, &b, i + w + 1);
-        Self::lerp(Self::lerp(v00, v10, fx), Self::lerp(v01, v11, fx), fy)
+        (ox, oy, px - ox as f32, py - oy as f32)
+    }
+
+    /// The (normalized) density at u for parameters `p`.
+    pub fn eval(&self, u: [f32; 2], p: &[f32]) -> f32 {
+        self.eval_in(u, &self.slices(p))
+    }
+
+    /// [`Marginal2D::eval`] in the slices of a query.
+    #[inline]
+    pub fn eval_in(&self, u: [f32; 2], sl: &Slices) -> f32 {
+        self.eval_channels::<1>(u, sl)[0]
+    }
+
+    /// The `C` values of the bilinear interpolant at u in the slices of a query (each as
+    /// [`Marginal2D::eval_in`] computes it for a table of one channel).
+    #[inline]
+    pub fn eval_channels<const C: usize>(&self, u: [f32; 2], sl: &Slices) -> [f32; C] {
+        assert_eq!(C, self.channels);
+        let (ox, oy, fx, fy) = self.patch(u);
+        let n = self.w * self.h * C;
+        let i = (oy * self.w + ox) * C;
+        let row = self.w * C;
+        let mut out = [0.0; C];
+        for (c, o) in out.iter_mut().enumerate() {
+            let at = |k: usize| sl.at(&self.data, n, k + c);
+            let (v00, v10) = (at(i), at(i + C));
+            let (v01, v11) = (at(i + row), at(i + row + C));
+            *o = lerp(lerp(v00, v10, fx), lerp(v01, v11, fx), fy);
+        }
+        out
     }
 
     fn sample_segment(u: f32, inv_w: f32, v0: f32, v1: f32) -> f32 {
@@ -157,105 +258,379 @@ impl Marginal2D {
         let div = if nonconst { v0 - v1 } else { v0 + v1 };
         let mut u = u * 2.0 * inv_w;
         if nonconst {
-            u = v0 - (v0 * v0 + u * (v1 - v0)).max(0.0).sqrt();
+            u = v0 - max_lane(v0 * v0 + u * (v1 - v0), 0.0).sqrt();
         }
         if div != 0.0 { u / div } else { u }
     }
 
     /// Warps a uniform sample to the distribution: (u, density).
     pub fn sample(&self, xi: [f32; 2], p: &[f32]) -> ([f32; 2], f32) {
-        let b = self.blend(p);
+        self.sample_in(xi, &self.slices(p))
+    }
+
+    /// [`Marginal2D::sample`] in the slices of a query.
+    pub fn sample_in(&self, xi: [f32; 2], b: &Slices) -> ([f32; 2], f32) {
         let (w, h) = (self.w, self.h);
         let eps = f32::EPSILON / 2.0;
         let (mut x, mut y) = (xi[0].clamp(eps, 1.0 - eps), xi[1].clamp(eps, 1.0 - eps));
         let nm = h - 1;
         let nc = h * (w - 1);
-        // Row: first r with marg[r] >= y.
-        let mut row = h - 2;
-        for r in 0..h - 1 {
-            if self.lookup(&self.marg, nm, &b, r) >= y {
-                row = r;
-                break;
-            }
-        }
+        // Row: the first r with marg[r] >= y.
+        let row = first_at_least(h - 1, y, |r| b.at(&self.marg, nm, r));
         if row > 0 {
-            y -= self.lookup(&self.marg, nm, &b, row - 1);
+            y -= b.at(&self.marg, nm, row - 1);
         }
-        let r0 = self.lookup(&self.cond, nc, &b, row * (w - 1) + w - 2);
-        let r1 = self.lookup(&self.cond, nc, &b, (row + 1) * (w - 1) + w - 2);
+        let r0 = b.at(&self.cond, nc, row * (w - 1) + w - 2);
+        let r1 = b.at(&self.cond, nc, (row + 1) * (w - 1) + w - 2);
         let ty = Self::sample_segment(y, (h - 1) as f32, r0, r1);
-        x *= Self::lerp(r0, r1, ty);
+        x *= lerp(r0, r1, ty);
         let c = |k: usize| {
-            Self::lerp(
-                self.lookup(&self.cond, nc, &b, row * (w - 1) + k),
-                self.lookup(&self.cond, nc, &b, (row + 1) * (w - 1) + k),
+            lerp(
+                b.at(&self.cond, nc, row * (w - 1) + k),
+                b.at(&self.cond, nc, (row + 1) * (w - 1) + k),
                 ty,
             )
         };
-        let mut col = w - 2;
-        for k in 0..w - 1 {
-            if c(k) >= x {
-                col = k;
-                break;
-            }
-        }
+        let col = first_at_least(w - 1, x, c);
         if col > 0 {
             x -= c(col - 1);
         }
         let n = w * h;
         let i = row * w + col;
-        let v00 = self.lookup(&self.data, n, &b, i);
-        let v10 = self.lookup(&self.data, n, &b, i + 1);
-        let v01 = self.lookup(&self.data, n, &b, i + w);
-        let v11 = self.lookup(&self.data, n, &b, i + w + 1);
-        let c0 = Self::lerp(v00, v01, ty);
-        let c1 = Self::lerp(v10, v11, ty);
+        let v00 = b.at(&self.data, n, i);
+        let v10 = b.at(&self.data, n, i + 1);
+        let v01 = b.at(&self.data, n, i + w);
+        let v11 = b.at(&self.data, n, i + w + 1);
+        let c0 = lerp(v00, v01, ty);
+        let c1 = lerp(v10, v11, ty);
         let tx = Self::sample_segment(x, (w - 1) as f32, c0, c1);
         let inv = [1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32];
         (
             [(col as f32 + tx) * inv[0], (row as f32 + ty) * inv[1]],
-            Self::lerp(c0, c1, tx),
+            lerp(c0, c1, tx),
         )
     }
 
     /// The uniform sample that `sample` maps to u, and the density at u.
     pub fn invert(&self, u: [f32; 2], p: &[f32]) -> ([f32; 2], f32) {
-        let b = self.blend(p);
+        self.invert_in(u, &self.slices(p))
+    }
+
+    /// [`Marginal2D::invert`] in the slices of a query.
+    pub fn invert_in(&self, u: [f32; 2], b: &Slices) -> ([f32; 2], f32) {
         let (w, h) = (self.w, self.h);
-        let ux = u[0].clamp(0.0, 1.0) * (w - 1) as f32;
-        let uy = u[1].clamp(0.0, 1.0) * (h - 1) as f32;
-        let px = (ux as usize).min(w - 2);
-        let py = (uy as usize).min(h - 2);
-        let (fx, fy) = (ux - px as f32, uy - py as f32);
+        let (px, py, fx, fy) = self.patch(u);
         let n = w * h;
         let i = py * w + px;
-        let v00 = self.lookup(&self.data, n, &b, i);
-        let v10 = self.lookup(&self.data, n, &b, i + 1);
-        let v01 = self.lookup(&self.data, n, &b, i + w);
-        let v11 = self.lookup(&self.data, n, &b, i + w + 1);
-        let c0 = Self::lerp(v00, v01, fy);
-        let c1 = Self::lerp(v10, v11, fy);
-        let pdf = Self::lerp(c0, c1, fx);
+        let v00 = b.at(&self.data, n, i);
+        let v10 = b.at(&self.data, n, i + 1);
+        let v01 = b.at(&self.data, n, i + w);
+        let v11 = b.at(&self.data, n, i + w + 1);
+        let c0 = lerp(v00, v01, fy);
+        let c1 = lerp(v10, v11, fy);
+        let pdf = lerp(c0, c1, fx);
         let nc = h * (w - 1);
         let nm = h - 1;
-        let mut x = fx * Self::lerp(c0, c1, 0.5 * fx) * (1.0 / (w - 1) as f32);
+        let mut x = fx * lerp(c0, c1, 0.5 * fx) * (1.0 / (w - 1) as f32);
         if px > 0 {
-            x += Self::lerp(
-                self.lookup(&self.cond, nc, &b, py * (w - 1) + px - 1),
-                self.lookup(&self.cond, nc, &b, (py + 1) * (w - 1) + px - 1),
+            x += lerp(
+                b.at(&self.cond, nc, py * (w - 1) + px - 1),
+                b.at(&self.cond, nc, (py + 1) * (w - 1) + px - 1),
                 fy,
             );
         }
-        let r0 = self.lookup(&self.cond, nc, &b, py * (w - 1) + w - 2);
-        let r1 = self.lookup(&self.cond, nc, &b, (py + 1) * (w - 1) + w - 2);
-        let rl = Self::lerp(r0, r1, fy);
+        let r0 = b.at(&self.cond, nc, py * (w - 1) + w - 2);
+        let r1 = b.at(&self.cond, nc, (py + 1) * (w - 1) + w - 2);
+        let rl = lerp(r0, r1, fy);
         if rl > 0.0 {
             x /= rl;
         }
-        let mut y = fy * Self::lerp(r0, r1, 0.5 * fy) * (1.0 / (h - 1) as f32);
+        let mut y = fy * lerp(r0, r1, 0.5 * fy) * (1.0 / (h - 1) as f32);
         if py > 0 {
-            y += self.lookup(&self.marg, nm, &b, py - 1);
+            y += b.at(&self.marg, nm, py - 1);
         }
+        ([x, y], pdf)
+    }
+}
+
+/// [`Slices`] of eight queries, one per lane ([`Marginal2D::slices_x8`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Slicesx8 {
+    first: i32x8,
+    dims: usize,
+    stride: [i32; MAX_PARAMS],
+    weight: [(f32x8, f32x8); MAX_PARAMS],
+}
+
+impl Slicesx8 {
+    /// The only slice of a table without parameters, in every lane.
+    pub fn none() -> Self {
+        Self {
+            first: i32x8::splat(0),
+            dims: 0,
+            stride: [0; MAX_PARAMS],
+            weight: [(f32x8::splat(1.0), f32x8::splat(0.0)); MAX_PARAMS],
+        }
+    }
+
+    /// [`Slices::at`] per lane (entry `i[k]` in lane k).
+    #[inline(always)]
+    pub fn at(&self, arr: &[f32], n: usize, i: i32x8) -> f32x8 {
+        let n = n as i32;
+        let b = self.first * i32x8::splat(n) + i;
+        match self.dims {
+            0 => gather(arr, b),
+            1 => self.inner(arr, n, b),
+            _ => {
+                let (w0, w1) = self.weight[1];
+                let far = self.inner(arr, n, b + i32x8::splat(self.stride[1] * n));
+                fmadd(self.inner(arr, n, b), w0, far * w1)
+            }
+        }
+    }
+
+    /// [`Slicesx8::at`] of the four entries `i[k]..i[k] + 4` in lane k (a node of a
+    /// four-channel table): one 16-byte load per lane and slice, transposed
+    /// ([`crate::simd::rows4`]), instead of four gathers.
+    #[inline(always)]
+    pub fn at4(&self, arr: &[f32], n: usize, i: i32x8) -> [f32x8; 4] {
+        let n = n as i32;
+        let b = self.first * i32x8::splat(n) + i;
+        match self.dims {
+            0 => rows(arr, b),
+            1 => self.inner4(arr, n, b),
+            _ => {
+                let (w0, w1) = self.weight[1];
+                let near = self.inner4(arr, n, b);
+                let far = self.inner4(arr, n, b + i32x8::splat(self.stride[1] * n));
+                [0, 1, 2, 3].map(|c| fmadd(near[c], w0, far[c] * w1))
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn inner4(&self, arr: &[f32], n: i32, j: i32x8) -> [f32x8; 4] {
+        let (w0, w1) = self.weight[0];
+        let near = rows(arr, j);
+        let far = rows(arr, j + i32x8::splat(self.stride[0] * n));
+        [0, 1, 2, 3].map(|c| fmadd(near[c], w0, far[c] * w1))
+    }
+
+    /// The blend over the first interpolated parameter at entries `j`.
+    #[inline(always)]
+    fn inner(&self, arr: &[f32], n: i32, j: i32x8) -> f32x8 {
+        let (w0, w1) = self.weight[0];
+        let far = gather(arr, j + i32x8::splat(self.stride[0] * n));
+        fmadd(gather(arr, j), w0, far * w1)
+    }
+}
+
+/// The four values from `arr[j[k]]` on, lane k, as four lane vectors.
+#[inline(always)]
+fn rows(arr: &[f32], j: i32x8) -> [f32x8; 4] {
+    let j = j.to_array();
+    rows4(|k| {
+        let j = j[k] as usize;
+        [arr[j], arr[j + 1], arr[j + 2], arr[j + 3]]
+    })
+}
+
+/// [`first_at_least`] per lane: the same probes, lane by lane.
+#[inline(always)]
+pub fn first_at_least_x8(n: usize, x: f32x8, v: impl Fn(i32x8) -> f32x8) -> i32x8 {
+    let mut base = i32x8::splat(0);
+    let mut size = n;
+    while size > 1 {
+        let half = size / 2;
+        let next = base + i32x8::splat(half as i32);
+        base = Select::<i32x8>::select(v(next).simd_lt(x), next, base);
+        size -= half;
+    }
+    let below: i32x8 = wide::bytemuck::cast(v(base).simd_lt(x));
+    // `below` is -1 where set: subtracting it adds one.
+    (base - below).min(i32x8::splat(n as i32 - 1))
+}
+
+#[inline(always)]
+fn lerp_x8(a: f32x8, b: f32x8, t: f32x8) -> f32x8 {
+    fmadd(b, t, fmadd(-a, t, a))
+}
+
+impl Marginal2D {
+    /// [`Marginal2D::slices`] per lane.
+    pub fn slices_x8(&self, p: &[f32x8]) -> Slicesx8 {
+        let mut s = Slicesx8::none();
+        for (d, vals) in self.params.iter().enumerate() {
+            let n = vals.len();
+            if n <= 1 {
+                continue;
+            }
+            let x = p[d];
+            let i = first_at_least_x8(n - 1, x, |k| gather(vals, k + i32x8::splat(1)));
+            let v0 = gather(vals, i);
+            let v1 = gather(vals, i + i32x8::splat(1));
+            let t = clamp((x - v0) / (v1 - v0), 0.0, 1.0);
+            s.first += i * i32x8::splat(self.strides[d] as i32);
+            s.stride[s.dims] = self.strides[d] as i32;
+            s.weight[s.dims] = (f32x8::splat(1.0) - t, t);
+            s.dims += 1;
+        }
+        s
+    }
+
+    /// [`Marginal2D::patch`] per lane.
+    #[inline(always)]
+    fn patch_x8(&self, u: [f32x8; 2]) -> (i32x8, i32x8, f32x8, f32x8) {
+        let (w, h) = (self.w, self.h);
+        let px = clamp(u[0], 0.0, 1.0) * f32x8::splat((w - 1) as f32);
+        let py = clamp(u[1], 0.0, 1.0) * f32x8::splat((h - 1) as f32);
+        let ox = px.trunc_int().min(i32x8::splat(w as i32 - 2));
+        let oy = py.trunc_int().min(i32x8::splat(h as i32 - 2));
+        (
+            ox,
+            oy,
+            px - f32x8::from_i32x8(ox),
+            py - f32x8::from_i32x8(oy),
+        )
+    }
+
+    /// [`Marginal2D::eval_in`] per lane.
+    #[inline]
+    pub fn eval_x8(&self, u: [f32x8; 2], sl: &Slicesx8) -> f32x8 {
+        self.eval_channels_x8::<1>(u, sl)[0]
+    }
+
+    /// [`Marginal2D::eval_channels`] per lane (four-channel tables by transposed loads).
+    #[inline]
+    pub fn eval_channels_x8<const C: usize>(&self, u: [f32x8; 2], sl: &Slicesx8) -> [f32x8; C] {
+        assert_eq!(C, self.channels);
+        let (ox, oy, fx, fy) = self.patch_x8(u);
+        let n = self.w * self.h * C;
+        let i = (oy * i32x8::splat(self.w as i32) + ox) * i32x8::splat(C as i32);
+        let (c1, row) = (i32x8::splat(C as i32), i32x8::splat((self.w * C) as i32));
+        let mut out = [f32x8::splat(0.0); C];
+        if C == 4 {
+            let (v00, v10) = (sl.at4(&self.data, n, i), sl.at4(&self.data, n, i + c1));
+            let (v01, v11) = (
+                sl.at4(&self.data, n, i + row),
+                sl.at4(&self.data, n, i + row + c1),
+            );
+            for (c, o) in out.iter_mut().enumerate() {
+                *o = lerp_x8(lerp_x8(v00[c], v10[c], fx), lerp_x8(v01[c], v11[c], fx), fy);
+            }
+            return out;
+        }
+        for (c, o) in out.iter_mut().enumerate() {
+            let at = |k: i32x8| sl.at(&self.data, n, k + i32x8::splat(c as i32));
+            let (v00, v10) = (at(i), at(i + c1));
+            let (v01, v11) = (at(i + row), at(i + row + c1));
+            *o = lerp_x8(lerp_x8(v00, v10, fx), lerp_x8(v01, v11, fx), fy);
+        }
+        out
+    }
+
+    /// [`Marginal2D::sample_segment`] per lane.
+    #[inline(always)]
+    fn sample_segment_x8(u: f32x8, inv_w: f32, v0: f32x8, v1: f32x8) -> f32x8 {
+        let zero = f32x8::splat(0.0);
+        let nonconst = (v0 - v1).abs().simd_gt(f32x8::splat(1e-4) * (v0 + v1));
+        let div = sel(nonconst, v0 - v1, v0 + v1);
+        let u = u * f32x8::splat(2.0) * f32x8::splat(inv_w);
+        let u = sel(nonconst, v0 - (v0 * v0 + u * (v1 - v0)).max(zero).sqrt(), u);
+        sel(!div.simd_eq(zero), u / div, u)
+    }
+
+    /// [`Marginal2D::sample_in`] per lane.
+    pub fn sample_x8(&self, xi: [f32x8; 2], b: &Slicesx8) -> ([f32x8; 2], f32x8) {
+        let (w, h) = (self.w, self.h);
+        let eps = f32::EPSILON / 2.0;
+        let (mut x, mut y) = (clamp(xi[0], eps, 1.0 - eps), clamp(xi[1], eps, 1.0 - eps));
+        let (nm, nc) = (h - 1, h * (w - 1));
+        let (one, zero) = (i32x8::splat(1), i32x8::splat(0));
+        let row = first_at_least_x8(h - 1, y, |r| b.at(&self.marg, nm, r));
+        let prev = b.at(&self.marg, nm, (row - one).max(zero));
+        y = sel(
+            f32x8::from_i32x8(row).simd_gt(f32x8::splat(0.0)),
+            y - prev,
+            y,
+        );
+        let wm1 = i32x8::splat(w as i32 - 1);
+        let (row0, row1) = (row * wm1, (row + one) * wm1);
+        let last = i32x8::splat(w as i32 - 2);
+        let r0 = b.at(&self.cond, nc, row0 + last);
+        let r1 = b.at(&self.cond, nc, row1 + last);
+        let ty = Self::sample_segment_x8(y, (h - 1) as f32, r0, r1);
+        x *= lerp_x8(r0, r1, ty);
+        let c = |k: i32x8| {
+            lerp_x8(
+                b.at(&self.cond, nc, row0 + k),
+                b.at(&self.cond, nc, row1 + k),
+                ty,
+            )
+        };
+        let col = first_at_least_x8(w - 1, x, c);
+        let prev = c((col - one).max(zero));
+        x = sel(
+            f32x8::from_i32x8(col).simd_gt(f32x8::splat(0.0)),
+            x - prev,
+            x,
+        );
+        let n = w * h;
+        let i = row * i32x8::splat(w as i32) + col;
+        let wi = i32x8::splat(w as i32);
+        let v00 = b.at(&self.data, n, i);
+        let v10 = b.at(&self.data, n, i + one);
+        let v01 = b.at(&self.data, n, i + wi);
+        let v11 = b.at(&self.data, n, i + wi + one);
+        let c0 = lerp_x8(v00, v01, ty);
+        let c1 = lerp_x8(v10, v11, ty);
+        let tx = Self::sample_segment_x8(x, (w - 1) as f32, c0, c1);
+        let inv = [1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32].map(f32x8::splat);
+        (
+            [
+                (f32x8::from_i32x8(col) + tx) * inv[0],
+                (f32x8::from_i32x8(row) + ty) * inv[1],
+            ],
+            lerp_x8(c0, c1, tx),
+        )
+    }
+
+    /// [`Marginal2D::invert_in`] per lane.
+    pub fn invert_x8(&self, u: [f32x8; 2], b: &Slicesx8) -> ([f32x8; 2], f32x8) {
+        let (w, h) = (self.w, self.h);
+        let (px, py, fx, fy) = self.patch_x8(u);
+        let (one, zero) = (i32x8::splat(1), i32x8::splat(0));
+        let n = w * h;
+        let wi = i32x8::splat(w as i32);
+        let i = py * wi + px;
+        let v00 = b.at(&self.data, n, i);
+        let v10 = b.at(&self.data, n, i + one);
+        let v01 = b.at(&self.data, n, i + wi);
+        let v11 = b.at(&self.data, n, i + wi + one);
+        let c0 = lerp_x8(v00, v01, fy);
+        let c1 = lerp_x8(v10, v11, fy);
+        let pdf = lerp_x8(c0, c1, fx);
+        let (nc, nm) = (h * (w - 1), h - 1);
+        let half = f32x8::splat(0.5);
+        let mut x = fx * lerp_x8(c0, c1, half * fx) * f32x8::splat(1.0 / (w - 1) as f32);
+        let wm1 = i32x8::splat(w as i32 - 1);
+        let (row0, row1) = (py * wm1, (py + one) * wm1);
+        let left = (px - one).max(zero);
+        let before = lerp_x8(
+            b.at(&self.cond, nc, row0 + left),
+            b.at(&self.cond, nc, row1 + left),
+            fy,
+        );
+        let fzero = f32x8::splat(0.0);
+        x = sel(f32x8::from_i32x8(px).simd_gt(fzero), x + before, x);
+        let last = i32x8::splat(w as i32 - 2);
+        let r0 = b.at(&self.cond, nc, row0 + last);
+        let r1 = b.at(&self.cond, nc, row1 + last);
+        let rl = lerp_x8(r0, r1, fy);
+        x = sel(rl.simd_gt(fzero), x / rl, x);
+        let mut y = fy * lerp_x8(r0, r1, half * fy) * f32x8::splat(1.0 / (h - 1) as f32);
+        let above = b.at(&self.marg, nm, (py - one).max(zero));
+        y = sel(f32x8::from_i32x8(py).simd_gt(fzero), y + above, y);
         ([x, y], pdf)
     }
 }
@@ -264,9 +639,8 @@ impl Marginal2D {
 mod tests {
     use super::*;
 
-    #[test]
-    fn sample_invert_and_eval_agree() {
-        // Two parameter slices of a 5 x 4 table.
+    /// Two parameter slices of a 5 x 4 table.
+    fn table() -> Marginal2D {
         let mut data = Vec::new();
         for s in 0..2 {
             for y in 0..4 {
@@ -275,7 +649,12 @@ mod tests {
                 }
             }
         }
-        let m = Marginal2D::new(&data, 5, 4, vec![vec![0.0, 1.0]], true);
+        Marginal2D::new(&data, 5, 4, vec![vec![0.0, 1.0]], true)
+    }
+
+    #[test]
+    fn sample_invert_and_eval_agree() {
+        let m = table();
         for k in 0..200 {
             let xi = [
                 ((k as f32) * 0.618_034).fract(),
@@ -302,5 +681,207 @@ mod tests {
             }
         }
         assert!((acc / (n * n) as f64 - 1.0).abs() < 1e-3);
+    }
+
+    /// The binary search finds what a linear scan finds, for every length and every
+    /// position of x among (repeated) values, and below and above all of them.
+    #[test]
+    fn first_at_least_equals_a_linear_scan() {
+        let linear = |v: &[f32], x: f32| v.iter().position(|&a| a >= x).unwrap_or(v.len() - 1);
+        for n in 1..40 {
+            let v: Vec<f32> = (0..n).map(|k| (k / 3) as f32).collect();
+            for x10 in -10..(n as i32 * 5) {
+                let x = x10 as f32 * 0.1;
+                assert_eq!(
+                    first_at_least(n, x, |k| v[k]),
+                    linear(&v, x),
+                    "n {n}, x {x}"
+                );
+            }
+        }
+    }
+
+    /// Parameter slices: the interval holding p (the end ones beyond the values), the
+    /// weights, and the blend of two parameters with the last outermost.
+    #[test]
+    fn slices_blend_the_neighbouring_parameter_values() {
+        let m = Marginal2D::with_channels(
+            &(0..3 * 4 * 4).map(|k| k as f32).collect::<Vec<_>>(),
+            2,
+            2,
+            1,
+            vec![vec![0.0, 1.0, 3.0], vec![10.0, 20.0, 30.0, 40.0]],
+        );
+        let s = m.slices(&[2.0, 25.0]);
+        // Slice (1, 1) first; strides 4 (first parameter) and 1 (second).
+        assert_eq!((s.first, s.dims, s.stride), (5, 2, [4, 1]));
+        assert_eq!(s.weight, [(0.5, 0.5), (0.5, 0.5)]);
+        // Entry 0 of slices 5, 9, 6, 10 (4 entries each): 20, 36, 24, 40 -> 30.
+        assert_eq!(s.at(&m.data, 4, 0), 30.0);
+        let below = m.slices(&[-1.0, 5.0]);
+        assert_eq!((below.first, below.weight), (0, [(1.0, 0.0), (1.0, 0.0)]));
+        let above = m.slices(&[9.0, 99.0]);
+        assert_eq!((above.first, above.weight), (6, [(0.0, 1.0), (0.0, 1.0)]));
+        // A one-value parameter takes no part.
+        let one =
+            Marginal2D::with_channels(&[0.0; 12], 2, 2, 1, vec![vec![0.5], vec![1.0, 2.0, 3.0]]);
+        let s = one.slices(&[7.0, 2.5]);
+        assert_eq!(
+            (s.first, s.dims, s.stride[0], s.weight[0]),
+            (1, 1, 1, (0.5, 0.5))
+        );
+    }
+
+    /// Awkward inputs for the eight-lane forms: nodes, edges, outside the square or the
+    /// parameter range, NaN.
+    fn awkward(k: usize) -> f32 {
+        const SPECIAL: [f32; 10] = [
+            0.0,
+            1.0,
+            -0.0,
+            -0.3,
+            1.7,
+            0.5,
+            0.25,
+            f32::NAN,
+            1e-9,
+            0.999_999_9,
+        ];
+        if k.is_multiple_of(5) {
+            SPECIAL[(k / 5) % SPECIAL.len()]
+        } else {
+            (k as f32 * 0.618_034 + 0.1).fract()
+        }
+    }
+
+    /// The eight-lane forms (slices, eval, channels, invert, sample) equal the scalar ones
+    /// bit for bit, lane by lane, on a table of two interpolated parameters with constant
+    /// and zero rows (the degenerate branches of the segment warp).
+    #[test]
+    fn x8_forms_equal_the_scalar_ones_bit_for_bit() {
+        use crate::simd::lanes;
+        let (w, h) = (7, 6);
+        let params = vec![vec![0.0, 0.4, 1.0], vec![-1.0, 0.0, 2.0, 3.0]];
+        let mut data = Vec::new();
+        for s in 0..12 {
+            for y in 0..h {
+                for x in 0..w {
+                    data.push(match (s + y) % 4 {
+                        0 => 0.0,
+                        1 => 2.5,
+                        _ => ((s * 13 + y * 5 + x * 7) % 11) as f32 * 0.3,
+                    });
+                }
+            }
+        }
+        let m = Marginal2D::new(&data, w, h, params, true);
+        let same = |a: f32, b: f32| a.to_bits() == b.to_bits();
+        for round in 0..400 {
+            let q = |j: usize| awkward(round * 8 * 6 + j);
+            let p0 = lanes(|i| q(i * 6) * 1.4 - 0.2);
+            let p1 = lanes(|i| q(i * 6 + 1) * 5.0 - 1.5);
+            let u = lanes(|i| [q(i * 6 + 2), q(i * 6 + 3)]);
+            let xi = lanes(|i| [q(i * 6 + 4), q(i * 6 + 5)]);
+            let sl8 = m.slices_x8(&[f32x8::new(p0), f32x8::new(p1)]);
+            let u8 = [f32x8::new(u.map(|v| v[0])), f32x8::new(u.map(|v| v[1]))];
+            let xi8 = [f32x8::new(xi.map(|v| v[0])), f32x8::new(xi.map(|v| v[1]))];
+            let e = m.eval_x8(u8, &sl8).to_array();
+            let (iv, ip) = m.invert_x8(u8, &sl8);
+            let (sv, sp) = m.sample_x8(xi8, &sl8);
+            for i in 0..8 {
+                let sl = m.slices(&[p0[i], p1[i]]);
+                let ctx = format!("p ({}, {}), u {:?}, xi {:?}", p0[i], p1[i], u[i], xi[i]);
+                assert!(same(e[i], m.eval_in(u[i], &sl)), "eval {ctx}");
+                let (v, p) = m.invert_in(u[i], &sl);
+                assert!(same(iv[0].to_array()[i], v[0]), "invert x {ctx}");
+                assert!(same(iv[1].to_array()[i], v[1]), "invert y {ctx}");
+                assert!(same(ip.to_array()[i], p), "invert pdf {ctx}");
+                let (v, p) = m.sample_in(xi[i], &sl);
+                assert!(same(sv[0].to_array()[i], v[0]), "sample x {ctx}");
+                assert!(same(sv[1].to_array()[i], v[1]), "sample y {ctx}");
+                assert!(same(sp.to_array()[i], p), "sample pdf {ctx}");
+            }
+        }
+    }
+
+    /// The binary search per lane finds what the scalar one finds.
+    #[test]
+    fn first_at_least_x8_equals_the_scalar_search() {
+        use crate::simd::lanes;
+        for n in 1..40 {
+            let v: Vec<f32> = (0..n).map(|k| (k / 3) as f32).collect();
+            for x10 in (-10..(n as i32 * 5)).step_by(8) {
+                let xs = lanes(|i| (x10 + i as i32) as f32 * 0.1);
+                let got = first_at_least_x8(n, f32x8::new(xs), |k| gather(&v, k)).to_array();
+                for i in 0..8 {
+                    assert_eq!(got[i] as usize, first_at_least(n, xs[i], |k| v[k]), "n {n}");
+                }
+            }
+        }
+    }
+
+    /// A table of several channels per node evaluates each channel as a one-channel table
+    /// of that channel does, bit for bit, one query at a time and eight (three channels by
+    /// gathers, four by transposed loads), with one and two interpolated parameters.
+    #[test]
+    fn channels_evaluate_as_separate_tables() {
+        fn check<const C: usize>(params: Vec<Vec<f32>>) {
+            use crate::simd::lanes;
+            let (w, h) = (6, 5);
+            let slices: usize = params.iter().map(Vec::len).product();
+            let value = |s: usize, y: usize, x: usize, c: usize| {
+                ((s * 31 + y * 7 + x * 3 + c * 11) % 17) as f32 * 0.37 - 1.0
+            };
+            let mut interleaved = Vec::new();
+            for s in 0..slices {
+                for y in 0..h {
+                    for x in 0..w {
+                        for c in 0..C {
+                            interleaved.push(value(s, y, x, c));
+                        }
+                    }
+                }
+            }
+            let table = Marginal2D::with_channels(&interleaved, w, h, C, params.clone());
+            let single: Vec<Marginal2D> = (0..C)
+                .map(|c| {
+                    let mut d = Vec::new();
+                    for s in 0..slices {
+                        for y in 0..h {
+                            for x in 0..w {
+                                d.push(value(s, y, x, c));
+                            }
+                        }
+                    }
+                    Marginal2D::new(&d, w, h, params.clone(), false)
+                })
+                .collect();
+            for round in 0..100 {
+                let q = |j: usize| awkward(round * 32 + j);
+                let u = lanes(|i| [q(4 * i) * 1.2 - 0.1, q(4 * i + 1)]);
+                let p = lanes(|i| [q(4 * i + 2) * 1.4 - 0.2, q(4 * i + 3) * 3.0]);
+                let p8 = [f32x8::new(p.map(|p| p[0])), f32x8::new(p.map(|p| p[1]))];
+                let sl8 = table.slices_x8(&p8[..params.len()]);
+                let u8 = [f32x8::new(u.map(|u| u[0])), f32x8::new(u.map(|u| u[1]))];
+                let got8 = table.eval_channels_x8::<C>(u8, &sl8);
+                for i in 0..8 {
+                    let p = &p[i][..params.len()];
+                    let got = table.eval_channels::<C>(u[i], &table.slices(p));
+                    for c in 0..C {
+                        let want = single[c].eval(u[i], p).to_bits();
+                        assert_eq!(got[c].to_bits(), want, "{C} channels: {u:?} {p:?}");
+                        assert_eq!(
+                            got8[c].to_array()[i].to_bits(),
+                            want,
+                            "x8, {C}: {u:?} {p:?}"
+                        );
+                    }
+                }
+            }
+        }
+        check::<3>(vec![vec![0.0, 0.7, 1.0]]);
+        check::<4>(vec![vec![0.0, 0.7, 1.0]]);
+        check::<4>(vec![vec![0.0, 0.7, 1.0], vec![0.5, 1.0, 2.5]]);
+        check::<4>(vec![]);
     }
 }

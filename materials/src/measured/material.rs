@@ -14,6 +14,7 @@ use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
+use crate::simd::{self, Vec3x8, f32x8};
 use glam::{Vec2, Vec3};
 use std::any::Any;
 use std::path::PathBuf;
@@ -257,9 +258,36 @@ impl RglBsdf {
         Self { table, clamp }
     }
 
-    fn projected(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        let v = self.table.eval_projected(wo, wi);
-        if self.clamp { v.map(|x| x.max(0.0)) } else { v }
+    fn clamped(&self, v: Rgb) -> Rgb {
+        if self.clamp {
+            v.map(|x| crate::simd::max_lane(x, 0.0))
+        } else {
+            v
+        }
+    }
+
+    /// The mixture density of `wi` from the table's density of it.
+    #[inline]
+    fn mixture_pdf(wi: Vec3, table_pdf: f32) -> f32 {
+        RGL_COSINE * crate::sampling::cosine_hemisphere_pdf(wi.z) + (1.0 - RGL_COSINE) * table_pdf
+    }
+
+    /// The sample of direction `wi` from its projected value and table density.
+    #[inline]
+    fn finish(&self, wi: Vec3, projected: Rgb, table_pdf: f32) -> Option<BsdfSample> {
+        let pdf = Self::mixture_pdf(wi, table_pdf);
+        (pdf > 0.0).then(|| BsdfSample {
+            wi,
+            weight: self.clamped(projected) / pdf,
+            pdf,
+        })
+    }
+
+    /// `eval` from the projected value.
+    #[inline]
+    fn f(&self, wi: Vec3, projected: Rgb) -> Rgb {
+        let v = self.clamped(projected) / wi.z;
+        if v.is_finite() { v } else { Rgb::ZERO }
     }
 }
 
@@ -268,36 +296,87 @@ impl Bsdf for RglBsdf {
         if wi.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let v = self.projected(wo, wi) / wi.z;
-        if v.is_finite() { v } else { Rgb::ZERO }
+        self.f(wi, self.table.eval_projected(wo, wi))
     }
 
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
-        let wi = if uc < RGL_COSINE {
-            crate::sampling::square_to_cosine_hemisphere(u)
+        if uc < RGL_COSINE {
+            let wi = crate::sampling::square_to_cosine_hemisphere(u);
+            if wi.z <= 0.0 {
+                return None;
+            }
+            let (v, p) = self.table.eval_projected_pdf(wo, wi);
+            self.finish(wi, v, p)
         } else {
-            self.table.sample(wo, u)?.0
-        };
-        let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0) || wi.z <= 0.0 {
-            return None;
+            // The table's own warp: its density and value come with the sample.
+            let (wi, p, v) = self.table.sample_value(wo, u)?;
+            self.finish(wi, v, p)
         }
-        Some(BsdfSample {
-            wi,
-            weight: self.projected(wo, wi) / pdf,
-            pdf,
-        })
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        RGL_COSINE * crate::sampling::cosine_hemisphere_pdf(wi.z)
-            + (1.0 - RGL_COSINE) * self.table.pdf(wo, wi)
+        Self::mixture_pdf(wi, self.table.pdf(wo, wi))
+    }
+
+    /// The pairs above the surface eight at a time through [`Rgl::eval_projected_pdf_x8`].
+    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
+        let n = f.len();
+        assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
+        f.fill(Rgb::ZERO);
+        pdf.fill(0.0);
+        let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
+        simd::chunks_where(n, above, |idx| {
+            let (v, p) = self.table.eval_projected_pdf_x8(
+                Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k])),
+                Vec3x8::from_array(&simd::lanes_of(idx, |k| wi[k])),
+            );
+            let p = p.to_array();
+            for (lane, &k) in idx.iter().enumerate() {
+                f[k] = self.f(wi[k], v.lane(lane));
+                pdf[k] = Self::mixture_pdf(wi[k], p[lane]);
+            }
+        });
+    }
+
+    /// Cosine-sampled and table-sampled queries each eight at a time
+    /// ([`Rgl::eval_projected_pdf_x8`], [`Rgl::sample_value_x8`]).
+    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+        let n = out.len();
+        assert!(wo.len() == n && u.len() == n && uc.len() == n);
+        out.fill(None);
+        let cosine = |k: usize| crate::sampling::square_to_cosine_hemisphere(u[k]);
+        let by_cosine = |k: usize| !(wo[k].z <= 0.0) && uc[k] < RGL_COSINE && !(cosine(k).z <= 0.0);
+        simd::chunks_where(n, by_cosine, |idx| {
+            let wi = simd::lanes_of(idx, cosine);
+            let (v, p) = self.table.eval_projected_pdf_x8(
+                Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k])),
+                Vec3x8::from_array(&wi),
+            );
+            let p = p.to_array();
+            for (lane, &k) in idx.iter().enumerate() {
+                out[k] = self.finish(wi[lane], v.lane(lane), p[lane]);
+            }
+        });
+        let by_table = |k: usize| !(wo[k].z <= 0.0) && !(uc[k] < RGL_COSINE);
+        simd::chunks_where(n, by_table, |idx| {
+            let uu = simd::lanes_of(idx, |k| u[k]);
+            let (wi, p, v, ok) = self.table.sample_value_x8(
+                Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k])),
+                [f32x8::new(uu.map(|u| u.x)), f32x8::new(uu.map(|u| u.y))],
+            );
+            let (p, ok) = (p.to_array(), simd::mask_bits(ok));
+            for (lane, &k) in idx.iter().enumerate() {
+                if ok >> lane & 1 == 1 {
+                    out[k] = self.finish(wi.lane(lane), v.lane(lane), p[lane]);
+                }
+            }
+        });
     }
 
     fn flags(&self) -> Flags {

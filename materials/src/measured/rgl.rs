@@ -13,15 +13,25 @@
 //!   -0.3 x cos in vch_golden_yellow's blue channel); like Mitsuba, [`Rgl`] returns them as
 //!   they are, and the `rgl` material clamps them at zero unless `"clamp": false`.
 //! - Sampling warps (u2, u1) through `luminance` then `vndf` to u_m, builds m, reflects wo;
-//!   pdf = p_vndf p_lum / (2 pi^2 u_m.x sin(theta_m) 4 (wo . m)).
+//!   pdf = p_vndf p_lum / (2 pi^2 u_m.x sin(theta_m) 4 (wo . m)); the sample's value is
+//!   the colour table at the warped point (Mitsuba's `sample`), not a second inversion.
+//!
+//! As in Mitsuba's plugin, what depends on the viewer only (its angles, the parameter
+//! slices they select, sigma(u_o)) is found once per query and shared by the VNDF
+//! inversion, the colour table and the luminance density (r, g, b and the density of a
+//! node side by side: one lookup for all four); the angles use `fastmath`'s
+//! approximations (errors under 4e-7 rad).
 //!
 //! Anisotropic tables (more than two phi_i values) are folded by their symmetry reduction
 //! as Mitsuba does; isotropic ones use no reduction.
 
-use super::marginal2d::Marginal2D;
+use super::marginal2d::{Marginal2D, Slices, Slicesx8};
 use super::tensor::TensorFile;
 use crate::Rgb;
 use crate::error::FileError;
+use crate::fastmath;
+use crate::fastmath::x8;
+use crate::simd::{Mask8, Rgbx8, Vec3x8, clamp, f32x8, max_lane, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
 use std::path::Path;
@@ -36,7 +46,9 @@ pub struct Rgl {
     sigma: Marginal2D,
     vndf: Marginal2D,
     luminance: Marginal2D,
-    rgb: [Marginal2D; 3],
+    /// The colour table and the luminance density, r, g, b and the density of a node side
+    /// by side: one lookup serves the value and the density at a sample-space point.
+    colour: Marginal2D,
 }
 
 impl Rgl {
@@ -45,12 +57,12 @@ impl Rgl {
             + self.sigma.memory_bytes()
             + self.vndf.memory_bytes()
             + self.luminance.memory_bytes()
-            + self.rgb.iter().map(Marginal2D::memory_bytes).sum::<usize>()
+            + self.colour.memory_bytes()
     }
 }
 
 fn theta2u(t: f32) -> f32 {
-    (t * (2.0 / PI)).max(0.0).sqrt()
+    max_lane(t * (2.0 / PI), 0.0).sqrt()
 }
 fn phi2u(p: f32) -> f32 {
     (p + PI) * (0.5 / PI)
@@ -62,10 +74,11 @@ fn u2phi(u: f32) -> f32 {
     (2.0 * u - 1.0) * PI
 }
 /// acos(d.z) computed stably (Mitsuba's `elevation`).
+#[inline]
 fn elevation(d: Vec3) -> f32 {
-    2.0 * (0.5 * (d.x * d.x + d.y * d.y + (d.z - 1.0) * (d.z - 1.0)).sqrt())
-        .clamp(-1.0, 1.0)
-        .asin()
+    2.0 * fastmath::asin(
+        (0.5 * (d.x * d.x + d.y * d.y + (d.z - 1.0) * (d.z - 1.0)).sqrt()).clamp(-1.0, 1.0),
+    )
 }
 /// -v when the sign bit of s is clear (s >= +0), v otherwise (Dr.Jit's mulsign_neg).
 fn mulsign_neg(v: f32, s: f32) -> f32 {
@@ -115,6 +128,26 @@ fn check_fields(fields: &[(&str, &[f32], Range)]) -> Result<(), String> {
     Ok(())
 }
 
+/// Everything that depends on the viewer direction only, shared by evaluation, density
+/// and sampling: the folded direction, its angles (the tables' parameters), the slices
+/// they select, and the Jacobian's sigma(u_o).
+struct View {
+    wo: Vec3,
+    phi_o: f32,
+    slices: Slices,
+    /// 4 sigma(u_o) (tables with the Jacobian flag; 1 otherwise).
+    sigma4: f32,
+}
+
+/// A half vector's table coordinates and its inversion through the VNDF.
+struct Half {
+    m: Vec3,
+    u_m: [f32; 2],
+    /// The sample-space point of `u_m` and the VNDF density there.
+    s: [f32; 2],
+    p_vndf: f32,
+}
+
 impl Rgl {
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let t = TensorFile::read(path)?;
@@ -158,6 +191,13 @@ impl Rgl {
                 "empty theta_i or phi_i; expected the tabulated incident angles".into(),
             ));
         }
+        for (field, v) in [("theta_i", &theta_i), ("phi_i", &phi_i)] {
+            if v.windows(2).any(|p| !(p[0] < p[1])) {
+                return Err(err(format!(
+                    "field \"{field}\" is not increasing ({v:?}); expected increasing angles"
+                )));
+            }
+        }
         let ok = vndf_s[0] == np
             && vndf_s[1] == nt
             && lum_s[0] == np
@@ -186,17 +226,17 @@ impl Rgl {
         };
         let params = vec![phi_i.clone(), theta_i.clone()];
         let n = lum_s[2];
-        // The rgb table: one exact channel at a time, each a 2-parameter table.
-        let channel = |c: usize| {
-            let mut d = Vec::with_capacity(np * nt * n * n);
-            for a in 0..np {
-                for b in 0..nt {
-                    let base = ((a * nt + b) * 3 + c) * n * n;
-                    d.extend_from_slice(&rgb[base..base + n * n]);
+        let luminance = Marginal2D::new(&lum, lum_s[3], lum_s[2], params.clone(), true);
+        // r, g, b and the (normalized) luminance density of each node side by side.
+        let mut colour = Vec::with_capacity(rgb.len() / 3 * 4);
+        for slice in 0..np * nt {
+            for k in 0..n * n {
+                for c in 0..3 {
+                    colour.push(rgb[(slice * 3 + c) * n * n + k]);
                 }
+                colour.push(luminance.values()[slice * n * n + k]);
             }
-            Marginal2D::new(&d, n, n, params.clone(), false)
-        };
+        }
         let table = Self {
             description: desc,
             isotropic,
@@ -205,8 +245,8 @@ impl Rgl {
             ndf: Marginal2D::new(&ndf, ndf_s[1], ndf_s[0], vec![], false),
             sigma: Marginal2D::new(&sigma, sigma_s[1], sigma_s[0], vec![], false),
             vndf: Marginal2D::new(&vndf, vndf_s[3], vndf_s[2], params.clone(), true),
-            luminance: Marginal2D::new(&lum, lum_s[3], lum_s[2], params.clone(), true),
-            rgb: [channel(0), channel(1), channel(2)],
+            luminance,
+            colour: Marginal2D::with_channels(&colour, n, n, 4, params),
         };
         table.probe().map_err(err)?;
         Ok(table)
@@ -243,7 +283,9 @@ impl Rgl {
         self.isotropic
     }
 
-    /// Folds directions by the table's symmetry (anisotropic tables only).
+    /// Folds directions by the table's symmetry (anisotropic tables only); folding twice
+    /// by the same `by` is the identity.
+    #[inline]
     fn fold(&self, v: Vec3, by: Vec3) -> Vec3 {
         if self.reduction < 2 {
             return v;
@@ -253,36 +295,67 @@ impl Rgl {
         Vec3::new(mulsign_neg(v.x, sx), mulsign_neg(v.y, sy), v.z)
     }
 
-    /// (u_m, params, sin(theta_m)) for viewer `wo` and half vector `m`.
-    fn coords(&self, wo: Vec3, m: Vec3) -> ([f32; 2], [f32; 2], f32) {
+    /// The viewer-dependent part of a query (`wo` unfolded).
+    #[inline]
+    fn view(&self, wo: Vec3) -> View {
+        let wo = self.fold(wo, wo);
         let theta_o = elevation(wo);
-        let phi_o = wo.y.atan2(wo.x);
-        let theta_m = elevation(m);
-        let mut phi_m = m.y.atan2(m.x);
+        let phi_o = fastmath::atan2(wo.y, wo.x);
+        let sigma4 = if self.jacobian {
+            let u_o = [theta2u(theta_o), phi2u(phi_o)];
+            4.0 * self.sigma.eval_in(u_o, &Slices::NONE)
+        } else {
+            1.0
+        };
+        View {
+            wo,
+            phi_o,
+            slices: self.vndf.slices(&[phi_o, theta_o]),
+            sigma4,
+        }
+    }
+
+    /// The half vector of the (folded) viewer and light `wi`, inverted through the VNDF.
+    #[inline]
+    fn half(&self, v: &View, wi: Vec3, wo: Vec3) -> Half {
+        let m = (v.wo + self.fold(wi, wo)).normalize_or_zero();
+        let mut phi_m = fastmath::atan2(m.y, m.x);
         if self.isotropic {
-            phi_m -= phi_o;
+            phi_m -= v.phi_o;
         }
         let mut uy = phi2u(phi_m);
         uy -= uy.floor();
-        (
-            [theta2u(theta_m), uy],
-            [phi_o, theta_o],
-            (m.x * m.x + m.y * m.y).max(0.0).sqrt(),
-        )
+        let u_m = [theta2u(elevation(m)), uy];
+        let (s, p_vndf) = self.vndf.invert_in(u_m, &v.slices);
+        Half { m, u_m, s, p_vndf }
     }
 
-    /// The tabulated value (BRDF x cos(theta_i)) at sample-space point s.
-    fn spectrum(&self, s: [f32; 2], params: &[f32; 2], u_m: [f32; 2], wo: Vec3) -> Rgb {
-        let mut v = Rgb::new(
-            self.rgb[0].eval(s, params),
-            self.rgb[1].eval(s, params),
-            self.rgb[2].eval(s, params),
-        );
+    /// The tabulated value (BRDF x cos(theta_i)) at sample-space point s, and the
+    /// luminance density there.
+    #[inline]
+    fn lookup(&self, v: &View, s: [f32; 2], u_m: [f32; 2]) -> (Rgb, f32) {
+        let [r, g, b, p_lum] = self.colour.eval_channels::<4>(s, &v.slices);
+        let mut c = Rgb::new(r, g, b);
         if self.jacobian {
-            let u_o = [theta2u(elevation(wo)), phi2u(wo.y.atan2(wo.x))];
-            v *= self.ndf.eval(u_m, &[]) / (4.0 * self.sigma.eval(u_o, &[]));
+            c *= self.ndf.eval_in(u_m, &Slices::NONE) / v.sigma4;
         }
-        v
+        (c, p_lum)
+    }
+
+    /// The table's density of `wi` at a half vector from the luminance density at its
+    /// sample-space point (0 when not finite and positive).
+    #[inline]
+    fn density(&self, v: &View, h: &Half, p_lum: f32) -> f32 {
+        let p = self.density_raw(v, h, p_lum);
+        if p.is_finite() && p > 0.0 { p } else { 0.0 }
+    }
+
+    /// [`Rgl::density`] as computed, non-finite or not (for [`Rgl::probe`]).
+    #[inline]
+    fn density_raw(&self, v: &View, h: &Half, p_lum: f32) -> f32 {
+        let sin_m = max_lane(h.m.x * h.m.x + h.m.y * h.m.y, 0.0).sqrt();
+        let jac = max_lane(2.0 * PI * PI * h.u_m[0] * sin_m, 1e-6) * 4.0 * v.wo.dot(h.m);
+        h.p_vndf * p_lum / jac
     }
 
     /// BRDF x cos(theta_i) for viewer `wo` and light `wi` (Mitsuba's `eval`, negative values included).
@@ -295,11 +368,10 @@ impl Rgl {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let (wo_f, wi_f) = (self.fold(wo, wo), self.fold(wi, wo));
-        let m = (wo_f + wi_f).normalize_or_zero();
-        let (u_m, params, _) = self.coords(wo_f, m);
-        let (s, _) = self.vndf.invert(u_m, &params);
-        self.spectrum(s, &params, u_m, wo_f)
+        let v = self.view(wo);
+        let h = self.half(&v, wi, wo);
+        let (c, _) = self.lookup(&v, h.s, h.u_m);
+        c
     }
 
     /// The BRDF (1/sr).
@@ -321,44 +393,198 @@ impl Rgl {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let (wo_f, wi_f) = (self.fold(wo, wo), self.fold(wi, wo));
-        let m = (wo_f + wi_f).normalize_or_zero();
-        let (u_m, params, sin_m) = self.coords(wo_f, m);
-        let (s, p_vndf) = self.vndf.invert(u_m, &params);
-        let p_lum = self.luminance.eval(s, &params);
-        let jac = (2.0 * PI * PI * u_m[0] * sin_m).max(1e-6) * 4.0 * wo_f.dot(m);
-        p_vndf * p_lum / jac
+        let v = self.view(wo);
+        let h = self.half(&v, wi, wo);
+        let (_, p_lum) = self.lookup(&v, h.s, h.u_m);
+        self.density_raw(&v, &h, p_lum)
+    }
+
+    /// [`Rgl::eval_projected`] and [`Rgl::pdf`] of one pair with the work they share done
+    /// once (bit for bit the two calls).
+    pub fn eval_projected_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let v = self.view(wo);
+        let h = self.half(&v, wi, wo);
+        let (c, p_lum) = self.lookup(&v, h.s, h.u_m);
+        let c = if c.is_finite() { c } else { Rgb::ZERO };
+        (c, self.density(&v, &h, p_lum))
     }
 
     /// Samples the light direction for viewer `wo`: (wi, pdf).
     pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
+        self.sample_value(wo, u).map(|(wi, pdf, _)| (wi, pdf))
+    }
+
+    /// Samples the light direction for viewer `wo` as Mitsuba's `measured` does: (wi,
+    /// pdf, BRDF x cos(theta_i) at the sampled point, zero when not finite).
+    pub fn sample_value(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, f32, Rgb)> {
         if wo.z <= 0.0 {
             return None;
         }
-        let wo_f = self.fold(wo, wo);
-        let theta_o = elevation(wo_f);
-        let phi_o = wo_f.y.atan2(wo_f.x);
-        let params = [phi_o, theta_o];
-        let (s, p_lum) = self.luminance.sample([u.y, u.x], &params);
-        let (u_m, p_vndf) = self.vndf.sample(s, &params);
+        let v = self.view(wo);
+        let (s, p_lum) = self.luminance.sample_in([u.y, u.x], &v.slices);
+        let (u_m, p_vndf) = self.vndf.sample_in(s, &v.slices);
         let mut phi_m = u2phi(u_m[1]);
         let theta_m = u2theta(u_m[0]);
         if self.isotropic {
-            phi_m += phi_o;
+            phi_m += v.phi_o;
         }
-        let (st, ct) = theta_m.sin_cos();
-        let (sp, cp) = phi_m.sin_cos();
+        let (st, ct) = fastmath::sin_cos_moderate(theta_m);
+        let (sp, cp) = fastmath::sin_cos_moderate(phi_m);
         let m = Vec3::new(cp * st, sp * st, ct);
-        let jac = (2.0 * PI * PI * u_m[0] * st).max(1e-6) * 4.0 * wo_f.dot(m);
+        let jac = max_lane(2.0 * PI * PI * u_m[0] * st, 1e-6) * 4.0 * v.wo.dot(m);
         let pdf = p_vndf * p_lum / jac;
-        let wi_f = m * (2.0 * m.dot(wo_f)) - wo_f;
-        let sy = wo.y;
-        let sx = if self.reduction == 4 { wo.x } else { sy };
-        let wi = if self.reduction >= 2 {
-            Vec3::new(mulsign_neg(wi_f.x, sx), mulsign_neg(wi_f.y, sy), wi_f.z)
+        let wi = self.fold(m * (2.0 * m.dot(v.wo)) - v.wo, wo);
+        if !(wi.z > 0.0 && pdf.is_finite() && pdf > 0.0) {
+            return None;
+        }
+        let (c, _) = self.lookup(&v, s, u_m);
+        Some((wi, pdf, if c.is_finite() { c } else { Rgb::ZERO }))
+    }
+}
+
+/// [`View`] of eight viewers.
+struct Viewx8 {
+    wo: Vec3x8,
+    phi_o: f32x8,
+    slices: Slicesx8,
+    sigma4: f32x8,
+}
+
+/// [`Half`] of eight pairs.
+struct Halfx8 {
+    m: Vec3x8,
+    u_m: [f32x8; 2],
+    s: [f32x8; 2],
+    p_vndf: f32x8,
+}
+
+#[inline(always)]
+fn theta2u_x8(t: f32x8) -> f32x8 {
+    (t * f32x8::splat(2.0 / PI)).max(f32x8::splat(0.0)).sqrt()
+}
+#[inline(always)]
+fn phi2u_x8(p: f32x8) -> f32x8 {
+    (p + f32x8::splat(PI)) * f32x8::splat(0.5 / PI)
+}
+#[inline(always)]
+fn elevation_x8(d: Vec3x8) -> f32x8 {
+    let zm = d.z - f32x8::splat(1.0);
+    let dist = (d.x * d.x + d.y * d.y + zm * zm).sqrt();
+    f32x8::splat(2.0) * x8::asin(clamp(f32x8::splat(0.5) * dist, -1.0, 1.0))
+}
+/// [`mulsign_neg`] per lane: the sign bit of v flipped where s's is clear.
+#[inline(always)]
+fn mulsign_neg_x8(v: f32x8, s: f32x8) -> f32x8 {
+    let sign = wide::u32x8::splat(0x8000_0000);
+    f32x8::from_bits(v.to_bits() ^ (!s.to_bits() & sign))
+}
+
+/// The eight-lane forms of evaluation, density and sampling: every lane equals the
+/// scalar form bit for bit (the same operations in the same order, tested), so that the
+/// renderer's batched calls agree exactly with its one-at-a-time ones.
+impl Rgl {
+    #[inline(always)]
+    fn fold_x8(&self, v: Vec3x8, by: Vec3x8) -> Vec3x8 {
+        if self.reduction < 2 {
+            return v;
+        }
+        let sx = if self.reduction == 4 { by.x } else { by.y };
+        Vec3x8::new(mulsign_neg_x8(v.x, sx), mulsign_neg_x8(v.y, by.y), v.z)
+    }
+
+    #[inline(always)]
+    fn view_x8(&self, wo: Vec3x8) -> Viewx8 {
+        let wo = self.fold_x8(wo, wo);
+        let theta_o = elevation_x8(wo);
+        let phi_o = x8::atan2(wo.y, wo.x);
+        let sigma4 = if self.jacobian {
+            let u_o = [theta2u_x8(theta_o), phi2u_x8(phi_o)];
+            f32x8::splat(4.0) * self.sigma.eval_x8(u_o, &Slicesx8::none())
         } else {
-            wi_f
+            f32x8::splat(1.0)
         };
-        (wi.z > 0.0 && pdf.is_finite() && pdf > 0.0).then_some((wi, pdf))
+        Viewx8 {
+            wo,
+            phi_o,
+            slices: self.vndf.slices_x8(&[phi_o, theta_o]),
+            sigma4,
+        }
+    }
+
+    #[inline(always)]
+    fn half_x8(&self, v: &Viewx8, wi: Vec3x8, wo: Vec3x8) -> Halfx8 {
+        let m = (v.wo + self.fold_x8(wi, wo)).normalize_or_zero();
+        let mut phi_m = x8::atan2(m.y, m.x);
+        if self.isotropic {
+            phi_m -= v.phi_o;
+        }
+        let uy = phi2u_x8(phi_m);
+        let uy = uy - uy.floor();
+        let u_m = [theta2u_x8(elevation_x8(m)), uy];
+        let (s, p_vndf) = self.vndf.invert_x8(u_m, &v.slices);
+        Halfx8 { m, u_m, s, p_vndf }
+    }
+
+    #[inline(always)]
+    fn lookup_x8(&self, v: &Viewx8, s: [f32x8; 2], u_m: [f32x8; 2]) -> (Rgbx8, f32x8) {
+        let [r, g, b, p_lum] = self.colour.eval_channels_x8::<4>(s, &v.slices);
+        let c = Rgbx8::new(r, g, b);
+        if self.jacobian {
+            let k = self.ndf.eval_x8(u_m, &Slicesx8::none()) / v.sigma4;
+            (c * k, p_lum)
+        } else {
+            (c, p_lum)
+        }
+    }
+
+    #[inline(always)]
+    fn density_x8(&self, v: &Viewx8, h: &Halfx8, p_lum: f32x8) -> f32x8 {
+        let zero = f32x8::splat(0.0);
+        let sin_m = (h.m.x * h.m.x + h.m.y * h.m.y).max(zero).sqrt();
+        let jac = (f32x8::splat(2.0 * PI * PI) * h.u_m[0] * sin_m).max(f32x8::splat(1e-6))
+            * f32x8::splat(4.0)
+            * v.wo.dot(h.m);
+        let p = h.p_vndf * p_lum / jac;
+        sel(p.is_finite() & p.simd_gt(zero), p, zero)
+    }
+
+    /// [`Rgl::eval_projected_pdf`] of eight pairs.
+    pub fn eval_projected_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+        let zero = f32x8::splat(0.0);
+        let below = wo.z.simd_le(zero) | wi.z.simd_le(zero);
+        let v = self.view_x8(wo);
+        let h = self.half_x8(&v, wi, wo);
+        let (c, p_lum) = self.lookup_x8(&v, h.s, h.u_m);
+        let black = Rgbx8::splat(Rgb::ZERO);
+        let c = Rgbx8::select(c.is_finite() & !below, c, black);
+        (c, sel(below, zero, self.density_x8(&v, &h, p_lum)))
+    }
+
+    /// [`Rgl::sample_value`] of eight viewers: (wi, pdf, value, where a sample exists).
+    pub fn sample_value_x8(&self, wo: Vec3x8, u: [f32x8; 2]) -> (Vec3x8, f32x8, Rgbx8, Mask8) {
+        let zero = f32x8::splat(0.0);
+        let v = self.view_x8(wo);
+        let (s, p_lum) = self.luminance.sample_x8([u[1], u[0]], &v.slices);
+        let (u_m, p_vndf) = self.vndf.sample_x8(s, &v.slices);
+        let mut phi_m = (f32x8::splat(2.0) * u_m[1] - f32x8::splat(1.0)) * f32x8::splat(PI);
+        let theta_m = u_m[0] * u_m[0] * f32x8::splat(FRAC_PI_2);
+        if self.isotropic {
+            phi_m += v.phi_o;
+        }
+        let (st, ct) = x8::sin_cos_moderate(theta_m);
+        let (sp, cp) = x8::sin_cos_moderate(phi_m);
+        let m = Vec3x8::new(cp * st, sp * st, ct);
+        let jac = (f32x8::splat(2.0 * PI * PI) * u_m[0] * st).max(f32x8::splat(1e-6))
+            * f32x8::splat(4.0)
+            * v.wo.dot(m);
+        let pdf = p_vndf * p_lum / jac;
+        let wi = self.fold_x8(m * (f32x8::splat(2.0) * m.dot(v.wo)) - v.wo, wo);
+        let ok = wo.z.simd_gt(zero) & wi.z.simd_gt(zero) & pdf.is_finite() & pdf.simd_gt(zero);
+        let (c, _) = self.lookup_x8(&v, s, u_m);
+        let c = Rgbx8::select(c.is_finite(), c, Rgbx8::splat(Rgb::ZERO));
+        (wi, pdf, c, ok)
     }
 }
