@@ -14,7 +14,7 @@ use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
-use crate::simd::{self, Vec3x8, f32x8};
+use crate::simd::{self, Rgbx8, Vec3x8, f32x8};
 use glam::{Vec2, Vec3};
 use std::any::Any;
 use std::path::PathBuf;
@@ -24,6 +24,12 @@ use std::sync::Arc;
 pub trait Table: Send + Sync + std::fmt::Debug {
     /// f_r(wo, wi) in 1/sr (RGB), zero below the surface.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
+    /// [`Table::eval`] of eight pairs, each lane bit for bit the single call (the default
+    /// calls it lane by lane; tables with a SIMD lookup override it).
+    fn eval_x8(&self, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
+        let (o, i) = (wo.to_array(), wi.to_array());
+        Rgbx8::from_array(&simd::lanes(|k| self.eval(o[k], i[k])))
+    }
     fn is_isotropic(&self) -> bool {
         true
     }
@@ -45,6 +51,14 @@ impl Table for MerlTable {
             self.table.lookup(wi, wo)
         } else {
             self.table.lookup_nearest(wi, wo)
+        }
+    }
+    fn eval_x8(&self, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
+        if self.interpolate {
+            self.table.lookup_x8(wi, wo)
+        } else {
+            let (o, i) = (wo.to_array(), wi.to_array());
+            Rgbx8::from_array(&simd::lanes(|k| self.table.lookup_nearest(i[k], o[k])))
         }
     }
 }
@@ -110,6 +124,27 @@ impl Bsdf for Measured {
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.sampler.pdf(wo, wi)
+    }
+
+    /// The values of the pairs above the surface eight at a time ([`Table::eval_x8`]), the
+    /// sampler's densities one at a time.
+    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
+        let n = f.len();
+        assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
+        f.fill(Rgb::ZERO);
+        let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
+        simd::chunks_where(n, above, |idx| {
+            let v = self.table.eval_x8(
+                Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k])),
+                Vec3x8::from_array(&simd::lanes_of(idx, |k| wi[k])),
+            );
+            for (lane, &k) in idx.iter().enumerate() {
+                f[k] = v.lane(lane);
+            }
+        });
+        for k in 0..n {
+            pdf[k] = self.sampler.pdf(wo[k], wi[k]);
+        }
     }
 
     fn flags(&self) -> Flags {

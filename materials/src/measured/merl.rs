@@ -11,12 +11,18 @@
 //! (the measurement had none, e.g. within 3 degrees of retro-reflection).
 //!
 //! In memory the table is f32 RGB (17.5 MB). Lookups are nearest (the bin) or trilinear
-//! between bin centres (periodic in phi_d), skipping missing corners.
+//! between bin centres (periodic in phi_d), skipping missing corners. The trilinear lookup
+//! the renderer uses runs in f32 without trigonometric rotations ([`coords_f32`]), one pair
+//! at a time or eight ([`Merl::lookup_x8`], the batched evaluation of the `merl` material);
+//! fitting and the nearest-bin lookup keep the f64 angles of [`half_diff`].
 
 use crate::Rgb;
 use crate::error::FileError;
+use crate::fastmath::{self, x8};
 use crate::frame::{from_half_diff, half_diff};
+use crate::simd::{Rgbx8, Vec3x8, clamp, f32x8, gather, i32x8, max_lane, sel};
 use glam::Vec3;
+use std::f32::consts::{FRAC_PI_2 as FRAC_PI_2_32, PI as PI32};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::Path;
 
@@ -55,6 +61,134 @@ fn coords(theta_h: f64, theta_d: f64, phi_d: f64) -> (f64, f64, f64) {
     }
     let pd = (pd / PI * RES_PHI_D as f64).rem_euclid(RES_PHI_D as f64);
     (th, td, pd)
+}
+
+/// `v / |v|` as glam's `normalize_or_zero` computes it, `None` where that is zero.
+#[inline(always)]
+fn unit(v: Vec3) -> Option<Vec3> {
+    let rcp = 1.0 / (v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
+    (rcp.is_finite() && rcp > 0.0).then(|| v * rcp)
+}
+
+/// Continuous bin coordinates `[theta_h, theta_d, phi_d]` of a direction pair above the
+/// surface, in f32: Rusinkiewicz's half/difference angles as [`half_diff`] computes them,
+/// with the two rotations taken from the half vector's own components (cos and sin of
+/// theta_h and phi_h are h.z, |h.xy| and h.xy / |h.xy|: no trigonometric call) and every
+/// angle an `atan2` of a sine and a cosine ([`fastmath::atan2`]), which stays accurate near
+/// 0 where `acos` loses half the digits (theta_h's bins are finest there). [`coords_x8`]
+/// does the same operations in the same order on eight pairs.
+#[inline]
+pub fn coords_f32(wi: Vec3, wo: Vec3) -> [f32; 3] {
+    let (wi, wo) = (
+        unit(wi).unwrap_or(Vec3::ZERO),
+        unit(wo).unwrap_or(Vec3::ZERO),
+    );
+    let h = unit(wi + wo).unwrap_or(Vec3::Z);
+    let sin_h = (h.x * h.x + h.y * h.y).sqrt();
+    let theta_h = fastmath::atan2(sin_h, h.z);
+    let (cp, sp) = if sin_h > 0.0 {
+        (h.x / sin_h, h.y / sin_h)
+    } else {
+        (1.0, 0.0)
+    };
+    // wi rotated by -phi_h about z, then by -theta_h about y.
+    let t = Vec3::new(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);
+    let d = Vec3::new(t.x * h.z - t.z * sin_h, t.y, t.x * sin_h + t.z * h.z);
+    let theta_d = fastmath::atan2((d.x * d.x + d.y * d.y).sqrt(), d.z);
+    let phi_d = fastmath::atan2(d.y, d.x);
+    let phi_d = if phi_d < 0.0 { phi_d + PI32 } else { phi_d };
+    let pd = phi_d / PI32 * RES_PHI_D as f32;
+    [
+        (max_lane(theta_h, 0.0) / FRAC_PI_2_32).sqrt() * RES_THETA_H as f32,
+        max_lane(theta_d, 0.0) / FRAC_PI_2_32 * RES_THETA_D as f32,
+        if pd >= RES_PHI_D as f32 {
+            pd - RES_PHI_D as f32
+        } else {
+            pd
+        },
+    ]
+}
+
+/// [`coords_f32`] of eight pairs, lane by lane bit for bit.
+#[inline(always)]
+pub fn coords_x8(wi: Vec3x8, wo: Vec3x8) -> [f32x8; 3] {
+    let s = f32x8::splat;
+    let (wi, wo) = (wi.normalize_or_zero(), wo.normalize_or_zero());
+    let sum = wi + wo;
+    let rcp = s(1.0) / (sum.x * sum.x + sum.y * sum.y + sum.z * sum.z).sqrt();
+    let ok = rcp.is_finite() & rcp.simd_gt(s(0.0));
+    let h = sum * rcp;
+    let h = Vec3x8::new(
+        sel(ok, h.x, s(0.0)),
+        sel(ok, h.y, s(0.0)),
+        sel(ok, h.z, s(1.0)),
+    );
+    let sin_h = (h.x * h.x + h.y * h.y).sqrt();
+    let theta_h = x8::atan2(sin_h, h.z);
+    let has_phi = sin_h.simd_gt(s(0.0));
+    let (cp, sp) = (
+        sel(has_phi, h.x / sin_h, s(1.0)),
+        sel(has_phi, h.y / sin_h, s(0.0)),
+    );
+    let t = Vec3x8::new(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);
+    let d = Vec3x8::new(t.x * h.z - t.z * sin_h, t.y, t.x * sin_h + t.z * h.z);
+    let theta_d = x8::atan2((d.x * d.x + d.y * d.y).sqrt(), d.z);
+    let phi_d = x8::atan2(d.y, d.x);
+    let phi_d = sel(phi_d.simd_lt(s(0.0)), phi_d + s(PI32), phi_d);
+    let n_pd = s(RES_PHI_D as f32);
+    let pd = phi_d / s(PI32) * n_pd;
+    [
+        (theta_h.max(s(0.0)) / s(FRAC_PI_2_32)).sqrt() * s(RES_THETA_H as f32),
+        theta_d.max(s(0.0)) / s(FRAC_PI_2_32) * s(RES_THETA_D as f32),
+        sel(pd.simd_ge(n_pd), pd - n_pd, pd),
+    ]
+}
+
+/// The two bins either side of a clamped continuous coordinate and the second's weight:
+/// `(i0, i1, w)` with `x - 0.5` clamped to [0, n - 1] (bin centres at k + 1/2).
+#[inline(always)]
+fn split_clamped(x: f32, n: usize) -> (usize, usize, f32) {
+    let x = (x - 0.5).clamp(0.0, (n - 1) as f32);
+    let i = x.floor();
+    let i0 = i as usize;
+    (i0, (i0 + 1).min(n - 1), x - i)
+}
+
+/// [`split_clamped`] per lane.
+#[inline(always)]
+fn split_clamped_x8(x: f32x8, n: usize) -> (i32x8, i32x8, f32x8) {
+    let x = clamp(x - f32x8::splat(0.5), 0.0, (n - 1) as f32);
+    let i = x.floor();
+    let i0 = i.trunc_int();
+    (
+        i0,
+        (i0 + i32x8::splat(1)).min(i32x8::splat(n as i32 - 1)),
+        x - i,
+    )
+}
+
+/// The two bins either side of the periodic phi_d coordinate and the second's weight.
+#[inline(always)]
+fn split_periodic(x: f32) -> (usize, usize, f32) {
+    let xc = x - 0.5;
+    let f = xc.floor();
+    let i = f as i32;
+    let i0 = if i < 0 { i + RES_PHI_D as i32 } else { i } as usize;
+    let i1 = if i0 + 1 == RES_PHI_D { 0 } else { i0 + 1 };
+    (i0, i1, xc - f)
+}
+
+/// [`split_periodic`] per lane.
+#[inline(always)]
+fn split_periodic_x8(x: f32x8) -> (i32x8, i32x8, f32x8) {
+    let xc = x - f32x8::splat(0.5);
+    let f = xc.floor();
+    let i = f.trunc_int();
+    let n = i32x8::splat(RES_PHI_D as i32);
+    let i0 = i.simd_lt(i32x8::splat(0)).select(i + n, i);
+    let i1 = i0 + i32x8::splat(1);
+    let i1 = i1.simd_eq(n).select(i32x8::splat(0), i1);
+    (i0, i1, xc - f)
 }
 
 impl Merl {
@@ -219,53 +353,65 @@ impl Merl {
     }
 
     /// Trilinear lookup between bin centres (clamped in theta, periodic in phi_d),
-    /// renormalized over the corners that are not missing.
+    /// renormalized over the corners that are not missing. In f32 throughout, for the
+    /// renderer: the bin coordinates come from [`coords_f32`], the corners' weights and
+    /// sums in f32; [`Merl::lookup_x8`] gives the same values eight at a time.
     pub fn lookup(&self, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let (th, _, td, pd) = half_diff(wi, wo);
-        let (a, b, c) = coords(th, td, pd);
-        let split = |x: f64, n: usize| {
-            let x = (x - 0.5).clamp(0.0, (n - 1) as f64);
-            let i = (x as usize).min(n - 1);
-            (i, (i + 1).min(n - 1), x - i as f64)
-        };
-        let (a0, a1, wa) = split(a, RES_THETA_H);
-        let (b0, b1, wb) = split(b, RES_THETA_D);
-        let xc = c - 0.5;
-        let c0f = xc.floor();
-        let wc = xc - c0f;
-        let c0 = (c0f as i64).rem_euclid(RES_PHI_D as i64) as usize;
-        let c1 = (c0 + 1) % RES_PHI_D;
-        let mut acc = [0.0f64; 3];
-        let mut wsum = 0.0;
+        let [a, b, c] = coords_f32(wi, wo);
+        let (a0, a1, wa) = split_clamped(a, RES_THETA_H);
+        let (b0, b1, wb) = split_clamped(b, RES_THETA_D);
+        let (c0, c1, wc) = split_periodic(c);
+        let mut acc = Rgb::ZERO;
+        let mut wsum = 0.0f32;
         for (ia, fa) in [(a0, 1.0 - wa), (a1, wa)] {
             for (ib, fb) in [(b0, 1.0 - wb), (b1, wb)] {
                 for (ic, fc) in [(c0, 1.0 - wc), (c1, wc)] {
                     let w = fa * fb * fc;
-                    if w <= 0.0 {
-                        continue;
-                    }
                     let v = self.data[index(ia, ib, ic)];
-                    if v[0] < 0.0 {
-                        continue;
+                    if w > 0.0 && v[0] >= 0.0 {
+                        acc += Rgb::from(v) * w;
+                        wsum += w;
                     }
-                    for k in 0..3 {
-                        acc[k] += w * v[k] as f64;
-                    }
+                }
+            }
+        }
+        if wsum > 0.0 { acc / wsum } else { Rgb::ZERO }
+    }
+
+    /// [`Merl::lookup`] of eight pairs, lane by lane bit for bit: the coordinates and
+    /// weights in SIMD lanes, the eight corners' values gathered.
+    pub fn lookup_x8(&self, wi: Vec3x8, wo: Vec3x8) -> Rgbx8 {
+        let s = f32x8::splat;
+        let above = wi.z.simd_gt(s(0.0)) & wo.z.simd_gt(s(0.0));
+        let [a, b, c] = coords_x8(wi, wo);
+        let (a0, a1, wa) = split_clamped_x8(a, RES_THETA_H);
+        let (b0, b1, wb) = split_clamped_x8(b, RES_THETA_D);
+        let (c0, c1, wc) = split_periodic_x8(c);
+        let flat = self.data.as_flattened();
+        let (mut r, mut g, mut bl, mut wsum) = (s(0.0), s(0.0), s(0.0), s(0.0));
+        for (ia, fa) in [(a0, s(1.0) - wa), (a1, wa)] {
+            for (ib, fb) in [(b0, s(1.0) - wb), (b1, wb)] {
+                let row =
+                    (ia * i32x8::splat(RES_THETA_D as i32) + ib) * i32x8::splat(RES_PHI_D as i32);
+                for (ic, fc) in [(c0, s(1.0) - wc), (c1, wc)] {
+                    let w = fa * fb * fc;
+                    let at = (row + ic) * i32x8::splat(3);
+                    let vr = gather(flat, at);
+                    let keep = above & w.simd_gt(s(0.0)) & vr.simd_ge(s(0.0));
+                    let w = sel(keep, w, s(0.0));
+                    r += vr * w;
+                    g += gather(flat, at + i32x8::splat(1)) * w;
+                    bl += gather(flat, at + i32x8::splat(2)) * w;
                     wsum += w;
                 }
             }
         }
-        if wsum <= 0.0 {
-            return Rgb::ZERO;
-        }
-        Rgb::new(
-            (acc[0] / wsum) as f32,
-            (acc[1] / wsum) as f32,
-            (acc[2] / wsum) as f32,
-        )
+        let some = wsum.simd_gt(s(0.0));
+        let norm = |x: f32x8| sel(some, x / wsum, s(0.0));
+        Rgbx8::new(norm(r), norm(g), norm(bl))
     }
 
     /// Fraction of bins that hold a sample.
@@ -291,6 +437,55 @@ mod tests {
             let (th, _, td, pd) = half_diff(wi, wo);
             let (a, b, c) = coords(th, td, pd);
             assert_eq!(((a as usize), (b as usize), (c as usize)), (ith, itd, ipd));
+            let [a, b, c] = coords_f32(wi, wo);
+            assert_eq!(((a as usize), (b as usize), (c as usize)), (ith, itd, ipd));
         }
+    }
+
+    /// The renderer's f32 coordinates follow the f64 definition to a small fraction of a
+    /// bin, including theta_h near 0 (where the sqrt spacing makes bins finest).
+    #[test]
+    fn f32_coordinates_follow_the_f64_ones() {
+        let mut worst = [0.0f64; 3];
+        for k in 0..20_000u32 {
+            let f =
+                |m: u32, s: u32| ((k.wrapping_mul(m).wrapping_add(s)) % 10_007) as f64 / 10_007.0;
+            let th = f(7919, 1).powi(3) * FRAC_PI_2 * 0.999;
+            // Up to 85 degrees: beyond, wi + wo cancels and the half vector itself is
+            // ill-conditioned in the f32 inputs (both forms then differ by up to 1.5 bins).
+            let td = f(104_729, 3) * 85f64.to_radians();
+            let pd = (f(1_299_709, 5) - 0.5) * 2.0 * PI;
+            let ph = (f(15_485_863, 7) - 0.5) * 2.0 * PI;
+            let (wi, wo) = from_half_diff(th, ph, td, pd);
+            if wi.z <= 1e-3 || wo.z <= 1e-3 {
+                continue;
+            }
+            let (th, _, td, pd) = half_diff(wi, wo);
+            let exact = coords(th, td, pd);
+            let fast = coords_f32(wi, wo);
+            // Below half a bin of theta_h every lookup takes bin 0 (the f32 half vector's
+            // rounding, ~1e-7 rad, is 0.02-0.05 bins there through the sqrt); phi_d is
+            // undefined where theta_h or theta_d vanishes.
+            let dh = if exact.0 >= 0.5 {
+                (fast[0] as f64 - exact.0).abs()
+            } else {
+                0.0
+            };
+            let mut dc = (fast[2] as f64 - exact.2).abs();
+            dc = dc.min(RES_PHI_D as f64 - dc);
+            if th < 1e-3 || td < 1e-3 {
+                dc = 0.0;
+            }
+            for (w, e) in worst
+                .iter_mut()
+                .zip([dh, (fast[1] as f64 - exact.1).abs(), dc])
+            {
+                *w = w.max(e);
+            }
+        }
+        assert!(
+            worst.iter().all(|&e| e < 0.02),
+            "largest differences in bins: {worst:?}"
+        );
     }
 }
