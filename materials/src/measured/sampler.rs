@@ -6,9 +6,11 @@
 //! missed), sampled by CDF inversion (which keeps low-discrepancy samples stratified), mixed with 10 % cosine sampling so that every
 //! direction where the table is non-zero can be drawn. Within a cell, directions are
 //! uniform in solid angle. The density is exact for what is sampled, so the estimator is
-//! unbiased whatever the table's accuracy.
+//! unbiased whatever the table's accuracy. Angles at render time come from [`fastmath`]
+//! (no C library call per query).
 
 use crate::distribution::Cdf2D;
+use crate::fastmath;
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -120,7 +122,7 @@ impl TabulatedSampler {
     }
 
     fn slice(wo: Vec3) -> usize {
-        let theta = wo.z.clamp(-1.0, 1.0).acos();
+        let theta = fastmath::acos(wo.z.clamp(-1.0, 1.0));
         ((theta / FRAC_PI_2 * N_THETA_O as f32) as usize).min(N_THETA_O - 1)
     }
 
@@ -144,8 +146,8 @@ impl TabulatedSampler {
         if uc < 0.5 {
             phi = -phi;
         }
-        let phi_o = wo.y.atan2(wo.x);
-        let (sp, cp) = (phi + phi_o).sin_cos();
+        let phi_o = fastmath::atan2(wo.y, wo.x);
+        let (sp, cp) = fastmath::sin_cos(phi + phi_o);
         Some(Vec3::new(st * cp, st * sp, ct))
     }
 
@@ -159,9 +161,9 @@ impl TabulatedSampler {
         if self.tables[io].is_none() {
             return cos;
         }
-        let theta = wi.z.clamp(-1.0, 1.0).acos();
+        let theta = fastmath::acos(wi.z.clamp(-1.0, 1.0));
         let it = ((theta / FRAC_PI_2 * N_THETA as f32) as usize).min(N_THETA - 1);
-        let mut dphi = wi.y.atan2(wi.x) - wo.y.atan2(wo.x);
+        let mut dphi = fastmath::atan2(wi.y, wi.x) - fastmath::atan2(wo.y, wo.x);
         dphi = (dphi + PI).rem_euclid(2.0 * PI) - PI;
         let ip = ((dphi.abs() / PI * N_PHI as f32) as usize).min(N_PHI - 1);
         COSINE_FRACTION * cos
