@@ -119,6 +119,13 @@ impl Binned {
 
     /// Angles (degrees) of a direction pair: (theta_i, theta_o, phi_d) or (theta_i, theta_o, phi_i, phi_o).
     pub fn angles(&self, wi: Vec3, wo: Vec3) -> Vec<f64> {
+        let (a, n) = self.angles_fixed(wi, wo);
+        a[..n].to_vec()
+    }
+
+    /// [`Binned::angles`] without allocating: the angles and how many of them there are
+    /// (3 for isotropic tables, 4 for anisotropic ones).
+    fn angles_fixed(&self, wi: Vec3, wo: Vec3) -> ([f64; 4], usize) {
         let sph = |w: Vec3| {
             let t = (w.z as f64).clamp(-1.0, 1.0).acos().to_degrees();
             let p = (w.y as f64)
@@ -130,21 +137,23 @@ impl Binned {
         let (ti, pi) = sph(wi);
         let (to, po) = sph(wo);
         if self.anisotropic {
-            vec![ti, to, pi, po]
+            ([ti, to, pi, po], 4)
         } else {
             let mut d = (po - pi).rem_euclid(360.0);
             if d > 180.0 {
                 d = 360.0 - d;
             }
-            vec![ti, to, d]
+            ([ti, to, d, 0.0], 3)
         }
     }
 
-    /// Flat index of the bin of a direction pair.
+    /// Flat index of the bin of a direction pair (called per lookup: allocates nothing).
     pub fn bin_of(&self, wi: Vec3, wo: Vec3) -> usize {
-        let a = self.angles(wi, wo);
-        let bins: Vec<usize> = a.iter().zip(&self.axes).map(|(&x, ax)| ax.bin(x)).collect();
-        self.index(&bins)
+        let (a, n) = self.angles_fixed(wi, wo);
+        a[..n]
+            .iter()
+            .zip(&self.axes)
+            .fold(0, |acc, (&x, ax)| acc * ax.count + ax.bin(x))
     }
 
     /// Direction pair at the centre of bin k (wi, wo).
