@@ -33,11 +33,11 @@
 use crate::composite::Composite;
 use crate::fit::dataset::Dataset;
 use crate::lobe::{Lobe, half_to_incident_pdf, sample_via_half};
-use crate::measured::marginal2d::Marginal2D;
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
+use crate::sampling::marginal2d::Marginal2D;
 use crate::{Bsdf, Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::f64::consts::PI;

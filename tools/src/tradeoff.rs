@@ -102,19 +102,18 @@ pub(crate) fn cost(b: &dyn Bsdf) -> (f64, f64) {
             .wrapping_add(1442695040888963407);
         ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
     };
-    let dirs: Vec<Case> = (0..n)
-        .map(|_| {
-            let a = lobe_materials::sampling::square_to_cosine_hemisphere(glam::Vec2::new(
-                next(),
-                next(),
-            ));
-            let b = lobe_materials::sampling::square_to_cosine_hemisphere(glam::Vec2::new(
-                next(),
-                next(),
-            ));
-            (a, b, glam::Vec2::new(next(), next()), next())
-        })
-        .collect();
+    let dirs: Vec<Case> =
+        (0..n)
+            .map(|_| {
+                let a = lobe_materials::sampling::warp::square_to_cosine_hemisphere(
+                    glam::Vec2::new(next(), next()),
+                );
+                let b = lobe_materials::sampling::warp::square_to_cosine_hemisphere(
+                    glam::Vec2::new(next(), next()),
+                );
+                (a, b, glam::Vec2::new(next(), next()), next())
+            })
+            .collect();
     let time = |f: &dyn Fn(&Case) -> f32| {
         let mut best = f64::INFINITY;
         for _ in 0..3 {

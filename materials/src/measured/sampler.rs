@@ -8,8 +8,8 @@
 //! uniform in solid angle. The density is exact for what is sampled, so the estimator is
 //! unbiased whatever the table's accuracy.
 
-use crate::distribution::Cdf2D;
-use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::sampling::cdf::Cdf2D;
+use crate::sampling::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
 

@@ -27,9 +27,9 @@
 use crate::Rgb;
 use crate::error::{Error, Result};
 use glam::{Mat3, Vec2, Vec3};
-use lobe_materials::distribution::Hierarchy2D;
 use lobe_materials::fastmath::{self, x8};
-use lobe_materials::sampling::{square_to_bilinear, square_to_bilinear_x8};
+use lobe_materials::sampling::hierarchy::Hierarchy2D;
+use lobe_materials::sampling::warp::{square_to_bilinear, square_to_bilinear_x8};
 use lobe_materials::simd;
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
