@@ -4,7 +4,7 @@
 //! available to scene files as `"file": "builtin:studio"`.
 
 use crate::Rgb;
-use crate::lights::envmap::RgbImage;
+use crate::image_io::RgbImage;
 use serde_json::{Value, json};
 use std::f32::consts::{PI, TAU};
 

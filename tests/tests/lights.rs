@@ -196,7 +196,7 @@ fn batched_light_samples_equal_single_ones() {
             intensity: Rgb::ONE,
         },
     ));
-    let img = lobe_renderer::lights::envmap::RgbImage {
+    let img = lobe_renderer::image_io::RgbImage {
         width: 8,
         height: 4,
         pixels: (0..32).map(|k| Rgb::splat(0.1 + k as f32)).collect(),
