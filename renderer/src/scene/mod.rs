@@ -8,6 +8,7 @@
 //! film, sampler, integrator and materials here, the shapes, lights and camera each in
 //! their own module (`shapes`, `lights`, `camera`).
 
+pub mod builtin_images;
 mod camera;
 pub mod gltf_check;
 pub mod inputs;
@@ -77,7 +78,7 @@ impl LoadOptions {
     pub fn with_builtins() -> Self {
         let mut b: BTreeMap<String, ImageMaker> = BTreeMap::new();
         b.insert("studio".to_string(), || {
-            crate::showcase::studio_environment(512, 256)
+            builtin_images::studio_environment(512, 256)
         });
         Self { builtin_images: b }
     }
