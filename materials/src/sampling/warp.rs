@@ -1,7 +1,9 @@
-//! Warps from the unit square to directions, with their densities: the standard
-//! constructions of pbrt-v4 (`util/sampling.h`) and Mitsuba 3 (`core/warp.h`), written
-//! from Shirley and Chiu's concentric map ("A Low Distortion Map Between Disk and Square",
-//! 1997) and Malley's method for the cosine-weighted hemisphere.
+//! Warps from the unit square to directions, triangles and bilinear patches, with their
+//! densities: the standard constructions of pbrt-v4 (`util/sampling.h`) and Mitsuba 3
+//! (`core/warp.h`), written from Shirley and Chiu's concentric map ("A Low Distortion Map
+//! Between Disk and Square", 1997), Malley's method for the cosine-weighted hemisphere and
+//! pbrt-v4's `SampleLinear`/`SampleBilinear`; and Veach's power heuristic (1997,
+//! beta = 2) that weighs two such strategies in multiple importance sampling.
 
 use crate::fastmath::x8;
 use crate::simd;
