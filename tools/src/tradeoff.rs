@@ -17,6 +17,7 @@ use lobe_materials::fit::{builtin_specs, fit};
 use lobe_materials::measured::format;
 use lobe_materials::microfacet_gen::estimate;
 use lobe_materials::registry::{BuildContext, Registry};
+use lobe_materials::sampling::warp;
 use lobe_renderer::Error;
 use lobe_renderer::compare::metrics;
 use lobe_renderer::error_stats::robust_error;
@@ -102,18 +103,13 @@ pub(crate) fn cost(b: &dyn Bsdf) -> (f64, f64) {
             .wrapping_add(1442695040888963407);
         ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
     };
-    let dirs: Vec<Case> =
-        (0..n)
-            .map(|_| {
-                let a = lobe_materials::sampling::warp::square_to_cosine_hemisphere(
-                    glam::Vec2::new(next(), next()),
-                );
-                let b = lobe_materials::sampling::warp::square_to_cosine_hemisphere(
-                    glam::Vec2::new(next(), next()),
-                );
-                (a, b, glam::Vec2::new(next(), next()), next())
-            })
-            .collect();
+    let dirs: Vec<Case> = (0..n)
+        .map(|_| {
+            let a = warp::square_to_cosine_hemisphere(glam::Vec2::new(next(), next()));
+            let b = warp::square_to_cosine_hemisphere(glam::Vec2::new(next(), next()));
+            (a, b, glam::Vec2::new(next(), next()), next())
+        })
+        .collect();
     let time = |f: &dyn Fn(&Case) -> f32| {
         let mut best = f64::INFINITY;
         for _ in 0..3 {
