@@ -39,7 +39,8 @@ fn queries() -> Queries {
             .wrapping_add(1_442_695_040_888_963_407);
         ((s >> 40) as f32 + 0.5) / (1u64 << 24) as f32
     };
-    let mut dir = || lobe_materials::sampling::square_to_cosine_hemisphere(Vec2::new(rnd(), rnd()));
+    let mut dir =
+        || lobe_materials::sampling::warp::square_to_cosine_hemisphere(Vec2::new(rnd(), rnd()));
     let wo: Vec<Vec3> = (0..N).map(|_| dir()).collect();
     let wi: Vec<Vec3> = (0..N).map(|_| dir()).collect();
     let u = (0..N).map(|_| Vec2::new(rnd(), rnd())).collect();

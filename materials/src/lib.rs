@@ -2,9 +2,10 @@
 //!
 //! This crate holds everything that is BRDF math and nothing about rays, cameras or
 //! images: the plugin interface ([`Bsdf`]), the linear-RGB spectrum type ([`Rgb`]), the
-//! shading frame and direction parameterizations ([`frame`]), the sample warps shared with
-//! the renderer ([`sampling`]), and the registry that turns a JSON description into a
-//! material while validating its parameters against a per-model schema ([`registry`]).
+//! shading frame and direction parameterizations ([`frame`]), the sample warps,
+//! distributions and quadrature shared with the renderer ([`sampling`]), and the registry
+//! that turns a JSON description into a material while validating its parameters against
+//! a per-model schema ([`registry`]).
 //!
 //! The models are those of Ngan, Durand and Matusik, "Experimental Analysis of BRDF
 //! Models" (EGSR 2005), section 3.1: every material is
@@ -22,7 +23,6 @@
 pub mod analytic;
 pub mod bsdf;
 pub mod composite;
-pub mod distribution;
 pub mod error;
 pub mod fastmath;
 pub mod fit;
@@ -35,7 +35,6 @@ pub mod math;
 pub mod measured;
 pub mod microfacet_gen;
 pub mod ngan_fit;
-pub mod quadrature;
 pub mod registry;
 pub mod sampling;
 pub mod simd;

@@ -9,8 +9,9 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Mat3, Vec2, Vec3};
 use lobe_renderer::Rgb;
+use lobe_renderer::image_io::RgbImage;
 use lobe_renderer::lights::EnvMap;
-use lobe_renderer::lights::envmap::{RgbImage, load_rgb_image};
+use lobe_renderer::lights::envmap::load_rgb_image;
 use std::hint::black_box;
 use std::path::Path;
 

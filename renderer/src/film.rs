@@ -1,8 +1,8 @@
-//! The film: per-pixel means (box filter) and variances of the mean, and the outputs:
-//! linear f32 OpenEXR (exr crate), a tonemapped sRGB PNG (image crate) and a JSON
-//! statistics sidecar. Every write is atomic: the data goes to a temporary file in the
-//! destination folder, is flushed to disk, then renamed over the destination, so a failed
-//! or interrupted write never leaves a truncated file nor clobbers an existing good one.
+//! The film: per-pixel means (box filter) and variances of the mean, the sRGB tonemap of
+//! the PNG output, and atomic writes of output files (the JSON statistics sidecar here, the
+//! images in [`crate::image_io`]): the data goes to a temporary file in the destination
+//! folder, is flushed to disk, then renamed over the destination, so a failed or
+//! interrupted write never leaves a truncated file nor clobbers an existing good one.
 
 use crate::Rgb;
 use crate::error::{Error, Result};
@@ -82,25 +82,6 @@ pub fn atomic_write(
     lobe_materials::io::atomic_write(path, fill).map_err(Error::from)
 }
 
-/// Writes linear RGB as a 32-bit float OpenEXR file.
-pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Rgb]) -> Result<()> {
-    use exr::prelude::*;
-    let w = width as usize;
-    let channels = SpecificChannels::rgb(|pos: exr::math::Vec2<usize>| {
-        let p = pixels[pos.y() * w + pos.x()];
-        (p.r, p.g, p.b)
-    });
-    let image = exr::image::Image::from_channels((width as usize, height as usize), channels);
-    // Straight into the (seekable) temporary file, block by block: no copy of the whole
-    // image in memory.
-    atomic_write(path, |out| {
-        image
-            .write()
-            .to_buffered(out)
-            .map_err(std::io::Error::other)
-    })
-}
-
 /// sRGB opto-electronic transfer function.
 #[inline]
 pub fn srgb_encode(v: f32) -> f32 {
@@ -124,39 +105,10 @@ pub fn tonemap(pixels: &[Rgb], exposure: f32) -> Vec<u8> {
         .collect()
 }
 
-/// Writes an 8-bit RGB PNG.
-pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb8: &[u8]) -> Result<()> {
-    use image::ImageEncoder;
-    atomic_write(path, |out| {
-        image::codecs::png::PngEncoder::new(out)
-            .write_image(rgb8, width, height, image::ExtendedColorType::Rgb8)
-            .map_err(std::io::Error::other)
-    })
-}
-
-/// Writes a tonemapped sRGB PNG of linear pixels.
-pub fn write_png(
-    path: &Path,
-    width: u32,
-    height: u32,
-    pixels: &[Rgb],
-    exposure: f32,
-) -> Result<()> {
-    write_png_rgb8(path, width, height, &tonemap(pixels, exposure))
-}
-
 /// Writes a JSON value, pretty-printed.
 pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
     atomic_write(path, |out| {
         serde_json::to_writer_pretty(&mut *out, value).map_err(std::io::Error::other)?;
         out.write_all(b"\n")
     })
-}
-
-/// Reads a linear RGB OpenEXR image (first layer).
-pub fn read_exr(path: &Path) -> Result<Image> {
-    let img = crate::lights::envmap::read_rgb_image(path)?;
-    let mut out = Image::new(img.width as u32, img.height as u32);
-    out.pixels = img.pixels;
-    Ok(out)
 }

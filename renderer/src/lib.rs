@@ -9,7 +9,8 @@
 //! next-event estimation and multiple importance sampling (Veach 1997, power heuristic)
 //! or a one-bounce direct integrator over parallel tiles, with a per-pixel seeded
 //! low-discrepancy sampler so that images are bit-identical whatever the thread count.
-//! [`film`] writes linear EXR, a tonemapped PNG and a statistics sidecar atomically.
+//! [`image_io`] reads HDR images and writes linear EXR and tonemapped PNG, [`film`] the
+//! statistics sidecar, all atomically.
 
 pub mod camera;
 pub mod compare;
@@ -17,6 +18,7 @@ pub mod error;
 pub mod error_stats;
 pub mod film;
 pub mod geometry;
+pub mod image_io;
 pub mod integrators;
 pub mod lights;
 pub mod limits;

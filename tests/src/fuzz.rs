@@ -289,7 +289,7 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
             let px: Vec<lobe_materials::Rgb> = (0..32)
                 .map(|k| lobe_materials::Rgb::new(k as f32 * 0.1, 0.5, 1.0))
                 .collect();
-            lobe_renderer::film::write_exr(&p, 8, 4, &px).expect("exr");
+            lobe_renderer::image_io::write_exr(&p, 8, 4, &px).expect("exr");
             let mut v = vec![std::fs::read(p).expect("read")];
             v.extend(std::fs::read(crate::workspace().join("scenes/envmaps/studio-512.exr")));
             v

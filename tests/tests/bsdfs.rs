@@ -251,8 +251,8 @@ fn glossy_sampling_beats_cosine_sampling() {
             self.0.eval(wo, wi)
         }
         fn sample(&self, wo: Vec3, u: glam::Vec2, _uc: f32) -> Option<lobe_materials::BsdfSample> {
-            let wi = lobe_materials::sampling::square_to_cosine_hemisphere(u);
-            let pdf = lobe_materials::sampling::cosine_hemisphere_pdf(wi.z);
+            let wi = lobe_materials::sampling::warp::square_to_cosine_hemisphere(u);
+            let pdf = lobe_materials::sampling::warp::cosine_hemisphere_pdf(wi.z);
             (wo.z > 0.0 && pdf > 0.0).then(|| lobe_materials::BsdfSample {
                 wi,
                 weight: self.0.eval(wo, wi) * (wi.z / pdf),
@@ -260,7 +260,7 @@ fn glossy_sampling_beats_cosine_sampling() {
             })
         }
         fn pdf(&self, _wo: Vec3, wi: Vec3) -> f32 {
-            lobe_materials::sampling::cosine_hemisphere_pdf(wi.z)
+            lobe_materials::sampling::warp::cosine_hemisphere_pdf(wi.z)
         }
         fn flags(&self) -> Flags {
             self.0.flags()

@@ -4,7 +4,8 @@
 
 use glam::{Mat3, Vec2, Vec3};
 use lobe_materials::Rgb;
-use lobe_renderer::lights::envmap::{EnvMap, RgbImage};
+use lobe_renderer::image_io::RgbImage;
+use lobe_renderer::lights::envmap::EnvMap;
 use lobe_tests::chi2_test;
 use std::f64::consts::PI;
 

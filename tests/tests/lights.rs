@@ -117,7 +117,7 @@ fn sampled_density_matches_pdf_and_integrates_to_one() {
         let m = 1_000_000u32;
         let mut hits = 0u32;
         for k in 0..m {
-            let d = lobe_materials::sampling::square_to_uniform_sphere(Vec2::new(
+            let d = lobe_materials::sampling::warp::square_to_uniform_sphere(Vec2::new(
                 hash(k, 3),
                 hash(k, 4),
             ));
@@ -196,7 +196,7 @@ fn batched_light_samples_equal_single_ones() {
             intensity: Rgb::ONE,
         },
     ));
-    let img = lobe_renderer::lights::envmap::RgbImage {
+    let img = lobe_renderer::image_io::RgbImage {
         width: 8,
         height: 4,
         pixels: (0..32).map(|k| Rgb::splat(0.1 + k as f32)).collect(),

@@ -9,7 +9,8 @@
 //! re-renders it (`tools/mitsuba/reference.sh NAME`).
 
 use lobe_renderer::compare::z_test;
-use lobe_renderer::film::{Image, read_exr};
+use lobe_renderer::film::Image;
+use lobe_renderer::image_io::read_exr;
 use lobe_renderer::render::{RenderOptions, render};
 use lobe_renderer::scene::{LoadOptions, from_value};
 use serde_json::Value;

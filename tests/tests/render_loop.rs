@@ -25,7 +25,7 @@ impl Bsdf for HalfNan {
         }
     }
     fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<BsdfSample> {
-        let wi = lobe_materials::sampling::square_to_cosine_hemisphere(u);
+        let wi = lobe_materials::sampling::warp::square_to_cosine_hemisphere(u);
         (wo.z > 0.0).then(|| BsdfSample {
             wi,
             weight: self.eval(wo, wi) * std::f32::consts::PI,

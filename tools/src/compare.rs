@@ -4,7 +4,7 @@
 use crate::args::finite;
 use lobe_renderer::Error;
 use lobe_renderer::compare::{check_finite, flip_heatmap, metrics, z_test};
-use lobe_renderer::film::{read_exr, write_png_rgb8};
+use lobe_renderer::image_io::{read_exr, write_png_rgb8};
 use lobe_renderer::outputs::FilePlan;
 use std::path::{Path, PathBuf};
 

@@ -122,7 +122,7 @@ pub(crate) fn plot_err<E: std::fmt::Debug>(e: E) -> Error {
 }
 
 pub(crate) fn save(path: &Path, buf: &[u8]) -> Result<(), Error> {
-    lobe_renderer::film::write_png_rgb8(path, W, H, buf)
+    lobe_renderer::image_io::write_png_rgb8(path, W, H, buf)
 }
 
 pub(crate) fn register_font() {
@@ -480,7 +480,7 @@ fn spheres(
         }
         root.present().map_err(plot_err)?;
     }
-    lobe_renderer::film::write_png_rgb8(output, w, h, &buf)
+    lobe_renderer::image_io::write_png_rgb8(output, w, h, &buf)
 }
 
 /// Line segments where `f` crosses `level` on a grid over [-1, 1]^2 (marching squares).

@@ -20,7 +20,7 @@ use lobe_renderer::film::Image;
 use lobe_renderer::outputs::{FilePlan, RenderFiles};
 use lobe_renderer::render::{RenderOptions, RenderStats, render};
 use lobe_renderer::scene::Scene;
-use lobe_renderer::{Error, film};
+use lobe_renderer::{Error, film, image_io};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -277,14 +277,14 @@ fn write_render(
     stats: &RenderStats,
     labels: &[(String, glam::Vec2)],
 ) -> Result<(), Error> {
-    film::write_exr(&files.exr, img.width, img.height, &img.pixels)?;
+    image_io::write_exr(&files.exr, img.width, img.height, &img.pixels)?;
     if let Some(v) = &files.variance {
-        film::write_exr(v, img.width, img.height, &img.variance)?;
+        image_io::write_exr(v, img.width, img.height, &img.variance)?;
     }
     if let Some(png) = &files.png {
         let mut rgb = film::tonemap(&img.pixels, scene.exposure);
         figures::draw_labels(&mut rgb, (img.width, img.height), labels)?;
-        film::write_png_rgb8(png, img.width, img.height, &rgb)?;
+        image_io::write_png_rgb8(png, img.width, img.height, &rgb)?;
     }
     film::write_json(&files.stats, &stats_json(scene, stats, files))
 }

@@ -124,7 +124,7 @@ fn plot(table: &Table, path: &Path) -> Result<(), Error> {
             }
         }
     }
-    lobe_renderer::film::write_png_rgb8(path, size as u32, size as u32, &rgb)
+    lobe_renderer::image_io::write_png_rgb8(path, size as u32, size as u32, &rgb)
 }
 
 /// The table and plot files of a stem.

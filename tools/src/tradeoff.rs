@@ -17,6 +17,7 @@ use lobe_materials::fit::{builtin_specs, fit};
 use lobe_materials::measured::format;
 use lobe_materials::microfacet_gen::estimate;
 use lobe_materials::registry::{BuildContext, Registry};
+use lobe_materials::sampling::warp;
 use lobe_renderer::Error;
 use lobe_renderer::compare::metrics;
 use lobe_renderer::error_stats::robust_error;
@@ -104,14 +105,8 @@ pub(crate) fn cost(b: &dyn Bsdf) -> (f64, f64) {
     };
     let dirs: Vec<Case> = (0..n)
         .map(|_| {
-            let a = lobe_materials::sampling::square_to_cosine_hemisphere(glam::Vec2::new(
-                next(),
-                next(),
-            ));
-            let b = lobe_materials::sampling::square_to_cosine_hemisphere(glam::Vec2::new(
-                next(),
-                next(),
-            ));
+            let a = warp::square_to_cosine_hemisphere(glam::Vec2::new(next(), next()));
+            let b = warp::square_to_cosine_hemisphere(glam::Vec2::new(next(), next()));
             (a, b, glam::Vec2::new(next(), next()), next())
         })
         .collect();

@@ -47,7 +47,7 @@ fn render_writes_exr_png_and_stats() {
             .unwrap();
     assert_eq!(stats["spp"], 4);
     assert_eq!(stats["nonfinite_dropped"], 0);
-    let img = lobe_renderer::film::read_exr(&out).unwrap();
+    let img = lobe_renderer::image_io::read_exr(&out).unwrap();
     assert_eq!((img.width, img.height), (16, 12));
     assert!(img.pixels.iter().all(|p| p.is_finite()) && img.mean().max_component() > 0.0);
     // No temporary files are left behind.
@@ -989,8 +989,8 @@ fn resource_limits_are_one_line_errors_not_aborts() {
         assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     }
     let (ia, ib) = (
-        lobe_renderer::film::read_exr(Path::new(&a)).unwrap(),
-        lobe_renderer::film::read_exr(Path::new(&b)).unwrap(),
+        lobe_renderer::image_io::read_exr(Path::new(&a)).unwrap(),
+        lobe_renderer::image_io::read_exr(Path::new(&b)).unwrap(),
     );
     assert!(ia.pixels == ib.pixels);
     // A 16384^2 film (6 GiB) under a 2 GiB address-space limit: a clean error, no abort.
@@ -1223,7 +1223,7 @@ fn refused_in(dir: &Path, args: &[&str], needles: &[&str]) {
 /// A small linear EXR of `w` x `h` pixels of value `v`.
 fn write_exr(path: &Path, (w, h): (u32, u32), v: f32) {
     let px = vec![lobe_renderer::Rgb::splat(v); (w * h) as usize];
-    lobe_renderer::film::write_exr(path, w, h, &px).unwrap();
+    lobe_renderer::image_io::write_exr(path, w, h, &px).unwrap();
 }
 
 const WARD: &str = r#"{"type": "ward", "diffuse": 0.1, "specular": 0.2, "alpha": 0.2}"#;
@@ -1446,7 +1446,7 @@ fn comparisons_fail_on_non_finite_pixels() {
     let mut px = vec![lobe_renderer::Rgb::splat(0.5); 256];
     px[3] = lobe_renderer::Rgb::splat(f32::NAN);
     px[200].b = f32::INFINITY;
-    lobe_renderer::film::write_exr(&d.join("b.exr"), 16, 16, &px).unwrap();
+    lobe_renderer::image_io::write_exr(&d.join("b.exr"), 16, 16, &px).unwrap();
     write_exr(&d.join("all.exr"), (16, 16), f32::NAN);
     let needle = "b.exr: 2 of 256 pixels are non-finite";
     refused_in(
@@ -1697,7 +1697,7 @@ fn the_showcase_labels_its_models() {
         "{stderr}"
     );
     // The PNG is the tonemapped EXR plus the labels.
-    let exr = lobe_renderer::film::read_exr(&d.join("x.exr")).unwrap();
+    let exr = lobe_renderer::image_io::read_exr(&d.join("x.exr")).unwrap();
     let tonemapped = lobe_renderer::film::tonemap(&exr.pixels, 0.0);
     let png = image::open(d.join("x.png")).unwrap().to_rgb8().into_raw();
     assert_eq!(png.len(), tonemapped.len());

@@ -304,7 +304,8 @@ impl RglBsdf {
     /// The mixture density of `wi` from the table's density of it.
     #[inline]
     fn mixture_pdf(wi: Vec3, table_pdf: f32) -> f32 {
-        RGL_COSINE * crate::sampling::cosine_hemisphere_pdf(wi.z) + (1.0 - RGL_COSINE) * table_pdf
+        RGL_COSINE * crate::sampling::warp::cosine_hemisphere_pdf(wi.z)
+            + (1.0 - RGL_COSINE) * table_pdf
     }
 
     /// The sample of direction `wi` from its projected value and table density.
@@ -339,7 +340,7 @@ impl Bsdf for RglBsdf {
             return None;
         }
         if uc < RGL_COSINE {
-            let wi = crate::sampling::square_to_cosine_hemisphere(u);
+            let wi = crate::sampling::warp::square_to_cosine_hemisphere(u);
             if wi.z <= 0.0 {
                 return None;
             }
@@ -385,7 +386,7 @@ impl Bsdf for RglBsdf {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         out.fill(None);
-        let cosine = |k: usize| crate::sampling::square_to_cosine_hemisphere(u[k]);
+        let cosine = |k: usize| crate::sampling::warp::square_to_cosine_hemisphere(u[k]);
         let by_cosine = |k: usize| !(wo[k].z <= 0.0) && uc[k] < RGL_COSINE && !(cosine(k).z <= 0.0);
         simd::chunks_where(n, by_cosine, |idx| {
             let wi = simd::lanes_of(idx, cosine);

@@ -10,7 +10,6 @@
 
 pub mod binned;
 pub mod format;
-pub mod marginal2d;
 pub mod material;
 pub mod merl;
 pub mod rgl;

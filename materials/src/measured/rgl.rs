@@ -25,12 +25,12 @@
 //! Anisotropic tables (more than two phi_i values) are folded by their symmetry reduction
 //! as Mitsuba does; isotropic ones use no reduction.
 
-use super::marginal2d::{Marginal2D, Slices, Slicesx8};
 use super::tensor::TensorFile;
 use crate::Rgb;
 use crate::error::FileError;
 use crate::fastmath;
 use crate::fastmath::x8;
+use crate::sampling::marginal2d::{Marginal2D, Slices, Slicesx8};
 use crate::simd::{Mask8, Rgbx8, Vec3x8, clamp, f32x8, max_lane, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};

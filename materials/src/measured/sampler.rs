@@ -9,9 +9,9 @@
 //! unbiased whatever the table's accuracy. Angles at render time come from [`fastmath`]
 //! (no C library call per query).
 
-use crate::distribution::Cdf2D;
 use crate::fastmath;
-use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::sampling::cdf::Cdf2D;
+use crate::sampling::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
 

@@ -8,7 +8,7 @@ use crate::Rgb;
 use crate::geometry::{Ray, spawn_ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use lobe_materials::sampling::power_heuristic;
+use lobe_materials::sampling::warp::power_heuristic;
 
 pub fn li(
     scene: &Scene,

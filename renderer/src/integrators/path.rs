@@ -16,7 +16,7 @@ use crate::geometry::{Ray, spawn_ray};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::Vec3;
-use lobe_materials::sampling::power_heuristic;
+use lobe_materials::sampling::warp::power_heuristic;
 
 /// Radiance along `ray`, one path at a time (the reference form).
 pub fn li(

@@ -37,7 +37,7 @@ use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use lobe_materials::frame::Frame;
-use lobe_materials::sampling::power_heuristic;
+use lobe_materials::sampling::warp::power_heuristic;
 use lobe_materials::simd;
 use lobe_materials::{Bsdf, BsdfSample};
 

@@ -26,10 +26,11 @@
 
 use crate::Rgb;
 use crate::error::{Error, Result};
+use crate::image_io::{RgbImage, read_rgb_image};
 use glam::{Mat3, Vec2, Vec3};
-use lobe_materials::distribution::Hierarchy2D;
 use lobe_materials::fastmath::{self, x8};
-use lobe_materials::sampling::{square_to_bilinear, square_to_bilinear_x8};
+use lobe_materials::sampling::hierarchy::Hierarchy2D;
+use lobe_materials::sampling::warp::{square_to_bilinear, square_to_bilinear_x8};
 use lobe_materials::simd;
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
@@ -56,14 +57,6 @@ pub struct EnvMap {
     /// Luminance subtracted from every pixel's sampling weight (MIS compensation; 0 when
     /// off).
     offset: f32,
-}
-
-/// An RGB float image, row-major, top row first.
-#[derive(Clone, Debug)]
-pub struct RgbImage {
-    pub width: usize,
-    pub height: usize,
-    pub pixels: Vec<Rgb>,
 }
 
 /// Environment-map sampling distributions built since the process started: lets tests show
@@ -587,69 +580,12 @@ fn mat3_mul_x8(m: &Mat3, x: f32x8, y: f32x8, z: f32x8) -> [f32x8; 3] {
     [row(0), row(1), row(2)]
 }
 
-/// Reads an environment map image (see [`read_rgb_image`]) and checks it: at least 2x3
+/// Reads an environment map image (see [`crate::image_io::read_rgb_image`]) and checks it: at least 2x3
 /// pixels, non-finite pixels rejected, negative ones (ringing of lossy sources) clamped
 /// to zero.
 pub fn load_rgb_image(path: &Path) -> Result<RgbImage> {
     let img = read_rgb_image(path)?;
     validate_image(img, &path.display().to_string())
-}
-
-/// Reads an HDR image: OpenEXR (`.exr`, first layer, RGB) or Radiance (`.hdr`, `.pic`).
-pub fn read_rgb_image(path: &Path) -> Result<RgbImage> {
-    let shown = path.display();
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .unwrap_or_default();
-    if path.is_dir() {
-        return Err(Error::file(
-            shown,
-            "is a directory; expected an .exr or .hdr image",
-        ));
-    }
-    let img = match ext.as_str() {
-        "exr" => {
-            use exr::prelude::*;
-            lobe_materials::io::check_exr_size(path).map_err(|m| crate::Error::file(&shown, m))?;
-            let image = lobe_materials::guard::third_party("OpenEXR", || {
-                read_first_rgba_layer_from_file(
-                    path,
-                    |res, _| RgbImage {
-                        width: res.width(),
-                        height: res.height(),
-                        pixels: vec![Rgb::ZERO; res.width() * res.height()],
-                    },
-                    |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                        img.pixels[pos.y() * img.width + pos.x()] = Rgb::new(r, g, b);
-                    },
-                )
-            })
-            .map_err(|m| crate::Error::file(&shown, m))?
-            .map_err(|e| crate::Error::file(&shown, format!("cannot read OpenEXR image: {e}")))?;
-            image.layer_data.channel_data.pixels
-        }
-        "hdr" | "pic" => {
-            let rgb = lobe_materials::guard::third_party("Radiance HDR", || {
-                image::open(path).map(|i| i.into_rgb32f())
-            })
-            .map_err(|m| Error::file(&shown, m))?
-            .map_err(|e| Error::file(&shown, format!("cannot read Radiance HDR image: {e}")))?;
-            RgbImage {
-                width: rgb.width() as usize,
-                height: rgb.height() as usize,
-                pixels: rgb.pixels().map(|p| Rgb::new(p[0], p[1], p[2])).collect(),
-            }
-        }
-        _ => {
-            return Err(Error::file(
-                shown,
-                format!("unsupported image extension \"{ext}\"; expected .exr or .hdr"),
-            ));
-        }
-    };
-    Ok(img)
 }
 
 fn validate_image(mut img: RgbImage, name: &str) -> Result<RgbImage> {

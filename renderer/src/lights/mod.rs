@@ -9,16 +9,13 @@
 
 pub mod envmap;
 
-/// The distributions live in lobe-materials (the measured BRDFs' samplers use them too).
-pub use lobe_materials::distribution;
-
 use crate::Rgb;
 use crate::geometry::{Interaction, Rectangle, Sphere, Triangle};
 pub use envmap::EnvMap;
 use glam::{Vec2, Vec3};
-use lobe_materials::distribution::Distribution1D;
 use lobe_materials::frame::Frame;
-use lobe_materials::sampling::{
+use lobe_materials::sampling::cdf::Discrete1D;
+use lobe_materials::sampling::warp::{
     UNIFORM_SPHERE_PDF, square_to_uniform_cone, square_to_uniform_sphere,
     square_to_uniform_triangle, uniform_cone_pdf,
 };
@@ -39,7 +36,7 @@ pub enum AreaShape {
     /// Triangles with their emitting-side unit normals, chosen by area.
     Mesh {
         tris: Vec<(Triangle, Vec3)>,
-        cdf: Distribution1D,
+        cdf: Discrete1D,
         area: f32,
     },
 }
@@ -380,7 +377,7 @@ impl AreaShape {
             return None;
         }
         Some(AreaShape::Mesh {
-            cdf: Distribution1D::new(&areas),
+            cdf: Discrete1D::new(&areas),
             tris,
             area,
         })
@@ -438,7 +435,7 @@ impl AreaShape {
                 Some((q, n, area_to_solid_angle(p, q, n, 1.0 / rect.area())))
             }
             AreaShape::Mesh { tris, cdf, area } => {
-                let (i, _, ux) = cdf.sample_discrete(u.x);
+                let (i, _, ux) = cdf.sample(u.x);
                 let (tri, n) = &tris[i];
                 let b = square_to_uniform_triangle(Vec2::new(ux, u.y));
                 let q = tri.point(b);

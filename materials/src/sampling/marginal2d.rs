@@ -184,12 +184,6 @@ impl Marginal2D {
         &self.data
     }
 
-    /// Whether `other` interpolates the same parameter values (so that it can use this
-    /// table's [`Slices`]).
-    pub fn same_params(&self, other: &Marginal2D) -> bool {
-        self.params == other.params
-    }
-
     /// The slices and weights of parameters `p` (Mitsuba's `interpolate_weights`): per
     /// parameter the interval [v_i, v_i+1] of its values that holds p (the first or last
     /// one beyond them) and t = (p - v_i) / (v_i+1 - v_i) clamped to [0, 1].
@@ -223,12 +217,7 @@ impl Marginal2D {
         (ox, oy, px - ox as f32, py - oy as f32)
     }
 
-    /// The (normalized) density at u for parameters `p`.
-    pub fn eval(&self, u: [f32; 2], p: &[f32]) -> f32 {
-        self.eval_in(u, &self.slices(p))
-    }
-
-    /// [`Marginal2D::eval`] in the slices of a query.
+    /// The (normalized) density at u in the slices of a query.
     #[inline]
     pub fn eval_in(&self, u: [f32; 2], sl: &Slices) -> f32 {
         self.eval_channels::<1>(u, sl)[0]
@@ -311,12 +300,8 @@ impl Marginal2D {
         )
     }
 
-    /// The uniform sample that `sample` maps to u, and the density at u.
-    pub fn invert(&self, u: [f32; 2], p: &[f32]) -> ([f32; 2], f32) {
-        self.invert_in(u, &self.slices(p))
-    }
-
-    /// [`Marginal2D::invert`] in the slices of a query.
+    /// The uniform sample that [`Marginal2D::sample_in`] maps to u, and the density at
+    /// u, in the slices of a query.
     pub fn invert_in(&self, u: [f32; 2], b: &Slices) -> ([f32; 2], f32) {
         let (w, h) = (self.w, self.h);
         let (px, py, fx, fy) = self.patch(u);
@@ -662,21 +647,25 @@ mod tests {
             ];
             let p = [((k as f32) * 0.1).fract()];
             let (u, pdf) = m.sample(xi, &p);
-            let (xi2, pdf2) = m.invert(u, &p);
+            let (xi2, pdf2) = m.invert_in(u, &m.slices(&p));
             assert!(
                 (xi2[0] - xi[0]).abs() < 1e-4 && (xi2[1] - xi[1]).abs() < 1e-4,
                 "{xi:?} -> {u:?} -> {xi2:?}"
             );
-            assert!((pdf - pdf2).abs() < 1e-4 * pdf && (pdf - m.eval(u, &p)).abs() < 1e-4 * pdf);
+            assert!(
+                (pdf - pdf2).abs() < 1e-4 * pdf
+                    && (pdf - m.eval_in(u, &m.slices(&p))).abs() < 1e-4 * pdf
+            );
         }
         // The density integrates to one.
         let n = 400;
+        let sl = m.slices(&[0.3]);
         let mut acc = 0.0f64;
         for i in 0..n {
             for j in 0..n {
-                acc += m.eval(
+                acc += m.eval_in(
                     [(i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32],
-                    &[0.3],
+                    &sl,
                 ) as f64;
             }
         }
@@ -868,7 +857,7 @@ mod tests {
                     let p = &p[i][..params.len()];
                     let got = table.eval_channels::<C>(u[i], &table.slices(p));
                     for c in 0..C {
-                        let want = single[c].eval(u[i], p).to_bits();
+                        let want = single[c].eval_in(u[i], &single[c].slices(p)).to_bits();
                         assert_eq!(got[c].to_bits(), want, "{C} channels: {u:?} {p:?}");
                         assert_eq!(
                             got8[c].to_array()[i].to_bits(),

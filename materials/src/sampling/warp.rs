@@ -1,7 +1,9 @@
-//! Warps from the unit square to directions, with their densities: the standard
-//! constructions of pbrt-v4 (`util/sampling.h`) and Mitsuba 3 (`core/warp.h`), written
-//! from Shirley and Chiu's concentric map ("A Low Distortion Map Between Disk and Square",
-//! 1997) and Malley's method for the cosine-weighted hemisphere.
+//! Warps from the unit square to directions, triangles and bilinear patches, with their
+//! densities: the standard constructions of pbrt-v4 (`util/sampling.h`) and Mitsuba 3
+//! (`core/warp.h`), written from Shirley and Chiu's concentric map ("A Low Distortion Map
+//! Between Disk and Square", 1997), Malley's method for the cosine-weighted hemisphere and
+//! pbrt-v4's `SampleLinear`/`SampleBilinear`; and Veach's power heuristic (1997,
+//! beta = 2) that weighs two such strategies in multiple importance sampling.
 
 use crate::fastmath::x8;
 use crate::simd;
@@ -160,18 +162,6 @@ pub fn square_to_bilinear_x8(ux: f32x8, uy: f32x8, w: [f32x8; 4]) -> (f32x8, f32
     (x, y)
 }
 
-/// Density of [`square_to_bilinear`] at `p`.
-#[inline]
-pub fn bilinear_pdf(p: Vec2, w: [f32; 4]) -> f32 {
-    let sum = w[0] + w[1] + w[2] + w[3];
-    if !(sum > 0.0) {
-        return 1.0;
-    }
-    let top = w[0] + (w[1] - w[0]) * p.x;
-    let bottom = w[2] + (w[3] - w[2]) * p.x;
-    4.0 * (top + (bottom - top) * p.y) / sum
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -199,6 +189,18 @@ mod tests {
         assert_eq!(power_heuristic(0.0, 0.0), 0.0);
         assert!((power_heuristic(1.0, 1.0) - 0.5).abs() < 1e-7);
         assert_eq!(power_heuristic(f32::INFINITY, 3.0), 1.0);
+    }
+
+    /// Density of [`square_to_bilinear`] at `p` (the renderer computes it with the cell's
+    /// other terms: `EnvMap::pdf`).
+    fn bilinear_pdf(p: Vec2, w: [f32; 4]) -> f32 {
+        let sum = w[0] + w[1] + w[2] + w[3];
+        if !(sum > 0.0) {
+            return 1.0;
+        }
+        let top = w[0] + (w[1] - w[0]) * p.x;
+        let bottom = w[2] + (w[3] - w[2]) * p.x;
+        4.0 * (top + (bottom - top) * p.y) / sum
     }
 
     /// The bilinear warp draws points with the density `bilinear_pdf` says (histogram of a

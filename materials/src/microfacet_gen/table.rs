@@ -1,0 +1,264 @@
+//! The tabulated distribution of normals p(h) of the Ashikhmin-Premože-Shirley generator
+//! (SIGGRAPH 2000): node values over the projected hemisphere, normalized so that
+//! <h.n> = 1, interpolated bilinearly; APS2000's shadowing term g(k) = int (h.k)+ p(h) dw
+//! tabulated on (theta_k, phi_k) nodes by quadrature over the same grid; the continuous
+//! sampler of h (`Marginal2D`); the forward model rho (Ngan et al. 2005, section 5,
+//! Eq. 3); and the EXR file a table is stored in.
+
+use crate::sampling::marginal2d::Marginal2D;
+use glam::{DVec3, Vec2, Vec3};
+use std::path::Path;
+
+/// Default nodes per side of the distribution table.
+pub const DEFAULT_RES: usize = 257;
+/// Nodes of the g(k) table: theta_k every 2 degrees, phi_k every 5 degrees.
+const G_THETA: usize = 46;
+const G_PHI: usize = 73;
+
+/// A tabulated distribution of normals with its shadowing table and sampler.
+#[derive(Clone, Debug)]
+pub struct Table {
+    pub(super) n: usize,
+    /// Node values of p, normalized: sum p * cell^2 = 1 (so <h.n> = 1).
+    pub(super) p: Vec<f32>,
+    /// g(k) at (theta, phi) nodes.
+    g: Vec<f32>,
+    sampler: Marginal2D,
+}
+
+pub(super) fn node_dir(n: usize, i: usize, j: usize) -> Option<DVec3> {
+    let s = 2.0 / (n - 1) as f64;
+    let (x, y) = (-1.0 + i as f64 * s, -1.0 + j as f64 * s);
+    let r2 = x * x + y * y;
+    (r2 < 1.0).then(|| DVec3::new(x, y, (1.0 - r2).sqrt()))
+}
+
+fn g_dir(t: usize, f: usize) -> DVec3 {
+    let theta = (t as f64 * 2.0).to_radians().min(89.9f64.to_radians());
+    let phi = (f as f64 * 5.0).to_radians();
+    DVec3::new(
+        theta.sin() * phi.cos(),
+        theta.sin() * phi.sin(),
+        theta.cos(),
+    )
+}
+
+impl Table {
+    /// Tabulates `f` (any non-negative density, normalized here) on `n` x `n` nodes.
+    pub fn from_fn(n: usize, f: impl Fn(DVec3) -> f64 + Sync) -> Result<Table, String> {
+        use rayon::prelude::*;
+        let nodes: Vec<f64> = (0..n * n)
+            .into_par_iter()
+            .map(|k| node_dir(n, k % n, k / n).map_or(0.0, &f))
+            .collect();
+        Table::from_nodes(n, nodes)
+    }
+
+    /// A table from node values (row-major, y rows of x); normalized here.
+    pub fn from_nodes(n: usize, mut nodes: Vec<f64>) -> Result<Table, String> {
+        if n < 3 || nodes.len() != n * n {
+            return Err(format!(
+                "distribution table: {} values for {n} x {n} nodes; expected n >= 3 and n^2 values",
+                nodes.len()
+            ));
+        }
+        for (k, v) in nodes.iter_mut().enumerate() {
+            if !v.is_finite() || *v < 0.0 {
+                return Err(format!(
+                    "distribution table: node {k} holds {v}; expected a finite non-negative density"
+                ));
+            }
+            if node_dir(n, k % n, k / n).is_none() {
+                *v = 0.0;
+            }
+        }
+        let cell = 2.0 / (n - 1) as f64;
+        let total: f64 = nodes.iter().sum::<f64>() * cell * cell;
+        if !(total > 0.0) {
+            return Err("distribution table: every node inside the disk is zero; expected a positive density".into());
+        }
+        let p: Vec<f32> = nodes.iter().map(|v| (v / total) as f32).collect();
+        let g = compute_g(n, &p);
+        let sampler = Marginal2D::new(&p, n, n, Vec::new(), true);
+        Ok(Table { n, p, g, sampler })
+    }
+
+    /// Bytes held by the node values, the g table and the sampler.
+    pub fn memory_bytes(&self) -> usize {
+        (self.p.len() + self.g.len()) * 4 + self.sampler.memory_bytes()
+    }
+
+    pub fn resolution(&self) -> usize {
+        self.n
+    }
+
+    /// Normalized node values (row-major, y rows of x).
+    pub fn nodes(&self) -> &[f32] {
+        &self.p
+    }
+
+    /// p(h), bilinear between nodes (h need not be normalized to the disk exactly).
+    #[inline]
+    pub fn p(&self, hx: f64, hy: f64) -> f64 {
+        if hx * hx + hy * hy >= 1.0 {
+            return 0.0;
+        }
+        let s = (self.n - 1) as f64 / 2.0;
+        let (px, py) = ((hx + 1.0) * s, (hy + 1.0) * s);
+        let (ix, iy) = ((px as usize).min(self.n - 2), (py as usize).min(self.n - 2));
+        let (fx, fy) = (px - ix as f64, py - iy as f64);
+        let at = |x: usize, y: usize| self.p[y * self.n + x] as f64;
+        (1.0 - fy) * ((1.0 - fx) * at(ix, iy) + fx * at(ix + 1, iy))
+            + fy * ((1.0 - fx) * at(ix, iy + 1) + fx * at(ix + 1, iy + 1))
+    }
+
+    /// g(k) from its table, bilinear in (theta, phi).
+    #[inline]
+    pub fn g(&self, k: DVec3) -> f64 {
+        let theta = k.z.clamp(-1.0, 1.0).acos().to_degrees().min(89.9) / 2.0;
+        let mut phi = k.y.atan2(k.x).to_degrees();
+        if phi < 0.0 {
+            phi += 360.0;
+        }
+        let phi = phi / 5.0;
+        let (it, ip) = (
+            (theta as usize).min(G_THETA - 2),
+            (phi as usize).min(G_PHI - 2),
+        );
+        let (ft, fp) = (theta - it as f64, phi - ip as f64);
+        let at = |t: usize, f: usize| self.g[t * G_PHI + f] as f64;
+        (1.0 - ft) * ((1.0 - fp) * at(it, ip) + fp * at(it, ip + 1))
+            + ft * ((1.0 - fp) * at(it + 1, ip) + fp * at(it + 1, ip + 1))
+    }
+
+    /// The generator's value per unit specular colour.
+    #[inline]
+    pub fn rho(&self, wo: DVec3, wi: DVec3, f0: f64) -> f64 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let h = (wo + wi).normalize_or_zero();
+        if h.z <= 0.0 {
+            return 0.0;
+        }
+        let c = wi.dot(h).clamp(0.0, 1.0);
+        let fresnel = f0 + (1.0 - f0) * (1.0 - c).powi(5);
+        let v = self.p(h.x, h.y) * fresnel / (4.0 * self.g(wo) * self.g(wi));
+        if v.is_finite() { v.max(0.0) } else { 0.0 }
+    }
+
+    /// Density of h with respect to solid angle of `sample_h`: p(h) h_z.
+    pub fn pdf_h(&self, h: DVec3) -> f64 {
+        if h.z <= 0.0 {
+            0.0
+        } else {
+            self.p(h.x, h.y) * h.z
+        }
+    }
+
+    /// Draws h with density p(h) h_z (None when the bilinear density leaks past the rim).
+    pub fn sample_h(&self, u: Vec2) -> Option<Vec3> {
+        let (uv, _) = self.sampler.sample([u.x, u.y], &[]);
+        let (x, y) = (2.0 * uv[0] - 1.0, 2.0 * uv[1] - 1.0);
+        let r2 = x * x + y * y;
+        (r2 < 1.0).then(|| Vec3::new(x, y, (1.0 - r2).sqrt()))
+    }
+
+    /// Reads a distribution written by [`Table::write_exr`] (any square EXR; the first
+    /// channel's values are the node densities, row 0 at h_y = -1).
+    pub fn read_exr(path: &Path) -> Result<Table, String> {
+        use exr::prelude::*;
+        let name = path.display();
+        crate::io::check_exr_size(path).map_err(|m| format!("{name}: {m}"))?;
+        let img = crate::guard::third_party("OpenEXR", || {
+            read_first_rgba_layer_from_file(
+                path,
+                |res, _| (res.width(), vec![0.0f64; res.width() * res.height()]),
+                |(w, px): &mut (usize, Vec<f64>), pos, (r, _g, _b, _a): (f32, f32, f32, f32)| {
+                    px[pos.y() * *w + pos.x()] = r as f64;
+                },
+            )
+        })
+        .map_err(|m| format!("{name}: {m}"))?
+        .map_err(|e| format!("{name}: cannot read the distribution EXR: {e}"))?;
+        let (w, px) = img.layer_data.channel_data.pixels;
+        if w * w != px.len() {
+            return Err(format!(
+                "{name}: {} x {} pixels; expected a square distribution table",
+                w,
+                px.len() / w.max(1)
+            ));
+        }
+        Table::from_nodes(w, px).map_err(|e| format!("{name}: {e}"))
+    }
+
+    /// Writes the table as an EXR file (temporary file renamed into place) that
+    /// [`Table::read_exr`] and the `sampled-microfacet` material read.
+    pub fn write_exr(&self, path: &Path) -> Result<(), crate::FileError> {
+        let bytes = self
+            .exr_bytes()
+            .map_err(|e| crate::FileError::new(path.display().to_string(), e))?;
+        crate::io::atomic_write(path, |w| std::io::Write::write_all(w, &bytes))
+    }
+
+    /// The node values as an EXR image (equal RGB channels).
+    pub fn exr_bytes(&self) -> Result<Vec<u8>, String> {
+        use exr::prelude::*;
+        let n = self.n;
+        let channels = SpecificChannels::rgb(|pos: exr::math::Vec2<usize>| {
+            let v = self.p[pos.y() * n + pos.x()];
+            (v, v, v)
+        });
+        let image = exr::image::Image::from_channels((n, n), channels);
+        let mut buf = std::io::Cursor::new(Vec::new());
+        image
+            .write()
+            .to_buffered(&mut buf)
+            .map_err(|e| e.to_string())?;
+        Ok(buf.into_inner())
+    }
+}
+
+/// g(k) = int (h.k)+ p(h) dw = int_disk (h.k)+ p(h) / h_z dA on the (theta, phi) nodes.
+fn compute_g(n: usize, p: &[f32]) -> Vec<f32> {
+    use rayon::prelude::*;
+    let cell = 2.0 / (n - 1) as f64;
+    let nodes: Vec<(DVec3, f64)> = (0..n * n)
+        .filter_map(|k| {
+            let v = p[k] as f64;
+            if v <= 0.0 {
+                return None;
+            }
+            node_dir(n, k % n, k / n).map(|h| (h, v * cell * cell / h.z.max(1e-3)))
+        })
+        .collect();
+    (0..G_THETA * G_PHI)
+        .into_par_iter()
+        .map(|k| {
+            let d = g_dir(k / G_PHI, k % G_PHI);
+            let s: f64 = nodes.iter().map(|(h, w)| h.dot(d).max(0.0) * w).sum();
+            s.max(1e-6) as f32
+        })
+        .collect()
+}
+
+/// Pearson correlation of two tables' node values inside the disk (same resolution).
+pub fn correlation(a: &Table, b: &Table) -> f64 {
+    assert_eq!(a.n, b.n);
+    let pairs: Vec<(f64, f64)> = (0..a.n * a.n)
+        .filter(|&k| node_dir(a.n, k % a.n, k / a.n).is_some())
+        .map(|k| (a.p[k] as f64, b.p[k] as f64))
+        .collect();
+    let m = pairs.len() as f64;
+    let (ma, mb) = (
+        pairs.iter().map(|p| p.0).sum::<f64>() / m,
+        pairs.iter().map(|p| p.1).sum::<f64>() / m,
+    );
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in pairs {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma).powi(2);
+        sbb += (y - mb).powi(2);
+    }
+    sab / (saa * sbb).sqrt().max(1e-300)
+}

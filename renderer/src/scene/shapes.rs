@@ -1,0 +1,234 @@
+//! The `shapes` of a scene file (docs/scene-format.md, "Shapes"; Mitsuba 3's `sphere`,
+//! `rectangle`, `obj` and `gltf` shapes, same parameters and meanings): each becomes
+//! primitives for the BVH, its material (from the registry, see [`super::Loader`]) and, when
+//! it has an `emitter`, a one-sided diffuse area light on its surface.
+
+use super::json::{Obj, describe};
+use super::mesh_io::{self, GltfCamera};
+use super::{Loader, ShapeInfo, positive, transform};
+use crate::error::{Error, Result};
+use crate::geometry::bvh::{PrimKind, Primitive, ShapeGeom};
+use crate::geometry::{Mesh, Rectangle, Sphere, Triangle};
+use crate::lights::{AreaShape, Light};
+use glam::{Mat4, Vec3};
+use serde_json::Value;
+
+/// What the shapes of a scene contribute to it: primitives, meshes, per-shape geometry
+/// flags, materials and lights (area lights, in shape order), and the first glTF camera.
+#[derive(Default)]
+pub(super) struct Shapes {
+    pub prims: Vec<Primitive>,
+    pub meshes: Vec<Mesh>,
+    pub shape_geom: Vec<ShapeGeom>,
+    pub shapes: Vec<ShapeInfo>,
+    pub lights: Vec<Light>,
+    pub gltf_camera: Option<GltfCamera>,
+}
+
+/// The keys every shape has beside those of its kind.
+struct Common {
+    id: u32,
+    flip: bool,
+    face_normals: bool,
+    to_world: Mat4,
+}
+
+/// Reads the `shapes` array of a scene (absent: none).
+pub(super) fn parse_shapes<'a>(ld: &mut Loader<'a>, top: &Obj<'a>) -> Result<Shapes> {
+    let shape_list = match top.get("shapes") {
+        None => &[][..],
+        Some(Value::Array(a)) => &a[..],
+        Some(other) => {
+            return Err(Error::scene(
+                ld.file,
+                "shapes",
+                format!("expected an array of shapes, found {}", describe(other)),
+            ));
+        }
+    };
+    let mut out = Shapes::default();
+    for (i, sv) in shape_list.iter().enumerate() {
+        out.parse_shape(ld, &format!("shapes[{i}]"), sv)?;
+    }
+    Ok(out)
+}
+
+/// The keys a shape of type `kind` may have, or the error naming the known types.
+fn allowed_keys(file: &str, path: &str, sv: &Value, kind: &str) -> Result<&'static [&'static str]> {
+    Ok(match kind {
+        "sphere" => &[
+            "type",
+            "center",
+            "radius",
+            "material",
+            "emitter",
+            "flip_normals",
+        ],
+        "rectangle" => &["type", "to_world", "material", "emitter", "flip_normals"],
+        "obj" | "gltf" => &[
+            "type",
+            "file",
+            "to_world",
+            "material",
+            "emitter",
+            "flip_normals",
+            "face_normals",
+        ],
+        _ => {
+            let found = sv
+                .get("type")
+                .map(describe)
+                .unwrap_or_else(|| "nothing".into());
+            return Err(Error::scene(
+                file,
+                format!("{path}.type"),
+                format!(
+                    "expected one of \"sphere\", \"rectangle\", \"obj\", \"gltf\", found {found}"
+                ),
+            ));
+        }
+    })
+}
+
+impl Shapes {
+    /// One shape: its geometry, then its material, then its emitter.
+    fn parse_shape<'a>(&mut self, ld: &mut Loader<'a>, path: &str, sv: &'a Value) -> Result<()> {
+        let file = ld.file;
+        let kind = sv.get("type").and_then(Value::as_str).unwrap_or("");
+        let o = Obj::new(file, path, sv, allowed_keys(file, path, sv, kind)?)?;
+        let c = Common {
+            id: self.shapes.len() as u32,
+            flip: o.bool_or("flip_normals", false)?,
+            face_normals: o.bool_or("face_normals", false)?,
+            to_world: match o.get("to_world") {
+                Some(t) => transform::parse(file, &o.key_path("to_world"), t)?,
+                None => Mat4::IDENTITY,
+            },
+        };
+        let area = match kind {
+            "sphere" => self.sphere(&o, &c)?,
+            "rectangle" => self.rectangle(&o, &c)?,
+            _ => self.mesh(ld, &o, kind, &c)?,
+        };
+        let material = ld.material(o.get("material"), &o.key_path("material"))?;
+        let light = self.emitter(&o, area)?;
+        self.shape_geom.push(ShapeGeom {
+            flip_normals: c.flip,
+            face_normals: c.face_normals,
+        });
+        self.shapes.push(ShapeInfo { material, light });
+        Ok(())
+    }
+
+    fn sphere(&mut self, o: &Obj, c: &Common) -> Result<Option<AreaShape>> {
+        let center = o.vec3_opt("center")?.unwrap_or(Vec3::ZERO);
+        let radius = o.f32_or("radius", 1.0, "a positive radius", positive)?;
+        let s = Sphere { center, radius };
+        self.prims.push(Primitive {
+            kind: PrimKind::Sphere(s),
+            shape: c.id,
+        });
+        Ok(Some(AreaShape::Sphere {
+            sphere: s,
+            flip: c.flip,
+        }))
+    }
+
+    fn rectangle(&mut self, o: &Obj, c: &Common) -> Result<Option<AreaShape>> {
+        let r = Rectangle::from_transform(&c.to_world).ok_or_else(|| {
+            o.err(
+                "to_world",
+                "maps the rectangle to a degenerate (zero-area) shape",
+            )
+        })?;
+        self.prims.push(Primitive {
+            kind: PrimKind::Rectangle(r),
+            shape: c.id,
+        });
+        Ok(Some(AreaShape::Rectangle {
+            rect: r,
+            flip: c.flip,
+        }))
+    }
+
+    /// An OBJ or glTF mesh: its non-degenerate triangles, and their outward normals when
+    /// the shape emits.
+    fn mesh(&mut self, ld: &Loader, o: &Obj, kind: &str, c: &Common) -> Result<Option<AreaShape>> {
+        let fname = o.str_req("file", "a mesh file path")?;
+        let fpath = ld.resolve(fname);
+        if !fpath.exists() {
+            return Err(o.err("file", format!("file {} does not exist", fpath.display())));
+        }
+        let mut mesh = if kind == "obj" {
+            mesh_io::load_obj(&fpath)?
+        } else {
+            let g = mesh_io::load_gltf(&fpath)?;
+            if self.gltf_camera.is_none() {
+                self.gltf_camera = g.camera;
+            }
+            g.mesh
+        };
+        if self.prims.len() + mesh.indices.len() > crate::limits::MAX_TRIANGLES {
+            return Err(o.err(
+                "file",
+                format!(
+                    "brings the scene to {} primitives; expected at most {} triangles in all",
+                    self.prims.len() + mesh.indices.len(),
+                    crate::limits::MAX_TRIANGLES
+                ),
+            ));
+        }
+        mesh.transform(&c.to_world);
+        mesh_io::check_positions(&mesh, &fpath.display().to_string())?;
+        let mesh_id = self.meshes.len() as u32;
+        let mut emit_tris = Vec::new();
+        for t in 0..mesh.indices.len() as u32 {
+            let tri = Triangle::new(mesh_id, &mesh, t);
+            if !(tri.area() > 0.0) {
+                continue; // degenerate triangles can never be hit
+            }
+            self.prims.push(Primitive {
+                kind: PrimKind::Triangle(tri),
+                shape: c.id,
+            });
+            if o.has("emitter") {
+                let mut n = tri.normal();
+                if !c.face_normals && !mesh.normals.is_empty() {
+                    let avg: Vec3 = mesh.indices[t as usize]
+                        .iter()
+                        .map(|&k| mesh.normals[k as usize])
+                        .sum();
+                    if avg.dot(n) < 0.0 {
+                        n = -n;
+                    }
+                }
+                emit_tris.push((tri, if c.flip { -n } else { n }));
+            }
+        }
+        self.meshes.push(mesh);
+        Ok(if o.has("emitter") {
+            AreaShape::mesh(emit_tris)
+        } else {
+            None
+        })
+    }
+
+    /// The shape's `emitter` (an area light on `area`), if it has one: the index of its
+    /// light.
+    fn emitter(&mut self, o: &Obj, area: Option<AreaShape>) -> Result<Option<u32>> {
+        let Some(ev) = o.get("emitter") else {
+            return Ok(None);
+        };
+        let e = Obj::new(o.file, o.key_path("emitter"), ev, &["type", "radiance"])?;
+        match e.str_opt("type")? {
+            Some("area") | None => {}
+            Some(other) => {
+                return Err(e.err("type", format!("expected \"area\", found \"{other}\"")));
+            }
+        }
+        let radiance = e.rgb_req("radiance")?;
+        let shape = area.ok_or_else(|| o.err("emitter", "the shape has no area to emit from"))?;
+        self.lights.push(Light::Area { shape, radiance });
+        Ok(Some(self.lights.len() as u32 - 1))
+    }
+}
