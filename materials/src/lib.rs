@@ -21,6 +21,7 @@
 
 pub mod analytic;
 pub mod bsdf;
+pub mod builtin;
 pub mod composite;
 pub mod distribution;
 pub mod error;
@@ -38,6 +39,7 @@ pub mod ngan_fit;
 pub mod quadrature;
 pub mod registry;
 pub mod sampling;
+pub mod schema;
 pub mod simd;
 
 pub use bsdf::{Bsdf, BsdfSample, Flags, Rgb};

@@ -120,9 +120,10 @@ fn fit_report(
     data.check().map_err(|m| Error::file(source, m))?;
     let specs = builtin_specs();
     let chosen = choose(&specs, &args.models, data.anisotropic)?;
+    let registry = lobe_materials::registry::Registry::builtin();
     let mut results = Vec::new();
     for spec in chosen {
-        let r = fit_until(data, spec, args.max_evals, stop).map_err(|e| match e {
+        let r = fit_until(&registry, data, spec, args.max_evals, stop).map_err(|e| match e {
             FitError::Cancelled => Error::Other(format!("{source}: interrupted")),
             FitError::Data(m) => Error::file(source, m),
         })?;

@@ -13,17 +13,21 @@ pub mod poulin_fournier;
 pub mod ward;
 pub mod ward_duer;
 
-use crate::registry::Registry;
+use crate::schema::LobeModel;
 
-/// Registers every analytic model.
-pub fn register_all(r: &mut Registry) {
-    lambert::register(r);
-    cook_torrance::register(r);
-    ward::register(r);
-    ward_duer::register(r);
-    blinn_phong::register(r);
-    lafortune::register(r);
-    ashikhmin_shirley::register(r);
-    he::register(r);
-    poulin_fournier::register(r);
-}
+/// The analytic lobe models, each declared in its own file. The fitter lists their fit
+/// variants in this order within each [`crate::schema::FitGroup`], and the `ngan-fit`
+/// material offers those with published fits in this order. (Lambert, the diffuse term of
+/// every model, is registered on its own.)
+pub const MODELS: &[&LobeModel] = &[
+    &ward::MODEL,
+    &ward_duer::MODEL,
+    &blinn_phong::MODEL,
+    &cook_torrance::MODEL,
+    &lafortune::MODEL,
+    &ashikhmin_shirley::MODEL,
+    &he::MODEL,
+    &ward::MODEL_ANISO,
+    &ashikhmin_shirley::MODEL_ANISO,
+    &poulin_fournier::MODEL,
+];
