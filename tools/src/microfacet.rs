@@ -249,11 +249,7 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
                 0.0,
             )];
             let registry = lobe_materials::registry::Registry::builtin();
-            for label in [
-                "ward-anisotropic",
-                "ashikhmin-shirley-anisotropic",
-                "poulin-fournier",
-            ] {
+            for &label in lobe_materials::fit::ANISOTROPIC_DEFAULT {
                 let spec = builtin_specs()
                     .into_iter()
                     .find(|s| s.label == label)
