@@ -22,6 +22,7 @@
 
 pub mod analytic;
 pub mod bsdf;
+pub mod builtin;
 pub mod composite;
 pub mod error;
 pub mod fastmath;
@@ -37,6 +38,7 @@ pub mod microfacet_gen;
 pub mod ngan_fit;
 pub mod registry;
 pub mod sampling;
+pub mod schema;
 pub mod simd;
 
 pub use bsdf::{Bsdf, BsdfSample, Flags, Rgb};

@@ -4,12 +4,13 @@
 //! `name = Aggregate(Lambertian(albedo = [r, g, b]), NganXxx(albedo = [r, g, b], key = value, ...))`).
 //!
 //! The material `{"type": "ngan-fit", "material": "green-metallic-paint", "model": "cook-torrance"}`
-//! reads the line and builds the registry's model with the conventions the fits were made
-//! with (docs/models.md): Ward/Ward-Duer `roughness` = alpha; Blinn-Phong `sharpness` = n
-//! (half-vector form); Lafortune `Cxy`, `Cz`, `sharpness` with Ngan's normalization;
-//! Cook-Torrance Beckmann `roughness` = m, Schlick with F0 = `eta`, divided by pi;
-//! Ashikhmin-Shirley `sharpness` = n, `fresnelReflectance` = Rs; He `roughness` = sigma0,
-//! `autocorrelation` = tau (micrometres), real `eta`.
+//! reads the line and builds the model through the registry of its build context, with the
+//! conventions the fits were made with (docs/models.md), which each model declares next to
+//! its schema ([`crate::schema::PublishedFit`]): Ward/Ward-Duer `roughness` = alpha;
+//! Blinn-Phong `sharpness` = n (half-vector form); Lafortune `Cxy`, `Cz`, `sharpness` with
+//! Ngan's normalization; Cook-Torrance Beckmann `roughness` = m, Schlick with F0 = `eta`,
+//! divided by pi; Ashikhmin-Shirley `sharpness` = n, `fresnelReflectance` = Rs; He
+//! `roughness` = sigma0, `autocorrelation` = tau (micrometres), real `eta`.
 //!
 //! Colours: Ngan's colours are in MERL units of 1/1500 for all three channels (the data
 //! README's measurement); `channel_scale: "merl"` (the default) multiplies green by 1.15 and
@@ -21,35 +22,71 @@ use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
+use crate::schema::{LobeModel, PublishedFit};
 use crate::{Bsdf, ParamError};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// Lobe models with published fits, and their file names.
-pub const MODELS: &[(&str, &str, &str)] = &[
-    ("ward", "ngan_ward.fit", "NganWard"),
-    ("ward-duer", "ngan_wardduer.fit", "NganWardDuer"),
-    ("blinn-phong", "ngan_blinnphong.fit", "NganBlinnPhong"),
-    ("lafortune", "ngan_lafortune.fit", "NganLafortune"),
-    ("cook-torrance", "ngan_cooktorrance.fit", "NganCookTorrance"),
-    (
-        "ashikhmin-shirley",
-        "ngan_ashikhminshirley.fit",
-        "NganAshikhminShirley",
-    ),
-    ("he", "ngan_he.fit", "NganHe"),
-];
+/// How many of the analytic models declare published fits.
+const PUBLISHED_COUNT: usize = {
+    let models = crate::analytic::MODELS;
+    let (mut i, mut n) = (0, 0);
+    while i < models.len() {
+        if models[i].published.is_some() {
+            n += 1;
+        }
+        i += 1;
+    }
+    n
+};
 
-const MODEL_NAMES: &[&str] = &[
-    "ward",
-    "ward-duer",
-    "blinn-phong",
-    "lafortune",
-    "cook-torrance",
-    "ashikhmin-shirley",
-    "he",
-];
+/// The analytic models with published fits, in [`crate::analytic::MODELS`] order.
+const PUBLISHED: [&LobeModel; PUBLISHED_COUNT] = {
+    let models = crate::analytic::MODELS;
+    let mut out = [models[0]; PUBLISHED_COUNT];
+    let (mut i, mut n) = (0, 0);
+    while i < models.len() {
+        if models[i].published.is_some() {
+            out[n] = models[i];
+            n += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+/// Lobe models with published fits: (model, fits file, bbm class), from the models'
+/// declarations.
+pub const MODELS: [(&str, &str, &str); PUBLISHED_COUNT] = {
+    let mut out = [("", "", ""); PUBLISHED_COUNT];
+    let mut i = 0;
+    while i < PUBLISHED_COUNT {
+        if let Some(p) = PUBLISHED[i].published {
+            out[i] = (PUBLISHED[i].schema.name, p.file, p.class);
+        }
+        i += 1;
+    }
+    out
+};
+
+const MODEL_NAMES: [&str; PUBLISHED_COUNT] = {
+    let mut out = [""; PUBLISHED_COUNT];
+    let mut i = 0;
+    while i < PUBLISHED_COUNT {
+        out[i] = MODELS[i].0;
+        i += 1;
+    }
+    out
+};
+
+/// The published-fit declaration of `model`, if it has one.
+fn published(model: &str) -> Option<&'static PublishedFit> {
+    PUBLISHED
+        .iter()
+        .find(|m| m.schema.name == model)
+        .and_then(|m| m.published.as_ref())
+}
 
 /// MERL's green and blue scale factors relative to red.
 pub const MERL_CHANNEL_SCALE: [f64; 3] = [1.0, 1.15, 1.66];
@@ -204,21 +241,15 @@ pub fn description(fit: &Fit, model: &str, scale: [f64; 3]) -> Result<Value, Str
         fit.param(k)
             .ok_or_else(|| format!("fit of {} lacks `{k}`", fit.material))
     };
-    let mut v = match model {
-        "ward" | "ward-duer" => json!({"alpha": get("roughness")?}),
-        "blinn-phong" => json!({"n": get("sharpness")?}),
-        "lafortune" => {
-            json!({"cx": get("Cxy")?, "cy": get("Cxy")?, "cz": get("Cz")?, "n": get("sharpness")?, "normalization": "ngan"})
-        }
-        "cook-torrance" => {
-            json!({"m": get("roughness")?, "distribution": "beckmann", "fresnel": "schlick", "f0": get("eta")?})
-        }
-        "ashikhmin-shirley" => json!({"n": get("sharpness")?, "f0": get("fresnelReflectance")?}),
-        "he" => {
-            json!({"sigma0": get("roughness")?, "tau": get("autocorrelation")?, "eta": get("eta")?})
-        }
-        other => return Err(format!("no published fits for model \"{other}\"")),
-    };
+    let published =
+        published(model).ok_or_else(|| format!("no published fits for model \"{model}\""))?;
+    let mut v = json!({});
+    for (param, key) in published.keys {
+        v[*param] = json!(get(key)?);
+    }
+    for (name, value) in published.settings {
+        v[*name] = json!(value);
+    }
     v["type"] = json!(model);
     v["diffuse"] = json!(d);
     v["specular"] = json!(s);
@@ -236,8 +267,9 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             bounds: Bounds::closed(0.0, 0.0),
             default: DefaultValue::Required,
             doc: "MERL material name, e.g. green-metallic-paint",
+            fit: None,
         },
-        setting("model", MODEL_NAMES, "cook-torrance", "which model's fit"),
+        setting("model", &MODEL_NAMES, "cook-torrance", "which model's fit"),
         ParamSpec {
             name: "fits",
             kind: ParamKind::Text,
@@ -245,6 +277,7 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             bounds: Bounds::closed(0.0, 0.0),
             default: DefaultValue::Choice(""),
             doc: "folder of ngan_<model>.fit files (default: $LOBE_DATA/ngan-fits or shared/data/ngan-fits above the scene)",
+            fit: None,
         },
         setting(
             "channel_scale",
@@ -257,11 +290,7 @@ pub const SCHEMA: ModelSchema = ModelSchema {
 
 /// The fits file of a description's model, if its folder can be found.
 fn fits_file(p: &Params, ctx: &BuildContext) -> Option<PathBuf> {
-    let model = p.text("model");
-    let (_, file, _) = MODELS
-        .iter()
-        .find(|(m, _, _)| *m == model)
-        .expect("validated choice");
+    let file = published(p.text("model")).expect("validated choice").file;
     locate_fits(p.text("fits"), &ctx.base_dir).map(|dir| dir.join(file))
 }
 
@@ -294,7 +323,7 @@ fn build(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
         [1.0; 3]
     };
     let desc = description(fit, model, scale).map_err(|e| ParamError::new(p.path.clone(), e))?;
-    Registry::builtin().create_with(&desc, &p.path, ctx)
+    ctx.create(&desc, &p.path)
 }
 
 pub fn register(r: &mut Registry) {

@@ -1,13 +1,24 @@
-//! The registry: model name -> constructor, and the parameter schema of every model.
+//! The registry: model name -> constructor, and the parameter schema of every model
+//! ([`crate::schema`]).
 //!
 //! A schema lists each parameter's name (the papers' names, see docs/models.md), its kind
 //! (an RGB colour, a scalar, an integer, a choice), its role (a linear colour the fitter
 //! solves for by least squares, or a lobe-shape parameter it optimizes), its legal range
 //! and its default. Scene loading and the fitter both go through this table, so a value
 //! is validated once, the same way, with an error that names its JSON path and its range.
+//!
+//! The registry is open: [`Registry::new`] starts empty, [`Registry::register_model`] adds
+//! an analytic model declared anywhere (`Registry::builtin`, in [`crate::builtin`], adds
+//! the ones lobe ships with), and constructors receive the registry in their
+//! [`BuildContext`], so materials that build other materials (a fit report, a published
+//! fit) build them through the caller's registry.
 
 use crate::composite::Composite;
 use crate::lobe::Lobe;
+pub use crate::schema::{
+    Bounds, DefaultValue, LobeConstructor, LobeModel, ModelSchema, ParamKind, ParamRole, ParamSpec,
+    ParamValue, Params,
+};
 use crate::{Bsdf, ParamError, Rgb};
 
 /// The registry name of the multi-lobe material.
@@ -17,192 +28,34 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// What kind of value a parameter takes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum ParamKind {
-    /// Linear RGB: a number (grey) or an array of three numbers.
-    Color,
-    Scalar,
-    Integer,
-    /// One of the listed strings.
-    Choice(&'static [&'static str]),
-    /// Any string (a name, a path); its default is given as `DefaultValue::Choice`.
-    Text,
-    Bool,
-}
-
-/// What a parameter means to the fitter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ParamRole {
-    /// Diffuse colour: linear, solved exactly by the fitter.
-    Diffuse,
-    /// Specular colour of a lobe: linear, solved exactly by the fitter.
-    Specular,
-    /// Lobe shape: optimized by the fitter.
-    Lobe,
-    /// A discrete choice fixed before fitting (distribution, Fresnel form, ...).
-    Setting,
-}
-
-/// Inclusive or exclusive bounds of a numeric parameter (applied to every channel of a
-/// colour).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Bounds {
-    pub min: f64,
-    pub max: f64,
-    pub min_open: bool,
-    pub max_open: bool,
-}
-
-impl Bounds {
-    pub const fn closed(min: f64, max: f64) -> Self {
-        Self {
-            min,
-            max,
-            min_open: false,
-            max_open: false,
-        }
-    }
-    /// (min, max]: strictly above `min`.
-    pub const fn above(min: f64, max: f64) -> Self {
-        Self {
-            min,
-            max,
-            min_open: true,
-            max_open: false,
-        }
-    }
-    pub fn contains(&self, v: f64) -> bool {
-        let lo = if self.min_open {
-            v > self.min
-        } else {
-            v >= self.min
-        };
-        let hi = if self.max_open {
-            v < self.max
-        } else {
-            v <= self.max
-        };
-        lo && hi
-    }
-    pub fn describe(&self) -> String {
-        let fmt = |v: f64| {
-            if v.is_infinite() {
-                if v > 0.0 { "inf".into() } else { "-inf".into() }
-            } else if v.abs() >= 1e5 {
-                format!("{v:e}")
-            } else {
-                format!("{v}")
-            }
-        };
-        format!(
-            "{}{}, {}{}",
-            if self.min_open { "(" } else { "[" },
-            fmt(self.min),
-            fmt(self.max),
-            if self.max_open { ")" } else { "]" }
-        )
-    }
-}
-
-/// Default of a parameter; `Required` means the description must give it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum DefaultValue {
-    Required,
-    Scalar(f64),
-    Color([f64; 3]),
-    Choice(&'static str),
-    Bool(bool),
-}
-
-/// One parameter of a model's schema.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ParamSpec {
-    pub name: &'static str,
-    pub kind: ParamKind,
-    pub role: ParamRole,
-    pub bounds: Bounds,
-    pub default: DefaultValue,
-    pub doc: &'static str,
-}
-
-/// The schema of a model: its registry name, a one-line summary and its parameters.
-#[derive(Clone, Copy, Debug)]
-pub struct ModelSchema {
-    pub name: &'static str,
-    pub summary: &'static str,
-    pub params: &'static [ParamSpec],
-}
-
-/// A validated parameter value.
-#[derive(Clone, Debug, PartialEq)]
-pub enum ParamValue {
-    Scalar(f64),
-    Color([f64; 3]),
-    Text(String),
-    Bool(bool),
-}
-
-/// Validated parameters of one material description, all present (defaults filled in).
+/// Where relative paths in a material description resolve (the scene file's folder), the
+/// cache of measured tables already loaded for this scene (so each file is read once and
+/// shared between shapes), and the registry that builds the materials a material names
+/// (a fit report's model, a published fit).
 #[derive(Clone, Debug)]
-pub struct Params {
-    pub model: &'static str,
-    /// JSON path of the description, for errors raised by constructors.
-    pub path: String,
-    values: BTreeMap<&'static str, ParamValue>,
-}
-
-impl Params {
-    fn get(&self, name: &str) -> &ParamValue {
-        self.values
-            .get(name)
-            .unwrap_or_else(|| panic!("model {}: no parameter {name} in its schema", self.model))
-    }
-    pub fn scalar(&self, name: &str) -> f64 {
-        match self.get(name) {
-            ParamValue::Scalar(v) => *v,
-            other => panic!("parameter {name} is {other:?}, not a scalar"),
-        }
-    }
-    pub fn color(&self, name: &str) -> Rgb {
-        match self.get(name) {
-            ParamValue::Color(c) => Rgb::new(c[0] as f32, c[1] as f32, c[2] as f32),
-            other => panic!("parameter {name} is {other:?}, not a colour"),
-        }
-    }
-    pub fn text(&self, name: &str) -> &str {
-        match self.get(name) {
-            ParamValue::Text(t) => t,
-            other => panic!("parameter {name} is {other:?}, not a choice"),
-        }
-    }
-    pub fn flag(&self, name: &str) -> bool {
-        match self.get(name) {
-            ParamValue::Bool(b) => *b,
-            other => panic!("parameter {name} is {other:?}, not a boolean"),
-        }
-    }
-}
-
-/// Where relative paths in a material description resolve (the scene file's folder), and
-/// the cache of measured tables already loaded for this scene (so each file is read once
-/// and shared between shapes).
-#[derive(Clone, Debug, Default)]
-pub struct BuildContext {
+pub struct BuildContext<'r> {
     pub base_dir: PathBuf,
     pub tables: TableCache,
+    pub registry: &'r Registry,
 }
 
 /// Loaded tables by key (kind, file, options).
 pub type TableCache =
     Arc<std::sync::Mutex<std::collections::HashMap<String, Arc<dyn std::any::Any + Send + Sync>>>>;
 
-impl BuildContext {
-    pub fn new(base_dir: impl Into<PathBuf>) -> Self {
+impl<'r> BuildContext<'r> {
+    pub fn new(base_dir: impl Into<PathBuf>, registry: &'r Registry) -> Self {
         Self {
             base_dir: base_dir.into(),
             tables: TableCache::default(),
+            registry,
         }
+    }
+
+    /// Builds `desc` (at JSON path `path`) through the context's registry, sharing its base
+    /// folder and table cache.
+    pub fn create(&self, desc: &Value, path: &str) -> Result<Arc<dyn Bsdf>, ParamError> {
+        self.registry.create_with(desc, path, self)
     }
 }
 
@@ -212,10 +65,6 @@ pub type Constructor = fn(&Params, &BuildContext) -> Result<Arc<dyn Bsdf>, Param
 /// The files a material reads (tables, reports, distributions), resolved but not read, so
 /// that a command can refuse an output path that is one of its inputs before any work.
 pub type InputsFn = fn(&Params, &BuildContext) -> Vec<PathBuf>;
-
-/// Builds the specular lobe of an analytic model from validated parameters; the material
-/// is then `diffuse * Lambert + specular * lobe` (a [`Composite`]).
-pub type LobeConstructor = fn(&Params) -> Result<Arc<dyn Lobe>, ParamError>;
 
 #[derive(Clone, Copy)]
 enum Builder {
@@ -232,6 +81,12 @@ struct Entry {
 /// Model name -> schema and constructor.
 pub struct Registry {
     models: BTreeMap<&'static str, Entry>,
+}
+
+impl std::fmt::Debug for Registry {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_set().entries(self.models.keys()).finish()
+    }
 }
 
 fn describe_json(v: &Value) -> String {
@@ -255,17 +110,6 @@ impl Registry {
         Self {
             models: BTreeMap::new(),
         }
-    }
-
-    /// Every model lobe ships with.
-    pub fn builtin() -> Self {
-        let mut r = Self::new();
-        crate::analytic::register_all(&mut r);
-        crate::ngan_fit::register(&mut r);
-        crate::measured::material::register(&mut r);
-        crate::fit::register(&mut r);
-        crate::microfacet_gen::register(&mut r);
-        r
     }
 
     pub fn register(&mut self, schema: ModelSchema, build: Constructor) {
@@ -294,6 +138,11 @@ impl Registry {
                 inputs: None,
             },
         );
+    }
+
+    /// Registers a declared analytic model (its schema and lobe; see [`LobeModel`]).
+    pub fn register_model(&mut self, model: &LobeModel) {
+        self.register_lobe(model.schema, model.lobe);
     }
 
     /// Declares the files a registered model reads (see [`Registry::inputs`]).
@@ -336,6 +185,14 @@ impl Registry {
         )
     }
 
+    /// The names of the analytic models usable as lobes.
+    pub fn lobe_model_names(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.models
+            .iter()
+            .filter(|(_, e)| matches!(e.build, Builder::Lobe(_)))
+            .map(|(n, _)| *n)
+    }
+
     /// Builds the lobe of an analytic-model description, with its specular colour.
     pub fn create_lobe(
         &self,
@@ -350,12 +207,7 @@ impl Registry {
                 format!(
                     "\"{}\" is not an analytic lobe model; expected one of: {}",
                     params.model,
-                    self.models
-                        .iter()
-                        .filter(|(_, e)| matches!(e.build, Builder::Lobe(_)))
-                        .map(|(n, _)| *n)
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    self.lobe_model_names().collect::<Vec<_>>().join(", ")
                 ),
             )),
         }
@@ -535,11 +387,7 @@ impl Registry {
             };
             values.insert(spec.name, value);
         }
-        Ok(Params {
-            model: schema.name,
-            path: path.to_string(),
-            values,
-        })
+        Ok(Params::new(schema.name, path.to_string(), values))
     }
 
     /// Validates a description and builds the material.
@@ -568,13 +416,7 @@ impl Registry {
 
     /// [`Registry::create_with`] with relative paths resolving against the working directory.
     pub fn create(&self, desc: &Value, path: &str) -> Result<Arc<dyn Bsdf>, ParamError> {
-        self.create_with(desc, path, &BuildContext::default())
-    }
-}
-
-impl Default for Registry {
-    fn default() -> Self {
-        Self::builtin()
+        self.create_with(desc, path, &BuildContext::new("", self))
     }
 }
 

@@ -119,7 +119,7 @@ fn write(scratch: &Path, name: &str, data: &[u8]) -> std::path::PathBuf {
 pub fn rgl(data: &[u8], scratch: &Path) {
     let p = write(scratch, "f.bsdf", data);
     let reg = Registry::builtin();
-    let ctx = BuildContext::new(scratch);
+    let ctx = BuildContext::new(scratch, &reg);
     if let Ok(b) = reg.create_with(
         &json!({"type": "rgl", "file": p.display().to_string()}),
         "m",
@@ -135,7 +135,7 @@ pub fn rgl(data: &[u8], scratch: &Path) {
 pub fn fit_json(data: &[u8], scratch: &Path) {
     let p = write(scratch, "r.fit.json", data);
     let reg = Registry::builtin();
-    let ctx = BuildContext::new(scratch);
+    let ctx = BuildContext::new(scratch, &reg);
     for model in ["ward", "cook-torrance", "he", "lafortune-2"] {
         let d = json!({"type": "fit", "file": p.display().to_string(), "model": model});
         if let Ok(b) = reg.create_with(&d, "m", &ctx) {

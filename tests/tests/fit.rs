@@ -23,6 +23,9 @@ use lobe_materials::registry::Registry;
 use serde_json::{Value, json};
 use std::sync::Arc;
 
+/// The registry every fit of these tests builds its lobes with.
+static REGISTRY: std::sync::LazyLock<Registry> = std::sync::LazyLock::new(Registry::builtin);
+
 const DIFFUSE: [f64; 3] = [0.2, 0.1, 0.05];
 const SPECULAR: [f64; 3] = [0.3, 0.35, 0.4];
 
@@ -135,7 +138,7 @@ fn every_isotropic_model_recovers_its_parameters_from_noise_free_data() {
     for label in ISOTROPIC_DEFAULT {
         let truth = material(&truth_desc(label));
         let data = Dataset::isotropic(&|wi, wo| Some(truth.eval(wo, wi)), 4.0);
-        let r = fit(&data, &spec(label), 300).unwrap();
+        let r = fit(&REGISTRY, &data, &spec(label), 300).unwrap();
         show(&r);
         check_recovery(label, &r, 0.01, 0.01);
         assert!(r.error_normalized < 1e-3, "{label}: {}", r.error_normalized);
@@ -174,7 +177,7 @@ fn noisy_sparse_measurements_are_fitted_within_tolerance() {
         let truth = material(&truth_desc(label));
         let merl = merl_from(&|wo, wi| truth.eval(wo, wi), &acq);
         let data = Dataset::from_merl(&merl, 4.0);
-        let r = fit(&data, &spec(label), 300).unwrap();
+        let r = fit(&REGISTRY, &data, &spec(label), 300).unwrap();
         show(&r);
         // The truth's own error on these data (noise and the MERL table's bin quantization):
         // the optimizer must do at least as well.
@@ -203,7 +206,12 @@ fn each_model_fits_its_own_data_best() {
         let data = Dataset::isotropic(&|wi, wo| Some(truth.eval(wo, wi)), 5.0);
         let errors: Vec<(String, f64)> = specs
             .iter()
-            .map(|s| (s.label.to_string(), fit(&data, s, 150).unwrap().error))
+            .map(|s| {
+                (
+                    s.label.to_string(),
+                    fit(&REGISTRY, &data, s, 150).unwrap().error,
+                )
+            })
             .collect();
         eprintln!("data of {label}: {errors:?}");
         let own = errors.iter().find(|e| e.0 == *label).unwrap().1;
@@ -254,7 +262,7 @@ fn anisotropic_ward_is_recovered_from_sparse_4d_data() {
     let data = Dataset::from_binned(&sparse_4d(truth.as_ref()));
     assert!(data.anisotropic);
     eprintln!("{} bins", data.samples.len());
-    let own = fit(&data, &spec("ward-anisotropic"), 300).unwrap();
+    let own = fit(&REGISTRY, &data, &spec("ward-anisotropic"), 300).unwrap();
     show(&own);
     for (k, want) in [("alpha_x", 0.08), ("alpha_y", 0.3)] {
         let got = own.material[k].as_f64().unwrap();
@@ -262,7 +270,7 @@ fn anisotropic_ward_is_recovered_from_sparse_4d_data() {
     }
     assert!(own.error_normalized < 1e-3);
     for other in ["ashikhmin-shirley-anisotropic", "poulin-fournier", "ward"] {
-        let r = fit(&data, &spec(other), 200).unwrap();
+        let r = fit(&REGISTRY, &data, &spec(other), 200).unwrap();
         show(&r);
         assert!(
             r.error > 5.0 * own.error.max(1e-6),
@@ -304,7 +312,7 @@ fn real_rgl_measurements_fit_with_every_model_and_render_close() {
         );
         let mut ct = None;
         for label in ISOTROPIC_DEFAULT {
-            let r = fit(&data, &spec(label), 200).unwrap();
+            let r = fit(&REGISTRY, &data, &spec(label), 200).unwrap();
             show(&r);
             assert!(r.error.is_finite() && r.error > 0.0, "{label}: {}", r.error);
             assert!(r.error_normalized < 1.0, "{label}: {}", r.error_normalized);
@@ -396,14 +404,14 @@ fn empty_missing_and_nan_data_are_clear_errors() {
         anisotropic: false,
         max_albedo: 0.0,
     };
-    let e = fit(&empty, &ct, 10).unwrap_err();
+    let e = fit(&REGISTRY, &empty, &ct, 10).unwrap_err();
     assert!(
         e.contains("no measured values") && e.contains("expected at least one"),
         "{e}"
     );
     // Every bin missing.
     let none = Dataset::isotropic(&|_, _| None, 5.0);
-    let e = fit(&none, &ct, 10).unwrap_err();
+    let e = fit(&REGISTRY, &none, &ct, 10).unwrap_err();
     assert!(e.contains("no measured values"), "{e}");
     // Every bin past the cut-off: data that only exist at grazing angles.
     let cut = (CUTOFF_DEG as f32).to_radians().cos();
@@ -411,7 +419,7 @@ fn empty_missing_and_nan_data_are_clear_errors() {
         &|wi, wo| (wi.z < cut && wo.z < cut).then_some(lobe_materials::Rgb::splat(0.1)),
         5.0,
     );
-    assert!(fit(&grazing, &ct, 10).is_err());
+    assert!(fit(&REGISTRY, &grazing, &ct, 10).is_err());
     // A NaN value.
     let nan = Dataset::isotropic(
         &|wi, wo| {
@@ -423,7 +431,7 @@ fn empty_missing_and_nan_data_are_clear_errors() {
         },
         5.0,
     );
-    let e = fit(&nan, &ct, 10).unwrap_err();
+    let e = fit(&REGISTRY, &nan, &ct, 10).unwrap_err();
     assert!(
         e.contains("NaN") && e.contains("expected finite values"),
         "{e}"
@@ -434,7 +442,7 @@ fn empty_missing_and_nan_data_are_clear_errors() {
         value: [f64::INFINITY, 0.0, 0.0],
         ..inf.samples[0]
     });
-    assert!(fit(&inf, &ct, 10).unwrap_err().contains("inf"));
+    assert!(fit(&REGISTRY, &inf, &ct, 10).unwrap_err().contains("inf"));
 }
 
 #[test]
@@ -454,7 +462,7 @@ fn a_stop_request_ends_a_fit_inside_the_optimizer() {
         polls.fetch_add(1, Ordering::Relaxed);
         false
     };
-    fit_until(&data, &ct, 300, &count).unwrap();
+    fit_until(&REGISTRY, &data, &ct, 300, &count).unwrap();
     let whole = polls.load(Ordering::Relaxed);
     assert!(whole > 100, "{whole} polls");
     // Asked to stop at the 5th poll, inside the first start's SLSQP run, it returns
@@ -462,14 +470,14 @@ fn a_stop_request_ends_a_fit_inside_the_optimizer() {
     let polls = AtomicUsize::new(0);
     let stop_at_5 = || polls.fetch_add(1, Ordering::Relaxed) >= 5;
     assert_eq!(
-        fit_until(&data, &ct, 300, &stop_at_5).unwrap_err(),
+        fit_until(&REGISTRY, &data, &ct, 300, &stop_at_5).unwrap_err(),
         FitError::Cancelled
     );
     let after = polls.load(Ordering::Relaxed) - 6;
     assert!(after <= 12, "{after} polls after the request (of {whole})");
     // A flag already set: nothing is fitted.
     let flag = AtomicBool::new(true);
-    let e = fit_until(&data, &ct, 300, &|| flag.load(Ordering::Relaxed)).unwrap_err();
+    let e = fit_until(&REGISTRY, &data, &ct, 300, &|| flag.load(Ordering::Relaxed)).unwrap_err();
     assert_eq!(
         (e.clone(), e.to_string()),
         (FitError::Cancelled, "cancelled".into())

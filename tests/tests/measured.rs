@@ -110,11 +110,12 @@ fn bad_merl_files_are_rejected_with_what_was_expected() {
         assert!(e.contains(name) && e.contains(needle), "{e}");
     }
     // Through the registry the error names the parameter.
-    let e = Registry::builtin()
+    let reg = Registry::builtin();
+    let e = reg
         .create_with(
             &json!({"type": "merl", "file": "tiny.binary"}),
             "materials.x",
-            &lobe_materials::registry::BuildContext::new(dir.path()),
+            &lobe_materials::registry::BuildContext::new(dir.path(), &reg),
         )
         .unwrap_err();
     assert_eq!(e.path, "materials.x.file");

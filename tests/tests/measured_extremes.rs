@@ -24,8 +24,9 @@ fn merl_bytes(v: f64) -> Vec<u8> {
 /// Builds `desc` (relative to `dir`) and checks every value, density and sample weight on
 /// a grid is finite.
 fn all_finite(dir: &Path, desc: serde_json::Value) {
-    let b = Registry::builtin()
-        .create_with(&desc, "m", &BuildContext::new(dir))
+    let reg = Registry::builtin();
+    let b = reg
+        .create_with(&desc, "m", &BuildContext::new(dir, &reg))
         .unwrap_or_else(|e| panic!("{desc} refused: {e}"));
     assert_eq!(
         lobe_materials::bsdf::first_nonfinite(b.as_ref()),
@@ -94,11 +95,12 @@ fn accepted_extreme_tables_evaluate_and_sample_finitely() {
     }
     t.write(&d.join("t.bin")).unwrap();
     all_finite(d, json!({"type": "binned", "file": "t.bin"}));
-    let b = Registry::builtin()
+    let reg = Registry::builtin();
+    let b = reg
         .create_with(
             &json!({"type": "binned", "file": "t.bin"}),
             "m",
-            &BuildContext::new(d),
+            &BuildContext::new(d, &reg),
         )
         .unwrap();
     for k in (1..t.len()).step_by(4) {
@@ -199,7 +201,7 @@ fn fit_reports_hold_analytic_models_only() {
     )
     .unwrap();
     let reg = Registry::builtin();
-    let ctx = BuildContext::new(d);
+    let ctx = BuildContext::new(d, &reg);
     // A report naming itself recursed until the stack overflowed.
     for model in ["self", "table"] {
         let e = reg

@@ -79,6 +79,7 @@ fn beckmann_generator_is_cook_torrance_with_smith_shadowing() {
 fn recovered_distributions_match_the_truth_and_beat_analytic_fits() {
     let n = 65;
     let specs = builtin_specs();
+    let registry = lobe_materials::registry::Registry::builtin();
     for name in ["brushed", "satin", "velvet"] {
         let shape = Shape::synthetic(name).unwrap();
         let truth = Arc::new(Table::from_fn(n, |h| shape.density(h)).unwrap());
@@ -117,7 +118,7 @@ fn recovered_distributions_match_the_truth_and_beat_analytic_fits() {
             "poulin-fournier",
         ] {
             let spec = specs.iter().find(|s| s.label == label).unwrap();
-            let r = fit(&data, spec, 200).unwrap();
+            let r = fit(&registry, &data, spec, 200).unwrap();
             eprintln!("  {label}: error {:.3e}", r.error);
             best = best.min(r.error);
         }
@@ -181,7 +182,7 @@ fn tables_round_trip_and_bad_tables_are_errors() {
     assert!(e.contains("bad.exr"), "{e}");
     // The material loads a table relative to the scene and reports a missing one.
     let reg = lobe_materials::registry::Registry::builtin();
-    let ctx = lobe_materials::registry::BuildContext::new(dir.path());
+    let ctx = lobe_materials::registry::BuildContext::new(dir.path(), &reg);
     let m = reg
         .create_with(
             &serde_json::json!({"type": "sampled-microfacet", "distribution": "satin.exr", "specular": 0.5}),

@@ -452,7 +452,7 @@ fn every_file_a_material_reads_is_among_its_inputs() {
                 _ => {}
             }
         }
-        let ctx = BuildContext::new(&base);
+        let ctx = BuildContext::new(&base, &reg);
         let Err(e) = reg.create_with(&desc, "m", &ctx) else {
             continue;
         };

@@ -104,15 +104,21 @@ impl MaterialSource {
         if let Some(f) = &self.file {
             plan.input(f, "the material's description");
         }
-        let ctx = BuildContext::new(&self.base);
-        for p in Registry::builtin().inputs(&self.desc, &ctx) {
+        let registry = Registry::builtin();
+        let ctx = BuildContext::new(&self.base, &registry);
+        for p in registry.inputs(&self.desc, &ctx) {
             plan.input(p, format!("a file the material of {} reads", self.shown));
         }
     }
 
     pub fn build(&self) -> Result<Arc<dyn Bsdf>, Error> {
-        Registry::builtin()
-            .create_with(&self.desc, &self.path, &BuildContext::new(&self.base))
+        let registry = Registry::builtin();
+        registry
+            .create_with(
+                &self.desc,
+                &self.path,
+                &BuildContext::new(&self.base, &registry),
+            )
             .map_err(|e| Error::scene(&self.shown, e.path, e.message))
     }
 }

@@ -7,7 +7,8 @@ use crate::args::finite;
 use crate::eval::{MaterialArgs, MaterialSource};
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::{
-    FitError, ISOTROPIC_DEFAULT, ModelSpec, Stop, builtin_specs, fit_until, report_json,
+    ANISOTROPIC_DEFAULT, FitError, ISOTROPIC_DEFAULT, ModelSpec, Stop, builtin_specs, fit_until,
+    report_json,
 };
 use lobe_materials::measured::format;
 use lobe_renderer::Error;
@@ -79,11 +80,7 @@ pub(crate) fn choose<'a>(
     anisotropic: bool,
 ) -> Result<Vec<&'a ModelSpec>, Error> {
     let default: &[&str] = if anisotropic {
-        &[
-            "ward-anisotropic",
-            "ashikhmin-shirley-anisotropic",
-            "poulin-fournier",
-        ]
+        ANISOTROPIC_DEFAULT
     } else {
         ISOTROPIC_DEFAULT
     };
@@ -120,9 +117,10 @@ fn fit_report(
     data.check().map_err(|m| Error::file(source, m))?;
     let specs = builtin_specs();
     let chosen = choose(&specs, &args.models, data.anisotropic)?;
+    let registry = lobe_materials::registry::Registry::builtin();
     let mut results = Vec::new();
     for spec in chosen {
-        let r = fit_until(data, spec, args.max_evals, stop).map_err(|e| match e {
+        let r = fit_until(&registry, data, spec, args.max_evals, stop).map_err(|e| match e {
             FitError::Cancelled => Error::Other(format!("{source}: interrupted")),
             FitError::Data(m) => Error::file(source, m),
         })?;

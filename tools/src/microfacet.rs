@@ -248,16 +248,13 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
                 est.error,
                 0.0,
             )];
-            for label in [
-                "ward-anisotropic",
-                "ashikhmin-shirley-anisotropic",
-                "poulin-fournier",
-            ] {
+            let registry = lobe_materials::registry::Registry::builtin();
+            for &label in lobe_materials::fit::ANISOTROPIC_DEFAULT {
                 let spec = builtin_specs()
                     .into_iter()
                     .find(|s| s.label == label)
                     .expect("built-in model");
-                let r = fit(&data, &spec, 300).map_err(Error::Other)?;
+                let r = fit(&registry, &data, &spec, 300).map_err(Error::Other)?;
                 rows.push((label.to_string(), r.error, r.seconds));
             }
             println!(

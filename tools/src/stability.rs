@@ -261,7 +261,7 @@ fn sweep_materials(
     pairs: &[(glam::Vec3, glam::Vec3)],
 ) -> Counts {
     let reg = Registry::builtin();
-    let ctx = lobe_materials::registry::BuildContext::new(base);
+    let ctx = lobe_materials::registry::BuildContext::new(base, &reg);
     let mut c = Counts::default();
     for d in descs {
         match reg.create_with(d, "sweep", &ctx) {

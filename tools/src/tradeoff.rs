@@ -248,8 +248,9 @@ pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
         est.material(&exr_abs.display().to_string()),
         est.error,
     ));
+    let registry = Registry::builtin();
     for spec in chosen {
-        let r = fit(&data, spec, 300).map_err(|m| Error::file(&source, m))?;
+        let r = fit(&registry, &data, spec, 300).map_err(|m| Error::file(&source, m))?;
         say(format!(
             "  fitted {}: Eq. (1) error {:.4e}",
             spec.label, r.error
@@ -262,8 +263,7 @@ pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
         args.reference_spp
     ));
     let (reference, _) = render_with(&measured_desc, args.reference_spp)?;
-    let ctx = BuildContext::new(&base);
-    let registry = Registry::builtin();
+    let ctx = BuildContext::new(&base, &registry);
     let spps = [args.spp / 16, args.spp / 4, args.spp];
     let mut rows = Vec::new();
     for (name, desc, brdf_error) in reps {

@@ -15,7 +15,9 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::fresnel::schlick;
 use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
-use crate::registry::{Bounds, ModelSchema, Params, Registry};
+use crate::schema::{
+    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, ParamSpec, Params, PublishedFit,
+};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -127,7 +129,6 @@ const RS: ParamSpec = lobe_param(
     0.05,
     "Schlick reflectance at normal incidence (Rs)",
 );
-use crate::registry::ParamSpec;
 
 pub const SCHEMA: ModelSchema = ModelSchema {
     name: "ashikhmin-shirley",
@@ -135,8 +136,12 @@ pub const SCHEMA: ModelSchema = ModelSchema {
     params: &[
         DIFFUSE,
         SPECULAR,
-        lobe_param("n", N_BOUNDS, 100.0, "Phong exponent n = n_u = n_v"),
-        RS,
+        lobe_param("n", N_BOUNDS, 100.0, "Phong exponent n = n_u = n_v").fitted(FitRange::log(
+            1.0,
+            1e6,
+            &[10.0, 100.0, 1000.0],
+        )),
+        RS.fitted(FitRange::linear(0.0, 1.0, &[0.05, 0.5])),
     ],
 };
 
@@ -146,9 +151,14 @@ pub const SCHEMA_ANISO: ModelSchema = ModelSchema {
     params: &[
         DIFFUSE,
         SPECULAR,
-        lobe_param("nu", N_BOUNDS, 100.0, "exponent along the tangent (x)"),
-        lobe_param("nv", N_BOUNDS, 100.0, "exponent along the bitangent (y)"),
-        RS,
+        lobe_param("nu", N_BOUNDS, 100.0, "exponent along the tangent (x)").fitted(FitRange::log(
+            1.0,
+            1e6,
+            &[10.0, 1000.0],
+        )),
+        lobe_param("nv", N_BOUNDS, 100.0, "exponent along the bitangent (y)")
+            .fitted(FitRange::log(1.0, 1e6, &[10.0, 1000.0])),
+        RS.fitted(FitRange::linear(0.0, 1.0, &[0.1])),
     ],
 };
 
@@ -169,10 +179,30 @@ fn lobe_aniso(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
     }))
 }
 
-pub fn register(r: &mut Registry) {
-    r.register_lobe(SCHEMA, lobe);
-    r.register_lobe(SCHEMA_ANISO, lobe_aniso);
-}
+/// Isotropic Ashikhmin-Shirley; Ngan's published `sharpness` is n and
+/// `fresnelReflectance` is Rs.
+pub const MODEL: LobeModel = LobeModel {
+    schema: SCHEMA,
+    lobe,
+    fits: &[FitVariant::single("ashikhmin-shirley", FitGroup::Isotropic)],
+    published: Some(PublishedFit {
+        file: "ngan_ashikhminshirley.fit",
+        class: "NganAshikhminShirley",
+        keys: &[("n", "sharpness"), ("f0", "fresnelReflectance")],
+        settings: &[],
+    }),
+};
+
+/// Anisotropic Ashikhmin-Shirley.
+pub const MODEL_ANISO: LobeModel = LobeModel {
+    schema: SCHEMA_ANISO,
+    lobe: lobe_aniso,
+    fits: &[FitVariant::single(
+        "ashikhmin-shirley-anisotropic",
+        FitGroup::Anisotropic,
+    )],
+    published: None,
+};
 
 #[cfg(test)]
 mod tests {

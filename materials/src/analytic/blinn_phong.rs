@@ -14,7 +14,9 @@
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
-use crate::registry::{Bounds, ModelSchema, Params, Registry};
+use crate::schema::{
+    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
+};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -92,7 +94,8 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             Bounds::closed(0.0, 1.0e7),
             100.0,
             "exponent of cos(theta_h)",
-        ),
+        )
+        .fitted(FitRange::log(1.0, 1e6, &[10.0, 100.0, 1000.0])),
     ],
 };
 
@@ -100,9 +103,18 @@ fn lobe(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
     Ok(Arc::new(BlinnPhong { n: p.scalar("n") }))
 }
 
-pub fn register(r: &mut Registry) {
-    r.register_lobe(SCHEMA, lobe);
-}
+/// Blinn-Phong; Ngan's fitted `sharpness` is n (half-vector form, module docs).
+pub const MODEL: LobeModel = LobeModel {
+    schema: SCHEMA,
+    lobe,
+    fits: &[FitVariant::single("blinn-phong", FitGroup::Isotropic)],
+    published: Some(PublishedFit {
+        file: "ngan_blinnphong.fit",
+        class: "NganBlinnPhong",
+        keys: &[("n", "sharpness")],
+        settings: &[],
+    }),
+};
 
 #[cfg(test)]
 mod tests {

@@ -2,7 +2,7 @@
 //! parameters of the study's `M = diffuse_rgb * Lambert + specular_rgb * lobe(p)`, and
 //! helpers for lobe-shape parameters and discrete settings.
 
-use crate::registry::{Bounds, DefaultValue, ParamKind, ParamRole, ParamSpec};
+use crate::schema::{Bounds, DefaultValue, ParamKind, ParamRole, ParamSpec};
 
 /// `diffuse`: the Lambertian colour (albedo), linear RGB.
 pub const DIFFUSE: ParamSpec = ParamSpec {
@@ -12,6 +12,7 @@ pub const DIFFUSE: ParamSpec = ParamSpec {
     bounds: Bounds::closed(0.0, 1.0),
     default: DefaultValue::Color([0.0, 0.0, 0.0]),
     doc: "diffuse albedo (linear RGB); the Lambertian term is diffuse / pi",
+    fit: None,
 };
 
 /// `specular`: the colour multiplying the lobe, linear RGB (not bounded above: several
@@ -23,6 +24,7 @@ pub const SPECULAR: ParamSpec = ParamSpec {
     bounds: Bounds::closed(0.0, 1.0e12),
     default: DefaultValue::Color([0.04, 0.04, 0.04]),
     doc: "specular colour (linear RGB) multiplying the lobe",
+    fit: None,
 };
 
 /// A lobe-shape scalar parameter.
@@ -39,6 +41,7 @@ pub const fn lobe_param(
         bounds,
         default: DefaultValue::Scalar(default),
         doc,
+        fit: None,
     }
 }
 
@@ -56,5 +59,6 @@ pub const fn setting(
         bounds: Bounds::closed(0.0, 0.0),
         default: DefaultValue::Choice(default),
         doc,
+        fit: None,
     }
 }

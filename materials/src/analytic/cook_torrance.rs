@@ -17,7 +17,9 @@ use super::microfacet::fresnel::{FRESNELS, Fresnel};
 use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g};
 use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
-use crate::registry::{Bounds, ModelSchema, Params, Registry};
+use crate::schema::{
+    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
+};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
@@ -99,7 +101,8 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             Bounds::above(0.0, 10.0),
             0.2,
             "microfacet roughness m (rms slope for Beckmann)",
-        ),
+        )
+        .fitted(FitRange::log(1e-3, 1.0, &[0.03, 0.1, 0.3])),
         setting(
             "distribution",
             DISTRIBUTIONS,
@@ -112,13 +115,15 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             Bounds::closed(0.0, 1.0),
             0.04,
             "Schlick reflectance at normal incidence (fresnel = schlick)",
-        ),
+        )
+        .fitted(FitRange::linear(0.0, 1.0, &[0.05, 0.5]).when("fresnel", "schlick")),
         lobe_param(
             "eta",
             Bounds::above(0.0, 100.0),
             1.5,
             "relative index of refraction (fresnel = dielectric)",
-        ),
+        )
+        .fitted(FitRange::log(1.001, 20.0, &[1.5, 4.0]).when("fresnel", "dielectric")),
     ],
 };
 
@@ -134,9 +139,64 @@ fn lobe(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
     Ok(Arc::new(CookTorrance::new(d, f)))
 }
 
-pub fn register(r: &mut Registry) {
-    r.register_lobe(SCHEMA, lobe);
+/// A fit variant of Cook-Torrance with the given settings.
+const fn variant(
+    label: &'static str,
+    settings: &'static [(&'static str, &'static str)],
+    lobes: usize,
+    group: FitGroup,
+) -> FitVariant {
+    FitVariant {
+        label,
+        settings,
+        lobes,
+        group,
+    }
 }
+
+const BECKMANN_SCHLICK: &[(&str, &str)] = &[("distribution", "beckmann"), ("fresnel", "schlick")];
+
+/// Cook-Torrance as the study fits it: Beckmann with Schlick's Fresnel (section 4), the
+/// other distributions and Fresnel terms (sections 4.3, 4.4) and two lobes (section 4.2).
+/// Ngan's published `roughness` is m and `eta` is Schlick's F0 (bbm `ngan.h`).
+pub const MODEL: LobeModel = LobeModel {
+    schema: SCHEMA,
+    lobe,
+    fits: &[
+        variant("cook-torrance", BECKMANN_SCHLICK, 1, FitGroup::Isotropic),
+        variant(
+            "cook-torrance-gaussian",
+            &[("distribution", "gaussian"), ("fresnel", "schlick")],
+            1,
+            FitGroup::Variant,
+        ),
+        variant(
+            "cook-torrance-cosine-power",
+            &[("distribution", "cosine-power"), ("fresnel", "schlick")],
+            1,
+            FitGroup::Variant,
+        ),
+        variant(
+            "cook-torrance-no-fresnel",
+            &[("distribution", "beckmann"), ("fresnel", "none")],
+            1,
+            FitGroup::Variant,
+        ),
+        variant(
+            "cook-torrance-dielectric",
+            &[("distribution", "beckmann"), ("fresnel", "dielectric")],
+            1,
+            FitGroup::Variant,
+        ),
+        variant("cook-torrance-2", BECKMANN_SCHLICK, 2, FitGroup::TwoLobes),
+    ],
+    published: Some(PublishedFit {
+        file: "ngan_cooktorrance.fit",
+        class: "NganCookTorrance",
+        keys: &[("m", "roughness"), ("f0", "eta")],
+        settings: BECKMANN_SCHLICK,
+    }),
+};
 
 #[cfg(test)]
 mod tests {

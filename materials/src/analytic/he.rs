@@ -37,7 +37,9 @@ use super::microfacet::Distribution;
 use super::microfacet::fresnel::dielectric;
 use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
-use crate::registry::{Bounds, ModelSchema, Params, Registry};
+use crate::schema::{
+    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
+};
 use crate::{Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::sync::Arc;
@@ -286,19 +288,22 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             Bounds::closed(0.0, 100.0),
             0.2,
             "RMS surface height sigma_0 in micrometres",
-        ),
+        )
+        .fitted(FitRange::log(0.01, 10.0, &[0.1, 1.0])),
         lobe_param(
             "tau",
             Bounds::above(0.0, 10000.0),
             3.0,
             "autocorrelation length tau in micrometres",
-        ),
+        )
+        .fitted(FitRange::log(0.3, 200.0, &[3.0, 30.0])),
         lobe_param(
             "eta",
             Bounds::above(0.0, 100.0),
             1.5,
             "real relative index of refraction (1 makes F, hence the lobe, zero)",
-        ),
+        )
+        .fitted(FitRange::log(1.001, 20.0, &[1.5])),
     ],
 };
 
@@ -310,9 +315,23 @@ fn lobe(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
     }))
 }
 
-pub fn register(r: &mut Registry) {
-    r.register_lobe(SCHEMA, lobe);
-}
+/// He et al.; Ngan's published `roughness`, `autocorrelation` and `eta` are sigma0, tau
+/// and eta.
+pub const MODEL: LobeModel = LobeModel {
+    schema: SCHEMA,
+    lobe,
+    fits: &[FitVariant::single("he", FitGroup::Isotropic)],
+    published: Some(PublishedFit {
+        file: "ngan_he.fit",
+        class: "NganHe",
+        keys: &[
+            ("sigma0", "roughness"),
+            ("tau", "autocorrelation"),
+            ("eta", "eta"),
+        ],
+        settings: &[],
+    }),
+};
 
 #[cfg(test)]
 mod tests {

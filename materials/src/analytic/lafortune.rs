@@ -18,7 +18,9 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
 use crate::frame::Frame;
 use crate::lobe::{Lobe, above};
 use crate::math::{Real, V3};
-use crate::registry::{Bounds, ModelSchema, Params, Registry};
+use crate::schema::{
+    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
+};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -126,15 +128,24 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             C_BOUNDS,
             -0.577,
             "C_x (tangent); -Cz gives a lobe about the mirror direction",
-        ),
+        )
+        .fitted(FitRange::linear(-1.0, 1.0, &[-0.6]).tied(&["cy"])),
         lobe_param(
             "cy",
             C_BOUNDS,
             -0.577,
             "C_y (bitangent); equal to cx for isotropic lobes",
         ),
-        lobe_param("cz", C_BOUNDS, 0.577, "C_z (normal)"),
-        lobe_param("n", Bounds::closed(0.0, 1.0e7), 100.0, "exponent"),
+        lobe_param("cz", C_BOUNDS, 0.577, "C_z (normal)").fitted(FitRange::linear(
+            0.01,
+            1.0,
+            &[0.6],
+        )),
+        lobe_param("n", Bounds::closed(0.0, 1.0e7), 100.0, "exponent").fitted(FitRange::log(
+            1.0,
+            1e5,
+            &[10.0, 100.0, 1000.0],
+        )),
         setting(
             "normalization",
             &["ngan", "none"],
@@ -161,9 +172,39 @@ fn lobe(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
     Ok(Arc::new(l))
 }
 
-pub fn register(r: &mut Registry) {
-    r.register_lobe(SCHEMA, lobe);
-}
+const NGAN: &[(&str, &str)] = &[("normalization", "ngan")];
+
+/// Lafortune, fitted to isotropic data with cy = cx (one lobe, and two: section 4.2);
+/// Ngan's published `Cxy`, `Cz` and `sharpness` are cx = cy, cz and n.
+pub const MODEL: LobeModel = LobeModel {
+    schema: SCHEMA,
+    lobe,
+    fits: &[
+        FitVariant {
+            label: "lafortune",
+            settings: NGAN,
+            lobes: 1,
+            group: FitGroup::Isotropic,
+        },
+        FitVariant {
+            label: "lafortune-2",
+            settings: NGAN,
+            lobes: 2,
+            group: FitGroup::TwoLobes,
+        },
+    ],
+    published: Some(PublishedFit {
+        file: "ngan_lafortune.fit",
+        class: "NganLafortune",
+        keys: &[
+            ("cx", "Cxy"),
+            ("cy", "Cxy"),
+            ("cz", "Cz"),
+            ("n", "sharpness"),
+        ],
+        settings: NGAN,
+    }),
+};
 
 #[cfg(test)]
 mod tests {

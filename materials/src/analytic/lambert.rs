@@ -7,13 +7,10 @@
 use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::fastmath::select;
-use crate::registry::{
-    Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
-    Registry,
-};
 use crate::sampling::warp::{
     cosine_hemisphere_pdf, square_to_cosine_hemisphere, square_to_cosine_hemisphere_x8,
 };
+use crate::schema::{Bounds, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params};
 use crate::simd;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -126,15 +123,13 @@ pub const SCHEMA: ModelSchema = ModelSchema {
         bounds: Bounds::closed(0.0, 1.0),
         default: DefaultValue::Color([0.5, 0.5, 0.5]),
         doc: "diffuse albedo (linear RGB)",
+        fit: None,
     }],
 };
 
-fn build(p: &Params, _ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamError> {
+/// The material of a validated description.
+pub fn build(p: &Params) -> Result<Arc<dyn Bsdf>, ParamError> {
     Ok(Arc::new(Lambert::new(p.color("reflectance"))))
-}
-
-pub fn register(r: &mut Registry) {
-    r.register(SCHEMA, build);
 }
 
 #[cfg(test)]

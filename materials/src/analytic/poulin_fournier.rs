@@ -33,8 +33,8 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use crate::frame::Frame;
 use crate::lobe::{Lobe, above};
 use crate::math::{Real, V3};
-use crate::registry::{Bounds, ModelSchema, Params, Registry};
 use crate::sampling::quadrature::gl32;
+use crate::schema::{Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
@@ -270,19 +270,22 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             Bounds::closed(0.0, 1.0e7),
             100.0,
             "Phong exponent of the cylinders' reflection",
-        ),
+        )
+        .fitted(FitRange::log(1.0, 1e5, &[30.0, 1000.0])),
         lobe_param(
             "d",
             Bounds::closed(0.0, 1.0e3),
             0.5,
             "gap between adjacent cylinders, in cylinder radii",
-        ),
+        )
+        .fitted(FitRange::linear(0.0, 5.0, &[0.2, 1.0])),
         lobe_param(
             "h",
             Bounds::closed(0.0, 1.0),
             0.5,
             "height of the cylinder axes above the base, in radii (0: half cylinders, 1: resting on the base)",
-        ),
+        )
+        .fitted(FitRange::linear(0.0, 1.0, &[0.5])),
     ],
 };
 
@@ -294,9 +297,13 @@ fn lobe(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
     }))
 }
 
-pub fn register(r: &mut Registry) {
-    r.register_lobe(SCHEMA, lobe);
-}
+/// Poulin-Fournier, fitted to anisotropic (4D) data (section 5).
+pub const MODEL: LobeModel = LobeModel {
+    schema: SCHEMA,
+    lobe,
+    fits: &[FitVariant::single("poulin-fournier", FitGroup::Anisotropic)],
+    published: None,
+};
 
 #[cfg(test)]
 mod tests {

@@ -17,7 +17,9 @@
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
-use crate::registry::{Bounds, ModelSchema, Params, Registry};
+use crate::schema::{
+    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
+};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -145,7 +147,8 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             ALPHA_BOUNDS,
             0.1,
             "standard deviation of the surface slope",
-        ),
+        )
+        .fitted(FitRange::log(1e-3, 1.0, &[0.03, 0.1, 0.3])),
     ],
 };
 
@@ -160,13 +163,15 @@ pub const SCHEMA_ANISO: ModelSchema = ModelSchema {
             ALPHA_BOUNDS,
             0.1,
             "slope deviation along the tangent (x)",
-        ),
+        )
+        .fitted(FitRange::log(1e-3, 1.0, &[0.03, 0.2])),
         lobe_param(
             "alpha_y",
             ALPHA_BOUNDS,
             0.1,
             "slope deviation along the bitangent (y)",
-        ),
+        )
+        .fitted(FitRange::log(1e-3, 1.0, &[0.03, 0.2])),
     ],
 };
 
@@ -183,10 +188,29 @@ fn lobe_aniso(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
     )))
 }
 
-pub fn register(r: &mut Registry) {
-    r.register_lobe(SCHEMA, lobe);
-    r.register_lobe(SCHEMA_ANISO, lobe_aniso);
-}
+/// Isotropic Ward; Ngan's fitted `roughness` is alpha.
+pub const MODEL: LobeModel = LobeModel {
+    schema: SCHEMA,
+    lobe,
+    fits: &[FitVariant::single("ward", FitGroup::Isotropic)],
+    published: Some(PublishedFit {
+        file: "ngan_ward.fit",
+        class: "NganWard",
+        keys: &[("alpha", "roughness")],
+        settings: &[],
+    }),
+};
+
+/// Anisotropic Ward.
+pub const MODEL_ANISO: LobeModel = LobeModel {
+    schema: SCHEMA_ANISO,
+    lobe: lobe_aniso,
+    fits: &[FitVariant::single(
+        "ward-anisotropic",
+        FitGroup::Anisotropic,
+    )],
+    published: None,
+};
 
 #[cfg(test)]
 mod tests {

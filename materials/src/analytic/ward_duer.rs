@@ -28,7 +28,9 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::ward::Ward;
 use crate::ParamError;
 use crate::lobe::Lobe;
-use crate::registry::{Bounds, ModelSchema, Params, Registry};
+use crate::schema::{
+    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
+};
 use std::sync::Arc;
 
 pub const SCHEMA: ModelSchema = ModelSchema {
@@ -42,7 +44,8 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             Bounds::above(0.0, 10.0),
             0.1,
             "standard deviation of the surface slope",
-        ),
+        )
+        .fitted(FitRange::log(1e-3, 1.0, &[0.03, 0.1, 0.3])),
     ],
 };
 
@@ -51,6 +54,15 @@ fn lobe(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
     Ok(Arc::new(Ward::new(a, a, true)))
 }
 
-pub fn register(r: &mut Registry) {
-    r.register_lobe(SCHEMA, lobe);
-}
+/// Ward-Duer; Ngan's fitted `roughness` is alpha.
+pub const MODEL: LobeModel = LobeModel {
+    schema: SCHEMA,
+    lobe,
+    fits: &[FitVariant::single("ward-duer", FitGroup::Isotropic)],
+    published: Some(PublishedFit {
+        file: "ngan_wardduer.fit",
+        class: "NganWardDuer",
+        keys: &[("alpha", "roughness")],
+        settings: &[],
+    }),
+};

@@ -15,193 +15,18 @@
 
 pub mod dataset;
 pub mod linear;
+pub mod spec;
 
 use crate::lobe::Lobe;
 use crate::registry::Registry;
 use dataset::Dataset;
 use linear::Gram;
 use serde_json::{Value, json};
+pub use spec::{
+    ANISOTROPIC_DEFAULT, FitParam, ISOTROPIC_DEFAULT, ModelSpec, builtin_specs, model_specs,
+};
 use std::f64::consts::FRAC_1_PI;
 use std::sync::Arc;
-
-/// One optimized lobe parameter.
-#[derive(Clone, Debug)]
-pub struct FitParam {
-    pub name: &'static str,
-    pub lo: f64,
-    pub hi: f64,
-    /// Optimize its logarithm (scale parameters).
-    pub log: bool,
-    /// Starting values of the multi-start grid.
-    pub starts: &'static [f64],
-    /// Also sets these parameters to the same value (e.g. Lafortune's cx = cy).
-    pub tied: &'static [&'static str],
-}
-
-/// A model as fitted: the registry model, its fixed settings, its free parameters, and
-/// how many lobes share the shape family (each lobe gets its own parameters and colour).
-#[derive(Clone, Debug)]
-pub struct ModelSpec {
-    pub label: &'static str,
-    pub model: &'static str,
-    pub settings: Value,
-    pub params: Vec<FitParam>,
-    pub lobes: usize,
-}
-
-const fn p(name: &'static str, lo: f64, hi: f64, log: bool, starts: &'static [f64]) -> FitParam {
-    FitParam {
-        name,
-        lo,
-        hi,
-        log,
-        starts,
-        tied: &[],
-    }
-}
-
-/// Lafortune's free parameters on isotropic data: cx (= cy), cz, n.
-fn lafortune_params() -> Vec<FitParam> {
-    vec![
-        FitParam {
-            name: "cx",
-            lo: -1.0,
-            hi: 1.0,
-            log: false,
-            starts: &[-0.6],
-            tied: &["cy"],
-        },
-        p("cz", 0.01, 1.0, false, &[0.6]),
-        p("n", 1.0, 1e5, true, &[10.0, 100.0, 1000.0]),
-    ]
-}
-
-/// The models of the study (sections 3.1, 4.2-4.4 and 5).
-pub fn builtin_specs() -> Vec<ModelSpec> {
-    let ct = |label, dist: &str, fresnel: &str, lobes| {
-        let mut params = vec![p("m", 1e-3, 1.0, true, &[0.03, 0.1, 0.3])];
-        match fresnel {
-            "schlick" => params.push(p("f0", 0.0, 1.0, false, &[0.05, 0.5])),
-            "dielectric" => params.push(p("eta", 1.001, 20.0, true, &[1.5, 4.0])),
-            _ => {}
-        }
-        ModelSpec {
-            label,
-            model: "cook-torrance",
-            settings: json!({"distribution": dist, "fresnel": fresnel}),
-            params,
-            lobes,
-        }
-    };
-    vec![
-        ModelSpec {
-            label: "ward",
-            model: "ward",
-            settings: json!({}),
-            params: vec![p("alpha", 1e-3, 1.0, true, &[0.03, 0.1, 0.3])],
-            lobes: 1,
-        },
-        ModelSpec {
-            label: "ward-duer",
-            model: "ward-duer",
-            settings: json!({}),
-            params: vec![p("alpha", 1e-3, 1.0, true, &[0.03, 0.1, 0.3])],
-            lobes: 1,
-        },
-        ModelSpec {
-            label: "blinn-phong",
-            model: "blinn-phong",
-            settings: json!({}),
-            params: vec![p("n", 1.0, 1e6, true, &[10.0, 100.0, 1000.0])],
-            lobes: 1,
-        },
-        ct("cook-torrance", "beckmann", "schlick", 1),
-        ModelSpec {
-            label: "lafortune",
-            model: "lafortune",
-            settings: json!({"normalization": "ngan"}),
-            params: lafortune_params(),
-            lobes: 1,
-        },
-        ModelSpec {
-            label: "ashikhmin-shirley",
-            model: "ashikhmin-shirley",
-            settings: json!({}),
-            params: vec![
-                p("n", 1.0, 1e6, true, &[10.0, 100.0, 1000.0]),
-                p("f0", 0.0, 1.0, false, &[0.05, 0.5]),
-            ],
-            lobes: 1,
-        },
-        ModelSpec {
-            label: "he",
-            model: "he",
-            settings: json!({}),
-            params: vec![
-                p("sigma0", 0.01, 10.0, true, &[0.1, 1.0]),
-                p("tau", 0.3, 200.0, true, &[3.0, 30.0]),
-                p("eta", 1.001, 20.0, true, &[1.5]),
-            ],
-            lobes: 1,
-        },
-        ct("cook-torrance-gaussian", "gaussian", "schlick", 1),
-        ct("cook-torrance-cosine-power", "cosine-power", "schlick", 1),
-        ct("cook-torrance-no-fresnel", "beckmann", "none", 1),
-        ct("cook-torrance-dielectric", "beckmann", "dielectric", 1),
-        ct("cook-torrance-2", "beckmann", "schlick", 2),
-        ModelSpec {
-            label: "lafortune-2",
-            model: "lafortune",
-            settings: json!({"normalization": "ngan"}),
-            params: lafortune_params(),
-            lobes: 2,
-        },
-        // Section 5: anisotropic models, for 4D (binned) data.
-        ModelSpec {
-            label: "ward-anisotropic",
-            model: "ward-anisotropic",
-            settings: json!({}),
-            params: vec![
-                p("alpha_x", 1e-3, 1.0, true, &[0.03, 0.2]),
-                p("alpha_y", 1e-3, 1.0, true, &[0.03, 0.2]),
-            ],
-            lobes: 1,
-        },
-        ModelSpec {
-            label: "ashikhmin-shirley-anisotropic",
-            model: "ashikhmin-shirley-anisotropic",
-            settings: json!({}),
-            params: vec![
-                p("nu", 1.0, 1e6, true, &[10.0, 1000.0]),
-                p("nv", 1.0, 1e6, true, &[10.0, 1000.0]),
-                p("f0", 0.0, 1.0, false, &[0.1]),
-            ],
-            lobes: 1,
-        },
-        ModelSpec {
-            label: "poulin-fournier",
-            model: "poulin-fournier",
-            settings: json!({}),
-            params: vec![
-                p("n", 1.0, 1e5, true, &[30.0, 1000.0]),
-                p("d", 0.0, 5.0, false, &[0.2, 1.0]),
-                p("h", 0.0, 1.0, false, &[0.5]),
-            ],
-            lobes: 1,
-        },
-    ]
-}
-
-/// The labels of the models fitted to isotropic data by default (section 4).
-pub const ISOTROPIC_DEFAULT: &[&str] = &[
-    "ward",
-    "ward-duer",
-    "blinn-phong",
-    "cook-torrance",
-    "lafortune",
-    "ashikhmin-shirley",
-    "he",
-];
 
 /// The result of fitting one model.
 #[derive(Clone, Debug)]
@@ -487,13 +312,15 @@ impl std::fmt::Display for FitError {
 
 impl std::error::Error for FitError {}
 
-/// Fits one model to the data; fails (with the reason) on empty or non-finite data.
+/// Fits one model to the data, building its lobes through `registry` (which must know
+/// `spec.model`); fails (with the reason) on empty or non-finite data.
 pub fn fit(
+    registry: &Registry,
     data: &Dataset,
     spec: &ModelSpec,
     max_evals_per_start: usize,
 ) -> Result<FitResult, String> {
-    fit_until(data, spec, max_evals_per_start, &|| false).map_err(|e| e.to_string())
+    fit_until(registry, data, spec, max_evals_per_start, &|| false).map_err(|e| e.to_string())
 }
 
 /// Optimizer bounds of every parameter (log space for scales) and the grid of starts (for
@@ -541,6 +368,7 @@ fn bounds_and_starts(spec: &ModelSpec) -> (Vec<(f64, f64)>, Vec<Vec<f64>>) {
 /// [`fit`], polling `stop` inside the optimizer: once it returns true the fit ends within
 /// one objective evaluation and returns [`FitError::Cancelled`].
 pub fn fit_until(
+    registry: &Registry,
     data: &Dataset,
     spec: &ModelSpec,
     max_evals_per_start: usize,
@@ -548,11 +376,10 @@ pub fn fit_until(
 ) -> Result<FitResult, FitError> {
     data.check().map_err(FitError::Data)?;
     let t0 = std::time::Instant::now();
-    let registry = Registry::builtin();
     let pr = Problem {
         data,
         spec,
-        registry: &registry,
+        registry,
         total_weight: data.total_weight().max(1e-300),
     };
     let (bounds, starts) = bounds_and_starts(spec);
@@ -704,6 +531,7 @@ pub const FIT_SCHEMA: crate::registry::ModelSchema = crate::registry::ModelSchem
             bounds: crate::registry::Bounds::closed(0.0, 0.0),
             default: crate::registry::DefaultValue::Required,
             doc: "the fit report (JSON) written by lobe fit",
+            fit: None,
         },
         crate::registry::ParamSpec {
             name: "model",
@@ -712,6 +540,7 @@ pub const FIT_SCHEMA: crate::registry::ModelSchema = crate::registry::ModelSchem
             bounds: crate::registry::Bounds::closed(0.0, 0.0),
             default: crate::registry::DefaultValue::Required,
             doc: "the fitted model's label in the report",
+            fit: None,
         },
     ],
 };
@@ -744,17 +573,24 @@ fn build_fit(
             )
         })?;
     // A report holds the fitter's output: an analytic model or a composite of lobes (a
-    // report naming another report, even itself, would recurse without end).
-    let reg = Registry::builtin();
+    // report naming another report, even itself, would recurse without end). Its model is
+    // built through the caller's registry, which may know models lobe does not ship.
+    let reg = ctx.registry;
     let ty = m.get("type").and_then(Value::as_str).unwrap_or("");
     let at = format!("{}(from {})", p.path, path.display());
     if ty != crate::registry::COMPOSITE && !reg.is_lobe_model(ty) {
-        return Err(crate::ParamError::new(
-            format!("{at}.type"),
+        let message = if reg.schema(ty).is_none() {
+            format!(
+                "unknown model \"{ty}\" in model \"{label}\": the registry has no such model; expected one of: {}, {}",
+                reg.lobe_model_names().collect::<Vec<_>>().join(", "),
+                crate::registry::COMPOSITE
+            )
+        } else {
             format!(
                 "\"{ty}\" in model \"{label}\"; expected an analytic model or a composite, as lobe fit writes"
-            ),
-        ));
+            )
+        };
+        return Err(crate::ParamError::new(format!("{at}.type"), message));
     }
     let b = reg.create_with(m, &at, ctx)?;
     if let Some(bad) = crate::bsdf::first_nonfinite(b.as_ref()) {
@@ -778,7 +614,7 @@ fn fit_inputs(
     });
     let mut out = vec![path];
     if let Some(m) = model {
-        out.extend(Registry::builtin().inputs(&m, ctx));
+        out.extend(ctx.registry.inputs(&m, ctx));
     }
     out
 }

@@ -217,6 +217,7 @@ const FILE: ParamSpec = ParamSpec {
     bounds: Bounds::closed(0.0, 0.0),
     default: DefaultValue::Required,
     doc: "path of the table (relative to the scene file)",
+    fit: None,
 };
 
 pub const MERL_SCHEMA: ModelSchema = ModelSchema {
@@ -231,6 +232,7 @@ pub const MERL_SCHEMA: ModelSchema = ModelSchema {
             bounds: Bounds::closed(0.0, 0.0),
             default: DefaultValue::Bool(true),
             doc: "trilinear interpolation between bin centres (false: nearest bin)",
+            fit: None,
         },
     ],
 };
@@ -444,6 +446,7 @@ pub const RGL_SCHEMA: ModelSchema = ModelSchema {
             bounds: Bounds::closed(0.0, 0.0),
             default: DefaultValue::Bool(true),
             doc: "clamp the tables' small negative values at zero (false: exactly Mitsuba's measured plugin)",
+            fit: None,
         },
     ],
 };

@@ -63,6 +63,7 @@ const SCHEMA_PARAMS: &[ParamSpec] = &[
         bounds: Bounds::closed(0.0, 0.0),
         default: DefaultValue::Choice("beckmann"),
         doc: "an EXR table written by `lobe microfacet` (relative to the scene), or beckmann, brushed, satin, velvet",
+        fit: None,
     },
     ParamSpec {
         name: "alpha_x",
@@ -71,6 +72,7 @@ const SCHEMA_PARAMS: &[ParamSpec] = &[
         bounds: Bounds::closed(0.01, 2.0),
         default: DefaultValue::Scalar(0.2),
         doc: "Beckmann width along x (distribution beckmann only)",
+        fit: None,
     },
     ParamSpec {
         name: "alpha_y",
@@ -79,6 +81,7 @@ const SCHEMA_PARAMS: &[ParamSpec] = &[
         bounds: Bounds::closed(0.01, 2.0),
         default: DefaultValue::Scalar(0.2),
         doc: "Beckmann width along y (distribution beckmann only)",
+        fit: None,
     },
     ParamSpec {
         name: "f0",
@@ -87,6 +90,7 @@ const SCHEMA_PARAMS: &[ParamSpec] = &[
         bounds: Bounds::closed(0.0, 1.0),
         default: DefaultValue::Scalar(1.0),
         doc: "Schlick's reflectance at normal incidence (1: no Fresnel term)",
+        fit: None,
     },
     ParamSpec {
         name: "resolution",
@@ -95,6 +99,7 @@ const SCHEMA_PARAMS: &[ParamSpec] = &[
         bounds: Bounds::closed(9.0, 2049.0),
         default: DefaultValue::Scalar(DEFAULT_RES as f64),
         doc: "nodes per side when a closed-form distribution is tabulated",
+        fit: None,
     },
 ];
 

@@ -34,6 +34,11 @@ pub fn inputs(scene: &Path) -> Result<Vec<Input>> {
 /// The files a parsed scene refers to; relative paths resolve against `base`, roles name
 /// the JSON path in `file`.
 pub fn inputs_of_value(v: &Value, file: &str, base: &Path) -> Vec<Input> {
+    inputs_of_value_with(v, file, base, &Registry::builtin())
+}
+
+/// [`inputs_of_value`] with the materials read through `registry`.
+pub fn inputs_of_value_with(v: &Value, file: &str, base: &Path, registry: &Registry) -> Vec<Input> {
     let mut out = Vec::new();
     let mut add = |path: PathBuf, at: String| {
         out.push(Input {
@@ -53,8 +58,7 @@ pub fn inputs_of_value(v: &Value, file: &str, base: &Path) -> Vec<Input> {
             add(resolve(f), format!("lights[{i}].file"));
         }
     }
-    let registry = Registry::builtin();
-    let ctx = BuildContext::new(base);
+    let ctx = BuildContext::new(base, registry);
     for (i, s) in list("shapes").unwrap_or_default().iter().enumerate() {
         if let Some(f) = s.get("file").and_then(Value::as_str) {
             let mesh = resolve(f);

@@ -71,6 +71,8 @@ pub type ImageMaker = fn() -> RgbImage;
 pub struct LoadOptions {
     /// Built-in images that `"file": "builtin:<name>"` refers to.
     pub builtin_images: BTreeMap<String, ImageMaker>,
+    /// The models materials are built with (a caller may register its own).
+    pub registry: Arc<Registry>,
 }
 
 impl LoadOptions {
@@ -80,20 +82,23 @@ impl LoadOptions {
         b.insert("studio".to_string(), || {
             builtin_images::studio_environment(512, 256)
         });
-        Self { builtin_images: b }
+        Self {
+            builtin_images: b,
+            registry: Arc::new(Registry::builtin()),
+        }
     }
 }
 
 /// Loads a scene file.
 pub fn load(path: &Path) -> Result<Scene> {
+    load_with(path, &LoadOptions::with_builtins())
+}
+
+/// Loads a scene file with the caller's options (its registry, its built-in images).
+pub fn load_with(path: &Path, opts: &LoadOptions) -> Result<Scene> {
     let value = read_json(path)?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    from_value(
-        &value,
-        &path.display().to_string(),
-        &base,
-        &LoadOptions::with_builtins(),
-    )
+    from_value(&value, &path.display().to_string(), &base, opts)
 }
 
 /// Reads a scene file's JSON (strictly: duplicate keys, such as two materials of one name,
@@ -122,11 +127,11 @@ struct Loader<'a> {
     file: &'a str,
     base: &'a Path,
     opts: &'a LoadOptions,
-    registry: Registry,
+    registry: &'a Registry,
     named: BTreeMap<String, &'a Value>,
     built: BTreeMap<String, Arc<dyn Bsdf>>,
     /// Shared by every material of the scene: measured tables are loaded once.
-    ctx: BuildContext,
+    ctx: BuildContext<'a>,
 }
 
 impl<'a> Loader<'a> {
@@ -252,10 +257,10 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
         file,
         base,
         opts,
-        registry: Registry::builtin(),
+        registry: &opts.registry,
         named: BTreeMap::new(),
         built: BTreeMap::new(),
-        ctx: BuildContext::new(base),
+        ctx: BuildContext::new(base, &opts.registry),
     };
     let (width, height, exposure) = parse_film(file, top.get("film"))?;
     let (spp, seed, scramble) = parse_sampler(file, top.get("sampler"))?;
