@@ -5,6 +5,7 @@
 //! brushed metal, satin or velvet and prints the comparison with the anisotropic fits.
 
 use crate::args::finite;
+use lobe_analysis::models::ANISOTROPIC_DEFAULT;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::{builtin_specs, fit};
 use lobe_materials::microfacet_gen::{Estimate, Shape, Table, correlation, estimate, sparse_4d};
@@ -86,47 +87,6 @@ impl EstimateOpts {
     }
 }
 
-/// log10 p over the projected hemisphere (a disk; white outside), 320 x 320 pixels, on a
-/// blue-to-yellow ramp over four decades below the maximum.
-fn plot(table: &Table, path: &Path) -> Result<(), Error> {
-    let size = 320usize;
-    let max = table
-        .nodes()
-        .iter()
-        .cloned()
-        .fold(0.0f32, f32::max)
-        .max(1e-30) as f64;
-    let mut rgb = vec![255u8; size * size * 3];
-    for y in 0..size {
-        for x in 0..size {
-            let hx = (x as f64 + 0.5) / size as f64 * 2.0 - 1.0;
-            // Image rows go down; h_y goes up.
-            let hy = 1.0 - (y as f64 + 0.5) / size as f64 * 2.0;
-            if hx * hx + hy * hy >= 1.0 {
-                continue;
-            }
-            let v = table.p(hx, hy);
-            let t = ((v.max(1e-300) / max).log10() / 4.0 + 1.0).clamp(0.0, 1.0);
-            // A perceptually ordered ramp: dark blue, teal, green, yellow.
-            let stops = [
-                [0.07, 0.04, 0.33],
-                [0.13, 0.45, 0.55],
-                [0.35, 0.75, 0.35],
-                [0.99, 0.91, 0.15],
-            ];
-            let s = t * 3.0;
-            let i = (s as usize).min(2);
-            let f = s - i as f64;
-            let k = (y * size + x) * 3;
-            for c in 0..3 {
-                rgb[k + c] =
-                    ((stops[i][c] * (1.0 - f) + stops[i + 1][c] * f) * 255.0).round() as u8;
-            }
-        }
-    }
-    lobe_renderer::film::write_png_rgb8(path, size as u32, size as u32, &rgb)
-}
-
 /// The table and plot files of a stem.
 fn table_files(stem: &Path) -> (PathBuf, PathBuf) {
     (stem.with_extension("exr"), stem.with_extension("png"))
@@ -135,7 +95,7 @@ fn table_files(stem: &Path) -> (PathBuf, PathBuf) {
 fn write_table(table: &Table, stem: &Path) -> Result<(PathBuf, PathBuf), Error> {
     let (exr, png) = table_files(stem);
     table.write_exr(&exr)?;
-    plot(table, &png)?;
+    lobe_analysis::figures::distribution(table).save(&png)?;
     Ok((exr, png))
 }
 
@@ -248,15 +208,9 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
                 est.error,
                 0.0,
             )];
-            for label in [
-                "ward-anisotropic",
-                "ashikhmin-shirley-anisotropic",
-                "poulin-fournier",
-            ] {
-                let spec = builtin_specs()
-                    .into_iter()
-                    .find(|s| s.label == label)
-                    .expect("built-in model");
+            let specs = builtin_specs();
+            for label in ANISOTROPIC_DEFAULT {
+                let spec = lobe_analysis::models::spec(&specs, label)?;
                 let r = fit(&data, &spec, 300).map_err(Error::Other)?;
                 rows.push((label.to_string(), r.error, r.seconds));
             }

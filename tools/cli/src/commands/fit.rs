@@ -4,15 +4,15 @@
 //! reports into CSV and Markdown tables.
 
 use crate::args::finite;
-use crate::eval::{MaterialArgs, MaterialSource};
+use crate::material::{MaterialArgs, MaterialSource};
+use lobe_analysis::fitting::{FitOptions, data_files, fit_material, stem};
+use lobe_analysis::models::choose;
+use lobe_analysis::reports::{merge, read_reports, report_files};
 use lobe_materials::fit::dataset::Dataset;
-use lobe_materials::fit::{
-    FitError, ISOTROPIC_DEFAULT, ModelSpec, Stop, builtin_specs, fit_until, report_json,
-};
-use lobe_materials::measured::format;
+use lobe_materials::fit::report::{self, FitReport};
+use lobe_materials::fit::{ISOTROPIC_DEFAULT, Stop, builtin_specs};
 use lobe_renderer::Error;
 use lobe_renderer::outputs::FilePlan;
-use serde_json::Value;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
@@ -71,44 +71,19 @@ enum FitSub {
     },
 }
 
-/// The specs of the comma-separated `models` (an error names an unknown one and lists the
-/// known ones), or the study's defaults for isotropic or anisotropic data.
-pub(crate) fn choose<'a>(
-    specs: &'a [ModelSpec],
-    models: &Option<String>,
-    anisotropic: bool,
-) -> Result<Vec<&'a ModelSpec>, Error> {
-    let default: &[&str] = if anisotropic {
-        &[
-            "ward-anisotropic",
-            "ashikhmin-shirley-anisotropic",
-            "poulin-fournier",
-        ]
-    } else {
-        ISOTROPIC_DEFAULT
-    };
-    match models {
-        None => Ok(specs
-            .iter()
-            .filter(|s| default.contains(&s.label))
-            .collect()),
-        Some(list) => list
-            .split(',')
-            .map(|l| {
-                specs.iter().find(|s| s.label == l.trim()).ok_or_else(|| {
-                    Error::Other(format!(
-                        "--models: unknown model \"{}\"; expected one of: {}",
-                        l.trim(),
-                        specs.iter().map(|s| s.label).collect::<Vec<_>>().join(", ")
-                    ))
-                })
-            })
-            .collect(),
+/// The fit options of the command line.
+fn options(args: &FitArgs) -> FitOptions {
+    FitOptions {
+        models: args.models.clone(),
+        resolution: args.resolution,
+        max_evals: args.max_evals,
+        select: args.select.then_some(args.tolerance),
     }
 }
 
-/// Fits the chosen models to `data` and builds the report; `stop` is polled inside the
-/// optimizer (Ctrl-C), `tick` is called after each model (the progress bar).
+/// Fits the chosen models to `data` and builds the report, printing each model's result
+/// (unless `quiet`); `stop` is polled inside the optimizer (Ctrl-C), `tick` is called after
+/// each model (the progress bar).
 fn fit_report(
     name: &str,
     source: &str,
@@ -116,65 +91,27 @@ fn fit_report(
     args: &FitArgs,
     quiet: bool,
     (stop, tick): (&Stop<'_>, &dyn Fn()),
-) -> Result<Value, Error> {
-    data.check().map_err(|m| Error::file(source, m))?;
-    let specs = builtin_specs();
-    let chosen = choose(&specs, &args.models, data.anisotropic)?;
-    let mut results = Vec::new();
-    for spec in chosen {
-        let r = fit_until(data, spec, args.max_evals, stop).map_err(|e| match e {
-            FitError::Cancelled => Error::Other(format!("{source}: interrupted")),
-            FitError::Data(m) => Error::file(source, m),
-        })?;
+) -> Result<FitReport, Error> {
+    let on_model = |r: &lobe_materials::fit::FitResult| {
         if !quiet {
             eprintln!(
                 "{name}: {:28} error {:.4e}  normalized {:.4e}  ({} of {} starts agree, {:.1} s)",
                 r.label, r.error, r.error_normalized, r.starts_agreeing, r.starts, r.seconds
             );
         }
-        results.push(r);
         tick();
-    }
-    let mut report = report_json(name, source, args.resolution, data, &results);
-    if args.select {
-        report["selected"] = select(&results, args.tolerance)?;
-        if !quiet {
-            eprintln!(
-                "{name}: selected {} (tolerance {})",
-                report["selected"]["model"], args.tolerance
-            );
-        }
+    };
+    let report = fit_material(name, source, data, &options(args), stop, &on_model)?;
+    if let Some(s) = &report.selected
+        && !quiet
+    {
+        eprintln!(
+            "{name}: selected {} (tolerance {})",
+            serde_json::Value::from(s.model.as_str()),
+            args.tolerance
+        );
     }
     Ok(report)
-}
-
-/// The cheapest model within `tolerance` of the best error, cost measured per call.
-fn select(results: &[lobe_materials::fit::FitResult], tolerance: f64) -> Result<Value, Error> {
-    let registry = lobe_materials::registry::Registry::builtin();
-    let best = results
-        .iter()
-        .map(|r| r.error)
-        .fold(f64::INFINITY, f64::min);
-    let mut costs = serde_json::Map::new();
-    let mut pick: Option<(&str, f64)> = None;
-    for r in results {
-        let b = registry
-            .create(&r.material, &r.label)
-            .map_err(|e| Error::Other(e.to_string()))?;
-        let (eval_ns, sample_ns) = crate::tradeoff::cost(b.as_ref());
-        let total = eval_ns + sample_ns;
-        costs.insert(
-            r.label.clone(),
-            serde_json::json!({"eval_ns": eval_ns, "sample_ns": sample_ns, "error": r.error}),
-        );
-        if r.error <= best * (1.0 + tolerance) && pick.is_none_or(|p| total < p.1) {
-            pick = Some((&r.label, total));
-        }
-    }
-    let model = pick.map(|p| p.0).unwrap_or_default();
-    Ok(
-        serde_json::json!({"model": model, "tolerance": tolerance, "best_error": best, "costs": costs}),
-    )
 }
 
 fn parse_shard(s: &str) -> Result<(usize, usize), Error> {
@@ -210,14 +147,6 @@ fn check_options(args: &FitArgs) -> Result<(), Error> {
     Ok(())
 }
 
-/// The stem of a data file, naming its material and report.
-fn stem(p: &Path) -> String {
-    p.file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("material")
-        .to_string()
-}
-
 /// The Ctrl-C flag of fits, as the poll the optimizer calls.
 fn stop_flag() -> impl Fn() -> bool + Sync {
     let flag = crate::args::ctrl_c(
@@ -228,7 +157,7 @@ fn stop_flag() -> impl Fn() -> bool + Sync {
 
 pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
     if let Some(FitSub::Merge { inputs, output }) = &args.sub {
-        return merge(inputs, output, quiet);
+        return write_merged(inputs, output, quiet);
     }
     if args.list {
         for s in builtin_specs() {
@@ -270,37 +199,11 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
             )?
         }
     };
-    lobe_renderer::film::write_json(&output, &report)?;
+    report::write(&output, &report)?;
     if !quiet {
         eprintln!("wrote {}", output.display());
     }
     Ok(())
-}
-
-/// The data files of a folder, sorted by name: every file whose content is a measured
-/// format, and files named like one (.binary, .bin, .bsdf) whatever they hold, so that a
-/// broken one is reported rather than skipped. Other files (notes, reports) are ignored.
-fn data_files(dir: &Path) -> Result<Vec<PathBuf>, Error> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| Error::file(dir.display(), format!("cannot list: {e}")))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.is_file())
-        .filter(|p| {
-            let named = matches!(
-                p.extension().and_then(|e| e.to_str()),
-                Some("binary" | "bin" | "bsdf")
-            );
-            named || format::detect(p).is_ok()
-        })
-        .collect();
-    files.sort();
-    if files.is_empty() {
-        return Err(Error::file(
-            dir.display(),
-            "holds no measured data to fit; expected MERL, binned or RGL files",
-        ));
-    }
-    Ok(files)
 }
 
 /// Checks the report folder of a batch: an existing folder, or a new one whose name does
@@ -440,7 +343,7 @@ impl BatchRun<'_> {
         if let Some(b) = &self.bar {
             // The bar assumed `guess` models; anisotropic data may get another number.
             let specs = builtin_specs();
-            let actual = choose(&specs, &self.args.models, data.anisotropic)
+            let actual = choose(&specs, self.args.models.as_deref(), data.anisotropic)
                 .map_or(guess, |c| c.len() as u64);
             if actual != guess {
                 b.dec_length(guess);
@@ -453,7 +356,7 @@ impl BatchRun<'_> {
         let quiet = self.quiet || self.bar.is_some();
         let source = p.display().to_string();
         let r = fit_report(&name, &source, &data, self.args, quiet, (self.stop, &tick))?;
-        lobe_renderer::film::write_json(report, &r)?;
+        report::write(report, &r)?;
         self.done.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
@@ -494,51 +397,9 @@ impl BatchRun<'_> {
     }
 }
 
-/// The report files of the inputs: each input is a report, or a folder whose `*.fit.json`
-/// files are taken in name order.
-pub(crate) fn report_files(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
-    let mut files = Vec::new();
-    for i in inputs {
-        if i.is_dir() {
-            let mut v: Vec<PathBuf> = std::fs::read_dir(i)
-                .map_err(|e| Error::file(i.display(), format!("cannot list: {e}")))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.to_string_lossy().ends_with(".fit.json"))
-                .collect();
-            v.sort();
-            files.extend(v);
-        } else {
-            files.push(i.clone());
-        }
-    }
-    if files.is_empty() {
-        return Err(Error::Other(
-            "no fit reports (*.fit.json) found in the inputs".into(),
-        ));
-    }
-    Ok(files)
-}
-
-/// Reads fit reports ([`report_files`]); every report must have a `models` object.
-pub(crate) fn read_reports(files: &[PathBuf]) -> Result<Vec<(PathBuf, Value)>, Error> {
-    files
-        .iter()
-        .map(|f| {
-            let v = lobe_materials::json::read(f)?;
-            if v.get("models").and_then(Value::as_object).is_none() {
-                return Err(Error::file(
-                    f.display(),
-                    "no \"models\" object; expected a lobe fit report",
-                ));
-            }
-            Ok((f.clone(), v))
-        })
-        .collect()
-}
-
-/// Joins reports into STEM.csv and STEM.md: one row per material, per model the
-/// normalized error (and the absolute error in the CSV).
-fn merge(inputs: &[PathBuf], stem: &Path, quiet: bool) -> Result<(), Error> {
+/// Joins reports into STEM.csv and STEM.md ([`merge`]): one row per material, per model
+/// the normalized error (and the absolute error in the CSV).
+fn write_merged(inputs: &[PathBuf], stem: &Path, quiet: bool) -> Result<(), Error> {
     let files = report_files(inputs)?;
     let csv_path = PathBuf::from(format!("{}.csv", stem.display()));
     let md_path = PathBuf::from(format!("{}.md", stem.display()));
@@ -549,43 +410,9 @@ fn merge(inputs: &[PathBuf], stem: &Path, quiet: bool) -> Result<(), Error> {
     plan.output(&csv_path, "CSV table")
         .output(&md_path, "Markdown table")
         .check()?;
-    let mut reports = read_reports(&files)?;
-    reports.sort_by(|a, b| a.1["material"].as_str().cmp(&b.1["material"].as_str()));
-    let mut models: Vec<String> = Vec::new();
-    for (_, r) in &reports {
-        for k in r["models"].as_object().expect("checked").keys() {
-            if !models.contains(k) {
-                models.push(k.clone());
-            }
-        }
-    }
-    let mut csv = String::from("material,max_albedo");
-    for m in &models {
-        csv += &format!(",{m} error,{m} normalized error");
-    }
-    csv.push('\n');
-    let mut md = format!(
-        "| material | {} |\n|---|{}\n",
-        models.join(" | "),
-        "---|".repeat(models.len())
-    );
-    for (_, r) in &reports {
-        let name = r["material"].as_str().unwrap_or("?");
-        csv += &format!("{name},{}", r["max_albedo"]);
-        md += &format!("| {name} |");
-        for m in &models {
-            let e = &r["models"][m];
-            let (a, n) = (e["error"].as_f64(), e["error_normalized"].as_f64());
-            csv += &format!(
-                ",{},{}",
-                a.map_or(String::new(), |x| format!("{x:.6e}")),
-                n.map_or(String::new(), |x| format!("{x:.6e}"))
-            );
-            md += &format!(" {} |", n.map_or("".to_string(), |x| format!("{x:.4e}")));
-        }
-        csv.push('\n');
-        md.push('\n');
-    }
+    let reports = read_reports(&files)?;
+    let tables = merge(&reports);
+    let (csv, md) = (tables.csv, tables.markdown);
     lobe_renderer::film::atomic_write(&csv_path, |w| std::io::Write::write_all(w, csv.as_bytes()))?;
     lobe_renderer::film::atomic_write(&md_path, |w| std::io::Write::write_all(w, md.as_bytes()))?;
     if !quiet {
