@@ -11,12 +11,14 @@
 //! - [`reports`]: reading fit reports, merging them into tables, building their models;
 //! - [`plot`]: what every figure shares (font, palette, the RGB canvas, labels);
 //! - [`figures`]: the study's figures (error charts, polar plots, sphere grids, lobes);
+//! - [`microfacet`]: section 5.1, the distribution recovered from a synthetic structure;
 //! - [`tradeoff`]: the speed/accuracy/memory trade-off between representations;
 //! - [`stability`]: the numerical sweep of every model at the extremes.
 
 pub mod cost;
 pub mod figures;
 pub mod fitting;
+pub mod microfacet;
 pub mod models;
 pub mod plot;
 pub mod reports;

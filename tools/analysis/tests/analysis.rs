@@ -74,7 +74,11 @@ fn result(label: &str, desc: serde_json::Value, error: f64) -> FitResult {
 fn selection_measures_every_model_and_refuses_one_that_cannot_be_built() {
     let results = [
         result("ward", ward(), 0.01),
-        result("lambert", json!({"type": "lambert", "reflectance": 0.2}), 0.5),
+        result(
+            "lambert",
+            json!({"type": "lambert", "reflectance": 0.2}),
+            0.5,
+        ),
     ];
     let s = select(&results, 0.1).unwrap();
     // Lambert is far outside the tolerance, whatever its cost.
@@ -431,4 +435,27 @@ fn a_tiny_tradeoff_study_measures_every_representation() {
     assert!(dir.path().join("t.png").is_file() && dir.path().join("t.csv").is_file());
     let bad = tradeoff::TradeoffConfig { spp: 8, ..config };
     assert!(tradeoff::study(&bad, &|_| {}).is_err());
+}
+
+#[test]
+fn the_synthetic_microfacet_experiment_recovers_the_structure() {
+    let shape = lobe_materials::microfacet_gen::Shape::synthetic("brushed").unwrap();
+    let config = lobe_analysis::microfacet::SynthConfig {
+        nodes: 33,
+        f0: Some(1.0),
+        iterations: 2,
+        resolution: 10.0,
+        filled: 0.5,
+    };
+    let s = lobe_analysis::microfacet::synth(&shape, "brushed", &config).unwrap();
+    let labels: Vec<&str> = s.rows.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(labels[0], "sampled-microfacet (estimated p)");
+    assert_eq!(labels[1..], *models::ANISOTROPIC_DEFAULT);
+    assert!(
+        s.rows.iter().all(|r| r.1.is_finite() && r.1 > 0.0),
+        "{:?}",
+        s.rows
+    );
+    assert!(s.correlation > 0.8, "correlation {}", s.correlation);
+    assert!(!s.data.samples.is_empty());
 }

@@ -2,18 +2,17 @@
 //! measured data (Ngan et al. 2005, section 5, Eq. 4), written as the EXR table the
 //! `sampled-microfacet` material loads, a material description and the study's log-scale
 //! spherical plot (Figures 11 to 13); `synth` runs the section 5.1 experiment on a synthetic
-//! brushed metal, satin or velvet and prints the comparison with the anisotropic fits.
+//! brushed metal, satin or velvet (lobe_analysis::microfacet) and prints the comparison
+//! with the anisotropic fits.
 
 use crate::args::finite;
-use lobe_analysis::models::ANISOTROPIC_DEFAULT;
+use lobe_analysis::microfacet::{Synth, SynthConfig, synth};
 use lobe_materials::fit::dataset::Dataset;
-use lobe_materials::fit::{builtin_specs, fit};
-use lobe_materials::microfacet_gen::{Estimate, Shape, Table, correlation, estimate, sparse_4d};
+use lobe_materials::microfacet_gen::{Estimate, Shape, Table, estimate};
 use lobe_renderer::Error;
 use lobe_renderer::outputs::FilePlan;
 use serde_json::json;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 #[derive(clap::Subcommand)]
 pub enum MicrofacetCmd {
@@ -186,41 +185,29 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
                 Error::file(output.display(), format!("cannot create the folder: {e}"))
             })?;
             check_outputs(&[], &stems, None)?;
-            let truth =
-                Arc::new(Table::from_fn(opts.nodes, |h| shape.density(h)).map_err(Error::Other)?);
-            let f0 = opts.f0.unwrap_or(1.0);
-            let t = truth.clone();
-            let (kd, ks) = ([0.05, 0.04, 0.03], [0.5, 0.4, 0.3]);
-            let data = sparse_4d(
-                &|wi, wo| {
-                    let r = t.rho(wo.as_dvec3(), wi.as_dvec3(), f0);
-                    [0, 1, 2].map(|c| kd[c] / std::f64::consts::PI + ks[c] * r)
-                },
+            let config = SynthConfig {
+                nodes: opts.nodes,
+                f0: opts.f0,
+                iterations: opts.iterations,
                 resolution,
                 filled,
-                1,
-            );
-            let est = run_estimate(&data, &structure, &opts)?;
+            };
+            let Synth {
+                data,
+                truth,
+                estimate: est,
+                correlation,
+                rows,
+            } = synth(&shape, &structure, &config)?;
             write_table(&truth, &stems[0])?;
             write_table(&est.table, &stems[1])?;
-            let mut rows = vec![(
-                "sampled-microfacet (estimated p)".to_string(),
-                est.error,
-                0.0,
-            )];
-            let specs = builtin_specs();
-            for label in ANISOTROPIC_DEFAULT {
-                let spec = lobe_analysis::models::spec(&specs, label)?;
-                let r = fit(&data, &spec, 300).map_err(Error::Other)?;
-                rows.push((label.to_string(), r.error, r.seconds));
-            }
             println!(
                 "{structure}: {} bins ({resolution} degree 4D bins, {:.0} % filled), table {} x {}, correlation of p with the truth {:.4}, p change per iteration {:?}",
                 data.samples.len(),
                 filled * 100.0,
                 opts.nodes,
                 opts.nodes,
-                correlation(&est.table, &truth),
+                correlation,
                 est.changes
                     .iter()
                     .map(|c| format!("{c:.2e}"))
