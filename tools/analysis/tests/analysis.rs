@@ -14,6 +14,7 @@ use lobe_materials::registry::Registry;
 use serde_json::json;
 use std::path::Path;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 fn material(desc: serde_json::Value) -> Arc<dyn lobe_materials::Bsdf> {
     Registry::builtin().create(&desc, "m").unwrap()
@@ -458,4 +459,44 @@ fn the_synthetic_microfacet_experiment_recovers_the_structure() {
     );
     assert!(s.correlation > 0.8, "correlation {}", s.correlation);
     assert!(!s.data.samples.is_empty());
+}
+
+#[test]
+fn a_batch_fits_its_shard_skips_finished_reports_and_reports_failures() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, out) = (dir.path().join("data"), dir.path().join("reports"));
+    std::fs::create_dir(&data).unwrap();
+    for n in ["a", "b", "c"] {
+        write_binned(&data.join(format!("{n}.bin")));
+    }
+    std::fs::write(data.join("d.bin"), b"not binned data").unwrap();
+    // Shard 1 of 2: b and d.
+    let jobs = fitting::batch_jobs(&data, &out, (1, 2)).unwrap();
+    let names: Vec<String> = jobs.iter().map(|j| fitting::stem(&j.0)).collect();
+    assert_eq!(names, ["b", "d"]);
+    assert_eq!(jobs[0].1, out.join("b.fit.json"));
+    let opts = fitting::FitOptions {
+        models: Some("ward".into()),
+        resolution: 5.0,
+        max_evals: 40,
+        select: None,
+    };
+    struct Count(AtomicUsize);
+    impl fitting::BatchProgress for Count {
+        fn fitted(&self, _: &str, _: &FitResult) {
+            self.0.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+    let count = Count(AtomicUsize::new(0));
+    let s = fitting::fit_batch(&jobs, &opts, &|| false, &count);
+    assert_eq!((s.done, s.skipped), (1, 0));
+    assert_eq!(s.failures.len(), 1);
+    assert!(s.failures[0].contains("d.bin"), "{:?}", s.failures);
+    assert_eq!(count.0.load(Ordering::Relaxed), 1);
+    assert!(report::read(&out.join("b.fit.json")).unwrap().models["ward"].error < 1e-3);
+    // A rerun skips the finished report and retries the failure.
+    let again = fitting::fit_batch(&jobs, &opts, &|| false, &count);
+    assert_eq!((again.done, again.skipped, again.failures.len()), (0, 1, 1));
+    // A report path that looks like a file is refused.
+    assert!(fitting::batch_jobs(&data, &dir.path().join("x.fit.json"), (0, 1)).is_err());
 }

@@ -1,16 +1,17 @@
 //! `lobe fit`: fit measured data (MERL, binned, RGL, or any material) to the study's models
 //! and write JSON reports (loadable as `{"type": "fit", "file": ..., "model": ...}`); over a
-//! folder, fit every file, resumably and in deterministic shards; `lobe fit merge` joins
-//! reports into CSV and Markdown tables.
+//! folder, fit every file, resumably and in deterministic shards (lobe_analysis::fitting);
+//! `lobe fit merge` joins reports into CSV and Markdown tables (lobe_analysis::reports).
 
 use crate::args::finite;
 use crate::material::{MaterialArgs, MaterialSource};
-use lobe_analysis::fitting::{FitOptions, data_files, fit_material, stem};
-use lobe_analysis::models::choose;
+use lobe_analysis::fitting::{
+    BatchProgress, BatchSummary, FitOptions, batch_jobs, fit_batch, fit_material, stem,
+};
 use lobe_analysis::reports::{merge, read_reports, report_files};
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
-use lobe_materials::fit::{ISOTROPIC_DEFAULT, Stop, builtin_specs};
+use lobe_materials::fit::{FitResult, ISOTROPIC_DEFAULT, Stop, builtin_specs};
 use lobe_renderer::Error;
 use lobe_renderer::outputs::FilePlan;
 use std::io::IsTerminal;
@@ -81,36 +82,78 @@ fn options(args: &FitArgs) -> FitOptions {
     }
 }
 
-/// Fits the chosen models to `data` and builds the report, printing each model's result
-/// (unless `quiet`); `stop` is polled inside the optimizer (Ctrl-C), `tick` is called after
-/// each model (the progress bar).
-fn fit_report(
-    name: &str,
-    source: &str,
-    data: &Dataset,
-    args: &FitArgs,
-    quiet: bool,
-    (stop, tick): (&Stop<'_>, &dyn Fn()),
-) -> Result<FitReport, Error> {
-    let on_model = |r: &lobe_materials::fit::FitResult| {
-        if !quiet {
+/// What a fit shows: each model's result as a line (unless quiet or a bar is shown), the
+/// selection, and a progress bar over models (files x models) in batch mode.
+struct Display {
+    bar: Option<indicatif::ProgressBar>,
+    /// Models per file the bar assumed.
+    guess: usize,
+    lines: bool,
+    tolerance: f64,
+}
+
+impl BatchProgress for Display {
+    fn skipped(&self) {
+        self.bar.as_ref().inspect(|b| b.inc(self.guess as u64));
+    }
+
+    fn reading(&self, name: &str) {
+        self.bar
+            .as_ref()
+            .inspect(|b| b.set_message(name.to_string()));
+    }
+
+    fn fitting(&self, _name: &str, models: usize) {
+        // The bar assumed `guess` models; anisotropic data may get another number.
+        if let Some(b) = &self.bar
+            && models != self.guess
+        {
+            b.dec_length(self.guess as u64);
+            b.inc_length(models as u64);
+        }
+    }
+
+    fn fitted(&self, name: &str, r: &FitResult) {
+        if self.lines {
             eprintln!(
                 "{name}: {:28} error {:.4e}  normalized {:.4e}  ({} of {} starts agree, {:.1} s)",
                 r.label, r.error, r.error_normalized, r.starts_agreeing, r.starts, r.seconds
             );
         }
-        tick();
-    };
-    let report = fit_material(name, source, data, &options(args), stop, &on_model)?;
-    if let Some(s) = &report.selected
-        && !quiet
-    {
-        eprintln!(
-            "{name}: selected {} (tolerance {})",
-            serde_json::Value::from(s.model.as_str()),
-            args.tolerance
-        );
+        self.bar.as_ref().inspect(|b| b.inc(1));
     }
+
+    fn finished(&self, name: &str, report: &FitReport) {
+        if let Some(s) = &report.selected
+            && self.lines
+        {
+            eprintln!(
+                "{name}: selected {} (tolerance {})",
+                serde_json::Value::from(s.model.as_str()),
+                self.tolerance
+            );
+        }
+    }
+}
+
+/// Fits the chosen models to `data` and builds the report, printing each model's result
+/// (unless `quiet`); `stop` is polled inside the optimizer (Ctrl-C).
+fn fit_report(
+    (name, source): (&str, &str),
+    data: &Dataset,
+    args: &FitArgs,
+    quiet: bool,
+    stop: &Stop<'_>,
+) -> Result<FitReport, Error> {
+    let display = Display {
+        bar: None,
+        guess: 0,
+        lines: !quiet,
+        tolerance: args.tolerance,
+    };
+    let on_model = |r: &FitResult| display.fitted(name, r);
+    let report = fit_material(name, source, data, &options(args), stop, &on_model)?;
+    display.finished(name, &report);
     Ok(report)
 }
 
@@ -181,7 +224,7 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
             plan.input(p, "the measured data").check()?;
             let data = Dataset::read(p, args.resolution)?;
             let source = p.display().to_string();
-            fit_report(&stem(p), &source, &data, &args, quiet, (&stop, &|| {}))?
+            fit_report((&stem(p), &source), &data, &args, quiet, &stop)?
         }
         None => {
             let source = MaterialSource::new(&args.material)?;
@@ -189,14 +232,7 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
             plan.check()?;
             let m = source.build()?;
             let data = Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), args.resolution);
-            fit_report(
-                "synthetic",
-                "material",
-                &data,
-                &args,
-                quiet,
-                (&stop, &|| {}),
-            )?
+            fit_report(("synthetic", "material"), &data, &args, quiet, &stop)?
         }
     };
     report::write(&output, &report)?;
@@ -204,37 +240,6 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
         eprintln!("wrote {}", output.display());
     }
     Ok(())
-}
-
-/// Checks the report folder of a batch: an existing folder, or a new one whose name does
-/// not look like a file (`-o x.fit.json` for a folder of data is a mistake, not a folder).
-fn check_report_folder(out: &Path) -> Result<(), Error> {
-    if out.is_dir() {
-        return Ok(());
-    }
-    if out.exists() {
-        return Err(Error::file(
-            out.display(),
-            "is a file; expected the folder of reports, since the data is a folder",
-        ));
-    }
-    if out.extension().is_some() {
-        return Err(Error::file(
-            out.display(),
-            "looks like a file name, but the data is a folder: -o must name the folder of reports (create it first to use this name)",
-        ));
-    }
-    Ok(())
-}
-
-/// Creates the report folder of a batch, if needed.
-fn create_report_folder(out: &Path) -> Result<(), Error> {
-    std::fs::create_dir_all(out).map_err(|e| {
-        Error::file(
-            out.display(),
-            format!("cannot create the report folder: {e}"),
-        )
-    })
 }
 
 /// A progress bar over models (files x models each), shown on a terminal.
@@ -268,131 +273,59 @@ fn batch(
     args: &FitArgs,
     (stop, quiet): (&Stop<'_>, bool),
 ) -> Result<(), Error> {
-    check_report_folder(out)?;
-    let files = data_files(dir)?;
     let (i, n) = match &args.shard {
         Some(s) => parse_shard(s)?,
         None => (0, 1),
     };
-    let mine: Vec<(&PathBuf, PathBuf)> = files
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| k % n == i)
-        .map(|(_, p)| (p, out.join(format!("{}.fit.json", stem(p)))))
-        .collect();
-    let mut plan = FilePlan::new();
-    for p in &files {
-        plan.input(p, "measured data to fit");
-    }
-    for (p, report) in &mine {
-        plan.output(report, format!("report of {}", p.display()));
-    }
-    plan.check_overlaps()?;
-    create_report_folder(out)?;
-    plan.check()?;
-    let run = BatchRun {
-        args,
-        stop,
-        bar: progress(mine.len(), args, quiet),
-        quiet,
-        done: Default::default(),
-        skipped: Default::default(),
+    let jobs = batch_jobs(dir, out, (i, n))?;
+    let bar = progress(jobs.len(), args, quiet);
+    let display = Display {
+        lines: !quiet && bar.is_none(),
+        bar,
+        guess: models_guess(args),
+        tolerance: args.tolerance,
     };
-    // Materials in parallel (each fit is parallel over its bins too; rayon balances both).
     // A material that fails is reported and the others go on; it has no report, so a rerun
     // tries it again.
-    use rayon::prelude::*;
-    let mut failures: Vec<String> = mine
-        .par_iter()
-        .filter_map(|(p, report)| run.fit_one(p, report).err().map(|e| e.to_string()))
-        .collect();
-    failures.sort();
-    if let Some(b) = &run.bar {
+    let summary = fit_batch(&jobs, &options(args), stop, &display);
+    if let Some(b) = &display.bar {
         b.finish_and_clear();
     }
-    run.outcome(failures, (i, n), out)
+    outcome(summary, stop(), quiet, ((i, n), out))
 }
 
-/// A batch in progress: its options, the Ctrl-C poll, the progress bar (over models) and
-/// the counts of reports written and skipped.
-struct BatchRun<'a> {
-    args: &'a FitArgs,
-    stop: &'a Stop<'a>,
-    bar: Option<indicatif::ProgressBar>,
+/// The summary line and exit status of a batch.
+fn outcome(
+    mut summary: BatchSummary,
+    interrupted: bool,
     quiet: bool,
-    done: std::sync::atomic::AtomicUsize,
-    skipped: std::sync::atomic::AtomicUsize,
-}
-
-impl BatchRun<'_> {
-    /// One file: skipped when its report exists, else fitted and written.
-    fn fit_one(&self, p: &Path, report: &Path) -> Result<(), Error> {
-        use std::sync::atomic::Ordering;
-        let guess = models_guess(self.args) as u64;
-        if report.exists() {
-            self.skipped.fetch_add(1, Ordering::Relaxed);
-            self.bar.as_ref().inspect(|b| b.inc(guess));
-            return Ok(());
-        }
-        if (self.stop)() {
-            return Ok(());
-        }
-        let name = stem(p);
-        self.bar.as_ref().inspect(|b| b.set_message(name.clone()));
-        let data = Dataset::read(p, self.args.resolution)?;
-        if let Some(b) = &self.bar {
-            // The bar assumed `guess` models; anisotropic data may get another number.
-            let specs = builtin_specs();
-            let actual = choose(&specs, self.args.models.as_deref(), data.anisotropic)
-                .map_or(guess, |c| c.len() as u64);
-            if actual != guess {
-                b.dec_length(guess);
-                b.inc_length(actual);
-            }
-        }
-        let tick = || {
-            self.bar.as_ref().inspect(|b| b.inc(1));
-        };
-        let quiet = self.quiet || self.bar.is_some();
-        let source = p.display().to_string();
-        let r = fit_report(&name, &source, &data, self.args, quiet, (self.stop, &tick))?;
-        report::write(report, &r)?;
-        self.done.fetch_add(1, Ordering::Relaxed);
-        Ok(())
+    ((i, n), out): ((usize, usize), &Path),
+) -> Result<(), Error> {
+    let (done, skipped) = (summary.done, summary.skipped);
+    if interrupted {
+        return Err(Error::Other(format!(
+            "interrupted: {done} reports written this run ({skipped} were already there), the rest not started or dropped; rerun to resume"
+        )));
     }
-
-    /// The summary line and exit status of the batch.
-    fn outcome(
-        self,
-        mut failures: Vec<String>,
-        (i, n): (usize, usize),
-        out: &Path,
-    ) -> Result<(), Error> {
-        let (done, skipped) = (self.done.into_inner(), self.skipped.into_inner());
-        if (self.stop)() {
-            return Err(Error::Other(format!(
-                "interrupted: {done} reports written this run ({skipped} were already there), the rest not started or dropped; rerun to resume"
-            )));
-        }
-        if !self.quiet {
-            eprintln!(
-                "shard {i}/{n}: fitted {done} materials, {skipped} already done, {} failed, reports in {}",
-                failures.len(),
-                out.display()
-            );
-        }
-        match failures.len() {
-            0 => Ok(()),
-            1 => Err(Error::Other(failures.remove(0))),
-            k => {
-                for f in &failures[1..] {
-                    eprintln!("error: {f}");
-                }
-                Err(Error::Other(format!(
-                    "{k} materials failed (a rerun retries them); the first: {}",
-                    failures[0]
-                )))
+    let failures = &mut summary.failures;
+    if !quiet {
+        eprintln!(
+            "shard {i}/{n}: fitted {done} materials, {skipped} already done, {} failed, reports in {}",
+            failures.len(),
+            out.display()
+        );
+    }
+    match failures.len() {
+        0 => Ok(()),
+        1 => Err(Error::Other(failures.remove(0))),
+        k => {
+            for f in &failures[1..] {
+                eprintln!("error: {f}");
             }
+            Err(Error::Other(format!(
+                "{k} materials failed (a rerun retries them); the first: {}",
+                failures[0]
+            )))
         }
     }
 }
