@@ -239,14 +239,20 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
             v
         }
         "fit_json" => vec![
-            serde_json::to_vec(&json!({"material": "x", "models": {
-                "ward": {"material": {"type": "ward", "diffuse": 0.1, "specular": 0.2, "alpha": 0.2}, "error": 0.01},
-                "cook-torrance": {"material": {"type": "cook-torrance", "diffuse": [0.1, 0.2, 0.3], "specular": 0.5, "m": 0.15}, "error": 0.02},
-                "he": {"material": {"type": "he", "diffuse": 0.05, "specular": 1.2, "sigma0": 0.3, "tau": 4, "eta": 1.6}, "error": 0.02},
-                "lafortune-2": {"material": {"type": "composite", "diffuse": 0.1, "lobes": [
-                    {"type": "lafortune", "specular": 0.3, "cx": -0.7, "cy": -0.7, "cz": 0.6, "n": 20},
-                    {"type": "lafortune", "specular": 0.1, "cx": -0.3, "cy": -0.3, "cz": 0.9, "n": 3}]}}
-            }}))
+            serde_json::to_vec(&{
+                let fit = |m: serde_json::Value, e: f64| json!({"material": m, "error": e,
+                    "error_normalized": e * 4.0, "starts": 3, "starts_agreeing": 2,
+                    "evaluations": 100, "seconds": 0.1});
+                json!({"format_version": 1, "material": "x", "source": "x.binary",
+                    "resolution_deg": 1, "samples": 1000, "max_albedo": 0.25, "models": {
+                    "ward": fit(json!({"type": "ward", "diffuse": 0.1, "specular": 0.2, "alpha": 0.2}), 0.01),
+                    "cook-torrance": fit(json!({"type": "cook-torrance", "diffuse": [0.1, 0.2, 0.3], "specular": 0.5, "m": 0.15}), 0.02),
+                    "he": fit(json!({"type": "he", "diffuse": 0.05, "specular": 1.2, "sigma0": 0.3, "tau": 4, "eta": 1.6}), 0.02),
+                    "lafortune-2": fit(json!({"type": "composite", "diffuse": 0.1, "lobes": [
+                        {"type": "lafortune", "specular": 0.3, "cx": -0.7, "cy": -0.7, "cz": 0.6, "n": 20},
+                        {"type": "lafortune", "specular": 0.1, "cx": -0.3, "cy": -0.3, "cz": 0.9, "n": 3}]}), 0.03)
+                }})
+            })
             .expect("json"),
         ],
         "obj" => {

@@ -8,7 +8,8 @@
 use glam::{DVec3, Vec2, Vec3};
 use lobe_materials::analytic::common::{DIFFUSE, SPECULAR, lobe_param};
 use lobe_materials::fit::dataset::Dataset;
-use lobe_materials::fit::{fit, model_specs, report_json};
+use lobe_materials::fit::report::{self, FitReport};
+use lobe_materials::fit::{fit, model_specs};
 use lobe_materials::lobe::Lobe;
 use lobe_materials::registry::{BuildContext, Registry};
 use lobe_materials::schema::{
@@ -112,12 +113,8 @@ fn a_model_registered_by_the_caller_is_fitted_and_loaded_from_its_report() {
     assert!(r.error_normalized < 1e-3, "{}", r.error_normalized);
 
     let dir = tempfile::tempdir().unwrap();
-    let report = report_json("retro", "synthetic data", 4.0, &data, &[r]);
-    std::fs::write(
-        dir.path().join("retro.fit.json"),
-        serde_json::to_string_pretty(&report).unwrap(),
-    )
-    .unwrap();
+    let report = FitReport::new("retro", "synthetic data", 4.0, &data, &[r]);
+    report::write(&dir.path().join("retro.fit.json"), &report).unwrap();
     let desc = json!({"type": "fit", "file": "retro.fit.json", "model": "retro-phong"});
 
     let loaded = registry

@@ -192,11 +192,18 @@ fn fit_reports_hold_analytic_models_only() {
     let d = dir.path();
     std::fs::write(
         d.join("r.fit.json"),
-        json!({"models": {
-            "self": {"material": {"type": "fit", "file": "r.fit.json", "model": "self"}},
-            "table": {"material": {"type": "merl", "file": "x.binary"}},
-            "ward": {"material": {"type": "ward", "specular": 1e12, "alpha": 1e-4}}
-        }})
+        {
+            let fit = |m: serde_json::Value| {
+                json!({"material": m, "error": 0, "error_normalized": 0,
+                "starts": 1, "starts_agreeing": 1, "evaluations": 1, "seconds": 0})
+            };
+            json!({"material": "r", "source": "r.binary", "resolution_deg": 1, "samples": 1,
+                "max_albedo": 1, "models": {
+                "self": fit(json!({"type": "fit", "file": "r.fit.json", "model": "self"})),
+                "table": fit(json!({"type": "merl", "file": "x.binary"})),
+                "ward": fit(json!({"type": "ward", "specular": 1e12, "alpha": 1e-4}))
+            }})
+        }
         .to_string(),
     )
     .unwrap();

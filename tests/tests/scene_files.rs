@@ -376,7 +376,9 @@ fn scene_inputs_list_every_file_the_scene_reads() {
     .unwrap();
     std::fs::write(
         d.join("r.fit.json"),
-        r#"{"models": {"x": {"material": {"type": "merl", "file": "in-report.binary"}}}}"#,
+        r#"{"material": "r", "source": "r.binary", "resolution_deg": 1, "samples": 1, "max_albedo": 1,
+            "models": {"x": {"material": {"type": "merl", "file": "in-report.binary"},
+            "error": 0, "error_normalized": 0, "starts": 1, "starts_agreeing": 1, "evaluations": 1, "seconds": 0}}}"#,
     )
     .unwrap();
     let v = json!({

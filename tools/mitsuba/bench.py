@@ -61,7 +61,7 @@ import numpy as np  # noqa: E402
 
 def lobe_bin():
     exe = os.path.join(root, "target", "release", "lobe")
-    subprocess.run(["cargo", "build", "--release", "-q", "-p", "lobe-tools"], cwd=root, check=True)
+    subprocess.run(["cargo", "build", "--release", "-q", "-p", "lobe-cli"], cwd=root, check=True)
     return exe
 
 

@@ -15,6 +15,7 @@
 
 pub mod dataset;
 pub mod linear;
+pub mod report;
 pub mod spec;
 
 use crate::lobe::Lobe;
@@ -487,39 +488,6 @@ fn refine(
     minimize(&fine, bounds, x0, REFINE_EVALS, true, evaluations, stop).1
 }
 
-/// The JSON report of fitting one material (loadable as `{"type": "fit", "file": ..., "model": ...}`).
-pub fn report_json(
-    material: &str,
-    source: &str,
-    resolution_deg: f64,
-    data: &Dataset,
-    results: &[FitResult],
-) -> Value {
-    let mut models = serde_json::Map::new();
-    for r in results {
-        models.insert(
-            r.label.clone(),
-            json!({
-                "material": r.material,
-                "error": r.error,
-                "error_normalized": r.error_normalized,
-                "starts": r.starts,
-                "starts_agreeing": r.starts_agreeing,
-                "evaluations": r.evaluations,
-                "seconds": r.seconds,
-            }),
-        );
-    }
-    json!({
-        "material": material,
-        "source": source,
-        "resolution_deg": resolution_deg,
-        "samples": data.samples.len(),
-        "max_albedo": data.max_albedo,
-        "models": models,
-    })
-}
-
 pub const FIT_SCHEMA: crate::registry::ModelSchema = crate::registry::ModelSchema {
     name: "fit",
     summary: "a model fitted by `lobe fit`: {\"type\": \"fit\", \"file\": \"x.fit.json\", \"model\": \"cook-torrance\"}",
@@ -551,24 +519,19 @@ fn build_fit(
 ) -> Result<Arc<dyn crate::Bsdf>, crate::ParamError> {
     let path = crate::measured::material::resolve(ctx, p.text("file"));
     let err = |m: String| crate::ParamError::new(format!("{}.file", p.path), m);
-    let v = crate::json::read(&path).map_err(|e| err(e.to_string()))?;
+    let report = report::read(&path).map_err(|e| err(e.to_string()))?;
     let label = p.text("model");
-    let models = v.get("models").and_then(Value::as_object).ok_or_else(|| {
-        err(format!(
-            "{}: no \"models\" object; expected a lobe fit report",
-            path.display()
-        ))
-    })?;
-    let m = models
+    let m = report
+        .models
         .get(label)
-        .and_then(|m| m.get("material"))
+        .map(|m| &m.material)
         .ok_or_else(|| {
             crate::ParamError::new(
                 format!("{}.model", p.path),
                 format!(
                     "no model \"{label}\" in {}; expected one of: {}",
                     path.display(),
-                    models.keys().cloned().collect::<Vec<_>>().join(", ")
+                    report.models.keys().cloned().collect::<Vec<_>>().join(", ")
                 ),
             )
         })?;
@@ -608,10 +571,10 @@ fn fit_inputs(
     ctx: &crate::registry::BuildContext,
 ) -> Vec<std::path::PathBuf> {
     let path = crate::measured::material::resolve(ctx, p.text("file"));
-    let model = crate::json::read(&path).ok().and_then(|v| {
-        v.pointer(&format!("/models/{}/material", p.text("model")))
-            .cloned()
-    });
+    let model = report::read(&path)
+        .ok()
+        .and_then(|mut r| r.models.remove(p.text("model")))
+        .map(|m| m.material);
     let mut out = vec![path];
     if let Some(m) = model {
         out.extend(ctx.registry.inputs(&m, ctx));

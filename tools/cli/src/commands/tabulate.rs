@@ -2,7 +2,7 @@
 //! options that emulate a real acquisition.
 
 use crate::args::finite;
-use crate::eval::{MaterialArgs, MaterialSource};
+use crate::material::{MaterialArgs, MaterialSource};
 use lobe_materials::measured::tabulate::{Acquisition, binned_from, merl_from};
 use lobe_renderer::Error;
 use lobe_renderer::outputs::FilePlan;

@@ -213,7 +213,7 @@ fn eval_prints_csv_for_stdin_pairs_and_grids() {
 #[test]
 fn compare_agrees_with_openimageio_idiff() {
     let idiff =
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("mitsuba/.venv/bin/idiff");
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../mitsuba/.venv/bin/idiff");
     if !idiff.exists() {
         eprintln!(
             "SKIPPED: {} is absent (run tools/mitsuba/setup.sh to create the venv)",
@@ -1724,7 +1724,7 @@ fn help_texts_name_real_files_and_every_output() {
     );
     assert!(!render.contains("showcase.{exr,png,json}"));
     let compare = help(&["compare"]);
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let mut named = 0;
     for word in compare.split_whitespace() {
         if word.starts_with("reference-images/") {
@@ -1832,14 +1832,17 @@ fn the_batch_progress_bar_counts_models() {
 /// command reads is in the repository, in ../shared/data, or written by an earlier line.
 #[test]
 fn readme_commands_run_as_written() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
     let section = readme
         .split("## Other commands")
         .nth(1)
         .and_then(|s| s.split("\n## ").next())
         .expect("an Other commands section");
-    assert!(section.contains("cargo install --path tools"), "{section}");
+    assert!(
+        section.contains("cargo install --path tools/cli"),
+        "{section}"
+    );
     let block = section.split("```").nth(1).expect("a code block");
     let mut written: Vec<String> = Vec::new();
     for line in block.lines().map(str::trim).filter(|l| !l.is_empty()) {
@@ -1900,6 +1903,6 @@ fn readme_commands_run_as_written() {
 
 /// ../shared/data next to the repository, if present.
 fn shared_data() -> Option<std::path::PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     p.is_dir().then_some(p)
 }

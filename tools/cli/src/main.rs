@@ -1,28 +1,18 @@
 //! `lobe`: the command-line front end of lobe (Ngan, Durand and Matusik 2005's system
 //! for rendering, fitting and comparing BRDF models).
 //!
-//! Subcommands: `render` (this step); fit, tabulate, compare, figure, tradeoff and
-//! stability arrive with later steps. Errors are one line on stderr and a non-zero exit.
+//! A thin layer: the command line (clap), progress and printing; each subcommand is one
+//! file of [`commands`], over the libraries lobe-renderer, lobe-materials and
+//! lobe-analysis. Errors are one line on stderr and a non-zero exit.
 
 mod args;
-mod compare;
-mod eval;
-mod figures;
-mod fit;
-mod microfacet;
-mod stability;
-mod tabulate;
-mod tradeoff;
+mod commands;
+mod material;
 
-use args::finite;
 use clap::{Parser, Subcommand};
-use lobe_renderer::film::Image;
-use lobe_renderer::outputs::{FilePlan, RenderFiles};
-use lobe_renderer::render::{RenderOptions, RenderStats, render};
-use lobe_renderer::scene::Scene;
-use lobe_renderer::{Error, film, image_io};
-use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use commands::{
+    compare, eval, figure, fit, microfacet, models, render, stability, tabulate, tradeoff,
+};
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -45,7 +35,7 @@ enum Command {
     #[command(
         after_help = "Examples:\n  lobe render                                  # built-in showcase -> out/showcase.exr, .png, .stats.json\n  lobe render scenes/sphere-envmap.json --spp 256 -o out/sphere.exr\n  lobe render scenes/cornell-box.json --threads 1 --seed 7\n  lobe render --bench                          # Msamples/s on the sphere-under-env-map benchmark"
     )]
-    Render(RenderArgs),
+    Render(render::RenderArgs),
     /// Evaluate f_r (RGB, 1/sr) and the sampling pdf of a material at direction pairs, as CSV.
     #[command(
         after_help = "Direction pairs are theta_i phi_i theta_o phi_o in degrees (wi toward the light, wo toward\nthe viewer, z the normal), one pair per line on stdin, or a --grid. The pdf is the density\nwith which the material samples wi given wo.\n\nExamples:\n  echo '30 0 30 180' | lobe eval --material '{\"type\": \"ward\", \"specular\": 0.1, \"alpha\": 0.2}'\n  lobe eval --ngan green-metallic-paint --model cook-torrance --grid 45,0,0..89..1,180\n  lobe eval --scene scenes/cornell-box.json --name white --grid 0,0,30,0"
@@ -61,7 +51,7 @@ enum Command {
         subcommand,
         after_help = "Examples:\n  lobe figure errors reports/ -o figure14.png\n  lobe figure multilobe reports/ -o figure5.png\n  lobe figure polar --material '{\"type\": \"merl\", \"file\": \"gmp.binary\"}' --report gmp.fit.json --models ward,cook-torrance,lafortune --theta-i 45 -o figure4.png"
     )]
-    Figure(figures::FigureCmd),
+    Figure(figure::FigureCmd),
     /// The APS2000 microfacet generator: estimate its distribution from measured data, or run
     /// the study's section 5.1 experiment on a synthetic structure.
     #[command(
@@ -102,67 +92,19 @@ enum Command {
     },
 }
 
-#[derive(clap::Args)]
-struct RenderArgs {
-    /// Scene file (JSON, see docs/scene-format.md). Without it, the built-in showcase.
-    scene: Option<PathBuf>,
-    /// Output path, NAME.exr or NAME.png: the render writes NAME.exr (linear), NAME.png
-    /// (tonemapped) and NAME.stats.json side by side.
-    /// Default: out/<scene name>.exr
-    #[arg(long, short)]
-    output: Option<PathBuf>,
-    /// Samples per pixel (overrides the scene's sampler.spp).
-    #[arg(long)]
-    spp: Option<u32>,
-    /// Sampler seed (overrides the scene's sampler.seed).
-    #[arg(long)]
-    seed: Option<u64>,
-    /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long)]
-    threads: Option<usize>,
-    /// PNG exposure in stops (overrides the scene's film.exposure).
-    #[arg(long, value_parser = finite::<f32>)]
-    exposure: Option<f32>,
-    /// Do not write the PNG.
-    #[arg(long)]
-    no_png: bool,
-    /// Also write the per-pixel variance of the mean as NAME.var.exr (for `lobe compare
-    /// --z-test` and noise-aware comparisons).
-    #[arg(long)]
-    variance: bool,
-    /// Benchmark: render several times without writing anything and report Msamples/s.
-    /// Without a scene, renders the built-in benchmark (one diffuse sphere under a
-    /// 512x256 environment map, 256x256 pixels, path tracer of depth 8).
-    #[arg(long)]
-    bench: bool,
-    /// Number of timed runs for --bench.
-    #[arg(long, default_value_t = 3)]
-    runs: u32,
-}
-
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(args) => cmd_render(args, cli.quiet),
+        Command::Render(args) => render::cmd_render(args, cli.quiet),
         Command::Eval(args) => eval::cmd_eval(args),
         Command::Compare(args) => compare::cmd_compare(args, cli.quiet),
         Command::Tabulate(args) => tabulate::cmd_tabulate(args, cli.quiet),
         Command::Fit(args) => fit::cmd_fit(args, cli.quiet),
-        Command::Figure(cmd) => figures::cmd_figure(cmd, cli.quiet),
+        Command::Figure(cmd) => figure::cmd_figure(cmd, cli.quiet),
         Command::Microfacet(cmd) => microfacet::cmd_microfacet(cmd, cli.quiet),
         Command::Tradeoff(args) => tradeoff::cmd_tradeoff(args, cli.quiet),
         Command::Stability(args) => stability::cmd_stability(args, cli.quiet),
-        Command::Models { names } => {
-            let reg = lobe_materials::registry::Registry::builtin();
-            if names {
-                for n in reg.names() {
-                    println!("{n}");
-                }
-            } else {
-                print!("{}", reg.reference_markdown());
-            }
-            Ok(())
-        }
+        Command::Models { names } => models::cmd_models(names),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -176,159 +118,6 @@ fn main() -> ExitCode {
             }
         }
     }
-}
-
-fn load_scene(args: &RenderArgs) -> Result<Scene, Error> {
-    let mut scene = match &args.scene {
-        Some(p) => lobe_renderer::scene::load(p)?,
-        None if args.bench => lobe_renderer::showcase::bench_scene()?,
-        None => lobe_renderer::showcase::showcase()?,
-    };
-    if let Some(spp) = args.spp {
-        if spp == 0 {
-            return Err(Error::Other(
-                "--spp: expected a positive number of samples per pixel, found 0".into(),
-            ));
-        }
-        scene.spp = spp;
-    }
-    if let Some(seed) = args.seed {
-        scene.seed = seed;
-    }
-    if let Some(e) = args.exposure {
-        scene.exposure = e;
-    }
-    Ok(scene)
-}
-
-/// The files a render writes: from -o, or out/<scene name>.exr.
-fn render_files(args: &RenderArgs) -> Result<RenderFiles, Error> {
-    let output = match (&args.output, &args.scene) {
-        (Some(p), _) => p.clone(),
-        (None, Some(scene)) => {
-            let stem = scene
-                .file_stem()
-                .and_then(|s| s.to_str())
-                .unwrap_or("render");
-            Path::new("out").join(format!("{stem}.exr"))
-        }
-        (None, None) => PathBuf::from("out/showcase.exr"),
-    };
-    RenderFiles::new(&output, !args.no_png, args.variance)
-}
-
-fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
-    if args.threads == Some(0) {
-        return Err(Error::Other(
-            "--threads: expected at least 1 thread, found 0".into(),
-        ));
-    }
-    let progress = !quiet && !args.bench && std::io::stderr().is_terminal();
-    let opts = |scene_kind: &'static str| RenderOptions {
-        threads: args.threads,
-        progress,
-        cancel: Some(args::ctrl_c(scene_kind)),
-    };
-    if args.bench {
-        let ack = "interrupted: stopping the benchmark; Ctrl-C again to abort";
-        return bench(&load_scene(&args)?, &opts(ack), args.runs.max(1), quiet);
-    }
-    let files = render_files(&args)?;
-    let mut plan = FilePlan::new();
-    if let Some(scene) = &args.scene {
-        plan.scene(scene)?;
-    }
-    files.plan(&mut plan);
-    plan.check_overlaps()?;
-    if args.output.is_none() {
-        std::fs::create_dir_all("out")
-            .map_err(|e| Error::file("out", format!("cannot create the output folder: {e}")))?;
-    }
-    plan.check()?;
-    let scene = load_scene(&args)?;
-    let ack = "interrupted: stopping the render, nothing is written; Ctrl-C again to abort";
-    let (img, stats) = render(&scene, &opts(ack))?;
-    let labels = match args.scene {
-        Some(_) => Vec::new(),
-        None => lobe_renderer::showcase::labels(&scene),
-    };
-    write_render(&files, &img, &scene, &stats, &labels)?;
-    if !quiet {
-        eprintln!("{}", stats.summary());
-        if !labels.is_empty() {
-            let names: Vec<&str> = labels.iter().map(|l| l.0.as_str()).collect();
-            eprintln!("showcase spheres, left to right: {}", names.join(", "));
-        }
-        let all: Vec<String> = files
-            .all()
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect();
-        eprintln!("wrote {}", all.join(", "));
-    }
-    Ok(())
-}
-
-/// Writes every file of a render; the PNG carries `labels` (text at pixel positions).
-fn write_render(
-    files: &RenderFiles,
-    img: &Image,
-    scene: &Scene,
-    stats: &RenderStats,
-    labels: &[(String, glam::Vec2)],
-) -> Result<(), Error> {
-    image_io::write_exr(&files.exr, img.width, img.height, &img.pixels)?;
-    if let Some(v) = &files.variance {
-        image_io::write_exr(v, img.width, img.height, &img.variance)?;
-    }
-    if let Some(png) = &files.png {
-        let mut rgb = film::tonemap(&img.pixels, scene.exposure);
-        figures::draw_labels(&mut rgb, (img.width, img.height), labels)?;
-        image_io::write_png_rgb8(png, img.width, img.height, &rgb)?;
-    }
-    film::write_json(&files.stats, &stats_json(scene, stats, files))
-}
-
-fn stats_json(scene: &Scene, stats: &RenderStats, files: &RenderFiles) -> serde_json::Value {
-    let mut v = stats.to_json();
-    let o = v.as_object_mut().expect("object");
-    o.insert("scene".into(), scene.file.clone().into());
-    o.insert("seed".into(), scene.seed.into());
-    o.insert("scramble".into(), scene.scramble.name().into());
-    o.insert("integrator".into(), scene.integrator.describe().into());
-    o.insert("exr".into(), files.exr.display().to_string().into());
-    if let Some(p) = &files.png {
-        o.insert("png".into(), p.display().to_string().into());
-        o.insert("exposure".into(), scene.exposure.into());
-    }
-    o.insert("lobe_version".into(), env!("CARGO_PKG_VERSION").into());
-    v
-}
-
-fn bench(scene: &Scene, opts: &RenderOptions, runs: u32, quiet: bool) -> Result<(), Error> {
-    // One untimed warm-up run (page faults, thread pool start-up).
-    let _ = render(scene, opts)?;
-    let mut rates = Vec::new();
-    for i in 0..runs {
-        let (_, stats) = render(scene, opts)?;
-        if !quiet {
-            eprintln!("run {}: {}", i + 1, stats.summary());
-        }
-        rates.push(stats.msamples_per_second());
-    }
-    rates.sort_by(f64::total_cmp);
-    let median = rates[rates.len() / 2];
-    println!(
-        "bench {}: {}x{} at {} spp, {}: median {:.2} Msamples/s over {} runs",
-        scene.file,
-        scene.width,
-        scene.height,
-        scene.spp,
-        scene.integrator.describe(),
-        median,
-        runs
-    );
-    Ok(())
 }
 
 #[cfg(test)]

@@ -1,4 +1,4 @@
-//! `lobe stability`: numerical stability at the extremes. Every analytic model of the
+//! Numerical stability at the extremes. Every analytic model of the
 //! registry is swept over its parameter box (each lobe parameter at its lower bound, or
 //! 1e-4 above an open zero, a middle value and its upper bound capped at 1e6; every choice
 //! of every setting) and over direction pairs including normal and grazing incidence (to
@@ -9,44 +9,58 @@
 //! Counts per model: non-finite and negative values (of f32 and f64 evaluation, pdf and
 //! sampling weights), reciprocity violations (models flagged reciprocal), energy violations
 //! (directional albedo above 1 for models flagged energy-bounded) and f32/f64 disagreements.
-//! Exits non-zero on any non-finite or negative value.
+//! Any non-finite or negative value is a failure ([`StabilityReport::failures`]).
 
 use lobe_materials::composite::directional_albedo;
 use lobe_materials::registry::{Bounds, ParamKind, ParamRole, Registry};
 use lobe_materials::{Bsdf, Flags};
 use lobe_renderer::Error;
 use serde_json::{Value, json};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-#[derive(clap::Args)]
-pub struct StabilityArgs {
-    /// Comma-separated models (default: every analytic model, sampled-microfacet, merl,
+/// What to sweep.
+#[derive(Clone, Debug, Default)]
+pub struct StabilityConfig {
+    /// Models to sweep (default: every analytic model, sampled-microfacet, merl,
     /// measured-extremes, rgl).
-    #[arg(long)]
-    models: Option<String>,
+    pub models: Option<Vec<String>>,
     /// Fewer parameter values and directions (for CI).
-    #[arg(long)]
-    quick: bool,
-    /// Print the first offending case of each kind per model.
-    #[arg(long)]
-    verbose: bool,
-    /// Folder of RGL .bsdf files to sweep (default: ../shared/data/rgl or $LOBE_DATA/rgl).
-    #[arg(long)]
-    rgl: Option<PathBuf>,
+    pub quick: bool,
+    /// Folder of RGL .bsdf files (default: ../shared/data/rgl or $LOBE_DATA/rgl, if present).
+    pub rgl: Option<PathBuf>,
 }
 
-#[derive(Default, Clone)]
-struct Counts {
-    configs: usize,
-    rejected: usize,
-    evals: usize,
-    nonfinite: usize,
-    negative: usize,
-    reciprocity: usize,
-    energy: usize,
-    precision: usize,
-    example: Option<String>,
-    reciprocity_example: Option<String>,
+/// The counts of every swept model, in sweep order.
+#[derive(Clone, Debug)]
+pub struct StabilityReport {
+    pub rows: Vec<(String, Counts)>,
+    /// True when "rgl" was wanted but no folder of RGL files was found.
+    pub rgl_skipped: bool,
+}
+
+/// What a sweep found for one model.
+#[derive(Default, Clone, Debug)]
+pub struct Counts {
+    /// Descriptions built and swept.
+    pub configs: usize,
+    /// Descriptions the model refused.
+    pub rejected: usize,
+    /// Direction pairs evaluated.
+    pub evals: usize,
+    /// Pairs with a non-finite value (f32 or f64 eval, pdf, sample weight or pdf).
+    pub nonfinite: usize,
+    /// Pairs with a negative value.
+    pub negative: usize,
+    /// Pairs violating reciprocity (models flagged reciprocal).
+    pub reciprocity: usize,
+    /// Directional albedos above 1 (models flagged energy-bounded).
+    pub energy: usize,
+    /// Pairs where f32 and f64 evaluation disagree.
+    pub precision: usize,
+    /// The first non-finite or negative case.
+    pub example: Option<String>,
+    /// The first reciprocity violation.
+    pub reciprocity_example: Option<String>,
 }
 
 fn dir(theta_deg: f64, phi_deg: f64) -> glam::Vec3 {
@@ -256,12 +270,12 @@ fn sweep_lobe_model(
 }
 
 fn sweep_materials(
+    reg: &Registry,
     descs: &[Value],
     base: &std::path::Path,
     pairs: &[(glam::Vec3, glam::Vec3)],
 ) -> Counts {
-    let reg = Registry::builtin();
-    let ctx = lobe_materials::registry::BuildContext::new(base, &reg);
+    let ctx = lobe_materials::registry::BuildContext::new(base, reg);
     let mut c = Counts::default();
     for d in descs {
         match reg.create_with(d, "sweep", &ctx) {
@@ -336,23 +350,23 @@ fn extreme_tables(dir: &std::path::Path, quick: bool) -> Result<Vec<Value>, Erro
     Ok(descs)
 }
 
-pub fn cmd_stability(args: StabilityArgs, quiet: bool) -> Result<(), Error> {
-    let reg = Registry::builtin();
-    let pairs = pairs(args.quick);
-    let wanted: Option<Vec<String>> = args
-        .models
-        .as_ref()
-        .map(|m| m.split(',').map(|s| s.trim().to_string()).collect());
-    let want = |n: &str| wanted.as_ref().is_none_or(|w| w.iter().any(|x| x == n));
-    let mut rows: Vec<(String, Counts)> = Vec::new();
-    let lobe_models: Vec<&'static str> = reg.names().filter(|n| reg.is_lobe_model(n)).collect();
-    let known: Vec<&str> = lobe_models
-        .iter()
-        .copied()
+/// The names [`sweep`] accepts: every lobe model, sampled-microfacet, merl and rgl.
+fn known_models(reg: &Registry) -> Vec<&'static str> {
+    reg.names()
+        .filter(|n| reg.is_lobe_model(n))
         .chain(["sampled-microfacet", "merl", "rgl"])
-        .collect();
+        .collect()
+}
+
+/// Sweeps the models of `config` (see the module doc); an unknown model name is an error
+/// listing the known ones.
+pub fn sweep(reg: &Registry, config: &StabilityConfig) -> Result<StabilityReport, Error> {
+    let pairs = pairs(config.quick);
+    let wanted = config.models.as_ref();
+    let want = |n: &str| wanted.is_none_or(|w| w.iter().any(|x| x == n));
+    let known = known_models(reg);
     if let Some(unknown) = wanted
-        .iter()
+        .into_iter()
         .flatten()
         .find(|w| !known.contains(&w.as_str()))
     {
@@ -361,91 +375,124 @@ pub fn cmd_stability(args: StabilityArgs, quiet: bool) -> Result<(), Error> {
             known.join(", ")
         )));
     }
-    for m in lobe_models {
+    let mut rows: Vec<(String, Counts)> = Vec::new();
+    for m in reg.names().filter(|n| reg.is_lobe_model(n)) {
         if want(m) {
-            rows.push((m.to_string(), sweep_lobe_model(&reg, m, args.quick, &pairs)));
+            rows.push((
+                m.to_string(),
+                sweep_lobe_model(reg, m, config.quick, &pairs),
+            ));
         }
     }
     if want("sampled-microfacet") {
-        let mut descs = Vec::new();
-        for (ax, ay) in [(0.01, 0.01), (0.01, 2.0), (2.0, 2.0)] {
-            for f0 in [0.0, 1.0] {
-                descs.push(json!({"type": "sampled-microfacet", "distribution": "beckmann", "alpha_x": ax, "alpha_y": ay, "f0": f0, "specular": 1, "resolution": 65}));
-            }
-        }
-        for d in ["brushed", "satin", "velvet"] {
-            descs.push(json!({"type": "sampled-microfacet", "distribution": d, "specular": 1, "resolution": 65}));
-        }
         rows.push((
             "sampled-microfacet".into(),
-            sweep_materials(&descs, std::path::Path::new("."), &pairs),
+            sweep_materials(reg, &microfacet_descriptions(), Path::new("."), &pairs),
         ));
     }
     let tmp = tempfile::tempdir().map_err(|e| Error::Other(format!("temporary folder: {e}")))?;
     if want("merl") {
-        // A sharp and a rough table, both interpolated and nearest.
-        let mut descs = Vec::new();
-        for (k, m) in [0.01, 0.8].iter().enumerate() {
-            let ct = reg
-                .create(
-                    &json!({"type": "cook-torrance", "diffuse": 0.1, "specular": 1, "m": m}),
-                    "m",
-                )
-                .map_err(|e| Error::Other(e.to_string()))?;
-            let path = tmp.path().join(format!("t{k}.binary"));
-            lobe_materials::measured::tabulate::merl_from(
-                &|wo, wi| ct.eval(wo, wi),
-                &Default::default(),
-            )
-            .write(&path)
-            .map_err(|e| Error::file(path.display(), e.message))?;
-            for interp in [true, false] {
-                descs.push(json!({"type": "merl", "file": path.display().to_string(), "interpolate": interp}));
-            }
-        }
-        rows.push(("merl".into(), sweep_materials(&descs, tmp.path(), &pairs)));
-    }
-    if want("measured-extremes") {
-        let descs = extreme_tables(tmp.path(), args.quick)?;
+        let descs = merl_tables(reg, tmp.path())?;
         rows.push((
-            "measured-extremes".into(),
-            sweep_materials(&descs, tmp.path(), &pairs),
+            "merl".into(),
+            sweep_materials(reg, &descs, tmp.path(), &pairs),
         ));
     }
+    if want("measured-extremes") {
+        let descs = extreme_tables(tmp.path(), config.quick)?;
+        rows.push((
+            "measured-extremes".into(),
+            sweep_materials(reg, &descs, tmp.path(), &pairs),
+        ));
+    }
+    let mut rgl_skipped = false;
     if want("rgl") {
-        let folder = args.rgl.clone().or_else(|| {
-            std::env::var_os("LOBE_DATA")
-                .map(|d| PathBuf::from(d).join("rgl"))
-                .or_else(|| Some(PathBuf::from("../shared/data/rgl")))
-                .filter(|p| p.is_dir())
-        });
-        match folder {
+        match rgl_folder(config) {
             Some(f) => {
-                let mut files: Vec<PathBuf> = std::fs::read_dir(&f)
-                    .map_err(|e| Error::file(f.display(), format!("cannot list: {e}")))?
-                    .filter_map(|e| e.ok().map(|e| e.path()))
-                    .filter(|p| p.extension().is_some_and(|e| e == "bsdf"))
-                    .map(|p| std::fs::canonicalize(&p).unwrap_or(p))
-                    .collect();
-                files.sort();
-                let descs: Vec<Value> = files
-                    .iter()
-                    .map(|p| json!({"type": "rgl", "file": p.display().to_string()}))
-                    .collect();
-                rows.push(("rgl".into(), sweep_materials(&descs, &f, &pairs)));
+                let descs = rgl_files(&f)?;
+                rows.push(("rgl".into(), sweep_materials(reg, &descs, &f, &pairs)));
             }
-            None if !quiet => {
-                eprintln!("rgl: skipped (no ../shared/data/rgl, $LOBE_DATA/rgl or --rgl folder)")
-            }
-            None => {}
+            None => rgl_skipped = true,
         }
     }
-    println!(
-        "| model | configurations | rejected | evaluations | non-finite | negative | reciprocity | energy | f32/f64 |\n|---|---|---|---|---|---|---|---|---|"
-    );
-    let mut failed = Vec::new();
-    for (name, c) in &rows {
-        println!(
+    Ok(StabilityReport { rows, rgl_skipped })
+}
+
+/// The sampled-microfacet generator: Beckmann tables from sharp to rough, isotropic and
+/// not, with and without Fresnel, and the synthetic structures.
+fn microfacet_descriptions() -> Vec<Value> {
+    let mut descs = Vec::new();
+    for (ax, ay) in [(0.01, 0.01), (0.01, 2.0), (2.0, 2.0)] {
+        for f0 in [0.0, 1.0] {
+            descs.push(json!({"type": "sampled-microfacet", "distribution": "beckmann", "alpha_x": ax, "alpha_y": ay, "f0": f0, "specular": 1, "resolution": 65}));
+        }
+    }
+    for d in ["brushed", "satin", "velvet"] {
+        descs.push(json!({"type": "sampled-microfacet", "distribution": d, "specular": 1, "resolution": 65}));
+    }
+    descs
+}
+
+/// A sharp and a rough tabulated Cook-Torrance (written into `dir`), both interpolated and
+/// nearest.
+fn merl_tables(reg: &Registry, dir: &Path) -> Result<Vec<Value>, Error> {
+    let mut descs = Vec::new();
+    for (k, m) in [0.01, 0.8].iter().enumerate() {
+        let ct = reg
+            .create(
+                &json!({"type": "cook-torrance", "diffuse": 0.1, "specular": 1, "m": m}),
+                "m",
+            )
+            .map_err(|e| Error::Other(e.to_string()))?;
+        let path = dir.join(format!("t{k}.binary"));
+        lobe_materials::measured::tabulate::merl_from(
+            &|wo, wi| ct.eval(wo, wi),
+            &Default::default(),
+        )
+        .write(&path)
+        .map_err(|e| Error::file(path.display(), e.message))?;
+        for interp in [true, false] {
+            descs.push(
+                json!({"type": "merl", "file": path.display().to_string(), "interpolate": interp}),
+            );
+        }
+    }
+    Ok(descs)
+}
+
+/// The folder of RGL files: the configured one, else $LOBE_DATA/rgl or ../shared/data/rgl
+/// if it exists.
+fn rgl_folder(config: &StabilityConfig) -> Option<PathBuf> {
+    config.rgl.clone().or_else(|| {
+        std::env::var_os("LOBE_DATA")
+            .map(|d| PathBuf::from(d).join("rgl"))
+            .or_else(|| Some(PathBuf::from("../shared/data/rgl")))
+            .filter(|p| p.is_dir())
+    })
+}
+
+/// The descriptions of the .bsdf files of a folder, sorted.
+fn rgl_files(folder: &Path) -> Result<Vec<Value>, Error> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(folder)
+        .map_err(|e| Error::file(folder.display(), format!("cannot list: {e}")))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "bsdf"))
+        .map(|p| std::fs::canonicalize(&p).unwrap_or(p))
+        .collect();
+    files.sort();
+    Ok(files
+        .iter()
+        .map(|p| json!({"type": "rgl", "file": p.display().to_string()}))
+        .collect())
+}
+
+impl StabilityReport {
+    /// The Markdown table's header (two lines, no final newline).
+    pub const HEADER: &'static str = "| model | configurations | rejected | evaluations | non-finite | negative | reciprocity | energy | f32/f64 |\n|---|---|---|---|---|---|---|---|---|";
+
+    /// One model's row of the Markdown table.
+    pub fn row(name: &str, c: &Counts) -> String {
+        format!(
             "| {name} | {} | {} | {} | {} | {} | {} | {} | {} |",
             c.configs,
             c.rejected,
@@ -455,25 +502,15 @@ pub fn cmd_stability(args: StabilityArgs, quiet: bool) -> Result<(), Error> {
             c.reciprocity,
             c.energy,
             c.precision
-        );
-        if args.verbose {
-            for e in [&c.example, &c.reciprocity_example].into_iter().flatten() {
-                eprintln!("  {e}");
-            }
-        }
-        if c.nonfinite + c.negative > 0 {
-            failed.push(format!(
-                "{name} ({})",
-                c.example.clone().unwrap_or_default()
-            ));
-        }
+        )
     }
-    if failed.is_empty() {
-        Ok(())
-    } else {
-        Err(Error::Other(format!(
-            "non-finite or negative values in: {}",
-            failed.join("; ")
-        )))
+
+    /// The models with non-finite or negative values, each with its first example.
+    pub fn failures(&self) -> Vec<String> {
+        self.rows
+            .iter()
+            .filter(|(_, c)| c.nonfinite + c.negative > 0)
+            .map(|(name, c)| format!("{name} ({})", c.example.clone().unwrap_or_default()))
+            .collect()
     }
 }

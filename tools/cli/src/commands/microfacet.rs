@@ -2,17 +2,17 @@
 //! measured data (Ngan et al. 2005, section 5, Eq. 4), written as the EXR table the
 //! `sampled-microfacet` material loads, a material description and the study's log-scale
 //! spherical plot (Figures 11 to 13); `synth` runs the section 5.1 experiment on a synthetic
-//! brushed metal, satin or velvet and prints the comparison with the anisotropic fits.
+//! brushed metal, satin or velvet (lobe_analysis::microfacet) and prints the comparison
+//! with the anisotropic fits.
 
 use crate::args::finite;
+use lobe_analysis::microfacet::{Synth, SynthConfig, synth};
 use lobe_materials::fit::dataset::Dataset;
-use lobe_materials::fit::{builtin_specs, fit};
-use lobe_materials::microfacet_gen::{Estimate, Shape, Table, correlation, estimate, sparse_4d};
+use lobe_materials::microfacet_gen::{Estimate, Shape, Table, estimate};
 use lobe_renderer::Error;
 use lobe_renderer::outputs::FilePlan;
 use serde_json::json;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 #[derive(clap::Subcommand)]
 pub enum MicrofacetCmd {
@@ -86,47 +86,6 @@ impl EstimateOpts {
     }
 }
 
-/// log10 p over the projected hemisphere (a disk; white outside), 320 x 320 pixels, on a
-/// blue-to-yellow ramp over four decades below the maximum.
-fn plot(table: &Table, path: &Path) -> Result<(), Error> {
-    let size = 320usize;
-    let max = table
-        .nodes()
-        .iter()
-        .cloned()
-        .fold(0.0f32, f32::max)
-        .max(1e-30) as f64;
-    let mut rgb = vec![255u8; size * size * 3];
-    for y in 0..size {
-        for x in 0..size {
-            let hx = (x as f64 + 0.5) / size as f64 * 2.0 - 1.0;
-            // Image rows go down; h_y goes up.
-            let hy = 1.0 - (y as f64 + 0.5) / size as f64 * 2.0;
-            if hx * hx + hy * hy >= 1.0 {
-                continue;
-            }
-            let v = table.p(hx, hy);
-            let t = ((v.max(1e-300) / max).log10() / 4.0 + 1.0).clamp(0.0, 1.0);
-            // A perceptually ordered ramp: dark blue, teal, green, yellow.
-            let stops = [
-                [0.07, 0.04, 0.33],
-                [0.13, 0.45, 0.55],
-                [0.35, 0.75, 0.35],
-                [0.99, 0.91, 0.15],
-            ];
-            let s = t * 3.0;
-            let i = (s as usize).min(2);
-            let f = s - i as f64;
-            let k = (y * size + x) * 3;
-            for c in 0..3 {
-                rgb[k + c] =
-                    ((stops[i][c] * (1.0 - f) + stops[i + 1][c] * f) * 255.0).round() as u8;
-            }
-        }
-    }
-    lobe_renderer::image_io::write_png_rgb8(path, size as u32, size as u32, &rgb)
-}
-
 /// The table and plot files of a stem.
 fn table_files(stem: &Path) -> (PathBuf, PathBuf) {
     (stem.with_extension("exr"), stem.with_extension("png"))
@@ -135,7 +94,7 @@ fn table_files(stem: &Path) -> (PathBuf, PathBuf) {
 fn write_table(table: &Table, stem: &Path) -> Result<(PathBuf, PathBuf), Error> {
     let (exr, png) = table_files(stem);
     table.write_exr(&exr)?;
-    plot(table, &png)?;
+    lobe_analysis::figures::distribution(table).save(&png)?;
     Ok((exr, png))
 }
 
@@ -226,44 +185,34 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
                 Error::file(output.display(), format!("cannot create the folder: {e}"))
             })?;
             check_outputs(&[], &stems, None)?;
-            let truth =
-                Arc::new(Table::from_fn(opts.nodes, |h| shape.density(h)).map_err(Error::Other)?);
-            let f0 = opts.f0.unwrap_or(1.0);
-            let t = truth.clone();
-            let (kd, ks) = ([0.05, 0.04, 0.03], [0.5, 0.4, 0.3]);
-            let data = sparse_4d(
-                &|wi, wo| {
-                    let r = t.rho(wo.as_dvec3(), wi.as_dvec3(), f0);
-                    [0, 1, 2].map(|c| kd[c] / std::f64::consts::PI + ks[c] * r)
-                },
+            let config = SynthConfig {
+                nodes: opts.nodes,
+                f0: opts.f0,
+                iterations: opts.iterations,
                 resolution,
                 filled,
-                1,
-            );
-            let est = run_estimate(&data, &structure, &opts)?;
+            };
+            let Synth {
+                data,
+                truth,
+                estimate: est,
+                correlation,
+                rows,
+            } = synth(
+                &lobe_materials::registry::Registry::builtin(),
+                &shape,
+                &structure,
+                &config,
+            )?;
             write_table(&truth, &stems[0])?;
             write_table(&est.table, &stems[1])?;
-            let mut rows = vec![(
-                "sampled-microfacet (estimated p)".to_string(),
-                est.error,
-                0.0,
-            )];
-            let registry = lobe_materials::registry::Registry::builtin();
-            for &label in lobe_materials::fit::ANISOTROPIC_DEFAULT {
-                let spec = builtin_specs()
-                    .into_iter()
-                    .find(|s| s.label == label)
-                    .expect("built-in model");
-                let r = fit(&registry, &data, &spec, 300).map_err(Error::Other)?;
-                rows.push((label.to_string(), r.error, r.seconds));
-            }
             println!(
                 "{structure}: {} bins ({resolution} degree 4D bins, {:.0} % filled), table {} x {}, correlation of p with the truth {:.4}, p change per iteration {:?}",
                 data.samples.len(),
                 filled * 100.0,
                 opts.nodes,
                 opts.nodes,
-                correlation(&est.table, &truth),
+                correlation,
                 est.changes
                     .iter()
                     .map(|c| format!("{c:.2e}"))

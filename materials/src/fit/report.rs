@@ -1,0 +1,318 @@
+//! The fit report (`lobe fit`'s JSON output, Ngan et al. 2005 section 4's per-material fits):
+//! its typed form, and the one place it is read ([`read`]) and written ([`write`]).
+//!
+//! A report names the material and its data (source file, bin size, bin count, the largest
+//! directional albedo that normalizes errors) and, per fitted model, the fitted material
+//! description, its Eq. (1) error (absolute and normalized) and how the multi-start went;
+//! with `lobe fit --select`, also the model chosen for its cost. Reports carry a format
+//! version ([`FORMAT_VERSION`]); a report without one is of version 1 (written before the
+//! field existed), one of a newer version is refused, naming both versions.
+//!
+//! Written JSON keeps its keys in alphabetical order (serde_json's map), as reports always
+//! had; a non-finite number (the normalized error of all-zero data) is written as `null` and
+//! read back as NaN.
+
+use super::FitResult;
+use super::dataset::Dataset;
+use crate::error::FileError;
+use serde::{Deserialize, Deserializer, Serialize};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The report format this build writes and the newest it reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+fn version_one() -> u32 {
+    1
+}
+
+/// A number written as `null` when it was not finite (serde_json's way), read back as NaN.
+fn nullable_f64<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// The report of fitting one material.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitReport {
+    /// [`FORMAT_VERSION`] when written; 1 when absent.
+    #[serde(default = "version_one")]
+    pub format_version: u32,
+    /// The material's name (the data file's stem, or "synthetic").
+    pub material: String,
+    /// Where the data came from (the data file, or "material").
+    pub source: String,
+    /// Bin size in degrees of isotropic data.
+    pub resolution_deg: f64,
+    /// Bins of the data.
+    pub samples: usize,
+    /// The data's largest directional albedo (errors are normalized by it).
+    #[serde(deserialize_with = "nullable_f64")]
+    pub max_albedo: f64,
+    /// Per model label, its fit.
+    pub models: BTreeMap<String, ModelFit>,
+    /// The cheapest model within a tolerance of the best error (`lobe fit --select`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub selected: Option<Selection>,
+}
+
+/// One fitted model of a report.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelFit {
+    /// The fitted material: a registry description (`composite` for two lobes).
+    pub material: Value,
+    /// Eq. (1) error.
+    #[serde(deserialize_with = "nullable_f64")]
+    pub error: f64,
+    /// The error divided by the data's largest directional albedo.
+    #[serde(deserialize_with = "nullable_f64")]
+    pub error_normalized: f64,
+    pub starts: usize,
+    /// Starts whose final error is within 1 % of the best.
+    pub starts_agreeing: usize,
+    pub evaluations: usize,
+    #[serde(deserialize_with = "nullable_f64")]
+    pub seconds: f64,
+}
+
+/// The model chosen for its cost: the cheapest (eval + sample time per call) whose error is
+/// within `tolerance` (relative) of the best.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Selection {
+    /// The chosen label ("" when no model qualified).
+    pub model: String,
+    pub tolerance: f64,
+    #[serde(deserialize_with = "nullable_f64")]
+    pub best_error: f64,
+    /// Per model label, its measured cost and error.
+    pub costs: BTreeMap<String, ModelCost>,
+}
+
+/// The measured cost of one fitted model, with its error.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelCost {
+    /// Nanoseconds per evaluation.
+    pub eval_ns: f64,
+    /// Nanoseconds per sample.
+    pub sample_ns: f64,
+    #[serde(deserialize_with = "nullable_f64")]
+    pub error: f64,
+}
+
+impl ModelFit {
+    /// The fit of one model, as [`super::fit`] returned it.
+    pub fn from_result(r: &FitResult) -> Self {
+        Self {
+            material: r.material.clone(),
+            error: r.error,
+            error_normalized: r.error_normalized,
+            starts: r.starts,
+            starts_agreeing: r.starts_agreeing,
+            evaluations: r.evaluations,
+            seconds: r.seconds,
+        }
+    }
+}
+
+impl FitReport {
+    /// The report of fitting `data` (named `material`, read from `source` at
+    /// `resolution_deg`) to the models of `results`, without a selection.
+    pub fn new(
+        material: &str,
+        source: &str,
+        resolution_deg: f64,
+        data: &Dataset,
+        results: &[FitResult],
+    ) -> Self {
+        Self {
+            format_version: FORMAT_VERSION,
+            material: material.to_string(),
+            source: source.to_string(),
+            resolution_deg,
+            samples: data.samples.len(),
+            max_albedo: data.max_albedo,
+            models: results
+                .iter()
+                .map(|r| (r.label.clone(), ModelFit::from_result(r)))
+                .collect(),
+            selected: None,
+        }
+    }
+
+    /// The report as JSON (keys in alphabetical order, non-finite numbers as `null`).
+    pub fn to_json(&self) -> Value {
+        serde_json::to_value(self).expect("a report serializes")
+    }
+
+    /// The report of JSON `v`; `file` names it in errors, which name the field too.
+    pub fn from_json(v: &Value, file: &str) -> Result<Self, FileError> {
+        let found = match v.get("format_version") {
+            None => Some(1),
+            Some(n) => n.as_u64(),
+        };
+        if let Some(found) = found
+            && found > FORMAT_VERSION as u64
+        {
+            return Err(FileError::new(
+                file,
+                format!(
+                    "format_version: {found} is newer than this lobe reads (version {FORMAT_VERSION}); refit the data or use a newer lobe"
+                ),
+            ));
+        }
+        serde_path_to_error::deserialize(v).map_err(|e| {
+            let field = e.path().to_string();
+            let what = e.inner().to_string();
+            let message = if field == "." {
+                format!("{what}; expected a lobe fit report")
+            } else {
+                format!("{field}: {what}; expected a lobe fit report")
+            };
+            FileError::new(file, message)
+        })
+    }
+}
+
+/// Reads a fit report: a strict JSON file ([`crate::json::read`]) of a supported format
+/// version, every field present and of its type; errors are one line naming the file and
+/// the field.
+pub fn read(path: &Path) -> Result<FitReport, FileError> {
+    let v = crate::json::read(path)?;
+    FitReport::from_json(&v, &path.display().to_string())
+}
+
+/// Writes a fit report atomically (pretty JSON and a final newline).
+pub fn write(path: &Path, report: &FitReport) -> Result<(), FileError> {
+    let v = report.to_json();
+    crate::io::atomic_write(path, |out| {
+        serde_json::to_writer_pretty(&mut *out, &v).map_err(std::io::Error::other)?;
+        std::io::Write::write_all(out, b"\n")
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn sample() -> FitReport {
+        let fit = |e: f64| ModelFit {
+            material: json!({"type": "ward", "alpha": 0.1, "diffuse": [0.1, 0.2, 0.3], "specular": [0.5, 0.5, 0.5]}),
+            error: e,
+            error_normalized: e / 0.5,
+            starts: 3,
+            starts_agreeing: 2,
+            evaluations: 120,
+            seconds: 0.25,
+        };
+        FitReport {
+            format_version: FORMAT_VERSION,
+            material: "nickel".into(),
+            source: "data/nickel.binary".into(),
+            resolution_deg: 1.0,
+            samples: 1000,
+            max_albedo: 0.5,
+            models: [
+                ("ward".to_string(), fit(0.01)),
+                ("he".to_string(), fit(0.02)),
+            ]
+            .into_iter()
+            .collect(),
+            selected: Some(Selection {
+                model: "ward".into(),
+                tolerance: 0.1,
+                best_error: 0.01,
+                costs: [(
+                    "ward".to_string(),
+                    ModelCost {
+                        eval_ns: 12.5,
+                        sample_ns: 30.0,
+                        error: 0.01,
+                    },
+                )]
+                .into_iter()
+                .collect(),
+            }),
+        }
+    }
+
+    #[test]
+    fn a_report_round_trips_through_its_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.fit.json");
+        let r = sample();
+        write(&path, &r).unwrap();
+        assert_eq!(read(&path).unwrap(), r);
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("\"format_version\": 1"), "{text}");
+        // Keys in alphabetical order, as reports always had.
+        let (a, b) = (
+            text.find("\"material\"").unwrap(),
+            text.find("\"models\"").unwrap(),
+        );
+        assert!(a < b, "{text}");
+    }
+
+    #[test]
+    fn a_report_without_a_version_is_version_one() {
+        let mut v = sample().to_json();
+        v.as_object_mut().unwrap().remove("format_version");
+        let r = FitReport::from_json(&v, "old.fit.json").unwrap();
+        assert_eq!(r.format_version, 1);
+        assert_eq!(r.models["ward"].error, 0.01);
+    }
+
+    #[test]
+    fn a_newer_version_is_refused_naming_both_versions() {
+        let mut v = sample().to_json();
+        v["format_version"] = json!(FORMAT_VERSION + 1);
+        let e = FitReport::from_json(&v, "new.fit.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("new.fit.json: format_version"), "{e}");
+        assert!(e.contains(&format!("{}", FORMAT_VERSION + 1)), "{e}");
+        assert!(e.contains(&format!("version {FORMAT_VERSION}")), "{e}");
+    }
+
+    #[test]
+    fn a_missing_or_renamed_field_is_named() {
+        let mut v = sample().to_json();
+        let ward = v["models"]["ward"].as_object_mut().unwrap();
+        let e = ward.remove("error_normalized").unwrap();
+        let missing = FitReport::from_json(&v, "r.fit.json")
+            .unwrap_err()
+            .to_string();
+        assert!(missing.starts_with("r.fit.json: models.ward"), "{missing}");
+        assert!(
+            missing.contains("missing field `error_normalized`"),
+            "{missing}"
+        );
+        v["models"]["ward"]["normalized_error"] = e;
+        let renamed = FitReport::from_json(&v, "r.fit.json")
+            .unwrap_err()
+            .to_string();
+        assert!(renamed.contains("models.ward"), "{renamed}");
+        assert!(renamed.contains("normalized_error"), "{renamed}");
+        // A field of the wrong type is named by its path.
+        let mut w = sample().to_json();
+        w["samples"] = json!("many");
+        let wrong = FitReport::from_json(&w, "r.fit.json")
+            .unwrap_err()
+            .to_string();
+        assert!(wrong.starts_with("r.fit.json: samples: "), "{wrong}");
+    }
+
+    #[test]
+    fn a_non_finite_error_is_written_as_null_and_read_as_nan() {
+        let mut r = sample();
+        r.models.get_mut("he").unwrap().error_normalized = f64::NAN;
+        let v = r.to_json();
+        assert!(v["models"]["he"]["error_normalized"].is_null());
+        let back = FitReport::from_json(&v, "r.fit.json").unwrap();
+        assert!(back.models["he"].error_normalized.is_nan());
+    }
+}

@@ -1,0 +1,66 @@
+//! The cost of a material per call: nanoseconds per `eval` and per `sample` over a fixed set
+//! of 32768 cosine-distributed direction pairs, the best of three passes (what model
+//! selection and the trade-off weigh against accuracy).
+
+use lobe_materials::Bsdf;
+use lobe_materials::sampling::warp::square_to_cosine_hemisphere;
+
+/// Time per call of a material's evaluation and sampling.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cost {
+    /// Nanoseconds per `eval`.
+    pub eval_ns: f64,
+    /// Nanoseconds per `sample`.
+    pub sample_ns: f64,
+}
+
+impl Cost {
+    /// Eval and sample time together.
+    pub fn total(&self) -> f64 {
+        self.eval_ns + self.sample_ns
+    }
+}
+
+/// One timing case: wo, wi, the 2D and 1D sample.
+type Case = (glam::Vec3, glam::Vec3, glam::Vec2, f32);
+
+/// The fixed cases (a deterministic LCG), the same for every material.
+fn cases(n: usize) -> Vec<Case> {
+    let mut state = 0x853c49e6748fea9bu64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
+    };
+    (0..n)
+        .map(|_| {
+            let a = square_to_cosine_hemisphere(glam::Vec2::new(next(), next()));
+            let b = square_to_cosine_hemisphere(glam::Vec2::new(next(), next()));
+            (a, b, glam::Vec2::new(next(), next()), next())
+        })
+        .collect()
+}
+
+/// Measures the time per eval and per sample of `b`.
+pub fn measure(b: &dyn Bsdf) -> Cost {
+    let n = 1 << 15;
+    let dirs = cases(n);
+    let time = |f: &dyn Fn(&Case) -> f32| {
+        let mut best = f64::INFINITY;
+        for _ in 0..3 {
+            let t = std::time::Instant::now();
+            let mut acc = 0.0f32;
+            for d in &dirs {
+                acc += f(d);
+            }
+            std::hint::black_box(acc);
+            best = best.min(t.elapsed().as_secs_f64() * 1e9 / n as f64);
+        }
+        best
+    };
+    Cost {
+        eval_ns: time(&|d| b.eval(d.0, d.1).r),
+        sample_ns: time(&|d| b.sample(d.0, d.2, d.3).map_or(0.0, |s| s.pdf)),
+    }
+}

@@ -1,0 +1,223 @@
+//! Fitting one material into a report (Ngan et al. 2005 section 4: every chosen model
+//! fitted to the data by [`lobe_materials::fit::fit_until`], optionally with the cheapest
+//! adequate model selected), and fitting a folder of measured data in a batch: in
+//! deterministic shards, in parallel, resumably (a report that exists is not redone).
+
+use crate::models::choose;
+use crate::selection::select;
+use lobe_materials::fit::dataset::Dataset;
+use lobe_materials::fit::report::{self, FitReport};
+use lobe_materials::fit::{FitError, FitResult, Stop, builtin_specs, fit_until};
+use lobe_materials::measured::format;
+use lobe_materials::registry::Registry;
+use lobe_renderer::Error;
+use lobe_renderer::outputs::FilePlan;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// What to fit and how.
+#[derive(Clone, Debug)]
+pub struct FitOptions {
+    /// Comma-separated model labels, or the study's defaults for the data.
+    pub models: Option<String>,
+    /// Bin size in degrees of isotropic data (recorded in the report).
+    pub resolution: f64,
+    /// Objective evaluations allowed per SLSQP start.
+    pub max_evals: usize,
+    /// Select the cheapest model within this relative tolerance of the best error.
+    pub select: Option<f64>,
+}
+
+/// Fits the chosen models to `data` (named `name`, read from `source`) and builds the
+/// report; `stop` is polled inside the optimizer (an interruption is an error saying so),
+/// `on_model` is called with each model's result as it is fitted.
+pub fn fit_material(
+    registry: &Registry,
+    name: &str,
+    source: &str,
+    data: &Dataset,
+    opts: &FitOptions,
+    stop: &Stop<'_>,
+    on_model: &dyn Fn(&FitResult),
+) -> Result<FitReport, Error> {
+    data.check().map_err(|m| Error::file(source, m))?;
+    let specs = builtin_specs();
+    let chosen = choose(&specs, opts.models.as_deref(), data.anisotropic)?;
+    let mut results = Vec::new();
+    for spec in chosen {
+        let r = fit_until(registry, data, spec, opts.max_evals, stop).map_err(|e| match e {
+            FitError::Cancelled => Error::Other(format!("{source}: interrupted")),
+            FitError::Data(m) => Error::file(source, m),
+        })?;
+        on_model(&r);
+        results.push(r);
+    }
+    let mut report = FitReport::new(name, source, opts.resolution, data, &results);
+    if let Some(tolerance) = opts.select {
+        report.selected = Some(select(registry, &results, tolerance)?);
+    }
+    Ok(report)
+}
+
+/// True for a file named like measured data (.binary, .bin, .bsdf), whatever it holds.
+pub fn named_like_data(p: &Path) -> bool {
+    matches!(
+        p.extension().and_then(|e| e.to_str()),
+        Some("binary" | "bin" | "bsdf")
+    )
+}
+
+/// The data files of a folder, sorted by name: every file whose content is a measured
+/// format, and files named like one whatever they hold ([`named_like_data`]), so that a
+/// broken one is reported rather than skipped. Other files (notes, reports) are ignored.
+pub fn data_files(dir: &Path) -> Result<Vec<PathBuf>, Error> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| Error::file(dir.display(), format!("cannot list: {e}")))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file())
+        .filter(|p| named_like_data(p) || format::detect(p).is_ok())
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(Error::file(
+            dir.display(),
+            "holds no measured data to fit; expected MERL, binned or RGL files",
+        ));
+    }
+    Ok(files)
+}
+
+/// The stem of a data file, naming its material and report.
+pub fn stem(p: &Path) -> String {
+    p.file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("material")
+        .to_string()
+}
+
+/// One data file of a batch and the report it gets.
+pub type BatchJob = (PathBuf, PathBuf);
+
+/// Checks the report folder of a batch: an existing folder, or a new one whose name does
+/// not look like a file (`-o x.fit.json` for a folder of data is a mistake, not a folder).
+fn check_report_folder(out: &Path) -> Result<(), Error> {
+    if out.is_dir() {
+        return Ok(());
+    }
+    if out.exists() {
+        return Err(Error::file(
+            out.display(),
+            "is a file; expected the folder of reports, since the data is a folder",
+        ));
+    }
+    if out.extension().is_some() {
+        return Err(Error::file(
+            out.display(),
+            "looks like a file name, but the data is a folder: -o must name the folder of reports (create it first to use this name)",
+        ));
+    }
+    Ok(())
+}
+
+/// The jobs of shard `i` of `n` of the data files of `dir` (sorted by name, every n-th
+/// from the i-th): each file with its report `out/<stem>.fit.json`. Checks that no report
+/// is an input or another's report, then creates `out` if needed.
+pub fn batch_jobs(dir: &Path, out: &Path, (i, n): (usize, usize)) -> Result<Vec<BatchJob>, Error> {
+    check_report_folder(out)?;
+    let files = data_files(dir)?;
+    let mine: Vec<BatchJob> = files
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % n == i)
+        .map(|(_, p)| (p.clone(), out.join(format!("{}.fit.json", stem(p)))))
+        .collect();
+    let mut plan = FilePlan::new();
+    for p in &files {
+        plan.input(p, "measured data to fit");
+    }
+    for (p, report) in &mine {
+        plan.output(report, format!("report of {}", p.display()));
+    }
+    plan.check_overlaps()?;
+    std::fs::create_dir_all(out).map_err(|e| {
+        Error::file(
+            out.display(),
+            format!("cannot create the report folder: {e}"),
+        )
+    })?;
+    plan.check()?;
+    Ok(mine)
+}
+
+/// What a batch tells as it goes (called from its worker threads).
+pub trait BatchProgress: Sync {
+    /// A job was skipped: its report exists.
+    fn skipped(&self) {}
+    /// The data of `name` is being read.
+    fn reading(&self, _name: &str) {}
+    /// `models` models of `name` are to be fitted.
+    fn fitting(&self, _name: &str, _models: usize) {}
+    /// One model of `name` was fitted.
+    fn fitted(&self, _name: &str, _result: &FitResult) {}
+    /// The report of `name` is complete (about to be written).
+    fn finished(&self, _name: &str, _report: &FitReport) {}
+}
+
+/// What a batch did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BatchSummary {
+    /// Reports written.
+    pub done: usize,
+    /// Reports that already existed.
+    pub skipped: usize,
+    /// One line per failed material (sorted); the others went on.
+    pub failures: Vec<String>,
+}
+
+/// Fits the jobs (materials in parallel; each fit is parallel over its bins too) and writes
+/// each report atomically; a job whose report exists is skipped, so an interrupted batch
+/// resumes where it stopped. Once `stop` returns true no job starts and running fits end.
+pub fn fit_batch(
+    registry: &Registry,
+    jobs: &[BatchJob],
+    opts: &FitOptions,
+    stop: &Stop<'_>,
+    progress: &dyn BatchProgress,
+) -> BatchSummary {
+    use rayon::prelude::*;
+    let (done, skipped) = (AtomicUsize::new(0), AtomicUsize::new(0));
+    let fit_one = |p: &Path, out: &Path| -> Result<(), Error> {
+        if out.exists() {
+            skipped.fetch_add(1, Ordering::Relaxed);
+            progress.skipped();
+            return Ok(());
+        }
+        if stop() {
+            return Ok(());
+        }
+        let name = stem(p);
+        progress.reading(&name);
+        let data = Dataset::read(p, opts.resolution)?;
+        let specs = builtin_specs();
+        if let Ok(chosen) = choose(&specs, opts.models.as_deref(), data.anisotropic) {
+            progress.fitting(&name, chosen.len());
+        }
+        let source = p.display().to_string();
+        let on_model = |r: &FitResult| progress.fitted(&name, r);
+        let r = fit_material(registry, &name, &source, &data, opts, stop, &on_model)?;
+        progress.finished(&name, &r);
+        report::write(out, &r)?;
+        done.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    };
+    let mut failures: Vec<String> = jobs
+        .par_iter()
+        .filter_map(|(p, out)| fit_one(p, out).err().map(|e| e.to_string()))
+        .collect();
+    failures.sort();
+    BatchSummary {
+        done: done.into_inner(),
+        skipped: skipped.into_inner(),
+        failures,
+    }
+}

@@ -1,0 +1,30 @@
+//! lobe-analysis: the analyses of Ngan, Durand and Matusik 2005 ("Experimental Analysis of
+//! BRDF Models") as library functions with typed inputs and outputs, for the `lobe` CLI
+//! (tools/cli) and for tests. No command-line parsing, printing or progress bars here:
+//! long work reports progress through a callback.
+//!
+//! One module per concern:
+//! - [`models`]: which fitted models a command uses (the study's defaults, a list by name);
+//! - [`cost`]: eval and sample time per call of a material;
+//! - [`selection`]: the cheapest fitted model within a tolerance of the best error;
+//! - [`fitting`]: fitting one material into a report, and the data files of a folder;
+//! - [`reports`]: reading fit reports, merging them into tables, building their models;
+//! - [`plot`]: what every figure shares (font, palette, the RGB canvas, labels);
+//! - [`figures`]: the study's figures (error charts, polar plots, sphere grids, lobes);
+//! - [`microfacet`]: section 5.1, the distribution recovered from a synthetic structure;
+//! - [`tradeoff`]: the speed/accuracy/memory trade-off between representations;
+//! - [`stability`]: the numerical sweep of every model at the extremes.
+
+pub mod cost;
+pub mod figures;
+pub mod fitting;
+pub mod microfacet;
+pub mod models;
+pub mod plot;
+pub mod reports;
+pub mod selection;
+pub mod stability;
+pub mod tradeoff;
+
+/// A labelled material (a figure's or a trade-off's representation).
+pub type NamedMaterial = (String, std::sync::Arc<dyn lobe_materials::Bsdf>);

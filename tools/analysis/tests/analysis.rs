@@ -1,0 +1,505 @@
+//! The library functions of lobe-analysis, called directly: model choice and selection,
+//! cost measurement, fitting into a report, report reading and merging, the trade-off
+//! study on a tiny configuration, the stability sweep and the figures.
+
+use lobe_analysis::cost::{Cost, measure};
+use lobe_analysis::plot::{Figure, H, W};
+use lobe_analysis::selection::{cheapest_within, select};
+use lobe_analysis::{figures, fitting, models, reports, stability, tradeoff};
+use lobe_materials::fit::dataset::Dataset;
+use lobe_materials::fit::report::{self, FitReport, ModelFit};
+use lobe_materials::fit::{FitResult, builtin_specs};
+use lobe_materials::measured::binned::{Axis, Binned};
+use lobe_materials::registry::Registry;
+use serde_json::json;
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The built-in models, built once for every test.
+static REGISTRY: std::sync::LazyLock<Registry> = std::sync::LazyLock::new(Registry::builtin);
+
+fn material(desc: serde_json::Value) -> Arc<dyn lobe_materials::Bsdf> {
+    Registry::builtin().create(&desc, "m").unwrap()
+}
+
+fn ward() -> serde_json::Value {
+    json!({"type": "ward", "diffuse": [0.2, 0.15, 0.1], "specular": 0.3, "alpha": 0.15})
+}
+
+fn cost(total: f64) -> Cost {
+    Cost {
+        eval_ns: total / 2.0,
+        sample_ns: total / 2.0,
+    }
+}
+
+#[test]
+fn selection_picks_the_cheapest_model_within_the_tolerance() {
+    let c = [
+        ("best", 1.0, cost(100.0)),
+        ("close-cheap", 1.05, cost(20.0)),
+        ("far-cheapest", 1.5, cost(5.0)),
+    ];
+    assert_eq!(cheapest_within(&c, 0.1), ("close-cheap", 1.0));
+    // A tighter tolerance leaves only the best.
+    assert_eq!(cheapest_within(&c, 0.01), ("best", 1.0));
+    // A looser one admits the cheapest of all.
+    assert_eq!(cheapest_within(&c, 0.6), ("far-cheapest", 1.0));
+}
+
+#[test]
+fn selection_ties_go_to_the_first_model() {
+    let c = [
+        ("first", 1.0, cost(10.0)),
+        ("second", 1.0, cost(10.0)),
+        ("third", 1.02, cost(10.0)),
+    ];
+    assert_eq!(cheapest_within(&c, 0.1).0, "first");
+    let (model, best) = cheapest_within(&[], 0.1);
+    assert_eq!(model, "");
+    assert!(best.is_infinite());
+}
+
+fn result(label: &str, desc: serde_json::Value, error: f64) -> FitResult {
+    FitResult {
+        label: label.into(),
+        material: desc,
+        error,
+        error_normalized: error * 2.0,
+        starts: 1,
+        starts_agreeing: 1,
+        evaluations: 1,
+        seconds: 0.0,
+    }
+}
+
+#[test]
+fn selection_measures_every_model_and_refuses_one_that_cannot_be_built() {
+    let results = [
+        result("ward", ward(), 0.01),
+        result(
+            "lambert",
+            json!({"type": "lambert", "reflectance": 0.2}),
+            0.5,
+        ),
+    ];
+    let s = select(&REGISTRY, &results, 0.1).unwrap();
+    // Lambert is far outside the tolerance, whatever its cost.
+    assert_eq!(s.model, "ward");
+    assert_eq!(s.best_error, 0.01);
+    assert_eq!(s.costs.len(), 2);
+    assert_eq!(s.costs["lambert"].error, 0.5);
+    assert!(
+        s.costs
+            .values()
+            .all(|c| c.eval_ns > 0.0 && c.sample_ns > 0.0)
+    );
+    let broken = [
+        result("ward", ward(), 0.01),
+        result("missing", json!({"type": "no-such-model"}), 0.01),
+    ];
+    let e = select(&REGISTRY, &broken, 0.1).unwrap_err().to_string();
+    assert!(e.contains("missing") && e.contains("no-such-model"), "{e}");
+}
+
+#[test]
+fn cost_is_a_positive_finite_time_per_call() {
+    for desc in [ward(), json!({"type": "lambert", "reflectance": 0.5})] {
+        let c = measure(material(desc.clone()).as_ref());
+        for t in [c.eval_ns, c.sample_ns] {
+            assert!(t.is_finite() && t > 0.0 && t < 1e6, "{desc}: {c:?}");
+        }
+        assert_eq!(c.total(), c.eval_ns + c.sample_ns);
+    }
+}
+
+#[test]
+fn models_are_chosen_by_label_or_by_the_data() {
+    let specs = builtin_specs();
+    let labels = |v: Vec<&lobe_materials::fit::ModelSpec>| -> Vec<&str> {
+        v.iter().map(|s| s.label).collect()
+    };
+    let iso = labels(models::choose(&specs, None, false).unwrap());
+    assert_eq!(iso.len(), 7);
+    assert!(iso.contains(&"lafortune") && !iso.contains(&"poulin-fournier"));
+    let aniso = labels(models::choose(&specs, None, true).unwrap());
+    assert_eq!(aniso, models::ANISOTROPIC_DEFAULT);
+    let listed = labels(models::choose(&specs, Some("he, ward"), false).unwrap());
+    assert_eq!(listed, ["he", "ward"]);
+    let e = models::choose(&specs, Some("ward,nope"), false)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("unknown model \"nope\"") && e.contains("cook-torrance"),
+        "{e}"
+    );
+}
+
+#[test]
+fn fitting_a_material_gives_a_report_with_its_selection() {
+    let m = material(ward());
+    let data = Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), 6.0);
+    let opts = fitting::FitOptions {
+        models: Some("ward,blinn-phong".into()),
+        resolution: 6.0,
+        max_evals: 60,
+        select: Some(0.1),
+    };
+    let seen = std::sync::Mutex::new(Vec::new());
+    let r = fitting::fit_material(&REGISTRY, "w", "material", &data, &opts, &|| false, &|f| {
+        seen.lock().unwrap().push(f.label.clone())
+    })
+    .unwrap();
+    assert_eq!(*seen.lock().unwrap(), ["ward", "blinn-phong"]);
+    assert_eq!(r.material, "w");
+    assert_eq!(r.samples, data.samples.len());
+    // Ward fits Ward data almost exactly, far better than Blinn-Phong: it is selected.
+    assert!(r.models["ward"].error < 0.1 * r.models["blinn-phong"].error);
+    assert_eq!(r.selected.as_ref().unwrap().model, "ward");
+    let stopped = fitting::fit_material(&REGISTRY, "w", "src", &data, &opts, &|| true, &|_| {});
+    assert!(
+        stopped
+            .unwrap_err()
+            .to_string()
+            .contains("src: interrupted")
+    );
+}
+
+#[test]
+fn data_files_of_a_folder_are_sorted_and_skip_other_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for f in ["b.binary", "a.bsdf", "notes.txt", "c.fit.json"] {
+        std::fs::write(d.join(f), b"x").unwrap();
+    }
+    let files = fitting::data_files(d).unwrap();
+    let names: Vec<_> = files.iter().map(|p| fitting::stem(p)).collect();
+    assert_eq!(names, ["a", "b"]);
+    let empty = tempfile::tempdir().unwrap();
+    let e = fitting::data_files(empty.path()).unwrap_err().to_string();
+    assert!(e.contains("holds no measured data"), "{e}");
+}
+
+fn report_of(material: &str, errors: &[(&str, f64)]) -> FitReport {
+    FitReport {
+        format_version: report::FORMAT_VERSION,
+        material: material.into(),
+        source: format!("{material}.binary"),
+        resolution_deg: 1.0,
+        samples: 100,
+        max_albedo: 0.5,
+        models: errors
+            .iter()
+            .map(|&(m, e)| {
+                let fit = ModelFit {
+                    material: ward(),
+                    error: e,
+                    error_normalized: e / 0.5,
+                    starts: 1,
+                    starts_agreeing: 1,
+                    evaluations: 10,
+                    seconds: 0.1,
+                };
+                (m.to_string(), fit)
+            })
+            .collect(),
+        selected: None,
+    }
+}
+
+#[test]
+fn merged_tables_sort_materials_and_leave_missing_models_empty() {
+    let rs = [
+        report_of("zinc", &[("ward", 0.02)]),
+        report_of("alum", &[("ward", 0.01), ("he", 0.03)]),
+        // A second report of the same material keeps its place after the first.
+        report_of("zinc", &[("he", 0.04)]),
+    ];
+    let t = reports::merge(&rs);
+    let lines: Vec<&str> = t.csv.lines().collect();
+    assert_eq!(
+        lines[0],
+        "material,max_albedo,he error,he normalized error,ward error,ward normalized error"
+    );
+    assert_eq!(
+        lines[1],
+        "alum,0.5,3.000000e-2,6.000000e-2,1.000000e-2,2.000000e-2"
+    );
+    assert_eq!(lines[2], "zinc,0.5,,,2.000000e-2,4.000000e-2");
+    assert_eq!(lines[3], "zinc,0.5,4.000000e-2,8.000000e-2,,");
+    let md: Vec<&str> = t.markdown.lines().collect();
+    assert_eq!(md[0], "| material | he | ward |");
+    assert_eq!(md[2], "| alum | 6.0000e-2 | 2.0000e-2 |");
+    assert_eq!(md[3], "| zinc |  | 4.0000e-2 |");
+}
+
+#[test]
+fn reports_are_read_in_name_order_and_a_bad_one_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    report::write(&d.join("b.fit.json"), &report_of("b", &[("ward", 0.1)])).unwrap();
+    report::write(&d.join("a.fit.json"), &report_of("a", &[("he", 0.2)])).unwrap();
+    std::fs::write(d.join("notes.json"), "{}").unwrap();
+    let files = reports::report_files(&[d.to_path_buf()]).unwrap();
+    assert_eq!(files, [d.join("a.fit.json"), d.join("b.fit.json")]);
+    let read = reports::read_reports(&files).unwrap();
+    assert_eq!(read[0], report_of("a", &[("he", 0.2)]));
+    let mut v = report_of("c", &[("ward", 0.1)]).to_json();
+    v["models"]["ward"]
+        .as_object_mut()
+        .unwrap()
+        .remove("starts");
+    std::fs::write(d.join("c.fit.json"), v.to_string()).unwrap();
+    let e = reports::read_reports(&[d.join("a.fit.json"), d.join("c.fit.json")])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("c.fit.json") && e.contains("models.ward") && e.contains("starts"),
+        "{e}"
+    );
+    let none = tempfile::tempdir().unwrap();
+    assert!(reports::report_files(&[none.path().to_path_buf()]).is_err());
+}
+
+#[test]
+fn report_models_are_built_and_an_absent_one_is_listed() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("r.fit.json");
+    report::write(&p, &report_of("r", &[("ward", 0.1), ("he", 0.2)])).unwrap();
+    let all = reports::report_models(&REGISTRY, &p, None).unwrap();
+    let names: Vec<&str> = all.iter().map(|m| m.0.as_str()).collect();
+    assert_eq!(names, ["he", "ward"]);
+    let e = reports::report_models(&REGISTRY, &p, Some("ward,lafortune"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("no model \"lafortune\"") && e.contains("he, ward"),
+        "{e}"
+    );
+}
+
+/// The number of distinct pixel colours of a figure.
+fn colours(f: &Figure) -> usize {
+    let mut c: Vec<&[u8]> = f.rgb.chunks_exact(3).collect();
+    c.sort();
+    c.dedup();
+    c.len()
+}
+
+fn assert_drawn(f: &Figure, (w, h): (u32, u32), what: &str) {
+    assert_eq!((f.width, f.height), (w, h), "{what}");
+    assert_eq!(f.rgb.len(), (w * h * 3) as usize, "{what}");
+    assert!(colours(f) > 5, "{what}: {} colours", colours(f));
+}
+
+#[test]
+fn error_charts_are_drawn_at_chart_size() {
+    let rs: Vec<FitReport> = (0..6)
+        .map(|k| {
+            let e = 0.01 * (k + 1) as f64;
+            report_of(
+                &format!("m{k}"),
+                &[
+                    ("lafortune", e),
+                    ("lafortune-2", e / 3.0),
+                    ("cook-torrance", 2.0 * e),
+                    ("cook-torrance-2", e),
+                ],
+            )
+        })
+        .collect();
+    assert_drawn(&figures::errors(&rs).unwrap(), (W, H), "errors");
+    assert_drawn(&figures::multilobe(&rs).unwrap(), (W, H), "multilobe");
+    let one_lobe = [report_of("x", &[("ward", 0.1)])];
+    assert!(figures::multilobe(&one_lobe).is_err());
+}
+
+#[test]
+fn polar_lobes_and_distribution_figures_are_drawn() {
+    let fits = vec![(
+        "lambert".to_string(),
+        material(json!({"type": "lambert", "reflectance": 0.3})),
+    )];
+    let polar = figures::polar(material(ward()).as_ref(), &fits, 45.0, 1).unwrap();
+    assert_drawn(&polar, (W, H), "polar");
+    assert!(figures::polar(material(ward()).as_ref(), &fits, 95.0, 1).is_err());
+    assert_drawn(&figures::lobes(60.0, 30.0).unwrap(), (W, H), "lobes");
+    let table = lobe_materials::microfacet_gen::Table::from_fn(33, |h| {
+        (-(h.x * h.x + 4.0 * h.y * h.y) / 0.05).exp()
+    })
+    .unwrap();
+    assert_drawn(&figures::distribution(&table), (320, 320), "distribution");
+}
+
+#[test]
+fn sphere_grids_have_one_tile_per_material() {
+    let items: Vec<lobe_analysis::NamedMaterial> = ["a", "b", "c", "d", "e"]
+        .iter()
+        .map(|n| (n.to_string(), material(ward())))
+        .collect();
+    let f = figures::spheres(&items, "builtin:studio", 2, 32, 0.0).unwrap();
+    // Four per row, two rows, a 30-pixel label under each.
+    assert_drawn(&f, (4 * 32, 2 * (32 + 30)), "spheres");
+    assert!(figures::spheres(&items, "builtin:studio", 2, 16, 0.0).is_err());
+}
+
+#[test]
+fn a_quick_stability_sweep_finds_nothing_non_finite() {
+    let config = stability::StabilityConfig {
+        models: Some(
+            ["ward", "he", "lafortune", "cook-torrance", "merl"]
+                .map(String::from)
+                .to_vec(),
+        ),
+        quick: true,
+        rgl: None,
+    };
+    let r = stability::sweep(&REGISTRY, &config).unwrap();
+    let names: Vec<&str> = r.rows.iter().map(|x| x.0.as_str()).collect();
+    assert_eq!(names, ["cook-torrance", "he", "lafortune", "ward", "merl"]);
+    for (name, c) in &r.rows {
+        assert!(c.configs > 0 && c.evals > 0, "{name}: {c:?}");
+        assert_eq!((c.nonfinite, c.negative), (0, 0), "{name}: {c:?}");
+    }
+    assert!(r.failures().is_empty());
+    let bad = stability::StabilityConfig {
+        models: Some(vec!["nope".into()]),
+        ..config
+    };
+    let e = stability::sweep(&REGISTRY, &bad).unwrap_err().to_string();
+    assert!(e.contains("unknown model \"nope\""), "{e}");
+}
+
+/// A coarse isotropic binned table of a Ward material (5-degree bins).
+fn write_binned(path: &Path) {
+    let m = material(ward());
+    let mut t = Binned::empty(
+        false,
+        vec![
+            Axis::new(18, 0.0, 90.0),
+            Axis::new(18, 0.0, 90.0),
+            Axis::new(36, 0.0, 180.0),
+        ],
+    );
+    for k in 0..t.len() {
+        let (wi, wo) = t.directions(k);
+        let f = m.eval(wo, wi);
+        t.values[k] = Some([f.r, f.g, f.b]);
+    }
+    t.write(path).unwrap();
+}
+
+#[test]
+fn a_tiny_tradeoff_study_measures_every_representation() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("w.bin");
+    write_binned(&data);
+    let config = tradeoff::TradeoffConfig {
+        data,
+        scene: None,
+        reference_spp: 32,
+        spp: 16,
+        size: 16,
+        resolution: 5.0,
+        models: Some("ward".into()),
+        output: dir.path().join("t"),
+    };
+    let lines = std::sync::Mutex::new(Vec::new());
+    let s = tradeoff::study(&REGISTRY, &config, &|l| lines.lock().unwrap().push(l)).unwrap();
+    let names: Vec<&str> = s.rows.iter().map(|r| r.name.as_str()).collect();
+    assert_eq!(names, ["measured", "sampled-microfacet", "ward"]);
+    for r in &s.rows {
+        for v in [r.rmse, r.robust_rmse, r.flip, r.equal_time_rmse, r.seconds] {
+            assert!(v.is_finite() && v >= 0.0, "{}: {r:?}", r.name);
+        }
+        assert!(r.eval_ns > 0.0 && r.memory > 0, "{}: {r:?}", r.name);
+        assert!(r.curve.len() >= 3, "{}: {r:?}", r.name);
+    }
+    // Ward data fits Ward almost exactly.
+    assert!(
+        s.rows[2].brdf_error < 1e-3 * s.max_albedo,
+        "{:?}",
+        s.rows[2]
+    );
+    assert_eq!(s.budget, s.rows[0].seconds);
+    assert!(dir.path().join("t-microfacet.exr").is_file());
+    assert!(
+        lines
+            .lock()
+            .unwrap()
+            .iter()
+            .any(|l| l.contains("fitted ward"))
+    );
+    let md = tradeoff::markdown(&s);
+    assert_eq!(md.lines().filter(|l| l.starts_with("| ward |")).count(), 1);
+    assert_eq!(tradeoff::csv(&s).lines().count(), 4);
+    tradeoff::write(&s, &config.output).unwrap();
+    assert!(dir.path().join("t.png").is_file() && dir.path().join("t.csv").is_file());
+    let bad = tradeoff::TradeoffConfig { spp: 8, ..config };
+    assert!(tradeoff::study(&REGISTRY, &bad, &|_| {}).is_err());
+}
+
+#[test]
+fn the_synthetic_microfacet_experiment_recovers_the_structure() {
+    let shape = lobe_materials::microfacet_gen::Shape::synthetic("brushed").unwrap();
+    let config = lobe_analysis::microfacet::SynthConfig {
+        nodes: 33,
+        f0: Some(1.0),
+        iterations: 2,
+        resolution: 10.0,
+        filled: 0.5,
+    };
+    let s = lobe_analysis::microfacet::synth(&REGISTRY, &shape, "brushed", &config).unwrap();
+    let labels: Vec<&str> = s.rows.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(labels[0], "sampled-microfacet (estimated p)");
+    assert_eq!(labels[1..], *models::ANISOTROPIC_DEFAULT);
+    assert!(
+        s.rows.iter().all(|r| r.1.is_finite() && r.1 > 0.0),
+        "{:?}",
+        s.rows
+    );
+    assert!(s.correlation > 0.8, "correlation {}", s.correlation);
+    assert!(!s.data.samples.is_empty());
+}
+
+#[test]
+fn a_batch_fits_its_shard_skips_finished_reports_and_reports_failures() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, out) = (dir.path().join("data"), dir.path().join("reports"));
+    std::fs::create_dir(&data).unwrap();
+    for n in ["a", "b", "c"] {
+        write_binned(&data.join(format!("{n}.bin")));
+    }
+    std::fs::write(data.join("d.bin"), b"not binned data").unwrap();
+    // Shard 1 of 2: b and d.
+    let jobs = fitting::batch_jobs(&data, &out, (1, 2)).unwrap();
+    let names: Vec<String> = jobs.iter().map(|j| fitting::stem(&j.0)).collect();
+    assert_eq!(names, ["b", "d"]);
+    assert_eq!(jobs[0].1, out.join("b.fit.json"));
+    let opts = fitting::FitOptions {
+        models: Some("ward".into()),
+        resolution: 5.0,
+        max_evals: 40,
+        select: None,
+    };
+    struct Count(AtomicUsize);
+    impl fitting::BatchProgress for Count {
+        fn fitted(&self, _: &str, _: &FitResult) {
+            self.0.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+    let count = Count(AtomicUsize::new(0));
+    let s = fitting::fit_batch(&REGISTRY, &jobs, &opts, &|| false, &count);
+    assert_eq!((s.done, s.skipped), (1, 0));
+    assert_eq!(s.failures.len(), 1);
+    assert!(s.failures[0].contains("d.bin"), "{:?}", s.failures);
+    assert_eq!(count.0.load(Ordering::Relaxed), 1);
+    assert!(report::read(&out.join("b.fit.json")).unwrap().models["ward"].error < 1e-3);
+    // A rerun skips the finished report and retries the failure.
+    let again = fitting::fit_batch(&REGISTRY, &jobs, &opts, &|| false, &count);
+    assert_eq!((again.done, again.skipped, again.failures.len()), (0, 1, 1));
+    // A report path that looks like a file is refused.
+    assert!(fitting::batch_jobs(&data, &dir.path().join("x.fit.json"), (0, 1)).is_err());
+}
