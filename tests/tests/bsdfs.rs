@@ -54,7 +54,7 @@ fn cases() -> Vec<Case> {
         v.push(make(json!({"type": "cook-torrance", "specular": 1, "m": 0.3, "distribution": dist, "fresnel": "dielectric", "eta": 1.0001}), false));
         v.push(make(json!({"type": "cook-torrance", "specular": 1, "m": 0.3, "distribution": dist, "f0": 0}), false));
     }
-    // The APS2000 generator with tabulated distributions (issue 7): closed-form Beckmann
+    // The APS2000 generator with tabulated distributions: closed-form Beckmann
     // (isotropic and anisotropic) and the three synthetic structures of section 5.1.
     for extra in [
         json!({"distribution": "beckmann", "alpha_x": 0.3, "alpha_y": 0.3}),

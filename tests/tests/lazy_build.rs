@@ -1,4 +1,4 @@
-//! "Model only what a scene requires" (issue 8): a scene of analytic materials without an
+//! "Model only what a scene requires": a scene of analytic materials without an
 //! environment map builds no measured table and no environment-map distribution, even when
 //! its material list names measured tables it does not use; the same counters move when a
 //! scene does use them. (Its own test binary: the counters are process-wide.)

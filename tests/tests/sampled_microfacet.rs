@@ -1,4 +1,4 @@
-//! The APS2000 microfacet generator (issue 7):
+//! The sampled-microfacet generator of Ashikhmin, Premoze and Shirley 2000 (APS2000):
 //! - with a Beckmann p it equals the closed-form Cook-Torrance with Beckmann D and
 //!   separable Smith shadowing G1(k1) G1(k2) (since g(k) = (k.n)(1 + Lambda(k)));
 //! - estimating p from sparse anisotropic 4D data of the three structures of section 5.1
