@@ -21,7 +21,9 @@ pub struct Composite {
     name: &'static str,
     diffuse: Rgb,
     lobes: Vec<(Rgb, Arc<dyn Lobe>)>,
-    /// Per lobe: luminance of its colour times its directional albedo, per cos(theta_o) bin.
+    /// Per lobe: luminance of its colour times its directional albedo, per cos(theta_o)
+    /// bin, each raised to at least 1e-4 of the lobe's largest (so that every lobe is
+    /// sampled a little, even where its albedo estimate is tiny).
     lobe_weights: Vec<[f32; ALBEDO_BINS]>,
     flags: Flags,
 }
@@ -79,7 +81,10 @@ impl Composite {
                         0.0
                     };
                 }
-                t
+                // A floor keeps every lobe sampled a little, even where its albedo
+                // estimate is tiny.
+                let floor = 1e-4 * t.iter().fold(0.0f32, |a, &b| a.max(b));
+                t.map(|v| v.max(floor))
             })
             .collect();
         // The mixture keeps a property only if every lobe has it; it is energy-bounded when
@@ -127,11 +132,8 @@ impl Composite {
         out[0] = self.diffuse.luminance().max(0.0);
         let mut total = out[0];
         for (k, t) in self.lobe_weights.iter().enumerate() {
-            // A floor keeps every lobe sampled a little, even where its albedo estimate
-            // is tiny.
-            let w = t[bin].max(1e-4 * (t.iter().fold(0.0f32, |a, &b| a.max(b))));
-            out[k + 1] = w;
-            total += w;
+            out[k + 1] = t[bin];
+            total += t[bin];
         }
         total
     }
