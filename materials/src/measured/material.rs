@@ -107,6 +107,23 @@ impl Measured {
     pub fn table(&self) -> &Arc<dyn Table> {
         &self.table
     }
+
+    /// Sets the weights `f cos / pdf` of the samples `out[k]` of `idx` (one to eight, each
+    /// holding its direction and density), their values from [`Table::eval_x8`]; a sample
+    /// whose weight is not finite becomes `None`, as [`BsdfSample::finish`] decides.
+    fn weigh_samples(&self, wo: &[Vec3], idx: &[usize], out: &mut [Option<BsdfSample>]) {
+        let wi = |k: usize| out[k].map_or(Vec3::Z, |s| s.wi);
+        let f = self.table.eval_x8(
+            Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k])),
+            Vec3x8::from_array(&simd::lanes_of(idx, wi)),
+        );
+        for (lane, &k) in idx.iter().enumerate() {
+            out[k] = out[k].and_then(|s| {
+                let weight = f.lane(lane) * (s.wi.z / s.pdf);
+                weight.is_finite().then_some(BsdfSample { weight, ..s })
+            });
+        }
+    }
 }
 
 impl Bsdf for Measured {
@@ -124,6 +141,38 @@ impl Bsdf for Measured {
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.sampler.pdf(wo, wi)
+    }
+
+    /// Directions and densities from the sampler one query at a time, then the values of
+    /// the sampled directions eight at a time ([`Table::eval_x8`]); bit for bit
+    /// [`Measured::sample`] (a sample's value is only needed once its density is positive).
+    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+        let n = out.len();
+        assert!(wo.len() == n && u.len() == n && uc.len() == n);
+        let mut pending = [0usize; simd::LANES];
+        let mut len = 0;
+        for k in 0..n {
+            out[k] = self.sampler.sample(wo[k], u[k], uc[k]).and_then(|wi| {
+                let pdf = if wi.z <= 0.0 {
+                    0.0
+                } else {
+                    self.sampler.pdf(wo[k], wi)
+                };
+                (pdf > 0.0).then_some(BsdfSample {
+                    wi,
+                    weight: Rgb::ZERO,
+                    pdf,
+                })
+            });
+            if out[k].is_some() {
+                pending[len] = k;
+                len += 1;
+            }
+            if len == simd::LANES || (k + 1 == n && len > 0) {
+                self.weigh_samples(wo, &pending[..len], out);
+                len = 0;
+            }
+        }
     }
 
     /// The values of the pairs above the surface eight at a time ([`Table::eval_x8`]), the
