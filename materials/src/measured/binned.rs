@@ -117,15 +117,10 @@ impl Binned {
         out
     }
 
-    /// Angles (degrees) of a direction pair: (theta_i, theta_o, phi_d) or (theta_i, theta_o, phi_i, phi_o).
-    pub fn angles(&self, wi: Vec3, wo: Vec3) -> Vec<f64> {
-        let (a, n) = self.angles_fixed(wi, wo);
-        a[..n].to_vec()
-    }
-
-    /// [`Binned::angles`] without allocating: the angles and how many of them there are
-    /// (3 for isotropic tables, 4 for anisotropic ones).
-    fn angles_fixed(&self, wi: Vec3, wo: Vec3) -> ([f64; 4], usize) {
+    /// Angles (degrees) of a direction pair: (theta_i, theta_o, phi_d) or (theta_i, theta_o,
+    /// phi_i, phi_o), and how many of them there are (3 for isotropic tables, 4 for
+    /// anisotropic ones); a fixed array, since every lookup needs them.
+    pub fn angles(&self, wi: Vec3, wo: Vec3) -> ([f64; 4], usize) {
         let sph = |w: Vec3| {
             let t = (w.z as f64).clamp(-1.0, 1.0).acos().to_degrees();
             let p = (w.y as f64)
@@ -149,7 +144,7 @@ impl Binned {
 
     /// Flat index of the bin of a direction pair (called per lookup: allocates nothing).
     pub fn bin_of(&self, wi: Vec3, wo: Vec3) -> usize {
-        let (a, n) = self.angles_fixed(wi, wo);
+        let (a, n) = self.angles(wi, wo);
         a[..n]
             .iter()
             .zip(&self.axes)

@@ -27,13 +27,18 @@ pub trait Table: Send + Sync + std::fmt::Debug {
     /// [`Table::eval`] of eight pairs, each lane bit for bit the single call (the default
     /// calls it lane by lane; tables with a SIMD lookup override it).
     fn eval_x8(&self, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
-        let (o, i) = (wo.to_array(), wi.to_array());
-        Rgbx8::from_array(&simd::lanes(|k| self.eval(o[k], i[k])))
+        eval_lanes(|o, i| self.eval(o, i), wo, wi)
     }
     fn is_isotropic(&self) -> bool {
         true
     }
     fn memory_bytes(&self) -> usize;
+}
+
+/// `eval` of eight pairs, lane by lane.
+fn eval_lanes(eval: impl Fn(Vec3, Vec3) -> Rgb, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
+    let (o, i) = (wo.to_array(), wi.to_array());
+    Rgbx8::from_array(&simd::lanes(|k| eval(o[k], i[k])))
 }
 
 #[derive(Debug)]
@@ -57,8 +62,7 @@ impl Table for MerlTable {
         if self.interpolate {
             self.table.lookup_x8(wi, wo)
         } else {
-            let (o, i) = (wo.to_array(), wi.to_array());
-            Rgbx8::from_array(&simd::lanes(|k| self.table.lookup_nearest(i[k], o[k])))
+            eval_lanes(|o, i| self.table.lookup_nearest(i, o), wo, wi)
         }
     }
 }
