@@ -145,6 +145,12 @@ fn lobe_matches_every_mitsuba_reference_and_sees_wrong_materials() {
             );
             continue;
         }
+        if text.contains("shared/data/") && !root.join("../shared/data").is_dir() {
+            eprintln!(
+                "SKIPPED {name}: it reads measured files from ../shared/data next to the checkout, which is absent"
+            );
+            continue;
+        }
         let desc: Value = serde_json::from_str(&text).unwrap();
         let base = scene_path.parent().unwrap();
         let spp = entry["lobe_spp"].as_u64().unwrap() as u32;
