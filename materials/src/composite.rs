@@ -8,7 +8,10 @@
 
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::lobe::Lobe;
-use crate::sampling::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
+use crate::sampling::warp::{
+    cosine_hemisphere_pdf, cosine_hemisphere_pdf_x8, square_to_cosine_hemisphere,
+};
+use crate::simd::{self, Rgbx8, Vec3x8, f32x8, i32x8, max_lane, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -139,8 +142,26 @@ impl Composite {
     }
 }
 
-/// Most materials have few lobes: weights live on the stack.
+/// Most materials have few lobes: weights live on the stack (the batched calls take the
+/// one-at-a-time path beyond this many).
 const MAX_INLINE: usize = 8;
+
+/// The component weights of eight queries, `w[k]` lane by lane, and their sums.
+struct LaneWeights {
+    w: [f32x8; MAX_INLINE + 1],
+    total: f32x8,
+}
+
+impl LaneWeights {
+    /// The weights of one lane (the diffuse component's and those of `lobes` lobes).
+    fn lane(&self, lane: usize, lobes: usize) -> [f32; MAX_INLINE + 1] {
+        let mut out = [0.0; MAX_INLINE + 1];
+        for (o, w) in out.iter_mut().zip(&self.w).take(lobes + 1) {
+            *o = w.as_array()[lane];
+        }
+        out
+    }
+}
 
 impl Bsdf for Composite {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
@@ -151,7 +172,7 @@ impl Bsdf for Composite {
         for (c, l) in &self.lobes {
             let v = l.eval(wo, wi);
             if v.is_finite() {
-                f += *c * v.map(|x| x.max(0.0));
+                f += *c * v.map(|x| max_lane(x, 0.0));
             }
         }
         f
@@ -170,6 +191,75 @@ impl Bsdf for Composite {
         }
         self.with_weights(wo, |w, total| Some(self.mixture_pdf(wo, wi, w, total)))
             .unwrap_or(0.0)
+    }
+
+    /// The pairs above the surface eight at a time: every lobe's
+    /// [`Lobe::eval_pdf_x8`] once per eight pairs ([`Composite::mix_x8`]).
+    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
+        let n = f.len();
+        assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
+        if self.lobes.len() > MAX_INLINE {
+            for k in 0..n {
+                (f[k], pdf[k]) = (self.eval(wo[k], wi[k]), self.pdf(wo[k], wi[k]));
+            }
+            return;
+        }
+        f.fill(Rgb::ZERO);
+        pdf.fill(0.0);
+        let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
+        simd::chunks_where(n, above, |idx| {
+            let o = Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k]));
+            let w = self.lane_weights(o.z);
+            let i = Vec3x8::from_array(&simd::lanes_of(idx, |k| wi[k]));
+            let (v, p) = self.mix_x8(o, i, &w);
+            // A pair whose components are all black has density 0.
+            let p = sel(w.total.simd_gt(f32x8::splat(0.0)), p, f32x8::splat(0.0)).to_array();
+            let v = v.to_array();
+            for (lane, &k) in idx.iter().enumerate() {
+                (f[k], pdf[k]) = (v[lane], p[lane]);
+            }
+        });
+    }
+
+    /// Components chosen and sampled query by query, the mixture density and the value of
+    /// eight sampled directions at a time ([`Composite::mix_x8`]).
+    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+        let n = out.len();
+        assert!(wo.len() == n && u.len() == n && uc.len() == n);
+        if self.lobes.len() > MAX_INLINE {
+            for k in 0..n {
+                out[k] = self.sample(wo[k], u[k], uc[k]);
+            }
+            return;
+        }
+        out.fill(None);
+        simd::chunks_where(
+            n,
+            |k| !(wo[k].z <= 0.0),
+            |idx| {
+                let o = simd::lanes_of(idx, |k| wo[k]);
+                let w = self.lane_weights(f32x8::new(simd::lanes(|lane| o[lane].z)));
+                let total = w.total.to_array();
+                let wi = simd::lanes(|lane| {
+                    let k = idx[lane.min(idx.len() - 1)];
+                    let lw = w.lane(lane, self.lobes.len());
+                    if total[lane] > 0.0 {
+                        let lw = &lw[..self.lobes.len() + 1];
+                        self.choose_and_sample(o[lane], u[k], uc[k], lw, total[lane])
+                    } else {
+                        None
+                    }
+                });
+                // Lanes without a direction evaluate wo itself; their results are not used.
+                let wi8 = simd::lanes(|lane| wi[lane].unwrap_or(o[lane]));
+                let (v, p) = self.mix_x8(Vec3x8::from_array(&o), Vec3x8::from_array(&wi8), &w);
+                let p = p.to_array();
+                for (lane, &k) in idx.iter().enumerate() {
+                    out[k] =
+                        wi[lane].and_then(|wi| BsdfSample::finish(wi, || p[lane], || v.lane(lane)));
+                }
+            },
+        );
     }
 
     fn flags(&self) -> Flags {
@@ -210,6 +300,17 @@ impl Composite {
     }
 
     fn sample_with(&self, wo: Vec3, u: Vec2, uc: f32, w: &[f32], total: f32) -> Option<BsdfSample> {
+        let wi = self.choose_and_sample(wo, u, uc, w, total)?;
+        BsdfSample::finish(
+            wi,
+            || self.mixture_pdf(wo, wi, w, total),
+            || self.eval(wo, wi),
+        )
+    }
+
+    /// Chooses a component with `uc` in proportion to the weights `w` (sum `total`) and
+    /// samples it.
+    fn choose_and_sample(&self, wo: Vec3, u: Vec2, uc: f32, w: &[f32], total: f32) -> Option<Vec3> {
         let mut target = uc * total;
         let mut chosen = w.len() - 1;
         for (k, &wk) in w.iter().enumerate() {
@@ -222,16 +323,45 @@ impl Composite {
         // What is left of uc within the chosen component, rescaled to [0, 1).
         let uc_rest =
             (target / w[chosen].max(f32::MIN_POSITIVE)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
-        let wi = if chosen == 0 {
-            square_to_cosine_hemisphere(u)
+        if chosen == 0 {
+            Some(square_to_cosine_hemisphere(u))
         } else {
-            self.lobes[chosen - 1].1.sample(wo, u, uc_rest)?
-        };
-        BsdfSample::finish(
-            wi,
-            || self.mixture_pdf(wo, wi, w, total),
-            || self.eval(wo, wi),
-        )
+            self.lobes[chosen - 1].1.sample(wo, u, uc_rest)
+        }
+    }
+
+    /// The component weights of eight outgoing directions (lane by lane
+    /// [`Composite::weights`]: the same bins, values and sums).
+    fn lane_weights(&self, wo_z: f32x8) -> LaneWeights {
+        let bin = (wo_z * f32x8::splat(ALBEDO_BINS as f32))
+            .trunc_int()
+            .max(i32x8::splat(0))
+            .min(i32x8::splat(ALBEDO_BINS as i32 - 1));
+        let mut w = [f32x8::splat(0.0); MAX_INLINE + 1];
+        w[0] = f32x8::splat(self.diffuse.luminance().max(0.0));
+        let mut total = w[0];
+        for (k, t) in self.lobe_weights.iter().enumerate() {
+            w[k + 1] = simd::gather(t, bin);
+            total += w[k + 1];
+        }
+        LaneWeights { w, total }
+    }
+
+    /// [`Bsdf::eval`] and the mixture density ([`Composite::mixture_pdf`], before the test of
+    /// a positive total) of eight pairs above the surface, lane by lane bit for bit: the
+    /// same sums in the same order, each lobe's value and density from its
+    /// [`Lobe::eval_pdf_x8`].
+    fn mix_x8(&self, wo: Vec3x8, wi: Vec3x8, w: &LaneWeights) -> (Rgbx8, f32x8) {
+        let zero = f32x8::splat(0.0);
+        let mut f = Rgbx8::splat(self.diffuse * FRAC_1_PI);
+        let mut pdf = w.w[0] * cosine_hemisphere_pdf_x8(wi.z);
+        for (k, (c, l)) in self.lobes.iter().enumerate() {
+            let (v, p) = l.eval_pdf_x8(wo, wi);
+            f = Rgbx8::select(v.is_finite(), f + Rgbx8::splat(*c) * v.max(0.0), f);
+            let wk = w.w[k + 1];
+            pdf = sel(wk.simd_gt(zero), pdf + wk * p, pdf);
+        }
+        (f, pdf / w.total)
     }
 
     #[inline]

@@ -9,6 +9,7 @@
 //! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
 
 use crate::math::{Real, V3};
+use crate::simd::{Rgbx8, Vec3x8, f32x8, lanes};
 use crate::{Flags, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 
@@ -35,6 +36,18 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3>;
     /// Solid-angle density of `sample`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+    /// [`Lobe::eval`] and [`Lobe::pdf`] of eight pairs (lane k: `wo.lane(k)`,
+    /// `wi.lane(k)`), each lane bit for bit the scalar calls: the batched calls of the
+    /// materials made of lobes ([`crate::composite::Composite`]). The default calls the
+    /// scalar forms lane by lane; models override it with SIMD arithmetic.
+    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+        let (o, i) = (wo.to_array(), wi.to_array());
+        let f = lanes(|k| self.eval(o[k], i[k]));
+        (
+            Rgbx8::from_array(&f),
+            f32x8::new(lanes(|k| self.pdf(o[k], i[k]))),
+        )
+    }
     fn flags(&self) -> Flags;
     /// Bytes this lobe holds (its tables, if any).
     fn memory_bytes(&self) -> usize {
@@ -83,6 +96,40 @@ pub fn sample_via_half(wo: Vec3, h: Vec3) -> Option<Vec3> {
     }
     let wi = reflect(wo, h);
     (wi.z > 0.0).then_some(wi)
+}
+
+/// Eight-lane forms of this module's helpers, for the lobes' [`Lobe::eval_pdf_x8`]
+/// kernels: each lane computes what the scalar helper computes, operation for operation.
+pub mod x8 {
+    use crate::simd::{Mask8, Vec3x8, f32x8, sel};
+
+    /// [`super::above`] per lane: both directions above the surface.
+    #[inline(always)]
+    pub fn above(wo: Vec3x8, wi: Vec3x8) -> Mask8 {
+        let zero = f32x8::splat(0.0);
+        wo.z.simd_gt(zero) & wi.z.simd_gt(zero)
+    }
+
+    /// [`crate::math::half`] per lane: the unit half vector, and where it exists (a
+    /// positive, finite squared length).
+    #[inline(always)]
+    pub fn half(wo: Vec3x8, wi: Vec3x8) -> (Vec3x8, Mask8) {
+        let h = wo + wi;
+        let l2 = h.length_squared();
+        let ok = l2.simd_gt(f32x8::splat(0.0)) & l2.is_finite();
+        (h * (f32x8::splat(1.0) / l2.sqrt()), ok)
+    }
+
+    /// [`super::half_to_incident_pdf`] per lane.
+    #[inline(always)]
+    pub fn half_to_incident_pdf(pdf_h: f32x8, wo_dot_h: f32x8) -> f32x8 {
+        let zero = f32x8::splat(0.0);
+        sel(
+            wo_dot_h.simd_le(zero),
+            zero,
+            pdf_h / (f32x8::splat(4.0) * wo_dot_h),
+        )
+    }
 }
 
 /// Cosines of the angles of a pair of upper-hemisphere directions, or None below.

@@ -1,6 +1,7 @@
 //! The small float abstraction that lets each model's formula be written once and
-//! evaluated in f32 (rendering) and f64 (fitting): [`Real`] over num-traits' `Float`,
-//! and a minimal generic 3-vector [`V3`].
+//! evaluated in f32 (rendering) and f64 (fitting): [`Real`] over num-traits' `Float`
+//! (with `exp_r`, `powf_r`, `acos_r`: `fastmath`'s in f32, whose eight-lane forms the
+//! models' SIMD kernels use), and a minimal generic 3-vector [`V3`].
 
 use num_traits::{Float, FloatConst};
 use std::ops::{Add, Mul, Neg, Sub};
@@ -12,6 +13,14 @@ pub trait Real: Float + FloatConst + std::fmt::Debug + Send + Sync + 'static {
     fn to_f64(self) -> f64;
     /// Complementary error function (libm, the musl port).
     fn erfc(self) -> Self;
+    /// e^x: the C library's in f64 (fitting), [`crate::fastmath::exp`] in f32 (rendering:
+    /// the function whose eight-lane form the SIMD kernels use, so that they equal the
+    /// scalar models bit for bit).
+    fn exp_r(self) -> Self;
+    /// x^y, as [`Real::exp_r`]: [`crate::fastmath::powf`] in f32.
+    fn powf_r(self, y: Self) -> Self;
+    /// acos x, as [`Real::exp_r`]: [`crate::fastmath::acos`] in f32.
+    fn acos_r(self) -> Self;
 }
 
 impl Real for f32 {
@@ -26,6 +35,18 @@ impl Real for f32 {
     #[inline(always)]
     fn erfc(self) -> Self {
         libm::erfcf(self)
+    }
+    #[inline(always)]
+    fn exp_r(self) -> Self {
+        crate::fastmath::exp(self)
+    }
+    #[inline(always)]
+    fn powf_r(self, y: Self) -> Self {
+        crate::fastmath::powf(self, y)
+    }
+    #[inline(always)]
+    fn acos_r(self) -> Self {
+        crate::fastmath::acos(self)
     }
 }
 
@@ -42,6 +63,26 @@ impl Real for f64 {
     fn erfc(self) -> Self {
         libm::erfc(self)
     }
+    #[inline(always)]
+    fn exp_r(self) -> Self {
+        self.exp()
+    }
+    #[inline(always)]
+    fn powf_r(self, y: Self) -> Self {
+        self.powf(y)
+    }
+    #[inline(always)]
+    fn acos_r(self) -> Self {
+        self.acos()
+    }
+}
+
+/// `x` if `lo < x`, else `lo` (so NaN and -0.0 against +0.0 give `lo`): the clamp of the
+/// models' formulas, defined as the SIMD kernels' `max` is ([`crate::simd::max_lane`];
+/// `Float::max` leaves the sign of a zero unspecified).
+#[inline(always)]
+pub fn max_of<T: Real>(x: T, lo: T) -> T {
+    if lo < x { x } else { lo }
 }
 
 /// A 3-vector over a [`Real`].

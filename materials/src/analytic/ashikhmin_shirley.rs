@@ -13,11 +13,13 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::fresnel::schlick;
-use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
+use crate::fastmath::{self, x8};
+use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, ParamSpec, Params, PublishedFit,
 };
+use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -57,7 +59,7 @@ impl AshikhminShirley {
         }
         let norm = ((T::c(self.nu) + T::one()) * (T::c(self.nv) + T::one())).sqrt()
             / (T::c(8.0) * T::PI());
-        let lobe = h.z.powf(self.exponent(h));
+        let lobe = h.z.powf_r(self.exponent(h));
         let v = norm * lobe * schlick(T::c(self.rs), kh) / (kh * ci.max(co));
         if v.is_finite() { v } else { T::zero() }
     }
@@ -82,12 +84,21 @@ impl AshikhminShirley {
         Vec3::new(sin_t * cp, sin_t * sp, cos_t)
     }
 
+    /// [`AshikhminShirley::exponent`] per lane (f32).
+    #[inline(always)]
+    fn exponent_x8(&self, h: Vec3x8) -> f32x8 {
+        let s = f32x8::splat;
+        let s2 = h.x * h.x + h.y * h.y;
+        let e = (s(self.nu as f32) * h.x * h.x + s(self.nv as f32) * h.y * h.y) / s2;
+        sel(s2.simd_le(s(1e-12)), s(self.nu as f32), e)
+    }
+
     fn pdf_h(&self, h: Vec3) -> f32 {
         if h.z <= 0.0 {
             return 0.0;
         }
         let e = self.exponent::<f32>(V3::new(h.x, h.y, h.z));
-        (((self.nu + 1.0) * (self.nv + 1.0)).sqrt() as f32) / (2.0 * PI) * h.z.powf(e)
+        (((self.nu + 1.0) * (self.nv + 1.0)).sqrt() as f32) / (2.0 * PI) * fastmath::powf(h.z, e)
     }
 }
 
@@ -105,10 +116,34 @@ impl Lobe for AshikhminShirley {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let Some(h) = (wo + wi).try_normalize() else {
+        let Some(h) = half::<f32>(wo.into(), wi.into()) else {
             return 0.0;
         };
+        let h = Vec3::from(h);
         half_to_incident_pdf(self.pdf_h(h), wo.dot(h))
+    }
+
+    /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
+    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+        let s = f32x8::splat;
+        let zero = s(0.0);
+        let (h, has_half) = lobe::x8::half(wo, wi);
+        let ok = lobe::x8::above(wo, wi) & has_half;
+        let (nu, nv) = (self.nu as f32, self.nv as f32);
+        let e = self.exponent_x8(h);
+        let kh = wi.dot(h);
+        let norm = ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI);
+        let rs = self.rs as f32;
+        let m = (s(1.0) - kh).max(zero).min(s(1.0));
+        let m2 = m * m;
+        let fresnel = s(rs) + s(1.0 - rs) * m2 * m2 * m;
+        let v = s(norm) * x8::powf(h.z, e) * fresnel / (kh * wi.z.max(wo.z));
+        let lit = ok & kh.simd_gt(zero) & h.z.simd_gt(zero) & v.is_finite();
+        let v = sel(lit, v, zero);
+        let c = (((self.nu + 1.0) * (self.nv + 1.0)).sqrt() as f32) / (2.0 * PI);
+        let ph = sel(h.z.simd_le(zero), zero, s(c) * x8::powf(h.z, e));
+        let p = lobe::x8::half_to_incident_pdf(ph, wo.dot(h));
+        (Rgbx8::new(v, v, v), sel(ok, p, zero))
     }
 
     fn flags(&self) -> Flags {

@@ -12,11 +12,14 @@
 //! Sampling: cos(theta_h) = u^(1 / (n + 1)), p(h) = (n + 1) / (2 pi) cos^n(theta_h).
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
-use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
+use crate::fastmath;
+use crate::fastmath::x8;
+use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
+use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -41,7 +44,15 @@ pub fn cos_power_pdf(n: f32, cos_t: f32) -> f32 {
     if cos_t <= 0.0 {
         return 0.0;
     }
-    (n + 1.0) / (2.0 * PI) * cos_t.powf(n)
+    (n + 1.0) / (2.0 * PI) * fastmath::powf(cos_t, n)
+}
+
+/// [`cos_power_pdf`] per lane.
+#[inline(always)]
+pub fn cos_power_pdf_x8(n: f32, cos_t: f32x8) -> f32x8 {
+    let zero = f32x8::splat(0.0);
+    let p = f32x8::splat((n + 1.0) / (2.0 * PI)) * x8::powf(cos_t, f32x8::splat(n));
+    sel(cos_t.simd_le(zero), zero, p)
 }
 
 impl BlinnPhong {
@@ -54,7 +65,7 @@ impl BlinnPhong {
             return T::zero();
         };
         let n = T::c(self.n);
-        (n + T::c(2.0)) / (T::c(2.0) * T::PI()) * h.z.max(T::zero()).powf(n)
+        (n + T::c(2.0)) / (T::c(2.0) * T::PI()) * h.z.max(T::zero()).powf_r(n)
     }
 }
 
@@ -72,10 +83,22 @@ impl Lobe for BlinnPhong {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let Some(h) = (wo + wi).try_normalize() else {
+        let Some(h) = half::<f32>(wo.into(), wi.into()) else {
             return 0.0;
         };
-        half_to_incident_pdf(cos_power_pdf(self.n as f32, h.z), wo.dot(h))
+        half_to_incident_pdf(cos_power_pdf(self.n as f32, h.z), wo.dot(h.into()))
+    }
+
+    /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
+    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+        let zero = f32x8::splat(0.0);
+        let (h, has_half) = lobe::x8::half(wo, wi);
+        let ok = lobe::x8::above(wo, wi) & has_half;
+        let n = self.n as f32;
+        let v = f32x8::splat((n + 2.0) / (2.0 * PI)) * x8::powf(h.z.max(zero), f32x8::splat(n));
+        let v = sel(ok, v, zero);
+        let p = lobe::x8::half_to_incident_pdf(cos_power_pdf_x8(n, h.z), wo.dot(h));
+        (Rgbx8::new(v, v, v), sel(ok, p, zero))
     }
 
     fn flags(&self) -> Flags {

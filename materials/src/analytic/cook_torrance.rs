@@ -14,12 +14,13 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
 use super::microfacet::fresnel::{FRESNELS, Fresnel};
-use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g};
-use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
+use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g, vgroove_g_x8};
+use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
+use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
@@ -77,10 +78,25 @@ impl Lobe for CookTorrance {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let Some(h) = (wo + wi).try_normalize() else {
+        let Some(h) = half::<f32>(wo.into(), wi.into()) else {
             return 0.0;
         };
-        half_to_incident_pdf(self.distribution.pdf_h(h.z), wo.dot(h))
+        half_to_incident_pdf(self.distribution.pdf_h(h.z), wo.dot(h.into()))
+    }
+
+    /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
+    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+        let zero = f32x8::splat(0.0);
+        let (h, has_half) = lobe::x8::half(wo, wi);
+        let ok = lobe::x8::above(wo, wi) & has_half;
+        let (co, ci, ch, oh) = (wo.z, wi.z, h.z, wo.dot(h));
+        let d = self.distribution.d_x8(ch);
+        let g = vgroove_g_x8(ch, co, ci, oh);
+        let f = self.fresnel.eval_x8(wi.dot(h));
+        let v = d * g * f / (f32x8::splat(std::f32::consts::PI) * ci * co);
+        let v = sel(ok & !d.simd_eq(zero) & v.is_finite(), v.max(zero), zero);
+        let p = lobe::x8::half_to_incident_pdf(self.distribution.pdf_h_x8(ch), oh);
+        (Rgbx8::new(v, v, v), sel(ok, p, zero))
     }
 
     fn flags(&self) -> Flags {

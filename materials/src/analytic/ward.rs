@@ -15,11 +15,13 @@
 //! p(h) = exp(-tan^2(theta_h)(...)) / (pi ax ay cos^3(theta_h)).
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
-use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
+use crate::fastmath::{self, x8};
+use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
+use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -64,7 +66,7 @@ impl Ward {
         if h.z <= T::zero() {
             return T::zero();
         }
-        let e = (-self.exponent(h)).exp();
+        let e = (-self.exponent(h)).exp_r();
         if e == T::zero() {
             return T::zero();
         }
@@ -97,8 +99,15 @@ impl Ward {
         if h.z <= 0.0 {
             return 0.0;
         }
-        let e = (-self.exponent::<f32>(V3::new(h.x, h.y, h.z))).exp();
+        let e = fastmath::exp(-self.exponent::<f32>(V3::new(h.x, h.y, h.z)));
         e / (PI * (self.alpha_x * self.alpha_y) as f32 * h.z * h.z * h.z)
+    }
+
+    /// [`Ward::exponent`] of eight half vectors (unnormalized).
+    #[inline(always)]
+    fn exponent_x8(&self, h: Vec3x8) -> f32x8 {
+        let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);
+        (h.x * h.x / f32x8::splat(ax * ax) + h.y * h.y / f32x8::splat(ay * ay)) / (h.z * h.z)
     }
 }
 
@@ -122,6 +131,34 @@ impl Lobe for Ward {
         let h = Vec3::new(h.x, h.y, h.z);
         let p = half_to_incident_pdf(self.pdf_h(h), wo.dot(h));
         if p.is_finite() { p } else { 0.0 }
+    }
+
+    /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
+    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+        let s = f32x8::splat;
+        let zero = s(0.0);
+        let above = lobe::x8::above(wo, wi);
+        // value::<f32>, from the unnormalized half vector.
+        let h = wo + wi;
+        let e = x8::exp(-self.exponent_x8(h));
+        let norm = 4.0f32 * PI * (self.alpha_x * self.alpha_y) as f32;
+        let cos = if self.duer {
+            let floor = s(DUER_COS_FLOOR as f32);
+            wi.z.max(floor) * wo.z.max(floor)
+        } else {
+            (wi.z * wo.z).sqrt()
+        };
+        let v = e / (s(norm) * cos);
+        let ok = above & h.z.simd_gt(zero) & !e.simd_eq(zero) & v.is_finite();
+        let v = sel(ok, v, zero);
+        // pdf: the unit half vector, pdf_h, half_to_incident_pdf.
+        let (hn, has_half) = lobe::x8::half(wo, wi);
+        let ph = x8::exp(-self.exponent_x8(hn))
+            / (s(PI * (self.alpha_x * self.alpha_y) as f32) * hn.z * hn.z * hn.z);
+        let ph = sel(hn.z.simd_le(zero), zero, ph);
+        let p = lobe::x8::half_to_incident_pdf(ph, wo.dot(hn));
+        let valid = above & has_half & p.is_finite();
+        (Rgbx8::new(v, v, v), sel(valid, p, zero))
     }
 
     fn flags(&self) -> Flags {

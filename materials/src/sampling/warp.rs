@@ -71,7 +71,14 @@ pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
 
 #[inline]
 pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    cos_theta.max(0.0) * FRAC_1_PI
+    // `max_lane`: the same as the SIMD forms' `max` for -0.0 too.
+    simd::max_lane(cos_theta, 0.0) * FRAC_1_PI
+}
+
+/// [`cosine_hemisphere_pdf`] per lane.
+#[inline(always)]
+pub fn cosine_hemisphere_pdf_x8(cos_theta: f32x8) -> f32x8 {
+    cos_theta.max(f32x8::splat(0.0)) * f32x8::splat(FRAC_1_PI)
 }
 
 /// Uniform direction on the unit sphere.

@@ -3,6 +3,7 @@
 //! relative index of refraction eta (Cook and Torrance 1981, eq. 5; Born and Wolf).
 
 use crate::math::Real;
+use crate::simd::{f32x8, sel};
 
 /// Which Fresnel term a model uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -26,6 +27,33 @@ impl Fresnel {
             Fresnel::None => T::one(),
             Fresnel::Schlick { f0 } => schlick(T::c(f0), c),
             Fresnel::Dielectric { eta } => dielectric(T::c(eta), c),
+        }
+    }
+}
+
+/// [`Fresnel::eval`] per lane.
+impl Fresnel {
+    #[inline(always)]
+    pub fn eval_x8(&self, c: f32x8) -> f32x8 {
+        let s = f32x8::splat;
+        match *self {
+            Fresnel::None => s(1.0),
+            Fresnel::Schlick { f0 } => {
+                let f0 = f0 as f32;
+                let m = (s(1.0) - c).max(s(0.0)).min(s(1.0));
+                let m2 = m * m;
+                s(f0) + s(1.0 - f0) * m2 * m2 * m
+            }
+            Fresnel::Dielectric { eta } => {
+                let eta = eta as f32;
+                let c = c.max(s(0.0)).min(s(1.0));
+                let g2 = s(eta * eta) + c * c - s(1.0);
+                let g = g2.sqrt();
+                let a = (g - c) / (g + c);
+                let b = (c * (g + c) - s(1.0)) / (c * (g - c) + s(1.0));
+                let f = (s(0.5) * a * a * (s(1.0) + b * b)).max(s(0.0)).min(s(1.0));
+                sel(g2.simd_le(s(0.0)), s(1.0), f)
+            }
         }
     }
 }

@@ -12,7 +12,9 @@
 
 pub mod fresnel;
 
+use crate::fastmath::x8;
 use crate::math::Real;
+use crate::simd::{f32x8, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -61,19 +63,19 @@ impl Distribution {
             Distribution::Beckmann { m } => {
                 let m2 = T::c(m * m);
                 let tan2 = ((T::one() - c2).max(T::zero())) / c2;
-                let e = (-tan2 / m2).exp();
+                let e = (-tan2 / m2).exp_r();
                 if e == T::zero() {
                     return T::zero();
                 }
                 e / (T::PI() * m2 * c2 * c2)
             }
             Distribution::Gaussian { m, c } => {
-                let theta = cos_h.min(T::one()).acos();
+                let theta = cos_h.min(T::one()).acos_r();
                 let r = theta / T::c(m);
-                T::c(c) * (-r * r).exp()
+                T::c(c) * (-r * r).exp_r()
             }
             Distribution::CosinePower { n } => {
-                T::c((n + 2.0) / (2.0 * std::f64::consts::PI)) * cos_h.powf(T::c(n))
+                T::c((n + 2.0) / (2.0 * std::f64::consts::PI)) * cos_h.powf_r(T::c(n))
             }
         }
     }
@@ -93,6 +95,43 @@ impl Distribution {
         };
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
         Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+    }
+
+    /// [`Distribution::d`] per lane (f32).
+    #[inline(always)]
+    pub fn d_x8(&self, cos_h: f32x8) -> f32x8 {
+        let s = f32x8::splat;
+        let zero = s(0.0);
+        let c2 = cos_h * cos_h;
+        let d = match *self {
+            Distribution::Beckmann { m } => {
+                let m2 = s((m * m) as f32);
+                let tan2 = (s(1.0) - c2).max(zero) / c2;
+                let e = x8::exp(-tan2 / m2);
+                let d = e / (s(std::f32::consts::PI) * m2 * c2 * c2);
+                sel(e.simd_eq(zero), zero, d)
+            }
+            Distribution::Gaussian { m, c } => {
+                let theta = x8::acos(cos_h.min(s(1.0)));
+                let r = theta / s(m as f32);
+                s(c as f32) * x8::exp(-r * r)
+            }
+            Distribution::CosinePower { n } => {
+                s(((n + 2.0) / (2.0 * std::f64::consts::PI)) as f32) * x8::powf(cos_h, s(n as f32))
+            }
+        };
+        sel(cos_h.simd_le(zero), zero, d)
+    }
+
+    /// [`Distribution::pdf_h`] per lane.
+    #[inline(always)]
+    pub fn pdf_h_x8(&self, cos_h: f32x8) -> f32x8 {
+        match *self {
+            Distribution::Beckmann { .. } | Distribution::CosinePower { .. } => {
+                self.d_x8(cos_h) * cos_h
+            }
+            Distribution::Gaussian { m, .. } => Distribution::Beckmann { m }.d_x8(cos_h) * cos_h,
+        }
     }
 
     /// Density of `sample_h` (solid angle of h).
@@ -137,4 +176,14 @@ pub fn vgroove_g<T: Real>(cos_h: T, cos_o: T, cos_i: T, wo_dot_h: T) -> T {
     let a = two * cos_h * cos_o / wo_dot_h;
     let b = two * cos_h * cos_i / wo_dot_h;
     T::one().min(a).min(b).max(T::zero())
+}
+
+/// [`vgroove_g`] per lane.
+#[inline(always)]
+pub fn vgroove_g_x8(cos_h: f32x8, cos_o: f32x8, cos_i: f32x8, wo_dot_h: f32x8) -> f32x8 {
+    let s = f32x8::splat;
+    let a = s(2.0) * cos_h * cos_o / wo_dot_h;
+    let b = s(2.0) * cos_h * cos_i / wo_dot_h;
+    let g = s(1.0).min(a).min(b).max(s(0.0));
+    sel(wo_dot_h.simd_le(s(0.0)), s(0.0), g)
 }
