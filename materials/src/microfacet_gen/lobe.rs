@@ -7,11 +7,12 @@
 use super::synthetic::Shape;
 use super::table::{DEFAULT_RES, Table};
 use crate::composite::Composite;
-use crate::lobe::{Lobe, half_to_incident_pdf, sample_via_half};
+use crate::lobe::{self, Lobe, sample_via_half};
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
+use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Bsdf, Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::path::PathBuf;
@@ -28,8 +29,10 @@ impl Lobe for SampledMicrofacet {
     fn model(&self) -> &'static str {
         "sampled-microfacet"
     }
+    /// Lane 0 of [`SampledMicrofacet::eval_pdf_x8`]'s value: one formula for both.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        Rgb::splat(self.table.rho(wo.as_dvec3(), wi.as_dvec3(), self.f0) as f32)
+        let v = self.rho_x8(Vec3x8::splat(wo), Vec3x8::splat(wi));
+        Rgb::splat(v.to_array()[0])
     }
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
         [self.table.rho(wo, wi, self.f0); 3]
@@ -37,19 +40,38 @@ impl Lobe for SampledMicrofacet {
     fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
         sample_via_half(wo, self.table.sample_h(u)?)
     }
+    /// Lane 0 of [`SampledMicrofacet::eval_pdf_x8`]'s density.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let h = (wo + wi).normalize_or_zero();
-        let p = half_to_incident_pdf(self.table.pdf_h(h.as_dvec3()) as f32, wo.dot(h));
-        if p.is_finite() { p } else { 0.0 }
+        self.pdf_x8(Vec3x8::splat(wo), Vec3x8::splat(wi)).to_array()[0]
+    }
+    /// The generator's value ([`Table::rho_x8`]) and density (p(h) h_z, converted to
+    /// the density of wi) of eight pairs.
+    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+        let v = self.rho_x8(wo, wi);
+        (Rgbx8::new(v, v, v), self.pdf_x8(wo, wi))
     }
     fn flags(&self) -> Flags {
         Flags::RECIPROCAL | Flags::GLOSSY
     }
     fn memory_bytes(&self) -> usize {
         std::mem::size_of_val(self) + self.table.memory_bytes()
+    }
+}
+
+impl SampledMicrofacet {
+    #[inline]
+    fn rho_x8(&self, wo: Vec3x8, wi: Vec3x8) -> f32x8 {
+        self.table.rho_x8(wo, wi, self.f0 as f32)
+    }
+
+    /// The density of wi: p(h) h_z / (4 wo.h), zero below the surface or where not finite.
+    #[inline]
+    fn pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> f32x8 {
+        let zero = f32x8::splat(0.0);
+        let h = (wo + wi).normalize_or_zero();
+        let p = lobe::x8::half_to_incident_pdf(self.table.pdf_h_x8(h), wo.dot(h));
+        let ok = lobe::x8::above(wo, wi) & p.is_finite();
+        sel(ok, p, zero)
     }
 }
 
