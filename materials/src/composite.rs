@@ -239,17 +239,9 @@ impl Bsdf for Composite {
             |idx| {
                 let o = simd::lanes_of(idx, |k| wo[k]);
                 let w = self.lane_weights(f32x8::new(simd::lanes(|lane| o[lane].z)));
-                let total = w.total.to_array();
-                let wi = simd::lanes(|lane| {
-                    let k = idx[lane.min(idx.len() - 1)];
-                    let lw = w.lane(lane, self.lobes.len());
-                    if total[lane] > 0.0 {
-                        let lw = &lw[..self.lobes.len() + 1];
-                        self.choose_and_sample(o[lane], u[k], uc[k], lw, total[lane])
-                    } else {
-                        None
-                    }
-                });
+                let lane_u = simd::lanes_of(idx, |k| u[k]);
+                let lane_uc = simd::lanes_of(idx, |k| uc[k]);
+                let wi = self.sample_lanes(&o, &lane_u, &lane_uc, &w);
                 // Lanes without a direction evaluate wo itself; their results are not used.
                 let wi8 = simd::lanes(|lane| wi[lane].unwrap_or(o[lane]));
                 let (v, p) = self.mix_x8(Vec3x8::from_array(&o), Vec3x8::from_array(&wi8), &w);
@@ -311,6 +303,53 @@ impl Composite {
     /// Chooses a component with `uc` in proportion to the weights `w` (sum `total`) and
     /// samples it.
     fn choose_and_sample(&self, wo: Vec3, u: Vec2, uc: f32, w: &[f32], total: f32) -> Option<Vec3> {
+        let (chosen, uc_rest) = Self::choose(uc, w, total);
+        if chosen == 0 {
+            Some(square_to_cosine_hemisphere(u))
+        } else {
+            self.lobes[chosen - 1].1.sample(wo, u, uc_rest)
+        }
+    }
+
+    /// [`Composite::choose_and_sample`] of eight queries: each lane chooses its component
+    /// as the scalar call does, then every lobe chosen by some lane samples the eight
+    /// lanes at once ([`Lobe::sample_x8`]) and gives its directions to the lanes that
+    /// chose it. Lanes whose weights sum to zero get None.
+    fn sample_lanes(
+        &self,
+        wo: &[Vec3; 8],
+        u: &[Vec2; 8],
+        uc: &[f32; 8],
+        w: &LaneWeights,
+    ) -> [Option<Vec3>; 8] {
+        let total = w.total.to_array();
+        let choice = simd::lanes(|lane| {
+            let lw = w.lane(lane, self.lobes.len());
+            (total[lane] > 0.0)
+                .then(|| Self::choose(uc[lane], &lw[..self.lobes.len() + 1], total[lane]))
+        });
+        let mut wi = simd::lanes(|lane| match choice[lane] {
+            Some((0, _)) => Some(square_to_cosine_hemisphere(u[lane])),
+            _ => None,
+        });
+        for (k, (_, lobe)) in self.lobes.iter().enumerate() {
+            let mine = |lane: usize| matches!(choice[lane], Some((c, _)) if c == k + 1);
+            if !(0..8).any(mine) {
+                continue;
+            }
+            let uc_rest = simd::lanes(|lane| choice[lane].map_or(0.0, |(_, r)| r));
+            let s = lobe.sample_x8(wo, u, &uc_rest);
+            for lane in (0..8).filter(|&lane| mine(lane)) {
+                wi[lane] = s[lane];
+            }
+        }
+        wi
+    }
+
+    /// The component `uc` chooses in proportion to the weights `w` (sum `total`), and
+    /// what is left of `uc` within it, rescaled to [0, 1).
+    #[inline]
+    fn choose(uc: f32, w: &[f32], total: f32) -> (usize, f32) {
         let mut target = uc * total;
         let mut chosen = w.len() - 1;
         for (k, &wk) in w.iter().enumerate() {
@@ -320,14 +359,9 @@ impl Composite {
             }
             target -= wk;
         }
-        // What is left of uc within the chosen component, rescaled to [0, 1).
         let uc_rest =
             (target / w[chosen].max(f32::MIN_POSITIVE)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
-        if chosen == 0 {
-            Some(square_to_cosine_hemisphere(u))
-        } else {
-            self.lobes[chosen - 1].1.sample(wo, u, uc_rest)
-        }
+        (chosen, uc_rest)
     }
 
     /// The component weights of eight outgoing directions (lane by lane

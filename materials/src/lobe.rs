@@ -48,6 +48,12 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
             f32x8::new(lanes(|k| self.pdf(o[k], i[k]))),
         )
     }
+    /// [`Lobe::sample`] of eight queries, each lane bit for bit the scalar call (the
+    /// batched sampling of [`crate::composite::Composite`]). The default samples lane by
+    /// lane; tabulated lobes override it with their eight-lane samplers.
+    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+        lanes(|k| self.sample(wo[k], u[k], uc[k]))
+    }
     fn flags(&self) -> Flags;
     /// Bytes this lobe holds (its tables, if any).
     fn memory_bytes(&self) -> usize {

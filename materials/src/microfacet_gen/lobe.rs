@@ -40,6 +40,10 @@ impl Lobe for SampledMicrofacet {
     fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
         sample_via_half(wo, self.table.sample_h(u)?)
     }
+    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+        let h = self.table.sample_h_x8(u);
+        crate::simd::lanes(|i| sample_via_half(wo[i], h[i]?))
+    }
     /// Lane 0 of [`SampledMicrofacet::eval_pdf_x8`]'s density.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.pdf_x8(Vec3x8::splat(wo), Vec3x8::splat(wi)).to_array()[0]

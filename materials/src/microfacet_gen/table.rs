@@ -9,7 +9,7 @@
 //! [`crate::fastmath::x8`]'s acos and atan2, gathers from the f32 tables).
 
 use crate::fastmath::x8;
-use crate::sampling::marginal2d::Marginal2D;
+use crate::sampling::marginal2d::{Marginal2D, Slicesx8};
 use crate::simd::{self, Vec3x8, f32x8, i32x8, sel};
 use glam::{DVec3, Vec2, Vec3};
 use std::path::Path;
@@ -236,6 +236,22 @@ impl Table {
         let (x, y) = (2.0 * uv[0] - 1.0, 2.0 * uv[1] - 1.0);
         let r2 = x * x + y * y;
         (r2 < 1.0).then(|| Vec3::new(x, y, (1.0 - r2).sqrt()))
+    }
+
+    /// [`Table::sample_h`] of eight points ([`Marginal2D::sample_x8`]), lane by lane the
+    /// same.
+    pub fn sample_h_x8(&self, u: &[Vec2; 8]) -> [Option<Vec3>; 8] {
+        let xi = [
+            f32x8::new(simd::lanes(|i| u[i].x)),
+            f32x8::new(simd::lanes(|i| u[i].y)),
+        ];
+        let ([ux, uy], _) = self.sampler.sample_x8(xi, &Slicesx8::none());
+        let (ux, uy) = (ux.to_array(), uy.to_array());
+        simd::lanes(|i| {
+            let (x, y) = (2.0 * ux[i] - 1.0, 2.0 * uy[i] - 1.0);
+            let r2 = x * x + y * y;
+            (r2 < 1.0).then(|| Vec3::new(x, y, (1.0 - r2).sqrt()))
+        })
     }
 
     /// Reads a distribution written by [`Table::write_exr`] (any square EXR; the first
