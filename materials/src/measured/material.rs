@@ -79,7 +79,12 @@ impl Table for BinnedTable {
     /// Negative bins (noise of a measurement, e.g. tabulated from an unclamped RGL file)
     /// render as zero.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        self.table.lookup(wi, wo).map(|x| x.max(0.0))
+        self.table
+            .lookup_f32(wi, wo)
+            .map(|x| simd::max_lane(x, 0.0))
+    }
+    fn eval_x8(&self, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
+        self.table.lookup_x8(wi, wo).max(0.0)
     }
     fn is_isotropic(&self) -> bool {
         !self.table.anisotropic
