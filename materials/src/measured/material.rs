@@ -158,34 +158,46 @@ impl Bsdf for Measured {
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
-        let mut pending = [0usize; simd::LANES];
-        let mut len = 0;
-        for k in 0..n {
-            out[k] = self.sampler.sample(wo[k], u[k], uc[k]).and_then(|wi| {
-                let pdf = if wi.z <= 0.0 {
-                    0.0
-                } else {
-                    self.sampler.pdf(wo[k], wi)
-                };
-                (pdf > 0.0).then_some(BsdfSample {
-                    wi,
-                    weight: Rgb::ZERO,
-                    pdf,
-                })
+        // Eight queries at a time: directions one by one, their densities in lanes
+        // (TabulatedSampler::pdf_x8), the values of those with a density in lanes.
+        for start in (0..n).step_by(simd::LANES) {
+            let len = (n - start).min(simd::LANES);
+            let at = |i: usize| start + i.min(len - 1);
+            let wi = simd::lanes(|i| {
+                (i < len)
+                    .then(|| self.sampler.sample(wo[at(i)], u[at(i)], uc[at(i)]))
+                    .flatten()
             });
-            if out[k].is_some() {
-                pending[len] = k;
-                len += 1;
+            let pdf = self
+                .sampler
+                .pdf_x8(
+                    Vec3x8::from_array(&simd::lanes(|i| wo[at(i)])),
+                    Vec3x8::from_array(&simd::lanes(|i| wi[i].unwrap_or(Vec3::Z))),
+                )
+                .to_array();
+            let mut pending = [0usize; simd::LANES];
+            let mut kept = 0;
+            for i in 0..len {
+                out[start + i] = wi[i].and_then(|wi| {
+                    (pdf[i] > 0.0).then_some(BsdfSample {
+                        wi,
+                        weight: Rgb::ZERO,
+                        pdf: pdf[i],
+                    })
+                });
+                if out[start + i].is_some() {
+                    pending[kept] = start + i;
+                    kept += 1;
+                }
             }
-            if len == simd::LANES || (k + 1 == n && len > 0) {
-                self.weigh_samples(wo, &pending[..len], out);
-                len = 0;
+            if kept > 0 {
+                self.weigh_samples(wo, &pending[..kept], out);
             }
         }
     }
 
-    /// The values of the pairs above the surface eight at a time ([`Table::eval_x8`]), the
-    /// sampler's densities one at a time.
+    /// The values of the pairs above the surface and the sampler's densities, eight at a
+    /// time ([`Table::eval_x8`], [`TabulatedSampler::pdf_x8`]).
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
@@ -200,8 +212,13 @@ impl Bsdf for Measured {
                 f[k] = v.lane(lane);
             }
         });
-        for k in 0..n {
-            pdf[k] = self.sampler.pdf(wo[k], wi[k]);
+        for (start, chunk) in pdf.chunks_mut(simd::LANES).enumerate() {
+            let at = |i: usize| simd::LANES * start + i.min(chunk.len() - 1);
+            let p = self.sampler.pdf_x8(
+                Vec3x8::from_array(&simd::lanes(|i| wo[at(i)])),
+                Vec3x8::from_array(&simd::lanes(|i| wi[at(i)])),
+            );
+            chunk.copy_from_slice(&p.to_array()[..chunk.len()]);
         }
     }
 
