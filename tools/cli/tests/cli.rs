@@ -675,13 +675,19 @@ fn figures_draw_pngs_from_fit_reports() {
             .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let img = image::open(&out).unwrap().to_rgb8();
-        let want = if name == "s.png" {
+        let svg = out.with_extension("svg");
+        if name == "s.png" {
             // Three spheres (the material, ward, lafortune) in one row with labels.
-            (3 * 48, 48 + 30)
+            assert_eq!(img.dimensions(), (3 * 48, 48 + 30));
+            assert!(!svg.exists(), "a raster figure has no SVG");
         } else {
-            (1000, 600)
-        };
-        assert_eq!(img.dimensions(), want);
+            // A chart: at least chart-sized, and the same drawing as SVG beside it.
+            assert!(img.width() >= 1000 && img.height() >= 500, "{name}");
+            let text = std::fs::read_to_string(&svg).unwrap();
+            assert!(
+                text.starts_with("<svg") && text.contains(&format!("width=\"{}\"", img.width()))
+            );
+        }
         // Something coloured (a plotted curve) was drawn, not just a blank canvas.
         assert!(img.pixels().any(|p| p[0] != p[1] || p[1] != p[2]));
     }
