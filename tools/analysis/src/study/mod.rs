@@ -42,7 +42,8 @@ pub struct StudyConfig {
     pub envs: Vec<String>,
 }
 
-/// How much work each step does (from `quick`).
+/// How much work each step does: the full study on the user's data, a lighter one on the
+/// built-in set (a complete report in minutes), or the quick one.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
     /// Bin size of isotropic data in degrees.
@@ -65,6 +66,32 @@ pub struct Settings {
 }
 
 impl Settings {
+    /// The settings of a configuration: `quick`, else the built-in set's when it has no
+    /// inputs, else the full study's.
+    pub fn of(config: &StudyConfig) -> Self {
+        match (config.quick, config.inputs.is_empty()) {
+            (true, _) => Self::new(true),
+            (false, true) => Self::builtin(),
+            (false, false) => Self::new(false),
+        }
+    }
+
+    /// The built-in set's: every applicable model at 5-degree bins, 96-pixel renders at 32
+    /// spp against a 256 spp reference.
+    pub fn builtin() -> Self {
+        Self {
+            resolution: 5.0,
+            max_evals: 100,
+            size: 96,
+            spp: 32,
+            reference_spp: 256,
+            microfacet_nodes: 33,
+            microfacet_iterations: 3,
+            ..Self::new(false)
+        }
+    }
+
+    /// The quick settings (`quick`) or the full study's.
     pub fn new(quick: bool) -> Self {
         if quick {
             Self {
@@ -93,6 +120,40 @@ impl Settings {
                 angles: vec![30.0, 60.0],
             }
         }
+    }
+}
+
+impl Settings {
+    /// The settings as JSON (recorded in DIR/study.json).
+    pub fn to_json(&self) -> Value {
+        json!({
+            "resolution_deg": self.resolution, "max_evals": self.max_evals,
+            "models": self.models, "tolerance": self.tolerance, "size": self.size,
+            "spp": self.spp, "reference_spp": self.reference_spp,
+            "microfacet_nodes": self.microfacet_nodes,
+            "microfacet_iterations": self.microfacet_iterations, "angles_deg": self.angles,
+        })
+    }
+
+    /// Records the settings in DIR/study.json, or checks that a study folder already
+    /// made has the same ones (its finished steps would otherwise mix two studies).
+    fn record(&self, out: &Path, envs: &[Env]) -> Result<(), Error> {
+        let path = out.join("study.json");
+        let envs: Vec<&str> = envs.iter().map(|e| e.name.as_str()).collect();
+        let v = json!({"settings": self.to_json(), "environments": envs});
+        if path.exists() {
+            let old = lobe_materials::json::read(&path)?;
+            if old != v {
+                return Err(Error::file(
+                    path.display(),
+                    format!(
+                        "the study in this folder was made with other settings ({old}); expected {v}: use another folder, or the same options (--quick, --env) as before"
+                    ),
+                ));
+            }
+            return Ok(());
+        }
+        lobe_renderer::film::write_json(&path, &v)
     }
 }
 
@@ -392,10 +453,11 @@ pub fn run_materials(
     progress: &dyn StudyProgress,
 ) -> Result<StudySummary, Error> {
     let (i, n) = config.shard;
-    let settings = Settings::new(config.quick);
+    let settings = Settings::of(config);
     check_paths(config, mats, &[])?;
     let envs = environments(config)?;
     check_paths(config, mats, &envs)?;
+    settings.record(&config.out, &envs)?;
     let layout = steps::Layout::new(&config.out);
     let mine: Vec<&StudyMaterial> = mats
         .iter()

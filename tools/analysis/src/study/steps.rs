@@ -359,22 +359,12 @@ fn renders(ctx: &Context<'_>, m: &StudyMaterial, env: &Env) -> Result<(), Error>
     write_json(&dir.join("metrics.json"), &v)
 }
 
-/// The fits drawn in a material's plots: the selected one and the lowest-error ones, at
-/// most `k` in all, in error order.
+/// The fits drawn in a material's plots: the `k` lowest-error ones, in error order (not
+/// the selected one: selection depends on timings, plots only on the data).
 pub fn headline_fits(r: &FitReport, k: usize) -> Vec<String> {
     let mut v: Vec<(&String, f64)> = r.models.iter().map(|(n, f)| (n, f.error)).collect();
-    v.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let mut names: Vec<String> = r.selected.iter().map(|s| s.model.clone()).collect();
-    for (n, _) in v {
-        if names.len() >= k {
-            break;
-        }
-        if !names.contains(n) {
-            names.push(n.clone());
-        }
-    }
-    names.retain(|n| !n.is_empty());
-    names
+    v.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
+    v.into_iter().take(k).map(|(n, _)| n.clone()).collect()
 }
 
 /// Polar plots and lobe contour plots (green channel) at each of the
