@@ -393,3 +393,47 @@ fn the_index_sorts_in_headless_chromium_without_console_messages() {
         assert!(sorted(&v, dir), "{hash}: column {col} not sorted: {v:?}");
     }
 }
+
+/// Anisotropic binned data (4D, coarse bins of a brushed anisotropic Ward) gets the
+/// anisotropic models too, and the whole study runs on it.
+#[test]
+fn a_study_of_anisotropic_data_fits_the_anisotropic_models() {
+    use lobe_materials::measured::binned::{Axis, Binned};
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("brushed.bin");
+    let m = Registry::builtin()
+        .create(
+            &serde_json::json!({"type": "ward-anisotropic", "diffuse": 0.1, "specular": 0.3, "alpha_x": 0.08, "alpha_y": 0.3}),
+            "m",
+        )
+        .unwrap();
+    let mut t = Binned::empty(
+        true,
+        vec![
+            Axis::new(9, 0.0, 90.0),
+            Axis::new(9, 0.0, 90.0),
+            Axis::new(18, 0.0, 360.0),
+            Axis::new(18, 0.0, 360.0),
+        ],
+    );
+    for k in 0..t.len() {
+        let (wi, wo) = t.directions(k);
+        let f = m.eval(wo, wi);
+        t.values[k] = Some([f.r, f.g, f.b]);
+    }
+    t.write(&data).unwrap();
+    let out = dir.path().join("study");
+    let mut config = config(&out);
+    config.inputs = vec![data];
+    let s = study::run(&Registry::builtin(), &config, &|| false, &Count::default()).unwrap();
+    assert!(s.index.is_some());
+    let report = lobe_materials::fit::report::read(&out.join("fits/brushed.fit.json")).unwrap();
+    assert!(
+        report.models.contains_key("ward-anisotropic"),
+        "{:?}",
+        report.models.keys()
+    );
+    assert!(
+        report.models["ward-anisotropic"].error_normalized < report.models["ward"].error_normalized
+    );
+}
