@@ -407,20 +407,12 @@ fn a_study_of_anisotropic_data_fits_the_anisotropic_models() {
             "m",
         )
         .unwrap();
-    let mut t = Binned::empty(
-        true,
-        vec![
-            Axis::new(9, 0.0, 90.0),
-            Axis::new(9, 0.0, 90.0),
-            Axis::new(18, 0.0, 360.0),
-            Axis::new(18, 0.0, 360.0),
-        ],
-    );
-    for k in 0..t.len() {
-        let (wi, wo) = t.directions(k);
-        let f = m.eval(wo, wi);
-        t.values[k] = Some([f.r, f.g, f.b]);
-    }
+    let (theta, phi) = (Axis::new(10, 0.0, 90.0), Axis::new(20, 0.0, 360.0));
+    let mut t = Binned::empty(true, vec![theta, theta, phi, phi]);
+    t.values = (0..t.len())
+        .map(|k| t.directions(k))
+        .map(|(wi, wo)| Some(m.eval(wo, wi).to_array()))
+        .collect();
     t.write(&data).unwrap();
     let out = dir.path().join("study");
     let mut config = config(&out);
