@@ -1,5 +1,6 @@
-//! The study's figures (Ngan et al. 2005), each drawn as a [`Figure`] (plotters' bitmap
-//! backend):
+//! The study's figures (Ngan et al. 2005), each drawn as a [`Figure`] (plotters; the charts
+//! also as SVG), every model in its one [`crate::plot::style`], legends beside the data,
+//! polar and lobe plots on equal axis scales:
 //! - [`errors`]: Figure 14, the normalized fitting error (log scale) of every model for
 //!   every material, materials sorted by the Lafortune error;
 //! - [`multilobe`]: Figure 5, one against two lobes for Cook-Torrance and Lafortune on the
@@ -10,15 +11,21 @@
 //!   spheres under an environment map;
 //! - [`lobes`]: Figures 7 and 8, iso-contours of a half-vector (H.N) and of a mirror (V.R)
 //!   lobe of the same exponent over the outgoing hemisphere at a chosen incidence;
+//! - [`lobe_contours`]: the same contours of measured data and of its fits;
 //! - [`distribution`]: Figures 11 to 13, an estimated microfacet distribution, log scale.
 
 use crate::NamedMaterial;
-use crate::plot::{Figure, H, PALETTE, W, plot_err, register_font};
+use crate::plot::{
+    Figure, H, LEGEND_W, MEASURED, Style, W, axis_name, draw_axis_names, draw_legend, draw_marker,
+    equal_chart, plot_err, register_font, style,
+};
 use crate::reports::model_labels;
+use crate::vector_figure;
 use lobe_materials::Bsdf;
 use lobe_materials::fit::report::FitReport;
 use lobe_materials::microfacet_gen::Table;
 use lobe_renderer::Error;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 /// The normalized error of `model` in a report, if it has a positive finite one.
@@ -30,26 +37,32 @@ pub fn err_of(r: &FitReport, model: &str) -> Option<f64> {
 }
 
 /// Figure 14: the normalized error (log10) of every model of the reports for every
-/// material, materials sorted by the Lafortune error.
+/// material, materials sorted by the Lafortune error (by the first model's when no report
+/// has Lafortune).
 pub fn errors(reports: &[FitReport]) -> Result<Figure, Error> {
     let mut order: Vec<&FitReport> = reports.iter().collect();
     let labels = model_labels(&order);
     let models: Vec<&str> = labels.iter().map(String::as_str).collect();
+    let key = if models.contains(&"lafortune") {
+        "lafortune"
+    } else {
+        models.first().copied().unwrap_or("lafortune")
+    };
     order.sort_by(|a, b| {
-        err_of(a, "lafortune")
+        err_of(a, key)
             .unwrap_or(0.0)
-            .total_cmp(&err_of(b, "lafortune").unwrap_or(0.0))
+            .total_cmp(&err_of(b, key).unwrap_or(0.0))
     });
-    error_chart(
-        "Normalized fitting error (log10), materials sorted by the Lafortune error",
-        &order,
-        &models,
-        true,
-    )
+    let title = format!(
+        "Normalized fitting error of {} models on {} materials, sorted by the {key} error",
+        models.len(),
+        order.len()
+    );
+    error_chart(&title, &order, &models)
 }
 
-/// Figure 5: one lobe against two (Cook-Torrance, Lafortune) on the 30 materials whose
-/// error the second lobe improves most.
+/// Figure 5: one lobe against two (Cook-Torrance, Lafortune) on the (at most) 30
+/// materials whose error the second lobe improves most.
 pub fn multilobe(reports: &[FitReport]) -> Result<Figure, Error> {
     let pairs = [
         ("cook-torrance", "cook-torrance-2"),
@@ -68,11 +81,22 @@ pub fn multilobe(reports: &[FitReport]) -> Result<Figure, Error> {
     if rows.is_empty() {
         return Err(Error::Other("no report has both one- and two-lobe fits (cook-torrance and cook-torrance-2, or lafortune and lafortune-2)".into()));
     }
+    let with_both = rows.len();
     rows.sort_by(|a, b| b.1.total_cmp(&a.1));
     rows.truncate(30);
     let order: Vec<&FitReport> = rows.into_iter().map(|(r, _)| r).collect();
+    let title = if order.len() == with_both {
+        format!(
+            "One lobe against two: all {with_both} materials with both fits, most improved first"
+        )
+    } else {
+        format!(
+            "One lobe against two: the {} most improved of {with_both} materials",
+            order.len()
+        )
+    };
     error_chart(
-        "One lobe against two: the 30 most improved materials",
+        &title,
         &order,
         &[
             "cook-torrance",
@@ -80,19 +104,13 @@ pub fn multilobe(reports: &[FitReport]) -> Result<Figure, Error> {
             "lafortune",
             "lafortune-2",
         ],
-        false,
     )
 }
 
-/// One line per model of log10 normalized error over the materials in `order`
-/// (optionally with a marker per material), y range from the data in whole decades.
-fn error_chart(
-    title: &str,
-    order: &[&FitReport],
-    models: &[&str],
-    markers: bool,
-) -> Result<Figure, Error> {
-    register_font();
+/// A line and markers per model (its [`style`]) of log10 normalized error over the
+/// materials in `order`, named under the x axis; y range from the data in whole decades;
+/// the legend beside the plot.
+fn error_chart(title: &str, order: &[&FitReport], models: &[&str]) -> Result<Figure, Error> {
     let (lo, hi) = order
         .iter()
         .flat_map(|r| models.iter().filter_map(move |m| err_of(r, m)))
@@ -104,63 +122,111 @@ fn error_chart(
     } else {
         (-4.0, 0.0)
     };
-    let mut fig = Figure::chart();
-    {
-        let root = BitMapBackend::with_buffer(&mut fig.rgb, (W, H)).into_drawing_area();
-        root.fill(&WHITE).map_err(plot_err)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 20))
+    let names: Vec<String> = order.iter().map(|r| r.material.clone()).collect();
+    let longest = names
+        .iter()
+        .map(|n| axis_name(n).chars().count())
+        .max()
+        .unwrap_or(1) as u32;
+    let names_h = 16 + 8 * longest;
+    let plot_w = (100 + 18 * order.len() as u32).max(W - LEGEND_W);
+    let legend: Vec<(String, Style)> = models.iter().map(|m| (m.to_string(), style(m))).collect();
+    let chart = ErrorChart {
+        title,
+        order,
+        models,
+        range: lo..hi,
+        names: &names,
+        names_h,
+    };
+    Ok(vector_figure!(
+        (plot_w + LEGEND_W, H - 60 + names_h),
+        |root| {
+            let (plot, side) = root.split_horizontally(plot_w);
+            chart.draw(&plot)?;
+            draw_legend(&side, "model", &legend)?
+        }
+    ))
+}
+
+/// What an error chart draws (see [`error_chart`]).
+struct ErrorChart<'a> {
+    title: &'a str,
+    order: &'a [&'a FitReport],
+    models: &'a [&'a str],
+    range: std::ops::Range<f64>,
+    names: &'a [String],
+    names_h: u32,
+}
+
+impl ErrorChart<'_> {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<(), Error> {
+        let area = area
+            .titled(self.title, ("sans-serif", 19))
+            .map_err(plot_err)?;
+        let n = self.order.len();
+        let mut chart = ChartBuilder::on(&area)
             .margin(15)
-            .x_label_area_size(35)
-            .y_label_area_size(55)
-            .build_cartesian_2d(0f64..order.len() as f64, lo..hi)
+            .x_label_area_size(self.names_h + 26)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0f64..n as f64, self.range.clone())
             .map_err(plot_err)?;
         chart
             .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(0)
             .x_desc("material")
-            .y_desc("log10 error / max albedo")
+            .y_desc("log10 normalized error (Eq. 1 error / max albedo)")
             .draw()
             .map_err(plot_err)?;
-        for (k, &m) in models.iter().enumerate() {
-            let c = PALETTE[k % PALETTE.len()];
-            let pts: Vec<(f64, f64)> = order
+        let lo = self.range.start;
+        let xs: Vec<i32> = (0..n)
+            .map(|i| chart.backend_coord(&(i as f64 + 0.5, lo)).0)
+            .collect();
+        let axis_y = chart.backend_coord(&(0.0, lo)).1;
+        let (x0, y0) = area.get_base_pixel();
+        let xs_local: Vec<i32> = xs.iter().map(|x| x - x0).collect();
+        draw_axis_names(&area, self.names, &xs_local, axis_y - y0 + 8)?;
+        for &m in self.models {
+            let st = style(m);
+            let pts: Vec<(f64, f64)> = self
+                .order
                 .iter()
                 .enumerate()
                 .filter_map(|(i, r)| err_of(r, m).map(|e| (i as f64 + 0.5, e.log10())))
                 .collect();
             chart
-                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
-                .map_err(plot_err)?
-                .label(m)
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
-                });
-            if markers {
-                chart
-                    .draw_series(pts.into_iter().map(|p| Circle::new(p, 3, c.filled())))
-                    .map_err(plot_err)?;
+                .draw_series(LineSeries::new(pts.clone(), st.color.stroke_width(2)))
+                .map_err(plot_err)?;
+            for p in pts {
+                let (px, py) = chart.backend_coord(&p);
+                draw_marker(&area, (px - x0, py - y0), 4, st)?;
             }
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(plot_err)?;
-        root.present().map_err(plot_err)?;
+        Ok(())
     }
-    Ok(fig)
 }
 
-/// Figure 4: the incidence-plane BRDF (cube root, colour `channel`) of `data` and of
-/// fitted models at incidence `theta_i` degrees.
+/// An axis tick value with one decimal (zero without a sign).
+fn tick(v: &f64) -> String {
+    format!("{:.1}", if v.abs() < 1e-9 { 0.0 } else { *v })
+}
+
+/// The name of colour channel `c` (0, 1, 2).
+pub fn channel_name(c: usize) -> &'static str {
+    ["red", "green", "blue"].get(c).copied().unwrap_or("?")
+}
+
+/// Figure 4: the incidence-plane BRDF (cube root, colour `channel`) of the measured
+/// `material` (`data`) and of fitted models at incidence `theta_i` degrees, on equal axis
+/// scales, each model in its [`style`], the legend beside the plot.
 pub fn polar(
+    material: &str,
     data: &dyn Bsdf,
     fits: &[NamedMaterial],
     theta_i: f64,
     channel: usize,
 ) -> Result<Figure, Error> {
-    register_font();
     if !(0.0..90.0).contains(&theta_i) || channel > 2 {
         return Err(Error::Other(format!(
             "--theta-i must be in [0, 90) and --channel in 0..=2; found {theta_i} and {channel}"
@@ -181,7 +247,7 @@ pub fn polar(
             })
             .collect()
     };
-    let mut curves = vec![("data".to_string(), curve(data))];
+    let mut curves = vec![("measured".to_string(), curve(data))];
     for (name, m) in fits {
         curves.push((name.clone(), curve(m.as_ref())));
     }
@@ -190,58 +256,61 @@ pub fn polar(
         .flat_map(|(_, c)| c.iter().map(|(x, y)| x.hypot(*y)))
         .fold(1e-6f64, f64::max)
         * 1.05;
-    let mut fig = Figure::chart();
-    {
-        let root = BitMapBackend::with_buffer(&mut fig.rgb, (W, H)).into_drawing_area();
-        root.fill(&WHITE).map_err(plot_err)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("Incidence plane, theta_i = {theta_i} deg, cube root of f_r"),
-                ("sans-serif", 20),
-            )
-            .margin(15)
-            .x_label_area_size(35)
-            .y_label_area_size(55)
-            .build_cartesian_2d(-r * 1.1..r * 1.1, 0.0..r)
-            .map_err(plot_err)?;
+    let title = format!(
+        "{material}: incidence plane, \u{3b8}i = {theta_i}\u{b0}, {} channel, cube root of f_r",
+        channel_name(channel)
+    );
+    let legend: Vec<(String, Style)> = curves.iter().map(|(n, _)| (n.clone(), style(n))).collect();
+    let plot_w = W - LEGEND_W + 60;
+    Ok(vector_figure!((plot_w + LEGEND_W, 520), |root| {
+        let (plot, side) = root.split_horizontally(plot_w);
+        draw_polar(&plot, &title, &curves, (r, ti))?;
+        draw_legend(&side, "series", &legend)?
+    }))
+}
+
+/// The polar plot's axes, incident direction and curves (see [`polar`]).
+fn draw_polar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    curves: &[(String, Vec<(f64, f64)>)],
+    (r, ti): (f64, f64),
+) -> Result<(), Error> {
+    let area = area.titled(title, ("sans-serif", 18)).map_err(plot_err)?;
+    let mut chart = equal_chart(&area, (45, 65), (-r..r, 0.0..r), true)?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .x_desc("f_r^(1/3) sin \u{3b8}o  (sr^-1/3; negative: the incident side)")
+        .y_desc("f_r^(1/3) cos \u{3b8}o  (sr^-1/3)")
+        .draw()
+        .map_err(plot_err)?;
+    // Incident direction.
+    chart
+        .draw_series(LineSeries::new(
+            vec![(0.0, 0.0), (-r * ti.sin(), r * ti.cos())],
+            BLACK.mix(0.5).stroke_width(1),
+        ))
+        .map_err(plot_err)?;
+    let (x0, y0) = area.get_base_pixel();
+    for (name, c) in curves {
+        let st = style(name);
+        let width = if MEASURED.contains(&name.as_str()) {
+            3
+        } else {
+            2
+        };
         chart
-            .configure_mesh()
-            .disable_mesh()
-            .draw()
+            .draw_series(LineSeries::new(c.clone(), st.color.stroke_width(width)))
             .map_err(plot_err)?;
-        // Incident direction.
-        chart
-            .draw_series(LineSeries::new(
-                vec![(0.0, 0.0), (-r * ti.sin(), r * ti.cos())],
-                BLACK.stroke_width(1),
-            ))
-            .map_err(plot_err)?;
-        for (k, (name, c)) in curves.into_iter().enumerate() {
-            let col = if k == 0 {
-                BLACK
-            } else {
-                PALETTE[(k - 1) % PALETTE.len()]
-            };
-            chart
-                .draw_series(LineSeries::new(
-                    c,
-                    col.stroke_width(if k == 0 { 3 } else { 2 }),
-                ))
-                .map_err(plot_err)?
-                .label(name)
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
-                });
+        for p in c.iter().step_by(40) {
+            let (px, py) = chart.backend_coord(p);
+            draw_marker(&area, (px - x0, py - y0), 4, st)?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(plot_err)?;
-        root.present().map_err(plot_err)?;
     }
-    Ok(fig)
+    Ok(())
 }
 
 /// Figures 3 and 6: renders each material on a sphere under `env` (an environment map file
@@ -320,13 +389,39 @@ pub fn spheres(
     Ok(fig)
 }
 
-/// Line segments where `f` crosses `level` on a grid over [-1, 1]^2 (marching squares).
-fn contour(f: &dyn Fn(f64, f64) -> f64, level: f64, n: usize) -> Vec<[(f64, f64); 2]> {
+/// The colour of the hemisphere's rim in lobe plots.
+pub const RIM: RGBColor = RGBColor(70, 70, 150);
+
+/// Contour levels of lobe plots (fractions of each panel's peak) and their colours.
+const LEVELS: [(f64, RGBColor); 5] = [
+    (0.1, RGBColor(68, 1, 84)),
+    (0.3, RGBColor(59, 82, 139)),
+    (0.5, RGBColor(33, 145, 140)),
+    (0.7, RGBColor(60, 170, 70)),
+    (0.9, RGBColor(200, 160, 0)),
+];
+
+/// Grid cells per side of a lobe plot's contour grid over [-1, 1]^2.
+const GRID: usize = 240;
+
+/// A scalar field over the projected outgoing hemisphere, (x, y) = (sin θo cos φo,
+/// sin θo sin φo); negative outside the disk.
+type Field<'a> = &'a (dyn Fn(f64, f64) -> f64 + Sync);
+
+/// The values of `f` at the (n + 1)^2 nodes of a grid over [-1, 1]^2, row by row.
+fn sample_grid(f: Field<'_>, n: usize) -> Vec<f64> {
+    use rayon::prelude::*;
     let at = |i: usize| -1.0 + 2.0 * i as f64 / n as f64;
-    let v: Vec<f64> = (0..=n)
-        .flat_map(|j| (0..=n).map(move |i| (at(i), at(j))))
-        .map(|(x, y)| f(x, y))
-        .collect();
+    (0..(n + 1) * (n + 1))
+        .into_par_iter()
+        .map(|k| f(at(k % (n + 1)), at(k / (n + 1))))
+        .collect()
+}
+
+/// Line segments where the grid values `v` ([`sample_grid`]) cross `level` (marching
+/// squares).
+fn contour(v: &[f64], n: usize, level: f64) -> Vec<[(f64, f64); 2]> {
+    let at = |i: usize| -1.0 + 2.0 * i as f64 / n as f64;
     let mut segs = Vec::new();
     for j in 0..n {
         for i in 0..n {
@@ -352,69 +447,169 @@ fn contour(f: &dyn Fn(f64, f64) -> f64, level: f64, n: usize) -> Vec<[(f64, f64)
     segs
 }
 
+/// Pixels per lobe-plot panel (width) and of the figure's height.
+const PANEL: (u32, u32) = (430, 500);
+
+/// Lobe plots: one panel per named field, each with iso-contours at 10 % to 90 % of its
+/// own peak over the projected hemisphere (equal axis scales: the disk is a circle), the
+/// mirror direction `mirror` marked, the levels' legend beside the panels.
+fn contour_figure(
+    title: &str,
+    panels: &[(String, Field<'_>)],
+    mirror: (f64, f64),
+) -> Result<Figure, Error> {
+    let grids: Vec<(String, Vec<f64>)> = panels
+        .iter()
+        .map(|(name, f)| (name.clone(), sample_grid(*f, GRID)))
+        .collect();
+    let k = grids.len().max(1) as u32;
+    let legend: Vec<(String, Style)> = LEVELS
+        .iter()
+        .map(|(l, c)| {
+            let st = Style {
+                color: *c,
+                marker: crate::plot::Marker::Circle,
+            };
+            (format!("{:.0} % of the panel's peak", l * 100.0), st)
+        })
+        .collect();
+    Ok(vector_figure!((k * PANEL.0 + LEGEND_W, PANEL.1), |root| {
+        let root = root.titled(title, ("sans-serif", 18)).map_err(plot_err)?;
+        let (left, side) = root.split_horizontally(k * PANEL.0);
+        for (area, (name, grid)) in left.split_evenly((1, k as usize)).iter().zip(&grids) {
+            draw_contour_panel(area, name, grid, mirror)?;
+        }
+        draw_legend(&side, "contour level", &legend)?
+    }))
+}
+
+/// One panel of [`contour_figure`].
+fn draw_contour_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    name: &str,
+    grid: &[f64],
+    mirror: (f64, f64),
+) -> Result<(), Error> {
+    let area = area.titled(name, ("sans-serif", 16)).map_err(plot_err)?;
+    let mut chart = equal_chart(&area, (40, 50), (-1.05..1.05, -1.05..1.05), false)?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .x_desc("sin \u{3b8}o cos \u{3c6}o")
+        .y_desc("sin \u{3b8}o sin \u{3c6}o")
+        .draw()
+        .map_err(plot_err)?;
+    let peak = grid.iter().cloned().fold(0.0f64, f64::max);
+    if peak > 0.0 {
+        for (level, c) in LEVELS {
+            let segs = contour(grid, GRID, level * peak);
+            chart
+                .draw_series(
+                    segs.into_iter()
+                        .map(|s| PathElement::new(vec![s[0], s[1]], c.stroke_width(2))),
+                )
+                .map_err(plot_err)?;
+        }
+    }
+    // The rim and the mirror direction over the contours.
+    let circle: Vec<(f64, f64)> = (0..=360)
+        .map(|k| {
+            let a = (k as f64).to_radians();
+            (a.cos(), a.sin())
+        })
+        .collect();
+    chart
+        .draw_series(LineSeries::new(circle, RIM.stroke_width(1)))
+        .map_err(plot_err)?;
+    chart
+        .draw_series(std::iter::once(Cross::new(mirror, 5, BLACK)))
+        .map_err(plot_err)?;
+    Ok(())
+}
+
+/// The outgoing direction at a point of the projected hemisphere, if inside it.
+fn hemisphere(x: f64, y: f64) -> Option<glam::DVec3> {
+    let z2 = 1.0 - x * x - y * y;
+    (z2 > 0.0).then(|| glam::DVec3::new(x, y, z2.sqrt()))
+}
+
+/// The incident direction at `theta_i` degrees in the xz plane (light from -x), and its
+/// mirror direction.
+fn incidence(theta_i: f64) -> (glam::DVec3, glam::DVec3) {
+    let ti = theta_i.to_radians();
+    let wi = glam::DVec3::new(-ti.sin(), 0.0, ti.cos());
+    (wi, glam::DVec3::new(-wi.x, -wi.y, wi.z))
+}
+
 /// Figures 7 and 8: iso-contours (10 % to 90 % of the peak) of a half-vector lobe
 /// cos^n(h.n) and a mirror lobe cos^n(v.r) over the outgoing hemisphere (projected disk)
 /// at incidence `theta_i` degrees.
 pub fn lobes(theta_i: f64, n: f64) -> Result<Figure, Error> {
-    register_font();
     if !((0.0..90.0).contains(&theta_i) && (1.0..=1e5).contains(&n)) {
         return Err(Error::Other(format!(
             "--theta-i must be in [0, 90) and --exponent in [1, 1e5]; found {theta_i} and {n}"
         )));
     }
-    let ti = theta_i.to_radians();
-    let wi = glam::DVec3::new(-ti.sin(), 0.0, ti.cos());
-    let r = glam::DVec3::new(-wi.x, -wi.y, wi.z);
-    let wo = |x: f64, y: f64| {
-        let z2 = 1.0 - x * x - y * y;
-        (z2 > 0.0).then(|| glam::DVec3::new(x, y, z2.sqrt()))
+    let (wi, r) = incidence(theta_i);
+    let hn = move |x: f64, y: f64| {
+        hemisphere(x, y).map_or(-1.0, |o| (o + wi).normalize().z.max(0.0).powf(n))
     };
-    let hn =
-        move |x: f64, y: f64| wo(x, y).map_or(-1.0, |o| (o + wi).normalize().z.max(0.0).powf(n));
-    let vr = move |x: f64, y: f64| wo(x, y).map_or(-1.0, |o| o.dot(r).max(0.0).powf(n));
-    let mut fig = Figure::chart();
-    {
-        let root = BitMapBackend::with_buffer(&mut fig.rgb, (W, H)).into_drawing_area();
-        root.fill(&WHITE).map_err(plot_err)?;
-        let panels = root.split_evenly((1, 2));
-        type Field<'a> = &'a dyn Fn(f64, f64) -> f64;
-        let lobes: [(&str, Field); 2] = [("H.N lobe", &hn), ("V.R lobe", &vr)];
-        for (panel, (name, f)) in panels.iter().zip(lobes) {
-            let mut chart = ChartBuilder::on(panel)
-                .caption(
-                    format!("{name}, n = {n}, theta_i = {theta_i} deg"),
-                    ("sans-serif", 18),
-                )
-                .margin(20)
-                .build_cartesian_2d(-1.05f64..1.05, -1.05f64..1.05)
-                .map_err(plot_err)?;
-            let circle: Vec<(f64, f64)> = (0..=360)
-                .map(|k| {
-                    let a = (k as f64).to_radians();
-                    (a.cos(), a.sin())
-                })
-                .collect();
-            chart
-                .draw_series(LineSeries::new(circle, BLACK.stroke_width(1)))
-                .map_err(plot_err)?;
-            // The mirror direction.
-            chart
-                .draw_series(std::iter::once(Cross::new((r.x, r.y), 5, BLACK)))
-                .map_err(plot_err)?;
-            for (k, level) in [0.1, 0.3, 0.5, 0.7, 0.9].iter().enumerate() {
-                let c = PALETTE[k % PALETTE.len()];
-                let segs = contour(f, *level, 240);
-                chart
-                    .draw_series(
-                        segs.into_iter()
-                            .map(|s| PathElement::new(vec![s[0], s[1]], c.stroke_width(2))),
-                    )
-                    .map_err(plot_err)?;
-            }
-        }
-        root.present().map_err(plot_err)?;
+    let vr = move |x: f64, y: f64| hemisphere(x, y).map_or(-1.0, |o| o.dot(r).max(0.0).powf(n));
+    contour_figure(
+        &format!(
+            "Half-vector and mirror lobes of exponent n = {n} at \u{3b8}i = {theta_i}\u{b0} (x: the mirror direction)"
+        ),
+        &[
+            ("H.N lobe: cos^n(h\u{b7}n)".to_string(), &hn),
+            ("V.R lobe: cos^n(v\u{b7}r)".to_string(), &vr),
+        ],
+        (r.x, r.y),
+    )
+}
+
+/// Lobe plots of measured data: iso-contours of f_r (colour `channel`) over the outgoing
+/// hemisphere at incidence `theta_i` degrees, one panel per item (the measured material
+/// and its fits), each at 10 % to 90 % of its own peak.
+pub fn lobe_contours(
+    material: &str,
+    items: &[NamedMaterial],
+    theta_i: f64,
+    channel: usize,
+) -> Result<Figure, Error> {
+    if !(0.0..90.0).contains(&theta_i) || channel > 2 || items.is_empty() {
+        return Err(Error::Other(format!(
+            "lobe plot: expected theta_i in [0, 90), a channel in 0..=2 and at least one material; found {theta_i}, {channel} and {} materials",
+            items.len()
+        )));
     }
-    Ok(fig)
+    let (wi, r) = incidence(theta_i);
+    let wi32 = wi.as_vec3();
+    let fields: Vec<Box<dyn Fn(f64, f64) -> f64 + Sync>> = items
+        .iter()
+        .map(|(_, m)| {
+            let m = m.clone();
+            Box::new(move |x: f64, y: f64| {
+                hemisphere(x, y).map_or(-1.0, |o| {
+                    (m.eval(o.as_vec3(), wi32).to_array()[channel].max(0.0) as f64).max(0.0)
+                })
+            }) as Box<dyn Fn(f64, f64) -> f64 + Sync>
+        })
+        .collect();
+    let panels: Vec<(String, Field<'_>)> = items
+        .iter()
+        .zip(&fields)
+        .map(|((name, _), f)| (name.clone(), f.as_ref() as Field<'_>))
+        .collect();
+    contour_figure(
+        &format!(
+            "{material}: f_r over the outgoing hemisphere at \u{3b8}i = {theta_i}\u{b0}, {} channel (x: the mirror direction)",
+            channel_name(channel)
+        ),
+        &panels,
+        (r.x, r.y),
+    )
 }
 
 /// log10 p over the projected hemisphere (a disk; white outside), 320 x 320 pixels, on a
@@ -461,5 +656,6 @@ pub fn distribution(table: &Table) -> Figure {
         width: size as u32,
         height: size as u32,
         rgb,
+        svg: None,
     }
 }

@@ -13,7 +13,9 @@
 //! - [`figures`]: the study's figures (error charts, polar plots, sphere grids, lobes);
 //! - [`microfacet`]: section 5.1, the distribution recovered from a synthetic structure;
 //! - [`tradeoff`]: the speed/accuracy/memory trade-off between representations;
-//! - [`stability`]: the numerical sweep of every model at the extremes.
+//! - [`stability`]: the numerical sweep of every model at the extremes;
+//! - [`study`]: the whole experiment on a set of materials, resumable, and its report as a
+//!   static site.
 
 pub mod cost;
 pub mod figures;
@@ -24,6 +26,7 @@ pub mod plot;
 pub mod reports;
 pub mod selection;
 pub mod stability;
+pub mod study;
 pub mod tradeoff;
 
 /// A labelled material (a figure's or a trade-off's representation).

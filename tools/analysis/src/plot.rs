@@ -1,10 +1,19 @@
 //! What every figure shares: the embedded DejaVu Sans (plotters' bitmap backend, so no
-//! system font library is needed), the chart size and palette, the RGB canvas a figure is
-//! drawn on ([`Figure`]), and text labels drawn over a rendered image.
+//! system font library is needed), the chart size, the one style (colour and marker) of
+//! each model in every figure ([`style`]), the canvas a figure is drawn on ([`Figure`]:
+//! RGB pixels, and for charts the same drawing as SVG, see [`vector_figure!`]), legends
+//! beside the data ([`draw_legend`]), equal axis scales ([`equal_scale`]), material names
+//! on an axis ([`axis_name`]), and text labels drawn over a rendered image.
 
 use lobe_renderer::Error;
+use plotters::coord::Shift;
 use plotters::prelude::*;
-use std::path::Path;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// The colour type of styles (plotters').
+pub use plotters::style::RGBColor;
 
 /// DejaVu Sans (licence in assets/DejaVuSans-LICENSE.txt).
 pub const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
@@ -12,25 +21,268 @@ pub const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 pub const W: u32 = 1000;
 /// Height of a chart in pixels.
 pub const H: u32 = 600;
-/// Line colours, in order of the series.
-pub const PALETTE: [RGBColor; 8] = [
-    RGBColor(214, 39, 40),
-    RGBColor(31, 119, 180),
-    RGBColor(44, 160, 44),
-    RGBColor(255, 127, 14),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(23, 190, 207),
+/// Series colours: 18 well-separated hues, readable on white (after Trubetskoy's list of
+/// distinct colours, the lightest ones darkened). A model's colour is fixed by [`style`].
+pub const PALETTE: [RGBColor; 18] = [
+    RGBColor(230, 25, 75),
+    RGBColor(60, 180, 75),
+    RGBColor(67, 99, 216),
+    RGBColor(245, 130, 49),
+    RGBColor(145, 30, 180),
+    RGBColor(30, 190, 220),
+    RGBColor(240, 50, 230),
+    RGBColor(154, 99, 36),
+    RGBColor(128, 0, 0),
+    RGBColor(70, 153, 144),
+    RGBColor(128, 128, 0),
+    RGBColor(0, 0, 117),
+    RGBColor(150, 150, 150),
+    RGBColor(210, 170, 0),
+    RGBColor(120, 190, 30),
+    RGBColor(250, 120, 160),
+    RGBColor(160, 120, 240),
+    RGBColor(0, 100, 60),
 ];
 
-/// An 8-bit RGB image: a drawn figure.
+/// The marker shapes, drawn at every point of a model's series.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Marker {
+    Circle,
+    Square,
+    Triangle,
+    Diamond,
+    Cross,
+}
+
+const MARKERS: [Marker; 5] = [
+    Marker::Circle,
+    Marker::Square,
+    Marker::Triangle,
+    Marker::Diamond,
+    Marker::Cross,
+];
+
+/// How a series is drawn: its colour and marker.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Style {
+    pub color: RGBColor,
+    pub marker: Marker,
+}
+
+/// The labels of the measured data itself (drawn black, thicker).
+pub const MEASURED: [&str; 2] = ["measured", "data"];
+
+/// Every label with a reserved style, in palette order: the fitter's models (in the order
+/// of [`lobe_materials::fit::builtin_specs`]) and the estimated microfacet distribution.
+pub fn known_labels() -> &'static [String] {
+    static LABELS: std::sync::LazyLock<Vec<String>> = std::sync::LazyLock::new(|| {
+        let mut v: Vec<String> = lobe_materials::fit::builtin_specs()
+            .iter()
+            .map(|s| s.label.to_string())
+            .collect();
+        v.push("sampled-microfacet".into());
+        v
+    });
+    &LABELS
+}
+
+/// The style of a series label, the same in every figure: black circles for the measured
+/// data, a reserved palette entry for every known model, and for any other label an
+/// entry chosen from a hash of its name (stable from run to run).
+pub fn style(label: &str) -> Style {
+    if MEASURED.contains(&label) {
+        return Style {
+            color: BLACK,
+            marker: Marker::Circle,
+        };
+    }
+    let k = known_labels()
+        .iter()
+        .position(|l| l == label)
+        .unwrap_or_else(|| {
+            // FNV-1a: a fixed hash, so an unknown label keeps its style between runs.
+            let h = label.bytes().fold(0xcbf29ce484222325u64, |h, b| {
+                (h ^ b as u64).wrapping_mul(0x100000001b3)
+            });
+            (h % (PALETTE.len() * MARKERS.len()) as u64) as usize
+        });
+    Style {
+        color: PALETTE[k % PALETTE.len()],
+        marker: MARKERS[(k + k / PALETTE.len()) % MARKERS.len()],
+    }
+}
+
+/// Draws a marker of `style` centred at pixel `at` (radius `r`).
+pub fn draw_marker<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    at: (i32, i32),
+    r: i32,
+    style: Style,
+) -> Result<(), Error> {
+    let c = style.color.filled();
+    let (x, y) = at;
+    match style.marker {
+        Marker::Circle => area.draw(&Circle::new(at, r, c)),
+        Marker::Square => area.draw(&Rectangle::new([(x - r, y - r), (x + r, y + r)], c)),
+        Marker::Triangle => area.draw(&Polygon::new(
+            vec![(x, y - r - 1), (x - r - 1, y + r), (x + r + 1, y + r)],
+            c,
+        )),
+        Marker::Diamond => area.draw(&Polygon::new(
+            vec![
+                (x, y - r - 1),
+                (x + r + 1, y),
+                (x, y + r + 1),
+                (x - r - 1, y),
+            ],
+            c,
+        )),
+        Marker::Cross => {
+            let s = style.color.stroke_width(2);
+            area.draw(&PathElement::new(vec![(x - r, y - r), (x + r, y + r)], s))
+                .and_then(|_| area.draw(&PathElement::new(vec![(x - r, y + r), (x + r, y - r)], s)))
+        }
+    }
+    .map_err(plot_err)
+}
+
+/// Draws a legend in its own area (beside the plot, so it hides no data): one row per
+/// entry with a line and the marker of its style, then the label; `title` above.
+pub fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    entries: &[(String, Style)],
+) -> Result<(), Error> {
+    let font = ("sans-serif", 15).into_font();
+    let mut y = 48;
+    area.draw(&Text::new(title.to_string(), (8, y - 24), font.clone()))
+        .map_err(plot_err)?;
+    for (label, st) in entries {
+        let width = if MEASURED.contains(&label.as_str()) {
+            3
+        } else {
+            2
+        };
+        area.draw(&PathElement::new(
+            vec![(8, y), (38, y)],
+            st.color.stroke_width(width),
+        ))
+        .map_err(plot_err)?;
+        draw_marker(area, (23, y), 4, *st)?;
+        area.draw(&Text::new(
+            label.clone(),
+            (46, y),
+            TextStyle::from(font.clone()).pos(Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(plot_err)?;
+        y += 22;
+    }
+    Ok(())
+}
+
+/// The ranges widened so that one unit spans as many pixels along x as along y in a plot
+/// area of `dims` pixels (a circle stays a circle): the tighter axis grows, centred, or
+/// for y upwards from its start when `y_floor` (a polar plot's horizon stays at the bottom).
+pub fn equal_scale(
+    dims: (u32, u32),
+    x: Range<f64>,
+    y: Range<f64>,
+    y_floor: bool,
+) -> (Range<f64>, Range<f64>) {
+    let (w, h) = (dims.0.max(1) as f64, dims.1.max(1) as f64);
+    let u = ((x.end - x.start) / w).max((y.end - y.start) / h);
+    let xc = 0.5 * (x.start + x.end);
+    let x = xc - 0.5 * u * w..xc + 0.5 * u * w;
+    let y = if y_floor {
+        y.start..y.start + u * h
+    } else {
+        let yc = 0.5 * (y.start + y.end);
+        yc - 0.5 * u * h..yc + 0.5 * u * h
+    };
+    (x, y)
+}
+
+/// A material's name as an axis label: whole up to 24 characters, longer ones shortened in
+/// the middle with an ellipsis (the start and the end usually tell materials apart).
+pub fn axis_name(name: &str) -> String {
+    let chars: Vec<char> = name.chars().collect();
+    if chars.len() <= 24 {
+        return name.to_string();
+    }
+    let head: String = chars[..14].iter().collect();
+    let tail: String = chars[chars.len() - 9..].iter().collect();
+    format!("{head}\u{2026}{tail}")
+}
+
+/// Draws `names` vertically (reading downwards) under an axis, each centred on its pixel
+/// column `xs[i]`, starting at pixel row `y`, at a size that keeps neighbours apart.
+pub fn draw_axis_names<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    names: &[String],
+    xs: &[i32],
+    y: i32,
+) -> Result<(), Error> {
+    let gap = xs
+        .windows(2)
+        .map(|p| (p[1] - p[0]).abs())
+        .min()
+        .unwrap_or(40);
+    let size = (gap as f64 * 0.9).clamp(7.0, 14.0);
+    let font = TextStyle::from(
+        ("sans-serif", size)
+            .into_font()
+            .transform(FontTransform::Rotate90),
+    )
+    .pos(Pos::new(HPos::Left, VPos::Center));
+    for (name, &x) in names.iter().zip(xs) {
+        area.draw(&Text::new(axis_name(name), (x, y), font.clone()))
+            .map_err(plot_err)?;
+    }
+    Ok(())
+}
+
+/// An 8-bit RGB image: a drawn figure, and for a chart the same drawing as SVG.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Figure {
     pub width: u32,
     pub height: u32,
     /// Row-major RGB bytes, top row first.
     pub rgb: Vec<u8>,
+    /// The SVG document of a chart (None for a raster figure: renders, tables of p).
+    pub svg: Option<String>,
+}
+
+/// Draws a chart twice, on the RGB canvas and as SVG, with one body: `vector_figure!((w,
+/// h), |root| body)` where `body` uses `root` (a `DrawingArea` of either backend, so it
+/// calls functions generic over `DrawingBackend`) and may return early with `?`.
+#[macro_export]
+macro_rules! vector_figure {
+    (($w:expr, $h:expr), |$root:ident| $body:expr) => {{
+        let (w, h): (u32, u32) = ($w, $h);
+        $crate::plot::register_font();
+        let mut fig = $crate::plot::Figure::white(w, h);
+        {
+            let $root = plotters::prelude::BitMapBackend::with_buffer(&mut fig.rgb, (w, h))
+                .into_drawing_area();
+            $root
+                .fill(&plotters::prelude::WHITE)
+                .map_err($crate::plot::plot_err)?;
+            $body;
+            $root.present().map_err($crate::plot::plot_err)?;
+        }
+        let mut svg = String::new();
+        {
+            let $root =
+                plotters::prelude::SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+            $root
+                .fill(&plotters::prelude::WHITE)
+                .map_err($crate::plot::plot_err)?;
+            $body;
+            $root.present().map_err($crate::plot::plot_err)?;
+        }
+        fig.svg = Some(svg);
+        fig
+    }};
 }
 
 impl Figure {
@@ -40,6 +292,7 @@ impl Figure {
             width,
             height,
             rgb: vec![255u8; (width * height * 3) as usize],
+            svg: None,
         }
     }
 
@@ -48,9 +301,21 @@ impl Figure {
         Self::white(W, H)
     }
 
-    /// Writes the figure as a PNG (atomically).
+    /// The SVG file written next to the PNG `path` (same stem, .svg).
+    pub fn svg_path(path: &Path) -> PathBuf {
+        path.with_extension("svg")
+    }
+
+    /// Writes the figure as a PNG, and a chart also as SVG next to it
+    /// ([`Figure::svg_path`]), each atomically.
     pub fn save(&self, path: &Path) -> Result<(), Error> {
-        lobe_renderer::image_io::write_png_rgb8(path, self.width, self.height, &self.rgb)
+        lobe_renderer::image_io::write_png_rgb8(path, self.width, self.height, &self.rgb)?;
+        if let Some(svg) = &self.svg {
+            lobe_renderer::film::atomic_write(&Self::svg_path(path), |w| {
+                std::io::Write::write_all(w, svg.as_bytes())
+            })?;
+        }
+        Ok(())
     }
 }
 
@@ -106,4 +371,41 @@ pub fn draw_labels(
             .map_err(plot_err)?;
     }
     root.present().map_err(plot_err)
+}
+
+/// Width in pixels of the legend column beside a chart.
+pub const LEGEND_W: u32 = 250;
+
+/// A cartesian chart on `area` (margin 15, label areas `labels` = (x, y) pixels) whose
+/// ranges are `x` and `y` widened by [`equal_scale`] to the plot area's pixels, so that
+/// a unit is as long along x as along y.
+pub fn equal_chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    labels: (u32, u32),
+    (x, y): (Range<f64>, Range<f64>),
+    y_floor: bool,
+) -> Result<
+    ChartContext<
+        'a,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    Error,
+> {
+    let mut b = ChartBuilder::on(area);
+    b.margin(15)
+        .x_label_area_size(labels.0)
+        .y_label_area_size(labels.1);
+    // Building draws nothing without a caption: the first build only measures how many
+    // pixels the ranges span.
+    let probe = b
+        .build_cartesian_2d(x.clone(), y.clone())
+        .map_err(plot_err)?;
+    let (a, c) = (
+        probe.backend_coord(&(x.start, y.start)),
+        probe.backend_coord(&(x.end, y.end)),
+    );
+    let span = ((c.0 - a.0).unsigned_abs(), (c.1 - a.1).unsigned_abs());
+    let (x, y) = equal_scale(span, x, y, y_floor);
+    b.build_cartesian_2d(x, y).map_err(plot_err)
 }

@@ -13,7 +13,7 @@
 
 use crate::cost::measure;
 use crate::models::choose;
-use crate::plot::{Figure, H, PALETTE, W, plot_err, register_font};
+use crate::plot::{Figure, H, W, draw_marker, plot_err, register_font, style};
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::{builtin_specs, fit};
 use lobe_materials::measured::format;
@@ -492,12 +492,9 @@ pub fn pareto(rows: &[Row]) -> Result<Figure, Error> {
             .y_desc("log10 median-of-means image RMSE")
             .draw()
             .map_err(plot_err)?;
-        for (k, r) in rows.iter().enumerate() {
-            let c = PALETTE[k % PALETTE.len()];
+        for r in rows {
             let p = (r.seconds.max(1e-4).log10(), r.robust_rmse.max(1e-9).log10());
-            chart
-                .draw_series(std::iter::once(Circle::new(p, 6, c.filled())))
-                .map_err(plot_err)?;
+            draw_marker(&root, chart.backend_coord(&p), 6, style(&r.name))?;
             chart
                 .draw_series(std::iter::once(Text::new(
                     r.name.clone(),

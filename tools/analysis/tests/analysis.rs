@@ -3,7 +3,7 @@
 //! study on a tiny configuration, the stability sweep and the figures.
 
 use lobe_analysis::cost::{Cost, measure};
-use lobe_analysis::plot::{Figure, H, W};
+use lobe_analysis::plot::{self, Figure, RGBColor};
 use lobe_analysis::selection::{cheapest_within, select};
 use lobe_analysis::{figures, fitting, models, reports, stability, tradeoff};
 use lobe_materials::fit::dataset::Dataset;
@@ -288,20 +288,41 @@ fn colours(f: &Figure) -> usize {
     c.len()
 }
 
-fn assert_drawn(f: &Figure, (w, h): (u32, u32), what: &str) {
-    assert_eq!((f.width, f.height), (w, h), "{what}");
-    assert_eq!(f.rgb.len(), (w * h * 3) as usize, "{what}");
+fn assert_drawn(f: &Figure, what: &str) {
+    assert!(f.width >= 320 && f.height >= 320, "{what}");
+    assert_eq!(f.rgb.len(), (f.width * f.height * 3) as usize, "{what}");
     assert!(colours(f) > 5, "{what}: {} colours", colours(f));
 }
 
-#[test]
-fn error_charts_are_drawn_at_chart_size() {
-    let rs: Vec<FitReport> = (0..6)
+/// The bounding box (x0, y0, x1, y1) of the pixels of exactly colour `c` with x in
+/// `columns`, if any.
+fn bbox_of(f: &Figure, c: RGBColor, columns: std::ops::Range<u32>) -> Option<(u32, u32, u32, u32)> {
+    let mut b: Option<(u32, u32, u32, u32)> = None;
+    for y in 0..f.height {
+        for x in columns.clone() {
+            let k = ((y * f.width + x) * 3) as usize;
+            if f.rgb[k..k + 3] == [c.0, c.1, c.2] {
+                let o = b.get_or_insert((x, y, x, y));
+                *o = (o.0.min(x), o.1.min(y), o.2.max(x), o.3.max(y));
+            }
+        }
+    }
+    b
+}
+
+/// True if some pixel of the figure has exactly colour `c`.
+fn has_colour(f: &Figure, c: RGBColor) -> bool {
+    f.rgb.chunks_exact(3).any(|p| p == [c.0, c.1, c.2])
+}
+
+fn four_model_reports() -> Vec<FitReport> {
+    (0..6)
         .map(|k| {
             let e = 0.01 * (k + 1) as f64;
             report_of(
-                &format!("m{k}"),
+                &format!("material-with-a-rather-long-name-{k}"),
                 &[
+                    ("ward", 3.0 * e),
                     ("lafortune", e),
                     ("lafortune-2", e / 3.0),
                     ("cook-torrance", 2.0 * e),
@@ -309,28 +330,115 @@ fn error_charts_are_drawn_at_chart_size() {
                 ],
             )
         })
-        .collect();
-    assert_drawn(&figures::errors(&rs).unwrap(), (W, H), "errors");
-    assert_drawn(&figures::multilobe(&rs).unwrap(), (W, H), "multilobe");
+        .collect()
+}
+
+#[test]
+fn error_charts_are_drawn_with_svg_and_true_counts() {
+    let rs = four_model_reports();
+    let errors = figures::errors(&rs).unwrap();
+    assert_drawn(&errors, "errors");
+    let svg = errors.svg.as_deref().expect("a chart has an SVG");
+    assert!(svg.starts_with("<svg") && svg.contains("5 models on 6 materials"));
+    // Every material is named on the axis (long names shortened, never dropped).
+    for k in 0..6 {
+        assert!(
+            svg.contains(&format!("-name-{k}\n")),
+            "material {k} unnamed"
+        );
+    }
+    let multi = figures::multilobe(&rs).unwrap();
+    assert_drawn(&multi, "multilobe");
+    assert!(
+        multi
+            .svg
+            .unwrap()
+            .contains("all 6 materials with both fits")
+    );
     let one_lobe = [report_of("x", &[("ward", 0.1)])];
     assert!(figures::multilobe(&one_lobe).is_err());
 }
 
 #[test]
-fn polar_lobes_and_distribution_figures_are_drawn() {
+fn every_model_has_one_distinct_style_in_every_figure() {
+    // The palette tells the study's models apart: at least 13 entries, all different.
+    let labels = plot::known_labels();
+    let styles: Vec<plot::Style> = labels.iter().map(|l| plot::style(l)).collect();
+    assert!(plot::PALETTE.len() >= 13);
+    for (i, a) in styles.iter().enumerate() {
+        for (j, b) in styles.iter().enumerate().skip(i + 1) {
+            assert_ne!(
+                a.color, b.color,
+                "{} and {} share a colour",
+                labels[i], labels[j]
+            );
+        }
+    }
+    // Each model is drawn in its colour in the error chart, the multi-lobe chart and a
+    // polar plot, whatever the other series of the figure.
+    let rs = four_model_reports();
+    let errors = figures::errors(&rs).unwrap();
+    let multi = figures::multilobe(&rs).unwrap();
+    let fits: Vec<lobe_analysis::NamedMaterial> = ["cook-torrance-2", "lafortune"]
+        .iter()
+        .map(|n| (n.to_string(), material(ward())))
+        .collect();
+    let polar = figures::polar("ward", material(ward()).as_ref(), &fits, 30.0, 1).unwrap();
+    for m in ["cook-torrance-2", "lafortune"] {
+        let c = plot::style(m).color;
+        for (f, what) in [
+            (&errors, "errors"),
+            (&multi, "multilobe"),
+            (&polar, "polar"),
+        ] {
+            assert!(has_colour(f, c), "{m} is not drawn in its colour in {what}");
+        }
+    }
+    assert!(has_colour(&errors, plot::style("ward").color));
+}
+
+#[test]
+fn polar_and_lobe_plots_have_equal_axis_scales() {
+    // A Lambertian fit is a half circle in the polar plot: twice as wide as high.
     let fits = vec![(
         "lambert".to_string(),
         material(json!({"type": "lambert", "reflectance": 0.3})),
     )];
-    let polar = figures::polar(material(ward()).as_ref(), &fits, 45.0, 1).unwrap();
-    assert_drawn(&polar, (W, H), "polar");
-    assert!(figures::polar(material(ward()).as_ref(), &fits, 95.0, 1).is_err());
-    assert_drawn(&figures::lobes(60.0, 30.0).unwrap(), (W, H), "lobes");
+    let polar = figures::polar("ward", material(ward()).as_ref(), &fits, 45.0, 1).unwrap();
+    assert_drawn(&polar, "polar");
+    let plot_w = polar.width - plot::LEGEND_W;
+    let (x0, y0, x1, y1) = bbox_of(&polar, plot::style("lambert").color, 0..plot_w)
+        .expect("the lambert curve is drawn");
+    let (w, h) = ((x1 - x0) as f64, (y1 - y0) as f64);
+    assert!((w / h - 2.0).abs() < 0.05, "half circle {w} x {h} pixels");
+    assert!(figures::polar("ward", material(ward()).as_ref(), &fits, 95.0, 1).is_err());
+    // The hemisphere's rim is a circle in each panel of the lobe plots.
+    let lobes = figures::lobes(60.0, 30.0).unwrap();
+    let items = vec![
+        ("measured".to_string(), material(ward())),
+        ("lafortune".to_string(), material(ward())),
+        ("he".to_string(), material(ward())),
+    ];
+    let contours = figures::lobe_contours("ward", &items, 45.0, 0).unwrap();
+    for (f, panels) in [(&lobes, 2), (&contours, 3)] {
+        assert_drawn(f, "lobes");
+        let pw = (f.width - plot::LEGEND_W) / panels;
+        for p in 0..panels {
+            let (x0, y0, x1, y1) = bbox_of(f, figures::RIM, p * pw..(p + 1) * pw).unwrap();
+            let (w, h) = (x1 - x0, y1 - y0);
+            assert!(
+                w.abs_diff(h) <= 2 && w > 200,
+                "rim {w} x {h} pixels in panel {p}"
+            );
+        }
+    }
     let table = lobe_materials::microfacet_gen::Table::from_fn(33, |h| {
         (-(h.x * h.x + 4.0 * h.y * h.y) / 0.05).exp()
     })
     .unwrap();
-    assert_drawn(&figures::distribution(&table), (320, 320), "distribution");
+    let d = figures::distribution(&table);
+    assert_eq!((d.width, d.height), (320, 320));
+    assert!(colours(&d) > 5);
 }
 
 #[test]
@@ -341,7 +449,8 @@ fn sphere_grids_have_one_tile_per_material() {
         .collect();
     let f = figures::spheres(&items, "builtin:studio", 2, 32, 0.0).unwrap();
     // Four per row, two rows, a 30-pixel label under each.
-    assert_drawn(&f, (4 * 32, 2 * (32 + 30)), "spheres");
+    assert_eq!((f.width, f.height), (4 * 32, 2 * (32 + 30)), "spheres");
+    assert!(colours(&f) > 5);
     assert!(figures::spheres(&items, "builtin:studio", 2, 16, 0.0).is_err());
 }
 

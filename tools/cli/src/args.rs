@@ -3,6 +3,7 @@
 //! handling (the first Ctrl-C asks the running work to stop and says so, a second one
 //! exits at once with status 130).
 
+use lobe_renderer::Error;
 use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -49,4 +50,22 @@ pub fn ctrl_c(ack: &'static str) -> Arc<AtomicBool> {
 /// True once Ctrl-C was pressed (the command then exits with status 130).
 pub fn cancelled() -> bool {
     CANCEL.get().is_some_and(|f| f.load(Ordering::SeqCst))
+}
+
+/// Parses `--shard I/N` (0 <= I < N): this task's share of a job array.
+pub fn parse_shard(s: &str) -> Result<(usize, usize), Error> {
+    let bad = || {
+        Error::Other(format!(
+            "--shard: expected I/N with 0 <= I < N, found \"{s}\""
+        ))
+    };
+    let (i, n) = s.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
 }

@@ -11,7 +11,7 @@ mod material;
 
 use clap::{Parser, Subcommand};
 use commands::{
-    compare, eval, figure, fit, microfacet, models, render, stability, tabulate, tradeoff,
+    compare, eval, figure, fit, microfacet, models, render, stability, study, tabulate, tradeoff,
 };
 use std::process::ExitCode;
 
@@ -65,6 +65,12 @@ enum Command {
         after_help = "Examples:\n  lobe tradeoff ../shared/data/rgl/paper_white_rgb.bsdf -o out/paper\n  lobe tradeoff nickel.binary --scene my-scene.json --spp 256 --reference-spp 4096 -o out/nickel\nA --scene must name the material to replace \"subject\" in its \"materials\"."
     )]
     Tradeoff(tradeoff::TradeoffArgs),
+    /// The whole study on measured data (or a built-in set): fits, selection, microfacet
+    /// estimate, renders and image errors, plots, figures; a browsable report (index.html).
+    #[command(
+        after_help = "Examples:\n  lobe study                                   # the built-in set -> lobe-study/index.html\n  lobe study ../shared/data/rgl -o out/rgl-study --open\n  lobe study data/ --quick -o out/quick\n  lobe study data/ --shard 2/8 -o out/s   # one task of a job array; rerun without --shard to build the report\nA rerun computes only what is missing; Ctrl-C keeps every finished step."
+    )]
+    Study(study::StudyArgs),
     /// Sweep every model over its parameter box and extreme directions; count non-finite,
     /// negative, non-reciprocal, energy-gaining and f32/f64-disagreeing values.
     #[command(
@@ -104,6 +110,7 @@ fn main() -> ExitCode {
         Command::Microfacet(cmd) => microfacet::cmd_microfacet(cmd, cli.quiet),
         Command::Tradeoff(args) => tradeoff::cmd_tradeoff(args, cli.quiet),
         Command::Stability(args) => stability::cmd_stability(args, cli.quiet),
+        Command::Study(args) => study::cmd_study(args, cli.quiet),
         Command::Models { names } => models::cmd_models(names),
     };
     match result {

@@ -100,6 +100,22 @@ impl MaterialSource {
         }
     }
 
+    /// A name for the material in figure titles: the stem of the file it reads, the
+    /// published fit's material, the scene's material name, or else its type.
+    pub fn label(&self) -> String {
+        let text = |k: &str| self.desc.get(k).and_then(Value::as_str);
+        if let Some(f) = text("file") {
+            return lobe_analysis::fitting::stem(Path::new(f));
+        }
+        if let (Some("ngan-fit"), Some(m)) = (text("type"), text("material")) {
+            return m.to_string();
+        }
+        if let Some(name) = self.path.strip_prefix("materials.") {
+            return name.to_string();
+        }
+        text("type").unwrap_or("material").to_string()
+    }
+
     pub fn build(&self) -> Result<Arc<dyn Bsdf>, Error> {
         let registry = Registry::builtin();
         registry

@@ -675,13 +675,19 @@ fn figures_draw_pngs_from_fit_reports() {
             .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let img = image::open(&out).unwrap().to_rgb8();
-        let want = if name == "s.png" {
+        let svg = out.with_extension("svg");
+        if name == "s.png" {
             // Three spheres (the material, ward, lafortune) in one row with labels.
-            (3 * 48, 48 + 30)
+            assert_eq!(img.dimensions(), (3 * 48, 48 + 30));
+            assert!(!svg.exists(), "a raster figure has no SVG");
         } else {
-            (1000, 600)
-        };
-        assert_eq!(img.dimensions(), want);
+            // A chart: at least chart-sized, and the same drawing as SVG beside it.
+            assert!(img.width() >= 1000 && img.height() >= 500, "{name}");
+            let text = std::fs::read_to_string(&svg).unwrap();
+            assert!(
+                text.starts_with("<svg") && text.contains(&format!("width=\"{}\"", img.width()))
+            );
+        }
         // Something coloured (a plotted curve) was drawn, not just a blank canvas.
         assert!(img.pixels().any(|p| p[0] != p[1] || p[1] != p[2]));
     }
@@ -1905,4 +1911,38 @@ fn readme_commands_run_as_written() {
 fn shared_data() -> Option<std::path::PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     p.is_dir().then_some(p)
+}
+
+/// `lobe study` refuses, in one line naming the problem, missing data, a bad shard, data
+/// inside the study folder and a study folder made with other settings.
+#[test]
+fn study_refuses_bad_inputs_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    let o = out.to_str().unwrap();
+    let missing = dir.path().join("missing.bsdf");
+    fails(
+        &["study", missing.to_str().unwrap(), "-o", o],
+        "missing.bsdf: does not exist",
+    );
+    let data = dir.path().join("a.bsdf");
+    std::fs::write(&data, b"not read before the checks").unwrap();
+    let d = data.to_str().unwrap();
+    fails(&["study", d, "--shard", "2/2", "-o", o], "--shard");
+    let inside = out.join("b.bsdf");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(&inside, b"x").unwrap();
+    fails(
+        &["study", inside.to_str().unwrap(), "-o", o],
+        "is inside the study folder",
+    );
+    std::fs::write(
+        out.join("study.json"),
+        r#"{"settings": {}, "environments": []}"#,
+    )
+    .unwrap();
+    fails(
+        &["study", d, "--quick", "-o", o],
+        "made with other settings",
+    );
 }

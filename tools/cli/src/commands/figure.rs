@@ -1,4 +1,5 @@
-//! `lobe figure`: the study's plots as PNG (drawn by lobe_analysis::figures):
+//! `lobe figure`: the study's plots as PNG, the charts also as SVG next to it (drawn by
+//! lobe_analysis::figures):
 //! - `errors`: Figure 14, the normalized fitting error (log scale) of every model for every
 //!   material, materials sorted by the Lafortune error;
 //! - `multilobe`: Figure 5, one against two lobes for Cook-Torrance and Lafortune on the 30
@@ -12,6 +13,7 @@
 use crate::args::finite;
 use crate::material::{MaterialArgs, MaterialSource};
 use lobe_analysis::figures;
+use lobe_analysis::plot::Figure;
 use lobe_analysis::reports::{read_reports, report_files, report_models};
 use lobe_materials::fit::report::FitReport;
 use lobe_renderer::Error;
@@ -25,7 +27,7 @@ pub enum FigureCmd {
         /// Fit reports or folders of them (their *.fit.json files).
         #[arg(required = true)]
         reports: Vec<PathBuf>,
-        /// Output PNG file.
+        /// Output PNG file (a chart also writes an SVG of the same name beside it).
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -34,7 +36,7 @@ pub enum FigureCmd {
         /// Fit reports or folders of them (their *.fit.json files).
         #[arg(required = true)]
         reports: Vec<PathBuf>,
-        /// Output PNG file.
+        /// Output PNG file (a chart also writes an SVG of the same name beside it).
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -54,7 +56,7 @@ pub enum FigureCmd {
         /// Colour channel: 0, 1 or 2 (red, green, blue).
         #[arg(long, default_value_t = 1)]
         channel: usize,
-        /// Output PNG file.
+        /// Output PNG file (a chart also writes an SVG of the same name beside it).
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -81,7 +83,7 @@ pub enum FigureCmd {
         /// Exposure in stops.
         #[arg(long, default_value_t = 0.0, value_parser = finite::<f32>)]
         exposure: f32,
-        /// Output PNG file.
+        /// Output PNG file (a chart also writes an SVG of the same name beside it).
         #[arg(long, short)]
         output: PathBuf,
     },
@@ -94,10 +96,16 @@ pub enum FigureCmd {
         /// Lobe exponent n.
         #[arg(long, default_value_t = 30.0, value_parser = finite::<f64>)]
         exponent: f64,
-        /// Output PNG file.
+        /// Output PNG file (a chart also writes an SVG of the same name beside it).
         #[arg(long, short)]
         output: PathBuf,
     },
+}
+
+/// Adds a figure's PNG `output` and the SVG written next to it to `plan`.
+fn plan_figure<'a>(plan: &'a mut FilePlan, output: &Path) -> &'a mut FilePlan {
+    plan.output(output, "figure")
+        .output(Figure::svg_path(output), "figure (SVG)")
 }
 
 /// Reads the reports of `inputs` (files or folders), after checking that `output` is
@@ -108,7 +116,7 @@ fn reports_for(inputs: &[PathBuf], output: &Path) -> Result<Vec<FitReport>, Erro
     for f in &files {
         plan.input(f, "a fit report");
     }
-    plan.output(output, "figure").check()?;
+    plan_figure(&mut plan, output).check()?;
     read_reports(&files)
 }
 
@@ -129,7 +137,7 @@ fn material_figure_inputs(
     if let Some(e) = env.filter(|e| !e.starts_with("builtin:")) {
         plan.input(e, "the environment map");
     }
-    plan.output(output, "figure").check()?;
+    plan_figure(&mut plan, output).check()?;
     Ok(source)
 }
 
@@ -160,7 +168,14 @@ pub fn cmd_figure(cmd: FigureCmd, quiet: bool) -> Result<(), Error> {
                 )?,
                 None => Vec::new(),
             };
-            figures::polar(source.build()?.as_ref(), &fits, theta_i, channel)?.save(&output)?;
+            let fig = figures::polar(
+                &source.label(),
+                source.build()?.as_ref(),
+                &fits,
+                theta_i,
+                channel,
+            )?;
+            fig.save(&output)?;
             output
         }
         FigureCmd::Spheres {
@@ -188,6 +203,7 @@ pub fn cmd_figure(cmd: FigureCmd, quiet: bool) -> Result<(), Error> {
             exponent,
             output,
         } => {
+            plan_figure(&mut FilePlan::new(), &output).check()?;
             figures::lobes(theta_i, exponent)?.save(&output)?;
             output
         }

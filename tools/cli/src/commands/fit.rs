@@ -3,7 +3,7 @@
 //! folder, fit every file, resumably and in deterministic shards (lobe_analysis::fitting);
 //! `lobe fit merge` joins reports into CSV and Markdown tables (lobe_analysis::reports).
 
-use crate::args::finite;
+use crate::args::{finite, parse_shard};
 use crate::material::{MaterialArgs, MaterialSource};
 use lobe_analysis::fitting::{
     BatchProgress, BatchSummary, FitOptions, batch_jobs, fit_batch, fit_material, stem,
@@ -163,23 +163,6 @@ fn fit_report(
     )?;
     display.finished(name, &report);
     Ok(report)
-}
-
-fn parse_shard(s: &str) -> Result<(usize, usize), Error> {
-    let bad = || {
-        Error::Other(format!(
-            "--shard: expected I/N with 0 <= I < N, found \"{s}\""
-        ))
-    };
-    let (i, n) = s.split_once('/').ok_or_else(bad)?;
-    let (i, n): (usize, usize) = (
-        i.trim().parse().map_err(|_| bad())?,
-        n.trim().parse().map_err(|_| bad())?,
-    );
-    if n == 0 || i >= n {
-        return Err(bad());
-    }
-    Ok((i, n))
 }
 
 fn check_options(args: &FitArgs) -> Result<(), Error> {

@@ -9,5 +9,6 @@ pub mod microfacet;
 pub mod models;
 pub mod render;
 pub mod stability;
+pub mod study;
 pub mod tabulate;
 pub mod tradeoff;

@@ -1,0 +1,513 @@
+//! The whole experiment of Ngan, Durand and Matusik 2005 (sections 3 to 5) on any set of
+//! measured materials, as resumable steps whose outputs are files in one folder, and the
+//! browsable report built from them ([`site`]).
+//!
+//! Per material ([`steps`]): the fits of every applicable model with the cheapest adequate
+//! one selected (section 4, [`crate::fitting::fit_material`]), the microfacet distribution
+//! estimated from the data (section 5), renders of the data and of every representation
+//! on a sphere under each environment map (Figures 3 and 6) with their image errors (RMSE,
+//! FLIP) at equal spp and at equal time, polar plots (Figure 4) and lobe contour plots
+//! (Figures 7 and 8). Over all materials: Figures 14 and 5 and the trade-off table.
+//!
+//! Every step writes each file by temp file and rename and counts as done when its last
+//! file exists, so an interrupted study resumes where it stopped and a rerun computes only
+//! what is missing; a shard (i of n) takes every n-th material for job arrays, and the
+//! report is built once every material is complete.
+
+pub mod site;
+pub mod steps;
+
+use lobe_materials::fit::Stop;
+use lobe_materials::fit::dataset::Dataset;
+use lobe_materials::measured::format;
+use lobe_materials::registry::Registry;
+use lobe_renderer::Error;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+
+/// What a study runs on and where it writes.
+#[derive(Clone, Debug)]
+pub struct StudyConfig {
+    /// Measured data files and folders of them; empty: the built-in set
+    /// ([`builtin_materials`]).
+    pub inputs: Vec<PathBuf>,
+    /// The study folder.
+    pub out: PathBuf,
+    /// The small version: fewer models, coarser bins, fewer samples.
+    pub quick: bool,
+    /// This shard (i, n): materials whose index in name order is i modulo n.
+    pub shard: (usize, usize),
+    /// Environment maps (EXR/HDR files or builtin:studio); empty: the built-in studio and
+    /// the sunset map embedded in lobe.
+    pub envs: Vec<String>,
+}
+
+/// How much work each step does: the full study on the user's data, a lighter one on the
+/// built-in set (a complete report in minutes), or the quick one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Bin size of isotropic data in degrees.
+    pub resolution: f64,
+    /// Objective evaluations per SLSQP start.
+    pub max_evals: usize,
+    /// Comma-separated models, or None for every applicable one.
+    pub models: Option<String>,
+    /// Relative error tolerance of the model selection.
+    pub tolerance: f64,
+    /// Render size, samples per pixel of the compared renders and of the reference.
+    pub size: u32,
+    pub spp: u32,
+    pub reference_spp: u32,
+    /// Nodes per side and alternations of the microfacet estimate.
+    pub microfacet_nodes: usize,
+    pub microfacet_iterations: usize,
+    /// Incidence angles (degrees) of the polar and lobe plots.
+    pub angles: Vec<f64>,
+}
+
+impl Settings {
+    /// The settings of a configuration: `quick`, else the built-in set's when it has no
+    /// inputs, else the full study's.
+    pub fn of(config: &StudyConfig) -> Self {
+        match (config.quick, config.inputs.is_empty()) {
+            (true, _) => Self::new(true),
+            (false, true) => Self::builtin(),
+            (false, false) => Self::new(false),
+        }
+    }
+
+    /// The built-in set's: every applicable model at 5-degree bins, 96-pixel renders at 32
+    /// spp against a 256 spp reference.
+    pub fn builtin() -> Self {
+        Self {
+            resolution: 5.0,
+            max_evals: 100,
+            size: 96,
+            spp: 32,
+            reference_spp: 256,
+            microfacet_nodes: 33,
+            microfacet_iterations: 3,
+            ..Self::new(false)
+        }
+    }
+
+    /// The quick settings (`quick`) or the full study's.
+    pub fn new(quick: bool) -> Self {
+        if quick {
+            Self {
+                resolution: 6.0,
+                max_evals: 40,
+                models: Some("ward,cook-torrance,cook-torrance-2,lafortune,lafortune-2".into()),
+                tolerance: 0.1,
+                size: 48,
+                spp: 8,
+                reference_spp: 32,
+                microfacet_nodes: 17,
+                microfacet_iterations: 2,
+                angles: vec![45.0],
+            }
+        } else {
+            Self {
+                resolution: 2.0,
+                max_evals: 150,
+                models: None,
+                tolerance: 0.1,
+                size: 128,
+                spp: 64,
+                reference_spp: 1024,
+                microfacet_nodes: 65,
+                microfacet_iterations: 4,
+                angles: vec![30.0, 60.0],
+            }
+        }
+    }
+}
+
+impl Settings {
+    /// The settings as JSON (recorded in DIR/study.json).
+    pub fn to_json(&self) -> Value {
+        json!({
+            "resolution_deg": self.resolution, "max_evals": self.max_evals,
+            "models": self.models, "tolerance": self.tolerance, "size": self.size,
+            "spp": self.spp, "reference_spp": self.reference_spp,
+            "microfacet_nodes": self.microfacet_nodes,
+            "microfacet_iterations": self.microfacet_iterations, "angles_deg": self.angles,
+        })
+    }
+
+    /// Records the settings in DIR/study.json, or checks that a study folder already
+    /// made has the same ones (its finished steps would otherwise mix two studies).
+    fn record(&self, out: &Path, envs: &[Env]) -> Result<(), Error> {
+        let path = out.join("study.json");
+        let envs: Vec<&str> = envs.iter().map(|e| e.name.as_str()).collect();
+        let v = json!({"settings": self.to_json(), "environments": envs});
+        if path.exists() {
+            let old = lobe_materials::json::read(&path)?;
+            if old != v {
+                return Err(Error::file(
+                    path.display(),
+                    format!(
+                        "the study in this folder was made with other settings ({old}); expected {v}: use another folder, or the same options (--quick, --env) as before"
+                    ),
+                ));
+            }
+            return Ok(());
+        }
+        lobe_renderer::film::write_json(&path, &v)
+    }
+}
+
+/// Where a material's data comes from.
+#[derive(Clone, Debug)]
+pub enum Source {
+    /// A measured file (MERL, binned or RGL, told apart by content).
+    File(PathBuf),
+    /// An analytic material tabulated in memory (the built-in set).
+    Analytic(Value),
+}
+
+/// A material of the study.
+#[derive(Clone, Debug)]
+pub struct StudyMaterial {
+    /// Its name (the data file's stem), naming its files and page.
+    pub name: String,
+    pub source: Source,
+}
+
+impl StudyMaterial {
+    /// The binned data the models are fitted to.
+    pub fn dataset(&self, registry: &Registry, resolution: f64) -> Result<Dataset, Error> {
+        match &self.source {
+            Source::File(p) => Ok(Dataset::read(p, resolution)?),
+            Source::Analytic(desc) => {
+                let m = registry
+                    .create(desc, &self.name)
+                    .map_err(|e| Error::Other(e.to_string()))?;
+                Ok(Dataset::isotropic(
+                    &|wi, wo| Some(m.eval(wo, wi)),
+                    resolution,
+                ))
+            }
+        }
+    }
+
+    /// The material description that renders the data itself.
+    pub fn desc(&self) -> Result<Value, Error> {
+        match &self.source {
+            Source::File(p) => {
+                let abs = std::fs::canonicalize(p)
+                    .map_err(|e| Error::file(p.display(), format!("cannot open: {e}")))?;
+                let kind = format::detect(&abs)?.material_type();
+                Ok(json!({"type": kind, "file": abs.display().to_string()}))
+            }
+            Source::Analytic(desc) => Ok(desc.clone()),
+        }
+    }
+
+    /// Where the data comes from, for reports and pages.
+    pub fn source_text(&self) -> String {
+        match &self.source {
+            Source::File(p) => p.display().to_string(),
+            Source::Analytic(d) => format!("built-in: {d}"),
+        }
+    }
+}
+
+/// The analytic materials of the built-in set: a plastic, a metal, a two-lobe paint and a
+/// rough clay, each of a different model, so that the fits disagree as on real data.
+pub fn analytic_materials() -> Vec<StudyMaterial> {
+    let m = |name: &str, desc: Value| StudyMaterial {
+        name: name.into(),
+        source: Source::Analytic(desc),
+    };
+    vec![
+        m(
+            "builtin-red-plastic",
+            json!({"type": "cook-torrance", "diffuse": [0.35, 0.06, 0.04], "specular": 0.3, "m": 0.12}),
+        ),
+        m(
+            "builtin-gold",
+            json!({"type": "ashikhmin-shirley", "specular": [0.9, 0.6, 0.25], "n": 300, "f0": 0.8}),
+        ),
+        m(
+            "builtin-two-layer-paint",
+            json!({"type": "composite", "diffuse": [0.05, 0.12, 0.2], "lobes": [
+                {"type": "ward", "specular": 0.4, "alpha": 0.05},
+                {"type": "ward", "specular": 0.15, "alpha": 0.3}]}),
+        ),
+        m(
+            "builtin-rough-clay",
+            json!({"type": "ward", "diffuse": [0.45, 0.3, 0.2], "specular": 0.05, "alpha": 0.4}),
+        ),
+    ]
+}
+
+/// The folder of shared RGL files, if present: $LOBE_DATA/rgl or ../shared/data/rgl.
+pub fn shared_rgl_folder() -> Option<PathBuf> {
+    std::env::var_os("LOBE_DATA")
+        .map(|d| PathBuf::from(d).join("rgl"))
+        .into_iter()
+        .chain(std::iter::once(PathBuf::from("../shared/data/rgl")))
+        .find(|p| p.is_dir())
+}
+
+/// The built-in set: [`analytic_materials`], and the RGL files of
+/// [`shared_rgl_folder`] when present.
+pub fn builtin_materials() -> Result<Vec<StudyMaterial>, Error> {
+    let mut v = analytic_materials();
+    if let Some(dir) = shared_rgl_folder() {
+        v.extend(materials(&[dir])?);
+    }
+    Ok(v)
+}
+
+/// The materials of data files and folders (each folder's data files in name order,
+/// [`crate::fitting::data_files`]); two with the same name are an error naming both.
+pub fn materials(inputs: &[PathBuf]) -> Result<Vec<StudyMaterial>, Error> {
+    let mut v: Vec<StudyMaterial> = Vec::new();
+    for i in inputs {
+        let files = if i.is_dir() {
+            crate::fitting::data_files(i)?
+        } else if i.is_file() {
+            vec![i.clone()]
+        } else {
+            return Err(Error::file(
+                i.display(),
+                "does not exist; expected a measured data file (MERL, binned, RGL) or a folder of them",
+            ));
+        };
+        for f in files {
+            let name = crate::fitting::stem(&f);
+            if let Some(other) = v.iter().find(|m| m.name == name) {
+                return Err(Error::file(
+                    f.display(),
+                    format!(
+                        "has the same name \"{name}\" as {}; expected distinct file names",
+                        other.source_text()
+                    ),
+                ));
+            }
+            v.push(StudyMaterial {
+                name,
+                source: Source::File(f),
+            });
+        }
+    }
+    Ok(v)
+}
+
+/// An environment map the renders are lit by.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Env {
+    /// Its name in file names and pages.
+    pub name: String,
+    /// What the scene's envmap light reads (a path or builtin:studio).
+    pub file: String,
+}
+
+/// The sunset map of scenes/envmaps (512 x 256, CC0, Greg Zaal / HDRI Haven), embedded so
+/// that the built-in study has a second, outdoor lighting without any file.
+const SUNSET: &[u8] = include_bytes!("../../../../scenes/envmaps/sunset-512.exr");
+
+/// The environment maps: the configured ones, or builtin:studio and the embedded sunset
+/// map (written to DIR/assets/ the first time).
+pub fn environments(config: &StudyConfig) -> Result<Vec<Env>, Error> {
+    if config.envs.is_empty() {
+        let sunset = config.out.join("assets").join("sunset-512.exr");
+        if !sunset.exists() {
+            std::fs::create_dir_all(config.out.join("assets"))
+                .map_err(|e| Error::file(config.out.display(), format!("cannot create: {e}")))?;
+            lobe_renderer::film::atomic_write(&sunset, |w| std::io::Write::write_all(w, SUNSET))?;
+        }
+        let abs = std::fs::canonicalize(&sunset).unwrap_or(sunset);
+        return Ok(vec![
+            Env {
+                name: "studio".into(),
+                file: "builtin:studio".into(),
+            },
+            Env {
+                name: "sunset".into(),
+                file: abs.display().to_string(),
+            },
+        ]);
+    }
+    let mut v: Vec<Env> = Vec::new();
+    for e in &config.envs {
+        let name = match e.strip_prefix("builtin:") {
+            Some(b) => b.to_string(),
+            None => crate::fitting::stem(Path::new(e)),
+        };
+        if v.iter().any(|o| o.name == name) {
+            return Err(Error::Other(format!(
+                "--env {e}: a second environment map named \"{name}\"; expected distinct names"
+            )));
+        }
+        let file = match e.starts_with("builtin:") {
+            true => e.clone(),
+            false => std::fs::canonicalize(e)
+                .map_err(|err| {
+                    Error::file(
+                        e,
+                        format!("cannot open: {err}; expected an EXR or HDR environment map"),
+                    )
+                })?
+                .display()
+                .to_string(),
+        };
+        v.push(Env { name, file });
+    }
+    Ok(v)
+}
+
+/// What a study tells as it goes.
+pub trait StudyProgress: Sync {
+    /// `total` steps are to be checked (done ones are skipped quickly).
+    fn planned(&self, _total: usize) {}
+    /// A step starts.
+    fn began(&self, _what: &str) {}
+    /// A step is done or was already done.
+    fn finished(&self, _what: &str) {}
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StudySummary {
+    pub materials: usize,
+    /// Steps computed in this run, and found done.
+    pub computed: usize,
+    pub skipped: usize,
+    /// Materials (of any shard) not yet complete: the report waits for them.
+    pub pending: usize,
+    /// The report's index page, when it was built.
+    pub index: Option<PathBuf>,
+}
+
+/// Refuses an input inside the study folder (its outputs could overwrite it) and an
+/// output folder that is a file.
+fn check_paths(config: &StudyConfig, mats: &[StudyMaterial], envs: &[Env]) -> Result<(), Error> {
+    if config.out.exists() && !config.out.is_dir() {
+        return Err(Error::file(
+            config.out.display(),
+            "is a file; expected the study folder",
+        ));
+    }
+    std::fs::create_dir_all(&config.out).map_err(|e| {
+        Error::file(
+            config.out.display(),
+            format!("cannot create the study folder: {e}"),
+        )
+    })?;
+    let root = std::fs::canonicalize(&config.out).unwrap_or(config.out.clone());
+    let files = mats
+        .iter()
+        .filter_map(|m| match &m.source {
+            Source::File(p) => Some(p.clone()),
+            Source::Analytic(_) => None,
+        })
+        .chain(envs.iter().map(|e| PathBuf::from(&e.file)));
+    for f in files {
+        let abs = std::fs::canonicalize(&f).unwrap_or(f.clone());
+        if abs.starts_with(&root) && !abs.starts_with(root.join("assets")) {
+            return Err(Error::file(
+                f.display(),
+                format!(
+                    "is inside the study folder {}; expected inputs outside it (the study writes there)",
+                    config.out.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Runs the study: this shard's missing steps, then, if every material is complete, the
+/// report (figures over all materials, the trade-off table, the pages). `stop` is polled
+/// between steps and inside fits; once it returns true the run ends with an error saying
+/// so, keeping every finished file and no partial one.
+pub fn run(
+    registry: &Registry,
+    config: &StudyConfig,
+    stop: &Stop<'_>,
+    progress: &dyn StudyProgress,
+) -> Result<StudySummary, Error> {
+    let (i, n) = config.shard;
+    if n == 0 || i >= n {
+        return Err(Error::Other(format!(
+            "--shard: expected I/N with 0 <= I < N, found {i}/{n}"
+        )));
+    }
+    let mats = if config.inputs.is_empty() {
+        builtin_materials()?
+    } else {
+        materials(&config.inputs)?
+    };
+    run_materials(registry, config, &mats, stop, progress)
+}
+
+/// [`run`] on the given materials.
+pub fn run_materials(
+    registry: &Registry,
+    config: &StudyConfig,
+    mats: &[StudyMaterial],
+    stop: &Stop<'_>,
+    progress: &dyn StudyProgress,
+) -> Result<StudySummary, Error> {
+    let (i, n) = config.shard;
+    let settings = Settings::of(config);
+    check_paths(config, mats, &[])?;
+    let envs = environments(config)?;
+    check_paths(config, mats, &envs)?;
+    settings.record(&config.out, &envs)?;
+    let layout = steps::Layout::new(&config.out);
+    let mine: Vec<&StudyMaterial> = mats
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % n == i)
+        .map(|(_, m)| m)
+        .collect();
+    let ctx = steps::Context {
+        registry,
+        settings: &settings,
+        layout: &layout,
+        envs: &envs,
+        stop,
+    };
+    let plan: Vec<(&StudyMaterial, steps::Step)> = mine
+        .iter()
+        .flat_map(|m| {
+            steps::Step::all(envs.len())
+                .into_iter()
+                .map(move |s| (*m, s))
+        })
+        .collect();
+    progress.planned(plan.len());
+    let mut summary = StudySummary {
+        materials: mats.len(),
+        ..Default::default()
+    };
+    for (m, step) in plan {
+        let what = format!("{}: {}", m.name, step.describe(&envs));
+        if step.done(&ctx, m) {
+            summary.skipped += 1;
+            progress.finished(&what);
+            continue;
+        }
+        if stop() {
+            return Err(Error::Other(
+                "interrupted: finished steps are kept; rerun to resume".into(),
+            ));
+        }
+        progress.began(&what);
+        step.run(&ctx, m)?;
+        summary.computed += 1;
+        progress.finished(&what);
+    }
+    summary.pending = mats
+        .iter()
+        .filter(|m| !steps::Step::all(envs.len()).iter().all(|s| s.done(&ctx, m)))
+        .count();
+    if summary.pending == 0 {
+        summary.index = Some(site::build(&ctx, mats)?);
+    }
+    Ok(summary)
+}

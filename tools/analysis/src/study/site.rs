@@ -1,0 +1,485 @@
+//! The report of a study as a static site that works offline from its folder (no CDN, no
+//! server), like the website of Ngan et al. 2005's study: DIR/index.html with a sortable
+//! table of every material's errors per model, the selected model and the costs, the
+//! trade-off table and Figures 14 and 5; DIR/materials/NAME.html per material with its
+//! renders side by side (measured | each representation, and the FLIP heat maps),
+//! parameters, errors and plots. Also DIR/tradeoff.md and .csv.
+//!
+//! Values that come from a timing (costs, render seconds, equal-time errors, and the
+//! selection, which depends on costs) are marked `class="timed"`: they vary from run to
+//! run, everything else is a function of the data and the settings.
+
+use super::StudyMaterial;
+use super::steps::{Context, Layout, headline_fits, representations};
+use crate::figures;
+use lobe_materials::fit::report::{self, FitReport};
+use lobe_renderer::Error;
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Everything the pages show of one material.
+struct MaterialData {
+    name: String,
+    source: String,
+    report: FitReport,
+    /// The microfacet estimate's JSON (error, material, costs).
+    microfacet: Value,
+    /// Per environment map its metrics.json.
+    metrics: Vec<(String, Value)>,
+    /// The representations' names, the measured data first.
+    reps: Vec<String>,
+}
+
+/// Escapes text for HTML.
+pub fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// A relative URL of a path: every byte but letters, digits and `-._/` percent-encoded.
+pub fn url(path: &str) -> String {
+    path.bytes()
+        .map(|b| match b {
+            b'a'..=b'z' | b'A'..=b'Z' | b'0'..=b'9' | b'-' | b'.' | b'_' | b'/' => {
+                (b as char).to_string()
+            }
+            _ => format!("%{b:02X}"),
+        })
+        .collect()
+}
+
+/// A number cell: scientific notation, the value for sorting; empty when not finite.
+fn num(x: Option<f64>, timed: bool) -> String {
+    let class = if timed { " class=\"timed\"" } else { "" };
+    match x.filter(|x| x.is_finite()) {
+        Some(x) => format!("<td{class} data-v=\"{x:e}\">{x:.3e}</td>"),
+        None => format!("<td{class}></td>"),
+    }
+}
+
+const STYLE: &str = "body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,'DejaVu Sans',sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222;line-height:1.45}
+h1{font-weight:600}h2{margin-top:2em;border-bottom:1px solid #ddd}
+table{border-collapse:collapse;font-size:0.9em;margin:1em 0}
+th,td{padding:0.25em 0.6em;border-bottom:1px solid #eee;text-align:right}
+th:first-child,td:first-child{text-align:left}
+table.sortable th{cursor:pointer;user-select:none;background:#f6f6f6}
+th[aria-sort=ascending]::after{content:' \\25B2'}th[aria-sort=descending]::after{content:' \\25BC'}
+td.timed{color:#555;font-style:italic}
+.grid{display:flex;flex-wrap:wrap;gap:0.8em}
+figure{margin:0;text-align:center;font-size:0.85em}
+img.render{width:160px;height:160px;image-rendering:pixelated;border:1px solid #ccc}
+img.plot{max-width:100%;border:1px solid #eee}
+code,pre{font-size:0.85em;background:#f6f6f6}
+pre{padding:0.4em;white-space:pre-wrap;word-break:break-all;max-width:40em;text-align:left;margin:0}
+.note{color:#555;font-size:0.9em}";
+
+/// The table sorter: a click on a header sorts its table by that column (numbers by
+/// their data-v value, text case-insensitively; again: the other way). `#sort=K` (or
+/// `#sort=K-`, descending) in the URL sorts the first table by column K on load.
+const SORTER: &str = "(function(){
+function key(td){var v=td.getAttribute('data-v');if(v!==null){var x=parseFloat(v);if(!isNaN(x))return x;}return td.textContent.trim().toLowerCase();}
+function sortBy(t,col,dir){var b=t.tBodies[0];var rows=Array.prototype.slice.call(b.rows);
+rows.sort(function(p,q){var x=key(p.cells[col]),y=key(q.cells[col]);var xn=typeof x==='number',yn=typeof y==='number';
+if(xn&&yn)return dir*(x-y);if(xn)return -1;if(yn)return 1;return dir*(x<y?-1:(x>y?1:0));});
+rows.forEach(function(r){b.appendChild(r);});
+Array.prototype.forEach.call(t.tHead.rows[0].cells,function(th,i){th.setAttribute('aria-sort',i===col?(dir>0?'ascending':'descending'):'none');});}
+Array.prototype.forEach.call(document.querySelectorAll('table.sortable'),function(t){
+Array.prototype.forEach.call(t.tHead.rows[0].cells,function(th,i){th.addEventListener('click',function(){sortBy(t,i,th.getAttribute('aria-sort')==='ascending'?-1:1);});});});
+var m=/sort=(\\d+)(-?)/.exec(location.hash);var t=document.querySelector('table.sortable');
+if(m&&t&&+m[1]<t.tHead.rows[0].cells.length)sortBy(t,+m[1],m[2]?-1:1);
+})();";
+
+/// A page: title, style, body and the sorter.
+fn page(title: &str, body: &str) -> String {
+    format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>{}</title>\n<style>\n{STYLE}\n</style>\n</head>\n<body>\n{body}<script>\n{SORTER}\n</script>\n</body>\n</html>\n",
+        esc(title)
+    )
+}
+
+/// An image linked to its full-size file (and an SVG of a chart beside it).
+fn plot(src: &str, alt: &str, svg: bool) -> String {
+    let mut s = format!(
+        "<figure><a href=\"{u}\"><img class=\"plot\" src=\"{u}\" alt=\"{a}\" loading=\"lazy\"></a>",
+        u = url(src),
+        a = esc(alt)
+    );
+    if svg {
+        let svg_src = src.replace(".png", ".svg");
+        let _ = write!(
+            s,
+            "<figcaption><a href=\"{}\">SVG</a></figcaption>",
+            url(&svg_src)
+        );
+    }
+    s + "</figure>\n"
+}
+
+/// A material description for reading: numbers to 4 significant digits, keys in order.
+fn short_json(v: &Value) -> String {
+    match v {
+        Value::Number(n) => match n.as_f64() {
+            Some(x) if n.is_f64() => format!("{}", format!("{x:.4e}").parse::<f64>().unwrap_or(x)),
+            _ => n.to_string(),
+        },
+        Value::Array(a) => format!(
+            "[{}]",
+            a.iter().map(short_json).collect::<Vec<_>>().join(", ")
+        ),
+        Value::Object(o) => format!(
+            "{{{}}}",
+            o.iter()
+                .map(|(k, x)| format!("\"{k}\": {}", short_json(x)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        other => other.to_string(),
+    }
+}
+
+/// Reads what the pages show of each material.
+fn gather(ctx: &Context<'_>, mats: &[StudyMaterial]) -> Result<Vec<MaterialData>, Error> {
+    let l = ctx.layout;
+    mats.iter()
+        .map(|m| {
+            let report = report::read(&l.fit(&m.name))?;
+            let microfacet = lobe_materials::json::read(&l.microfacet(&m.name, "json"))?;
+            let metrics = ctx
+                .envs
+                .iter()
+                .map(|e| {
+                    let p = l.renders(&m.name, &e.name).join("metrics.json");
+                    Ok((e.name.clone(), lobe_materials::json::read(&p)?))
+                })
+                .collect::<Result<Vec<_>, Error>>()?;
+            let reps = representations(ctx, m)?.into_iter().map(|r| r.0).collect();
+            Ok(MaterialData {
+                name: m.name.clone(),
+                source: m.source_text(),
+                report,
+                microfacet,
+                metrics,
+                reps,
+            })
+        })
+        .collect()
+}
+
+/// The metrics row of representation `rep` under the first environment map.
+fn row<'a>(d: &'a MaterialData, env: usize, rep: &str) -> Option<&'a Value> {
+    d.metrics.get(env)?.1["rows"]
+        .as_array()?
+        .iter()
+        .find(|r| r["name"] == rep)
+}
+
+/// Eq. (1) normalized error, eval and sample ns of a representation.
+fn brdf_numbers(d: &MaterialData, rep: &str) -> (Option<f64>, Option<f64>, Option<f64>) {
+    let costs = d.report.selected.as_ref().map(|s| &s.costs);
+    match rep {
+        "measured" | "sampled-microfacet" => {
+            let c = &d.microfacet["costs"][rep];
+            let e = if rep == "measured" {
+                Some(0.0)
+            } else {
+                d.microfacet["error_normalized"].as_f64()
+            };
+            (e, c["eval_ns"].as_f64(), c["sample_ns"].as_f64())
+        }
+        _ => {
+            let c = costs.and_then(|c| c.get(rep));
+            (
+                d.report.models.get(rep).map(|f| f.error_normalized),
+                c.map(|c| c.eval_ns),
+                c.map(|c| c.sample_ns),
+            )
+        }
+    }
+}
+
+/// The trade-off table (one row per material and representation) as HTML rows, Markdown
+/// and CSV; image errors under the first environment map.
+fn tradeoff(data: &[MaterialData]) -> (String, String, String) {
+    let mut html = String::new();
+    let mut md = String::from(
+        "| material | representation | Eq. (1) error (normalized) | image RMSE | FLIP | RMSE at equal time | eval ns | sample ns |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut csv = String::from(
+        "material,representation,eq1_error_normalized,image_rmse,flip,equal_time_rmse,eval_ns,sample_ns\n",
+    );
+    let f = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x:.4e}"));
+    for d in data {
+        for rep in &d.reps {
+            let (e, ev, sa) = brdf_numbers(d, rep);
+            let r = row(d, 0, rep);
+            let g = |k: &str| r.and_then(|r| r[k].as_f64());
+            let (rmse, flip, eq) = (g("rmse"), g("flip"), g("equal_time_rmse"));
+            let _ = writeln!(
+                html,
+                "<tr><td><a href=\"{}\">{}</a></td><td>{}</td>{}{}{}{}{}{}</tr>",
+                url(&format!("materials/{}.html", d.name)),
+                esc(&d.name),
+                esc(rep),
+                num(e, false),
+                num(rmse, false),
+                num(flip, false),
+                num(eq, true),
+                num(ev, true),
+                num(sa, true)
+            );
+            let cells = [f(e), f(rmse), f(flip), f(eq), f(ev), f(sa)];
+            let _ = writeln!(md, "| {} | {rep} | {} |", d.name, cells.join(" | "));
+            let _ = writeln!(csv, "{},{rep},{}", d.name, cells.join(","));
+        }
+    }
+    (html, md, csv)
+}
+
+/// The overview table: per material the selected model, every model's normalized error
+/// and the microfacet estimate's.
+fn overview_table(data: &[MaterialData], models: &[String]) -> String {
+    let mut s = String::from(
+        "<table class=\"sortable\" id=\"errors\">\n<thead><tr><th>material</th><th>selected model</th><th>max albedo</th>",
+    );
+    for m in models {
+        let _ = write!(s, "<th>{}</th>", esc(m));
+    }
+    s += "<th>sampled-microfacet</th></tr></thead>\n<tbody>\n";
+    for d in data {
+        let sel = d.report.selected.as_ref().map_or("", |x| x.model.as_str());
+        let _ = write!(
+            s,
+            "<tr><td><a href=\"{}\">{}</a></td><td class=\"timed\">{}</td>{}",
+            url(&format!("materials/{}.html", d.name)),
+            esc(&d.name),
+            esc(sel),
+            num(Some(d.report.max_albedo), false)
+        );
+        for m in models {
+            s += &num(d.report.models.get(m).map(|f| f.error_normalized), false);
+        }
+        s += &num(d.microfacet["error_normalized"].as_f64(), false);
+        s += "</tr>\n";
+    }
+    s + "</tbody>\n</table>\n"
+}
+
+/// The index page.
+fn index(ctx: &Context<'_>, data: &[MaterialData], fig5: bool, trade_rows: &str) -> String {
+    let reports: Vec<&FitReport> = data.iter().map(|d| &d.report).collect();
+    let models = crate::reports::model_labels(&reports);
+    let s = ctx.settings;
+    let envs: Vec<&str> = ctx.envs.iter().map(|e| e.name.as_str()).collect();
+    let mut b = format!(
+        "<h1>BRDF model study: {} materials</h1>\n<p class=\"note\">The experiment of Ngan, Durand and Matusik 2005 (sections 3 to 5), run by <code>lobe study</code>: \
+         every model fitted to each material (Eq. 1 metric, {}\u{b0} bins, {} objective evaluations per start), the cheapest model within {} % of the best error selected, \
+         the microfacet distribution estimated from the data, and renders of a sphere under {} at {} spp against a {} spp reference of the measured data. \
+         Errors are normalized by the material's largest albedo. <i>Italic</i> values come from timings and vary from run to run. Click a column to sort.</p>\n",
+        data.len(),
+        s.resolution,
+        s.max_evals,
+        s.tolerance * 100.0,
+        esc(&envs.join(" and ")),
+        s.spp,
+        s.reference_spp
+    );
+    b += "<h2>Fitting error per model</h2>\n";
+    b += &overview_table(data, &models);
+    b += "<h2>Figures</h2>\n<div class=\"grid\">\n";
+    b += &plot(
+        &Layout::figure_rel("figure14"),
+        "Figure 14: fitting error of every model per material",
+        true,
+    );
+    if fig5 {
+        b += &plot(
+            &Layout::figure_rel("figure5"),
+            "Figure 5: one lobe against two",
+            true,
+        );
+    }
+    b += "</div>\n<h2>Trade-off: image error and cost</h2>\n";
+    let _ = writeln!(
+        b,
+        "<p class=\"note\">Image errors under {} against the reference; equal time: each representation rendered with the spp its speed allows in the measured data's render time. Also in <a href=\"tradeoff.md\">tradeoff.md</a> and <a href=\"tradeoff.csv\">tradeoff.csv</a>.</p>",
+        esc(envs.first().copied().unwrap_or(""))
+    );
+    b += "<table class=\"sortable\" id=\"tradeoff\">\n<thead><tr><th>material</th><th>representation</th><th>Eq. (1) error</th><th>image RMSE</th><th>FLIP</th><th>RMSE at equal time</th><th>eval ns</th><th>sample ns</th></tr></thead>\n<tbody>\n";
+    b += trade_rows;
+    b += "</tbody>\n</table>\n";
+    page("BRDF model study", &b)
+}
+
+/// The renders of one environment map: each representation (linked to full size) with
+/// its errors, and its FLIP heat map under it.
+fn render_grid(d: &MaterialData, env: usize) -> String {
+    let (name, m) = &d.metrics[env];
+    let dir = format!("../{}", Layout::renders_rel(&d.name, name));
+    let mut s = format!(
+        "<h3>Under {}</h3>\n<p class=\"note\">Reference: the measured data at {} spp (<a href=\"{}\">image</a>). Renders at {} spp; below each, its FLIP error map against the reference.</p>\n<div class=\"grid\">\n",
+        esc(name),
+        m["reference_spp"],
+        url(&format!("{dir}/reference.png")),
+        m["spp"]
+    );
+    for rep in &d.reps {
+        let r = row(d, env, rep);
+        let g = |k: &str| r.and_then(|r| r[k].as_f64()).unwrap_or(f64::NAN);
+        let img = url(&format!("{dir}/{rep}.png"));
+        let heat = url(&format!("{dir}/{rep}-flip.png"));
+        let _ = writeln!(
+            s,
+            "<figure><a href=\"{img}\"><img class=\"render\" src=\"{img}\" alt=\"{r}\"></a><br><a href=\"{heat}\"><img class=\"render\" src=\"{heat}\" alt=\"FLIP map of {r}\"></a><figcaption><b>{r}</b><br>RMSE {:.3e}<br>FLIP {:.4}</figcaption></figure>",
+            g("rmse"),
+            g("flip"),
+            r = esc(rep)
+        );
+    }
+    s + "</div>\n"
+}
+
+/// The fitted models' table: errors, start agreement, cost, parameters.
+fn fits_table(d: &MaterialData) -> String {
+    let sel = d.report.selected.as_ref();
+    let mut s = String::from(
+        "<table class=\"sortable\">\n<thead><tr><th>model</th><th>normalized error</th><th>Eq. (1) error</th><th>starts agreeing</th><th>eval ns</th><th>sample ns</th><th>parameters</th></tr></thead>\n<tbody>\n",
+    );
+    for (label, f) in &d.report.models {
+        let cost = sel.and_then(|x| x.costs.get(label));
+        let mark = if sel.is_some_and(|x| &x.model == label) {
+            " (selected)"
+        } else {
+            ""
+        };
+        let _ = writeln!(
+            s,
+            "<tr><td>{}<span class=\"timed\">{mark}</span></td>{}{}<td data-v=\"{}\">{} of {}</td>{}{}<td><pre>{}</pre></td></tr>",
+            esc(label),
+            num(Some(f.error_normalized), false),
+            num(Some(f.error), false),
+            f.starts_agreeing,
+            f.starts_agreeing,
+            f.starts,
+            num(cost.map(|c| c.eval_ns), true),
+            num(cost.map(|c| c.sample_ns), true),
+            esc(&short_json(&f.material))
+        );
+    }
+    let mf = &d.microfacet;
+    let _ = writeln!(
+        s,
+        "<tr><td>sampled-microfacet (estimated)</td>{}{}<td></td>{}{}<td><pre>{}</pre></td></tr>",
+        num(mf["error_normalized"].as_f64(), false),
+        num(mf["error"].as_f64(), false),
+        num(mf["costs"]["sampled-microfacet"]["eval_ns"].as_f64(), true),
+        num(
+            mf["costs"]["sampled-microfacet"]["sample_ns"].as_f64(),
+            true
+        ),
+        esc(&short_json(&mf["material"]))
+    );
+    s + "</tbody>\n</table>\n"
+}
+
+/// A material's page.
+fn material_page(ctx: &Context<'_>, d: &MaterialData) -> String {
+    let mut b = format!(
+        "<p><a href=\"../index.html\">\u{2190} all materials</a></p>\n<h1>{}</h1>\n<p class=\"note\">Data: <code>{}</code>; {} bins, max albedo {:.4}.</p>\n<h2>Renders</h2>\n",
+        esc(&d.name),
+        esc(&d.source),
+        d.report.samples,
+        d.report.max_albedo
+    );
+    for k in 0..d.metrics.len() {
+        b += &render_grid(d, k);
+    }
+    b += "<h2>Fits</h2>\n";
+    b += &fits_table(d);
+    b += "<h2>Image errors</h2>\n";
+    for (env, m) in &d.metrics {
+        let _ = write!(
+            b,
+            "<h3>Under {}</h3>\n<table class=\"sortable\">\n<thead><tr><th>representation</th><th>RMSE</th><th>FLIP</th><th>render s</th><th>spp at equal time</th><th>RMSE at equal time</th><th>FLIP at equal time</th></tr></thead>\n<tbody>\n",
+            esc(env)
+        );
+        for r in m["rows"].as_array().into_iter().flatten() {
+            let g = |k: &str| r[k].as_f64();
+            let _ = writeln!(
+                b,
+                "<tr><td>{}</td>{}{}{}{}{}{}</tr>",
+                esc(r["name"].as_str().unwrap_or("")),
+                num(g("rmse"), false),
+                num(g("flip"), false),
+                num(g("seconds"), true),
+                num(g("equal_time_spp"), true),
+                num(g("equal_time_rmse"), true),
+                num(g("equal_time_flip"), true)
+            );
+        }
+        b += "</tbody>\n</table>\n";
+    }
+    let shown = headline_fits(&d.report, 4).join(", ");
+    let _ = write!(
+        b,
+        "<h2>Plots</h2>\n<p class=\"note\">The data and its fits {}: polar plots of the incidence plane (Figure 4) and iso-contours over the outgoing hemisphere (Figures 7 and 8), green channel; the estimated microfacet distribution (log10 p over the projected hemisphere).</p>\n<div class=\"grid\">\n",
+        esc(&shown)
+    );
+    for &a in &ctx.settings.angles {
+        b += &plot(
+            &format!("../{}", Layout::figure_rel(&Layout::polar_name(&d.name, a))),
+            "polar plot",
+            true,
+        );
+    }
+    for &a in &ctx.settings.angles {
+        b += &plot(
+            &format!("../{}", Layout::figure_rel(&Layout::lobes_name(&d.name, a))),
+            "lobe plot",
+            true,
+        );
+    }
+    b += &plot(
+        &format!("../microfacet/{}.png", d.name),
+        "estimated microfacet distribution",
+        false,
+    );
+    b += "</div>\n";
+    page(&d.name, &b)
+}
+
+/// Writes a text file atomically.
+fn write_text(path: &Path, text: &str) -> Result<(), Error> {
+    lobe_renderer::film::atomic_write(path, |w| std::io::Write::write_all(w, text.as_bytes()))
+}
+
+/// Builds the report from the finished steps of every material: Figures 14 and 5, the
+/// trade-off table, the pages; returns the index page's path.
+pub fn build(ctx: &Context<'_>, mats: &[StudyMaterial]) -> Result<PathBuf, Error> {
+    let data = gather(ctx, mats)?;
+    let l = ctx.layout;
+    let reports: Vec<FitReport> = data.iter().map(|d| d.report.clone()).collect();
+    std::fs::create_dir_all(l.root.join("materials"))
+        .and_then(|_| std::fs::create_dir_all(l.root.join("figures")))
+        .map_err(|e| Error::file(l.root.display(), format!("cannot create: {e}")))?;
+    figures::errors(&reports)?.save(&l.figure("figure14"))?;
+    let fig5 = match figures::multilobe(&reports) {
+        Ok(f) => {
+            f.save(&l.figure("figure5"))?;
+            true
+        }
+        Err(_) => false,
+    };
+    let (rows, md, csv) = tradeoff(&data);
+    write_text(&l.root.join("tradeoff.md"), &md)?;
+    write_text(&l.root.join("tradeoff.csv"), &csv)?;
+    for d in &data {
+        let p = l.root.join("materials").join(format!("{}.html", d.name));
+        write_text(&p, &material_page(ctx, d))?;
+    }
+    let index_path = l.root.join("index.html");
+    write_text(&index_path, &index(ctx, &data, fig5, &rows))?;
+    Ok(index_path)
+}

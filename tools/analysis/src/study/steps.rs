@@ -1,0 +1,392 @@
+//! The steps of a study, per material (see [`super`]): where each writes
+//! ([`Layout`]), when it is done (its last file exists) and how it runs: the fits with
+//! selection (Ngan et al. section 4), the microfacet estimate (section 5), the renders
+//! under one environment map with image errors at equal spp and equal time (Figures 3 and
+//! 6), the polar and lobe plots (Figures 4, 7, 8).
+
+use super::{Env, Settings, StudyMaterial};
+use crate::cost::measure;
+use crate::figures;
+use crate::fitting::{FitOptions, fit_material};
+use lobe_materials::Bsdf;
+use lobe_materials::fit::report::{self, FitReport};
+use lobe_materials::fit::{ANISOTROPIC_DEFAULT, Stop, builtin_specs};
+use lobe_materials::microfacet_gen::estimate;
+use lobe_materials::registry::{BuildContext, Registry};
+use lobe_renderer::Error;
+use lobe_renderer::compare::{flip_heatmap, metrics};
+use lobe_renderer::film::{Image, tonemap, write_json};
+use lobe_renderer::image_io::{write_exr, write_png_rgb8};
+use lobe_renderer::render::{RenderOptions, render};
+use lobe_renderer::scene::{LoadOptions, Scene, from_value};
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The files of a study folder.
+#[derive(Clone, Debug)]
+pub struct Layout {
+    pub root: PathBuf,
+}
+
+impl Layout {
+    pub fn new(root: &Path) -> Self {
+        Self {
+            root: root.to_path_buf(),
+        }
+    }
+
+    /// A path under the root, created folder and all.
+    fn at(&self, rel: &str) -> PathBuf {
+        self.root.join(rel)
+    }
+
+    pub fn fit(&self, m: &str) -> PathBuf {
+        self.at(&format!("fits/{m}.fit.json"))
+    }
+
+    /// The microfacet estimate's file with extension `ext` (exr: the table, png: its
+    /// picture, json: its error, material and costs).
+    pub fn microfacet(&self, m: &str, ext: &str) -> PathBuf {
+        self.at(&format!("microfacet/{m}.{ext}"))
+    }
+
+    /// The renders of material `m` under environment `env`, relative to the root.
+    pub fn renders_rel(m: &str, env: &str) -> String {
+        format!("renders/{m}/{env}")
+    }
+
+    pub fn renders(&self, m: &str, env: &str) -> PathBuf {
+        self.at(&Self::renders_rel(m, env))
+    }
+
+    /// A figure (PNG; charts also SVG) relative to the root.
+    pub fn figure_rel(name: &str) -> String {
+        format!("figures/{name}.png")
+    }
+
+    pub fn figure(&self, name: &str) -> PathBuf {
+        self.at(&Self::figure_rel(name))
+    }
+
+    /// The polar plot of `m` at incidence `angle`, and its lobe plot (names).
+    pub fn polar_name(m: &str, angle: f64) -> String {
+        format!("{m}-polar-{angle:.0}")
+    }
+
+    pub fn lobes_name(m: &str, angle: f64) -> String {
+        format!("{m}-lobes-{angle:.0}")
+    }
+}
+
+/// What every step needs.
+pub struct Context<'a> {
+    pub registry: &'a Registry,
+    pub settings: &'a Settings,
+    pub layout: &'a Layout,
+    pub envs: &'a [Env],
+    pub stop: &'a Stop<'a>,
+}
+
+impl Context<'_> {
+    /// Builds a material description (relative files resolve against the study folder).
+    pub fn build(&self, desc: &Value, name: &str) -> Result<Arc<dyn Bsdf>, Error> {
+        self.registry
+            .create_with(
+                desc,
+                name,
+                &BuildContext::new(&self.layout.root, self.registry),
+            )
+            .map_err(|e| Error::Other(format!("{name}: {e}")))
+    }
+
+    fn interrupted(&self) -> Result<(), Error> {
+        match (self.stop)() {
+            true => Err(Error::Other(
+                "interrupted: finished steps are kept; rerun to resume".into(),
+            )),
+            false => Ok(()),
+        }
+    }
+}
+
+/// One step of one material.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    Fit,
+    Microfacet,
+    /// The renders under the k-th environment map.
+    Renders(usize),
+    Plots,
+}
+
+/// Creates the folder of `path`.
+fn parent_dir(path: &Path) -> Result<(), Error> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::file(dir.display(), format!("cannot create: {e}")))
+}
+
+impl Step {
+    /// Every step of a material, in order, with `envs` environment maps.
+    pub fn all(envs: usize) -> Vec<Step> {
+        let mut v = vec![Step::Fit, Step::Microfacet];
+        v.extend((0..envs).map(Step::Renders));
+        v.push(Step::Plots);
+        v
+    }
+
+    pub fn describe(&self, envs: &[Env]) -> String {
+        match self {
+            Step::Fit => "fits".into(),
+            Step::Microfacet => "microfacet estimate".into(),
+            Step::Renders(k) => format!("renders under {}", envs[*k].name),
+            Step::Plots => "polar and lobe plots".into(),
+        }
+    }
+
+    /// The file a step writes last: it is done when that exists.
+    fn last_file(&self, ctx: &Context<'_>, m: &StudyMaterial) -> PathBuf {
+        let l = ctx.layout;
+        match self {
+            Step::Fit => l.fit(&m.name),
+            Step::Microfacet => l.microfacet(&m.name, "json"),
+            Step::Renders(k) => l.renders(&m.name, &ctx.envs[*k].name).join("metrics.json"),
+            Step::Plots => {
+                let a = ctx.settings.angles.last().copied().unwrap_or(45.0);
+                l.figure(&Layout::lobes_name(&m.name, a))
+            }
+        }
+    }
+
+    pub fn done(&self, ctx: &Context<'_>, m: &StudyMaterial) -> bool {
+        self.last_file(ctx, m).exists()
+    }
+
+    pub fn run(&self, ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
+        parent_dir(&self.last_file(ctx, m))?;
+        match self {
+            Step::Fit => fit(ctx, m),
+            Step::Microfacet => microfacet(ctx, m),
+            Step::Renders(k) => renders(ctx, m, &ctx.envs[*k]),
+            Step::Plots => plots(ctx, m),
+        }
+    }
+}
+
+/// The models fitted to data: the configured list (with anisotropic Ward added for 4D
+/// data), or every applicable one: for isotropic data every model but the anisotropic
+/// ones (the study's seven, the two-lobe and the distribution and Fresnel variants), for
+/// anisotropic data the anisotropic ones and the isotropic defaults.
+pub fn models_for(settings: &Settings, anisotropic: bool) -> String {
+    let specs = builtin_specs();
+    match (&settings.models, anisotropic) {
+        (Some(list), false) => list.clone(),
+        (Some(list), true) => format!("{list},ward-anisotropic"),
+        (None, false) => specs
+            .iter()
+            .map(|s| s.label)
+            .filter(|l| !ANISOTROPIC_DEFAULT.contains(l))
+            .collect::<Vec<_>>()
+            .join(","),
+        (None, true) => {
+            let mut v: Vec<&str> = ANISOTROPIC_DEFAULT.to_vec();
+            v.extend(lobe_materials::fit::ISOTROPIC_DEFAULT);
+            v.join(",")
+        }
+    }
+}
+
+/// Fits every model and selects the cheapest adequate one (fits/NAME.fit.json).
+fn fit(ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
+    let s = ctx.settings;
+    let data = m.dataset(ctx.registry, s.resolution)?;
+    let opts = FitOptions {
+        models: Some(models_for(s, data.anisotropic)),
+        resolution: s.resolution,
+        max_evals: s.max_evals,
+        select: Some(s.tolerance),
+    };
+    let source = m.source_text();
+    let r = fit_material(
+        ctx.registry,
+        &m.name,
+        &source,
+        &data,
+        &opts,
+        ctx.stop,
+        &|_| {},
+    )?;
+    ctx.interrupted()?;
+    Ok(report::write(&ctx.layout.fit(&m.name), &r)?)
+}
+
+/// Cost and memory of a material, as JSON.
+fn cost_json(b: &dyn Bsdf) -> Value {
+    let c = measure(b);
+    json!({"eval_ns": c.eval_ns, "sample_ns": c.sample_ns, "memory_bytes": b.memory_bytes()})
+}
+
+/// The microfacet distribution estimated from the data (section 5): its table (EXR), its
+/// picture (PNG) and its error, material and the costs of it and of the measured data.
+fn microfacet(ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
+    let s = ctx.settings;
+    let data = m.dataset(ctx.registry, s.resolution)?;
+    let est = estimate(&data, s.microfacet_nodes, None, s.microfacet_iterations)
+        .map_err(|e| Error::file(m.source_text(), e))?;
+    ctx.interrupted()?;
+    let l = ctx.layout;
+    est.table.write_exr(&l.microfacet(&m.name, "exr"))?;
+    figures::distribution(&est.table).save(&l.microfacet(&m.name, "png"))?;
+    let desc = est.material(&format!("microfacet/{}.exr", m.name));
+    let measured = ctx.build(&m.desc()?, &m.name)?;
+    let micro = ctx.build(&desc, "sampled-microfacet")?;
+    let v = json!({
+        "error": est.error,
+        "error_normalized": est.error / data.max_albedo.max(1e-300),
+        "material": desc,
+        "costs": {
+            "measured": cost_json(measured.as_ref()),
+            "sampled-microfacet": cost_json(micro.as_ref()),
+        },
+    });
+    write_json(&l.microfacet(&m.name, "json"), &v)
+}
+
+/// The representations of a material: the measured data, every fit of its report (in
+/// label order) and the estimated microfacet distribution.
+pub fn representations(
+    ctx: &Context<'_>,
+    m: &StudyMaterial,
+) -> Result<Vec<(String, Value)>, Error> {
+    let r = report::read(&ctx.layout.fit(&m.name))?;
+    let mut v = vec![("measured".to_string(), m.desc()?)];
+    v.extend(
+        r.models
+            .iter()
+            .map(|(k, f)| (k.clone(), f.material.clone())),
+    );
+    let micro = lobe_materials::json::read(&ctx.layout.microfacet(&m.name, "json"))?;
+    v.push(("sampled-microfacet".into(), micro["material"].clone()));
+    Ok(v)
+}
+
+/// The sphere under `env` the representations are rendered in (as `lobe figure spheres`).
+fn stage(ctx: &Context<'_>, env: &Env) -> Result<Scene, Error> {
+    let size = ctx.settings.size;
+    let v = json!({
+        "camera": {"type": "perspective", "fov": 30, "origin": [0, 0, 4.5], "target": [0, 0, 0], "up": [0, 1, 0]},
+        "film": {"width": size, "height": size},
+        "sampler": {"spp": 1, "seed": 0},
+        "integrator": {"type": "path", "max_depth": 3},
+        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}],
+        "lights": [{"type": "envmap", "file": env.file}]
+    });
+    from_value(
+        &v,
+        "study-sphere",
+        &ctx.layout.root,
+        &LoadOptions::with_builtins(),
+    )
+}
+
+/// Renders the stage with material `b` at `spp`: the image and its seconds.
+fn shoot(scene: &mut Scene, b: &Arc<dyn Bsdf>, spp: u32) -> Result<(Image, f64), Error> {
+    scene.shapes[0].material = b.clone();
+    scene.spp = spp;
+    let (img, stats) = render(scene, &RenderOptions::default())?;
+    Ok((img, stats.seconds))
+}
+
+/// Writes an image as EXR and tonemapped PNG (`stem`.exr, `stem`.png).
+fn save_image(img: &Image, stem: &Path) -> Result<(), Error> {
+    let (w, h) = (img.width, img.height);
+    write_exr(&stem.with_extension("exr"), w, h, &img.pixels)?;
+    write_png_rgb8(
+        &stem.with_extension("png"),
+        w,
+        h,
+        &tonemap(&img.pixels, 0.0),
+    )
+}
+
+/// The renders under one environment map: the reference (the measured data at the
+/// reference spp), every representation at the study's spp (image, FLIP heat map, RMSE
+/// and FLIP against the reference, seconds), then each again at the spp its own rate
+/// allows in the measured data's render time (equal time, at most 16x); metrics.json last.
+fn renders(ctx: &Context<'_>, m: &StudyMaterial, env: &Env) -> Result<(), Error> {
+    let s = ctx.settings;
+    let dir = ctx.layout.renders(&m.name, &env.name);
+    let reps = representations(ctx, m)?;
+    let built: Vec<Arc<dyn Bsdf>> = reps
+        .iter()
+        .map(|(name, desc)| ctx.build(desc, name))
+        .collect::<Result<_, _>>()?;
+    let mut scene = stage(ctx, env)?;
+    let (reference, _) = shoot(&mut scene, &built[0], s.reference_spp)?;
+    save_image(&reference, &dir.join("reference"))?;
+    let mut rows = Vec::new();
+    for ((name, _), b) in reps.iter().zip(&built) {
+        ctx.interrupted()?;
+        let (img, secs) = shoot(&mut scene, b, s.spp)?;
+        let (mt, err) = metrics(&img, &reference, 0.0)?;
+        save_image(&img, &dir.join(name))?;
+        let heat = flip_heatmap(&err, img.width, img.height);
+        write_png_rgb8(
+            &dir.join(format!("{name}-flip.png")),
+            img.width,
+            img.height,
+            &heat,
+        )?;
+        rows.push((name.clone(), mt.rmse, mt.flip, secs));
+    }
+    let budget = rows[0].3;
+    let mut out = Vec::new();
+    for ((name, rmse, flip, secs), b) in rows.into_iter().zip(&built) {
+        ctx.interrupted()?;
+        let spp_eq = ((s.spp as f64 * budget / secs.max(1e-6)).round() as u32).clamp(1, 16 * s.spp);
+        let (img, _) = shoot(&mut scene, b, spp_eq)?;
+        let (eq, _) = metrics(&img, &reference, 0.0)?;
+        out.push(json!({
+            "name": name, "rmse": rmse, "flip": flip, "seconds": secs,
+            "equal_time_spp": spp_eq, "equal_time_rmse": eq.rmse, "equal_time_flip": eq.flip,
+        }));
+    }
+    let v = json!({
+        "environment": env.name, "spp": s.spp, "reference_spp": s.reference_spp,
+        "budget_seconds": budget, "rows": out,
+    });
+    write_json(&dir.join("metrics.json"), &v)
+}
+
+/// The fits drawn in a material's plots: the `k` lowest-error ones, in error order (not
+/// the selected one: selection depends on timings, plots only on the data).
+pub fn headline_fits(r: &FitReport, k: usize) -> Vec<String> {
+    let mut v: Vec<(&String, f64)> = r.models.iter().map(|(n, f)| (n, f.error)).collect();
+    v.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
+    v.into_iter().take(k).map(|(n, _)| n.clone()).collect()
+}
+
+/// Polar plots and lobe contour plots (green channel) at each of the
+/// study's incidence angles, of the data and of its headline fits.
+fn plots(ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
+    let r = report::read(&ctx.layout.fit(&m.name))?;
+    let measured = ctx.build(&m.desc()?, &m.name)?;
+    let mut fits = Vec::new();
+    for name in headline_fits(&r, 4) {
+        fits.push((name.clone(), ctx.build(&r.models[&name].material, &name)?));
+    }
+    let mut panels = vec![("measured".to_string(), measured.clone())];
+    panels.extend(fits.iter().take(3).cloned());
+    for &a in &ctx.settings.angles {
+        ctx.interrupted()?;
+        figures::polar(&m.name, measured.as_ref(), &fits, a, 1)?
+            .save(&ctx.layout.figure(&Layout::polar_name(&m.name, a)))?;
+    }
+    for &a in &ctx.settings.angles {
+        ctx.interrupted()?;
+        figures::lobe_contours(&m.name, &panels, a, 1)?
+            .save(&ctx.layout.figure(&Layout::lobes_name(&m.name, a)))?;
+    }
+    Ok(())
+}
