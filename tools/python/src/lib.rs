@@ -25,7 +25,8 @@ use std::path::Path;
 /// description, the file its message starts with, as in `material.file: PATH: cannot
 /// read: ...`), `ValueError` otherwise; the message is the CLI's.
 pub(crate) fn to_py(e: lobe_renderer::Error) -> PyErr {
-    let missing = |f: &str| !f.is_empty() && !Path::new(f).exists();
+    // Names in angle brackets (`<scene dict>`) are descriptions given as values, not files.
+    let missing = |f: &str| !f.is_empty() && !f.starts_with('<') && !Path::new(f).exists();
     let not_found = match &e {
         lobe_renderer::Error::File { file, .. } => missing(file),
         lobe_renderer::Error::Scene { message, .. } => message

@@ -178,7 +178,8 @@ impl Material {
     #[pyo3(signature = (text, shown, base=None))]
     fn from_json(text: &str, shown: &str, base: Option<PathBuf>) -> PyResult<Self> {
         guarded(|| {
-            let desc = lobe_materials::json::parse(text, shown).map_err(crate::file_err)?;
+            let desc = lobe_materials::json::parse(text, shown)
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
             let here = std::env::current_dir().unwrap_or_default();
             Self::build(&desc, shown, base.unwrap_or(here))
         })
