@@ -4,9 +4,10 @@
 //! materials/src/bsdf.rs: local shading frame, z the normal, `wo` toward the viewer, `wi`
 //! toward the light, f_r without the cosine), and its directional albedo.
 //!
-//! The arrays are cut into fixed chunks evaluated on rayon's pool with the GIL released;
-//! each chunk goes through the batched `eval_pdf_many` / `sample_many`, which equal the
-//! one-pair calls bit for bit, so results equal `lobe eval` whatever the thread count.
+//! The arrays are cut into fixed chunks evaluated on rayon's pool with the GIL released:
+//! `eval` and `pdf` call the one-pair methods (what `lobe eval` calls), `eval_pdf` and
+//! `sample` the batched `eval_pdf_many` / `sample_many`, which must equal the one-pair
+//! calls bit for bit; results do not depend on the thread count.
 
 use crate::{guarded, to_py};
 use glam::{Vec2, Vec3};
@@ -73,6 +74,28 @@ fn eval_pdf(b: &dyn Bsdf, wo: &[f32], wi: &[f32]) -> (Vec<f32>, Vec<f32>) {
             }
         });
     (f, pdf)
+}
+
+/// `W` floats per pair of `wo` and `wi` (3 floats per direction) from one-pair calls of
+/// `f`: the path of `eval` and `pdf` alone (a batched call would compute both).
+fn per_pair<const W: usize>(
+    wo: &[f32],
+    wi: &[f32],
+    f: impl Fn(Vec3, Vec3) -> [f32; W] + Sync,
+) -> Vec<f32> {
+    let mut out = vec![0.0f32; wo.len() / 3 * W];
+    out.par_chunks_mut(W * CHUNK)
+        .zip(wo.par_chunks(3 * CHUNK).zip(wi.par_chunks(3 * CHUNK)))
+        .for_each(|(out, (wo, wi))| {
+            for ((o, a), b) in out
+                .chunks_exact_mut(W)
+                .zip(wo.chunks_exact(3))
+                .zip(wi.chunks_exact(3))
+            {
+                o.copy_from_slice(&f(Vec3::from_slice(a), Vec3::from_slice(b)));
+            }
+        });
+    out
 }
 
 /// Samples of every query: wi and weight (3 floats each, zero where no sample), pdf
@@ -199,6 +222,36 @@ impl Material {
     #[getter]
     fn name(&self) -> String {
         self.bsdf.name().to_string()
+    }
+
+    fn eval<'py>(
+        &self,
+        py: Python<'py>,
+        wo: PyReadonlyArray2<'py, f32>,
+        wi: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        guarded(|| {
+            let (o, i) = (rows(&wo, "wo", 3)?, rows(&wi, "wi", 3)?);
+            same_length(("wo", o.len() / 3), ("wi", i.len() / 3))?;
+            let b = self.bsdf.as_ref();
+            let f = py.detach(|| per_pair(o, i, |wo, wi| b.eval(wo, wi).to_array()));
+            flat_array(py, f, 3)
+        })
+    }
+
+    fn pdf<'py>(
+        &self,
+        py: Python<'py>,
+        wo: PyReadonlyArray2<'py, f32>,
+        wi: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        guarded(|| {
+            let (o, i) = (rows(&wo, "wo", 3)?, rows(&wi, "wi", 3)?);
+            same_length(("wo", o.len() / 3), ("wi", i.len() / 3))?;
+            let b = self.bsdf.as_ref();
+            let p = py.detach(|| per_pair(o, i, |wo, wi| [b.pdf(wo, wi)]));
+            Ok(PyArray1::from_vec(py, p).into_any())
+        })
     }
 
     fn eval_pdf<'py>(

@@ -61,14 +61,15 @@ class Material:
     def eval(self, wo: Any, wi: Any) -> np.ndarray:
         """f_r(wo, wi) in 1/sr, RGB, without the cosine: (N, 3) float32 for (N, 3) arrays of
         unit directions (zero where either is below the surface)."""
-        return self.eval_pdf(wo, wi)[0]
+        return self._m.eval(_f32(wo, 3, "wo"), _f32(wi, 3, "wi"))
 
     def pdf(self, wo: Any, wi: Any) -> np.ndarray:
         """The solid-angle density (N,) float32 with which ``sample`` draws ``wi`` given ``wo``."""
-        return self.eval_pdf(wo, wi)[1]
+        return self._m.pdf(_f32(wo, 3, "wo"), _f32(wi, 3, "wi"))
 
     def eval_pdf(self, wo: Any, wi: Any) -> Tuple[np.ndarray, np.ndarray]:
-        """``(eval(wo, wi), pdf(wo, wi))`` in one pass."""
+        """``(eval(wo, wi), pdf(wo, wi))`` in one pass, through the material's batched
+        (SIMD) evaluation."""
         return self._m.eval_pdf(_f32(wo, 3, "wo"), _f32(wi, 3, "wi"))
 
     def sample(self, wo: Any, u: Any, uc: Any) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
