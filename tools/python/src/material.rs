@@ -55,6 +55,16 @@ fn same_length(a: (&str, usize), b: (&str, usize)) -> PyResult<()> {
     Ok(())
 }
 
+/// The two (N, 3) direction arrays of a query, checked.
+fn pairs<'a>(
+    wo: &'a PyReadonlyArray2<'_, f32>,
+    wi: &'a PyReadonlyArray2<'_, f32>,
+) -> PyResult<(&'a [f32], &'a [f32])> {
+    let (o, i) = (rows(wo, "wo", 3)?, rows(wi, "wi", 3)?);
+    same_length(("wo", o.len() / 3), ("wi", i.len() / 3))?;
+    Ok((o, i))
+}
+
 fn vec3s(s: &[f32]) -> Vec<Vec3> {
     s.chunks_exact(3).map(Vec3::from_slice).collect()
 }
@@ -231,9 +241,7 @@ impl Material {
         wi: PyReadonlyArray2<'py, f32>,
     ) -> PyResult<Bound<'py, PyAny>> {
         guarded(|| {
-            let (o, i) = (rows(&wo, "wo", 3)?, rows(&wi, "wi", 3)?);
-            same_length(("wo", o.len() / 3), ("wi", i.len() / 3))?;
-            let b = self.bsdf.as_ref();
+            let ((o, i), b) = (pairs(&wo, &wi)?, self.bsdf.as_ref());
             let f = py.detach(|| per_pair(o, i, |wo, wi| b.eval(wo, wi).to_array()));
             flat_array(py, f, 3)
         })
@@ -246,9 +254,7 @@ impl Material {
         wi: PyReadonlyArray2<'py, f32>,
     ) -> PyResult<Bound<'py, PyAny>> {
         guarded(|| {
-            let (o, i) = (rows(&wo, "wo", 3)?, rows(&wi, "wi", 3)?);
-            same_length(("wo", o.len() / 3), ("wi", i.len() / 3))?;
-            let b = self.bsdf.as_ref();
+            let ((o, i), b) = (pairs(&wo, &wi)?, self.bsdf.as_ref());
             let p = py.detach(|| per_pair(o, i, |wo, wi| [b.pdf(wo, wi)]));
             Ok(PyArray1::from_vec(py, p).into_any())
         })
@@ -261,9 +267,7 @@ impl Material {
         wi: PyReadonlyArray2<'py, f32>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         guarded(|| {
-            let (o, i) = (rows(&wo, "wo", 3)?, rows(&wi, "wi", 3)?);
-            same_length(("wo", o.len() / 3), ("wi", i.len() / 3))?;
-            let b = self.bsdf.as_ref();
+            let ((o, i), b) = (pairs(&wo, &wi)?, self.bsdf.as_ref());
             let (f, pdf) = py.detach(|| eval_pdf(b, o, i));
             Ok((
                 flat_array(py, f, 3)?,
