@@ -5,6 +5,13 @@ cd "$(dirname "$0")/.."
 cargo fmt --all -- --check
 cargo clippy --release --workspace --all-targets -- -D warnings
 cargo test --release --workspace
+# The lobe Python package (tools/python): built from source and installed into
+# tools/mitsuba's venv by its setup.sh (with Mitsuba 3 for the plugin tests), then its
+# pytest suite against the lobe binary (bit-for-bit evaluation, readers, fits, errors,
+# Mitsuba renders of every plugin model z-tested against lobe's).
+cargo build --release -p lobe-cli
+venv="$(bash tools/mitsuba/setup.sh | tail -n 1)"
+"$venv/bin/python" -m pytest -q -p no:cacheprovider tools/python/tests
 # The fuzz crate (outside the workspace) keeps a tracked lock file; it must match the
 # workspace's dependencies so that scripts/fuzz.sh never rewrites it.
 cargo metadata --locked --offline --manifest-path fuzz/Cargo.toml --format-version 1 >/dev/null

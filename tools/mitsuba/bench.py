@@ -87,9 +87,9 @@ class MitsubaScene:
         # Mitsuba warns once per negative sample of measured data (RGL tables hold small
         # negative values); thousands of lines per render would drown the table.
         mi.set_log_level(mi.LogLevel.Error)
-        from lobe_mitsuba import bsdfs
-        from lobe_mitsuba.convert import Converter
-        bsdfs.register()
+        import lobe.mitsuba
+        from lobe.mitsuba.convert import Converter
+        lobe.mitsuba.register()  # the plugin class of this variant
         self.variant, self.spp = variant, spp
         self.scene = mi.load_dict(Converter(scene).convert(spp, sampler))
         if variant.startswith("llvm"):

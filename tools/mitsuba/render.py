@@ -11,12 +11,9 @@ temporary name and renamed into place.
 
 import argparse
 import os
-import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-
-import lobe_mitsuba  # noqa: E402
+import lobe.mitsuba as lobe_mitsuba  # noqa: E402  (the lobe package, tools/python)
 
 variant = lobe_mitsuba.set_variant()
 
@@ -24,10 +21,9 @@ import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 import numpy as np  # noqa: E402
 
-from lobe_mitsuba import bsdfs  # noqa: E402
-from lobe_mitsuba.convert import Converter  # noqa: E402
+from lobe.mitsuba.convert import Converter  # noqa: E402
 
-bsdfs.register()
+lobe_mitsuba.register()
 
 
 def write_exr(path, array):

@@ -75,12 +75,12 @@ class Converter:
         if t == "ngan-fit":
             folder = ngan.locate(m.get("fits", ""), self.base)
             d = ngan.description(m["material"], m.get("model", "cook-torrance"), folder, m.get("channel_scale", "merl"))
-            return {"type": "lobe_analytic", "desc": json.dumps(d)}
+            return {"type": "lobe", "desc": json.dumps(d)}
         if t == "rgl":
             return {"type": "measured", "filename": self.resolve(m["file"])}
         if t in ("composite", "merl", "binned"):
             raise SceneError(f"{t} materials have no Mitsuba counterpart in this converter")
-        return {"type": "lobe_analytic", "desc": json.dumps(m)}
+        return {"type": "lobe", "desc": json.dumps(m)}
 
     def mesh_shape(self, s):
         kind = s["type"]

@@ -1,20 +1,17 @@
-"""Mitsuba 3 BSDF plugins for the analytic models of Ngan et al. 2005, written from the
-papers' formulas as lobe documents them (docs/models.md), in Dr.Jit so that they run
-vectorized in llvm_ad_rgb: `lobe_analytic` takes the model description as a JSON string
-(`desc`) and evaluates diffuse/pi + specular * lobe.
-
-Sampling is deliberately simple and independent of lobe's: a mixture of cosine sampling
-and two Beckmann half-vector proposals whose widths come from the model's parameters; it
-is unbiased for every model (cosine sampling covers the whole hemisphere) and efficient
-enough for reference renders.
+"""The Dr.Jit twins of lobe's analytic models (Ngan et al. 2005 section 3.1 and the
+anisotropic models, docs/models.md), written from the papers' formulas independently of
+lobe's Rust code: ``Lobe(desc, T).value(v, l)`` is the specular lobe for unit local
+directions above the surface, over the backend ``T`` (backend.py) so that the same code
+runs vectorized in the JIT variants and on one-element arrays in ``scalar_rgb``.
 """
 
 import json
 import math
 
 import drjit as dr
-import mitsuba as mi
 import numpy as np
+
+from .backend import dot, normalize
 
 LAMBDA_UM = (0.645, 0.526, 0.444)
 
@@ -54,8 +51,9 @@ def _gaussian_norm(m):
 class Lobe:
     """One model's lobe: value(v, l) -> Color3f for unit local directions above the surface."""
 
-    def __init__(self, d):
+    def __init__(self, d, T):
         self.d = d
+        self.T = T
         self.t = d["type"]
         t = self.t
         if t in ("ward", "ward-duer"):
@@ -73,7 +71,7 @@ class Lobe:
         elif t == "ashikhmin-shirley-anisotropic":
             self.nu, self.nv = d.get("nu", 100.0), d.get("nv", 100.0)
         elif t == "sampled-microfacet":
-            self.mf = MicrofacetGenerator(d)
+            self.mf = MicrofacetGenerator(d, T)
 
     def widths(self):
         """Two Beckmann widths for the half-vector proposals."""
@@ -101,22 +99,22 @@ class Lobe:
 
     def value(self, v, l):
         t, d = self.t, self.d
-        cv, cl = mi.Frame3f.cos_theta(v), mi.Frame3f.cos_theta(l)
+        cv, cl = v.z, l.z
         hu = v + l
-        h = dr.normalize(hu)
+        h = normalize(hu)
         if t in ("ward", "ward-duer", "ward-anisotropic"):
             e = dr.exp(-(hu.x * hu.x / (self.ax * self.ax) + hu.y * hu.y / (self.ay * self.ay)) / (hu.z * hu.z))
             # Ward-Duer's cosines are floored at cos(89 deg), as lobe's (materials/src/analytic/ward_duer.rs).
             floor = 0.0174524064372835
             duer = dr.maximum(cl, floor) * dr.maximum(cv, floor)
             den = 4 * math.pi * self.ax * self.ay * (duer if t == "ward-duer" else dr.sqrt(cl * cv))
-            return mi.Color3f(e / den)
+            return self.T.gray(e / den)
         if t == "blinn-phong":
             n = d.get("n", 100.0)
-            return mi.Color3f((n + 2) / (2 * math.pi) * dr.power(dr.maximum(h.z, 0.0), n))
+            return self.T.gray((n + 2) / (2 * math.pi) * dr.power(dr.maximum(h.z, 0.0), n))
         if t == "cook-torrance":
             ch = h.z
-            vh = dr.dot(v, h)
+            vh = dot(v, h)
             if self.dist == "beckmann":
                 c2 = ch * ch
                 D = dr.exp(-(1 - c2) / c2 / (self.m * self.m)) / (math.pi * self.m * self.m * c2 * c2)
@@ -129,35 +127,35 @@ class Lobe:
             if self.fres == "none":
                 F = 1.0
             elif self.fres == "schlick":
-                F = _schlick(d.get("f0", 0.04), dr.dot(l, h))
+                F = _schlick(d.get("f0", 0.04), dot(l, h))
             else:
-                F = _fresnel_dielectric(d.get("eta", 1.5), dr.dot(l, h))
-            return mi.Color3f(dr.select(ch > 0, D * G * F / (math.pi * cl * cv), 0.0))
+                F = _fresnel_dielectric(d.get("eta", 1.5), dot(l, h))
+            return self.T.gray(dr.select(ch > 0, D * G * F / (math.pi * cl * cv), 0.0))
         if t == "lafortune":
             cx, cy, cz, n = d.get("cx", -0.577), d.get("cy", -0.577), d.get("cz", 0.577), d.get("n", 100.0)
             s = cx * l.x * v.x + cy * l.y * v.y + cz * l.z * v.z
             if d.get("normalization", "ngan") == "ngan":
                 cmax = max(abs(cx), abs(cy), abs(cz))
-                return mi.Color3f((n + 2) / (2 * math.pi) * dr.power(dr.clip(s / cmax, 0.0, 1.0), n))
-            return mi.Color3f(dr.power(dr.maximum(s, 0.0), n))
+                return self.T.gray((n + 2) / (2 * math.pi) * dr.power(dr.clip(s / cmax, 0.0, 1.0), n))
+            return self.T.gray(dr.power(dr.maximum(s, 0.0), n))
         if t in ("ashikhmin-shirley", "ashikhmin-shirley-anisotropic"):
             s2 = h.x * h.x + h.y * h.y
             e = dr.select(s2 > 1e-12, (self.nu * h.x * h.x + self.nv * h.y * h.y) / s2, self.nu)
-            lh = dr.dot(l, h)
+            lh = dot(l, h)
             val = math.sqrt((self.nu + 1) * (self.nv + 1)) / (8 * math.pi) * dr.power(h.z, e) * _schlick(d.get("f0", 0.05), lh) / (lh * dr.maximum(cl, cv))
-            return mi.Color3f(dr.select(lh > 0, val, 0.0))
+            return self.T.gray(dr.select(lh > 0, val, 0.0))
         if t == "he":
             return self._he(v, l, cv, cl, h, hu)
         if t == "poulin-fournier":
-            return mi.Color3f(self._pf(v, l, cv, cl))
+            return self.T.gray(self._pf(v, l, cv, cl))
         if t == "sampled-microfacet":
-            return mi.Color3f(self.mf.value(v, l, h))
+            return self.T.gray(self.mf.value(v, l, h))
         raise ValueError(f"unknown model {t}")
 
     # He, Torrance, Sillion, Greenberg 1991, directional-diffuse term (Westin's form).
     def _he(self, v, l, cv, cl, h, hu):
         s0, tau, eta = self.d["sigma0"], self.d["tau"], self.d["eta"]
-        cd = dr.dot(l, h)
+        cd = dot(l, h)
         ch = h.z
         F = _fresnel_dielectric(eta, cd)
 
@@ -188,8 +186,8 @@ class Lobe:
         for g, lam_c in zip(gs, LAMBDA_UM):
             N = math.pi ** 2 * tau * tau / (4 * lam_c * lam_c)
             E = math.pi ** 2 * tau * tau * vxy2 / (lam_c * lam_c)
-            series = dr.zeros(mi.Float)
-            gm = dr.ones(mi.Float)
+            series = self.T.Float(0.0)
+            gm = self.T.Float(1.0)
             for m in range(1, 65):
                 gm = gm * g / m
                 series += dr.exp(-g - E / m) * gm / m
@@ -198,7 +196,7 @@ class Lobe:
             total = dr.select(gmin > 19.0, rough, (1 - w) * series + w * rough)
             val = F * S * G * N * total / (math.pi * cl * cv)
             out.append(dr.select(dr.isfinite(val) & (cd > 0), dr.maximum(val, 0.0), 0.0))
-        return mi.Color3f(out[0], out[1], out[2])
+        return self.T.Color3f(out[0], out[1], out[2])
 
     # Poulin-Fournier 1990 cylinders (lobe's reconstruction, docs/models.md).
     def _pf(self, v, l, cv, cl):
@@ -234,7 +232,7 @@ class Lobe:
         # Gauss-Legendre rule (8 panels of 16 points): independent of lobe's peak windows.
         xs, ws = np.polynomial.legendre.leggauss(16)
         panels = 8
-        acc = dr.zeros(mi.Float)
+        acc = self.T.Float(0.0)
         width = dr.maximum(hi - lo, 0.0)
         for k in range(panels):
             a0 = lo + width * (k / panels)
@@ -248,7 +246,7 @@ class Lobe:
         l1, r1 = flat(av)
         l2, r2 = flat(al)
         strip = dr.maximum(dr.minimum(r1, r2) - dr.maximum(l1, l2), 0.0)
-        rz = 2 * cl * cv - dr.dot(l, v)
+        rz = 2 * cl * cv - dot(l, v)
         fl = dr.power(dr.maximum(rz, 0.0), n)
         cav, cal = dr.cos(av), dr.cos(al)
         val = (n + 2) / (2 * math.pi) * (acc + fl * strip * cav * cal) / (P * cav * cal)
@@ -264,7 +262,8 @@ class MicrofacetGenerator:
 
     GT, GP = 91, 145  # theta_k 0..90 by 1 degree, phi_k 0..360 by 2.5 degrees
 
-    def __init__(self, d):
+    def __init__(self, d, T):
+        self.T = T
         dist = d.get("distribution", "beckmann")
         self.f0 = float(d.get("f0", 1.0))
         rad = math.radians
@@ -296,7 +295,7 @@ class MicrofacetGenerator:
         g = np.empty(len(K))
         for i in range(0, len(K), 256):
             g[i:i + 256] = np.maximum(K[i:i + 256] @ H.T, 0.0) @ pw
-        self.g = mi.Float(np.maximum(g, 1e-6).astype(np.float32))
+        self.g = T.table(np.maximum(g, 1e-6).astype(np.float32))
 
     def _p_np(self, H):
         x, y, z = H[:, 0], H[:, 1], H[:, 2]
@@ -319,7 +318,7 @@ class MicrofacetGenerator:
             v = dr.exp(-(h.x * h.x / ax**2 + h.y * h.y / ay**2) / z2) / (math.pi * ax * ay * z2 * z2)
         elif self.kind == "ridges":
             axes, wid, fall = self.par
-            r = dr.zeros(mi.Float)
+            r = self.T.Float(0.0)
             for a in axes:
                 off = dr.asin(dr.clip(h.x * a[0] + h.y * a[1] + h.z * a[2], -1.0, 1.0))
                 r += dr.exp(-(off / wid) ** 2)
@@ -334,10 +333,10 @@ class MicrofacetGenerator:
         p = dr.atan2(k.y, k.x) * (180.0 / math.pi)
         p = dr.select(p < 0, p + 360.0, p) / 2.5
         t = dr.minimum(t, 89.95)
-        it = dr.minimum(mi.UInt32(dr.floor(t)), self.GT - 2)
-        ip = dr.minimum(mi.UInt32(dr.floor(p)), self.GP - 2)
-        ft, fp = t - mi.Float(it), p - mi.Float(ip)
-        at = lambda a, b: dr.gather(mi.Float, self.g, a * self.GP + b)
+        it = dr.minimum(self.T.UInt32(dr.floor(t)), self.GT - 2)
+        ip = dr.minimum(self.T.UInt32(dr.floor(p)), self.GP - 2)
+        ft, fp = t - self.T.Float(it), p - self.T.Float(ip)
+        at = lambda a, b: dr.gather(self.T.Float, self.g, a * self.GP + b)
         return (1 - ft) * ((1 - fp) * at(it, ip) + fp * at(it, ip + 1)) + ft * ((1 - fp) * at(it + 1, ip) + fp * at(it + 1, ip + 1))
 
     def widths(self):
@@ -346,92 +345,6 @@ class MicrofacetGenerator:
         return 0.1, 0.5
 
     def value(self, v, l, h):
-        F = _schlick(self.f0, dr.dot(l, h))
+        F = _schlick(self.f0, dot(l, h))
         val = self._p(h) * F / (4.0 * self._g(v) * self._g(l))
         return dr.select(dr.isfinite(val), dr.maximum(val, 0.0), 0.0)
-
-
-def _beckmann_sample(alpha, u):
-    phi = 2 * math.pi * u.x
-    tan2 = -alpha * alpha * dr.log(dr.maximum(1.0 - u.y, 1e-30))
-    c = dr.rsqrt(1 + tan2)
-    s = dr.sqrt(dr.maximum(1 - c * c, 0.0))
-    return mi.Vector3f(s * dr.cos(phi), s * dr.sin(phi), c)
-
-
-def _beckmann_pdf_h(alpha, h):
-    c2 = h.z * h.z
-    d = dr.exp(-(1 - c2) / c2 / (alpha * alpha)) / (math.pi * alpha * alpha * c2 * h.z)
-    return dr.select(h.z > 0, d, 0.0)
-
-
-class LobeAnalytic(mi.BSDF):
-    def __init__(self, props):
-        mi.BSDF.__init__(self, props)
-        d = json.loads(props["desc"])
-        self.diffuse = mi.Color3f(_rgb(d.get("diffuse", 0.0)))
-        self.specular = mi.Color3f(_rgb(d.get("specular", 0.04)))
-        self.lobe = Lobe(d)
-        self.a1, self.a2 = self.lobe.widths()
-        lum = lambda c: 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-        self.p_cos = 0.5 if lum(_rgb(d.get("diffuse", 0.0))) > 0 else 0.2
-        flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
-        if d["type"].endswith("anisotropic") or d["type"] in ("poulin-fournier", "sampled-microfacet"):
-            flags = flags | mi.BSDFFlags.Anisotropic
-        self.m_flags = flags
-        self.m_components = [flags]
-
-    def _f(self, v, l):
-        ok = (mi.Frame3f.cos_theta(v) > 0) & (mi.Frame3f.cos_theta(l) > 0)
-        f = self.diffuse / math.pi + self.specular * self.lobe.value(v, l)
-        return dr.select(ok, f, 0.0)
-
-    def _pdf(self, v, l):
-        h = dr.normalize(v + l)
-        vh = dr.dot(v, h)
-        jac = dr.select(vh > 0, 1.0 / (4 * vh), 0.0)
-        p_half = 0.5 * (_beckmann_pdf_h(self.a1, h) + _beckmann_pdf_h(self.a2, h)) * jac
-        p = self.p_cos * dr.maximum(mi.Frame3f.cos_theta(l), 0.0) / math.pi + (1 - self.p_cos) * p_half
-        ok = (mi.Frame3f.cos_theta(v) > 0) & (mi.Frame3f.cos_theta(l) > 0)
-        return dr.select(ok, p, 0.0)
-
-    def sample(self, ctx, si, sample1, sample2, active=True):
-        v = si.wi
-        use_cos = sample1 < self.p_cos
-        u_rest = dr.select(use_cos, 0.0, (sample1 - self.p_cos) / (1 - self.p_cos))
-        wcos = mi.warp.square_to_cosine_hemisphere(sample2)
-        h = dr.select(u_rest < 0.5, _beckmann_sample(self.a1, sample2), _beckmann_sample(self.a2, sample2))
-        wref = 2 * dr.dot(v, h) * h - v
-        l = dr.select(use_cos, wcos, wref)
-        pdf = self._pdf(v, l)
-        bs = dr.zeros(mi.BSDFSample3f)
-        bs.wo = l
-        bs.pdf = pdf
-        bs.eta = 1.0
-        bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
-        bs.sampled_component = mi.UInt32(0)
-        ok = active & (pdf > 0) & (mi.Frame3f.cos_theta(v) > 0) & (mi.Frame3f.cos_theta(l) > 0)
-        val = self._f(v, l) * mi.Frame3f.cos_theta(l) / dr.maximum(pdf, 1e-30)
-        return (bs, dr.select(ok, val, 0.0))
-
-    def eval(self, ctx, si, wo, active=True):
-        return dr.select(active, self._f(si.wi, wo) * dr.maximum(mi.Frame3f.cos_theta(wo), 0.0), 0.0)
-
-    def pdf(self, ctx, si, wo, active=True):
-        return dr.select(active, self._pdf(si.wi, wo), 0.0)
-
-    def eval_pdf(self, ctx, si, wo, active=True):
-        return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
-
-    def traverse(self, callback):
-        pass
-
-    def parameters_changed(self, keys):
-        pass
-
-    def to_string(self):
-        return f"LobeAnalytic[{self.lobe.t}]"
-
-
-def register():
-    mi.register_bsdf("lobe_analytic", lambda props: LobeAnalytic(props))

@@ -1,0 +1,71 @@
+//! `lobe._lobe`: lobe from Python (pyo3), the compiled half of the `lobe` package
+//! (`tools/python/python/lobe` adds the typed wrappers, docstrings and `lobe.mitsuba`).
+//!
+//! It is a thin boundary over the libraries, as the CLI is: materials are built by
+//! lobe-materials' registry from the same JSON as scene files, fit reports and Ngan fits
+//! ([`material`]); measured files are read and written by lobe-materials' readers
+//! ([`data`]); fits go through lobe-analysis ([`fit`]); renders and image metrics through
+//! lobe-renderer ([`images`]). Every entry point runs under [`guarded`]: lobe's errors
+//! become `ValueError` or `FileNotFoundError` carrying the CLI's one-line message, and a
+//! panic becomes a `RuntimeError` instead of reaching Python. Array work releases the GIL
+//! and runs on rayon's pool in fixed chunks, so results do not depend on the thread count.
+
+mod data;
+mod fit;
+mod images;
+mod material;
+
+use pyo3::exceptions::{PyFileNotFoundError, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::Path;
+
+/// A lobe error as the Python exception the package documents: `FileNotFoundError` when
+/// the file it is about does not exist (a file error's file; for an error in a
+/// description, the file its message starts with, as in `material.file: PATH: cannot
+/// read: ...`), `ValueError` otherwise; the message is the CLI's.
+pub(crate) fn to_py(e: lobe_renderer::Error) -> PyErr {
+    // Names in angle brackets (`<scene dict>`) are descriptions given as values, not files.
+    let missing = |f: &str| !f.is_empty() && !f.starts_with('<') && !Path::new(f).exists();
+    let not_found = match &e {
+        lobe_renderer::Error::File { file, .. } => missing(file),
+        lobe_renderer::Error::Scene { message, .. } => message
+            .split_once(": ")
+            .is_some_and(|(f, _)| Path::new(f).is_absolute() && missing(f)),
+        lobe_renderer::Error::Other(_) => false,
+    };
+    if not_found {
+        PyFileNotFoundError::new_err(e.to_string())
+    } else {
+        PyValueError::new_err(e.to_string())
+    }
+}
+
+/// `From` for the materials crate's file errors, through the renderer's error type.
+pub(crate) fn file_err(e: lobe_materials::FileError) -> PyErr {
+    to_py(e.into())
+}
+
+/// Runs `f`, turning a panic into a `RuntimeError` (a bug in lobe, said as such).
+pub(crate) fn guarded<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+    catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| {
+        let what = p
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| p.downcast_ref::<&str>().copied())
+            .unwrap_or("unknown panic");
+        Err(PyRuntimeError::new_err(format!(
+            "internal error in lobe (a bug; please report it): {what}"
+        )))
+    })
+}
+
+#[pymodule]
+fn _lobe(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    material::register(m)?;
+    data::register(m)?;
+    fit::register(m)?;
+    images::register(m)?;
+    Ok(())
+}
