@@ -151,6 +151,7 @@ const fn variant(
         settings,
         lobes,
         group,
+        contains: None,
     }
 }
 

@@ -289,14 +289,14 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             0.2,
             "RMS surface height sigma_0 in micrometres",
         )
-        .fitted(FitRange::log(0.01, 10.0, &[0.1, 1.0])),
+        .fitted(FitRange::log(1e-3, 10.0, &[0.1, 1.0])),
         lobe_param(
             "tau",
             Bounds::above(0.0, 10000.0),
             3.0,
             "autocorrelation length tau in micrometres",
         )
-        .fitted(FitRange::log(0.3, 200.0, &[3.0, 30.0])),
+        .fitted(FitRange::log(0.03, 200.0, &[3.0, 30.0])),
         lobe_param(
             "eta",
             Bounds::above(0.0, 100.0),

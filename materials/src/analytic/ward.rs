@@ -18,7 +18,7 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
-    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
+    Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
@@ -201,14 +201,17 @@ pub const MODEL: LobeModel = LobeModel {
     }),
 };
 
-/// Anisotropic Ward.
+/// Anisotropic Ward; with alpha_x = alpha_y = alpha it is Ward, whose optimum its fit
+/// starts from.
 pub const MODEL_ANISO: LobeModel = LobeModel {
     schema: SCHEMA_ANISO,
     lobe: lobe_aniso,
-    fits: &[FitVariant::single(
-        "ward-anisotropic",
-        FitGroup::Anisotropic,
-    )],
+    fits: &[
+        FitVariant::single("ward-anisotropic", FitGroup::Anisotropic).containing(Contains {
+            label: "ward",
+            params: &[("alpha_x", "alpha"), ("alpha_y", "alpha")],
+        }),
+    ],
     published: None,
 };
 
