@@ -109,7 +109,7 @@ fn hermite(t: f64) -> [f64; 4] {
 /// argument: the caller sums the series).
 #[inline]
 pub fn tabulated(g: f64, e: f64) -> Option<f64> {
-    if !(g >= 0.0 && g <= G_MAX && e >= 0.0) {
+    if !((0.0..=G_MAX).contains(&g) && e >= 0.0) {
         return None;
     }
     let u = e.sqrt();
