@@ -280,6 +280,21 @@ pub struct FitVariant {
     pub settings: &'static [(&'static str, &'static str)],
     pub lobes: usize,
     pub group: FitGroup,
+    /// The simpler fitted variant this one contains, if any: the fitter starts from that
+    /// variant's optimum, so the fit is never worse than it.
+    pub contains: Option<Contains>,
+}
+
+/// A fitted variant that another one contains as a special case (anisotropic Ward with
+/// alpha_x = alpha_y = alpha is Ward): its label, and which of its parameters gives each
+/// parameter of the containing variant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Contains {
+    /// The contained variant's label, e.g. `ward`.
+    pub label: &'static str,
+    /// (parameter of the containing variant, parameter of the contained one whose fitted
+    /// value it starts from), for every fitted parameter of the containing variant.
+    pub params: &'static [(&'static str, &'static str)],
 }
 
 impl FitVariant {
@@ -290,6 +305,15 @@ impl FitVariant {
             settings: &[],
             lobes: 1,
             group,
+            contains: None,
+        }
+    }
+
+    /// The same variant, containing `contains` as a special case.
+    pub const fn containing(self, contains: Contains) -> Self {
+        Self {
+            contains: Some(contains),
+            ..self
         }
     }
 }

@@ -14,6 +14,7 @@
 use glam::Vec3;
 use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::{CUTOFF_DEG, Dataset, Sample};
+use lobe_materials::fit::report::BoundSide;
 use lobe_materials::fit::{
     FitError, FitResult, ISOTROPIC_DEFAULT, ModelSpec, builtin_specs, eq1_error, fit, fit_until,
 };
@@ -481,5 +482,42 @@ fn a_stop_request_ends_a_fit_inside_the_optimizer() {
     assert_eq!(
         (e.clone(), e.to_string()),
         (FitError::Cancelled, "cancelled".into())
+    );
+}
+
+/// Ngan et al.'s published Lafortune fit of blue-fabric has Cz = 1.23e-10 against
+/// Cxy = -0.707 (a lobe about the horizontal mirror direction): the fitter reaches it
+/// (its fit range of cz, once stopped at 0.01, goes down to 1e-12 in log space), and a
+/// fit that ends at a bound of its range (Ward's alpha at 1 on this broad lobe) says so.
+#[test]
+fn published_fits_outside_the_old_ranges_are_reached_and_bounds_are_reported() {
+    let fabric = material(&json!({"type": "lafortune", "normalization": "ngan",
+        "diffuse": [0.0196, 0.0184, 0.0313], "specular": [0.0643, 0.0576, 0.0642],
+        "cx": -0.707, "cy": -0.707, "cz": 1.23e-10, "n": 3.63}));
+    let data = Dataset::isotropic(&|wi, wo| Some(fabric.eval(wo, wi)), 4.0);
+    let r = fit(&REGISTRY, &data, &spec("lafortune"), 300).unwrap();
+    show(&r);
+    let ratio = r.material["cz"].as_f64().unwrap() / r.material["cx"].as_f64().unwrap().abs();
+    assert!(ratio < 1e-3, "cz / |cx| = {ratio}");
+    assert!(
+        r.error_normalized < 1e-3,
+        "normalized error {}",
+        r.error_normalized
+    );
+    assert!((r.material["n"].as_f64().unwrap() - 3.63).abs() < 0.01 * 3.63);
+    assert_eq!(r.start_errors.len(), r.starts);
+    assert!(r.start_errors.windows(2).all(|w| w[0] <= w[1]));
+    let ward = fit(&REGISTRY, &data, &spec("ward"), 300).unwrap();
+    show(&ward);
+    let hit = ward.at_bounds.iter().find(|h| h.param == "alpha");
+    assert!(
+        hit.is_some_and(|h| h.bound == 1.0 && h.side == BoundSide::Upper),
+        "{:?}",
+        ward.at_bounds
+    );
+    assert!(
+        r.at_bounds.iter().all(|h| h.param != "n"),
+        "{:?}",
+        r.at_bounds
     );
 }

@@ -17,7 +17,8 @@ use crate::fastmath::{self, x8};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
-    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, ParamSpec, Params, PublishedFit,
+    Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, ParamSpec, Params,
+    PublishedFit,
 };
 use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError};
@@ -158,6 +159,8 @@ impl Lobe for AshikhminShirley {
 }
 
 const N_BOUNDS: Bounds = Bounds::closed(0.0, 1.0e7);
+/// The smallest exponent fitted: below 1, as Ngan's fits of fabrics (n = 0.5).
+const N_FIT_LO: f64 = 0.1;
 const RS: ParamSpec = lobe_param(
     "f0",
     Bounds::closed(0.0, 1.0),
@@ -172,7 +175,7 @@ pub const SCHEMA: ModelSchema = ModelSchema {
         DIFFUSE,
         SPECULAR,
         lobe_param("n", N_BOUNDS, 100.0, "Phong exponent n = n_u = n_v").fitted(FitRange::log(
-            1.0,
+            N_FIT_LO,
             1e6,
             &[10.0, 100.0, 1000.0],
         )),
@@ -187,12 +190,12 @@ pub const SCHEMA_ANISO: ModelSchema = ModelSchema {
         DIFFUSE,
         SPECULAR,
         lobe_param("nu", N_BOUNDS, 100.0, "exponent along the tangent (x)").fitted(FitRange::log(
-            1.0,
+            N_FIT_LO,
             1e6,
             &[10.0, 1000.0],
         )),
         lobe_param("nv", N_BOUNDS, 100.0, "exponent along the bitangent (y)")
-            .fitted(FitRange::log(1.0, 1e6, &[10.0, 1000.0])),
+            .fitted(FitRange::log(N_FIT_LO, 1e6, &[10.0, 1000.0])),
         RS.fitted(FitRange::linear(0.0, 1.0, &[0.1])),
     ],
 };
@@ -228,14 +231,19 @@ pub const MODEL: LobeModel = LobeModel {
     }),
 };
 
-/// Anisotropic Ashikhmin-Shirley.
+/// Anisotropic Ashikhmin-Shirley; with nu = nv = n it is the isotropic model, whose
+/// optimum its fit starts from.
 pub const MODEL_ANISO: LobeModel = LobeModel {
     schema: SCHEMA_ANISO,
     lobe: lobe_aniso,
-    fits: &[FitVariant::single(
-        "ashikhmin-shirley-anisotropic",
-        FitGroup::Anisotropic,
-    )],
+    fits: &[
+        FitVariant::single("ashikhmin-shirley-anisotropic", FitGroup::Anisotropic).containing(
+            Contains {
+                label: "ashikhmin-shirley",
+                params: &[("nu", "n"), ("nv", "n"), ("f0", "f0")],
+            },
+        ),
+    ],
     published: None,
 };
 

@@ -167,6 +167,7 @@ const fn variant(
         settings,
         lobes,
         group,
+        contains: None,
     }
 }
 

@@ -33,6 +33,7 @@
 //! that Beckmann alpha).
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
+use super::he_series;
 use super::microfacet::Distribution;
 use super::microfacet::fresnel::dielectric;
 use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
@@ -138,20 +139,39 @@ impl He {
         (self.shadow(ci) * self.shadow(co), self.sigma_eff(ci, co))
     }
 
-    /// The lobe per channel.
+    /// The lobe per channel, its series summed term by term (rendering, in f32).
     #[inline]
     pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
-        self.value_with(wo, wi, |ci, co| self.elevation_terms(ci, co))
+        self.value_with(wo, wi, |ci, co| self.elevation_terms(ci, co), Self::series)
+    }
+
+    /// The lobe per channel in f64 with the series from its table (fitting; within
+    /// [`he_series::TABLE_ERROR_BOUND`] of the lobe's peak of the summed series).
+    #[inline]
+    pub fn value_tabulated(&self, wo: V3<f64>, wi: V3<f64>) -> [f64; 3] {
+        self.value_with(
+            wo,
+            wi,
+            |ci, co| self.elevation_terms(ci, co),
+            Self::series_tabulated,
+        )
+    }
+
+    /// The series from its table where the table covers (g, e), else summed.
+    #[inline]
+    fn series_tabulated(g: f64, e: f64) -> f64 {
+        he_series::tabulated(g, e).unwrap_or_else(|| Self::series(g, e))
     }
 
     /// The lobe per channel, with the elevation factors from `terms(cos_i, cos_o)` (called
-    /// at most once).
+    /// at most once) and the series of eq. 78 from `series(g, e)`.
     #[inline]
     fn value_with<T: Real>(
         &self,
         wo: V3<T>,
         wi: V3<T>,
         terms: impl FnOnce(T, T) -> (T, T),
+        series: impl Fn(T, T) -> T,
     ) -> [T; 3] {
         let zero = [T::zero(); 3];
         let Some((co, ci)) = above(wo, wi) else {
@@ -192,9 +212,9 @@ impl He {
                 rough()
             } else if g_min > T::c(18.0) {
                 let w = g_min - T::c(18.0);
-                (T::one() - w) * Self::series(g, e) + w * rough()
+                (T::one() - w) * series(g, e) + w * rough()
             } else {
-                Self::series(g, e)
+                series(g, e)
             };
             let v = common * n * sum;
             out[c] = if v.is_finite() {
@@ -228,7 +248,7 @@ impl Lobe for He {
     }
 
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
-        self.value::<f64>(wo.into(), wi.into())
+        self.value_tabulated(wo.into(), wi.into())
     }
 
     fn eval_f64_many(&self, pairs: &[(DVec3, DVec3)], out: &mut [[f64; 3]]) {
@@ -236,17 +256,22 @@ impl Lobe for He {
         // result is exactly that of `eval_f64`.
         let mut memo: Option<((u64, u64), (f64, f64))> = None;
         for (o, &(wo, wi)) in out.iter_mut().zip(pairs) {
-            *o = self.value_with::<f64>(wo.into(), wi.into(), |ci, co| {
-                let key = (ci.to_bits(), co.to_bits());
-                match memo {
-                    Some((k, t)) if k == key => t,
-                    _ => {
-                        let t = self.elevation_terms(ci, co);
-                        memo = Some((key, t));
-                        t
+            *o = self.value_with::<f64>(
+                wo.into(),
+                wi.into(),
+                |ci, co| {
+                    let key = (ci.to_bits(), co.to_bits());
+                    match memo {
+                        Some((k, t)) if k == key => t,
+                        _ => {
+                            let t = self.elevation_terms(ci, co);
+                            memo = Some((key, t));
+                            t
+                        }
                     }
-                }
-            });
+                },
+                Self::series_tabulated,
+            );
         }
     }
 
@@ -289,14 +314,14 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             0.2,
             "RMS surface height sigma_0 in micrometres",
         )
-        .fitted(FitRange::log(0.01, 10.0, &[0.1, 1.0])),
+        .fitted(FitRange::log(1e-3, 10.0, &[0.1, 1.0])),
         lobe_param(
             "tau",
             Bounds::above(0.0, 10000.0),
             3.0,
             "autocorrelation length tau in micrometres",
         )
-        .fitted(FitRange::log(0.3, 200.0, &[3.0, 30.0])),
+        .fitted(FitRange::log(0.03, 200.0, &[3.0, 30.0])),
         lobe_param(
             "eta",
             Bounds::above(0.0, 100.0),

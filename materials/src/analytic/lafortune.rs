@@ -136,11 +136,9 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             -0.577,
             "C_y (bitangent); equal to cx for isotropic lobes",
         ),
-        lobe_param("cz", C_BOUNDS, 0.577, "C_z (normal)").fitted(FitRange::linear(
-            0.01,
-            1.0,
-            &[0.6],
-        )),
+        // In log space down to 1e-12: Ngan's fits of fabrics have Cz = 1.2e-10 against
+        // Cxy = -0.707 (a lobe about the horizontal mirror direction only).
+        lobe_param("cz", C_BOUNDS, 0.577, "C_z (normal)").fitted(FitRange::log(1e-12, 1.0, &[0.6])),
         lobe_param("n", Bounds::closed(0.0, 1.0e7), 100.0, "exponent").fitted(FitRange::log(
             1.0,
             1e5,
@@ -185,12 +183,14 @@ pub const MODEL: LobeModel = LobeModel {
             settings: NGAN,
             lobes: 1,
             group: FitGroup::Isotropic,
+            contains: None,
         },
         FitVariant {
             label: "lafortune-2",
             settings: NGAN,
             lobes: 2,
             group: FitGroup::TwoLobes,
+            contains: None,
         },
     ],
     published: Some(PublishedFit {

@@ -16,6 +16,7 @@ pub mod blinn_phong;
 pub mod common;
 pub mod cook_torrance;
 pub mod he;
+pub mod he_series;
 pub mod lafortune;
 pub mod lambert;
 pub mod microfacet;

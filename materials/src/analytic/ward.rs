@@ -19,7 +19,7 @@ use crate::fastmath::{self, x8};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
-    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
+    Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
 use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError};
@@ -238,14 +238,17 @@ pub const MODEL: LobeModel = LobeModel {
     }),
 };
 
-/// Anisotropic Ward.
+/// Anisotropic Ward; with alpha_x = alpha_y = alpha it is Ward, whose optimum its fit
+/// starts from.
 pub const MODEL_ANISO: LobeModel = LobeModel {
     schema: SCHEMA_ANISO,
     lobe: lobe_aniso,
-    fits: &[FitVariant::single(
-        "ward-anisotropic",
-        FitGroup::Anisotropic,
-    )],
+    fits: &[
+        FitVariant::single("ward-anisotropic", FitGroup::Anisotropic).containing(Contains {
+            label: "ward",
+            params: &[("alpha_x", "alpha"), ("alpha_y", "alpha")],
+        }),
+    ],
     published: None,
 };
 

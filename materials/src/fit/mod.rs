@@ -30,7 +30,7 @@ use std::f64::consts::FRAC_1_PI;
 use std::sync::Arc;
 
 /// The result of fitting one model.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct FitResult {
     pub label: String,
     /// The fitted material: a registry description (`composite` for two lobes).
@@ -44,7 +44,19 @@ pub struct FitResult {
     pub starts_agreeing: usize,
     pub evaluations: usize,
     pub seconds: f64,
+    /// Parameters that ended at a bound of their fit range.
+    pub at_bounds: Vec<report::BoundHit>,
+    /// The coarse-stage final error of every start, ascending.
+    pub start_errors: Vec<f64>,
+    /// The contained model whose optimum was one of the starts.
+    pub started_from: Option<report::StartedFrom>,
+    /// An anisotropic model fitted to isotropic data.
+    pub isotropic_data: bool,
 }
+
+/// Relative distance (of the value, or of its logarithm's range for linear parameters)
+/// within which a fitted parameter counts as at a bound.
+pub const AT_BOUND: f64 = 1e-3;
 
 /// Normal equations per channel of the colours for fixed lobes.
 fn grams(data: &Dataset, lobes: &[Arc<dyn Lobe>]) -> [Gram; 3] {
@@ -165,6 +177,56 @@ impl Problem<'_> {
             return (f64::INFINITY, [[0.0; 3]; 3]);
         };
         linear_colours_with(self.data, &lobes, self.total_weight)
+    }
+
+    /// The parameters of `x` at (within [`AT_BOUND`] of) a bound of their fit range.
+    fn at_bounds(&self, x: &[f64]) -> Vec<report::BoundHit> {
+        let k = self.spec.params.len();
+        let vals = self.values(x);
+        let mut hits = Vec::new();
+        for (i, &v) in vals.iter().enumerate() {
+            let fp = &self.spec.params[i % k];
+            let near = |b: f64| {
+                if fp.log {
+                    (v / b).ln().abs() <= AT_BOUND
+                } else {
+                    (v - b).abs() <= AT_BOUND * (fp.hi - fp.lo)
+                }
+            };
+            let side = if near(fp.lo) {
+                (fp.lo, report::BoundSide::Lower)
+            } else if near(fp.hi) {
+                (fp.hi, report::BoundSide::Upper)
+            } else {
+                continue;
+            };
+            hits.push(report::BoundHit {
+                param: if self.spec.lobes > 1 {
+                    format!("lobes[{}].{}", i / k, fp.name)
+                } else {
+                    fp.name.to_string()
+                },
+                value: v,
+                bound: side.0,
+                side: side.1,
+            });
+        }
+        hits
+    }
+
+    /// The optimizer point of the fitted `contained` model (one lobe, its parameters at
+    /// the top of its material), through the parameter map of `spec.contains`; None if the
+    /// map or the material lacks a parameter.
+    fn start_from(&self, contained: &Value) -> Option<Vec<f64>> {
+        let map = self.spec.contains?;
+        (0..self.spec.lobes * self.spec.params.len())
+            .map(|i| {
+                let fp = &self.spec.params[i % self.spec.params.len()];
+                let from = map.params.iter().find(|(p, _)| *p == fp.name)?.1;
+                let v = contained.get(from)?.as_f64()?.clamp(fp.lo, fp.hi);
+                Some(if fp.log { v.ln() } else { v })
+            })
+            .collect()
     }
 
     fn material(&self, x: &[f64], colours: &[[f64; 3]; 3]) -> Value {
@@ -375,6 +437,22 @@ pub fn fit_until(
     max_evals_per_start: usize,
     stop: &Stop<'_>,
 ) -> Result<FitResult, FitError> {
+    fit_from(registry, data, spec, max_evals_per_start, None, stop)
+}
+
+/// [`fit_until`], with `contained`, the fit of the variant `spec` contains
+/// ([`ModelSpec::contains`], e.g. Ward for anisotropic Ward), as one more start: the
+/// result is never worse than `contained` (its point is kept if nothing beats it on all
+/// the bins). Without `contained`, or for a spec that contains nothing, it is
+/// [`fit_until`].
+pub fn fit_from(
+    registry: &Registry,
+    data: &Dataset,
+    spec: &ModelSpec,
+    max_evals_per_start: usize,
+    contained: Option<&FitResult>,
+    stop: &Stop<'_>,
+) -> Result<FitResult, FitError> {
     data.check().map_err(FitError::Data)?;
     let t0 = std::time::Instant::now();
     let pr = Problem {
@@ -383,7 +461,11 @@ pub fn fit_until(
         registry,
         total_weight: data.total_weight().max(1e-300),
     };
-    let (bounds, starts) = bounds_and_starts(spec);
+    let (bounds, mut starts) = bounds_and_starts(spec);
+    let seed = contained.and_then(|c| Some((c, pr.start_from(&c.material)?)));
+    if let Some((_, x)) = &seed {
+        starts.push(x.clone());
+    }
     let cancelled = || {
         if stop() {
             Err(FitError::Cancelled)
@@ -417,19 +499,28 @@ pub fn fit_until(
     }
     cancelled()?;
     finals.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let start_errors: Vec<f64> = finals.iter().map(|f| f.0).collect();
     let best_coarse = finals[0].0;
     let agreeing = finals
         .iter()
         .filter(|f| f.0 <= best_coarse * 1.01 + 1e-15)
         .count();
-    let best = if coarse_data.samples.len() == data.samples.len() {
+    let mut best = if coarse_data.samples.len() == data.samples.len() {
         finals.swap_remove(0).1
     } else {
         refine(&pr, &bounds, &finals, &mut evaluations, stop)
     };
     cancelled()?;
-    let (error, colours) = pr.error(&best);
+    let (mut error, mut colours) = pr.error(&best);
     evaluations += 1;
+    if let Some((_, x)) = &seed {
+        // The contained model's optimum, judged on all the bins like the winner.
+        let (e, c) = pr.error(x);
+        evaluations += 1;
+        if e < error {
+            (error, colours, best) = (e, c, x.clone());
+        }
+    }
     Ok(FitResult {
         label: spec.label.to_string(),
         material: pr.material(&best, &colours),
@@ -443,6 +534,13 @@ pub fn fit_until(
         starts_agreeing: agreeing,
         evaluations,
         seconds: t0.elapsed().as_secs_f64(),
+        at_bounds: pr.at_bounds(&best),
+        start_errors,
+        started_from: seed.map(|(c, _)| report::StartedFrom {
+            model: c.label.clone(),
+            error: c.error,
+        }),
+        isotropic_data: spec.group == crate::schema::FitGroup::Anisotropic && !data.anisotropic,
     })
 }
 

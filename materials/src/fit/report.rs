@@ -6,7 +6,11 @@
 //! description, its Eq. (1) error (absolute and normalized) and how the multi-start went;
 //! with `lobe fit --select`, also the model chosen for its cost. Reports carry a format
 //! version ([`FORMAT_VERSION`]); a report without one is of version 1 (written before the
-//! field existed), one of a newer version is refused, naming both versions.
+//! field existed), one of a newer version is refused, naming both versions. Version 2 added
+//! what a fit should not report silently (per model: the parameters that ended at a bound
+//! of their fit range, every start's error, the contained model the fit started from, and
+//! whether an anisotropic model was fitted to isotropic data); a version 1 report reads
+//! with those empty.
 //!
 //! Written JSON keeps its keys in alphabetical order (serde_json's map), as reports always
 //! had; a non-finite number (the normalized error of all-zero data) is written as `null` and
@@ -21,7 +25,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The report format this build writes and the newest it reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 fn version_one() -> u32 {
     1
@@ -30,6 +34,14 @@ fn version_one() -> u32 {
 /// A number written as `null` when it was not finite (serde_json's way), read back as NaN.
 fn nullable_f64<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// A list of numbers, each written as `null` when it was not finite, read back as NaN.
+fn nullable_f64s<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    Ok(Vec::<Option<f64>>::deserialize(d)?
+        .into_iter()
+        .map(|v| v.unwrap_or(f64::NAN))
+        .collect())
 }
 
 /// The report of fitting one material.
@@ -58,7 +70,7 @@ pub struct FitReport {
 }
 
 /// One fitted model of a report.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ModelFit {
     /// The fitted material: a registry description (`composite` for two lobes).
@@ -75,6 +87,50 @@ pub struct ModelFit {
     pub evaluations: usize,
     #[serde(deserialize_with = "nullable_f64")]
     pub seconds: f64,
+    /// Parameters that ended at (within a relative 1e-3 of) a bound of their fit range:
+    /// the optimum may lie beyond it (absent in version 1: empty).
+    #[serde(default)]
+    pub at_bounds: Vec<BoundHit>,
+    /// The final error of every start in the coarse stage, ascending: their spread shows
+    /// how many basins the starts fell into (absent in version 1: empty).
+    #[serde(default, deserialize_with = "nullable_f64s")]
+    pub start_errors: Vec<f64>,
+    /// The contained model whose optimum was one of the starts (anisotropic Ward from
+    /// Ward): the fit is never worse than it (absent in version 1: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub started_from: Option<StartedFrom>,
+    /// An anisotropic model fitted to isotropic data, whose anisotropy the data cannot
+    /// show (absent in version 1: false).
+    #[serde(default)]
+    pub isotropic_data: bool,
+}
+
+/// Which bound of its fit range a parameter reached.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BoundSide {
+    Lower,
+    Upper,
+}
+
+/// A fitted parameter at a bound of its fit range.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundHit {
+    /// The parameter (`lobes[1].m` for the second lobe of two).
+    pub param: String,
+    pub value: f64,
+    pub bound: f64,
+    pub side: BoundSide,
+}
+
+/// The contained model a fit started from, and that model's error.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartedFrom {
+    pub model: String,
+    #[serde(deserialize_with = "nullable_f64")]
+    pub error: f64,
 }
 
 /// The model chosen for its cost: the cheapest (eval + sample time per call) whose error is
@@ -114,7 +170,66 @@ impl ModelFit {
             starts_agreeing: r.starts_agreeing,
             evaluations: r.evaluations,
             seconds: r.seconds,
+            at_bounds: r.at_bounds.clone(),
+            start_errors: r.start_errors.clone(),
+            started_from: r.started_from.clone(),
+            isotropic_data: r.isotropic_data,
         }
+    }
+
+    /// Fewer than half the starts reached the best error (within 1 %): the optimum was
+    /// found by few of them, and a better one may have been missed.
+    pub fn starts_disagree(&self) -> bool {
+        self.starts > 1 && 2 * self.starts_agreeing < self.starts
+    }
+
+    /// One line per thing about this fit (of model `label`) that should not pass silently:
+    /// an anisotropic model on isotropic data, parameters at a bound of their fit range,
+    /// starts that disagree. Empty for a clean fit.
+    pub fn warnings(&self, label: &str) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.isotropic_data {
+            let from = self.started_from.as_ref().map_or(String::new(), |s| {
+                format!(
+                    "; it started from the {} optimum (error {:.4e})",
+                    s.model, s.error
+                )
+            });
+            out.push(format!(
+                "{label}: ANISOTROPIC MODEL ON ISOTROPIC DATA: the data cannot show anisotropy (one light azimuth, or phi_d only), so its anisotropic parameters and any gain in error are artefacts of the sampling{from}"
+            ));
+        }
+        if !self.at_bounds.is_empty() {
+            let hits: Vec<String> = self
+                .at_bounds
+                .iter()
+                .map(|h| {
+                    let side = match h.side {
+                        BoundSide::Lower => "lower",
+                        BoundSide::Upper => "upper",
+                    };
+                    format!(
+                        "{} = {:.4e} at its {side} bound {}",
+                        h.param, h.value, h.bound
+                    )
+                })
+                .collect();
+            out.push(format!(
+                "{label}: {} (the optimum may lie beyond the fit range)",
+                hits.join(", ")
+            ));
+        }
+        if self.starts_disagree() {
+            let spread = match (self.start_errors.first(), self.start_errors.last()) {
+                (Some(a), Some(b)) => format!("; start errors span {a:.4e} to {b:.4e}"),
+                _ => String::new(),
+            };
+            out.push(format!(
+                "{label}: only {} of {} starts reached the best error (within 1 %){spread}; a better optimum may have been missed",
+                self.starts_agreeing, self.starts
+            ));
+        }
+        out
     }
 }
 
@@ -208,6 +323,15 @@ mod tests {
             starts_agreeing: 2,
             evaluations: 120,
             seconds: 0.25,
+            at_bounds: vec![BoundHit {
+                param: "alpha".into(),
+                value: 1.0,
+                bound: 1.0,
+                side: BoundSide::Upper,
+            }],
+            start_errors: vec![e, e * 1.005, e * 1.5],
+            started_from: None,
+            isotropic_data: false,
         };
         FitReport {
             format_version: FORMAT_VERSION,
@@ -248,7 +372,10 @@ mod tests {
         write(&path, &r).unwrap();
         assert_eq!(read(&path).unwrap(), r);
         let text = std::fs::read_to_string(&path).unwrap();
-        assert!(text.contains("\"format_version\": 1"), "{text}");
+        assert!(
+            text.contains(&format!("\"format_version\": {FORMAT_VERSION}")),
+            "{text}"
+        );
         // Keys in alphabetical order, as reports always had.
         let (a, b) = (
             text.find("\"material\"").unwrap(),
@@ -314,5 +441,54 @@ mod tests {
         assert!(v["models"]["he"]["error_normalized"].is_null());
         let back = FitReport::from_json(&v, "r.fit.json").unwrap();
         assert!(back.models["he"].error_normalized.is_nan());
+    }
+
+    #[test]
+    fn a_version_one_report_reads_without_the_later_fields() {
+        let mut v = sample().to_json();
+        v["format_version"] = json!(1);
+        for m in v["models"].as_object_mut().unwrap().values_mut() {
+            let m = m.as_object_mut().unwrap();
+            for k in [
+                "at_bounds",
+                "start_errors",
+                "started_from",
+                "isotropic_data",
+            ] {
+                m.remove(k);
+            }
+        }
+        let r = FitReport::from_json(&v, "old.fit.json").unwrap();
+        assert_eq!(r.format_version, 1);
+        let ward = &r.models["ward"];
+        assert!(ward.at_bounds.is_empty() && ward.start_errors.is_empty());
+        assert!(ward.started_from.is_none() && !ward.isotropic_data);
+        // Nothing recorded, nothing to warn about (2 of 3 starts agree).
+        assert!(ward.warnings("ward").is_empty());
+    }
+
+    #[test]
+    fn a_fit_at_a_bound_with_disagreeing_starts_on_isotropic_data_warns_once_each() {
+        let mut fit = sample().models["ward"].clone();
+        let w = fit.warnings("ward");
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].contains("alpha = 1.0000e0 at its upper bound 1"),
+            "{w:?}"
+        );
+        fit.starts_agreeing = 1;
+        fit.isotropic_data = true;
+        fit.started_from = Some(StartedFrom {
+            model: "ward".into(),
+            error: 0.01,
+        });
+        let w = fit.warnings("ward-anisotropic");
+        assert_eq!(w.len(), 3, "{w:?}");
+        assert!(w[0].contains("ISOTROPIC DATA") && w[0].contains("ward optimum"));
+        assert!(w[2].contains("only 1 of 3 starts") && w[2].contains("1.0000e-2 to 1.5000e-2"));
+        fit.at_bounds.clear();
+        fit.isotropic_data = false;
+        fit.starts_agreeing = 3;
+        assert!(fit.warnings("ward").is_empty());
     }
 }

@@ -4,7 +4,7 @@
 //! parameters are the schema parameters with a fit range (those whose `when` setting
 //! matches the variant's settings), in schema order.
 
-use crate::schema::{FitGroup, LobeModel, ParamKind};
+use crate::schema::{Contains, FitGroup, LobeModel, ParamKind};
 use serde_json::{Value, json};
 
 /// One optimized lobe parameter.
@@ -30,6 +30,11 @@ pub struct ModelSpec {
     pub settings: Value,
     pub params: Vec<FitParam>,
     pub lobes: usize,
+    /// The study's set the variant belongs to (an `Anisotropic` model fitted to isotropic
+    /// data is warned about).
+    pub group: FitGroup,
+    /// The simpler variant it contains, whose optimum its fit starts from.
+    pub contains: Option<Contains>,
 }
 
 /// The fit specs of one declared model, one per fit variant, in declaration order.
@@ -87,6 +92,8 @@ pub fn model_specs(m: &LobeModel) -> Vec<ModelSpec> {
                 settings,
                 params,
                 lobes: v.lobes,
+                group: v.group,
+                contains: v.contains,
             }
         })
         .collect()
@@ -156,8 +163,10 @@ pub const ANISOTROPIC_DEFAULT: &[&str] = &labels_in::<ANISOTROPIC_COUNT>(FitGrou
 mod tests {
     use super::*;
 
-    /// The fit ranges and starting points the fit reports of lobe were made with: the
-    /// specs derived from the models' declarations must equal them exactly, in order.
+    /// The fit ranges and starting points the fit reports of lobe are made with: the
+    /// specs derived from the models' declarations must equal them exactly, in order
+    /// (widened where Ngan's published fits lie outside: Lafortune's cz down to 1e-12 in
+    /// log space, He's sigma0 and tau, Ashikhmin-Shirley's exponents below 1).
     #[test]
     fn derived_specs_equal_the_hand_written_table() {
         const fn p(
@@ -187,7 +196,7 @@ mod tests {
                     starts: &[-0.6],
                     tied: &["cy"],
                 },
-                p("cz", 0.01, 1.0, false, &[0.6]),
+                p("cz", 1e-12, 1.0, true, &[0.6]),
                 p("n", 1.0, 1e5, true, &[10.0, 100.0, 1000.0]),
             ]
         }
@@ -207,6 +216,14 @@ mod tests {
                     settings: json!({"distribution": dist, "fresnel": fresnel}),
                     params,
                     lobes,
+                    group: if lobes == 2 {
+                        FitGroup::TwoLobes
+                    } else if label == "cook-torrance" {
+                        FitGroup::Isotropic
+                    } else {
+                        FitGroup::Variant
+                    },
+                    contains: None,
                 }
             };
             vec![
@@ -216,6 +233,8 @@ mod tests {
                     settings: json!({}),
                     params: vec![p("alpha", 1e-3, 1.0, true, &[0.03, 0.1, 0.3])],
                     lobes: 1,
+                    group: FitGroup::Isotropic,
+                    contains: None,
                 },
                 ModelSpec {
                     label: "ward-duer",
@@ -223,6 +242,8 @@ mod tests {
                     settings: json!({}),
                     params: vec![p("alpha", 1e-3, 1.0, true, &[0.03, 0.1, 0.3])],
                     lobes: 1,
+                    group: FitGroup::Isotropic,
+                    contains: None,
                 },
                 ModelSpec {
                     label: "blinn-phong",
@@ -230,6 +251,8 @@ mod tests {
                     settings: json!({}),
                     params: vec![p("n", 1.0, 1e6, true, &[10.0, 100.0, 1000.0])],
                     lobes: 1,
+                    group: FitGroup::Isotropic,
+                    contains: None,
                 },
                 ct("cook-torrance", "beckmann", "schlick", 1),
                 ModelSpec {
@@ -238,27 +261,33 @@ mod tests {
                     settings: json!({"normalization": "ngan"}),
                     params: lafortune_params(),
                     lobes: 1,
+                    group: FitGroup::Isotropic,
+                    contains: None,
                 },
                 ModelSpec {
                     label: "ashikhmin-shirley",
                     model: "ashikhmin-shirley",
                     settings: json!({}),
                     params: vec![
-                        p("n", 1.0, 1e6, true, &[10.0, 100.0, 1000.0]),
+                        p("n", 0.1, 1e6, true, &[10.0, 100.0, 1000.0]),
                         p("f0", 0.0, 1.0, false, &[0.05, 0.5]),
                     ],
                     lobes: 1,
+                    group: FitGroup::Isotropic,
+                    contains: None,
                 },
                 ModelSpec {
                     label: "he",
                     model: "he",
                     settings: json!({}),
                     params: vec![
-                        p("sigma0", 0.01, 10.0, true, &[0.1, 1.0]),
-                        p("tau", 0.3, 200.0, true, &[3.0, 30.0]),
+                        p("sigma0", 1e-3, 10.0, true, &[0.1, 1.0]),
+                        p("tau", 0.03, 200.0, true, &[3.0, 30.0]),
                         p("eta", 1.001, 20.0, true, &[1.5]),
                     ],
                     lobes: 1,
+                    group: FitGroup::Isotropic,
+                    contains: None,
                 },
                 ct("cook-torrance-gaussian", "gaussian", "schlick", 1),
                 ct("cook-torrance-cosine-power", "cosine-power", "schlick", 1),
@@ -271,6 +300,8 @@ mod tests {
                     settings: json!({"normalization": "ngan"}),
                     params: lafortune_params(),
                     lobes: 2,
+                    group: FitGroup::TwoLobes,
+                    contains: None,
                 },
                 // Section 5: anisotropic models, for 4D (binned) data.
                 ModelSpec {
@@ -282,17 +313,27 @@ mod tests {
                         p("alpha_y", 1e-3, 1.0, true, &[0.03, 0.2]),
                     ],
                     lobes: 1,
+                    group: FitGroup::Anisotropic,
+                    contains: Some(Contains {
+                        label: "ward",
+                        params: &[("alpha_x", "alpha"), ("alpha_y", "alpha")],
+                    }),
                 },
                 ModelSpec {
                     label: "ashikhmin-shirley-anisotropic",
                     model: "ashikhmin-shirley-anisotropic",
                     settings: json!({}),
                     params: vec![
-                        p("nu", 1.0, 1e6, true, &[10.0, 1000.0]),
-                        p("nv", 1.0, 1e6, true, &[10.0, 1000.0]),
+                        p("nu", 0.1, 1e6, true, &[10.0, 1000.0]),
+                        p("nv", 0.1, 1e6, true, &[10.0, 1000.0]),
                         p("f0", 0.0, 1.0, false, &[0.1]),
                     ],
                     lobes: 1,
+                    group: FitGroup::Anisotropic,
+                    contains: Some(Contains {
+                        label: "ashikhmin-shirley",
+                        params: &[("nu", "n"), ("nv", "n"), ("f0", "f0")],
+                    }),
                 },
                 ModelSpec {
                     label: "poulin-fournier",
@@ -304,6 +345,8 @@ mod tests {
                         p("h", 0.0, 1.0, false, &[0.5]),
                     ],
                     lobes: 1,
+                    group: FitGroup::Anisotropic,
+                    contains: None,
                 },
             ]
         }

@@ -7,7 +7,7 @@ use crate::models::choose;
 use crate::selection::select;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
-use lobe_materials::fit::{FitError, FitResult, Stop, builtin_specs, fit_until};
+use lobe_materials::fit::{FitError, FitResult, ModelSpec, Stop, builtin_specs, fit_from};
 use lobe_materials::measured::format;
 use lobe_materials::registry::Registry;
 use lobe_renderer::Error;
@@ -43,12 +43,27 @@ pub fn fit_material(
     data.check().map_err(|m| Error::file(source, m))?;
     let specs = builtin_specs();
     let chosen = choose(&specs, opts.models.as_deref(), data.anisotropic)?;
-    let mut results = Vec::new();
-    for spec in chosen {
-        let r = fit_until(registry, data, spec, opts.max_evals, stop).map_err(|e| match e {
+    let fit_one = |spec: &ModelSpec, contained: Option<&FitResult>| {
+        fit_from(registry, data, spec, opts.max_evals, contained, stop).map_err(|e| match e {
             FitError::Cancelled => Error::Other(format!("{source}: interrupted")),
             FitError::Data(m) => Error::file(source, m),
-        })?;
+        })
+    };
+    let mut results: Vec<FitResult> = Vec::new();
+    for spec in chosen {
+        // A model that contains another (anisotropic Ward contains Ward) starts from that
+        // model's optimum: the one fitted for this report, or one fitted for the purpose.
+        let contained = match spec.contains {
+            None => None,
+            Some(c) => match results.iter().find(|r| r.label == c.label) {
+                Some(r) => Some(r.clone()),
+                None => match specs.iter().find(|s| s.label == c.label) {
+                    Some(s) => Some(fit_one(s, None)?),
+                    None => None,
+                },
+            },
+        };
+        let r = fit_one(spec, contained.as_ref())?;
         on_model(&r);
         results.push(r);
     }

@@ -89,6 +89,8 @@ struct Display {
     /// Models per file the bar assumed.
     guess: usize,
     lines: bool,
+    /// Print the warnings of each fit (not quiet).
+    warn: bool,
     tolerance: f64,
 }
 
@@ -120,6 +122,14 @@ impl BatchProgress for Display {
                 r.label, r.error, r.error_normalized, r.starts_agreeing, r.starts, r.seconds
             );
         }
+        // Warnings show even under a progress bar; only --quiet hides them.
+        for w in report::ModelFit::from_result(r).warnings(&r.label) {
+            match &self.bar {
+                Some(b) => b.println(format!("warning: {name}: {w}")),
+                None if self.warn => eprintln!("warning: {name}: {w}"),
+                None => {}
+            }
+        }
         self.bar.as_ref().inspect(|b| b.inc(1));
     }
 
@@ -149,6 +159,7 @@ fn fit_report(
         bar: None,
         guess: 0,
         lines: !quiet,
+        warn: !quiet,
         tolerance: args.tolerance,
     };
     let on_model = |r: &FitResult| display.fitted(name, r);
@@ -272,6 +283,7 @@ fn batch(
     let bar = progress(jobs.len(), args, quiet);
     let display = Display {
         lines: !quiet && bar.is_none(),
+        warn: !quiet,
         bar,
         guess: models_guess(args),
         tolerance: args.tolerance,
