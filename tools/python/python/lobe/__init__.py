@@ -20,7 +20,7 @@ bug).
 
 from ._lobe import __version__
 from ._data import Binned, read_binned, read_merl, read_rgl, write_binned, write_merl
-from ._fit import FitReport, ModelCost, ModelFit, Selection, fit, fit_models, read_fit_report
+from ._fit import BoundHit, FitReport, ModelCost, ModelFit, Selection, StartedFrom, fit, fit_models, read_fit_report
 from ._images import compare, read_image, render, write_image
 from ._material import Material, directions
 
@@ -31,6 +31,8 @@ __all__ = [
     "Material",
     "ModelCost",
     "ModelFit",
+    "BoundHit",
+    "StartedFrom",
     "Selection",
     "compare",
     "directions",

@@ -20,9 +20,33 @@ METRICS = ("ngan2005",)
 
 
 @dataclass
+class BoundHit:
+    """A fitted parameter that ended at a bound of its fit range (the optimum may lie
+    beyond it): ``side`` is ``"lower"`` or ``"upper"``."""
+
+    param: str
+    value: float
+    bound: float
+    side: str
+
+
+@dataclass
+class StartedFrom:
+    """The contained model whose optimum an anisotropic fit started from, and its error."""
+
+    model: str
+    error: float
+
+
+@dataclass
 class ModelFit:
     """One fitted model: ``material`` is the description ``lobe.Material`` builds;
-    ``error`` the Eq. 1 metric, ``error_normalized`` that over the data's maximum albedo."""
+    ``error`` the Eq. 1 metric, ``error_normalized`` that over the data's maximum albedo.
+    ``at_bounds`` lists parameters that ended at a bound of their fit range,
+    ``start_errors`` every start's coarse-stage error (ascending: their spread shows how
+    many basins the starts fell into), ``started_from`` the contained model an anisotropic
+    fit started from, ``isotropic_data`` whether an anisotropic model met isotropic data
+    (``lobe fit`` prints a warning line for each)."""
 
     material: Dict[str, Any]
     error: float
@@ -31,6 +55,27 @@ class ModelFit:
     starts_agreeing: int
     evaluations: int
     seconds: float
+    at_bounds: List[BoundHit] = field(default_factory=list)
+    start_errors: List[float] = field(default_factory=list)
+    started_from: Optional[StartedFrom] = None
+    isotropic_data: bool = False
+
+    @classmethod
+    def from_json(cls, v: Dict[str, Any]) -> "ModelFit":
+        v = dict(v)
+        v["at_bounds"] = [BoundHit(**b) for b in v.get("at_bounds", [])]
+        if v.get("started_from") is not None:
+            v["started_from"] = StartedFrom(**v["started_from"])
+        return cls(**v)
+
+    def to_json(self) -> Dict[str, Any]:
+        d = vars(self).copy()
+        d["at_bounds"] = [vars(b).copy() for b in self.at_bounds]
+        if self.started_from is None:
+            del d["started_from"]
+        else:
+            d["started_from"] = vars(self.started_from).copy()
+        return d
 
 
 @dataclass
@@ -68,7 +113,7 @@ class FitReport:
     @classmethod
     def from_json(cls, v: Dict[str, Any]) -> "FitReport":
         v = dict(v)
-        models = {k: ModelFit(**m) for k, m in v.pop("models").items()}
+        models = {k: ModelFit.from_json(m) for k, m in v.pop("models").items()}
         sel = v.pop("selected", None)
         if sel is not None:
             sel = Selection(**{**sel, "costs": {k: ModelCost(**c) for k, c in sel["costs"].items()}})
@@ -78,7 +123,7 @@ class FitReport:
     def to_json(self) -> Dict[str, Any]:
         """The report as the JSON object ``lobe fit`` writes."""
         d: Dict[str, Any] = {k: getattr(self, k) for k in ("format_version", "material", "source", "resolution_deg", "samples", "max_albedo")}
-        d["models"] = {k: vars(m).copy() for k, m in self.models.items()}
+        d["models"] = {k: m.to_json() for k, m in self.models.items()}
         if self.selected is not None:
             s = vars(self.selected).copy()
             s["costs"] = {k: vars(c).copy() for k, c in s["costs"].items()}
