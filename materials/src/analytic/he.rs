@@ -139,7 +139,8 @@ impl He {
         (self.shadow(ci) * self.shadow(co), self.sigma_eff(ci, co))
     }
 
-    /// The lobe per channel, its series summed term by term (rendering, in f32).
+    /// The lobe per channel, its series summed term by term (the reference the table is
+    /// tested against; f32 or f64).
     #[inline]
     pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
         self.value_with(wo, wi, |ci, co| self.elevation_terms(ci, co), Self::series)
@@ -243,8 +244,14 @@ impl Lobe for He {
         "he"
     }
 
+    /// The f64 evaluation with the tabulated series, as fitting evaluates it (the summed
+    /// series cost up to 64 exponentials per channel and was the largest single cost of
+    /// rendering He's fits).
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        Rgb::from(self.value::<f32>(wo.into(), wi.into()))
+        Rgb::from(
+            self.value_tabulated(wo.as_dvec3().into(), wi.as_dvec3().into())
+                .map(|v| v as f32),
+        )
     }
 
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
@@ -333,6 +340,8 @@ pub const SCHEMA: ModelSchema = ModelSchema {
 };
 
 fn lobe(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
+    // The series table is built when the first He material is (not during a render).
+    he_series::build_table();
     Ok(Arc::new(He {
         sigma0: p.scalar("sigma0"),
         tau: p.scalar("tau"),

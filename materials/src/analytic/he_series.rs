@@ -1,5 +1,5 @@
 //! The series of He et al.'s directional-diffuse term (He, Torrance, Sillion and Greenberg
-//! 1991, eq. 78, Westin's reading), tabulated for fitting:
+//! 1991, eq. 78, Westin's reading), tabulated for fitting and rendering:
 //!
 //!   S(g, e) = sum_{m >= 1} g^m exp(-g) / (m! m) exp(-e / m),
 //!
@@ -103,6 +103,12 @@ fn hermite(t: f64) -> [f64; 4] {
         -2.0 * t3 + 3.0 * t2,
         t3 - t2,
     ]
+}
+
+/// Builds the table now if it is not built yet (it is otherwise built at the first
+/// [`tabulated`] call).
+pub fn build_table() {
+    LazyLock::force(&TABLE);
 }
 
 /// S(g, e) from the table, for 0 <= g <= [`G_MAX`] (None outside, or for a non-finite
