@@ -282,9 +282,9 @@ class MicrofacetGenerator:
         nt, npp = 360, 720
         th = (np.arange(nt) + 0.5) * (math.pi / 2) / nt
         ph = (np.arange(npp) + 0.5) * 2 * math.pi / npp
-        T, P = np.meshgrid(th, ph, indexing="ij")
-        H = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], -1).reshape(-1, 3)
-        w = (np.sin(T) * (math.pi / 2 / nt) * (2 * math.pi / npp)).reshape(-1)
+        TH, PH = np.meshgrid(th, ph, indexing="ij")
+        H = np.stack([np.sin(TH) * np.cos(PH), np.sin(TH) * np.sin(PH), np.cos(TH)], -1).reshape(-1, 3)
+        w = (np.sin(TH) * (math.pi / 2 / nt) * (2 * math.pi / npp)).reshape(-1)
         pw = self._p_np(H) * w
         self.norm = 1.0 / float(np.sum(pw * H[:, 2]))  # <h.n> = 1 after scaling p
         pw *= self.norm
@@ -295,7 +295,7 @@ class MicrofacetGenerator:
         g = np.empty(len(K))
         for i in range(0, len(K), 256):
             g[i:i + 256] = np.maximum(K[i:i + 256] @ H.T, 0.0) @ pw
-        self.g = T.table(np.maximum(g, 1e-6).astype(np.float32))
+        self.g = self.T.table(np.maximum(g, 1e-6).astype(np.float32))
 
     def _p_np(self, H):
         x, y, z = H[:, 0], H[:, 1], H[:, 2]
