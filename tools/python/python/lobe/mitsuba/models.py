@@ -261,6 +261,9 @@ class MicrofacetGenerator:
     nodes every 1 and 2.5 degrees and interpolated bilinearly."""
 
     GT, GP = 91, 145  # theta_k 0..90 by 1 degree, phi_k 0..360 by 2.5 degrees
+    # Midpoint quadrature cells over (theta_h, phi_h) for <h.n> and g(k); tests set a
+    # coarser grid to build the twin in a second.
+    QUADRATURE = (360, 720)
 
     def __init__(self, d, T):
         self.T = T
@@ -279,7 +282,7 @@ class MicrofacetGenerator:
         else:
             raise ValueError(f"sampled-microfacet: distribution {dist!r} (tables from files are not supported here)")
         # Quadrature grid over the hemisphere of h.
-        nt, npp = 360, 720
+        nt, npp = self.QUADRATURE
         th = (np.arange(nt) + 0.5) * (math.pi / 2) / nt
         ph = (np.arange(npp) + 0.5) * 2 * math.pi / npp
         TH, PH = np.meshgrid(th, ph, indexing="ij")
