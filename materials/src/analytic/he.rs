@@ -34,6 +34,7 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
+use super::he_shadowing;
 use super::microfacet::Distribution;
 use super::microfacet::fresnel::dielectric;
 use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
@@ -47,6 +48,10 @@ use std::sync::Arc;
 
 /// Wavelengths of the R, G, B channels in micrometres (bbm's `Config::wavelength`).
 pub const WAVELENGTHS_UM: [f64; 3] = [0.645, 0.526, 0.444];
+
+/// Tested bound of the rendered lobe ([`He::value_rendered`]) against the fitted one
+/// ([`He::value_tabulated`]), relative to the latter's value.
+pub const RENDER_ERROR_BOUND: f64 = 5e-4;
 
 /// Largest number of series terms.
 const MAX_TERMS: usize = 64;
@@ -100,17 +105,7 @@ impl He {
         if self.sigma0 <= f64::EPSILON {
             return T::zero();
         }
-        let f0 = (self.k_term(ci) + self.k_term(co)) / T::c((8.0 * std::f64::consts::PI).sqrt());
-        let mut x = if f0 <= T::one() {
-            f0
-        } else {
-            (T::c(2.0) * f0.ln()).sqrt()
-        };
-        for _ in 0..4 {
-            let e = (x * x * T::c(0.5)).exp();
-            x = x - (x * e - f0) / ((T::one() + x * x) * e);
-        }
-        T::c(self.sigma0) / (T::one() + x * x).sqrt()
+        T::c(self.sigma0) * he_shadowing::roughness_factor_newton(self.k_term(ci) + self.k_term(co))
     }
 
     /// The series of eq. 78 without its prefactor, for one channel: the Poisson weights
@@ -154,6 +149,27 @@ impl He {
             wo,
             wi,
             |ci, co| self.elevation_terms(ci, co),
+            Self::series_tabulated,
+        )
+    }
+
+    /// The lobe per channel as rendered: the elevation terms from the universal table of
+    /// [`he_shadowing`] in f32, the rest as [`He::value_tabulated`] (within
+    /// [`RENDER_ERROR_BOUND`] of it).
+    #[inline]
+    pub fn value_rendered(&self, wo: V3<f64>, wi: V3<f64>) -> [f64; 3] {
+        self.value_with(
+            wo,
+            wi,
+            |ci, co| {
+                let (s, sigma) = he_shadowing::elevation_terms(
+                    self.sigma0 as f32,
+                    self.tau as f32,
+                    ci as f32,
+                    co as f32,
+                );
+                (s as f64, sigma as f64)
+            },
             Self::series_tabulated,
         )
     }
@@ -231,7 +247,9 @@ impl He {
     fn proposals(&self, wo: Vec3) -> [Distribution; 2] {
         let smooth = (WAVELENGTHS_UM[1] / (2.0 * std::f64::consts::PI * self.tau)).clamp(1e-4, 2.0);
         let co = wo.z.clamp(1e-4, 1.0) as f64;
-        let rough = (2.0 * self.sigma_eff::<f64>(co, co) / self.tau).clamp(smooth, 2.0);
+        let (_, sigma) =
+            he_shadowing::elevation_terms(self.sigma0 as f32, self.tau as f32, co as f32, co as f32);
+        let rough = (2.0 * sigma as f64 / self.tau).clamp(smooth, 2.0);
         [
             Distribution::Beckmann { m: smooth },
             Distribution::Beckmann { m: rough },
@@ -244,12 +262,13 @@ impl Lobe for He {
         "he"
     }
 
-    /// The f64 evaluation with the tabulated series, as fitting evaluates it (the summed
+    /// [`He::value_rendered`]: the tabulated series as fitting evaluates it (the summed
     /// series cost up to 64 exponentials per channel and was the largest single cost of
-    /// rendering He's fits).
+    /// rendering He's fits), the elevation terms from their universal table (they cost
+    /// four `erfc` and four `exp` per call, the next largest).
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         Rgb::from(
-            self.value_tabulated(wo.as_dvec3().into(), wi.as_dvec3().into())
+            self.value_rendered(wo.as_dvec3().into(), wi.as_dvec3().into())
                 .map(|v| v as f32),
         )
     }
@@ -340,8 +359,9 @@ pub const SCHEMA: ModelSchema = ModelSchema {
 };
 
 fn lobe(p: &Params) -> Result<Arc<dyn Lobe>, ParamError> {
-    // The series table is built when the first He material is (not during a render).
+    // The tables are built when the first He material is (not during a render).
     he_series::build_table();
+    he_shadowing::build_table();
     Ok(Arc::new(He {
         sigma0: p.scalar("sigma0"),
         tau: p.scalar("tau"),
@@ -448,6 +468,41 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The render path's tabulated elevation terms against the f64 forms fitting uses, on
+    /// a dense grid of directions (grazing ones included) for smooth to rough, short to
+    /// long correlation lengths.
+    #[test]
+    fn rendered_lobe_is_within_its_bound_of_the_fitted_lobe() {
+        let mut worst = (0.0f64, String::new());
+        for sigma0 in [0.001, 0.01, 0.1, 0.647, 3.0, 10.0] {
+            for tau in [0.03, 0.3, 3.0, 28.0, 200.0] {
+                let he = He { sigma0, tau, eta: 1.8 };
+                for ti in [0.0, 5.0, 30.0, 60.0, 80.0, 89.0, 89.9] {
+                    for to in (0..=180).map(|k| k as f64 * 0.5) {
+                        for po in [180.0, 150.0, 90.0, 0.0] {
+                            let (wi, wo) = (dir(ti, 0.0), dir(to, po));
+                            let t = he.value_tabulated(wo, wi);
+                            let r = he.value_rendered(wo, wi);
+                            for c in 0..3 {
+                                assert!(r[c].is_finite() && r[c] >= 0.0);
+                                if t[c] < 1e-12 {
+                                    assert!(r[c] <= 1e-9, "{r:?} against {t:?}");
+                                    continue;
+                                }
+                                let e = (r[c] - t[c]).abs() / t[c];
+                                if e > worst.0 {
+                                    worst = (e, format!("{sigma0} {tau} {ti} {to} {po} {c}"));
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(worst.0 <= RENDER_ERROR_BOUND, "worst {worst:?}");
+        eprintln!("worst relative error {worst:?}");
     }
 
     #[test]

@@ -17,6 +17,7 @@ pub mod common;
 pub mod cook_torrance;
 pub mod he;
 pub mod he_series;
+pub mod he_shadowing;
 pub mod lafortune;
 pub mod lambert;
 pub mod microfacet;

@@ -1,0 +1,214 @@
+//! The elevation terms of He, Torrance, Sillion and Greenberg 1991 for rendering: the
+//! shadowing of a Gaussian surface (eqs. 24-25 with the errata's exp(-s^2) factor) and the
+//! effective roughness (eqs. 80-83), from one universal table instead of libm's `erfc` and
+//! four Newton steps with `exp` per call.
+//!
+//! Both terms depend on the elevation of a direction only through
+//! s = tau cot(theta) / (2 sigma0):
+//! - S(s) = (1 - erfc(s) / 2) / (1 + Lambda(s)), Lambda = exp(-s^2) / (2 sqrt(pi) s) - erfc(s) / 2;
+//! - K(theta) = tan(theta) erfc(tau / (2 sigma0 tan(theta))) = tan(theta) erfc(s).
+//!
+//! So one table of S(s) and erfc(s), shared by every material, serves all of them. It is
+//! indexed by v = s / (1 + s) in [0, 1] (s in [0, inf)), [`NODES`] nodes with linear
+//! interpolation; both functions are smooth in v (S ~ sqrt(pi) s near 0, erfc(s) and
+//! 1 - S vanish faster than any power as v -> 1). The tested bound of the interpolation is
+//! [`TABLE_ERROR_BOUND`] (absolute; both functions lie in [0, 1]).
+//!
+//! The effective roughness sigma = sigma0 / sqrt(1 + x^2), where x exp(x^2 / 2) =
+//! (K_i + K_o) / sqrt(8 pi) (bbm's four Newton steps), is a function of K_i + K_o alone:
+//! a second universal table holds it per 256th of an octave of K_i + K_o (a serial chain of
+//! four `exp` per call before). Fitting keeps the f64 forms of `he.rs`; the render's lobe
+//! is within [`super::he::RENDER_ERROR_BOUND`] of them (tested).
+
+use crate::math::Real;
+use std::sync::LazyLock;
+
+/// Nodes of the table over v = s / (1 + s) in [0, 1].
+pub const NODES: usize = 4097;
+/// Tested bound of the table's absolute error for S(s) and erfc(s).
+pub const TABLE_ERROR_BOUND: f32 = 2e-6;
+
+/// S(s) of one direction (the f64 reference; 1 for s = inf).
+pub fn shadowing(s: f64) -> f64 {
+    if s.is_nan() {
+        return 1.0;
+    }
+    if s > 30.0 {
+        return 1.0;
+    }
+    if s <= 0.0 {
+        return 0.0;
+    }
+    let e = libm::erfc(s);
+    let lambda = (-s * s).exp() / (2.0 * std::f64::consts::PI.sqrt() * s) - 0.5 * e;
+    ((1.0 - 0.5 * e) / (1.0 + lambda)).clamp(0.0, 1.0)
+}
+
+/// (S, erfc) at every node.
+static TABLE: LazyLock<Vec<[f32; 2]>> = LazyLock::new(|| {
+    (0..NODES)
+        .map(|k| {
+            let v = k as f64 / (NODES - 1) as f64;
+            if k == NODES - 1 {
+                return [1.0, 0.0];
+            }
+            let s = v / (1.0 - v);
+            [shadowing(s) as f32, libm::erfc(s) as f32]
+        })
+        .collect()
+});
+
+/// Builds the tables now (they are otherwise built at the first lookup).
+pub fn build_table() {
+    LazyLock::force(&TABLE);
+    LazyLock::force(&ROUGHNESS);
+}
+
+/// (S(s), erfc(s)) from the table, for s >= 0 (+inf allowed; NaN reads as s = inf).
+#[inline]
+pub fn lookup(s: f32) -> (f32, f32) {
+    let v = if s < f32::INFINITY {
+        (s / (1.0 + s)).max(0.0)
+    } else {
+        1.0
+    };
+    let x = v * (NODES - 1) as f32;
+    let k = (x as usize).min(NODES - 2);
+    let t = x - k as f32;
+    let (a, b) = (TABLE[k], TABLE[k + 1]);
+    (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
+}
+
+/// The elevation terms of the render path for one material: (S(theta_i) S(theta_o),
+/// sigma(theta_i, theta_o)) at cos theta_i = `ci`, cos theta_o = `co` (both in (0, 1]).
+#[inline]
+pub fn elevation_terms(sigma0: f32, tau: f32, ci: f32, co: f32) -> (f32, f32) {
+    if sigma0 <= f32::EPSILON {
+        return (1.0, 0.0);
+    }
+    let a = tau / (2.0 * sigma0);
+    // (S, K) of one direction: s = a cot(theta), K = tan(theta) erfc(s) (0 at normal
+    // incidence, where he.rs's forms cut off at tan(theta) <= 1e-7 too).
+    let terms = |c: f32| {
+        let sin = (1.0 - c * c).max(0.0).sqrt();
+        if sin <= 1e-7 {
+            return (1.0, 0.0);
+        }
+        let tan = sin / c;
+        let (shadow, erfc) = lookup(a / tan);
+        (shadow, tan * erfc)
+    };
+    let (s_i, k_i) = terms(ci);
+    let (s_o, k_o) = terms(co);
+    (s_i * s_o, sigma0 * roughness_factor(k_i + k_o))
+}
+
+/// 1 / sqrt(1 + x^2) where x exp(x^2 / 2) = f0 = k / sqrt(8 pi), by bbm's four Newton
+/// steps from x = f0 (f0 <= 1) or sqrt(2 ln f0), in f64 (or f32): the form `He::sigma_eff`
+/// uses, from which [`roughness_factor`]'s table is made.
+pub fn roughness_factor_newton<T: Real>(k: T) -> T {
+    let f0 = k / T::c((8.0 * std::f64::consts::PI).sqrt());
+    let mut x = if f0 <= T::one() {
+        f0
+    } else {
+        (T::c(2.0) * f0.ln()).sqrt()
+    };
+    for _ in 0..4 {
+        let e = (x * x * T::c(0.5)).exp();
+        x = x - (x * e - f0) / ((T::one() + x * x) * e);
+    }
+    T::one() / (T::one() + x * x).sqrt()
+}
+
+/// Octaves of k below 1 and above it that [`roughness_factor`]'s table covers, and its
+/// nodes per octave (256, as a power of two: the top mantissa bits of k index the node).
+const K_OCTAVE_MIN: i32 = -24;
+const K_OCTAVE_MAX: i32 = 100;
+const K_NODE_BITS: u32 = 8;
+
+/// [`roughness_factor_newton`] at k = 2^e (1 + j / 256) for every octave e of the table and j.
+static ROUGHNESS: LazyLock<Vec<f32>> = LazyLock::new(|| {
+    let per = 1usize << K_NODE_BITS;
+    let n = (K_OCTAVE_MAX - K_OCTAVE_MIN) as usize * per + 1;
+    (0..n)
+        .map(|i| {
+            let e = K_OCTAVE_MIN + (i / per) as i32;
+            let k = 2f64.powi(e) * (1.0 + (i % per) as f64 / per as f64);
+            roughness_factor_newton(k) as f32
+        })
+        .collect()
+});
+
+/// [`roughness_factor_newton`] in f32 from its table: the float's exponent and top mantissa
+/// bits pick the node (nodes linear in k within each 256th of an octave, so the bits' rest
+/// is the interpolation weight). Below the table the factor is 1 (within 1e-15), above it
+/// (k > 1e30, a hair from grazing) the f64 steps; 0 for an infinite k (at grazing).
+#[inline]
+pub fn roughness_factor(k: f32) -> f32 {
+    let lo = 2f32.powi(K_OCTAVE_MIN);
+    if !(k >= lo) {
+        return 1.0;
+    }
+    let shift = 23 - K_NODE_BITS;
+    let node = (k.to_bits() >> shift) as i64 - (((127 + K_OCTAVE_MIN) as i64) << K_NODE_BITS);
+    let table = &*ROUGHNESS;
+    if node as usize >= table.len() - 1 {
+        // Only within a hair of grazing (or infinite at it).
+        return if k.is_finite() {
+            roughness_factor_newton(k as f64) as f32
+        } else {
+            0.0
+        };
+    }
+    let node = node as usize;
+    let t = (k.to_bits() & ((1 << shift) - 1)) as f32 / (1u32 << shift) as f32;
+    table[node] + t * (table[node + 1] - table[node])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_table_is_within_its_bound_of_shadowing_and_erfc() {
+        let mut worst = (0.0f64, 0.0f64);
+        // Dense in v (between and at the nodes) and far out in s.
+        let points = (0..200_000)
+            .map(|k| k as f64 / 200_000.0)
+            .map(|v| v / (1.0 - v))
+            .chain([1e-9, 1e-4, 0.5, 3.0, 29.0, 31.0, 1e4, 1e30]);
+        for s in points {
+            let (shadow, erfc) = lookup(s as f32);
+            let de = (shadow as f64 - shadowing(s)).abs();
+            let dr = (erfc as f64 - libm::erfc(s)).abs();
+            worst.0 = worst.0.max(de);
+            worst.1 = worst.1.max(dr);
+        }
+        assert!(
+            worst.0 <= TABLE_ERROR_BOUND as f64 && worst.1 <= TABLE_ERROR_BOUND as f64,
+            "worst errors: shadowing {:e}, erfc {:e}",
+            worst.0,
+            worst.1
+        );
+        // Limits: fully shadowed at s = 0, unshadowed for s = inf (and NaN).
+        assert_eq!(lookup(0.0), (0.0, 1.0));
+        assert_eq!(lookup(f32::INFINITY), (1.0, 0.0));
+        assert_eq!(lookup(f32::NAN), (1.0, 0.0));
+    }
+
+    #[test]
+    fn the_roughness_factor_table_follows_the_newton_steps() {
+        let mut worst = 0.0f64;
+        // Every 1/1000 of an octave from 2^-30 to 2^110 (nodes, between them, both ends).
+        for i in 0..140_000 {
+            let k = 2f64.powf(-30.0 + i as f64 / 1000.0) as f32;
+            let got = roughness_factor(k) as f64;
+            let want = roughness_factor_newton(k as f64);
+            worst = worst.max((got - want).abs() / want);
+        }
+        assert!(worst <= 2e-5, "worst relative error {worst:e}");
+        assert_eq!(roughness_factor(0.0), 1.0);
+        assert_eq!(roughness_factor(f32::INFINITY), 0.0);
+        assert_eq!(roughness_factor(f32::NAN), 1.0);
+    }
+}
