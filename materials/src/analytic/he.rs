@@ -247,8 +247,12 @@ impl He {
     fn proposals(&self, wo: Vec3) -> [Distribution; 2] {
         let smooth = (WAVELENGTHS_UM[1] / (2.0 * std::f64::consts::PI * self.tau)).clamp(1e-4, 2.0);
         let co = wo.z.clamp(1e-4, 1.0) as f64;
-        let (_, sigma) =
-            he_shadowing::elevation_terms(self.sigma0 as f32, self.tau as f32, co as f32, co as f32);
+        let (_, sigma) = he_shadowing::elevation_terms(
+            self.sigma0 as f32,
+            self.tau as f32,
+            co as f32,
+            co as f32,
+        );
         let rough = (2.0 * sigma as f64 / self.tau).clamp(smooth, 2.0);
         [
             Distribution::Beckmann { m: smooth },
@@ -478,7 +482,11 @@ mod tests {
         let mut worst = (0.0f64, String::new());
         for sigma0 in [0.001, 0.01, 0.1, 0.647, 3.0, 10.0] {
             for tau in [0.03, 0.3, 3.0, 28.0, 200.0] {
-                let he = He { sigma0, tau, eta: 1.8 };
+                let he = He {
+                    sigma0,
+                    tau,
+                    eta: 1.8,
+                };
                 for ti in [0.0, 5.0, 30.0, 60.0, 80.0, 89.0, 89.9] {
                     for to in (0..=180).map(|k| k as f64 * 0.5) {
                         for po in [180.0, 150.0, 90.0, 0.0] {

@@ -13,14 +13,16 @@
 //! Sampling: a cosine-power lobe (n) around the generalized mirror direction
 //! u' = normalize(Cx wo_x, Cy wo_y, Cz wo_z): the lobe is |C o wo|^n (u' . wi)^n.
 
-use super::blinn_phong::cos_power_pdf;
+use super::blinn_phong::{cos_power_pdf, cos_power_pdf_x8};
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
+use crate::fastmath::x8;
 use crate::frame::Frame;
-use crate::lobe::{Lobe, above};
+use crate::lobe::{self, Lobe, above};
 use crate::math::{Real, V3};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
+use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -57,10 +59,10 @@ impl Lafortune {
             if cmax <= T::zero() {
                 return T::zero();
             }
-            let v = (n + T::c(2.0)) / (T::c(2.0) * T::PI()) * (s / cmax).min(T::one()).powf(n);
+            let v = (n + T::c(2.0)) / (T::c(2.0) * T::PI()) * (s / cmax).min(T::one()).powf_r(n);
             if v.is_finite() { v } else { T::zero() }
         } else {
-            let v = s.powf(n);
+            let v = s.powf_r(n);
             if v.is_finite() { v } else { T::zero() }
         }
     }
@@ -103,6 +105,30 @@ impl Lobe for Lafortune {
             Some(axis) => cos_power_pdf(self.n as f32, axis.dot(wi)),
             None => 0.0,
         }
+    }
+
+    /// [`Lafortune::value`] and [`Lobe::pdf`] in SIMD lanes, operation for operation.
+    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+        let s = f32x8::splat;
+        let zero = s(0.0);
+        let ok = lobe::x8::above(wo, wi);
+        let (cx, cy, cz) = (s(self.cx as f32), s(self.cy as f32), s(self.cz as f32));
+        let dot = cx * wi.x * wo.x + cy * wi.y * wo.y + cz * wi.z * wo.z;
+        let n = self.n as f32;
+        let v = if self.ngan {
+            let cmax = self.cmax() as f32;
+            if cmax <= 0.0 {
+                zero
+            } else {
+                s((n + 2.0) / (2.0 * PI)) * x8::powf((dot / s(cmax)).min(s(1.0)), s(n))
+            }
+        } else {
+            x8::powf(dot, s(n))
+        };
+        let v = sel(ok & dot.simd_gt(zero) & v.is_finite(), v, zero);
+        let axis = Vec3x8::new(cx * wo.x, cy * wo.y, cz * wo.z).normalize_or_zero();
+        let p = sel(ok, cos_power_pdf_x8(n, axis.dot(wi)), zero);
+        (Rgbx8::new(v, v, v), p)
     }
 
     fn flags(&self) -> Flags {
