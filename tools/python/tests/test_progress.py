@@ -1,0 +1,106 @@
+"""Progress and Ctrl-C of lobe.render and lobe.fit: the reports a callable receives are
+in order and reach the total, the tqdm bar (or, without tqdm, plain lines) is shown,
+showing progress changes no pixel, an exception from the callable and a Ctrl-C
+(SIGINT) stop the work and are raised as Python exceptions, without a panic."""
+
+import os
+import signal
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import lobe
+from conftest import MODELS
+
+
+def scene(width, height, material=MODELS["ward"]):
+    return {
+        "camera": {"type": "perspective", "fov": 32, "origin": [0, 0, 4], "target": [0, 0, 0], "up": [0, 1, 0]},
+        "film": {"width": width, "height": height},
+        "sampler": {"spp": 8},
+        "integrator": {"type": "path", "max_depth": 3},
+        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": material}],
+        "lights": [{"type": "constant", "radiance": [0.6, 0.7, 0.8]}],
+    }
+
+
+def test_render_progress_is_in_order_reaches_the_total_and_changes_no_pixel(capsys):
+    sc = scene(53, 37)  # 4 x 3 tiles, the last row and column partial
+    calls = []
+    img = lobe.render(sc, seed=5, progress=lambda done, total: calls.append((done, total)))
+    dones = [d for d, _ in calls]
+    assert len(calls) >= 2 and all(b > a for a, b in zip(dones, dones[1:])), calls
+    assert {t for _, t in calls} == {53 * 37} and dones[-1] == 53 * 37
+    quiet = lobe.render(sc, seed=5, progress=False)
+    bar = lobe.render(sc, seed=5, progress=True)
+    assert img.tobytes() == quiet.tobytes() == bar.tobytes()
+    err = capsys.readouterr().err
+    assert "100%" in err and "lobe.render: 53x37 at 8 spp" in err, err
+
+
+def test_render_progress_without_tqdm_prints_lines(capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "tqdm.auto", None)  # `from tqdm.auto import tqdm` fails
+    lobe.render(scene(64, 64), progress=True)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[-2] == "rendering: 100% (4096 of 4096)", lines
+    assert lines[-1].startswith("lobe.render: 64x64 at 8 spp")
+
+
+def test_an_exception_in_the_render_callback_stops_the_render_and_is_raised():
+    seen = []
+
+    def fail(done, total):
+        seen.append(done)
+        raise ZeroDivisionError("the callback's own error")
+
+    with pytest.raises(ZeroDivisionError, match="the callback's own error"):
+        lobe.render(scene(96, 96), spp=2048, progress=fail)
+    # Called once: the render stopped instead of reporting its other tiles.
+    assert len(seen) == 1 and seen[0] < 96 * 96
+
+
+def interrupt_after(seconds):
+    """Sends this process SIGINT (what Ctrl-C and a notebook's interrupt do) later."""
+    t = threading.Timer(seconds, os.kill, (os.getpid(), signal.SIGINT))
+    t.start()
+    return t
+
+
+# A render and a fit that take more than ten seconds each on two idle cores; Ctrl-C must
+# stop them in a fraction of that (before, the work ran to its end, and only then was the
+# KeyboardInterrupt raised).
+def test_ctrl_c_stops_a_render():
+    start = time.perf_counter()
+    timer = interrupt_after(0.3)
+    with pytest.raises(KeyboardInterrupt):
+        lobe.render(scene(32, 32), spp=1 << 18, progress=False)  # 268 M samples: > 10 s
+    timer.join()
+    assert time.perf_counter() - start < 3.0
+
+
+def test_ctrl_c_stops_a_fit():
+    start = time.perf_counter()
+    timer = interrupt_after(1.0)  # after binning the data (0.3 s), in the second model
+    with pytest.raises(KeyboardInterrupt):
+        lobe.fit(lobe.Material(MODELS["cook-torrance"]), resolution=1.0, progress=False)  # 14 s
+    timer.join()
+    assert time.perf_counter() - start < 4.0
+
+
+def test_fit_progress_reports_each_model_and_callback_errors_are_raised(capsys):
+    m = lobe.Material(MODELS["blinn-phong"])
+    calls = []
+    r = lobe.fit(m, models="blinn-phong,ward", resolution=5, max_evals=40, progress=lambda *a: calls.append(a))
+    assert [c[0] for c in calls] == ["blinn-phong", "ward"]
+    assert calls[0][1] == r.models["blinn-phong"].error_normalized
+    lobe.fit(m, models="blinn-phong,ward", resolution=5, max_evals=40, progress=True)
+    assert "2/2" in capsys.readouterr().err
+
+    def fail(label, error, seconds):
+        raise RuntimeError(f"stop after {label}")
+
+    with pytest.raises(RuntimeError, match="stop after blinn-phong"):
+        lobe.fit(m, models="blinn-phong,ward", resolution=5, max_evals=40, progress=fail)
