@@ -104,3 +104,60 @@ def test_fit_progress_reports_each_model_and_callback_errors_are_raised(capsys):
 
     with pytest.raises(RuntimeError, match="stop after blinn-phong"):
         lobe.fit(m, models="blinn-phong,ward", resolution=5, max_evals=40, progress=fail)
+
+
+def test_progress_and_interrupt_in_a_jupyter_kernel():
+    """In a real notebook kernel (ipykernel, as Jupyter runs it): lobe.render and lobe.fit
+    show tqdm's notebook widget and update it, and the notebook's interrupt (SIGINT to the
+    kernel) stops a long render and a long fit with KeyboardInterrupt, leaving the kernel
+    usable."""
+    pytest.importorskip("ipykernel")
+    pytest.importorskip("ipywidgets")
+    manager = pytest.importorskip("jupyter_client.manager")
+    import queue
+
+    km, kc = manager.start_new_kernel(kernel_name="python3")
+
+    def run(code, interrupt_after=None):
+        msg_id, start, interrupted = kc.execute(code), time.perf_counter(), False
+        seen = {"widgets": 0, "updates": 0, "text": "", "error": None}
+        while True:
+            if interrupt_after is not None and not interrupted and time.perf_counter() - start > interrupt_after:
+                km.interrupt_kernel()
+                interrupted = True
+            try:
+                m = kc.get_iopub_msg(timeout=0.2)
+            except queue.Empty:
+                assert time.perf_counter() - start < 120, f"{code}: no reply"
+                continue
+            if m["parent_header"].get("msg_id") != msg_id:
+                continue
+            kind, c = m["msg_type"], m["content"]
+            if kind == "display_data" and "application/vnd.jupyter.widget-view+json" in c["data"]:
+                seen["widgets"] += 1
+            elif kind == "comm_msg":
+                seen["updates"] += 1
+            elif kind == "stream":
+                seen["text"] += c["text"]
+            elif kind == "error":
+                seen["error"] = c["ename"]
+            elif kind == "status" and c["execution_state"] == "idle":
+                seen["seconds"] = time.perf_counter() - start
+                return seen
+
+    try:
+        tests = os.path.dirname(os.path.abspath(__file__))
+        assert run(f"import sys, lobe; sys.path.insert(0, {tests!r}); from test_progress import scene; from conftest import MODELS")["error"] is None
+        r = run("print(lobe.render(scene(64, 64), spp=64).shape)")
+        assert r["error"] is None and r["widgets"] == 1 and r["updates"] >= 2 and "(64, 64, 3)" in r["text"], r
+        r = run('print(list(lobe.fit(lobe.Material(MODELS["blinn-phong"]), models="blinn-phong,ward", resolution=5, max_evals=40).models))')
+        assert r["error"] is None and r["widgets"] == 1 and r["updates"] >= 2 and "['blinn-phong', 'ward']" in r["text"], r
+        # Both would run for more than ten seconds (see the Ctrl-C tests above).
+        r = run("lobe.render(scene(32, 32), spp=1 << 18)", interrupt_after=1.0)
+        assert r["error"] == "KeyboardInterrupt" and r["seconds"] < 4.0, r
+        r = run('lobe.fit(lobe.Material(MODELS["cook-torrance"]), resolution=1.0)', interrupt_after=1.0)
+        assert r["error"] == "KeyboardInterrupt" and r["seconds"] < 4.0, r
+        assert run("print(1 + 1)")["text"] == "2\n"
+    finally:
+        kc.stop_channels()
+        km.shutdown_kernel(now=True)
