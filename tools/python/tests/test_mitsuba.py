@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import lobe
-from conftest import MODELS
+from conftest import MODELS, sphere_scene
 
 mi = pytest.importorskip("mitsuba")
 dr = pytest.importorskip("drjit")
@@ -31,20 +31,6 @@ SETUP = {"llvm_ad_rgb": (24, 16, 16, 256), "scalar_rgb": (8, 16, 8, 256), "cuda_
 # this grid builds it in seconds instead of a minute, and its g table is within 1.5e-4 of
 # the default grid's (satin).
 COARSE_QUADRATURE = (90, 180)
-
-
-def sphere_scene(material, side):
-    return {
-        "camera": {"type": "perspective", "fov": 32, "origin": [0, 0, 4], "target": [0, 0, 0], "up": [0, 1, 0]},
-        "film": {"width": side, "height": side},
-        "sampler": {"spp": 16},
-        "integrator": {"type": "path", "max_depth": 3},
-        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": material}],
-        "lights": [
-            {"type": "constant", "radiance": [0.6, 0.7, 0.8]},
-            {"type": "directional", "direction": [-0.5, -0.4, -1.0], "irradiance": [3.0, 2.8, 2.5]},
-        ],
-    }
 
 
 def mitsuba_render(scene_file, variant, spp, runs, bsdf=None):

@@ -13,18 +13,11 @@ import numpy as np
 import pytest
 
 import lobe
-from conftest import MODELS
+from conftest import MODELS, sphere_scene
 
 
-def scene(width, height, material=MODELS["ward"]):
-    return {
-        "camera": {"type": "perspective", "fov": 32, "origin": [0, 0, 4], "target": [0, 0, 0], "up": [0, 1, 0]},
-        "film": {"width": width, "height": height},
-        "sampler": {"spp": 8},
-        "integrator": {"type": "path", "max_depth": 3},
-        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": material}],
-        "lights": [{"type": "constant", "radiance": [0.6, 0.7, 0.8]}],
-    }
+def scene(width, height):
+    return sphere_scene(MODELS["ward"], width, height)
 
 
 def test_render_progress_is_in_order_reaches_the_total_and_changes_no_pixel(capsys):
@@ -38,7 +31,7 @@ def test_render_progress_is_in_order_reaches_the_total_and_changes_no_pixel(caps
     bar = lobe.render(sc, seed=5, progress=True)
     assert img.tobytes() == quiet.tobytes() == bar.tobytes()
     err = capsys.readouterr().err
-    assert "100%" in err and "lobe.render: 53x37 at 8 spp" in err, err
+    assert "100%" in err and "lobe.render: 53x37 at 16 spp" in err, err
 
 
 def test_render_progress_without_tqdm_prints_lines(capsys, monkeypatch):
@@ -46,7 +39,7 @@ def test_render_progress_without_tqdm_prints_lines(capsys, monkeypatch):
     lobe.render(scene(64, 64), progress=True)
     lines = capsys.readouterr().err.splitlines()
     assert lines[-2] == "rendering: 100% (4096 of 4096)", lines
-    assert lines[-1].startswith("lobe.render: 64x64 at 8 spp")
+    assert lines[-1].startswith("lobe.render: 64x64 at 16 spp")
 
 
 def test_an_exception_in_the_render_callback_stops_the_render_and_is_raised():
