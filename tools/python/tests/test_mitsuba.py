@@ -225,3 +225,19 @@ def test_scalar_plugin_equals_the_llvm_plugin(data_dir, fit_report, monkeypatch)
             ok = v["sampled_pdf"] > 0
             want = v["f_at_sampled"][ok] / v["sampled_pdf"][ok, None]
             np.testing.assert_allclose(v["weight"][ok], want, rtol=1e-4, atol=1e-7, err_msg=f"{name}: sample weight")
+
+
+def test_converter_resolves_a_fit_report_against_the_scene_folder(tmp_path, fit_report, monkeypatch):
+    """A scene's ``fit`` material names its report relative to the scene file, as lobe
+    reads it; the converted Mitsuba scene loads from any working folder."""
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    (folder / "r.fit.json").write_text(open(fit_report).read())
+    scene = sphere_scene({"type": "fit", "file": "r.fit.json", "model": "lafortune"}, 8)
+    (folder / "scene.json").write_text(json.dumps(scene))
+    monkeypatch.chdir(tmp_path)
+    mi.set_variant("scalar_rgb")
+    lobe.mitsuba.register()
+    d = Converter(str(folder / "scene.json")).convert(4)
+    assert d["shape0"]["bsdf"] == {"type": "lobe", "model": "lafortune", "report": str(folder / "r.fit.json")}
+    assert "lafortune" in str(mi.load_dict(d["shape0"]["bsdf"]))
