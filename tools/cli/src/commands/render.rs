@@ -95,10 +95,9 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
         ));
     }
     let show_bar = !quiet && !args.bench && std::io::stderr().is_terminal();
-    let bar = show_bar.then(progress_bar);
-    let opts = |scene_kind: &'static str| RenderOptions {
+    let opts = |scene_kind: &'static str, bar: Option<&indicatif::ProgressBar>| RenderOptions {
         threads: args.threads,
-        progress: bar.as_ref().map(|b| {
+        progress: bar.map(|b| {
             let b = b.clone();
             Progress::new(move |done, total| {
                 b.set_length(total);
@@ -109,7 +108,12 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
     };
     if args.bench {
         let ack = "interrupted: stopping the benchmark; Ctrl-C again to abort";
-        return bench(&load_scene(&args)?, &opts(ack), args.runs.max(1), quiet);
+        return bench(
+            &load_scene(&args)?,
+            &opts(ack, None),
+            args.runs.max(1),
+            quiet,
+        );
     }
     let files = render_files(&args)?;
     let mut plan = FilePlan::new();
@@ -125,7 +129,9 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
     plan.check()?;
     let scene = load_scene(&args)?;
     let ack = "interrupted: stopping the render, nothing is written; Ctrl-C again to abort";
-    let rendered = render(&scene, &opts(ack));
+    // Made once the scene is loaded, so that its clock and ETA are the render's.
+    let bar = show_bar.then(progress_bar);
+    let rendered = render(&scene, &opts(ack, bar.as_ref()));
     if let Some(b) = bar {
         b.finish_and_clear();
     }
