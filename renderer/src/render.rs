@@ -2,7 +2,8 @@
 //! every pixel sample draws its numbers from the per-pixel seeded sampler, and every
 //! pixel is accumulated in a fixed order, so the image is bit-identical whatever the
 //! number of threads. Non-finite samples are dropped (and counted) instead of being
-//! written into the image. An indicatif progress bar with ETA is drawn on request.
+//! written into the image. Progress is reported through a callback ([`Progress`]) as
+//! tiles finish: the CLI draws its bar from it, the Python package its tqdm bar.
 
 use crate::Rgb;
 use crate::error::{Error, Result};
@@ -13,8 +14,8 @@ use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::Vec2;
 use rayon::prelude::*;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use wide::f64x4;
 
@@ -22,13 +23,32 @@ const TILE: u32 = 16;
 /// Samples of one pixel traced together by the wavefront integrator.
 const BATCH: u32 = 64;
 
+/// A render's progress report: called with (pixels done, pixels of the film) each time a
+/// tile finishes, from the render's worker threads but one call at a time, with `done`
+/// increasing and the last call at `done == total`. Called per tile, never per sample, so
+/// that it costs nothing measurable; it must return quickly (it holds up one worker).
+#[derive(Clone)]
+pub struct Progress(Arc<dyn Fn(u64, u64) + Send + Sync>);
+
+impl Progress {
+    pub fn new(f: impl Fn(u64, u64) + Send + Sync + 'static) -> Self {
+        Progress(Arc::new(f))
+    }
+}
+
+impl std::fmt::Debug for Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Progress(..)")
+    }
+}
+
 /// How to run a render.
 #[derive(Clone, Debug, Default)]
 pub struct RenderOptions {
     /// Worker threads; `None` uses rayon's global pool (all cores).
     pub threads: Option<usize>,
-    /// Draw a progress bar on stderr.
-    pub progress: bool,
+    /// Told of the pixels done as tiles finish (a progress bar).
+    pub progress: Option<Progress>,
     /// Set to true (e.g. by a Ctrl-C handler) to stop the render early; it then returns
     /// [`Error::Other`] ("interrupted") and nothing is written.
     pub cancel: Option<Arc<AtomicBool>>,
@@ -199,19 +219,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
         .map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
     let mut img = Image::try_new(scene.width, scene.height)?;
     img.variance_dof = (scene.spp.max(2) - 1) as f64;
-    let bar = if opts.progress {
-        let pb = indicatif::ProgressBar::new(tiles.len() as u64);
-        pb.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} ETA {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-        );
-        Some(pb)
-    } else {
-        None
-    };
+    let total = scene.width as u64 * scene.height as u64;
+    // Pixels done; its lock also keeps the progress calls one at a time and in order.
+    let done = Mutex::new(0u64);
     let cancelled = AtomicBool::new(false);
     let dropped = AtomicU64::new(0);
     let start = Instant::now();
@@ -246,8 +256,10 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
                     }
                 }
             }
-            if let Some(pb) = &bar {
-                pb.inc(1);
+            if let Some(p) = &opts.progress {
+                let mut d = done.lock().unwrap_or_else(|e| e.into_inner());
+                *d += (t.w * t.h) as u64;
+                (p.0)(*d, total);
             }
         })
     };
@@ -256,9 +268,6 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
         None => run(),
     };
     let seconds = start.elapsed().as_secs_f64();
-    if let Some(pb) = bar {
-        pb.finish_and_clear();
-    }
     if cancelled.load(Ordering::Relaxed) {
         return Err(Error::Other(
             "render interrupted; nothing was written".into(),

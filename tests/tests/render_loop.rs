@@ -1,14 +1,15 @@
 //! The render loop: non-finite samples are dropped and counted, never written into the
-//! image; a cancelled render returns an error instead of an image.
+//! image; a cancelled render returns an error instead of an image; progress is reported
+//! per tile, in order, up to the film's pixel count, and changes nothing in the image.
 
 use glam::{Vec2, Vec3};
 use lobe_materials::{Bsdf, BsdfSample, Flags, Rgb};
-use lobe_renderer::render::{RenderOptions, render};
+use lobe_renderer::render::{Progress, RenderOptions, render};
 use lobe_renderer::scene::{LoadOptions, from_value};
 use serde_json::json;
 use std::path::Path;
-use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex};
 
 /// A broken material: NaN for directions on one side, fine elsewhere.
 #[derive(Debug)]
@@ -84,4 +85,43 @@ fn a_cancelled_render_returns_an_error() {
     };
     let e = render(&s, &opts).unwrap_err();
     assert!(e.to_string().contains("interrupted"));
+}
+
+#[test]
+fn progress_reports_every_tile_in_order_and_changes_nothing() {
+    // 37 x 21: six tiles, four of them partial.
+    let v = json!({
+        "camera": {"type": "perspective", "fov": 40, "origin": [0, 0, 4], "target": [0, 0, 0]},
+        "film": {"width": 37, "height": 21},
+        "sampler": {"spp": 8},
+        "shapes": [{"type": "sphere", "material": {"type": "ward", "specular": 0.2, "alpha": 0.2}}],
+        "lights": [{"type": "constant"}]
+    });
+    let s = from_value(&v, "t.json", Path::new("."), &LoadOptions::default()).unwrap();
+    let (plain, _) = render(&s, &RenderOptions::default()).unwrap();
+    for threads in [1, 2, 3] {
+        let calls = Arc::new(Mutex::new(Vec::new()));
+        let c = calls.clone();
+        let opts = RenderOptions {
+            threads: Some(threads),
+            progress: Some(Progress::new(move |done, total| {
+                c.lock().unwrap().push((done, total))
+            })),
+            ..Default::default()
+        };
+        let (img, _) = render(&s, &opts).unwrap();
+        let calls = calls.lock().unwrap().clone();
+        assert_eq!(calls.len(), 6, "one report per tile: {calls:?}");
+        assert!(calls.windows(2).all(|w| w[0].0 < w[1].0), "{calls:?}");
+        assert!(calls.iter().all(|&(_, t)| t == 37 * 21), "{calls:?}");
+        assert_eq!(calls.last().unwrap().0, 37 * 21);
+        let bits = |i: &lobe_renderer::film::Image| {
+            let f = |p: &Rgb| p.to_array().map(f32::to_bits);
+            (
+                i.pixels.iter().map(f).collect::<Vec<_>>(),
+                i.variance.iter().map(f).collect::<Vec<_>>(),
+            )
+        };
+        assert!(bits(&img) == bits(&plain), "{threads} threads");
+    }
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Creates tools/mitsuba/.venv with Mitsuba 3, numpy, OpenImageIO, maturin and pytest
-# (pinned in requirements.txt) and the lobe Python package built from tools/python (its
-# lobe.mitsuba holds the Mitsuba plugins the tools use), and, when run as root on Debian,
+# Creates tools/mitsuba/.venv with Mitsuba 3, numpy, OpenImageIO, maturin, pytest, tqdm and
+# a Jupyter kernel (pinned in requirements.txt) and the lobe Python package built from
+# tools/python (its lobe.mitsuba holds the Mitsuba plugins the tools use), and, when run as root on Debian,
 # installs libllvm19 for Mitsuba's llvm_ad_rgb variant (without it the tools fall back to
 # scalar_rgb, much slower). Idempotent: a second run only checks, and rebuilds the lobe
 # package only when a source of it (tools/python or a crate it builds on) changed.
@@ -19,7 +19,7 @@ fi
 if [ ! -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
-if ! "$venv/bin/python" -c "import mitsuba, numpy, OpenImageIO, maturin, pytest" 2>/dev/null \
+if ! "$venv/bin/python" -c "import mitsuba, numpy, OpenImageIO, maturin, pytest, tqdm, ipykernel, ipywidgets, jupyter_client" 2>/dev/null \
    || ! "$venv/bin/pip" freeze 2>/dev/null | grep -q '^mitsuba==3.9.1$'; then
   "$venv/bin/pip" install -q --disable-pip-version-check -r "$here/requirements.txt"
 fi

@@ -2,9 +2,10 @@
 # # Fit a measured BRDF, plot it, render it in lobe and in Mitsuba 3
 #
 # Run as a script (`python tools/python/examples/fit_and_render.py [FILE.bsdf]`) or cell by
-# cell in Jupyter/VS Code. Needs `pip install ./tools/python matplotlib mitsuba`; the
-# measured file defaults to ../shared/data/rgl/paper_white_rgb.bsdf. Writes its figure and
-# images to out/python-example/.
+# cell in Jupyter/VS Code. Needs `pip install "./tools/python[progress,mitsuba]" matplotlib`
+# (progress: the fit's and the render's bars); the measured file defaults to
+# ../shared/data/rgl/paper_white_rgb.bsdf. Writes its figure and images to
+# out/python-example/.
 
 # %%
 import json

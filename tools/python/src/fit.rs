@@ -2,18 +2,21 @@
 //! or a material's values binned (Ngan et al. 2005 section 4, `fit::dataset`), fitted by
 //! lobe-analysis' `fit_material` exactly as `lobe fit` fits it; the typed report
 //! (`fit::report`) crosses to Python as its JSON text, and is read and written only by
-//! that module.
+//! that module. A fit reports each fitted model to a Python callable and stops on Ctrl-C
+//! ([`interrupt`]).
 
 use crate::material::Material;
-use crate::{file_err, guarded, to_py};
+use crate::{file_err, guarded, interrupt, to_py};
 use lobe_analysis::fitting::{FitOptions, fit_material, stem};
+use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
 use lobe_materials::fit::{FitResult, builtin_specs};
 use lobe_materials::registry::Registry;
 use pyo3::prelude::*;
 use std::path::PathBuf;
-use std::sync::Mutex;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 /// What to fit: a measured file, or a material (synthetic data, as `lobe fit --material`).
 #[derive(FromPyObject)]
@@ -22,8 +25,15 @@ enum Data<'py> {
     File(PathBuf),
 }
 
+/// The data of a fit as its thread gets it: a file, or the BSDF whose values are binned.
+enum Source {
+    File(PathBuf),
+    Values(Arc<dyn Bsdf>),
+}
+
 /// Fits and returns the report's JSON text; `progress(label, error_normalized, seconds)`
-/// is called after each model.
+/// is called on the calling thread after each model. Ctrl-C or an exception from
+/// `progress` stops the fit (at the next objective evaluation) and is raised.
 #[pyfunction]
 #[pyo3(signature = (data, models, resolution, max_evals, select, progress))]
 fn fit(
@@ -42,45 +52,36 @@ fn fit(
             max_evals,
             select,
         };
-        let callback_error: Mutex<Option<PyErr>> = Mutex::new(None);
-        let on_model = |r: &FitResult| {
-            if let Some(cb) = &progress {
-                Python::attach(|py| {
-                    let args = (r.label.as_str(), r.error_normalized, r.seconds);
-                    if let Err(e) = cb.call1(py, args) {
-                        callback_error.lock().expect("unpoisoned").get_or_insert(e);
-                    }
-                });
+        let registry = Registry::builtin();
+        // What the fit's thread needs of `data` (a `PyRef` stays on this thread).
+        let data = match data {
+            Data::File(p) => Source::File(p),
+            Data::Material(m) => Source::Values(m.bsdf()),
+        };
+        let work = |events: &interrupt::Events<FitResult>| {
+            let stop = || events.cancel.load(Ordering::Relaxed);
+            let on_model = |r: &FitResult| events.post(r.clone());
+            match &data {
+                Source::File(p) => {
+                    let d = Dataset::read(p, resolution)?;
+                    let source = p.display().to_string();
+                    fit_material(&registry, &stem(p), &source, &d, &opts, &stop, &on_model)
+                }
+                Source::Values(b) => {
+                    let d = Dataset::isotropic(&|wi, wo| Some(b.eval(wo, wi)), resolution);
+                    let name = "synthetic";
+                    fit_material(&registry, name, "material", &d, &opts, &stop, &on_model)
+                }
             }
         };
-        let never = || false;
-        let registry = Registry::builtin();
-        let report = match data {
-            Data::File(p) => py.detach(|| {
-                let d = Dataset::read(&p, resolution)?;
-                let source = p.display().to_string();
-                fit_material(&registry, &stem(&p), &source, &d, &opts, &never, &on_model)
+        let show = |py: Python<'_>, batch: Vec<FitResult>| match &progress {
+            Some(cb) => batch.iter().try_for_each(|r| {
+                let args = (r.label.as_str(), r.error_normalized, r.seconds);
+                cb.call1(py, args).map(drop)
             }),
-            Data::Material(m) => {
-                let b = m.bsdf();
-                py.detach(|| {
-                    let d = Dataset::isotropic(&|wi, wo| Some(b.eval(wo, wi)), resolution);
-                    fit_material(
-                        &registry,
-                        "synthetic",
-                        "material",
-                        &d,
-                        &opts,
-                        &never,
-                        &on_model,
-                    )
-                })
-            }
-        }
-        .map_err(to_py)?;
-        if let Some(e) = callback_error.into_inner().expect("unpoisoned") {
-            return Err(e);
-        }
+            None => Ok(()),
+        };
+        let report = interrupt::run(py, work, show)?.map_err(to_py)?;
         Ok(report.to_json().to_string())
     })
 }

@@ -3,14 +3,15 @@
 //! renders it with the path tracer the CLI runs; `lobe.compare` computes
 //! `lobe compare`'s metrics (RMSE, relative MSE, PSNR, SSIM, FLIP) and its noise-aware
 //! z-test (renderer/src/compare.rs); images are (H, W, 3) float32 arrays of linear RGB.
+//! A render reports its progress to a Python callable and stops on Ctrl-C ([`interrupt`]).
 
-use crate::{guarded, to_py};
+use crate::{guarded, interrupt, to_py};
 use lobe_materials::Rgb;
 use lobe_renderer::Error;
 use lobe_renderer::compare::{check_finite, metrics, z_test};
 use lobe_renderer::film::Image;
 use lobe_renderer::image_io::{read_exr, write_exr};
-use lobe_renderer::render::{RenderOptions, render as render_scene};
+use lobe_renderer::render::{Progress, RenderOptions, render as render_scene};
 use lobe_renderer::scene::{self, LoadOptions};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -45,6 +46,9 @@ fn pixels(a: &PyReadonlyArray3<'_, f32>, what: &str) -> PyResult<(u32, u32, Vec<
 }
 
 /// Renders a scene; returns (image, variance of each pixel's mean, statistics JSON).
+/// `progress(done, total)` (pixels) is called on the calling thread as tiles finish, with
+/// `done` increasing and last equal to `total`; Ctrl-C or an exception from `progress`
+/// stops the render and is raised.
 #[pyfunction]
 #[pyo3(signature = (path, text, base, spp, seed, threads, progress))]
 #[allow(clippy::too_many_arguments)]
@@ -56,7 +60,7 @@ fn render<'py>(
     spp: Option<u32>,
     seed: Option<u64>,
     threads: Option<usize>,
-    progress: bool,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     guarded(|| {
         if spp == Some(0) || threads == Some(0) {
@@ -67,29 +71,35 @@ fn render<'py>(
             };
             return Err(PyValueError::new_err(what));
         }
-        let (img, stats) = py
-            .detach(|| {
-                let opts = LoadOptions::with_builtins();
-                let mut sc = match (&path, &text) {
-                    (Some(p), _) => scene::load_with(p, &opts)?,
-                    (None, Some(t)) => {
-                        let v = lobe_materials::json::parse(t, "<scene dict>")?;
-                        scene::from_value(&v, "<scene dict>", &base, &opts)?
-                    }
-                    (None, None) => {
-                        return Err(Error::Other("scene: expected a file or a dict".into()));
-                    }
-                };
-                sc.spp = spp.unwrap_or(sc.spp);
-                sc.seed = seed.unwrap_or(sc.seed);
-                let ro = RenderOptions {
-                    threads,
-                    progress,
-                    cancel: None,
-                };
-                render_scene(&sc, &ro)
-            })
-            .map_err(to_py)?;
+        let work = |events: &interrupt::Events<(u64, u64)>| {
+            let opts = LoadOptions::with_builtins();
+            let mut sc = match (&path, &text) {
+                (Some(p), _) => scene::load_with(p, &opts)?,
+                (None, Some(t)) => {
+                    let v = lobe_materials::json::parse(t, "<scene dict>")?;
+                    scene::from_value(&v, "<scene dict>", &base, &opts)?
+                }
+                (None, None) => {
+                    return Err(Error::Other("scene: expected a file or a dict".into()));
+                }
+            };
+            sc.spp = spp.unwrap_or(sc.spp);
+            sc.seed = seed.unwrap_or(sc.seed);
+            let (cancel, events) = (events.cancel.clone(), events.clone());
+            let ro = RenderOptions {
+                threads,
+                progress: progress
+                    .is_some()
+                    .then(|| Progress::new(move |done, total| events.post((done, total)))),
+                cancel: Some(cancel),
+            };
+            render_scene(&sc, &ro)
+        };
+        let show = |py: Python<'_>, batch: Vec<(u64, u64)>| match (&progress, batch.last()) {
+            (Some(cb), Some(&(done, total))) => cb.call1(py, (done, total)).map(drop),
+            _ => Ok(()),
+        };
+        let (img, stats) = interrupt::run(py, work, show)?.map_err(to_py)?;
         let out = (
             to_array(py, &img, &img.pixels)?,
             to_array(py, &img, &img.variance)?,

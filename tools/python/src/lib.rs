@@ -9,10 +9,13 @@
 //! become `ValueError` or `FileNotFoundError` carrying the CLI's one-line message, and a
 //! panic becomes a `RuntimeError` instead of reaching Python. Array work releases the GIL
 //! and runs on rayon's pool in fixed chunks, so results do not depend on the thread count.
+//! Renders and fits run on a thread of their own while the calling thread shows their
+//! progress and watches for Ctrl-C ([`interrupt`]).
 
 mod data;
 mod fit;
 mod images;
+mod interrupt;
 mod material;
 
 use pyo3::exceptions::{PyFileNotFoundError, PyRuntimeError, PyValueError};

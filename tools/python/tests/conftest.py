@@ -42,6 +42,22 @@ def data_dir():
     return d if os.path.isdir(d) else None
 
 
+def sphere_scene(material, width, height=None):
+    """A unit sphere of ``material`` seen from 4 units away under a constant sky and a
+    directional light, on a ``width`` x ``height`` film (square by default)."""
+    return {
+        "camera": {"type": "perspective", "fov": 32, "origin": [0, 0, 4], "target": [0, 0, 0], "up": [0, 1, 0]},
+        "film": {"width": width, "height": height or width},
+        "sampler": {"spp": 16},
+        "integrator": {"type": "path", "max_depth": 3},
+        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": material}],
+        "lights": [
+            {"type": "constant", "radiance": [0.6, 0.7, 0.8]},
+            {"type": "directional", "direction": [-0.5, -0.4, -1.0], "irradiance": [3.0, 2.8, 2.5]},
+        ],
+    }
+
+
 def run(args, **kw):
     """Runs the lobe binary, returning stdout; a failure shows its stderr."""
     p = subprocess.run(args, capture_output=True, text=True, **kw)

@@ -5,7 +5,7 @@ use crate::args::{self, finite};
 use lobe_analysis::plot::draw_labels;
 use lobe_renderer::film::Image;
 use lobe_renderer::outputs::{FilePlan, RenderFiles};
-use lobe_renderer::render::{RenderOptions, RenderStats, render};
+use lobe_renderer::render::{Progress, RenderOptions, RenderStats, render};
 use lobe_renderer::scene::Scene;
 use lobe_renderer::{Error, film, image_io};
 use std::io::IsTerminal;
@@ -94,15 +94,26 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
             "--threads: expected at least 1 thread, found 0".into(),
         ));
     }
-    let progress = !quiet && !args.bench && std::io::stderr().is_terminal();
-    let opts = |scene_kind: &'static str| RenderOptions {
+    let show_bar = !quiet && !args.bench && std::io::stderr().is_terminal();
+    let opts = |scene_kind: &'static str, bar: Option<&indicatif::ProgressBar>| RenderOptions {
         threads: args.threads,
-        progress,
+        progress: bar.map(|b| {
+            let b = b.clone();
+            Progress::new(move |done, total| {
+                b.set_length(total);
+                b.set_position(done);
+            })
+        }),
         cancel: Some(args::ctrl_c(scene_kind)),
     };
     if args.bench {
         let ack = "interrupted: stopping the benchmark; Ctrl-C again to abort";
-        return bench(&load_scene(&args)?, &opts(ack), args.runs.max(1), quiet);
+        return bench(
+            &load_scene(&args)?,
+            &opts(ack, None),
+            args.runs.max(1),
+            quiet,
+        );
     }
     let files = render_files(&args)?;
     let mut plan = FilePlan::new();
@@ -118,7 +129,13 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
     plan.check()?;
     let scene = load_scene(&args)?;
     let ack = "interrupted: stopping the render, nothing is written; Ctrl-C again to abort";
-    let (img, stats) = render(&scene, &opts(ack))?;
+    // Made once the scene is loaded, so that its clock and ETA are the render's.
+    let bar = show_bar.then(progress_bar);
+    let rendered = render(&scene, &opts(ack, bar.as_ref()));
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let (img, stats) = rendered?;
     let labels = match args.scene {
         Some(_) => Vec::new(),
         None => lobe_renderer::showcase::labels(&scene),
@@ -138,6 +155,19 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
         eprintln!("wrote {}", all.join(", "));
     }
     Ok(())
+}
+
+/// The bar on stderr that the render's progress reports drive (pixels done, with ETA).
+fn progress_bar() -> indicatif::ProgressBar {
+    let pb = indicatif::ProgressBar::new(0);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} rendering [{bar:40}] {percent:>3}% {elapsed_precise} ETA {eta}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    pb
 }
 
 /// Writes every file of a render; the PNG carries `labels` (text at pixel positions).

@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 from dataclasses import dataclass, field
-from typing import Any, Dict, Iterable, List, Optional, Union
+from typing import Any, Callable, Dict, Iterable, List, Optional, Union
 
 from . import _lobe
 from ._material import Material
+from ._progress import Progress
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -152,31 +152,6 @@ def fit_models() -> List[str]:
     return list(_lobe.fit_models())
 
 
-class _Progress:
-    """One step per fitted model: a tqdm bar when tqdm is installed (notebooks and
-    terminals), else a line per model on stderr as ``lobe fit`` prints."""
-
-    def __init__(self, name: str, total: Optional[int]):
-        self.name = name
-        try:
-            from tqdm.auto import tqdm
-        except ImportError:
-            self.bar = None
-        else:
-            self.bar = tqdm(total=total, desc=f"fitting {name}", unit="model")
-
-    def __call__(self, label: str, error_normalized: float, seconds: float) -> None:
-        if self.bar is None:
-            print(f"{self.name}: {label:28} normalized error {error_normalized:.4e} ({seconds:.1f} s)", file=sys.stderr)
-        else:
-            self.bar.set_postfix_str(f"{label}: {error_normalized:.3e}")
-            self.bar.update(1)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-
 def fit(
     data: Union[PathLike, Material],
     models: Union[str, Iterable[str], None] = None,
@@ -184,7 +159,7 @@ def fit(
     resolution: float = 1.0,
     max_evals: int = 300,
     select: Optional[float] = None,
-    progress: bool = True,
+    progress: Union[bool, Callable[[str, float, float], Any]] = True,
 ) -> FitReport:
     """Fits models to ``data``, a measured file (MERL, binned or RGL, told apart by content)
     or a ``lobe.Material`` (its values binned, as ``lobe fit --material``).
@@ -195,7 +170,11 @@ def fit(
     the only one ``lobe fit`` has. ``resolution``: bin size in degrees of isotropic data.
     ``max_evals``: objective evaluations per SLSQP start. ``select``: also pick the
     cheapest model whose normalized error is within this relative tolerance of the best.
-    ``progress``: a bar (tqdm) or a line per fitted model.
+    ``progress``: ``True`` shows a bar advancing per fitted model (tqdm: a widget in
+    notebooks, text in terminals; a line per model without tqdm), ``False`` nothing, a
+    callable is called as ``progress(label, error_normalized, seconds)`` after each model.
+    Ctrl-C (a notebook's interrupt) stops the fit within an objective evaluation and
+    raises ``KeyboardInterrupt``; an exception from the callable stops it and is raised.
 
     The result equals ``lobe fit DATA --models ... -o r.fit.json`` (timings aside)."""
     if metric not in METRICS:
@@ -214,10 +193,13 @@ def fit(
         if os.path.isdir(target):
             raise ValueError(f"{target}: is a folder; lobe.fit fits one file (`lobe fit FOLDER -o OUT` fits a folder)")
         name = os.path.basename(target)
-    bar = _Progress(name, len(models.split(",")) if models else None) if progress else None
-    try:
-        text = _lobe.fit(target, models, float(resolution), int(max_evals), select, bar)
-    finally:
-        if bar is not None:
-            bar.close()
+    if callable(progress) or not progress:
+        text = _lobe.fit(target, models, float(resolution), int(max_evals), select, progress or None)
+    else:
+        with Progress(f"fitting {name}", len(models.split(",")) if models else None, "model") as bar:
+
+            def fitted(label: str, error_normalized: float, seconds: float) -> None:
+                bar.update_to(bar.n + 1, f"{label:28} normalized error {error_normalized:.4e} ({seconds:.1f} s)")
+
+            text = _lobe.fit(target, models, float(resolution), int(max_evals), select, fitted)
     return FitReport.from_json(json.loads(text))

@@ -7,11 +7,12 @@ from __future__ import annotations
 import json
 import os
 import sys
-from typing import Any, Dict, Mapping, Optional, Tuple, Union
+from typing import Any, Callable, Dict, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
 from . import _lobe
+from ._progress import Progress
 
 PathLike = Union[str, "os.PathLike[str]"]
 Scene = Union[Mapping[str, Any], PathLike]
@@ -25,7 +26,7 @@ def render(
     threads: Optional[int] = None,
     base: Optional[PathLike] = None,
     variance: bool = False,
-    progress: Optional[bool] = None,
+    progress: Union[bool, Callable[[int, int], Any]] = True,
 ) -> Union[np.ndarray, Tuple[np.ndarray, np.ndarray]]:
     """Renders ``scene`` (a scene file, or a dict in the scene-file format whose relative
     paths resolve against ``base``, default the current folder) and returns the image,
@@ -34,17 +35,34 @@ def render(
     override the scene's; the image depends on the seed only, not on ``threads``
     (default: all cores).
 
-    Progress: lobe's bar on stderr when stderr is a terminal (``progress=None``), then
-    one summary line; in a notebook only the summary (the renderer reports no progress
-    to Python while it runs)."""
+    ``progress``: ``True`` shows a bar over the film's pixels as tiles finish (tqdm: a
+    widget in notebooks, text in terminals; a line per tenth without tqdm) and then one
+    summary line on stderr, ``False`` nothing, a callable is called as
+    ``progress(done, total)`` (pixels; ``done`` increasing, last equal to ``total``) on
+    the calling thread. Ctrl-C (a notebook's interrupt) stops the render within a pixel
+    and raises ``KeyboardInterrupt``; an exception from the callable stops it and is
+    raised. Rendering runs without the GIL on all cores either way."""
     if isinstance(scene, Mapping):
         path, text = None, json.dumps(scene, allow_nan=False)
     else:
         path, text = os.fspath(scene), None
     folder = os.fspath(base) if base is not None else os.getcwd()
-    tty = progress if progress is not None else sys.stderr.isatty()
-    image, var, stats = _lobe.render(path, text, folder, spp, seed, threads, bool(tty))
-    if progress is not False:
+    if callable(progress) or not progress:
+        image, var, stats = _lobe.render(path, text, folder, spp, seed, threads, progress or None)
+    else:
+        bar: Optional[Progress] = None
+
+        def rendered(done: int, total: int) -> None:
+            nonlocal bar
+            if bar is None:  # made at the first report, which knows the film's size
+                bar = Progress("rendering", total, "px", unit_scale=True)
+            bar.update_to(done)
+
+        try:
+            image, var, stats = _lobe.render(path, text, folder, spp, seed, threads, rendered)
+        finally:
+            if bar is not None:
+                bar.close()
         s = json.loads(stats)
         print(f"lobe.render: {s['width']}x{s['height']} at {s['spp']} spp in {s['seconds']:.2f} s on {s['threads']} threads", file=sys.stderr)
     return (image, var) if variance else image

@@ -76,6 +76,8 @@ class Converter:
             folder = ngan.locate(m.get("fits", ""), self.base)
             d = ngan.description(m["material"], m.get("model", "cook-torrance"), folder, m.get("channel_scale", "merl"))
             return {"type": "lobe", "desc": json.dumps(d)}
+        if t == "fit":  # the report's path resolves against the scene file's folder
+            return {"type": "lobe", "model": m["model"], "report": self.resolve(m["file"])}
         if t == "rgl":
             return {"type": "measured", "filename": self.resolve(m["file"])}
         if t in ("composite", "merl", "binned"):
