@@ -8,6 +8,7 @@
 //! - [`cost`]: eval and sample time per call of a material;
 //! - [`selection`]: the cheapest fitted model within a tolerance of the best error;
 //! - [`fitting`]: fitting one material into a report, and the data files of a folder;
+//! - [`fit_images`]: the environment maps and reference renders of the `image` metric;
 //! - [`reports`]: reading fit reports, merging them into tables, building their models;
 //! - [`plot`]: what every figure shares (font, palette, the RGB canvas, labels);
 //! - [`figures`]: the study's figures (error charts, polar plots, sphere grids, lobes);
@@ -19,6 +20,7 @@
 
 pub mod cost;
 pub mod figures;
+pub mod fit_images;
 pub mod fitting;
 pub mod microfacet;
 pub mod models;

@@ -146,6 +146,7 @@ fn fitting_a_material_gives_a_report_with_its_selection() {
         resolution: 6.0,
         max_evals: 60,
         select: Some(0.1),
+        ..Default::default()
     };
     let seen = std::sync::Mutex::new(Vec::new());
     let r = fitting::fit_material(&REGISTRY, "w", "material", &data, &opts, &|| false, &|f| {
@@ -188,6 +189,7 @@ fn an_anisotropic_fit_to_isotropic_data_is_never_worse_than_the_model_it_contain
             resolution: 4.0,
             max_evals: 12,
             select: None,
+            ..Default::default()
         };
         let fit = |models: &str| {
             fitting::fit_material(
@@ -650,6 +652,7 @@ fn a_batch_fits_its_shard_skips_finished_reports_and_reports_failures() {
         resolution: 5.0,
         max_evals: 40,
         select: None,
+        ..Default::default()
     };
     struct Count(AtomicUsize);
     impl fitting::BatchProgress for Count {

@@ -6,10 +6,10 @@
 
 use crate::material::Material;
 use crate::{file_err, guarded, to_py};
-use lobe_analysis::fitting::{FitOptions, fit_material, stem};
+use lobe_analysis::fitting::{FitOptions, data_material, fit_material_with, stem};
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
-use lobe_materials::fit::{FitResult, builtin_specs};
+use lobe_materials::fit::{FitResult, Metric, builtin_specs};
 use lobe_materials::registry::Registry;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -23,9 +23,11 @@ enum Data<'py> {
 }
 
 /// Fits and returns the report's JSON text; `progress(label, error_normalized, seconds)`
-/// is called after each model.
+/// is called after each model. `metric` is a name `lobe fit --metric` takes, `envs` the
+/// image metric's environment maps (empty: the defaults).
 #[pyfunction]
-#[pyo3(signature = (data, models, resolution, max_evals, select, progress))]
+#[pyo3(signature = (data, models, resolution, max_evals, select, progress, metric="eq1", envs=Vec::new()))]
+#[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
     data: Data<'_>,
@@ -34,13 +36,20 @@ fn fit(
     max_evals: usize,
     select: Option<f64>,
     progress: Option<Py<PyAny>>,
+    metric: &str,
+    envs: Vec<String>,
 ) -> PyResult<String> {
     guarded(|| {
+        let metric = Metric::parse(metric)
+            .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("metric: {e}")))?;
         let opts = FitOptions {
             models,
             resolution,
             max_evals,
             select,
+            metric,
+            envs,
+            ..Default::default()
         };
         let callback_error: Mutex<Option<PyErr>> = Mutex::new(None);
         let on_model = |r: &FitResult| {
@@ -58,18 +67,25 @@ fn fit(
         let report = match data {
             Data::File(p) => py.detach(|| {
                 let d = Dataset::read(&p, resolution)?;
+                let measured = data_material(&registry, &p, &opts)?;
                 let source = p.display().to_string();
-                fit_material(&registry, &stem(&p), &source, &d, &opts, &never, &on_model)
+                fit_material_with(
+                    &registry,
+                    (&stem(&p), &source),
+                    (&d, measured.as_deref()),
+                    &opts,
+                    &never,
+                    &on_model,
+                )
             }),
             Data::Material(m) => {
                 let b = m.bsdf();
                 py.detach(|| {
                     let d = Dataset::isotropic(&|wi, wo| Some(b.eval(wo, wi)), resolution);
-                    fit_material(
+                    fit_material_with(
                         &registry,
-                        "synthetic",
-                        "material",
-                        &d,
+                        ("synthetic", "material"),
+                        (&d, Some(b.as_ref())),
                         &opts,
                         &never,
                         &on_model,

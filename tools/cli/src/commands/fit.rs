@@ -6,12 +6,14 @@
 use crate::args::{finite, parse_shard};
 use crate::material::{MaterialArgs, MaterialSource};
 use lobe_analysis::fitting::{
-    BatchProgress, BatchSummary, FitOptions, batch_jobs, fit_batch, fit_material, stem,
+    BatchProgress, BatchSummary, FitOptions, batch_jobs, data_material, fit_batch,
+    fit_material_with, stem,
 };
 use lobe_analysis::reports::{merge, read_reports, report_files};
+use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
-use lobe_materials::fit::{FitResult, ISOTROPIC_DEFAULT, Stop, builtin_specs};
+use lobe_materials::fit::{FitResult, ISOTROPIC_DEFAULT, Metric, Stop, builtin_specs};
 use lobe_renderer::Error;
 use lobe_renderer::outputs::FilePlan;
 use std::io::IsTerminal;
@@ -39,6 +41,15 @@ pub struct FitArgs {
     /// Objective evaluations allowed per SLSQP start.
     #[arg(long, default_value_t = 300)]
     max_evals: usize,
+    /// The metric the fits minimize: eq1 (Ngan et al.'s Eq. 1; alias ngan2005), log
+    /// (Eq. 1 on ln(1 + f cos)), cube-root (on (f cos)^(1/3)) or image (renders of a sphere
+    /// under --env maps). Reports keep the Eq. 1 error of every fit (docs/fitting.md).
+    #[arg(long, default_value = "eq1", value_parser = Metric::parse)]
+    metric: Metric,
+    /// An environment map the image metric fits under (repeatable): builtin:studio,
+    /// builtin:sunset or an .exr/.hdr file (default: builtin:studio and builtin:sunset).
+    #[arg(long, value_name = "MAP")]
+    env: Vec<String>,
     /// Output report (JSON), or in batch mode the folder of reports.
     #[arg(long, short)]
     output: Option<PathBuf>,
@@ -79,6 +90,9 @@ fn options(args: &FitArgs) -> FitOptions {
         resolution: args.resolution,
         max_evals: args.max_evals,
         select: args.select.then_some(args.tolerance),
+        metric: args.metric,
+        envs: args.env.clone(),
+        ..Default::default()
     }
 }
 
@@ -150,7 +164,7 @@ impl BatchProgress for Display {
 /// (unless `quiet`); `stop` is polled inside the optimizer (Ctrl-C).
 fn fit_report(
     (name, source): (&str, &str),
-    data: &Dataset,
+    (data, measured): (&Dataset, Option<&dyn Bsdf>),
     args: &FitArgs,
     quiet: bool,
     stop: &Stop<'_>,
@@ -163,11 +177,10 @@ fn fit_report(
         tolerance: args.tolerance,
     };
     let on_model = |r: &FitResult| display.fitted(name, r);
-    let report = fit_material(
+    let report = fit_material_with(
         &lobe_materials::registry::Registry::builtin(),
-        name,
-        source,
-        data,
+        (name, source),
+        (data, measured),
         &options(args),
         stop,
         &on_model,
@@ -181,6 +194,12 @@ fn check_options(args: &FitArgs) -> Result<(), Error> {
         return Err(Error::Other(format!(
             "--tolerance: expected a non-negative relative tolerance, found {}",
             args.tolerance
+        )));
+    }
+    if !args.env.is_empty() && args.metric != Metric::Image {
+        return Err(Error::Other(format!(
+            "--env: only for --metric image; expected no --env with --metric {}",
+            args.metric
         )));
     }
     if !(args.resolution >= 0.25 && args.resolution <= 20.0) {
@@ -223,18 +242,28 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
     plan.output(&output, "fit report");
     let report = match &args.data {
         Some(p) => {
-            plan.input(p, "the measured data").check()?;
+            plan.input(p, "the measured data");
+            plan_envs(&mut plan, &args);
+            plan.check()?;
             let data = Dataset::read(p, args.resolution)?;
+            let measured = data_material(
+                &lobe_materials::registry::Registry::builtin(),
+                p,
+                &options(&args),
+            )?;
             let source = p.display().to_string();
-            fit_report((&stem(p), &source), &data, &args, quiet, &stop)?
+            let d = (&data, measured.as_deref());
+            fit_report((&stem(p), &source), d, &args, quiet, &stop)?
         }
         None => {
             let source = MaterialSource::new(&args.material)?;
             source.plan_inputs(&mut plan);
+            plan_envs(&mut plan, &args);
             plan.check()?;
             let m = source.build()?;
             let data = Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), args.resolution);
-            fit_report(("synthetic", "material"), &data, &args, quiet, &stop)?
+            let d = (&data, Some(m.as_ref()));
+            fit_report(("synthetic", "material"), d, &args, quiet, &stop)?
         }
     };
     report::write(&output, &report)?;
@@ -242,6 +271,13 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
         eprintln!("wrote {}", output.display());
     }
     Ok(())
+}
+
+/// The environment map files of --env, as inputs of the fit.
+fn plan_envs(plan: &mut FilePlan, args: &FitArgs) {
+    for e in args.env.iter().filter(|e| !e.starts_with("builtin:")) {
+        plan.input(Path::new(e), "an environment map of the image metric");
+    }
 }
 
 /// A progress bar over models (files x models each), shown on a terminal.
