@@ -562,9 +562,9 @@ fn batch_fits_are_sharded_resumable_and_merge_into_tables() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(dir.path().join("table.csv")).unwrap();
     assert_eq!(csv.lines().count(), 4, "{csv}");
-    assert!(
-        csv.starts_with("material,max_albedo,cook-torrance error,cook-torrance normalized error")
-    );
+    assert!(csv.starts_with(
+        "material,max_albedo,metric,cook-torrance error,cook-torrance normalized error"
+    ));
     assert!(
         std::fs::read_to_string(dir.path().join("table.md"))
             .unwrap()
