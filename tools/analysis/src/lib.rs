@@ -12,6 +12,8 @@
 //! - [`reports`]: reading fit reports, merging them into tables, building their models;
 //! - [`plot`]: what every figure shares (font, palette, the RGB canvas, labels);
 //! - [`figures`]: the study's figures (error charts, polar plots, sphere grids, lobes);
+//! - [`metric_study`]: which fitting metric's fits render closest to the data under
+//!   held-out environment maps;
 //! - [`microfacet`]: section 5.1, the distribution recovered from a synthetic structure;
 //! - [`tradeoff`]: the speed/accuracy/memory trade-off between representations;
 //! - [`stability`]: the numerical sweep of every model at the extremes;
@@ -22,6 +24,7 @@ pub mod cost;
 pub mod figures;
 pub mod fit_images;
 pub mod fitting;
+pub mod metric_study;
 pub mod microfacet;
 pub mod models;
 pub mod plot;

@@ -81,6 +81,109 @@ enum FitSub {
         #[arg(long, short)]
         output: PathBuf,
     },
+    /// Which metric's fits render closest to the data: fits each file with each metric
+    /// (reports kept in OUT/fits, reused when rerun), renders a sphere of every fit and of
+    /// the data under held-out maps and writes RMSE and FLIP to OUT/metrics.{csv,md}.
+    CompareMetrics(CompareMetricsArgs),
+}
+
+#[derive(clap::Args)]
+struct CompareMetricsArgs {
+    /// Measured files (MERL, binned or RGL).
+    #[arg(required = true)]
+    data: Vec<PathBuf>,
+    /// Comma-separated model labels.
+    #[arg(long, default_value = "cook-torrance,ward,lafortune,blinn-phong")]
+    models: String,
+    /// Comma-separated metrics.
+    #[arg(long, default_value = "eq1,log,cube-root,image")]
+    metrics: String,
+    /// The maps the image metric fits under (default builtin:studio, builtin:sunset).
+    #[arg(long, value_name = "MAP")]
+    env: Vec<String>,
+    /// The held-out maps the renders are compared under (at least one).
+    #[arg(long, value_name = "MAP", required = true)]
+    test_env: Vec<String>,
+    /// Bin size in degrees of isotropic data.
+    #[arg(long, default_value_t = 2.0, value_parser = finite::<f64>)]
+    resolution: f64,
+    /// Render size in pixels.
+    #[arg(long, default_value_t = 128)]
+    size: u32,
+    /// Samples per pixel of every render.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Output folder.
+    #[arg(long, short)]
+    output: PathBuf,
+}
+
+/// `lobe fit compare-metrics`: the experiment of lobe_analysis::metric_study.
+fn compare_metrics(a: &CompareMetricsArgs, quiet: bool) -> Result<(), Error> {
+    use lobe_analysis::metric_study::{MetricStudyConfig, run, write};
+    let metrics = a
+        .metrics
+        .split(',')
+        .map(|m| Metric::parse(m.trim()).map_err(|e| Error::Other(format!("--metrics: {e}"))))
+        .collect::<Result<Vec<_>, _>>()?;
+    if !(a.resolution >= 0.25 && a.resolution <= 20.0)
+        || !(16..=2048).contains(&a.size)
+        || a.spp == 0
+    {
+        return Err(Error::Other(format!(
+            "--resolution {} / --size {} / --spp {}: expected [0.25, 20] degrees, 16 to 2048 pixels and at least one sample",
+            a.resolution, a.size, a.spp
+        )));
+    }
+    let mut plan = FilePlan::new();
+    for p in &a.data {
+        plan.input(p, "measured data");
+    }
+    for e in a
+        .env
+        .iter()
+        .chain(&a.test_env)
+        .filter(|e| !e.starts_with("builtin:"))
+    {
+        plan.input(Path::new(e), "an environment map");
+    }
+    plan.output(a.output.join("metrics.csv"), "CSV table")
+        .output(a.output.join("metrics.md"), "Markdown table")
+        .check_overlaps()?;
+    std::fs::create_dir_all(&a.output)
+        .map_err(|e| Error::file(a.output.display(), format!("cannot create: {e}")))?;
+    plan.check()?;
+    let config = MetricStudyConfig {
+        data: a.data.clone(),
+        fit: FitOptions {
+            models: Some(a.models.clone()),
+            resolution: a.resolution,
+            envs: a.env.clone(),
+            ..Default::default()
+        },
+        metrics,
+        test_envs: a.test_env.clone(),
+        size: a.size,
+        spp: a.spp,
+        out: a.output.clone(),
+    };
+    let stop = stop_flag();
+    let say = |m: &str| {
+        if !quiet {
+            eprintln!("{m}");
+        }
+    };
+    let rows = run(
+        &lobe_materials::registry::Registry::builtin(),
+        &config,
+        &stop,
+        &say,
+    )?;
+    write(&rows, &a.output)?;
+    if !quiet {
+        eprintln!("wrote {}", a.output.join("metrics.md").display());
+    }
+    Ok(())
 }
 
 /// The fit options of the command line.
@@ -220,8 +323,10 @@ fn stop_flag() -> impl Fn() -> bool + Sync {
 }
 
 pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
-    if let Some(FitSub::Merge { inputs, output }) = &args.sub {
-        return write_merged(inputs, output, quiet);
+    match &args.sub {
+        Some(FitSub::Merge { inputs, output }) => return write_merged(inputs, output, quiet),
+        Some(FitSub::CompareMetrics(a)) => return compare_metrics(a, quiet),
+        None => {}
     }
     if args.list {
         for s in builtin_specs() {
