@@ -44,8 +44,8 @@ pub struct FitArgs {
     /// The metric the fits minimize: eq1 (Ngan et al.'s Eq. 1; alias ngan2005), log
     /// (Eq. 1 on ln(1 + f cos)), cube-root (on (f cos)^(1/3)) or image (renders of a sphere
     /// under --env maps). Reports keep the Eq. 1 error of every fit (docs/fitting.md).
-    #[arg(long, default_value = "eq1", value_parser = Metric::parse)]
-    metric: Metric,
+    #[arg(long, default_value = "eq1")]
+    metric: String,
     /// An environment map the image metric fits under (repeatable): builtin:studio,
     /// builtin:sunset or an .exr/.hdr file (default: builtin:studio and builtin:sunset).
     #[arg(long, value_name = "MAP")]
@@ -186,14 +186,14 @@ fn compare_metrics(a: &CompareMetricsArgs, quiet: bool) -> Result<(), Error> {
     Ok(())
 }
 
-/// The fit options of the command line.
+/// The fit options of the command line (the metric checked by [`check_options`]).
 fn options(args: &FitArgs) -> FitOptions {
     FitOptions {
         models: args.models.clone(),
         resolution: args.resolution,
         max_evals: args.max_evals,
         select: args.select.then_some(args.tolerance),
-        metric: args.metric,
+        metric: Metric::parse(&args.metric).unwrap_or_default(),
         envs: args.env.clone(),
         ..Default::default()
     }
@@ -299,10 +299,10 @@ fn check_options(args: &FitArgs) -> Result<(), Error> {
             args.tolerance
         )));
     }
-    if !args.env.is_empty() && args.metric != Metric::Image {
+    let metric = Metric::parse(&args.metric).map_err(|e| Error::Other(format!("--metric: {e}")))?;
+    if !args.env.is_empty() && metric != Metric::Image {
         return Err(Error::Other(format!(
-            "--env: only for --metric image; expected no --env with --metric {}",
-            args.metric
+            "--env: only for --metric image; expected no --env with --metric {metric}"
         )));
     }
     if !(args.resolution >= 0.25 && args.resolution <= 20.0) {
