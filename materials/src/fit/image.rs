@@ -91,6 +91,9 @@ fn hammersley(k: usize, n: usize, rot: [f64; 2]) -> [f64; 2] {
     [(u + rot[0]).fract(), (v + rot[1]).fract()]
 }
 
+/// A sample: (wo, wi) in the normal's frame and its weight per channel.
+type WeightedPair = ((DVec3, DVec3), [f64; 3]);
+
 /// Renders of a sphere under environment maps as fixed weighted sums of BRDF values, and
 /// the reference render of the measured material.
 #[derive(Clone, Debug, Default)]
@@ -127,7 +130,7 @@ impl SphereImages {
         let pixels: Vec<(usize, DVec3)> = (0..envs.len())
             .flat_map(|e| normals.iter().map(move |n| (e, *n)))
             .collect();
-        let per_pixel: Vec<Vec<((DVec3, DVec3), [f64; 3])>> = pixels
+        let per_pixel: Vec<Vec<WeightedPair>> = pixels
             .par_iter()
             .enumerate()
             .map(|(p, &(e, n))| pixel_samples(envs[e], n, p as u64, (n_env, n_cone)))
@@ -214,8 +217,8 @@ impl SphereImages {
                     // Basis images: diffuse 1/pi, then each lobe at unit colour.
                     let mut basis = [[0.0f64; 3]; 3];
                     for s in range.clone() {
-                        for c in 0..3 {
-                            basis[c][0] += FRAC_1_PI * self.weights[s][c];
+                        for (b, w) in basis.iter_mut().zip(self.weights[s]) {
+                            b[0] += FRAC_1_PI * w;
                         }
                     }
                     let mut buf = vec![[0.0; 3]; range.len()];
@@ -260,7 +263,7 @@ fn pixel_samples(
     n: DVec3,
     p: u64,
     (n_env, n_cone): (usize, usize),
-) -> Vec<((DVec3, DVec3), [f64; 3])> {
+) -> Vec<WeightedPair> {
     let view = DVec3::Z;
     let mirror = (2.0 * n.dot(view) * n - view).normalize();
     let frame = Frame::from_normal(n.as_vec3());

@@ -351,8 +351,8 @@ pub fn compressed_colours(
     for c in 0..3 {
         let (x, phi) = basis.channel_optimum(c, g);
         sum += phi;
-        for k in 0..3 {
-            colours[k][c] = x[k];
+        for (colour, v) in colours.iter_mut().zip(x) {
+            colour[c] = v;
         }
     }
     ((sum / (3.0 * total_weight)).sqrt(), colours)

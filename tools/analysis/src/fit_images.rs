@@ -67,7 +67,7 @@ impl Environment for FitEnvironment {
             (u[1] as f32).min(1.0 - f32::EPSILON),
         );
         let (d, l, pdf) = self.0.sample(u)?;
-        (pdf > 0.0).then(|| (d, [l.r as f64, l.g as f64, l.b as f64], pdf as f64))
+        (pdf > 0.0).then_some((d, [l.r as f64, l.g as f64, l.b as f64], pdf as f64))
     }
 
     fn eval_pdf(&self, d: glam::Vec3) -> ([f64; 3], f64) {

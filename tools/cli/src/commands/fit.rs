@@ -84,7 +84,7 @@ enum FitSub {
     /// Which metric's fits render closest to the data: fits each file with each metric
     /// (reports kept in OUT/fits, reused when rerun), renders a sphere of every fit and of
     /// the data under held-out maps and writes RMSE and FLIP to OUT/metrics.{csv,md}.
-    CompareMetrics(CompareMetricsArgs),
+    CompareMetrics(Box<CompareMetricsArgs>),
 }
 
 #[derive(clap::Args)]
@@ -126,10 +126,9 @@ fn compare_metrics(a: &CompareMetricsArgs, quiet: bool) -> Result<(), Error> {
         .split(',')
         .map(|m| Metric::parse(m.trim()).map_err(|e| Error::Other(format!("--metrics: {e}"))))
         .collect::<Result<Vec<_>, _>>()?;
-    if !(a.resolution >= 0.25 && a.resolution <= 20.0)
-        || !(16..=2048).contains(&a.size)
-        || a.spp == 0
-    {
+    let sizes_ok =
+        (0.25..=20.0).contains(&a.resolution) && (16..=2048).contains(&a.size) && a.spp > 0;
+    if !sizes_ok {
         return Err(Error::Other(format!(
             "--resolution {} / --size {} / --spp {}: expected [0.25, 20] degrees, 16 to 2048 pixels and at least one sample",
             a.resolution, a.size, a.spp
