@@ -207,41 +207,40 @@ impl SphereImages {
         use rayon::prelude::*;
         assert!(lobes.len() <= 2, "at most two lobes");
         let n = 1 + lobes.len();
-        let grams = (0..self.pixels())
+        // Each pixel's basis images in parallel (diffuse 1/pi, then each lobe at unit
+        // colour), summed into the normal equations in pixel order: the same bits
+        // whatever the thread count.
+        let bases: Vec<[[f64; 3]; 3]> = (0..self.pixels())
             .into_par_iter()
             .with_min_len(16)
-            .fold(
-                || [Gram::new(n), Gram::new(n), Gram::new(n)],
-                |mut g, p| {
-                    let range = self.offsets[p]..self.offsets[p + 1];
-                    // Basis images: diffuse 1/pi, then each lobe at unit colour.
-                    let mut basis = [[0.0f64; 3]; 3];
-                    for s in range.clone() {
-                        for (b, w) in basis.iter_mut().zip(self.weights[s]) {
-                            b[0] += FRAC_1_PI * w;
-                        }
+            .map(|p| {
+                let range = self.offsets[p]..self.offsets[p + 1];
+                let mut basis = [[0.0f64; 3]; 3];
+                for s in range.clone() {
+                    for (b, w) in basis.iter_mut().zip(self.weights[s]) {
+                        b[0] += FRAC_1_PI * w;
                     }
-                    let mut buf = vec![[0.0; 3]; range.len()];
-                    for (k, l) in lobes.iter().enumerate() {
-                        l.eval_f64_many(&self.pairs[range.clone()], &mut buf);
-                        for (v, s) in buf.iter().zip(range.clone()) {
-                            for c in 0..3 {
-                                if v[c].is_finite() {
-                                    basis[c][k + 1] += v[c] * self.weights[s][c];
-                                }
+                }
+                let mut buf = vec![[0.0; 3]; range.len()];
+                for (k, l) in lobes.iter().enumerate() {
+                    l.eval_f64_many(&self.pairs[range.clone()], &mut buf);
+                    for (v, s) in buf.iter().zip(range.clone()) {
+                        for c in 0..3 {
+                            if v[c].is_finite() {
+                                basis[c][k + 1] += v[c] * self.weights[s][c];
                             }
                         }
                     }
-                    for c in 0..3 {
-                        g[c].add(&basis[c][..n], self.reference[p][c], 1.0);
-                    }
-                    g
-                },
-            )
-            .reduce(
-                || [Gram::new(n), Gram::new(n), Gram::new(n)],
-                |a, b| [a[0].merge(&b[0]), a[1].merge(&b[1]), a[2].merge(&b[2])],
-            );
+                }
+                basis
+            })
+            .collect();
+        let mut grams = [Gram::new(n), Gram::new(n), Gram::new(n)];
+        for (basis, reference) in bases.iter().zip(&self.reference) {
+            for c in 0..3 {
+                grams[c].add(&basis[c][..n], reference[c], 1.0);
+            }
+        }
         let mut res = 0.0;
         let mut colours = [[0.0f64; 3]; 3];
         for (c, g) in grams.iter().enumerate() {

@@ -244,32 +244,26 @@ impl Basis {
 
     /// Phi(x) = sum w [g(r) - g(a.x)]^2 of channel c, with `gr` = g(r).
     fn phi(&self, c: usize, g: Compression, gr: &[f64], x: &[f64; 3]) -> f64 {
-        use rayon::prelude::*;
-        (0..self.r.len())
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|i| {
+        ordered_sum(
+            self.r.len(),
+            |acc: &mut f64, i| {
                 let d = gr[i] - g.g(self.predict(i, c, x));
-                self.w[i] * d * d
-            })
-            .sum()
+                *acc += self.w[i] * d * d;
+            },
+            0.0,
+            |a, b| a + b,
+        )
     }
 
     /// The normal equations of Eq. (1) of channel c.
     fn eq1_gram(&self, c: usize) -> Gram {
-        use rayon::prelude::*;
         let n = self.n;
-        (0..self.r.len())
-            .into_par_iter()
-            .with_min_len(4096)
-            .fold(
-                || Gram::new(n),
-                |mut gram, i| {
-                    gram.add(&self.a[i][c][..n], self.r[i][c], self.w[i]);
-                    gram
-                },
-            )
-            .reduce(|| Gram::new(n), |a, b| a.merge(&b))
+        ordered_sum(
+            self.r.len(),
+            |gram: &mut Gram, i| gram.add(&self.a[i][c][..n], self.r[i][c], self.w[i]),
+            Gram::new(n),
+            |a, b| a.merge(&b),
+        )
     }
 
     /// In one pass at colours x of channel c: Phi(x), and the normal equations of Phi
@@ -282,22 +276,19 @@ impl Basis {
         (gr, floor): (&[f64], f64),
         x: &[f64; 3],
     ) -> (f64, Gram) {
-        use rayon::prelude::*;
         let n = self.n;
-        (0..self.r.len())
-            .into_par_iter()
-            .with_min_len(4096)
-            .fold(
-                || (0.0, Gram::new(n)),
-                |(phi, mut gram), i| {
-                    let m = self.predict(i, c, x);
-                    let (gm, slope) = g.value_slope(m, floor);
-                    let d = gr[i] - gm;
-                    gram.add(&self.a[i][c][..n], m + d / slope, self.w[i] * slope * slope);
-                    (phi + self.w[i] * d * d, gram)
-                },
-            )
-            .reduce(|| (0.0, Gram::new(n)), |a, b| (a.0 + b.0, a.1.merge(&b.1)))
+        ordered_sum(
+            self.r.len(),
+            |(phi, gram): &mut (f64, Gram), i| {
+                let m = self.predict(i, c, x);
+                let (gm, slope) = g.value_slope(m, floor);
+                let d = gr[i] - gm;
+                gram.add(&self.a[i][c][..n], m + d / slope, self.w[i] * slope * slope);
+                *phi += self.w[i] * d * d;
+            },
+            (0.0, Gram::new(n)),
+            |a, b| (a.0 + b.0, a.1.merge(&b.1)),
+        )
     }
 
     /// The non-negative colours of channel c minimizing Phi (Gauss-Newton on NNLS from the
@@ -331,6 +322,29 @@ impl Basis {
         }
         (x, phi)
     }
+}
+
+/// The accumulation over i < n by `add_term` (from `zero`), in parallel over fixed chunks
+/// of 4096 merged in order: the same bits whatever the thread count and scheduling.
+pub fn ordered_sum<T: Send + Sync + Clone>(
+    n: usize,
+    add_term: impl Fn(&mut T, usize) + Sync,
+    zero: T,
+    merge: impl Fn(T, T) -> T,
+) -> T {
+    use rayon::prelude::*;
+    const CHUNK: usize = 4096;
+    let parts: Vec<T> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|k| {
+            let mut acc = zero.clone();
+            for i in k * CHUNK..((k + 1) * CHUNK).min(n) {
+                add_term(&mut acc, i);
+            }
+            acc
+        })
+        .collect();
+    parts.into_iter().fold(zero, merge)
 }
 
 /// Gauss-Newton steps allowed per channel of a compressed metric's colour solve.
