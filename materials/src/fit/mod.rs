@@ -14,7 +14,9 @@
 //! couple of full-data passes instead of hundreds.
 
 pub mod dataset;
+pub mod image;
 pub mod linear;
+pub mod metric;
 pub mod report;
 pub mod spec;
 
@@ -22,6 +24,7 @@ use crate::lobe::Lobe;
 use crate::registry::Registry;
 use dataset::Dataset;
 use linear::Gram;
+pub use metric::{Metric, Objective};
 use serde_json::{Value, json};
 pub use spec::{
     ANISOTROPIC_DEFAULT, FitParam, ISOTROPIC_DEFAULT, ModelSpec, builtin_specs, model_specs,
@@ -35,10 +38,14 @@ pub struct FitResult {
     pub label: String,
     /// The fitted material: a registry description (`composite` for two lobes).
     pub material: Value,
-    /// Eq. (1) error.
+    /// Eq. (1) error, whatever the metric minimized.
     pub error: f64,
     /// Error divided by the data's largest directional albedo.
     pub error_normalized: f64,
+    /// The metric minimized.
+    pub metric: Metric,
+    /// That metric's value at the fit (None for Eq. (1), whose value is `error`).
+    pub metric_error: Option<f64>,
     pub starts: usize,
     /// Starts whose final error is within 1 % of the best.
     pub starts_agreeing: usize,
@@ -124,11 +131,31 @@ pub fn linear_colours(data: &Dataset, lobes: &[Arc<dyn Lobe>]) -> (f64, [[f64; 3
     linear_colours_with(data, lobes, data.total_weight().max(1e-300))
 }
 
+/// The Eq. (1) error of given colours ([diffuse, specular of each lobe] per channel) and
+/// lobes on the data, from the normal equations: sum w (r - f.x)^2 = c - 2 b.x + x.A.x.
+fn eq1_of_colours(data: &Dataset, lobes: &[Arc<dyn Lobe>], colours: &[[f64; 3]; 3]) -> f64 {
+    let g = grams(data, lobes);
+    let mut res = 0.0;
+    for (c, g) in g.iter().enumerate() {
+        let x: [f64; 3] = std::array::from_fn(|k| colours[k][c]);
+        let mut r = g.c;
+        for j in 0..g.n {
+            r -= 2.0 * g.b[j] * x[j];
+            for k in 0..g.n {
+                r += x[j] * g.a[j][k] * x[k];
+            }
+        }
+        res += r.max(0.0);
+    }
+    (res / (3.0 * data.total_weight().max(1e-300))).sqrt()
+}
+
 struct Problem<'a> {
     data: &'a Dataset,
     spec: &'a ModelSpec,
     registry: &'a Registry,
     total_weight: f64,
+    objective: Objective<'a>,
 }
 
 impl Problem<'_> {
@@ -170,13 +197,28 @@ impl Problem<'_> {
             .collect()
     }
 
-    /// E(p) and the colours (diffuse, then each lobe's specular) per channel.
+    /// The objective at `x` and the colours (diffuse, then each lobe's specular) per
+    /// channel that minimize it.
     fn error(&self, x: &[f64]) -> (f64, [[f64; 3]; 3]) {
         let vals = self.values(x);
         let Some(lobes) = self.lobes(&vals) else {
             return (f64::INFINITY, [[0.0; 3]; 3]);
         };
-        linear_colours_with(self.data, &lobes, self.total_weight)
+        match self.objective {
+            Objective::Eq1 => linear_colours_with(self.data, &lobes, self.total_weight),
+            Objective::Compressed(g) => {
+                metric::compressed_colours(self.data, &lobes, g, self.total_weight)
+            }
+            Objective::Image(images) => images.colours(&lobes),
+        }
+    }
+
+    /// The Eq. (1) error on all the bins of the fit at `x` with `colours`.
+    fn eq1_at(&self, x: &[f64], colours: &[[f64; 3]; 3]) -> f64 {
+        match self.lobes(&self.values(x)) {
+            Some(lobes) => eq1_of_colours(self.data, &lobes, colours),
+            None => f64::INFINITY,
+        }
     }
 
     /// The parameters of `x` at (within [`AT_BOUND`] of) a bound of their fit range.
@@ -453,6 +495,27 @@ pub fn fit_from(
     contained: Option<&FitResult>,
     stop: &Stop<'_>,
 ) -> Result<FitResult, FitError> {
+    fit_with(
+        registry,
+        data,
+        spec,
+        (max_evals_per_start, Objective::Eq1),
+        contained,
+        stop,
+    )
+}
+
+/// [`fit_from`], minimizing `objective` ([`metric`]) instead of Eq. (1) (with at most
+/// `max_evals_per_start` evaluations per start); the result's `error` is still the Eq. (1)
+/// error, its `metric_error` the objective's value.
+pub fn fit_with(
+    registry: &Registry,
+    data: &Dataset,
+    spec: &ModelSpec,
+    (max_evals_per_start, objective): (usize, Objective<'_>),
+    contained: Option<&FitResult>,
+    stop: &Stop<'_>,
+) -> Result<FitResult, FitError> {
     data.check().map_err(FitError::Data)?;
     let t0 = std::time::Instant::now();
     let pr = Problem {
@@ -460,6 +523,7 @@ pub fn fit_from(
         spec,
         registry,
         total_weight: data.total_weight().max(1e-300),
+        objective,
     };
     let (bounds, mut starts) = bounds_and_starts(spec);
     let seed = contained.and_then(|c| Some((c, pr.start_from(&c.material)?)));
@@ -511,20 +575,26 @@ pub fn fit_from(
         refine(&pr, &bounds, &finals, &mut evaluations, stop)
     };
     cancelled()?;
-    let (mut error, mut colours) = pr.error(&best);
+    let (mut value, mut colours) = pr.error(&best);
     evaluations += 1;
     if let Some((_, x)) = &seed {
         // The contained model's optimum, judged on all the bins like the winner.
         let (e, c) = pr.error(x);
         evaluations += 1;
-        if e < error {
-            (error, colours, best) = (e, c, x.clone());
+        if e < value {
+            (value, colours, best) = (e, c, x.clone());
         }
     }
+    let (error, metric_error) = match objective {
+        Objective::Eq1 => (value, None),
+        _ => (pr.eq1_at(&best, &colours), Some(value)),
+    };
     Ok(FitResult {
         label: spec.label.to_string(),
         material: pr.material(&best, &colours),
         error,
+        metric: objective.metric(),
+        metric_error,
         error_normalized: if data.max_albedo > 0.0 {
             error / data.max_albedo
         } else {

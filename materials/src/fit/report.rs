@@ -10,7 +10,10 @@
 //! what a fit should not report silently (per model: the parameters that ended at a bound
 //! of their fit range, every start's error, the contained model the fit started from, and
 //! whether an anisotropic model was fitted to isotropic data); a version 1 report reads
-//! with those empty.
+//! with those empty. Version 3 added the metric the fits minimized (`metric`, see
+//! [`super::metric`]) and, per model fitted with another metric than Eq. (1), that
+//! metric's value (`metric_error`; `error` stays the Eq. (1) error); an older report reads
+//! as fitted with Eq. (1).
 //!
 //! Written JSON keeps its keys in alphabetical order (serde_json's map), as reports always
 //! had; a non-finite number (the normalized error of all-zero data) is written as `null` and
@@ -18,6 +21,7 @@
 
 use super::FitResult;
 use super::dataset::Dataset;
+use super::metric::Metric;
 use crate::error::FileError;
 use serde::{Deserialize, Deserializer, Serialize};
 use serde_json::Value;
@@ -25,7 +29,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The report format this build writes and the newest it reads.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 
 fn version_one() -> u32 {
     1
@@ -34,6 +38,11 @@ fn version_one() -> u32 {
 /// A number written as `null` when it was not finite (serde_json's way), read back as NaN.
 fn nullable_f64<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// An optional number (present: written as `null` when not finite, read back as NaN).
+fn nullable_some_f64<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    Ok(Some(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN)))
 }
 
 /// A list of numbers, each written as `null` when it was not finite, read back as NaN.
@@ -62,6 +71,9 @@ pub struct FitReport {
     /// The data's largest directional albedo (errors are normalized by it).
     #[serde(deserialize_with = "nullable_f64")]
     pub max_albedo: f64,
+    /// The metric the fits minimized (absent before version 3: Eq. (1)).
+    #[serde(default)]
+    pub metric: Metric,
     /// Per model label, its fit.
     pub models: BTreeMap<String, ModelFit>,
     /// The cheapest model within a tolerance of the best error (`lobe fit --select`).
@@ -75,12 +87,19 @@ pub struct FitReport {
 pub struct ModelFit {
     /// The fitted material: a registry description (`composite` for two lobes).
     pub material: Value,
-    /// Eq. (1) error.
+    /// Eq. (1) error, whatever the metric minimized.
     #[serde(deserialize_with = "nullable_f64")]
     pub error: f64,
     /// The error divided by the data's largest directional albedo.
     #[serde(deserialize_with = "nullable_f64")]
     pub error_normalized: f64,
+    /// The value of the report's metric at this fit, when it is not Eq. (1).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "nullable_some_f64"
+    )]
+    pub metric_error: Option<f64>,
     pub starts: usize,
     /// Starts whose final error is within 1 % of the best.
     pub starts_agreeing: usize,
@@ -166,6 +185,7 @@ impl ModelFit {
             material: r.material.clone(),
             error: r.error,
             error_normalized: r.error_normalized,
+            metric_error: r.metric_error,
             starts: r.starts,
             starts_agreeing: r.starts_agreeing,
             evaluations: r.evaluations,
@@ -250,6 +270,7 @@ impl FitReport {
             resolution_deg,
             samples: data.samples.len(),
             max_albedo: data.max_albedo,
+            metric: results.first().map_or(Metric::Eq1, |r| r.metric),
             models: results
                 .iter()
                 .map(|r| (r.label.clone(), ModelFit::from_result(r)))
@@ -319,6 +340,7 @@ mod tests {
             material: json!({"type": "ward", "alpha": 0.1, "diffuse": [0.1, 0.2, 0.3], "specular": [0.5, 0.5, 0.5]}),
             error: e,
             error_normalized: e / 0.5,
+            metric_error: Some(e * 2.0),
             starts: 3,
             starts_agreeing: 2,
             evaluations: 120,
@@ -340,6 +362,7 @@ mod tests {
             resolution_deg: 1.0,
             samples: 1000,
             max_albedo: 0.5,
+            metric: Metric::CubeRoot,
             models: [
                 ("ward".to_string(), fit(0.01)),
                 ("he".to_string(), fit(0.02)),
@@ -376,6 +399,8 @@ mod tests {
             text.contains(&format!("\"format_version\": {FORMAT_VERSION}")),
             "{text}"
         );
+        assert!(text.contains("\"metric\": \"cube-root\""), "{text}");
+        assert!(text.contains("\"metric_error\": 0.02"), "{text}");
         // Keys in alphabetical order, as reports always had.
         let (a, b) = (
             text.find("\"material\"").unwrap(),
@@ -458,9 +483,15 @@ mod tests {
                 m.remove(k);
             }
         }
+        v.as_object_mut().unwrap().remove("metric");
+        for m in v["models"].as_object_mut().unwrap().values_mut() {
+            m.as_object_mut().unwrap().remove("metric_error");
+        }
         let r = FitReport::from_json(&v, "old.fit.json").unwrap();
         assert_eq!(r.format_version, 1);
+        assert_eq!(r.metric, Metric::Eq1);
         let ward = &r.models["ward"];
+        assert_eq!(ward.metric_error, None);
         assert!(ward.at_bounds.is_empty() && ward.start_errors.is_empty());
         assert!(ward.started_from.is_none() && !ward.isotropic_data);
         // Nothing recorded, nothing to warn about (2 of 3 starts agree).

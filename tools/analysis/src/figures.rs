@@ -313,6 +313,29 @@ fn draw_polar<DB: DrawingBackend>(
     Ok(())
 }
 
+/// A unit sphere under the environment map `env` (a file, relative to the working folder,
+/// or builtin:studio) seen from 4.5 units down +z with a 30-degree field of view, `size`
+/// pixels square at `spp` samples per pixel (seed 0; path tracing, 3 bounces): the
+/// study's stage for Figures 3 and 6. Its material is set per render
+/// (`scene.shapes[0].material`).
+pub fn sphere_scene(env: &str, size: u32, spp: u32) -> Result<lobe_renderer::scene::Scene, Error> {
+    let here = std::env::current_dir().unwrap_or_default();
+    let scene_v = serde_json::json!({
+        "camera": {"type": "perspective", "fov": 30, "origin": [0, 0, 4.5], "target": [0, 0, 0], "up": [0, 1, 0]},
+        "film": {"width": size, "height": size},
+        "sampler": {"spp": spp, "seed": 0},
+        "integrator": {"type": "path", "max_depth": 3},
+        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}],
+        "lights": [{"type": "envmap", "file": env}]
+    });
+    lobe_renderer::scene::from_value(
+        &scene_v,
+        "spheres",
+        &here,
+        &lobe_renderer::scene::LoadOptions::with_builtins(),
+    )
+}
+
 /// Figures 3 and 6: renders each material on a sphere under `env` (an environment map file
 /// or builtin:studio) at `spp` samples per pixel, `tile` pixels square, and tiles the
 /// images (at most 4 per row) with a label under each.
@@ -329,15 +352,6 @@ pub fn spheres(
             "--tile {tile} / --spp {spp}: expected 32 to 1024 pixels and at least one sample"
         )));
     }
-    let here = std::env::current_dir().unwrap_or_default();
-    let scene_v = serde_json::json!({
-        "camera": {"type": "perspective", "fov": 30, "origin": [0, 0, 4.5], "target": [0, 0, 0], "up": [0, 1, 0]},
-        "film": {"width": tile, "height": tile},
-        "sampler": {"spp": spp, "seed": 0},
-        "integrator": {"type": "path", "max_depth": 3},
-        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}],
-        "lights": [{"type": "envmap", "file": env}]
-    });
     let cols = items.len().clamp(1, 4) as u32;
     let rows = (items.len() as u32).div_ceil(cols);
     let label_h = 30u32;
@@ -346,12 +360,7 @@ pub fn spheres(
     let buf = &mut fig.rgb;
     // One scene (camera, environment map and its sampling tables); only the sphere's
     // material changes between tiles.
-    let mut scene = lobe_renderer::scene::from_value(
-        &scene_v,
-        "spheres",
-        &here,
-        &lobe_renderer::scene::LoadOptions::with_builtins(),
-    )?;
+    let mut scene = sphere_scene(env, tile, spp)?;
     for (k, (_, m)) in items.iter().enumerate() {
         scene.shapes[0].material = m.clone();
         let (img, _) = lobe_renderer::render::render(

@@ -1,18 +1,26 @@
 //! Fitting one material into a report (Ngan et al. 2005 section 4: every chosen model
-//! fitted to the data by [`lobe_materials::fit::fit_until`], optionally with the cheapest
-//! adequate model selected), and fitting a folder of measured data in a batch: in
-//! deterministic shards, in parallel, resumably (a report that exists is not redone).
+//! fitted to the data by [`lobe_materials::fit::fit_with`] with the chosen metric,
+//! optionally with the cheapest adequate model selected), and fitting a folder of measured
+//! data in a batch: in deterministic shards, in parallel, resumably (a report that exists
+//! is not redone).
 
+use crate::fit_images::fitting_images;
 use crate::models::choose;
 use crate::selection::select;
+use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::Dataset;
+use lobe_materials::fit::image::ImageSettings;
 use lobe_materials::fit::report::{self, FitReport};
-use lobe_materials::fit::{FitError, FitResult, ModelSpec, Stop, builtin_specs, fit_from};
+use lobe_materials::fit::{
+    FitError, FitResult, Metric, ModelSpec, Objective, Stop, builtin_specs, fit_with,
+};
 use lobe_materials::measured::format;
 use lobe_materials::registry::Registry;
 use lobe_renderer::Error;
 use lobe_renderer::outputs::FilePlan;
+use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// What to fit and how.
@@ -26,11 +34,59 @@ pub struct FitOptions {
     pub max_evals: usize,
     /// Select the cheapest model within this relative tolerance of the best error.
     pub select: Option<f64>,
+    /// The metric the fits minimize.
+    pub metric: Metric,
+    /// The environment maps of the `image` metric (`builtin:studio`, `builtin:sunset` or
+    /// files); empty: [`crate::fit_images::DEFAULT_FIT_ENVS`].
+    pub envs: Vec<String>,
+    /// The size of the `image` metric's renders.
+    pub image: ImageSettings,
+}
+
+impl Default for FitOptions {
+    /// The study's settings: its default models, 1-degree bins, Eq. (1), no selection.
+    fn default() -> Self {
+        Self {
+            models: None,
+            resolution: 1.0,
+            max_evals: 300,
+            select: None,
+            metric: Metric::Eq1,
+            envs: Vec::new(),
+            image: ImageSettings::default(),
+        }
+    }
+}
+
+/// The material that renders a measured file (MERL, binned or RGL, told by its content).
+pub fn data_material_desc(p: &Path) -> Result<Value, Error> {
+    let abs = std::fs::canonicalize(p)
+        .map_err(|e| Error::file(p.display(), format!("cannot open: {e}")))?;
+    let kind = format::detect(&abs)?.material_type();
+    Ok(json!({"type": kind, "file": abs.display().to_string()}))
+}
+
+/// The material of a measured file, built through `registry` when `opts` need it (the
+/// `image` metric renders it), else None.
+pub fn data_material(
+    registry: &Registry,
+    p: &Path,
+    opts: &FitOptions,
+) -> Result<Option<Arc<dyn Bsdf>>, Error> {
+    if opts.metric != Metric::Image {
+        return Ok(None);
+    }
+    let desc = data_material_desc(p)?;
+    let m = registry
+        .create(&desc, "data")
+        .map_err(|e| Error::file(p.display(), e.to_string()))?;
+    Ok(Some(m))
 }
 
 /// Fits the chosen models to `data` (named `name`, read from `source`) and builds the
 /// report; `stop` is polled inside the optimizer (an interruption is an error saying so),
-/// `on_model` is called with each model's result as it is fitted.
+/// `on_model` is called with each model's result as it is fitted. The `image` metric needs
+/// [`fit_material_with`] and the measured material.
 pub fn fit_material(
     registry: &Registry,
     name: &str,
@@ -40,11 +96,45 @@ pub fn fit_material(
     stop: &Stop<'_>,
     on_model: &dyn Fn(&FitResult),
 ) -> Result<FitReport, Error> {
+    fit_material_with(registry, (name, source), (data, None), opts, stop, on_model)
+}
+
+/// [`fit_material`] with `measured`, the material `data` was measured from (the `image`
+/// metric compares renders of it with renders of the fits; other metrics ignore it).
+pub fn fit_material_with(
+    registry: &Registry,
+    (name, source): (&str, &str),
+    (data, measured): (&Dataset, Option<&dyn Bsdf>),
+    opts: &FitOptions,
+    stop: &Stop<'_>,
+    on_model: &dyn Fn(&FitResult),
+) -> Result<FitReport, Error> {
     data.check().map_err(|m| Error::file(source, m))?;
     let specs = builtin_specs();
     let chosen = choose(&specs, opts.models.as_deref(), data.anisotropic)?;
+    let images = match (opts.metric, measured) {
+        (Metric::Image, Some(m)) => Some(fitting_images(&opts.envs, m, opts.image)?),
+        (Metric::Image, None) => {
+            return Err(Error::Other(format!(
+                "{source}: the image metric renders the measured material, which was not given; expected a data file or a material"
+            )));
+        }
+        _ => None,
+    };
+    let objective = match &images {
+        Some(im) => Objective::Image(im),
+        None => Objective::pointwise(opts.metric).unwrap_or_default(),
+    };
     let fit_one = |spec: &ModelSpec, contained: Option<&FitResult>| {
-        fit_from(registry, data, spec, opts.max_evals, contained, stop).map_err(|e| match e {
+        fit_with(
+            registry,
+            data,
+            spec,
+            (opts.max_evals, objective),
+            contained,
+            stop,
+        )
+        .map_err(|e| match e {
             FitError::Cancelled => Error::Other(format!("{source}: interrupted")),
             FitError::Data(m) => Error::file(source, m),
         })
@@ -219,7 +309,15 @@ pub fn fit_batch(
         }
         let source = p.display().to_string();
         let on_model = |r: &FitResult| progress.fitted(&name, r);
-        let r = fit_material(registry, &name, &source, &data, opts, stop, &on_model)?;
+        let measured = data_material(registry, p, opts)?;
+        let r = fit_material_with(
+            registry,
+            (&name, &source),
+            (&data, measured.as_deref()),
+            opts,
+            stop,
+            &on_model,
+        )?;
         progress.finished(&name, &r);
         report::write(out, &r)?;
         done.fetch_add(1, Ordering::Relaxed);

@@ -8,9 +8,12 @@
 //! - [`cost`]: eval and sample time per call of a material;
 //! - [`selection`]: the cheapest fitted model within a tolerance of the best error;
 //! - [`fitting`]: fitting one material into a report, and the data files of a folder;
+//! - [`fit_images`]: the environment maps and reference renders of the `image` metric;
 //! - [`reports`]: reading fit reports, merging them into tables, building their models;
 //! - [`plot`]: what every figure shares (font, palette, the RGB canvas, labels);
 //! - [`figures`]: the study's figures (error charts, polar plots, sphere grids, lobes);
+//! - [`metric_study`]: which fitting metric's fits render closest to the data under
+//!   held-out environment maps;
 //! - [`microfacet`]: section 5.1, the distribution recovered from a synthetic structure;
 //! - [`tradeoff`]: the speed/accuracy/memory trade-off between representations;
 //! - [`stability`]: the numerical sweep of every model at the extremes;
@@ -19,7 +22,9 @@
 
 pub mod cost;
 pub mod figures;
+pub mod fit_images;
 pub mod fitting;
+pub mod metric_study;
 pub mod microfacet;
 pub mod models;
 pub mod plot;

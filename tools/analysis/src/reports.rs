@@ -53,8 +53,9 @@ pub fn model_labels(reports: &[&FitReport]) -> Vec<String> {
 }
 
 /// Reports joined into tables: one row per report (sorted by material name; reports of the
-/// same material keep their order), one column per model of any report (empty where a
-/// report lacks it).
+/// same material keep their order) with the metric its fits minimized, one column per
+/// model of any report (empty where a report lacks it); the errors are Eq. (1) errors
+/// whatever the metric, so rows of different metrics compare.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tables {
     /// Per model its absolute and normalized error, after the material and its max albedo.
@@ -68,13 +69,13 @@ pub fn merge(reports: &[FitReport]) -> Tables {
     let mut sorted: Vec<&FitReport> = reports.iter().collect();
     sorted.sort_by(|a, b| a.material.cmp(&b.material));
     let models = model_labels(&sorted);
-    let mut csv = String::from("material,max_albedo");
+    let mut csv = String::from("material,max_albedo,metric");
     for m in &models {
         csv += &format!(",{m} error,{m} normalized error");
     }
     csv.push('\n');
     let mut md = format!(
-        "| material | {} |\n|---|{}\n",
+        "| material | metric | {} |\n|---|---|{}\n",
         models.join(" | "),
         "---|".repeat(models.len())
     );
@@ -82,8 +83,12 @@ pub fn merge(reports: &[FitReport]) -> Tables {
     for r in sorted {
         let name = &r.material;
         // Written as JSON writes the number (null when not finite), as reports hold it.
-        csv += &format!("{name},{}", serde_json::Value::from(r.max_albedo));
-        md += &format!("| {name} |");
+        csv += &format!(
+            "{name},{},{}",
+            serde_json::Value::from(r.max_albedo),
+            r.metric
+        );
+        md += &format!("| {name} | {} |", r.metric);
         for m in &models {
             let e = r.models.get(m);
             let a = e.and_then(|e| finite(e.error));

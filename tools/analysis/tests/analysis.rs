@@ -146,6 +146,7 @@ fn fitting_a_material_gives_a_report_with_its_selection() {
         resolution: 6.0,
         max_evals: 60,
         select: Some(0.1),
+        ..Default::default()
     };
     let seen = std::sync::Mutex::new(Vec::new());
     let r = fitting::fit_material(&REGISTRY, "w", "material", &data, &opts, &|| false, &|f| {
@@ -188,6 +189,7 @@ fn an_anisotropic_fit_to_isotropic_data_is_never_worse_than_the_model_it_contain
             resolution: 4.0,
             max_evals: 12,
             select: None,
+            ..Default::default()
         };
         let fit = |models: &str| {
             fitting::fit_material(
@@ -246,6 +248,7 @@ fn report_of(material: &str, errors: &[(&str, f64)]) -> FitReport {
         resolution_deg: 1.0,
         samples: 100,
         max_albedo: 0.5,
+        metric: lobe_materials::fit::Metric::Eq1,
         models: errors
             .iter()
             .map(|&(m, e)| {
@@ -272,24 +275,29 @@ fn merged_tables_sort_materials_and_leave_missing_models_empty() {
         report_of("zinc", &[("ward", 0.02)]),
         report_of("alum", &[("ward", 0.01), ("he", 0.03)]),
         // A second report of the same material keeps its place after the first.
-        report_of("zinc", &[("he", 0.04)]),
+        // The same material fitted with another metric: a row of its own, saying which.
+        FitReport {
+            metric: lobe_materials::fit::Metric::CubeRoot,
+            ..report_of("zinc", &[("he", 0.04)])
+        },
     ];
     let t = reports::merge(&rs);
     let lines: Vec<&str> = t.csv.lines().collect();
     assert_eq!(
         lines[0],
-        "material,max_albedo,he error,he normalized error,ward error,ward normalized error"
+        "material,max_albedo,metric,he error,he normalized error,ward error,ward normalized error"
     );
     assert_eq!(
         lines[1],
-        "alum,0.5,3.000000e-2,6.000000e-2,1.000000e-2,2.000000e-2"
+        "alum,0.5,eq1,3.000000e-2,6.000000e-2,1.000000e-2,2.000000e-2"
     );
-    assert_eq!(lines[2], "zinc,0.5,,,2.000000e-2,4.000000e-2");
-    assert_eq!(lines[3], "zinc,0.5,4.000000e-2,8.000000e-2,,");
+    assert_eq!(lines[2], "zinc,0.5,eq1,,,2.000000e-2,4.000000e-2");
+    assert_eq!(lines[3], "zinc,0.5,cube-root,4.000000e-2,8.000000e-2,,");
     let md: Vec<&str> = t.markdown.lines().collect();
-    assert_eq!(md[0], "| material | he | ward |");
-    assert_eq!(md[2], "| alum | 6.0000e-2 | 2.0000e-2 |");
-    assert_eq!(md[3], "| zinc |  | 4.0000e-2 |");
+    assert_eq!(md[0], "| material | metric | he | ward |");
+    assert_eq!(md[2], "| alum | eq1 | 6.0000e-2 | 2.0000e-2 |");
+    assert_eq!(md[3], "| zinc | eq1 |  | 4.0000e-2 |");
+    assert_eq!(md[4], "| zinc | cube-root | 8.0000e-2 |  |");
 }
 
 #[test]
@@ -650,6 +658,7 @@ fn a_batch_fits_its_shard_skips_finished_reports_and_reports_failures() {
         resolution: 5.0,
         max_evals: 40,
         select: None,
+        ..Default::default()
     };
     struct Count(AtomicUsize);
     impl fitting::BatchProgress for Count {

@@ -462,6 +462,83 @@ fn fit_writes_a_report_that_loads_as_a_material() {
     );
 }
 
+#[test]
+fn fit_metric_is_chosen_recorded_and_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let mat = r#"{"type": "cook-torrance", "diffuse": 0.1, "specular": 0.4, "m": 0.2, "f0": 0.2}"#;
+    let fit = |metric: &str, extra: &[&str]| {
+        let report = dir.path().join(format!("{metric}.fit.json"));
+        let mut args = vec![
+            "fit",
+            "--material",
+            mat,
+            "--models",
+            "ward",
+            "--resolution",
+            "10",
+            "--metric",
+            metric,
+            "-o",
+            report.to_str().unwrap(),
+            "-q",
+        ];
+        args.extend(extra);
+        let o = lobe().args(&args).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        v
+    };
+    let eq1 = fit("ngan2005", &[]);
+    assert_eq!(eq1["metric"], "eq1");
+    assert!(eq1["models"]["ward"].get("metric_error").is_none());
+    for (metric, extra) in [
+        ("cube-root", &[][..]),
+        ("image", &["--env", "builtin:studio"][..]),
+    ] {
+        let v = fit(metric, extra);
+        assert_eq!(v["metric"], metric);
+        let w = &v["models"]["ward"];
+        // Another metric's optimum is not Eq. (1)'s: its Eq. (1) error is larger.
+        let e = w["error"].as_f64().unwrap();
+        let e1 = eq1["models"]["ward"]["error"].as_f64().unwrap();
+        assert!(e > e1 * (1.0 + 1e-6), "{metric}: {e} vs {e1}");
+        assert!(w["metric_error"].as_f64().unwrap() > 0.0);
+    }
+    let out = dir.path().join("x.fit.json");
+    let out = out.to_str().unwrap();
+    fails(
+        &["fit", "--material", mat, "--metric", "l2", "-o", out],
+        "unknown metric \"l2\"",
+    );
+    fails(
+        &[
+            "fit",
+            "--material",
+            mat,
+            "--env",
+            "builtin:studio",
+            "-o",
+            out,
+        ],
+        "--env: only for --metric image",
+    );
+    fails(
+        &[
+            "fit",
+            "--material",
+            mat,
+            "--metric",
+            "image",
+            "--env",
+            "/nonexistent.exr",
+            "-o",
+            out,
+        ],
+        "/nonexistent.exr",
+    );
+}
+
 /// Writes isotropic binned data of `material` (no acquisition noise, every bin filled):
 /// `n_theta` bins of theta_i and theta_o over 0-80 degrees, `n_phi` of phi_d over 0-180.
 fn write_binned(material: serde_json::Value, (n_theta, n_phi): (usize, usize), path: &Path) {
@@ -562,9 +639,9 @@ fn batch_fits_are_sharded_resumable_and_merge_into_tables() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(dir.path().join("table.csv")).unwrap();
     assert_eq!(csv.lines().count(), 4, "{csv}");
-    assert!(
-        csv.starts_with("material,max_albedo,cook-torrance error,cook-torrance normalized error")
-    );
+    assert!(csv.starts_with(
+        "material,max_albedo,metric,cook-torrance error,cook-torrance normalized error"
+    ));
     assert!(
         std::fs::read_to_string(dir.path().join("table.md"))
             .unwrap()

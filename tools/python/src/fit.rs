@@ -7,11 +7,11 @@
 
 use crate::material::Material;
 use crate::{file_err, guarded, interrupt, to_py};
-use lobe_analysis::fitting::{FitOptions, fit_material, stem};
+use lobe_analysis::fitting::{FitOptions, data_material, fit_material_with, stem};
 use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
-use lobe_materials::fit::{FitResult, builtin_specs};
+use lobe_materials::fit::{FitResult, Metric, builtin_specs};
 use lobe_materials::registry::Registry;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -33,9 +33,12 @@ enum Source {
 
 /// Fits and returns the report's JSON text; `progress(label, error_normalized, seconds)`
 /// is called on the calling thread after each model. Ctrl-C or an exception from
-/// `progress` stops the fit (at the next objective evaluation) and is raised.
+/// `progress` stops the fit (at the next objective evaluation) and is raised. `metric` is
+/// a name `lobe fit --metric` takes, `envs` the image metric's environment maps (empty:
+/// the defaults).
 #[pyfunction]
-#[pyo3(signature = (data, models, resolution, max_evals, select, progress))]
+#[pyo3(signature = (data, models, resolution, max_evals, select, progress, metric="eq1", envs=Vec::new()))]
+#[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
     data: Data<'_>,
@@ -44,13 +47,20 @@ fn fit(
     max_evals: usize,
     select: Option<f64>,
     progress: Option<Py<PyAny>>,
+    metric: &str,
+    envs: Vec<String>,
 ) -> PyResult<String> {
     guarded(|| {
+        let metric = Metric::parse(metric)
+            .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("metric: {e}")))?;
         let opts = FitOptions {
             models,
             resolution,
             max_evals,
             select,
+            metric,
+            envs,
+            ..Default::default()
         };
         let registry = Registry::builtin();
         // What the fit's thread needs of `data` (a `PyRef` stays on this thread).
@@ -64,13 +74,27 @@ fn fit(
             match &data {
                 Source::File(p) => {
                     let d = Dataset::read(p, resolution)?;
+                    let measured = data_material(&registry, p, &opts)?;
                     let source = p.display().to_string();
-                    fit_material(&registry, &stem(p), &source, &d, &opts, &stop, &on_model)
+                    fit_material_with(
+                        &registry,
+                        (&stem(p), &source),
+                        (&d, measured.as_deref()),
+                        &opts,
+                        &stop,
+                        &on_model,
+                    )
                 }
                 Source::Values(b) => {
                     let d = Dataset::isotropic(&|wi, wo| Some(b.eval(wo, wi)), resolution);
-                    let name = "synthetic";
-                    fit_material(&registry, name, "material", &d, &opts, &stop, &on_model)
+                    fit_material_with(
+                        &registry,
+                        ("synthetic", "material"),
+                        (&d, Some(b.as_ref())),
+                        &opts,
+                        &stop,
+                        &on_model,
+                    )
                 }
             }
         };

@@ -66,6 +66,8 @@ def test_bad_arrays_and_options_are_value_errors():
         m.albedo(95.0)
     with pytest.raises(ValueError, match="metric"):
         lobe.fit(m, metric="l2", progress=False)
+    with pytest.raises(ValueError, match="envs: only for metric='image'"):
+        lobe.fit(m, metric="log", envs=["builtin:studio"], progress=False)
     with pytest.raises(ValueError, match="resolution"):
         lobe.fit(m, resolution=0.0, progress=False)
     with pytest.raises(ValueError, match="models|model"):

@@ -37,3 +37,35 @@ def test_fit_of_a_material_equals_cli(lobe_bin, tmp_path):
     run([lobe_bin, "fit", "--material", json.dumps(desc), "--models", "blinn-phong", "--resolution", "5", "--max-evals", "40", "-o", str(out)])
     r = lobe.fit(lobe.Material(desc), models="blinn-phong", resolution=5, max_evals=40, progress=False)
     assert strip_times(r.to_json()) == strip_times(json.loads(out.read_text()))
+
+
+def test_fit_metrics_equal_cli_and_keep_the_eq1_error(lobe_bin, tmp_path):
+    desc = MODELS["cook-torrance"]
+    reports = {}
+    for metric, envs in (("eq1", ()), ("log", ()), ("image", ("builtin:studio",))):
+        out = tmp_path / f"{metric}.fit.json"
+        env_args = [a for e in envs for a in ("--env", e)]
+        run([lobe_bin, "fit", "--material", json.dumps(desc), "--models", "ward", "--resolution", "10", "--max-evals", "40", "--metric", metric, *env_args, "-o", str(out)])
+        r = lobe.fit(lobe.Material(desc), models="ward", metric=metric, envs=envs, resolution=10, max_evals=40, progress=False)
+        assert strip_times(r.to_json()) == strip_times(json.loads(out.read_text()))
+        assert r.metric == metric
+        reports[metric] = r.models["ward"]
+    # "ngan2005" is Eq. 1 by its old name.
+    old = lobe.fit(lobe.Material(desc), models="ward", metric="ngan2005", resolution=10, max_evals=40, progress=False)
+    assert old.metric == "eq1" and old.models["ward"].error == reports["eq1"].error
+    assert reports["eq1"].metric_error is None
+    for metric in ("log", "image"):
+        # Each fit's error is its Eq. 1 error: never below the Eq. 1 fit's.
+        assert reports[metric].error > reports["eq1"].error
+        assert reports[metric].metric_error > 0.0
+
+
+def test_a_report_without_a_metric_reads_as_eq1(lobe_bin, tmp_path):
+    out = tmp_path / "r.fit.json"
+    run([lobe_bin, "fit", "--material", json.dumps(MODELS["ward"]), "--models", "ward", "--resolution", "10", "--max-evals", "20", "-o", str(out)])
+    v = json.loads(out.read_text())
+    del v["metric"]
+    v["format_version"] = 2
+    out.write_text(json.dumps(v))
+    r = lobe.read_fit_report(out)
+    assert r.metric == "eq1" and r.models["ward"].metric_error is None

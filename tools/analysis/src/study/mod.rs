@@ -17,9 +17,9 @@
 pub mod site;
 pub mod steps;
 
+use crate::fit_images::SUNSET;
 use lobe_materials::fit::Stop;
 use lobe_materials::fit::dataset::Dataset;
-use lobe_materials::measured::format;
 use lobe_materials::registry::Registry;
 use lobe_renderer::Error;
 use serde_json::{Value, json};
@@ -194,12 +194,7 @@ impl StudyMaterial {
     /// The material description that renders the data itself.
     pub fn desc(&self) -> Result<Value, Error> {
         match &self.source {
-            Source::File(p) => {
-                let abs = std::fs::canonicalize(p)
-                    .map_err(|e| Error::file(p.display(), format!("cannot open: {e}")))?;
-                let kind = format::detect(&abs)?.material_type();
-                Ok(json!({"type": kind, "file": abs.display().to_string()}))
-            }
+            Source::File(p) => crate::fitting::data_material_desc(p),
             Source::Analytic(desc) => Ok(desc.clone()),
         }
     }
@@ -304,10 +299,6 @@ pub struct Env {
     /// What the scene's envmap light reads (a path or builtin:studio).
     pub file: String,
 }
-
-/// The sunset map of scenes/envmaps (512 x 256, CC0, Greg Zaal / HDRI Haven), embedded so
-/// that the built-in study has a second, outdoor lighting without any file.
-const SUNSET: &[u8] = include_bytes!("../../../../scenes/envmaps/sunset-512.exr");
 
 /// The environment maps: the configured ones, or builtin:studio and the embedded sunset
 /// map (written to DIR/assets/ the first time).

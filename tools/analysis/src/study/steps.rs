@@ -206,6 +206,7 @@ fn fit(ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
         resolution: s.resolution,
         max_evals: s.max_evals,
         select: Some(s.tolerance),
+        ..Default::default()
     };
     let source = m.source_text();
     let r = fit_material(

@@ -6,12 +6,14 @@
 use crate::args::{finite, parse_shard};
 use crate::material::{MaterialArgs, MaterialSource};
 use lobe_analysis::fitting::{
-    BatchProgress, BatchSummary, FitOptions, batch_jobs, fit_batch, fit_material, stem,
+    BatchProgress, BatchSummary, FitOptions, batch_jobs, data_material, fit_batch,
+    fit_material_with, stem,
 };
 use lobe_analysis::reports::{merge, read_reports, report_files};
+use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
-use lobe_materials::fit::{FitResult, ISOTROPIC_DEFAULT, Stop, builtin_specs};
+use lobe_materials::fit::{FitResult, ISOTROPIC_DEFAULT, Metric, Stop, builtin_specs};
 use lobe_renderer::Error;
 use lobe_renderer::outputs::FilePlan;
 use std::io::IsTerminal;
@@ -39,6 +41,15 @@ pub struct FitArgs {
     /// Objective evaluations allowed per SLSQP start.
     #[arg(long, default_value_t = 300)]
     max_evals: usize,
+    /// The metric the fits minimize: eq1 (Ngan et al.'s Eq. 1; alias ngan2005), log
+    /// (Eq. 1 on ln(1 + f cos)), cube-root (on (f cos)^(1/3)) or image (renders of a sphere
+    /// under --env maps). Reports keep the Eq. 1 error of every fit (docs/fitting.md).
+    #[arg(long, default_value = "eq1")]
+    metric: String,
+    /// An environment map the image metric fits under (repeatable): builtin:studio,
+    /// builtin:sunset or an .exr/.hdr file (default: builtin:studio and builtin:sunset).
+    #[arg(long, value_name = "MAP")]
+    env: Vec<String>,
     /// Output report (JSON), or in batch mode the folder of reports.
     #[arg(long, short)]
     output: Option<PathBuf>,
@@ -70,15 +81,120 @@ enum FitSub {
         #[arg(long, short)]
         output: PathBuf,
     },
+    /// Which metric's fits render closest to the data: fits each file with each metric
+    /// (reports kept in OUT/fits, reused when rerun), renders a sphere of every fit and of
+    /// the data under held-out maps and writes RMSE and FLIP to OUT/metrics.{csv,md}.
+    CompareMetrics(Box<CompareMetricsArgs>),
 }
 
-/// The fit options of the command line.
+#[derive(clap::Args)]
+struct CompareMetricsArgs {
+    /// Measured files (MERL, binned or RGL).
+    #[arg(required = true)]
+    data: Vec<PathBuf>,
+    /// Comma-separated model labels.
+    #[arg(long, default_value = "cook-torrance,ward,lafortune,blinn-phong")]
+    models: String,
+    /// Comma-separated metrics.
+    #[arg(long, default_value = "eq1,log,cube-root,image")]
+    metrics: String,
+    /// The maps the image metric fits under (default builtin:studio, builtin:sunset).
+    #[arg(long, value_name = "MAP")]
+    env: Vec<String>,
+    /// The held-out maps the renders are compared under (at least one).
+    #[arg(long, value_name = "MAP", required = true)]
+    test_env: Vec<String>,
+    /// Bin size in degrees of isotropic data.
+    #[arg(long, default_value_t = 2.0, value_parser = finite::<f64>)]
+    resolution: f64,
+    /// Render size in pixels.
+    #[arg(long, default_value_t = 128)]
+    size: u32,
+    /// Samples per pixel of every render.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Output folder.
+    #[arg(long, short)]
+    output: PathBuf,
+}
+
+/// `lobe fit compare-metrics`: the experiment of lobe_analysis::metric_study.
+fn compare_metrics(a: &CompareMetricsArgs, quiet: bool) -> Result<(), Error> {
+    use lobe_analysis::metric_study::{MetricStudyConfig, run, write};
+    let metrics = a
+        .metrics
+        .split(',')
+        .map(|m| Metric::parse(m.trim()).map_err(|e| Error::Other(format!("--metrics: {e}"))))
+        .collect::<Result<Vec<_>, _>>()?;
+    let sizes_ok =
+        (0.25..=20.0).contains(&a.resolution) && (16..=2048).contains(&a.size) && a.spp > 0;
+    if !sizes_ok {
+        return Err(Error::Other(format!(
+            "--resolution {} / --size {} / --spp {}: expected [0.25, 20] degrees, 16 to 2048 pixels and at least one sample",
+            a.resolution, a.size, a.spp
+        )));
+    }
+    let mut plan = FilePlan::new();
+    for p in &a.data {
+        plan.input(p, "measured data");
+    }
+    for e in a
+        .env
+        .iter()
+        .chain(&a.test_env)
+        .filter(|e| !e.starts_with("builtin:"))
+    {
+        plan.input(Path::new(e), "an environment map");
+    }
+    plan.output(a.output.join("metrics.csv"), "CSV table")
+        .output(a.output.join("metrics.md"), "Markdown table")
+        .check_overlaps()?;
+    std::fs::create_dir_all(&a.output)
+        .map_err(|e| Error::file(a.output.display(), format!("cannot create: {e}")))?;
+    plan.check()?;
+    let config = MetricStudyConfig {
+        data: a.data.clone(),
+        fit: FitOptions {
+            models: Some(a.models.clone()),
+            resolution: a.resolution,
+            envs: a.env.clone(),
+            ..Default::default()
+        },
+        metrics,
+        test_envs: a.test_env.clone(),
+        size: a.size,
+        spp: a.spp,
+        out: a.output.clone(),
+    };
+    let stop = stop_flag();
+    let say = |m: &str| {
+        if !quiet {
+            eprintln!("{m}");
+        }
+    };
+    let rows = run(
+        &lobe_materials::registry::Registry::builtin(),
+        &config,
+        &stop,
+        &say,
+    )?;
+    write(&rows, &a.output)?;
+    if !quiet {
+        eprintln!("wrote {}", a.output.join("metrics.md").display());
+    }
+    Ok(())
+}
+
+/// The fit options of the command line (the metric checked by [`check_options`]).
 fn options(args: &FitArgs) -> FitOptions {
     FitOptions {
         models: args.models.clone(),
         resolution: args.resolution,
         max_evals: args.max_evals,
         select: args.select.then_some(args.tolerance),
+        metric: Metric::parse(&args.metric).unwrap_or_default(),
+        envs: args.env.clone(),
+        ..Default::default()
     }
 }
 
@@ -150,7 +266,7 @@ impl BatchProgress for Display {
 /// (unless `quiet`); `stop` is polled inside the optimizer (Ctrl-C).
 fn fit_report(
     (name, source): (&str, &str),
-    data: &Dataset,
+    (data, measured): (&Dataset, Option<&dyn Bsdf>),
     args: &FitArgs,
     quiet: bool,
     stop: &Stop<'_>,
@@ -163,11 +279,10 @@ fn fit_report(
         tolerance: args.tolerance,
     };
     let on_model = |r: &FitResult| display.fitted(name, r);
-    let report = fit_material(
+    let report = fit_material_with(
         &lobe_materials::registry::Registry::builtin(),
-        name,
-        source,
-        data,
+        (name, source),
+        (data, measured),
         &options(args),
         stop,
         &on_model,
@@ -181,6 +296,12 @@ fn check_options(args: &FitArgs) -> Result<(), Error> {
         return Err(Error::Other(format!(
             "--tolerance: expected a non-negative relative tolerance, found {}",
             args.tolerance
+        )));
+    }
+    let metric = Metric::parse(&args.metric).map_err(|e| Error::Other(format!("--metric: {e}")))?;
+    if !args.env.is_empty() && metric != Metric::Image {
+        return Err(Error::Other(format!(
+            "--env: only for --metric image; expected no --env with --metric {metric}"
         )));
     }
     if !(args.resolution >= 0.25 && args.resolution <= 20.0) {
@@ -201,8 +322,10 @@ fn stop_flag() -> impl Fn() -> bool + Sync {
 }
 
 pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
-    if let Some(FitSub::Merge { inputs, output }) = &args.sub {
-        return write_merged(inputs, output, quiet);
+    match &args.sub {
+        Some(FitSub::Merge { inputs, output }) => return write_merged(inputs, output, quiet),
+        Some(FitSub::CompareMetrics(a)) => return compare_metrics(a, quiet),
+        None => {}
     }
     if args.list {
         for s in builtin_specs() {
@@ -223,18 +346,28 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
     plan.output(&output, "fit report");
     let report = match &args.data {
         Some(p) => {
-            plan.input(p, "the measured data").check()?;
+            plan.input(p, "the measured data");
+            plan_envs(&mut plan, &args);
+            plan.check()?;
             let data = Dataset::read(p, args.resolution)?;
+            let measured = data_material(
+                &lobe_materials::registry::Registry::builtin(),
+                p,
+                &options(&args),
+            )?;
             let source = p.display().to_string();
-            fit_report((&stem(p), &source), &data, &args, quiet, &stop)?
+            let d = (&data, measured.as_deref());
+            fit_report((&stem(p), &source), d, &args, quiet, &stop)?
         }
         None => {
             let source = MaterialSource::new(&args.material)?;
             source.plan_inputs(&mut plan);
+            plan_envs(&mut plan, &args);
             plan.check()?;
             let m = source.build()?;
             let data = Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), args.resolution);
-            fit_report(("synthetic", "material"), &data, &args, quiet, &stop)?
+            let d = (&data, Some(m.as_ref()));
+            fit_report(("synthetic", "material"), d, &args, quiet, &stop)?
         }
     };
     report::write(&output, &report)?;
@@ -242,6 +375,13 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
         eprintln!("wrote {}", output.display());
     }
     Ok(())
+}
+
+/// The environment map files of --env, as inputs of the fit.
+fn plan_envs(plan: &mut FilePlan, args: &FitArgs) {
+    for e in args.env.iter().filter(|e| !e.starts_with("builtin:")) {
+        plan.input(Path::new(e), "an environment map of the image metric");
+    }
 }
 
 /// A progress bar over models (files x models each), shown on a terminal.

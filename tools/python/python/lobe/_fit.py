@@ -15,8 +15,11 @@ from ._progress import Progress
 
 PathLike = Union[str, "os.PathLike[str]"]
 
-# The metrics `lobe fit` accepts: the study's Eq. 1 (cosine-weighted RMS, sum-of-weights normalized).
-METRICS = ("ngan2005",)
+# The metrics `lobe fit --metric` accepts (docs/fitting.md, "Metrics"): the study's Eq. 1
+# (cosine-weighted RMS, sum-of-weights normalized; "ngan2005" is an alias), Eq. 1 on
+# ln(1 + f cos) (Löw et al. 2012), on (f cos)^(1/3), and the image error of renders of a
+# sphere under environment maps.
+METRICS = ("eq1", "ngan2005", "log", "cube-root", "image")
 
 
 @dataclass
@@ -41,7 +44,9 @@ class StartedFrom:
 @dataclass
 class ModelFit:
     """One fitted model: ``material`` is the description ``lobe.Material`` builds;
-    ``error`` the Eq. 1 metric, ``error_normalized`` that over the data's maximum albedo.
+    ``error`` the Eq. 1 metric (whatever metric the fit minimized), ``error_normalized``
+    that over the data's maximum albedo, ``metric_error`` the value of the report's
+    ``metric`` when it is not Eq. 1.
     ``at_bounds`` lists parameters that ended at a bound of their fit range,
     ``start_errors`` every start's coarse-stage error (ascending: their spread shows how
     many basins the starts fell into), ``started_from`` the contained model an anisotropic
@@ -59,6 +64,7 @@ class ModelFit:
     start_errors: List[float] = field(default_factory=list)
     started_from: Optional[StartedFrom] = None
     isotropic_data: bool = False
+    metric_error: Optional[float] = None
 
     @classmethod
     def from_json(cls, v: Dict[str, Any]) -> "ModelFit":
@@ -71,6 +77,8 @@ class ModelFit:
     def to_json(self) -> Dict[str, Any]:
         d = vars(self).copy()
         d["at_bounds"] = [vars(b).copy() for b in self.at_bounds]
+        if self.metric_error is None:
+            del d["metric_error"]
         if self.started_from is None:
             del d["started_from"]
         else:
@@ -108,6 +116,8 @@ class FitReport:
     max_albedo: float
     models: Dict[str, ModelFit]
     selected: Optional[Selection] = None
+    # The metric the fits minimized ("eq1" for reports written before the field existed).
+    metric: str = "eq1"
     extra: Dict[str, Any] = field(default_factory=dict, repr=False)
 
     @classmethod
@@ -118,11 +128,12 @@ class FitReport:
         if sel is not None:
             sel = Selection(**{**sel, "costs": {k: ModelCost(**c) for k, c in sel["costs"].items()}})
         known = {k: v.pop(k) for k in ("format_version", "material", "source", "resolution_deg", "samples", "max_albedo")}
-        return cls(models=models, selected=sel, extra=v, **known)
+        metric = v.pop("metric", "eq1")
+        return cls(models=models, selected=sel, metric=metric, extra=v, **known)
 
     def to_json(self) -> Dict[str, Any]:
         """The report as the JSON object ``lobe fit`` writes."""
-        d: Dict[str, Any] = {k: getattr(self, k) for k in ("format_version", "material", "source", "resolution_deg", "samples", "max_albedo")}
+        d: Dict[str, Any] = {k: getattr(self, k) for k in ("format_version", "material", "source", "resolution_deg", "samples", "max_albedo", "metric")}
         d["models"] = {k: m.to_json() for k, m in self.models.items()}
         if self.selected is not None:
             s = vars(self.selected).copy()
@@ -155,19 +166,24 @@ def fit_models() -> List[str]:
 def fit(
     data: Union[PathLike, Material],
     models: Union[str, Iterable[str], None] = None,
-    metric: str = "ngan2005",
+    metric: str = "eq1",
     resolution: float = 1.0,
     max_evals: int = 300,
     select: Optional[float] = None,
     progress: Union[bool, Callable[[str, float, float], Any]] = True,
+    envs: Iterable[PathLike] = (),
 ) -> FitReport:
     """Fits models to ``data``, a measured file (MERL, binned or RGL, told apart by content)
     or a ``lobe.Material`` (its values binned, as ``lobe fit --material``).
 
     ``models``: labels (``fit_models()``), a list or comma-separated; default the study's
     seven isotropic models (or, for anisotropic binned data, anisotropic Ward,
-    Ashikhmin-Shirley and Poulin-Fournier). ``metric``: ``"ngan2005"``, the study's Eq. 1,
-    the only one ``lobe fit`` has. ``resolution``: bin size in degrees of isotropic data.
+    Ashikhmin-Shirley and Poulin-Fournier). ``metric``: what the fits minimize, as
+    ``lobe fit --metric``: ``"eq1"`` (the study's Eq. 1; ``"ngan2005"`` is an alias),
+    ``"log"`` (Eq. 1 on ln(1 + f cos)), ``"cube-root"`` (on (f cos)^(1/3)) or ``"image"``
+    (renders of a sphere under the ``envs`` maps: ``"builtin:studio"``,
+    ``"builtin:sunset"`` or image files; default both built-in ones); every fit's ``error``
+    stays its Eq. 1 error. ``resolution``: bin size in degrees of isotropic data.
     ``max_evals``: objective evaluations per SLSQP start. ``select``: also pick the
     cheapest model whose normalized error is within this relative tolerance of the best.
     ``progress``: ``True`` shows a bar advancing per fitted model (tqdm: a widget in
@@ -179,6 +195,9 @@ def fit(
     The result equals ``lobe fit DATA --models ... -o r.fit.json`` (timings aside)."""
     if metric not in METRICS:
         raise ValueError(f"metric: expected one of {', '.join(METRICS)}, found {metric!r}")
+    env_list = [os.fspath(e) for e in envs]
+    if env_list and metric != "image":
+        raise ValueError(f"envs: only for metric='image'; found metric={metric!r}")
     if not (0.25 <= resolution <= 20.0):
         raise ValueError(f"resolution: expected a bin size in [0.25, 20] degrees, found {resolution}")
     if select is not None and not (select >= 0.0):
@@ -194,12 +213,12 @@ def fit(
             raise ValueError(f"{target}: is a folder; lobe.fit fits one file (`lobe fit FOLDER -o OUT` fits a folder)")
         name = os.path.basename(target)
     if callable(progress) or not progress:
-        text = _lobe.fit(target, models, float(resolution), int(max_evals), select, progress or None)
+        text = _lobe.fit(target, models, float(resolution), int(max_evals), select, progress or None, metric, env_list)
     else:
         with Progress(f"fitting {name}", len(models.split(",")) if models else None, "model") as bar:
 
             def fitted(label: str, error_normalized: float, seconds: float) -> None:
                 bar.update_to(bar.n + 1, f"{label:28} normalized error {error_normalized:.4e} ({seconds:.1f} s)")
 
-            text = _lobe.fit(target, models, float(resolution), int(max_evals), select, fitted)
+            text = _lobe.fit(target, models, float(resolution), int(max_evals), select, fitted, metric, env_list)
     return FitReport.from_json(json.loads(text))
