@@ -247,12 +247,7 @@ impl He {
     fn proposals(&self, wo: Vec3) -> [Distribution; 2] {
         let smooth = (WAVELENGTHS_UM[1] / (2.0 * std::f64::consts::PI * self.tau)).clamp(1e-4, 2.0);
         let co = wo.z.clamp(1e-4, 1.0) as f64;
-        let (_, sigma) = he_shadowing::elevation_terms(
-            self.sigma0 as f32,
-            self.tau as f32,
-            co as f32,
-            co as f32,
-        );
+        let sigma = he_shadowing::self_roughness(self.sigma0 as f32, self.tau as f32, co as f32);
         let rough = (2.0 * sigma as f64 / self.tau).clamp(smooth, 2.0);
         [
             Distribution::Beckmann { m: smooth },

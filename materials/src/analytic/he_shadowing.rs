@@ -86,21 +86,35 @@ pub fn elevation_terms(sigma0: f32, tau: f32, ci: f32, co: f32) -> (f32, f32) {
     if sigma0 <= f32::EPSILON {
         return (1.0, 0.0);
     }
-    let a = tau / (2.0 * sigma0);
-    // (S, K) of one direction: s = a cot(theta), K = tan(theta) erfc(s) (0 at normal
-    // incidence, where he.rs's forms cut off at tan(theta) <= 1e-7 too).
-    let terms = |c: f32| {
-        let sin = (1.0 - c * c).max(0.0).sqrt();
-        if sin <= 1e-7 {
-            return (1.0, 0.0);
-        }
-        let tan = sin / c;
-        let (shadow, erfc) = lookup(a / tan);
-        (shadow, tan * erfc)
-    };
-    let (s_i, k_i) = terms(ci);
-    let (s_o, k_o) = terms(co);
+    let (s_i, k_i) = direction_terms(sigma0, tau, ci);
+    let (s_o, k_o) = direction_terms(sigma0, tau, co);
     (s_i * s_o, sigma0 * roughness_factor(k_i + k_o))
+}
+
+/// sigma(theta, theta), the effective roughness with both directions at cos theta = `c`
+/// ([`elevation_terms`]' second term, one direction's terms found once): the width of He's
+/// rough sampling proposal.
+#[inline]
+pub fn self_roughness(sigma0: f32, tau: f32, c: f32) -> f32 {
+    if sigma0 <= f32::EPSILON {
+        return 0.0;
+    }
+    let (_, k) = direction_terms(sigma0, tau, c);
+    sigma0 * roughness_factor(k + k)
+}
+
+/// (S, K) of one direction at cos theta = `c`: s = tau cot(theta) / (2 sigma0),
+/// K = tan(theta) erfc(s) (0 at normal incidence, where he.rs's forms cut off at
+/// tan(theta) <= 1e-7 too). `sigma0` must be above `f32::EPSILON`.
+#[inline]
+pub fn direction_terms(sigma0: f32, tau: f32, c: f32) -> (f32, f32) {
+    let sin = (1.0 - c * c).max(0.0).sqrt();
+    if sin <= 1e-7 {
+        return (1.0, 0.0);
+    }
+    let tan = sin / c;
+    let (shadow, erfc) = lookup(tau / (2.0 * sigma0) / tan);
+    (shadow, tan * erfc)
 }
 
 /// 1 / sqrt(1 + x^2) where x exp(x^2 / 2) = f0 = k / sqrt(8 pi), by bbm's four Newton
