@@ -20,8 +20,11 @@ use std::time::Instant;
 use wide::f64x4;
 
 const TILE: u32 = 16;
-/// Samples of one pixel traced together by the wavefront integrator.
-const BATCH: u32 = 64;
+/// Samples traced together by the wavefront integrator: the samples of as many pixels as
+/// fit (a pixel of more samples goes in pieces of this size). Larger wavefronts fill the
+/// SIMD lanes of the batched material and light calls better, above all in scenes of
+/// several materials and at the later bounces, where few paths remain.
+const WAVEFRONT: u32 = 512;
 
 /// A render's progress report: called with (pixels done, pixels of the film) each time a
 /// tile finishes, from the render's worker threads but one call at a time, with `done`
@@ -123,65 +126,120 @@ struct TileResult {
     dropped: u64,
 }
 
-/// Renders one tile; returns None as soon as `cancel` is set (checked per pixel, so that a
-/// high-spp render stops promptly).
+/// A pixel's running sums over its finite samples, per channel (r, g, b, unused) in one
+/// f64x4 register each: the same sums as channel by channel, in sample order.
+#[derive(Clone, Copy)]
+struct PixelSums {
+    sum: f64x4,
+    sum2: f64x4,
+    n: u32,
+}
+
+impl PixelSums {
+    const ZERO: Self = Self {
+        sum: f64x4::ZERO,
+        sum2: f64x4::ZERO,
+        n: 0,
+    };
+
+    /// Adds `samples` in order; non-finite ones are counted in `dropped` instead.
+    fn add(&mut self, samples: &[Rgb], dropped: &mut u64) {
+        for &l in samples {
+            if !l.is_finite() {
+                *dropped += 1;
+                continue;
+            }
+            self.n += 1;
+            let c = f64x4::new([l.r as f64, l.g as f64, l.b as f64, 0.0]);
+            self.sum += c;
+            self.sum2 += c * c;
+        }
+    }
+
+    /// The mean and the variance of the mean.
+    fn mean_and_variance(&self) -> (Rgb, Rgb) {
+        let (sum, sum2, n) = (self.sum.to_array(), self.sum2.to_array(), self.n);
+        let nf = n.max(1) as f64;
+        let m = sum.map(|s| s / nf);
+        let v: [f64; 3] = std::array::from_fn(|k| {
+            if n > 1 {
+                ((sum2[k] - sum[k] * m[k]) / (nf - 1.0)).max(0.0) / nf
+            } else {
+                0.0
+            }
+        });
+        (
+            Rgb::new(m[0] as f32, m[1] as f32, m[2] as f32),
+            Rgb::new(v[0] as f32, v[1] as f32, v[2] as f32),
+        )
+    }
+}
+
+/// Renders one tile; returns None as soon as `cancel` is set (checked per wavefront, so
+/// that a high-spp render stops promptly). The tile's pixels, in row-major order, are cut
+/// into pieces of at most [`WAVEFRONT`] samples, and consecutive pieces are traced
+/// together up to that many samples: every sample's numbers depend on its pixel and
+/// index alone, and each pixel sums its samples in order, so the image does not depend
+/// on how the pieces are grouped.
 fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> Option<TileResult> {
     let w = TILE.min(scene.width - x0);
     let h = TILE.min(scene.height - y0);
     let spp = scene.spp;
     let mut sampler = Sampler::with_scramble(scene.seed, spp, scene.scramble);
-    let mut mean = Vec::with_capacity((w * h) as usize);
-    let mut var = Vec::with_capacity((w * h) as usize);
-    let mut dropped = 0u64;
     let inv = Vec2::new(1.0 / scene.width as f32, 1.0 / scene.height as f32);
-    // The samples of a pixel go through the integrator together, BATCH at a time.
-    let batch = spp.min(BATCH) as usize;
-    let mut radiance = vec![Rgb::ZERO; batch];
+    let pixels: Vec<(u32, u32)> = (y0..y0 + h)
+        .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
+        .collect();
+    let mut sums = vec![PixelSums::ZERO; pixels.len()];
+    let mut dropped = 0u64;
+    // (pixel, first sample, samples) of each piece, in order.
+    let piece = spp.min(WAVEFRONT);
+    let mut pieces = (0..pixels.len())
+        .flat_map(|p| {
+            (0..spp)
+                .step_by(piece as usize)
+                .map(move |first| (p, first))
+        })
+        .map(|(p, first)| (p, first, (spp - first).min(piece)))
+        .peekable();
+    let mut radiance = Vec::new();
+    let mut owners: Vec<(usize, usize)> = Vec::new();
     let (mut camera, mut wf) = (CameraQueue::default(), Wavefront::default());
-    for y in y0..y0 + h {
-        for x in x0..x0 + w {
-            if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-                return None;
+    while pieces.peek().is_some() {
+        if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            return None;
+        }
+        camera.clear();
+        owners.clear();
+        while let Some(&(p, first, count)) = pieces.peek() {
+            if !owners.is_empty() && camera.index.len() + count as usize > WAVEFRONT as usize {
+                break;
             }
-            // Per channel (r, g, b, unused) in one f64x4 register each: the same sums as
-            // channel by channel.
-            let mut sum = f64x4::ZERO;
-            let mut sum2 = f64x4::ZERO;
-            let mut n = 0u32;
-            for first in (0..spp).step_by(batch) {
-                let count = (spp - first).min(batch as u32);
-                // `sampler` is left at the dimension after the camera's, as every sample is.
-                camera.generate(&scene.camera, (x, y), first, count, inv, &mut sampler);
-                let out = &mut radiance[..count as usize];
-                let (rays, indices) = (&camera.ray, &camera.index);
-                scene
-                    .integrator
-                    .li_many(scene, rays, indices, &mut sampler, out, &mut wf);
-                for &l in out.iter() {
-                    if !l.is_finite() {
-                        dropped += 1;
-                        continue;
-                    }
-                    n += 1;
-                    let c = f64x4::new([l.r as f64, l.g as f64, l.b as f64, 0.0]);
-                    sum += c;
-                    sum2 += c * c;
-                }
-            }
-            let (sum, sum2) = (sum.to_array(), sum2.to_array());
-            let nf = n.max(1) as f64;
-            let m = sum.map(|s| s / nf);
-            let v: [f64; 3] = std::array::from_fn(|k| {
-                if n > 1 {
-                    ((sum2[k] - sum[k] * m[k]) / (nf - 1.0)).max(0.0) / nf
-                } else {
-                    0.0
-                }
-            });
-            mean.push(Rgb::new(m[0] as f32, m[1] as f32, m[2] as f32));
-            var.push(Rgb::new(v[0] as f32, v[1] as f32, v[2] as f32));
+            pieces.next();
+            // `sampler` is left at the dimension after the camera's, as every sample is.
+            camera.push_pixel(&scene.camera, pixels[p], first, count, inv, &mut sampler);
+            owners.push((p, count as usize));
+        }
+        radiance.clear();
+        radiance.resize(camera.index.len(), Rgb::ZERO);
+        let (rays, keys, indices) = (&camera.ray, &camera.key, &camera.index);
+        scene.integrator.li_many(
+            scene,
+            rays,
+            keys,
+            indices,
+            &mut sampler,
+            &mut radiance,
+            &mut wf,
+        );
+        let mut rest = radiance.as_slice();
+        for &(p, count) in &owners {
+            let (mine, others) = rest.split_at(count);
+            sums[p].add(mine, &mut dropped);
+            rest = others;
         }
     }
+    let (mean, var) = sums.iter().map(PixelSums::mean_and_variance).unzip();
     Some(TileResult {
         x0,
         y0,

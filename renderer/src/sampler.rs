@@ -34,6 +34,26 @@ fn hash3(a: u64, b: u64, c: u64) -> u64 {
     mix64(a ^ mix64(b ^ mix64(c.wrapping_add(0x9e3779b97f4a7c15))))
 }
 
+/// One dimension of samples `idx` of one pixel, whose hash for that dimension is `h`:
+/// their shuffled indices, then `value` of each.
+#[inline(always)]
+fn run_lanes<T>(h: u64, spp: u32, idx: &[u32], out: &mut [T], value: impl Fn(u64, u32) -> T) {
+    let mut perm = [0u32; LANE_CHUNK];
+    for (ic, oc) in idx.chunks(LANE_CHUNK).zip(out.chunks_mut(LANE_CHUNK)) {
+        let perm = &mut perm[..ic.len()];
+        permute_lanes(ic, spp, h as u32, perm);
+        for (o, &j) in oc.iter_mut().zip(perm.iter()) {
+            *o = value(h, j);
+        }
+    }
+}
+
+/// The hash of dimension `dim` of the pixel with key `key`.
+#[inline(always)]
+fn hash_of_dimension(key: u64, dim: u32) -> u64 {
+    mix64(key.wrapping_add((dim as u64).wrapping_mul(0x9e3779b97f4a7c15)))
+}
+
 /// One round of Kensler's permutation of `i` within [0, w] (`w` = 2^k - 1 covering n - 1).
 #[inline(always)]
 fn permute_round(mut i: u32, w: u32, seed: u32) -> u32 {
@@ -90,7 +110,7 @@ fn permute(mut i: u32, n: u32, seed: u32) -> u32 {
 
 /// [`permute`] of many indices with one seed: a first round over all lanes with no
 /// branch (it vectorizes), then cycle walking only for the lanes that need it.
-#[inline]
+#[inline(never)]
 fn permute_lanes(idx: &[u32], n: u32, seed: u32, out: &mut [u32]) {
     if n <= 1 {
         out.fill(0);
@@ -235,11 +255,25 @@ impl Sampler {
     #[inline]
     pub fn start(&mut self, x: u32, y: u32, index: u32) {
         if self.pixel != Some((x, y)) {
-            self.pixel_key = hash3(self.seed, x as u64, y as u64);
+            self.pixel_key = self.key_of(x, y);
             self.pixel = Some((x, y));
         }
         self.index = index;
         self.dim = 0;
+    }
+
+    /// The key of pixel (x, y): with a sample index, what identifies a sample's numbers
+    /// (the lane functions take one key per sample, so that the samples of many pixels
+    /// draw a dimension together).
+    #[inline]
+    pub fn key_of(&self, x: u32, y: u32) -> u64 {
+        hash3(self.seed, x as u64, y as u64)
+    }
+
+    /// The key of the pixel [`Sampler::start`] last started.
+    #[inline]
+    pub fn key(&self) -> u64 {
+        self.pixel_key
     }
 
     /// The sample index shuffled for the current dimension (Kensler's permutation, which
@@ -251,53 +285,63 @@ impl Sampler {
 
     #[inline]
     fn dim_hash(&mut self) -> u64 {
-        let h = mix64(
-            self.pixel_key
-                .wrapping_add((self.dim as u64).wrapping_mul(0x9e3779b97f4a7c15)),
-        );
+        let h = hash_of_dimension(self.pixel_key, self.dim);
         self.dim += 1;
         h
     }
 
-    /// This sampler's state for another sample of the same pixel at the same dimension.
-    pub fn with_index(&self, index: u32) -> Sampler {
+    /// This sampler's state for sample `index` of the pixel with key `key` (see
+    /// [`Sampler::key_of`]), at the same dimension.
+    pub fn with_sample(&self, key: u64, index: u32) -> Sampler {
         Sampler {
+            pixel_key: key,
+            pixel: None,
             index,
             ..self.clone()
         }
     }
 
-    /// [`Sampler::next_1d`] for many samples of this pixel at once, all at this sampler's
-    /// dimension: `out[k]` is what the sampler of sample `idx[k]` would return (bit for
-    /// bit). Advances the dimension by one; the sample index is left alone. The
-    /// per-dimension hash is computed once for all samples and the rest vectorizes.
-    pub fn next_1d_lanes(&mut self, idx: &[u32], out: &mut [f32]) {
+    /// [`Sampler::next_1d`] for many samples at once, all at this sampler's dimension:
+    /// `out[k]` is what the sampler of sample `idx[k]` of the pixel with key `keys[k]`
+    /// would return (bit for bit). Advances the dimension by one; the sampler's own
+    /// pixel and sample index are left alone. The per-dimension hash is computed once per
+    /// run of samples of one pixel and the rest vectorizes.
+    pub fn next_1d_lanes(&mut self, keys: &[u64], idx: &[u32], out: &mut [f32]) {
         match self.scramble {
-            Scramble::Xor => self.lanes(idx, out, value_1d::<false>),
-            Scramble::Owen => self.lanes(idx, out, value_1d::<true>),
+            Scramble::Xor => self.lanes(keys, idx, out, value_1d::<false>),
+            Scramble::Owen => self.lanes(keys, idx, out, value_1d::<true>),
         }
     }
 
-    /// [`Sampler::next_2d`] for many samples of this pixel at once (see
-    /// [`Sampler::next_1d_lanes`]).
-    pub fn next_2d_lanes(&mut self, idx: &[u32], out: &mut [Vec2]) {
+    /// [`Sampler::next_2d`] for many samples at once (see [`Sampler::next_1d_lanes`]).
+    pub fn next_2d_lanes(&mut self, keys: &[u64], idx: &[u32], out: &mut [Vec2]) {
         match self.scramble {
-            Scramble::Xor => self.lanes(idx, out, value_2d::<false>),
-            Scramble::Owen => self.lanes(idx, out, value_2d::<true>),
+            Scramble::Xor => self.lanes(keys, idx, out, value_2d::<false>),
+            Scramble::Owen => self.lanes(keys, idx, out, value_2d::<true>),
         }
     }
 
-    /// One dimension for the samples `idx`: their shuffled indices, then `value` of each.
+    /// One dimension for the samples (`keys`, `idx`): per run of equal keys (the samples
+    /// of one pixel), the dimension's hash once, then [`run_lanes`].
     #[inline(always)]
-    fn lanes<T>(&mut self, idx: &[u32], out: &mut [T], value: impl Fn(u64, u32) -> T) {
-        let h = self.dim_hash();
-        let mut perm = [0u32; LANE_CHUNK];
-        for (ic, oc) in idx.chunks(LANE_CHUNK).zip(out.chunks_mut(LANE_CHUNK)) {
-            let perm = &mut perm[..ic.len()];
-            permute_lanes(ic, self.spp, h as u32, perm);
-            for (o, &j) in oc.iter_mut().zip(perm.iter()) {
-                *o = value(h, j);
-            }
+    fn lanes<T>(
+        &mut self,
+        keys: &[u64],
+        idx: &[u32],
+        out: &mut [T],
+        value: impl Fn(u64, u32) -> T + Copy,
+    ) {
+        assert!(keys.len() == idx.len() && idx.len() == out.len());
+        let dim = self.dim;
+        self.dim += 1;
+        let mut start = 0;
+        while start < keys.len() {
+            let key = keys[start];
+            let len = keys[start..].iter().position(|&k| k != key);
+            let end = len.map_or(keys.len(), |l| start + l);
+            let h = hash_of_dimension(key, dim);
+            run_lanes(h, self.spp, &idx[start..end], &mut out[start..end], value);
+            start = end;
         }
     }
 
@@ -356,33 +400,68 @@ mod tests {
     }
 
     /// The lane functions give bit for bit what per-sample samplers give, for power-of-two
-    /// and other sample counts, index lists in any order and longer than a chunk.
+    /// and other sample counts, index lists in any order and longer than a chunk, and the
+    /// samples of several pixels in runs of any length (a run may end inside a chunk).
     #[test]
     fn lanes_equal_single_samples() {
         for (spp, scramble) in [1u32, 3, 16, 64, 100, 256]
             .into_iter()
             .flat_map(|n| [(n, Scramble::Xor), (n, Scramble::Owen)])
         {
-            let idx: Vec<u32> = (0..spp).rev().chain((0..spp).step_by(3)).collect();
             let mut batch = Sampler::with_scramble(9, spp, scramble);
+            let pixels = [(4, 7), (5, 7), (4, 7), (0, 0)];
+            let keys_of = |b: &Sampler| pixels.map(|(x, y)| b.key_of(x, y));
+            let runs: [Vec<u32>; 4] = [
+                (0..spp).rev().chain((0..spp).step_by(3)).collect(),
+                (0..spp).step_by(2).collect(),
+                (0..spp.min(5)).collect(),
+                (0..spp).collect(),
+            ];
+            let mut keys = Vec::new();
+            let mut idx = Vec::new();
+            for (key, run) in keys_of(&batch).into_iter().zip(&runs) {
+                keys.extend(std::iter::repeat_n(key, run.len()));
+                idx.extend_from_slice(run);
+            }
             batch.start(4, 7, 0);
             let _ = batch.next_2d();
-            let mut singles: Vec<Sampler> = idx.iter().map(|&i| batch.with_index(i)).collect();
+            let mut singles: Vec<Sampler> = keys
+                .iter()
+                .zip(&idx)
+                .map(|(&k, &i)| batch.with_sample(k, i))
+                .collect();
             for step in 0..6 {
                 if step % 2 == 0 {
                     let mut out = vec![0.0f32; idx.len()];
-                    batch.next_1d_lanes(&idx, &mut out);
+                    batch.next_1d_lanes(&keys, &idx, &mut out);
                     for (s, o) in singles.iter_mut().zip(&out) {
                         assert_eq!(s.next_1d().to_bits(), o.to_bits(), "spp {spp} step {step}");
                     }
                 } else {
                     let mut out = vec![Vec2::ZERO; idx.len()];
-                    batch.next_2d_lanes(&idx, &mut out);
+                    batch.next_2d_lanes(&keys, &idx, &mut out);
                     for (s, o) in singles.iter_mut().zip(&out) {
                         assert_eq!(s.next_2d(), *o, "spp {spp} step {step}");
                     }
                 }
             }
+        }
+    }
+
+    /// A sampler for another pixel's sample by its key draws what a sampler started at
+    /// that pixel draws.
+    #[test]
+    fn with_sample_equals_start() {
+        let mut a = Sampler::new(11, 64);
+        a.start(3, 9, 0);
+        let _ = a.next_2d();
+        let mut b = a.with_sample(a.key_of(20, 1), 17);
+        let mut c = Sampler::new(11, 64);
+        c.start(20, 1, 17);
+        let _ = c.next_2d();
+        for _ in 0..4 {
+            assert_eq!(b.next_2d(), c.next_2d());
+            assert_eq!(b.next_1d().to_bits(), c.next_1d().to_bits());
         }
     }
 

@@ -11,48 +11,50 @@ use lobe_renderer::scene::{LoadOptions, Scene, from_value, load};
 use serde_json::{Value, json};
 use std::path::Path;
 
+/// Every third pixel of every third row: the samples of a row's pixels traced together
+/// in batches of `batch` samples (a batch may hold samples of several pixels, and a
+/// pixel's samples may span batches), each equal to the scalar integrator's.
 fn check(scene: &Scene, batch: usize) {
     let inv = Vec2::new(1.0 / scene.width as f32, 1.0 / scene.height as f32);
     let mut ws = Wavefront::default();
     let mut checked = 0;
     for y in (0..scene.height).step_by(3) {
+        let mut base = Sampler::with_scramble(scene.seed, scene.spp, scene.scramble);
+        let (mut rays, mut keys, mut indices, mut scalar) = (vec![], vec![], vec![], vec![]);
         for x in (0..scene.width).step_by(3) {
-            let mut base = Sampler::with_scramble(scene.seed, scene.spp, scene.scramble);
-            let mut rays = Vec::new();
-            let mut samplers = Vec::new();
-            let mut scalar = Vec::new();
             for s in 0..scene.spp {
                 base.start(x, y, s);
                 let film = (Vec2::new(x as f32, y as f32) + base.next_2d()) * inv;
                 let ray = scene.camera.ray(film);
                 rays.push(ray);
-                samplers.push(base.clone());
+                keys.push(base.key());
+                indices.push(s);
                 let mut own = base.clone();
-                scalar.push(scene.integrator.li(scene, ray, &mut own));
+                scalar.push((x, scene.integrator.li(scene, ray, &mut own)));
             }
-            let indices: Vec<u32> = (0..scene.spp).collect();
-            let mut many = vec![Rgb::ZERO; rays.len()];
-            for ((r, idx), o) in rays
-                .chunks(batch)
-                .zip(indices.chunks(batch))
-                .zip(many.chunks_mut(batch))
-            {
-                // The pixel's sampler at the dimension after the camera's.
-                let mut pixel = samplers[0].clone();
-                scene
-                    .integrator
-                    .li_many(scene, r, idx, &mut pixel, o, &mut ws);
-            }
-            for (s, (a, b)) in scalar.iter().zip(&many).enumerate() {
-                assert_eq!(
-                    a.to_array().map(f32::to_bits),
-                    b.to_array().map(f32::to_bits),
-                    "{}: pixel ({x}, {y}) sample {s}: scalar {a:?}, wavefront {b:?}",
-                    scene.file
-                );
-            }
-            checked += scalar.len();
         }
+        let mut many = vec![Rgb::ZERO; rays.len()];
+        for (((r, k), idx), o) in rays
+            .chunks(batch)
+            .zip(keys.chunks(batch))
+            .zip(indices.chunks(batch))
+            .zip(many.chunks_mut(batch))
+        {
+            // A sampler at the dimension after the camera's (of whichever pixel).
+            let mut sampler = base.clone();
+            scene
+                .integrator
+                .li_many(scene, r, k, idx, &mut sampler, o, &mut ws);
+        }
+        for (((x, a), b), s) in scalar.iter().zip(&many).zip(&indices) {
+            assert_eq!(
+                a.to_array().map(f32::to_bits),
+                b.to_array().map(f32::to_bits),
+                "{}: pixel ({x}, {y}) sample {s}: scalar {a:?}, wavefront {b:?}",
+                scene.file
+            );
+        }
+        checked += scalar.len();
     }
     assert!(checked > 100, "{}: only {checked} samples", scene.file);
 }

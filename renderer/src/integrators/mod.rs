@@ -53,15 +53,18 @@ impl Integrator {
         }
     }
 
-    /// Radiance along many camera rays of one pixel, `out[i]` for `rays[i]` with the
-    /// sampler of sample `indices[i]` (`sampler`: the pixel's, at the dimension the camera
-    /// left it): the same values as [`Integrator::li`] of each, computed together (the
-    /// path integrator's wavefront form, [`Wavefront::trace`], with the buffers of `wf`;
-    /// the direct integrator's single bounce goes sample by sample).
+    /// Radiance along many camera rays, `out[i]` for `rays[i]` with the sampler of sample
+    /// `indices[i]` of the pixel with key `keys[i]` ([`Sampler::key_of`]; `sampler`: at
+    /// the dimension the camera left it): the same values as [`Integrator::li`] of each,
+    /// computed together (the path integrator's wavefront form, [`Wavefront::trace`],
+    /// with the buffers of `wf`; the direct integrator's single bounce goes sample by
+    /// sample).
+    #[allow(clippy::too_many_arguments)] // the scalar `li`'s arguments, plus the batch's
     pub fn li_many(
         &self,
         scene: &Scene,
         rays: &[Ray],
+        keys: &[u64],
         indices: &[u32],
         sampler: &mut Sampler,
         out: &mut [Rgb],
@@ -71,10 +74,12 @@ impl Integrator {
             Integrator::Path {
                 max_depth,
                 rr_depth,
-            } => wf.trace(scene, rays, indices, sampler, max_depth, rr_depth, out),
+            } => wf.trace(
+                scene, rays, keys, indices, sampler, max_depth, rr_depth, out,
+            ),
             Integrator::Direct { .. } => {
-                for ((o, &ray), &i) in out.iter_mut().zip(rays).zip(indices) {
-                    *o = self.li(scene, ray, &mut sampler.with_index(i));
+                for (((o, &ray), &k), &i) in out.iter_mut().zip(rays).zip(keys).zip(indices) {
+                    *o = self.li(scene, ray, &mut sampler.with_sample(k, i));
                 }
             }
         }

@@ -5,8 +5,8 @@
 //!
 //! Two forms compute the same radiance bit for bit: [`li`] here, one path at a time,
 //! the reference the tests hold the renderer to, and the wavefront form the renderer
-//! runs ([`Wavefront`](super::wavefront::Wavefront)), in which the samples of a pixel go
-//! through each stage of a bounce together (tests/tests/wavefront.rs checks that they
+//! runs ([`Wavefront`](super::wavefront::Wavefront)), in which the samples of several pixels
+//! go through each stage of a bounce together (tests/tests/wavefront.rs checks that they
 //! agree).
 
 use super::wavefront::DEPTH_CAP;

@@ -1,12 +1,12 @@
 //! The wavefront form of the path integrator, the one the renderer runs: the camera
-//! samples of a pixel are traced together, and every bounce runs stage by stage over all
+//! samples of several pixels are traced together, and every bounce runs stage by stage over all
 //! live paths, each stage one method over typed struct-of-arrays queues (pbrt-v4's
 //! `WavefrontPathIntegrator`, `src/pbrt/wavefront/integrator.h`; Laine, Karras and Aila,
 //! "Megakernels Considered Harmful: Wavefront Path Tracing on GPUs", 2013):
 //!
 //! | stage | reads | writes |
 //! |---|---|---|
-//! | [`CameraQueue::generate`] | camera, sampler | camera rays |
+//! | [`CameraQueue::push_pixel`] | camera, sampler | camera rays |
 //! | [`Wavefront::intersect`] | active paths' rays | [`HitQueue`], [`EscapedQueue`] |
 //! | [`Wavefront::escaped`] | escaped rays | radiance of infinite lights |
 //! | [`Wavefront::emission`] | hits | radiance of area lights hit |
@@ -47,12 +47,13 @@ pub const DEPTH_CAP: u32 = 1 << 16;
 
 /// The state of every path of the wavefront, indexed by path: its ray, its other
 /// variables (one record per path: the stages reach paths through the queues' indices,
-/// and one record is one cache line), and its sample index within the pixel (its sampler
-/// stream).
+/// and one record is one cache line), and its sampler stream: its pixel's key
+/// ([`Sampler::key_of`]) and its sample index within the pixel.
 #[derive(Default)]
 pub struct Paths {
     pub ray: Vec<Ray>,
     pub vars: Vec<PathVars>,
+    pub key: Vec<u64>,
     pub index: Vec<u32>,
 }
 
@@ -101,6 +102,7 @@ pub struct EscapedQueue {
 pub struct ScatterQueue {
     pub frame: Vec<Frame>,
     pub wo: Vec<Vec3>,
+    pub sample_key: Vec<u64>,
     pub sample_index: Vec<u32>,
     pub light_uc: Vec<f32>,
     pub light_u: Vec<Vec2>,
@@ -157,20 +159,28 @@ pub struct MaterialGroups {
     samples: Vec<Option<BsdfSample>>,
 }
 
-/// The camera stage's queue: the sample indices, film jitters and rays of a batch of
-/// one pixel's samples.
+/// The camera stage's queue: the sampler streams (pixel keys and sample indices), film
+/// jitters and rays of a batch of samples of one or more pixels.
 #[derive(Default)]
 pub struct CameraQueue {
+    pub key: Vec<u64>,
     pub index: Vec<u32>,
     pub ray: Vec<Ray>,
     jitter: Vec<Vec2>,
 }
 
 impl CameraQueue {
-    /// Camera rays of samples `first..first + count` of pixel (x, y): the sampler's
-    /// camera dimension for all of them at once, then the camera's batched rays.
+    /// Empties the queue.
+    pub fn clear(&mut self) {
+        self.key.clear();
+        self.index.clear();
+        self.ray.clear();
+    }
+
+    /// Appends the camera rays of samples `first..first + count` of pixel (x, y): the
+    /// sampler's camera dimension for all of them at once, then the camera's batched rays.
     /// Leaves `sampler` at the dimension after the camera's, as every sample is.
-    pub fn generate(
+    pub fn push_pixel(
         &mut self,
         camera: &Camera,
         pixel: (u32, u32),
@@ -179,12 +189,13 @@ impl CameraQueue {
         inv_res: Vec2,
         sampler: &mut Sampler,
     ) {
-        self.index.clear();
-        self.index.extend(first..first + count);
+        let start = self.index.len();
         sampler.start(pixel.0, pixel.1, first);
+        self.index.extend(first..first + count);
+        self.key
+            .extend(std::iter::repeat_n(sampler.key(), count as usize));
         self.jitter.resize(count as usize, Vec2::ZERO);
-        sampler.next_2d_lanes(&self.index, &mut self.jitter);
-        self.ray.clear();
+        sampler.next_2d_lanes(&self.key[start..], &self.index[start..], &mut self.jitter);
         camera.rays_many(
             Vec2::new(pixel.0 as f32, pixel.1 as f32),
             &self.jitter,
@@ -211,22 +222,25 @@ pub struct Wavefront {
 }
 
 impl Wavefront {
-    /// Traces the paths of `rays` (samples `indices` of the pixel whose `sampler` is at
-    /// the dimension after the camera's) to `out`: the bounce loop over the stages.
+    /// Traces the paths of `rays` (samples `indices` of the pixels with keys `keys`;
+    /// `sampler` at the dimension after the camera's) to `out`: the bounce loop over the
+    /// stages.
     #[allow(clippy::too_many_arguments)] // the scalar `li`'s arguments, plus the batch's
     pub fn trace(
         &mut self,
         scene: &Scene,
         rays: &[Ray],
+        keys: &[u64],
         indices: &[u32],
         sampler: &mut Sampler,
         max_depth: Option<u32>,
         rr_depth: u32,
         out: &mut [Rgb],
     ) {
-        assert!(rays.len() == indices.len() && rays.len() == out.len());
+        assert!(rays.len() == indices.len() && rays.len() == keys.len());
+        assert_eq!(rays.len(), out.len());
         let max_depth = max_depth.unwrap_or(DEPTH_CAP).min(DEPTH_CAP);
-        self.start(rays, indices, max_depth);
+        self.start(rays, keys, indices, max_depth);
         while !self.active.is_empty() {
             self.intersect(scene);
             self.escaped(scene);
@@ -247,11 +261,13 @@ impl Wavefront {
         }
     }
 
-    fn start(&mut self, rays: &[Ray], indices: &[u32], max_depth: u32) {
+    fn start(&mut self, rays: &[Ray], keys: &[u64], indices: &[u32], max_depth: u32) {
         let n = rays.len();
         let p = &mut self.paths;
         p.ray.clear();
         p.ray.extend_from_slice(rays);
+        p.key.clear();
+        p.key.extend_from_slice(keys);
         p.index.clear();
         p.index.extend_from_slice(indices);
         p.vars.clear();
@@ -364,17 +380,16 @@ impl Wavefront {
             s.frame.extend_from_slice(&frames[..n]);
             s.wo.extend_from_slice(&wo[..n]);
         }
-        s.sample_index.clear();
-        s.sample_index
-            .extend(h.path.iter().map(|&i| p.index[i as usize]));
+        s.streams_of(p, &h.path);
         s.light_uc.resize(m, 0.0);
         s.light_u.resize(m, Vec2::ZERO);
         s.bsdf_uc.resize(m, 0.0);
         s.bsdf_u.resize(m, Vec2::ZERO);
-        sampler.next_1d_lanes(&s.sample_index, &mut s.light_uc);
-        sampler.next_2d_lanes(&s.sample_index, &mut s.light_u);
-        sampler.next_1d_lanes(&s.sample_index, &mut s.bsdf_uc);
-        sampler.next_2d_lanes(&s.sample_index, &mut s.bsdf_u);
+        let (keys, idx) = (&s.sample_key, &s.sample_index);
+        sampler.next_1d_lanes(keys, idx, &mut s.light_uc);
+        sampler.next_2d_lanes(keys, idx, &mut s.light_u);
+        sampler.next_1d_lanes(keys, idx, &mut s.bsdf_uc);
+        sampler.next_2d_lanes(keys, idx, &mut s.bsdf_u);
         s.groups.build(scene, &h.it);
     }
 
@@ -539,12 +554,10 @@ impl Wavefront {
         self.depth += 1;
         if self.depth >= rr_depth && !self.next.is_empty() {
             let s = &mut self.scatter;
-            s.sample_index.clear();
-            s.sample_index
-                .extend(self.next.iter().map(|&i| p.index[i as usize]));
+            s.streams_of(p, &self.next);
             let n = self.next.len();
             s.light_uc.resize(n, 0.0);
-            sampler.next_1d_lanes(&s.sample_index, &mut s.light_uc[..n]);
+            sampler.next_1d_lanes(&s.sample_key, &s.sample_index, &mut s.light_uc[..n]);
             let mut kept = 0;
             for j in 0..n {
                 let i = self.next[j];
@@ -560,6 +573,18 @@ impl Wavefront {
             self.next.truncate(kept);
         }
         std::mem::swap(&mut self.active, &mut self.next);
+    }
+}
+
+impl ScatterQueue {
+    /// The sampler streams (pixel keys and sample indices) of the paths `paths`.
+    fn streams_of(&mut self, p: &Paths, paths: &[u32]) {
+        self.sample_key.clear();
+        self.sample_key
+            .extend(paths.iter().map(|&i| p.key[i as usize]));
+        self.sample_index.clear();
+        self.sample_index
+            .extend(paths.iter().map(|&i| p.index[i as usize]));
     }
 }
 
