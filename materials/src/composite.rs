@@ -145,6 +145,9 @@ impl Composite {
 /// Most materials have few lobes: weights live on the stack (the batched calls take the
 /// one-at-a-time path beyond this many).
 const MAX_INLINE: usize = 8;
+/// Queries [`Bsdf::sample_many`] handles together: the queries of one block that chose
+/// the same lobe share its eight-lane calls.
+const SAMPLE_BLOCK: usize = 64;
 
 /// The component weights of eight queries, `w[k]` lane by lane, and their sums.
 struct LaneWeights {
@@ -233,25 +236,10 @@ impl Bsdf for Composite {
             return;
         }
         out.fill(None);
-        simd::chunks_where(
-            n,
-            |k| !(wo[k].z <= 0.0),
-            |idx| {
-                let o = simd::lanes_of(idx, |k| wo[k]);
-                let w = self.lane_weights(f32x8::new(simd::lanes(|lane| o[lane].z)));
-                let lane_u = simd::lanes_of(idx, |k| u[k]);
-                let lane_uc = simd::lanes_of(idx, |k| uc[k]);
-                let wi = self.sample_lanes(&o, &lane_u, &lane_uc, &w);
-                // Lanes without a direction evaluate wo itself; their results are not used.
-                let wi8 = simd::lanes(|lane| wi[lane].unwrap_or(o[lane]));
-                let (v, p) = self.mix_x8(Vec3x8::from_array(&o), Vec3x8::from_array(&wi8), &w);
-                let p = p.to_array();
-                for (lane, &k) in idx.iter().enumerate() {
-                    out[k] =
-                        wi[lane].and_then(|wi| BsdfSample::finish(wi, || p[lane], || v.lane(lane)));
-                }
-            },
-        );
+        for first in (0..n).step_by(SAMPLE_BLOCK) {
+            let r = first..(first + SAMPLE_BLOCK).min(n);
+            self.sample_block(&wo[r.clone()], &u[r.clone()], &uc[r.clone()], &mut out[r]);
+        }
     }
 
     fn flags(&self) -> Flags {
@@ -311,39 +299,67 @@ impl Composite {
         }
     }
 
-    /// [`Composite::choose_and_sample`] of eight queries: each lane chooses its component
-    /// as the scalar call does, then every lobe chosen by some lane samples the eight
-    /// lanes at once ([`Lobe::sample_x8`]) and gives its directions to the lanes that
-    /// chose it. Lanes whose weights sum to zero get None.
-    fn sample_lanes(
-        &self,
-        wo: &[Vec3; 8],
-        u: &[Vec2; 8],
-        uc: &[f32; 8],
-        w: &LaneWeights,
-    ) -> [Option<Vec3>; 8] {
-        let total = w.total.to_array();
-        let choice = simd::lanes(|lane| {
-            let lw = w.lane(lane, self.lobes.len());
-            (total[lane] > 0.0)
-                .then(|| Self::choose(uc[lane], &lw[..self.lobes.len() + 1], total[lane]))
-        });
-        let mut wi = simd::lanes(|lane| match choice[lane] {
-            Some((0, _)) => Some(square_to_cosine_hemisphere(u[lane])),
-            _ => None,
-        });
-        for (k, (_, lobe)) in self.lobes.iter().enumerate() {
-            let mine = |lane: usize| matches!(choice[lane], Some((c, _)) if c == k + 1);
-            if !(0..8).any(mine) {
-                continue;
-            }
-            let uc_rest = simd::lanes(|lane| choice[lane].map_or(0.0, |(_, r)| r));
-            let s = lobe.sample_x8(wo, u, &uc_rest);
-            for lane in (0..8).filter(|&lane| mine(lane)) {
-                wi[lane] = s[lane];
-            }
+    /// [`Bsdf::sample_many`] of at most [`SAMPLE_BLOCK`] queries (`out` all None), each
+    /// bit for bit [`Bsdf::sample`]: every query above the surface chooses its component
+    /// as the scalar call does (weights eight at a time), then the queries that chose
+    /// each lobe are sampled together, eight at a time ([`Lobe::sample_x8`]), so that no
+    /// lane samples a lobe its query did not choose; last, the value and the mixture
+    /// density of every drawn direction, eight at a time. Queries whose weights sum to
+    /// zero get None.
+    fn sample_block(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+        let m = wo.len();
+        debug_assert!(m <= SAMPLE_BLOCK);
+        // Per query: the chosen component (0 diffuse, k lobe k - 1; `NONE` for none) and
+        // what is left of `uc` within it.
+        const NONE: usize = usize::MAX;
+        let mut choice = [(NONE, 0.0f32); SAMPLE_BLOCK];
+        let mut wi = [None::<Vec3>; SAMPLE_BLOCK];
+        simd::chunks_where(
+            m,
+            |k| !(wo[k].z <= 0.0),
+            |idx| {
+                let w = self.lane_weights(f32x8::new(simd::lanes_of(idx, |k| wo[k].z)));
+                let total = w.total.to_array();
+                for (lane, &k) in idx.iter().enumerate() {
+                    if total[lane] > 0.0 {
+                        let lw = w.lane(lane, self.lobes.len());
+                        choice[k] = Self::choose(uc[k], &lw[..self.lobes.len() + 1], total[lane]);
+                        if choice[k].0 == 0 {
+                            wi[k] = Some(square_to_cosine_hemisphere(u[k]));
+                        }
+                    }
+                }
+            },
+        );
+        for (j, (_, lobe)) in self.lobes.iter().enumerate() {
+            simd::chunks_where(
+                m,
+                |k| choice[k].0 == j + 1,
+                |idx| {
+                    let o = simd::lanes_of(idx, |k| wo[k]);
+                    let lane_u = simd::lanes_of(idx, |k| u[k]);
+                    let lane_uc = simd::lanes_of(idx, |k| choice[k].1);
+                    let s = lobe.sample_x8(&o, &lane_u, &lane_uc);
+                    for (lane, &k) in idx.iter().enumerate() {
+                        wi[k] = s[lane];
+                    }
+                },
+            );
         }
-        wi
+        simd::chunks_where(
+            m,
+            |k| wi[k].is_some(),
+            |idx| {
+                let o = simd::lanes_of(idx, |k| wo[k]);
+                let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo[k]));
+                let w = self.lane_weights(f32x8::new(simd::lanes(|lane| o[lane].z)));
+                let (v, p) = self.mix_x8(Vec3x8::from_array(&o), Vec3x8::from_array(&d), &w);
+                let p = p.to_array();
+                for (lane, &k) in idx.iter().enumerate() {
+                    out[k] = BsdfSample::finish(d[lane], || p[lane], || v.lane(lane));
+                }
+            },
+        );
     }
 
     /// The component `uc` chooses in proportion to the weights `w` (sum `total`), and
