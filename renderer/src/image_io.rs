@@ -91,7 +91,18 @@ pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Rgb]) -> Result
         let p = pixels[pos.y() * w + pos.x()];
         (p.r, p.g, p.b)
     });
-    let image = exr::image::Image::from_channels((width as usize, height as usize), channels);
+    // Tiles in increasing order: the compression runs in parallel, and with the default
+    // (unspecified) order the tiles would be written as they finish, so the same pixels
+    // would make files that differ from run to run.
+    let encoding = Encoding {
+        line_order: LineOrder::Increasing,
+        ..Encoding::FAST_LOSSLESS
+    };
+    let image = exr::image::Image::from_encoded_channels(
+        (width as usize, height as usize),
+        encoding,
+        channels,
+    );
     // Straight into the (seekable) temporary file, block by block: no copy of the whole
     // image in memory.
     atomic_write(path, |out| {

@@ -2023,3 +2023,29 @@ fn study_refuses_bad_inputs_in_one_line() {
         "made with other settings",
     );
 }
+
+/// Output piped into a reader that has gone (`lobe models | head -1`) ends the process
+/// quietly, as Unix tools end (by SIGPIPE), instead of with a panic in `println!`.
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_ends_the_process_without_a_panic() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::Stdio;
+    let mut child = lobe()
+        .arg("models")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The reading end closes before the process has started writing.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(
+        out.status.signal(),
+        Some(libc::SIGPIPE),
+        "{:?}: {err}",
+        out.status
+    );
+}
