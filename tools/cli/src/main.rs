@@ -128,6 +128,19 @@ fn main() -> ExitCode {
     }
 }
 
+/// Output piped into a reader that stops early (`lobe compare A B | head -1`) ends the
+/// process quietly, as it does every Unix tool, instead of panicking in `println!`: Rust
+/// programs ignore SIGPIPE, so a write to a closed pipe is an error that `println!` turns
+/// into a panic; the default disposition restored here makes it end the process.
+fn exit_quietly_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to the default has no preconditions; it is
+    // done first thing in main, before any other thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::Cli;
@@ -174,18 +187,5 @@ mod tests {
         // The exposures, the fit's resolution and tolerance, the tabulation's acquisition,
         // the figures' angles, the microfacet and trade-off options, the compare test.
         assert!(checked.len() >= 20, "{checked:?}");
-    }
-}
-
-/// Output piped into a reader that stops early (`lobe compare A B | head -1`) ends the
-/// process quietly, as it does every Unix tool, instead of panicking in `println!`: Rust
-/// programs ignore SIGPIPE, so a write to a closed pipe is an error that `println!` turns
-/// into a panic; the default disposition restored here makes it end the process.
-fn exit_quietly_on_closed_pipe() {
-    #[cfg(unix)]
-    // SAFETY: setting a signal's disposition to the default has no preconditions; it is
-    // done first thing in main, before any other thread exists.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
