@@ -21,17 +21,20 @@ def scene(width, height):
 
 
 def test_render_progress_is_in_order_reaches_the_total_and_changes_no_pixel(capsys):
-    sc = scene(53, 37)  # 4 x 3 tiles, the last row and column partial
+    sc = scene(117, 69)  # 8 x 5 tiles, the last row and column partial
     calls = []
-    img = lobe.render(sc, seed=5, progress=lambda done, total: calls.append((done, total)))
+    # One worker thread, so that the calling thread has a core to take the reports as the
+    # tiles finish (reports that arrive while it is busy come together, as the last one).
+    img = lobe.render(sc, seed=5, threads=1,
+                      progress=lambda done, total: calls.append((done, total)))
     dones = [d for d, _ in calls]
     assert len(calls) >= 2 and all(b > a for a, b in zip(dones, dones[1:])), calls
-    assert {t for _, t in calls} == {53 * 37} and dones[-1] == 53 * 37
+    assert {t for _, t in calls} == {117 * 69} and dones[-1] == 117 * 69
     quiet = lobe.render(sc, seed=5, progress=False)
     bar = lobe.render(sc, seed=5, progress=True)
     assert img.tobytes() == quiet.tobytes() == bar.tobytes()
     err = capsys.readouterr().err
-    assert "100%" in err and "lobe.render: 53x37 at 16 spp" in err, err
+    assert "100%" in err and "lobe.render: 117x69 at 16 spp" in err, err
 
 
 def test_render_progress_without_tqdm_prints_lines(capsys, monkeypatch):

@@ -38,9 +38,10 @@ def render(
     ``progress``: ``True`` shows a bar over the film's pixels as tiles finish (tqdm: a
     widget in notebooks, text in terminals; a line per tenth without tqdm) and then one
     summary line on stderr, ``False`` nothing, a callable is called as
-    ``progress(done, total)`` (pixels; ``done`` increasing, last equal to ``total``) on
-    the calling thread. Ctrl-C (a notebook's interrupt) stops the render within a pixel
-    and raises ``KeyboardInterrupt``; an exception from the callable stops it and is
+    ``progress(done, total)`` (pixels; ``done`` increasing, last equal to ``total``; tiles
+    that finish while the calling thread is busy are reported together, by the last) on
+    the calling thread. Ctrl-C (a notebook's interrupt) stops the render within a
+    wavefront (at most 512 samples) and raises ``KeyboardInterrupt``; an exception from the callable stops it and is
     raised. Rendering runs without the GIL on all cores either way."""
     if isinstance(scene, Mapping):
         path, text = None, json.dumps(scene, allow_nan=False)
