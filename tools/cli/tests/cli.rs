@@ -1124,13 +1124,24 @@ fn listing(dir: &Path) -> Vec<String> {
     v
 }
 
+/// Sends SIGINT (what Ctrl-C sends) to `child`.
 fn sigint(child: &std::process::Child) {
-    let ok = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok, "kill -INT failed");
+    #[cfg(unix)]
+    {
+        let pid = libc::pid_t::try_from(child.id()).unwrap();
+        // SAFETY: kill(2) has no memory-safety preconditions.
+        let ok = unsafe { libc::kill(pid, libc::SIGINT) } == 0;
+        assert!(ok, "kill -INT {pid} failed");
+    }
+    #[cfg(not(unix))]
+    {
+        let ok = Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status()
+            .unwrap()
+            .success();
+        assert!(ok, "kill -INT failed");
+    }
 }
 
 #[test]
@@ -1837,9 +1848,12 @@ fn write_merl(path: &Path) {
 }
 
 /// A second Ctrl-C exits at once, even while the first waits for work that cannot stop
-/// (reading and binning a MERL table, about half a second).
+/// (reading and binning a MERL table, about half a second). The first Ctrl-C is sent
+/// once the batch says it reads the table: sent earlier, the batch would stop before
+/// reading and exit before the second one.
 #[test]
 fn a_second_ctrl_c_exits_at_once() {
+    use std::io::BufRead;
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
     std::fs::create_dir(&data).unwrap();
@@ -1856,18 +1870,20 @@ fn a_second_ctrl_c_exits_at_once() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // The report folder appears just before the table is read.
-    let t0 = std::time::Instant::now();
-    while !reports.is_dir() {
-        assert!(t0.elapsed().as_secs() < 60, "the batch did not start");
-        std::thread::sleep(std::time::Duration::from_millis(5));
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut err = String::new();
+    while !err.contains("m: reading the data") {
+        let n = stderr.read_line(&mut err).unwrap();
+        assert!(n > 0, "the batch ended before reading its data: {err}");
     }
     sigint(&child);
-    std::thread::sleep(std::time::Duration::from_millis(20));
+    while !err.contains("Ctrl-C again to abort") {
+        let n = stderr.read_line(&mut err).unwrap();
+        assert!(n > 0, "the first Ctrl-C was not acknowledged: {err}");
+    }
     sigint(&child);
     let status = child.wait().unwrap();
-    let mut err = String::new();
-    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    std::io::Read::read_to_string(&mut stderr, &mut err).unwrap();
     assert_eq!(status.code(), Some(130), "{err}");
     assert!(
         err.contains("Ctrl-C again to abort") && err.contains("lobe: aborted"),

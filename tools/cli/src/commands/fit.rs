@@ -219,6 +219,9 @@ impl BatchProgress for Display {
         self.bar
             .as_ref()
             .inspect(|b| b.set_message(name.to_string()));
+        if self.lines {
+            eprintln!("{name}: reading the data");
+        }
     }
 
     fn fitting(&self, _name: &str, models: usize) {
