@@ -3,8 +3,8 @@
 //! hierarchical warping of Clarberg et al. 2005) and `EnvMap::eval_pdf_many` (radiance
 //! and pdf of escaped rays), per point, on the benchmark scene's 512 x 256 map and on a
 //! 32 x 16 reduction of it that stays in L1 (the gap between the two is the cost of cache
-//! misses). Batches of 37 points, as the wavefront integrator passes for a pixel's 64
-//! samples of which about 57 % hit the sphere.
+//! misses). Batches of 256 points, about what the wavefront integrator passes per call
+//! (wavefronts of 512 samples, of which about 57 % hit the sphere of sphere-envmap).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Mat3, Vec2, Vec3};
@@ -15,8 +15,8 @@ use lobe_renderer::lights::envmap::load_rgb_image;
 use std::hint::black_box;
 use std::path::Path;
 
-const BATCH: usize = 37;
-const CALLS: usize = 512;
+const BATCH: usize = 256;
+const CALLS: usize = 64;
 
 /// Every `f`-th pixel of every `f`-th row.
 fn reduce(img: &RgbImage, f: usize) -> RgbImage {

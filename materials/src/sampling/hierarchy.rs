@@ -132,8 +132,16 @@ impl Hierarchy2D {
                         f32x8::splat(p[3]),
                     ]
                 } else {
-                    let idx = (y[j] * u32x8::splat(level.packets_per_row as u32) + x[j]).to_array();
-                    simd::transpose4x8(&simd::lanes(|i| level.data[idx[i] as usize]))
+                    // Clamped to the level (a no-op: descents stay inside it), so that
+                    // the reads need no bounds check per lane.
+                    let last = u32x8::splat(level.data.len() as u32 - 1);
+                    let idx = (y[j] * u32x8::splat(level.packets_per_row as u32) + x[j])
+                        .min(last)
+                        .to_array();
+                    simd::transpose4x8(&simd::lanes(|i| {
+                        // SAFETY: idx[i] <= data.len() - 1 by the clamp above.
+                        unsafe { *level.data.get_unchecked(idx[i] as usize) }
+                    }))
                 };
                 let (right, lower);
                 (right, lower, ux[j], uy[j]) = descend_x8(q, ux[j], uy[j]);

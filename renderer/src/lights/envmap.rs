@@ -34,7 +34,7 @@ use lobe_materials::sampling::warp::{square_to_bilinear, square_to_bilinear_x8};
 use lobe_materials::simd;
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
-use wide::{f32x8, i32x8};
+use wide::{f32x8, i32x8, u32x8};
 
 #[derive(Clone, Debug)]
 pub struct EnvMap {
@@ -252,38 +252,54 @@ impl EnvMap {
         (radiance, density / (2.0 * PI * PI * sin_theta))
     }
 
-    /// The four corner texels of the cells starting at `k` (pixel indices into `data`) in
-    /// eight lanes: [top-left, top-right, bottom-left, bottom-right].
+    /// The corner texels of eight cells (columns `ix`, rows `iy`) and the sines of their
+    /// top and bottom pixel rows: `([top-left, top-right, bottom-left, bottom-right],
+    /// sin top, sin bottom)`. The cells are clamped to the grid first (a no-op for the
+    /// cells the callers compute), so the reads need no bounds check per lane.
     #[inline(always)]
-    fn gather_corners(&self, k: [usize; 8]) -> [Rgb8; 4] {
-        let (tl, tr) = self.pixel_pairs(&k, 0);
-        let (bl, br) = self.pixel_pairs(&k, 3 * (self.width + 1));
-        [tl, tr, bl, br]
-    }
-
-    /// The pixel pairs starting `offset` floats after pixels `k` in eight lanes. A pair is
-    /// six floats, r0 g0 b0 r1 g1 b1: its first four and its last four (overlapping) are
-    /// read as two 4x8 transposes, with one bounds check per lane.
-    #[inline(always)]
-    fn pixel_pairs(&self, k: &[usize; 8], offset: usize) -> (Rgb8, Rgb8) {
-        let p = simd::lanes(|i| {
-            let s = &self.data[3 * k[i] + offset..3 * k[i] + offset + 6];
-            ([s[0], s[1], s[2], s[3]], [s[2], s[3], s[4], s[5]])
-        });
-        let a = simd::transpose4x8(&simd::lanes(|i| p[i].0));
-        let b = simd::transpose4x8(&simd::lanes(|i| p[i].1));
-        (
-            Rgb8 {
-                r: a[0],
-                g: a[1],
-                b: a[2],
-            },
-            Rgb8 {
-                r: a[3],
-                g: b[2],
-                b: b[3],
-            },
-        )
+    fn cells_x8(&self, ix: u32x8, iy: u32x8) -> ([Rgb8; 4], f32x8, f32x8) {
+        let (w, h) = (self.width, self.height);
+        let ix = ix.min(u32x8::splat(w as u32 - 1));
+        let iy = iy.min(u32x8::splat(h as u32 - 2));
+        let k = (iy * u32x8::splat(w as u32 + 1) + ix).to_array();
+        let iy = iy.to_array();
+        let (d, rows) = (&self.data, &self.sin_row);
+        assert!(w >= 2 && h >= 3 && d.len() == 3 * (w + 1) * h && rows.len() == h);
+        // A pixel pair is six floats, r0 g0 b0 r1 g1 b1: its first four and its last four
+        // (overlapping) are read as two 4x8 transposes.
+        let pairs = |offset: usize| {
+            let p = simd::lanes(|i| {
+                let s = 3 * k[i] as usize + offset;
+                // SAFETY: with ix <= w - 1 and iy <= h - 2 (clamped above), the last
+                // float read, that of the bottom-right texel k + w + 2 <= (h - 1)(w + 1) + w,
+                // is within the h (w + 1) texels of `data` (asserted).
+                let f = |j: usize| unsafe { *d.get_unchecked(s + j) };
+                ([f(0), f(1), f(2), f(3)], [f(2), f(3), f(4), f(5)])
+            });
+            let a = simd::transpose4x8(&simd::lanes(|i| p[i].0));
+            let b = simd::transpose4x8(&simd::lanes(|i| p[i].1));
+            (
+                Rgb8 {
+                    r: a[0],
+                    g: a[1],
+                    b: a[2],
+                },
+                Rgb8 {
+                    r: a[3],
+                    g: b[2],
+                    b: b[3],
+                },
+            )
+        };
+        let (tl, tr) = pairs(0);
+        let (bl, br) = pairs(3 * (w + 1));
+        // SAFETY: iy + 1 <= h - 1 < rows.len() (clamped above, asserted).
+        let sine = |j: usize| {
+            f32x8::new(simd::lanes(|i| unsafe {
+                *rows.get_unchecked(iy[i] as usize + j)
+            }))
+        };
+        ([tl, tr, bl, br], sine(0), sine(1))
     }
 
     /// [`EnvMap::blend`] in eight lanes, with the same operations: radiance (without
@@ -331,15 +347,6 @@ impl EnvMap {
         ]
     }
 
-    /// sin(theta) of the rows `iy` and `iy + 1` of eight cells.
-    #[inline(always)]
-    fn row_sines(&self, iy: [usize; 8]) -> (f32x8, f32x8) {
-        (
-            f32x8::new(simd::lanes(|i| self.sin_row[iy[i]])),
-            f32x8::new(simd::lanes(|i| self.sin_row[iy[i] + 1])),
-        )
-    }
-
     /// [`EnvMap::eval_pdf`] of many directions, `out[i]` for `dirs[i]`, bit for bit the
     /// same: eight at a time in SIMD lanes (`wide`'s AVX vectors), with the lane forms of
     /// the same functions ([`fastmath::x8`]), so that the independent texel reads of eight
@@ -372,11 +379,7 @@ impl EnvMap {
                 .min(i32x8::splat(h as i32 - 2));
             let fx = x - f32x8::from_i32x8(ix);
             let fy = y - f32x8::from_i32x8(iy);
-            let (ix, iy) = (ix.to_array(), iy.to_array());
-            let iy = simd::lanes(|i| iy[i] as usize);
-            let k = simd::lanes(|i| iy[i] * (w + 1) + ix[i] as usize);
-            let t = self.gather_corners(k);
-            let (s_top, s_bottom) = self.row_sines(iy);
+            let (t, s_top, s_bottom) = self.cells_x8(to_u32(ix), to_u32(iy));
             let (texel, density) = self.blend_x8(&t, s_top, s_bottom, fx, fy);
             let radiance = texel.scale(self.scale);
             let pdf = simd::sel(
@@ -400,39 +403,28 @@ impl EnvMap {
         let (w, h) = (self.width as f32, (self.height - 1) as f32);
         let zero = f32x8::splat(0.0);
         let one_minus_eps = f32x8::splat(1.0 - f32::EPSILON / 2.0);
-        // Sixteen points at a time: two groups of eight descend the hierarchy side by side
-        // (two independent dependency chains the core overlaps; more groups spill
-        // registers), then each goes on alone.
+        // GROUPS x 8 points at a time: the groups of eight descend the hierarchy side by
+        // side (independent dependency chains the core overlaps), then each goes on
+        // alone. A last, partial chunk repeats its first group in the missing ones.
         const GROUPS: usize = 2;
         for (c2, uc2) in us.chunks(8 * GROUPS).enumerate() {
-            let group = |uc: &[Vec2]| {
+            let groups: [(f32x8, f32x8); GROUPS] = std::array::from_fn(|g| {
+                let uc = uc2.get(8 * g..).filter(|r| !r.is_empty()).unwrap_or(uc2);
                 let n = uc.len().min(8);
                 let u = simd::lanes(|i| uc[i.min(n - 1)]);
                 (
                     f32x8::new(simd::lanes(|i| u[i].x)),
                     f32x8::new(simd::lanes(|i| u[i].y)),
                 )
-            };
-            let g0 = group(uc2);
-            let cells = match uc2.get(8..) {
-                Some(rest) if !rest.is_empty() => {
-                    let g1 = group(rest);
-                    self.cells.sample_x8s([g0.0, g1.0], [g0.1, g1.1])
-                }
-                // A lone group descends alone.
-                _ => {
-                    let [c] = self.cells.sample_x8s([g0.0], [g0.1]);
-                    [c, c]
-                }
-            };
+            });
+            let cells = self
+                .cells
+                .sample_x8s(groups.map(|g| g.0), groups.map(|g| g.1));
             for (g, uc) in uc2.chunks(8).enumerate() {
                 let n = uc.len();
                 let (cx, cy, rx, ry) = cells[g];
+                let (t, s_top, s_bottom) = self.cells_x8(cx, cy);
                 let (ix, iy) = (cx.to_array(), cy.to_array());
-                let iy_us = simd::lanes(|i| iy[i] as usize);
-                let k = simd::lanes(|i| iy_us[i] * (self.width + 1) + ix[i] as usize);
-                let t = self.gather_corners(k);
-                let (s_top, s_bottom) = self.row_sines(iy_us);
                 // Within the cell, the bilinear density of the corner weights.
                 let (fx, fy) = if self.inv_mean == 0.0 {
                     (rx, ry)
@@ -453,16 +445,17 @@ impl EnvMap {
                 let [dx, dy, dz] = mat3_mul_x8(&self.to_world, st * sp, ct, -(st * cp));
                 let radiance = texel.scale(self.scale);
                 let p = pdf_ab / (f32x8::splat(2.0 * PI * PI) * st);
-                let [dx, dy, dz] = simd::arrays3([dx, dy, dz]);
-                let (valid, p) = (valid.to_array(), p.to_array());
+                // Invalid lanes get a zero direction, radiance and pdf.
+                let keep = |v: f32x8| simd::sel(valid, v, zero);
+                let [dx, dy, dz] = simd::arrays3([keep(dx), keep(dy), keep(dz)]);
+                let [r, gr, b] = simd::arrays3([radiance.r, radiance.g, radiance.b].map(keep));
+                let p = keep(p).to_array();
                 let base = 8 * (GROUPS * c2 + g);
                 for i in 0..n {
                     let o = base + i;
-                    (wi[o], li[o], pdf[o]) = if valid[i] != 0.0 {
-                        (Vec3::new(dx[i], dy[i], dz[i]), radiance.lane(i), p[i])
-                    } else {
-                        (Vec3::ZERO, Rgb::ZERO, 0.0)
-                    };
+                    wi[o] = Vec3::new(dx[i], dy[i], dz[i]);
+                    li[o] = Rgb::new(r[i], gr[i], b[i]);
+                    pdf[o] = p[i];
                 }
             }
         }
@@ -613,6 +606,12 @@ fn validate_image(mut img: RgbImage, name: &str) -> Result<RgbImage> {
         *p = p.map(|c| c.max(0.0));
     }
     Ok(img)
+}
+
+/// Non-negative lanes as unsigned ones (the same bits).
+#[inline(always)]
+fn to_u32(v: i32x8) -> u32x8 {
+    u32x8::new(v.to_array().map(|x| x as u32))
 }
 
 #[cfg(test)]
