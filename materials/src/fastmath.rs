@@ -1,6 +1,6 @@
 //! Branch-free f32 `sin_cos`, `atan2`, `acos` and `asin` for the hot paths (env-map
-//! lookups and sampling, direction warps, measured-BRDF coordinates), a few times faster
-//! than the C library's.
+//! lookups and sampling, direction warps, measured-BRDF coordinates, the analytic lobes'
+//! half-vector sampling), a few times faster than the C library's.
 //!
 //! Each is a Cody-Waite range reduction followed by the minimax polynomials of Cephes'
 //! single-precision `sinf`/`cosf`, `atanf` and `asinf` (S. L. Moshier, "Methods and

@@ -83,6 +83,14 @@ pub fn reflect(wo: Vec3, h: Vec3) -> Vec3 {
     2.0 * wo.dot(h) * h - wo
 }
 
+/// A half vector from its elevation cosine and the azimuth `2 pi ux` (`ux` in [0, 1)).
+#[inline]
+pub fn half_from(cos_t: f32, ux: f32) -> Vec3 {
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let (s, c) = crate::fastmath::sin_cos_moderate(2.0 * std::f32::consts::PI * ux);
+    Vec3::new(sin_t * c, sin_t * s, cos_t)
+}
+
 /// Converts a half-vector density to the density of the reflected direction:
 /// p(wi) = p(h) / (4 |wo . h|) (Walter et al. 2007, eq. 14).
 #[inline]
@@ -107,7 +115,42 @@ pub fn sample_via_half(wo: Vec3, h: Vec3) -> Option<Vec3> {
 /// Eight-lane forms of this module's helpers, for the lobes' [`Lobe::eval_pdf_x8`]
 /// kernels: each lane computes what the scalar helper computes, operation for operation.
 pub mod x8 {
-    use crate::simd::{Mask8, Vec3x8, f32x8, sel};
+    use crate::simd::{self, Mask8, Vec3x8, f32x8, sel};
+    use glam::{Vec2, Vec3};
+
+    /// The points `u` of eight queries as two lane vectors (x, y).
+    #[inline(always)]
+    pub fn points(u: &[Vec2; 8]) -> (f32x8, f32x8) {
+        (
+            f32x8::new(simd::lanes(|i| u[i].x)),
+            f32x8::new(simd::lanes(|i| u[i].y)),
+        )
+    }
+
+    /// [`super::sample_via_half`] per lane: the mirror of `wo` about `h`, where `wo` and
+    /// it are above the surface and `wo . h` is positive, as options.
+    #[inline(always)]
+    pub fn sample_via_half(wo: Vec3x8, h: Vec3x8) -> [Option<Vec3>; 8] {
+        let zero = f32x8::splat(0.0);
+        let d = wo.dot(h);
+        // `reflect`: 2 (wo . h) h - wo.
+        let wi = h * (f32x8::splat(2.0) * d) - wo;
+        let ok = wo.z.simd_gt(zero) & d.simd_gt(zero) & wi.z.simd_gt(zero);
+        let (bits, wi) = (simd::mask_bits(ok), wi.to_array());
+        simd::lanes(|i| (bits >> i & 1 != 0).then_some(wi[i]))
+    }
+
+    /// A half vector in lanes from its elevation cosine and the azimuth `2 pi ux`
+    /// (`ux` in [0, 1)), as the scalar samplers build it.
+    #[inline(always)]
+    pub fn half_from(cos_t: f32x8, ux: f32x8) -> Vec3x8 {
+        let sin_t = (f32x8::splat(1.0) - cos_t * cos_t)
+            .max(f32x8::splat(0.0))
+            .sqrt();
+        let (s, c) =
+            crate::fastmath::x8::sin_cos_moderate(f32x8::splat(2.0 * std::f32::consts::PI) * ux);
+        Vec3x8::new(sin_t * c, sin_t * s, cos_t)
+    }
 
     /// [`super::above`] per lane: both directions above the surface.
     #[inline(always)]

@@ -33,10 +33,13 @@ pub struct BlinnPhong {
 /// Half vector with density (n + 1) / (2 pi) cos^n(theta_h) about +z.
 #[inline]
 pub fn sample_cos_power_h(n: f32, u: Vec2) -> Vec3 {
-    let cos_t = u.y.powf(1.0 / (n + 1.0));
-    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let (s, c) = (2.0 * PI * u.x).sin_cos();
-    Vec3::new(sin_t * c, sin_t * s, cos_t)
+    lobe::half_from(fastmath::powf(u.y, 1.0 / (n + 1.0)), u.x)
+}
+
+/// [`sample_cos_power_h`] of eight points (x, y) in lanes, bit for bit the same.
+#[inline(always)]
+pub fn sample_cos_power_h_x8(n: f32, ux: f32x8, uy: f32x8) -> Vec3x8 {
+    lobe::x8::half_from(x8::powf(uy, f32x8::splat(1.0 / (n + 1.0))), ux)
 }
 
 #[inline]
@@ -87,6 +90,12 @@ impl Lobe for BlinnPhong {
             return 0.0;
         };
         half_to_incident_pdf(cos_power_pdf(self.n as f32, h.z), wo.dot(h.into()))
+    }
+
+    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+        let (ux, uy) = lobe::x8::points(u);
+        let h = sample_cos_power_h_x8(self.n as f32, ux, uy);
+        lobe::x8::sample_via_half(Vec3x8::from_array(wo), h)
     }
 
     /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.

@@ -74,6 +74,12 @@ impl Lobe for CookTorrance {
         sample_via_half(wo, self.distribution.sample_h(u))
     }
 
+    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+        let (ux, uy) = lobe::x8::points(u);
+        let h = self.distribution.sample_h_x8(ux, uy);
+        lobe::x8::sample_via_half(Vec3x8::from_array(wo), h)
+    }
+
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;

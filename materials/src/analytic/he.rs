@@ -35,13 +35,14 @@
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
 use super::he_shadowing;
-use super::microfacet::Distribution;
 use super::microfacet::fresnel::dielectric;
-use crate::lobe::{Lobe, above, half_to_incident_pdf, sample_via_half};
+use super::microfacet::{Distribution, beckmann_cos_x8};
+use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
+use crate::simd::{self, Vec3x8, f32x8};
 use crate::{Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::sync::Arc;
@@ -245,14 +246,17 @@ impl He {
 
     /// The two Beckmann proposals of the sampler for `wo`.
     fn proposals(&self, wo: Vec3) -> [Distribution; 2] {
+        self.proposal_roughness(wo)
+            .map(|m| Distribution::Beckmann { m })
+    }
+
+    /// The roughnesses of [`He::proposals`]: (smooth, rough).
+    fn proposal_roughness(&self, wo: Vec3) -> [f64; 2] {
         let smooth = (WAVELENGTHS_UM[1] / (2.0 * std::f64::consts::PI * self.tau)).clamp(1e-4, 2.0);
         let co = wo.z.clamp(1e-4, 1.0) as f64;
         let sigma = he_shadowing::self_roughness(self.sigma0 as f32, self.tau as f32, co as f32);
         let rough = (2.0 * sigma as f64 / self.tau).clamp(smooth, 2.0);
-        [
-            Distribution::Beckmann { m: smooth },
-            Distribution::Beckmann { m: rough },
-        ]
+        [smooth, rough]
     }
 }
 
@@ -308,6 +312,18 @@ impl Lobe for He {
             b.sample_h(u)
         };
         sample_via_half(wo, h)
+    }
+
+    /// [`He::sample`] in lanes: each lane's proposal (its roughness depends on `wo`) one
+    /// by one, the Beckmann half vectors and their mirrors eight at a time.
+    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+        let m = simd::lanes(|i| {
+            let [smooth, rough] = self.proposal_roughness(wo[i]);
+            (if uc[i] < 0.5 { smooth } else { rough }) as f32
+        });
+        let (ux, uy) = lobe::x8::points(u);
+        let h = lobe::x8::half_from(beckmann_cos_x8(f32x8::new(m), uy), ux);
+        lobe::x8::sample_via_half(Vec3x8::from_array(wo), h)
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
