@@ -13,8 +13,9 @@ cargo build --release -p lobe-cli
 venv="$(bash tools/mitsuba/setup.sh | tail -n 1)"
 "$venv/bin/python" -m pytest -q -p no:cacheprovider tools/python/tests
 # The fuzz crate (outside the workspace) keeps a tracked lock file; it must match the
-# workspace's dependencies so that scripts/fuzz.sh never rewrites it.
-cargo metadata --locked --offline --manifest-path fuzz/Cargo.toml --format-version 1 >/dev/null
+# workspace's dependencies so that scripts/fuzz.sh never rewrites it. (Not --offline: a
+# fresh machine has not downloaded the fuzz crate's own dependencies, libfuzzer-sys.)
+cargo metadata --locked --manifest-path fuzz/Cargo.toml --format-version 1 >/dev/null
 # The portable forms of the SIMD helpers (materials/src/simd.rs and fastmath::x8: what a
 # build for baseline x86-64 without AVX uses, RUSTFLAGS="-C target-cpu=x86-64": see
 # .cargo/config.toml), tested too.
