@@ -36,13 +36,13 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
 use super::he_shadowing;
 use super::microfacet::fresnel::dielectric;
-use super::microfacet::{Distribution, beckmann_cos_x8};
+use super::microfacet::{Distribution, beckmann_cos_x8, beckmann_d_x8};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, Vec3x8, f32x8};
+use crate::simd::{self, Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::sync::Arc;
@@ -324,6 +324,30 @@ impl Lobe for He {
         let (ux, uy) = lobe::x8::points(u);
         let h = lobe::x8::half_from(beckmann_cos_x8(f32x8::new(m), uy), ux);
         lobe::x8::sample_via_half(Vec3x8::from_array(wo), h)
+    }
+
+    /// `eval` lane by lane (f64), `pdf` in lanes: each lane's proposal roughnesses one by
+    /// one, the two Beckmann densities eight at a time (bit for bit [`He::pdf`]).
+    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+        let (o, i) = (wo.to_array(), wi.to_array());
+        let f = simd::lanes(|k| self.eval(o[k], i[k]));
+        let zero = f32x8::splat(0.0);
+        let (h, has_half) = lobe::x8::half(wo, wi);
+        let ok = lobe::x8::above(wo, wi) & has_half;
+        let m2 = simd::lanes(|k| self.proposal_roughness(o[k]).map(|m| (m * m) as f32));
+        let cos = h.z;
+        let positive = cos.simd_gt(zero);
+        let pdf_h = |m2: f32x8| sel(positive, beckmann_d_x8(m2, cos), zero) * cos;
+        let (smooth, rough) = (
+            f32x8::new(simd::lanes(|k| m2[k][0])),
+            f32x8::new(simd::lanes(|k| m2[k][1])),
+        );
+        let p = lobe::x8::half_to_incident_pdf(
+            f32x8::splat(0.5) * (pdf_h(smooth) + pdf_h(rough)),
+            wo.dot(h),
+        );
+        let p = sel(ok & p.is_finite(), p, zero);
+        (Rgbx8::from_array(&f), p)
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {

@@ -112,13 +112,7 @@ impl Distribution {
         let zero = s(0.0);
         let c2 = cos_h * cos_h;
         let d = match *self {
-            Distribution::Beckmann { m } => {
-                let m2 = s((m * m) as f32);
-                let tan2 = (s(1.0) - c2).max(zero) / c2;
-                let e = x8::exp(-tan2 / m2);
-                let d = e / (s(std::f32::consts::PI) * m2 * c2 * c2);
-                sel(e.simd_eq(zero), zero, d)
-            }
+            Distribution::Beckmann { m } => beckmann_d_x8(s((m * m) as f32), cos_h),
             Distribution::Gaussian { m, c } => {
                 let theta = x8::acos(cos_h.min(s(1.0)));
                 let r = theta / s(m as f32);
@@ -152,6 +146,19 @@ impl Distribution {
             Distribution::Gaussian { m, .. } => Distribution::Beckmann { m }.d(cos_h) * cos_h,
         }
     }
+}
+
+/// Beckmann's D per lane for positive `cos_h`, each lane its own squared roughness `m2`
+/// (`(m * m) as f32`, as [`Distribution::d`] rounds it): the lanes of
+/// [`Distribution::d_x8`] (which zeroes `cos_h <= 0`).
+#[inline(always)]
+pub fn beckmann_d_x8(m2: f32x8, cos_h: f32x8) -> f32x8 {
+    let (s, zero) = (f32x8::splat, f32x8::splat(0.0));
+    let c2 = cos_h * cos_h;
+    let tan2 = (s(1.0) - c2).max(zero) / c2;
+    let e = x8::exp(-tan2 / m2);
+    let d = e / (s(std::f32::consts::PI) * m2 * c2 * c2);
+    sel(e.simd_eq(zero), zero, d)
 }
 
 /// cos(theta_h) of Beckmann sampling with roughness `m`: tan^2 = -m^2 ln(1 - u).
