@@ -110,7 +110,6 @@ impl Distribution {
     pub fn d_x8(&self, cos_h: f32x8) -> f32x8 {
         let s = f32x8::splat;
         let zero = s(0.0);
-        let c2 = cos_h * cos_h;
         let d = match *self {
             Distribution::Beckmann { m } => beckmann_d_x8(s((m * m) as f32), cos_h),
             Distribution::Gaussian { m, c } => {
