@@ -115,17 +115,8 @@ pub fn sample_via_half(wo: Vec3, h: Vec3) -> Option<Vec3> {
 /// Eight-lane forms of this module's helpers, for the lobes' [`Lobe::eval_pdf_x8`]
 /// kernels: each lane computes what the scalar helper computes, operation for operation.
 pub mod x8 {
-    use crate::simd::{self, Mask8, Vec3x8, f32x8, sel};
-    use glam::{Vec2, Vec3};
-
-    /// The points `u` of eight queries as two lane vectors (x, y).
-    #[inline(always)]
-    pub fn points(u: &[Vec2; 8]) -> (f32x8, f32x8) {
-        (
-            f32x8::new(simd::lanes(|i| u[i].x)),
-            f32x8::new(simd::lanes(|i| u[i].y)),
-        )
-    }
+    use crate::simd::{Mask8, Vec3x8, f32x8, sel};
+    use glam::Vec3;
 
     /// [`super::sample_via_half`] per lane: the mirror of `wo` about `h`, where `wo` and
     /// it are above the surface and `wo . h` is positive, as options.
@@ -135,9 +126,7 @@ pub mod x8 {
         let d = wo.dot(h);
         // `reflect`: 2 (wo . h) h - wo.
         let wi = h * (f32x8::splat(2.0) * d) - wo;
-        let ok = wo.z.simd_gt(zero) & d.simd_gt(zero) & wi.z.simd_gt(zero);
-        let (bits, wi) = (simd::mask_bits(ok), wi.to_array());
-        simd::lanes(|i| (bits >> i & 1 != 0).then_some(wi[i]))
+        wi.options(wo.z.simd_gt(zero) & d.simd_gt(zero) & wi.z.simd_gt(zero))
     }
 
     /// A half vector in lanes from its elevation cosine and the azimuth `2 pi ux`

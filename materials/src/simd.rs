@@ -14,13 +14,13 @@
 //!
 //! Contents: [`lanes`], [`padded`] and [`lanes_of`] (arrays of eight, written out so they
 //! inline), [`chunks_where`] (the queries a batched kernel works on, eight at a time),
-//! transposes of eight records into lane vectors ([`transpose4x8`], [`rows4`], [`vec3s`],
+//! transposes of eight records into lane vectors ([`transpose4x8`], [`rows4`], [`vec2s`], [`vec3s`],
 //! [`arrays3`]), per-lane select and clamp ([`sel`], [`clamp`]), masks ([`Mask8`],
 //! [`mask_from_bools`], [`mask_bits`]), [`gather`], [`fmadd`], and the small types
 //! [`Vec3x8`] and [`Rgbx8`].
 
 use crate::Rgb;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::ops::{Add, Mul, Neg, Sub};
 pub use wide::{f32x8, i32x8, u32x8};
 
@@ -136,6 +136,12 @@ pub fn vec3s(v: &[Vec3; 8]) -> [f32x8; 3] {
         f32x8::new(lanes(|i| v[i].y)),
         f32x8::new(lanes(|i| v[i].z)),
     ]
+}
+
+/// Eight 2D points as their x and y components in two SIMD registers.
+#[inline(always)]
+pub fn vec2s(v: &[Vec2; 8]) -> [f32x8; 2] {
+    [f32x8::new(lanes(|i| v[i].x)), f32x8::new(lanes(|i| v[i].y))]
 }
 
 /// The components of [`vec3s`] back as arrays (`[x, y, z]`, eight lanes each).
@@ -309,6 +315,13 @@ impl Vec3x8 {
     #[inline(always)]
     pub fn select(m: Mask8, a: Self, b: Self) -> Self {
         Self::new(sel(m, a.x, b.x), sel(m, a.y, b.y), sel(m, a.z, b.z))
+    }
+
+    /// The lanes as options: `Some` where `m` is set.
+    #[inline(always)]
+    pub fn options(self, m: Mask8) -> [Option<Vec3>; 8] {
+        let (bits, v) = (mask_bits(m), self.to_array());
+        lanes(|i| (bits >> i & 1 != 0).then_some(v[i]))
     }
 }
 

@@ -19,7 +19,7 @@ use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
+use crate::simd::{self, Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -93,7 +93,7 @@ impl Lobe for BlinnPhong {
     }
 
     fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
-        let (ux, uy) = lobe::x8::points(u);
+        let [ux, uy] = simd::vec2s(u);
         let h = sample_cos_power_h_x8(self.n as f32, ux, uy);
         lobe::x8::sample_via_half(Vec3x8::from_array(wo), h)
     }

@@ -321,7 +321,7 @@ impl Lobe for He {
             let [smooth, rough] = self.proposal_roughness(wo[i]);
             (if uc[i] < 0.5 { smooth } else { rough }) as f32
         });
-        let (ux, uy) = lobe::x8::points(u);
+        let [ux, uy] = simd::vec2s(u);
         let h = lobe::x8::half_from(beckmann_cos_x8(f32x8::new(m), uy), ux);
         lobe::x8::sample_via_half(Vec3x8::from_array(wo), h)
     }

@@ -108,13 +108,11 @@ impl Lobe for Lafortune {
         let rcp = s(1.0) / a.length_squared().sqrt();
         let has_axis = rcp.is_finite() & rcp.simd_gt(s(0.0));
         let axis = a * rcp;
-        let (ux, uy) = lobe::x8::points(u);
+        let [ux, uy] = simd::vec2s(u);
         let n = self.n as f32;
         let local = lobe::x8::half_from(x8::powf(uy, s(1.0 / (n + 1.0))), ux);
         let wi = frame::x8::to_world_of_normal(axis, local);
-        let ok = o.z.simd_gt(s(0.0)) & has_axis & wi.z.simd_gt(s(0.0));
-        let (bits, wi) = (simd::mask_bits(ok), wi.to_array());
-        simd::lanes(|i| (bits >> i & 1 != 0).then_some(wi[i]))
+        wi.options(o.z.simd_gt(s(0.0)) & has_axis & wi.z.simd_gt(s(0.0)))
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {

@@ -21,7 +21,7 @@ use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
+use crate::simd::{self, Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -144,7 +144,7 @@ impl Lobe for Ward {
     }
 
     fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
-        let (ux, uy) = lobe::x8::points(u);
+        let [ux, uy] = simd::vec2s(u);
         lobe::x8::sample_via_half(Vec3x8::from_array(wo), self.sample_h_x8(ux, uy))
     }
 
