@@ -546,3 +546,27 @@ fn showcase_labels_name_each_sphere_below_it() {
         }
     }
 }
+
+/// Shapes that name the same material share its material group (the key the wavefront
+/// batches hits by), numbered in order of first appearance; every other material, named
+/// or inline (even with equal parameters), has a group of its own.
+#[test]
+fn shapes_sharing_a_material_share_its_group() {
+    let mut v = base();
+    v["materials"] = json!({
+        "matte": {"type": "lambert", "reflectance": 0.5},
+        "gloss": {"type": "cook-torrance", "specular": 0.3, "m": 0.1}
+    });
+    v["shapes"] = json!([
+        {"type": "sphere", "radius": 1, "material": "gloss"},
+        {"type": "sphere", "center": [3, 0, 0], "radius": 1, "material": "matte"},
+        {"type": "sphere", "center": [-3, 0, 0], "radius": 1, "material": "gloss"},
+        {"type": "sphere", "center": [0, 3, 0], "radius": 1,
+         "material": {"type": "lambert", "reflectance": 0.5}},
+        {"type": "sphere", "center": [0, -3, 0], "radius": 1, "material": "matte"}
+    ]);
+    let dir = lobe_tests::workspace().join("scenes");
+    let scene = from_value(&v, "groups.json", &dir, &LoadOptions::with_builtins()).unwrap();
+    let groups: Vec<u32> = scene.shapes.iter().map(|s| s.material_group).collect();
+    assert_eq!(groups, [0, 1, 0, 2, 1]);
+}

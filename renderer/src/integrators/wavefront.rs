@@ -146,9 +146,11 @@ pub struct MaterialGroups {
     order: Vec<u32>,
     ranges: Vec<(usize, usize, u32)>,
     contiguous: bool,
-    /// Per hit, its material's number; per material, (pointer, first shape, hit count).
+    /// Per hit, its batch's number; per batch, (material group, first shape, hit count).
     key: Vec<usize>,
-    distinct: Vec<(usize, u32, usize)>,
+    distinct: Vec<(u32, u32, usize)>,
+    /// Per material group, its batch in the current call (`u32::MAX`: none).
+    batch_of_group: Vec<u32>,
     /// Gathered inputs and outputs of one batch (when not contiguous).
     wo: Vec<Vec3>,
     wi: Vec<Vec3>,
@@ -599,23 +601,27 @@ fn select_pdf(scene: &Scene) -> f32 {
 
 impl MaterialGroups {
     /// Groups the hits `its` by material (shapes sharing a material share its batch):
-    /// each hit's material numbered in order of first appearance (scenes have few
-    /// materials, so a linear search of the list beats hashing), then a stable counting
-    /// sort. When the hits already come grouped (scenes of one material), the batches read
+    /// each hit's material group ([`crate::scene::ShapeInfo::material_group`]) given a
+    /// batch in order of first appearance, then a stable counting sort. When the hits already come grouped (scenes of one material), the batches read
     /// the queues in place.
     fn build(&mut self, scene: &Scene, its: &[Interaction]) {
         self.key.clear();
+        // The batch of each material group seen in the last call back to none.
+        for &(group, _, _) in &self.distinct {
+            self.batch_of_group[group as usize] = u32::MAX;
+        }
         self.distinct.clear();
         for it in its {
-            let ptr = std::sync::Arc::as_ptr(&scene.shapes[it.shape as usize].material) as *const ()
-                as usize;
-            let g = match self.distinct.iter().position(|&(p, _, _)| p == ptr) {
-                Some(g) => g,
-                None => {
-                    self.distinct.push((ptr, it.shape, 0));
-                    self.distinct.len() - 1
-                }
-            };
+            let group = scene.shapes[it.shape as usize].material_group as usize;
+            if group >= self.batch_of_group.len() {
+                self.batch_of_group.resize(group + 1, u32::MAX);
+            }
+            let mut g = self.batch_of_group[group] as usize;
+            if g == u32::MAX as usize {
+                g = self.distinct.len();
+                self.batch_of_group[group] = g as u32;
+                self.distinct.push((group as u32, it.shape, 0));
+            }
             self.distinct[g].2 += 1;
             self.key.push(g);
         }

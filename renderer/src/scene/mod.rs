@@ -38,6 +38,10 @@ use std::sync::Arc;
 #[derive(Clone, Debug)]
 pub struct ShapeInfo {
     pub material: Arc<dyn Bsdf>,
+    /// The number of this shape's material among the scene's distinct materials (shapes
+    /// sharing one material, the same `Arc`, share the number; numbered in order of first
+    /// appearance): the key the wavefront groups hits by.
+    pub material_group: u32,
     /// Index into [`Scene::lights`] of this shape's area light.
     pub light: Option<u32>,
 }

@@ -23,6 +23,8 @@ pub(super) struct Shapes {
     pub shapes: Vec<ShapeInfo>,
     pub lights: Vec<Light>,
     pub gltf_camera: Option<GltfCamera>,
+    /// Each distinct material's number ([`ShapeInfo::material_group`]), by its address.
+    material_groups: std::collections::HashMap<*const (), u32>,
 }
 
 /// The keys every shape has beside those of its kind.
@@ -116,7 +118,16 @@ impl Shapes {
             flip_normals: c.flip,
             face_normals: c.face_normals,
         });
-        self.shapes.push(ShapeInfo { material, light });
+        let next = self.material_groups.len() as u32;
+        let material_group = *self
+            .material_groups
+            .entry(std::sync::Arc::as_ptr(&material) as *const ())
+            .or_insert(next);
+        self.shapes.push(ShapeInfo {
+            material,
+            light,
+            material_group,
+        });
         Ok(())
     }
 
