@@ -20,7 +20,9 @@ is faster: lobe's speed over Mitsuba's, and the equal-error time ratio
 
 i.e. how much longer renderer X needs than lobe to reach the same error (RMSE^2 falls as
 1/spp for these unbiased renderers, and about so for the low-discrepancy samplers at these
-spp). lobe's padded, XOR-scrambled Sobol' sampler has less variance per sample than
+spp). Each renderer's RMSE is that of all its renders of the rounds (the mean of their
+squared errors, then the root): one render's error varies by several percent from seed
+to seed, which the equal-error ratio would carry twice. lobe's padded, XOR-scrambled Sobol' sampler has less variance per sample than
 Mitsuba's default `independent` sampler, so `llvm_ad_rgb` is also run with Mitsuba's
 `ldsampler` (the same construction: XOR-scrambled (0,2)-sequences per dimension pair):
 that column is the like-for-like equal-error comparison. Materials Mitsuba cannot load
@@ -118,8 +120,13 @@ def uses_python_plugin(d):
     return False
 
 
-def rmse(a, b):
-    return float(np.sqrt(np.mean((a - b) ** 2)))
+def mse(a, b):
+    return float(np.mean((a - b) ** 2))
+
+
+def rmse_of(errors):
+    """RMSE from the squared errors of several renders: their mean, then the root."""
+    return float(np.sqrt(np.mean(errors)))
 
 
 def suite_scenes(path):
@@ -141,8 +148,8 @@ class Measure:
 
     def __init__(self, name, samples):
         self.name, self.samples = name, samples
-        self.lobe_times, self.lobe_rmse = [], None
-        self.rows = {}  # config -> (pairs [(t_lobe, t_mitsuba)], rmse)
+        self.lobe_times, self.lobe_errors = [], []  # per lobe render: time, squared error
+        self.rows = {}  # config -> (pairs [(t_lobe, t_mitsuba)], RMSE over its renders)
         self.peer = None  # name of the scene Mitsuba rendered instead, if any
 
     def ratios(self, config):
@@ -150,7 +157,10 @@ class Measure:
         pairs, e = self.rows[config]
         t = statistics.median(tm for _, tm in pairs)
         speed = statistics.median(tm / tl for tl, tm in pairs)
-        return t, speed, speed * (e * e) / (self.lobe_rmse ** 2)
+        return t, speed, speed * (e * e) / (self.lobe_rmse() ** 2)
+
+    def lobe_rmse(self):
+        return rmse_of(self.lobe_errors)
 
 
 def measure(exe, scene, a, peer=None):
@@ -167,36 +177,38 @@ def measure(exe, scene, a, peer=None):
         m.peer = os.path.splitext(os.path.basename(peer))[0]
         mts = peer
         peer_ref, _ = lobe_render(exe, peer, a.reference_spp, 1000, os.path.join(tmp, "peer-ref.exr"))
-    lobe_img = None
     for smp in ("independent", "ldsampler"):
         try:
             ms = MitsubaScene("llvm_ad_rgb", mts, a.spp, smp)
         except Exception as e:  # noqa: BLE001 - a missing variant or plugin is reported, not fatal
             print(f"{name}: Mitsuba llvm_ad_rgb ({smp}) unavailable: {e}", file=sys.stderr)
             break
-        pairs, img = [], None
+        pairs, errors = [], []
         for k in range(a.runs):
             lobe_img, tl = lobe_render(exe, scene, a.spp, k, os.path.join(tmp, f"lobe{k}.exr"))
             img, tm = ms.render(k)
             m.lobe_times.append(tl)
+            m.lobe_errors.append(mse(lobe_img, ref))
             pairs.append((tl, tm))
-        m.rows[f"llvm_ad_rgb ({smp})"] = (pairs, rmse(img, peer_ref))
+            errors.append(mse(img, peer_ref))
+        m.rows[f"llvm_ad_rgb ({smp})"] = (pairs, rmse_of(errors))
         del ms
         gc.collect()
     if not m.lobe_times:
         for k in range(a.runs):
             lobe_img, tl = lobe_render(exe, scene, a.spp, k, os.path.join(tmp, f"lobe{k}.exr"))
             m.lobe_times.append(tl)
-    m.lobe_rmse = rmse(lobe_img, ref)
+            m.lobe_errors.append(mse(lobe_img, ref))
     if a.scalar_runs > 0:
         try:
             ms = MitsubaScene("scalar_rgb", mts, a.spp)
-            ts, img = [], None
+            ts, errors = [], []
             for k in range(a.scalar_runs):
                 img, t = ms.render(k)
                 ts.append(t)
+                errors.append(mse(img, peer_ref))
             tl = statistics.median(m.lobe_times)
-            m.rows["scalar_rgb (independent)"] = ([(tl, t) for t in ts], rmse(img, peer_ref))
+            m.rows["scalar_rgb (independent)"] = ([(tl, t) for t in ts], rmse_of(errors))
         except Exception as e:  # noqa: BLE001
             print(f"{name}: Mitsuba scalar_rgb unavailable: {e}", file=sys.stderr)
     return m
@@ -208,7 +220,7 @@ CONFIGS = ("llvm_ad_rgb (independent)", "llvm_ad_rgb (ldsampler)", "scalar_rgb (
 def detail_lines(m):
     lines = []
     tl = statistics.median(m.lobe_times)
-    lines.append(f"| {m.name} | lobe | {tl:.3f} | {m.samples / tl / 1e6:.2f} | {m.lobe_rmse:.4e} | 1 | 1 |")
+    lines.append(f"| {m.name} | lobe | {tl:.3f} | {m.samples / tl / 1e6:.2f} | {m.lobe_rmse():.4e} | 1 | 1 |")
     for c in CONFIGS:
         if c in m.rows:
             t, speed, eq = m.ratios(c)
@@ -265,7 +277,7 @@ def main():
     lines = [f"Machine: {cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
              f"Mitsuba {mi.__version__}; {a.spp} spp, medians of {a.runs} rounds (lobe and each "
              f"llvm_ad_rgb configuration alternating, ratios paired per round; scalar_rgb: "
-             f"{a.scalar_runs} renders against lobe's median), RMSE against lobe at "
+             f"{a.scalar_runs} renders against lobe's median), RMSE (over every render of the rounds) against lobe at "
              f"{a.reference_spp} spp with another seed; {time.strftime('%Y-%m-%d')}.", "",
              "Per scene: lobe's Msamples/s, then for each Mitsuba configuration `speed / "
              "equal-error`: lobe's speed over Mitsuba's (above 1: lobe is faster) and the "
