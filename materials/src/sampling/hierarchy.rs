@@ -247,6 +247,8 @@ mod tests {
             (8, 4),
             (13, 6),
             (16, 9),
+            (37, 19),
+            (70, 33),
         ] {
             for zero in [false, true] {
                 let vals = if zero {
@@ -289,6 +291,45 @@ mod tests {
                         assert_eq!(counts[k], 0, "{nu}x{nv}: empty cell {k} drawn");
                     }
                 }
+            }
+        }
+    }
+
+    /// Whole empty rows and columns (between non-empty ones, inside a node's 4x4 children
+    /// and across nodes) are never drawn, and the rest in proportion to mass.
+    #[test]
+    fn hierarchy_skips_empty_rows_and_columns() {
+        let (nu, nv) = (23, 18);
+        let vals: Vec<f32> = (0..nu * nv)
+            .map(|i| {
+                let (x, y) = (i % nu, i / nu);
+                if x % 4 == 1 || x == 2 || y % 5 == 0 || y == 7 {
+                    0.0
+                } else {
+                    1.0 + ((x * 3 + y * 5) % 7) as f32
+                }
+            })
+            .collect();
+        let (t, _) = Hierarchy2D::new(&vals, nu, nv);
+        let total: f64 = vals.iter().map(|&v| v as f64).sum();
+        let m = 600;
+        let mut counts = vec![0u32; nu * nv];
+        for i in 0..m {
+            for j in 0..m {
+                let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
+                let (x, y, _) = t.sample(u);
+                counts[y * nu + x] += 1;
+            }
+        }
+        for k in 0..nu * nv {
+            let expect = vals[k] as f64 / total * (m * m) as f64;
+            assert!(
+                (counts[k] as f64 - expect).abs() <= 2.0 * m as f64,
+                "cell {k}: {} draws, expected {expect}",
+                counts[k]
+            );
+            if vals[k] == 0.0 {
+                assert_eq!(counts[k], 0, "empty cell {k} drawn");
             }
         }
     }
