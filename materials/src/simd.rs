@@ -199,6 +199,13 @@ pub fn max_lane(x: f32, lo: f32) -> f32 {
     if lo < x { x } else { lo }
 }
 
+/// The scalar twin of `f32x8::min` (`wide`'s): `if x < hi { x } else { hi }`, so NaN
+/// gives `hi`.
+#[inline(always)]
+pub fn min_lane(x: f32, hi: f32) -> f32 {
+    if x < hi { x } else { hi }
+}
+
 /// `a * b + c` per lane with a single rounding, as `f32::mul_add` gives it, in every build
 /// (`wide`'s `mul_add` rounds twice when the target has no FMA unit).
 #[inline(always)]

@@ -35,8 +35,9 @@
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
 use super::he_shadowing;
-use super::microfacet::fresnel::dielectric;
+use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
 use super::microfacet::{Distribution, beckmann_cos_x8, beckmann_d_x8};
+use crate::fastmath::{self, x8};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
@@ -50,7 +51,7 @@ use std::sync::Arc;
 /// Wavelengths of the R, G, B channels in micrometres (bbm's `Config::wavelength`).
 pub const WAVELENGTHS_UM: [f64; 3] = [0.645, 0.526, 0.444];
 
-/// Tested bound of the rendered lobe ([`He::value_rendered`]) against the fitted one
+/// Tested bound of the rendered lobe ([`He::value_x8`]) against the fitted one
 /// ([`He::value_tabulated`]), relative to the latter's value.
 pub const RENDER_ERROR_BOUND: f64 = 5e-4;
 
@@ -154,31 +155,107 @@ impl He {
         )
     }
 
-    /// The lobe per channel as rendered: the elevation terms from the universal table of
-    /// [`he_shadowing`] in f32, the rest as [`He::value_tabulated`] (within
-    /// [`RENDER_ERROR_BOUND`] of it).
-    #[inline]
-    pub fn value_rendered(&self, wo: V3<f64>, wi: V3<f64>) -> [f64; 3] {
-        self.value_with(
-            wo,
-            wi,
-            |ci, co| {
-                let (s, sigma) = he_shadowing::elevation_terms(
-                    self.sigma0 as f32,
-                    self.tau as f32,
-                    ci as f32,
-                    co as f32,
-                );
-                (s as f64, sigma as f64)
-            },
-            Self::series_tabulated,
-        )
-    }
-
     /// The series from its table where the table covers (g, e), else summed.
     #[inline]
     fn series_tabulated(g: f64, e: f64) -> f64 {
         he_series::tabulated(g, e).unwrap_or_else(|| Self::series(g, e))
+    }
+
+    /// [`He::value_x8`] of one pair, bit for bit a lane of it (the same operations in the
+    /// same order, on f32 scalars).
+    pub fn value_f32(&self, wo: Vec3, wi: Vec3) -> [f32; 3] {
+        let hv = wo + wi;
+        let l2 = (hv.x * hv.x + hv.y * hv.y) + hv.z * hv.z;
+        let h = hv * (1.0 / l2.sqrt());
+        let (co, ci) = (wo.z, wi.z);
+        let cd = (wi.x * h.x + wi.y * h.y) + wi.z * h.z;
+        let ch = h.z;
+        let ok = co > 0.0 && ci > 0.0 && l2 > 0.0 && l2.is_finite() && cd > 0.0 && ch > 0.0;
+        let fresnel = dielectric(self.eta as f32, cd);
+        let (shadow, sigma) =
+            he_shadowing::elevation_terms(self.sigma0 as f32, self.tau as f32, ci, co);
+        let g_geo = 4.0 * cd * cd / (ch * ch);
+        let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
+        let vxy2 = sx * sx + sy * sy;
+        let pi2tau2 = std::f64::consts::PI * std::f64::consts::PI * self.tau * self.tau;
+        let gs = WAVELENGTHS_UM.map(|l| {
+            let k = (2.0 * std::f64::consts::PI / l) as f32 * sigma * (ci + co);
+            k * k
+        });
+        let g_min = simd::min_lane(simd::min_lane(gs[0], gs[1]), gs[2]);
+        let common = fresnel * shadow * g_geo / (std::f32::consts::PI * ci * co);
+        let w = g_min - 18.0;
+        std::array::from_fn(|c| {
+            let l2 = WAVELENGTHS_UM[c] * WAVELENGTHS_UM[c];
+            let n = (pi2tau2 / (4.0 * l2)) as f32;
+            let e = (pi2tau2 / l2) as f32 * vxy2;
+            let g = gs[c];
+            let rough = || fastmath::exp(-e / g) / g;
+            let series = || he_series::tabulated_f32(g, e);
+            let sum = if g_min > 19.0 {
+                rough()
+            } else if g_min > 18.0 {
+                (1.0 - w) * series() + w * rough()
+            } else {
+                series()
+            };
+            let v = common * n * sum;
+            if ok && v.is_finite() {
+                simd::max_lane(v, 0.0)
+            } else {
+                0.0
+            }
+        })
+    }
+
+    /// The lobe as rendered, eight pairs in SIMD lanes and in f32: [`He::value_tabulated`]'s
+    /// terms in the same order, with the elevation terms from [`he_shadowing`]'s universal
+    /// tables (lane by lane) and the series from its f32 table
+    /// ([`he_series::tabulated_x8`]); within [`RENDER_ERROR_BOUND`] of the fitted lobe
+    /// (tested).
+    pub fn value_x8(&self, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
+        let s = f32x8::splat;
+        let zero = s(0.0);
+        let (h, has_half) = lobe::x8::half(wo, wi);
+        let (co, ci) = (wo.z, wi.z);
+        let cd = wi.dot(h);
+        let ch = h.z;
+        let ok = lobe::x8::above(wo, wi) & has_half & cd.simd_gt(zero) & ch.simd_gt(zero);
+        let fresnel = Dielectric { eta: self.eta }.eval_x8(cd);
+        let (ci_l, co_l) = (ci.to_array(), co.to_array());
+        let terms = simd::lanes(|k| {
+            he_shadowing::elevation_terms(self.sigma0 as f32, self.tau as f32, ci_l[k], co_l[k])
+        });
+        let shadow = f32x8::new(terms.map(|t| t.0));
+        let sigma = f32x8::new(terms.map(|t| t.1));
+        let g_geo = s(4.0) * cd * cd / (ch * ch);
+        let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
+        let vxy2 = sx * sx + sy * sy;
+        let pi2tau2 = std::f64::consts::PI * std::f64::consts::PI * self.tau * self.tau;
+        let gs = WAVELENGTHS_UM.map(|l| {
+            let k = s((2.0 * std::f64::consts::PI / l) as f32) * sigma * (ci + co);
+            k * k
+        });
+        let g_min = gs[0].min(gs[1]).min(gs[2]);
+        let common = fresnel * shadow * g_geo / (s(std::f32::consts::PI) * ci * co);
+        let (rough_only, blended) = (g_min.simd_gt(s(19.0)), g_min.simd_gt(s(18.0)));
+        let w = g_min - s(18.0);
+        let channel = |c: usize| {
+            let l2 = WAVELENGTHS_UM[c] * WAVELENGTHS_UM[c];
+            let n = s((pi2tau2 / (4.0 * l2)) as f32);
+            let e = s((pi2tau2 / l2) as f32) * vxy2;
+            let g = gs[c];
+            let rough = x8::exp(-e / g) / g;
+            let series = he_series::tabulated_x8(g, e);
+            let sum = sel(
+                rough_only,
+                rough,
+                sel(blended, (s(1.0) - w) * series + w * rough, series),
+            );
+            let v = common * n * sum;
+            sel(ok & v.is_finite(), v.max(zero), zero)
+        };
+        Rgbx8::new(channel(0), channel(1), channel(2))
     }
 
     /// The lobe per channel, with the elevation factors from `terms(cos_i, cos_o)` (called
@@ -265,15 +342,12 @@ impl Lobe for He {
         "he"
     }
 
-    /// [`He::value_rendered`]: the tabulated series as fitting evaluates it (the summed
-    /// series cost up to 64 exponentials per channel and was the largest single cost of
-    /// rendering He's fits), the elevation terms from their universal table (they cost
-    /// four `erfc` and four `exp` per call, the next largest).
+    /// [`He::value_f32`] (bit for bit a lane of [`Lobe::eval_pdf_x8`]): the series from its table (the summed series
+    /// cost up to 64 exponentials per channel and was the largest single cost of rendering
+    /// He's fits), the elevation terms from their universal table (four `erfc` and four
+    /// `exp` per call before, the next largest).
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        Rgb::from(
-            self.value_rendered(wo.as_dvec3().into(), wi.as_dvec3().into())
-                .map(|v| v as f32),
-        )
+        Rgb::from(self.value_f32(wo, wi))
     }
 
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
@@ -326,11 +400,12 @@ impl Lobe for He {
         lobe::x8::sample_via_half(Vec3x8::from_array(wo), h)
     }
 
-    /// `eval` lane by lane (f64), `pdf` in lanes: each lane's proposal roughnesses one by
-    /// one, the two Beckmann densities eight at a time (bit for bit [`He::pdf`]).
+    /// The value in lanes ([`He::value_x8`]), `pdf` in lanes: each lane's proposal
+    /// roughnesses one by one, the two Beckmann densities eight at a time (bit for bit
+    /// [`He::pdf`]).
     fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
-        let (o, i) = (wo.to_array(), wi.to_array());
-        let f = simd::lanes(|k| self.eval(o[k], i[k]));
+        let o = wo.to_array();
+        let f = self.value_x8(wo, wi);
         let zero = f32x8::splat(0.0);
         let (h, has_half) = lobe::x8::half(wo, wi);
         let ok = lobe::x8::above(wo, wi) & has_half;
@@ -347,7 +422,7 @@ impl Lobe for He {
             wo.dot(h),
         );
         let p = sel(ok & p.is_finite(), p, zero);
-        (Rgbx8::from_array(&f), p)
+        (f, p)
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -509,9 +584,9 @@ mod tests {
         }
     }
 
-    /// The render path's tabulated elevation terms against the f64 forms fitting uses, on
-    /// a dense grid of directions (grazing ones included) for smooth to rough, short to
-    /// long correlation lengths.
+    /// The render path (f32 lanes, tabulated elevation terms and series) against the f64
+    /// lobe fitting uses at the same (f32) directions, on a dense grid of directions
+    /// (grazing ones included) for smooth to rough, short to long correlation lengths.
     #[test]
     fn rendered_lobe_is_within_its_bound_of_the_fitted_lobe() {
         let mut worst = (0.0f64, String::new());
@@ -525,9 +600,19 @@ mod tests {
                 for ti in [0.0, 5.0, 30.0, 60.0, 80.0, 89.0, 89.9] {
                     for to in (0..=180).map(|k| k as f64 * 0.5) {
                         for po in [180.0, 150.0, 90.0, 0.0] {
-                            let (wi, wo) = (dir(ti, 0.0), dir(to, po));
-                            let t = he.value_tabulated(wo, wi);
-                            let r = he.value_rendered(wo, wi);
+                            // The directions as the renderer has them, in f32: the
+                            // fitted lobe at the same directions.
+                            let (wi, wo) = (dir(ti, 0.0).into_f32(), dir(to, po).into_f32());
+                            let f64_of = |v: V3<f32>| V3::new(v.x as f64, v.y as f64, v.z as f64);
+                            let t = he.value_tabulated(f64_of(wo), f64_of(wi));
+                            let r = he
+                                .value_x8(
+                                    Vec3x8::splat(Vec3::from(wo)),
+                                    Vec3x8::splat(Vec3::from(wi)),
+                                )
+                                .lane(0)
+                                .to_array()
+                                .map(|v| v as f64);
                             for c in 0..3 {
                                 assert!(r[c].is_finite() && r[c] >= 0.0);
                                 if t[c] < 1e-12 {
@@ -546,6 +631,67 @@ mod tests {
         }
         assert!(worst.0 <= RENDER_ERROR_BOUND, "worst {worst:?}");
         eprintln!("worst relative error {worst:?}");
+    }
+
+    /// The render path's lanes equal its one-at-a-time form bit for bit, for smooth to
+    /// rough lobes (the rough limit and the blend included) and directions from normal to
+    /// grazing, below the horizon and opposite (no half vector).
+    #[test]
+    fn rendered_lanes_equal_single_evaluations() {
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut nonzero = 0;
+        for (sigma0, tau) in [
+            (0.0, 3.0),
+            (0.01, 200.0),
+            (0.2, 3.0),
+            (0.647, 8.0),
+            (3.0, 10.0),
+            (10.0, 0.3),
+        ] {
+            let he = He {
+                sigma0,
+                tau,
+                eta: 1.8,
+            };
+            for round in 0..200 {
+                let d = |next: &mut dyn FnMut() -> f32| {
+                    let z = 2.0 * next() - 1.0;
+                    let phi = std::f32::consts::TAU * next();
+                    let r = (1.0 - z * z).max(0.0).sqrt();
+                    Vec3::new(r * phi.cos(), r * phi.sin(), z.abs().max(1e-6))
+                };
+                let wo: [Vec3; 8] = std::array::from_fn(|_| d(&mut next));
+                let wi: [Vec3; 8] = std::array::from_fn(|k| match (round + k) % 9 {
+                    0 => Vec3::new(-wo[k].x, -wo[k].y, wo[k].z), // the mirror direction
+                    1 => -wo[k],
+                    2 => Vec3::new(wo[k].x, wo[k].y, -wo[k].z),
+                    3 => Vec3::new(0.0, 0.0, 1.0),
+                    _ => d(&mut next),
+                });
+                let lanes = he.value_x8(Vec3x8::from_array(&wo), Vec3x8::from_array(&wi));
+                for k in 0..8 {
+                    let one = he.value_f32(wo[k], wi[k]);
+                    let lane = lanes.lane(k).to_array();
+                    for c in 0..3 {
+                        assert_eq!(
+                            one[c].to_bits(),
+                            lane[c].to_bits(),
+                            "{he:?} {} {}",
+                            wo[k],
+                            wi[k]
+                        );
+                    }
+                    nonzero += (one[0] > 0.0) as usize;
+                }
+            }
+        }
+        assert!(nonzero > 3000, "{nonzero} non-zero values");
     }
 
     #[test]

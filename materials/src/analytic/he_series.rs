@@ -19,6 +19,7 @@
 //! the lobe's own peak at the same elevations (the specular direction, e = 0), which is
 //! how the Eq. (1) metric weighs it.
 
+use crate::simd::{self, f32x8, i32x8};
 use std::sync::LazyLock;
 
 /// Largest g of the table: He sums the series while the red channel's g is at most 19,
@@ -105,10 +106,124 @@ fn hermite(t: f64) -> [f64; 4] {
     ]
 }
 
-/// Builds the table now if it is not built yet (it is otherwise built at the first
-/// [`tabulated`] call).
+/// The table in f32 for rendering ([`tabulated_x8`]): per node F and its derivatives
+/// scaled by the steps, [F, G_STEP F_g, U_STEP F_u, G_STEP U_STEP F_gu], one 16-byte read.
+static TABLE32: LazyLock<Vec<[f32; 4]>> = LazyLock::new(|| {
+    TABLE
+        .nodes
+        .iter()
+        .map(|n| {
+            [
+                n.f as f32,
+                (G_STEP * n.f_g) as f32,
+                (U_STEP * n.f_u) as f32,
+                (G_STEP * U_STEP * n.f_gu) as f32,
+            ]
+        })
+        .collect()
+});
+
+/// Builds the tables now if they are not built yet (they are otherwise built at the first
+/// [`tabulated`] or [`tabulated_x8`] call).
 pub fn build_table() {
     LazyLock::force(&TABLE);
+    LazyLock::force(&TABLE32);
+}
+
+/// [`hermite`] in f32, with [`hermite_x8`]'s operations.
+#[inline(always)]
+fn hermite_f32(t: f32) -> [f32; 4] {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    [
+        2.0 * t3 - 3.0 * t2 + 1.0,
+        t3 - 2.0 * t2 + t,
+        3.0 * t2 - 2.0 * t3,
+        t3 - t2,
+    ]
+}
+
+/// [`tabulated_x8`] of one point, bit for bit a lane of it.
+#[inline]
+pub fn tabulated_f32(g: f32, e: f32) -> f32 {
+    let u = simd::max_lane(e, 0.0).sqrt();
+    let (gs, us) = (g * (1.0 / G_STEP) as f32, u * (1.0 / U_STEP) as f32);
+    // The lanes' conversion: truncation, i32::MIN for NaN and out of range, then clamped.
+    let index = |x: f32, top: usize| {
+        let i = if x.is_nan() || x >= 2147483648.0 || x < -2147483648.0 {
+            i32::MIN
+        } else {
+            x as i32
+        };
+        i.max(0).min(top as i32)
+    };
+    let (i, j) = (index(gs, G_NODES - 2), index(us, U_NODES - 2));
+    let (hg, hu) = (hermite_f32(gs - i as f32), hermite_f32(us - j as f32));
+    let k = i as usize * U_NODES + j as usize;
+    let t = &*TABLE32;
+    let mut sum = 0.0f32;
+    for (di, (wg, wg_d)) in [(0, (hg[0], hg[1])), (1, (hg[2], hg[3]))] {
+        for (dj, (wu, wu_d)) in [(0, (hu[0], hu[1])), (1, (hu[2], hu[3]))] {
+            let [f, f_g, f_u, f_gu] = t[k + di * U_NODES + dj];
+            sum += wg * (wu * f + wu_d * f_u) + wg_d * (wu * f_g + wu_d * f_gu);
+        }
+    }
+    let s = g * simd::max_lane(sum, 0.0);
+    if u >= U_MAX as f32 { 0.0 } else { s }
+}
+
+/// [`hermite`] per lane, in f32.
+#[inline(always)]
+fn hermite_x8(t: f32x8) -> [f32x8; 4] {
+    let (one, two, three) = (f32x8::splat(1.0), f32x8::splat(2.0), f32x8::splat(3.0));
+    let t2 = t * t;
+    let t3 = t2 * t;
+    [
+        two * t3 - three * t2 + one,
+        t3 - two * t2 + t,
+        three * t2 - two * t3,
+        t3 - t2,
+    ]
+}
+
+/// [`tabulated`] in eight lanes and in f32 (the render path: within
+/// [`super::he::RENDER_ERROR_BOUND`] of the f64 lobe, tested there): S(g, e) for
+/// 0 <= g <= [`G_MAX`] and e >= 0, 0 for u = sqrt(e) >= [`U_MAX`]. Other lanes read a
+/// clamped cell of the table and get a finite value or NaN the caller discards (the lobe
+/// sums the series only where every channel's g is within the table).
+#[inline]
+pub fn tabulated_x8(g: f32x8, e: f32x8) -> f32x8 {
+    let zero = f32x8::splat(0.0);
+    let u = e.max(zero).sqrt();
+    let (gs, us) = (
+        g * f32x8::splat((1.0 / G_STEP) as f32),
+        u * f32x8::splat((1.0 / U_STEP) as f32),
+    );
+    let index = |x: f32x8, top: usize| {
+        x.trunc_int()
+            .max(i32x8::splat(0))
+            .min(i32x8::splat(top as i32))
+    };
+    let (i, j) = (index(gs, G_NODES - 2), index(us, U_NODES - 2));
+    let (hg, hu) = (
+        hermite_x8(gs - f32x8::from_i32x8(i)),
+        hermite_x8(us - f32x8::from_i32x8(j)),
+    );
+    let k = (i * i32x8::splat(U_NODES as i32) + j).to_array();
+    let t = &*TABLE32;
+    let mut sum = zero;
+    for (di, (wg, wg_d)) in [(0, (hg[0], hg[1])), (1, (hg[2], hg[3]))] {
+        for (dj, (wu, wu_d)) in [(0, (hu[0], hu[1])), (1, (hu[2], hu[3]))] {
+            let offset = di * U_NODES + dj;
+            // k <= (G_NODES - 2) U_NODES + U_NODES - 2 (clamped above), so k + offset is
+            // within the table.
+            let [f, f_g, f_u, f_gu] =
+                simd::transpose4x8(&simd::lanes(|l| t[k[l] as usize + offset]));
+            sum += wg * (wu * f + wu_d * f_u) + wg_d * (wu * f_g + wu_d * f_gu);
+        }
+    }
+    let s = g * sum.max(zero);
+    simd::sel(u.simd_ge(f32x8::splat(U_MAX as f32)), zero, s)
 }
 
 /// S(g, e) from the table, for 0 <= g <= [`G_MAX`] (None outside, or for a non-finite
