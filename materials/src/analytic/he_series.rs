@@ -150,7 +150,7 @@ pub fn tabulated_f32(g: f32, e: f32) -> f32 {
     let (gs, us) = (g * (1.0 / G_STEP) as f32, u * (1.0 / U_STEP) as f32);
     // The lanes' conversion: truncation, i32::MIN for NaN and out of range, then clamped.
     let index = |x: f32, top: usize| {
-        let i = if x.is_nan() || x >= 2147483648.0 || x < -2147483648.0 {
+        let i = if !(-2147483648.0..2147483648.0).contains(&x) {
             i32::MIN
         } else {
             x as i32
