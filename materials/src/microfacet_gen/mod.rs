@@ -19,8 +19,9 @@
 //! wide); it coarsens towards the horizon, where distributions are small and the data stop
 //! at 80 degrees anyway. Because dw = dA / h_z, the bilinear table is itself the density of
 //! h over the disk with respect to p(h) h_z dw: normalizing it to unit integral over the
-//! disk normalizes <h.n>, and the continuous 2D sampler (`Marginal2D`) draws h with density
-//! p(h) h_z exactly. g(k) is tabulated over (theta_k, phi_k) on 2 x 5 degree nodes by
+//! disk normalizes <h.n>, and the sampler draws h with density p(h) h_z exactly (a cell by
+//! hierarchical warping in proportion to its bilinear patch's mass, then a point of the
+//! patch by its bilinear density). g(k) is tabulated over (theta_k, phi_k) on 2 x 5 degree nodes by
 //! quadrature over the same grid.
 //!
 //! Estimation (Ngan et al. Eq. 4): p(h) = rho(k1, k2) 4 g(k1) g(k2) / (<h.n> F(k.h)),

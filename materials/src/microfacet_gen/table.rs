@@ -1,15 +1,17 @@
 //! The tabulated distribution of normals p(h) of the Ashikhmin-Premože-Shirley generator
 //! (SIGGRAPH 2000): node values over the projected hemisphere, normalized so that
 //! <h.n> = 1, interpolated bilinearly; APS2000's shadowing term g(k) = int (h.k)+ p(h) dw
-//! tabulated on (theta_k, phi_k) nodes by quadrature over the same grid; the continuous
-//! sampler of h (`Marginal2D`); the forward model rho (Ngan et al. 2005, section 5,
+//! tabulated on (theta_k, phi_k) nodes by quadrature over the same grid; the sampler of h
+//! (a grid cell by hierarchical warping in proportion to its bilinear patch's mass, then a
+//! point by the patch's bilinear density: exactly the density p(h) h_z); the forward model rho (Ngan et al. 2005, section 5,
 //! Eq. 3); and the EXR file a table is stored in.
 //!
 //! Each lookup has an f64 form (fitting) and an eight-lane f32 form (rendering:
 //! [`crate::fastmath::x8`]'s acos and atan2, gathers from the f32 tables).
 
 use crate::fastmath::x8;
-use crate::sampling::marginal2d::{Marginal2D, Slicesx8};
+use crate::sampling::hierarchy::Hierarchy2D;
+use crate::sampling::warp::{square_to_bilinear, square_to_bilinear_x8};
 use crate::simd::{self, Vec3x8, f32x8, i32x8, sel};
 use glam::{DVec3, Vec2, Vec3};
 use std::path::Path;
@@ -28,7 +30,8 @@ pub struct Table {
     pub(super) p: Vec<f32>,
     /// g(k) at (theta, phi) nodes.
     g: Vec<f32>,
-    sampler: Marginal2D,
+    /// The (n - 1)^2 grid cells, drawn in proportion to the mass of their bilinear patch.
+    cells: Hierarchy2D,
 }
 
 pub(super) fn node_dir(n: usize, i: usize, j: usize) -> Option<DVec3> {
@@ -99,13 +102,23 @@ impl Table {
         }
         let p: Vec<f32> = nodes.iter().map(|v| (v / total) as f32).collect();
         let g = compute_g(n, &p);
-        let sampler = Marginal2D::new(&p, n, n, Vec::new(), true);
-        Ok(Table { n, p, g, sampler })
+        // A cell's mass is the mean of its corner nodes (the integral of its bilinear patch
+        // over the cell's area, which is the same for every cell).
+        let m = n - 1;
+        let masses: Vec<f32> = (0..m * m)
+            .map(|k| {
+                let (i, j) = (k % m, k / m);
+                let at = |i: usize, j: usize| p[j * n + i];
+                0.25 * (at(i, j) + at(i + 1, j) + at(i, j + 1) + at(i + 1, j + 1))
+            })
+            .collect();
+        let (cells, _) = Hierarchy2D::new(&masses, m, m);
+        Ok(Table { n, p, g, cells })
     }
 
     /// Bytes held by the node values, the g table and the sampler.
     pub fn memory_bytes(&self) -> usize {
-        (self.p.len() + self.g.len()) * 4 + self.sampler.memory_bytes()
+        (self.p.len() + self.g.len()) * 4 + self.cells.memory_bytes()
     }
 
     pub fn resolution(&self) -> usize {
@@ -230,27 +243,42 @@ impl Table {
         }
     }
 
-    /// Draws h with density p(h) h_z (None when the bilinear density leaks past the rim).
+    /// Draws h with density p(h) h_z (None when the bilinear density leaks past the rim):
+    /// a cell by hierarchical warping ([`Hierarchy2D`]), then a point of it by its bilinear
+    /// density ([`square_to_bilinear`]).
     pub fn sample_h(&self, u: Vec2) -> Option<Vec3> {
-        let (uv, _) = self.sampler.sample([u.x, u.y], &[]);
-        let (x, y) = (2.0 * uv[0] - 1.0, 2.0 * uv[1] - 1.0);
+        let (ix, iy, r) = self.cells.sample(u);
+        let k = iy * self.n + ix;
+        let p = &self.p;
+        let f = square_to_bilinear(r, [p[k], p[k + 1], p[k + self.n], p[k + self.n + 1]]);
+        let inv = 1.0 / (self.n - 1) as f32;
+        let (x, y) = (
+            2.0 * ((ix as f32 + f.x) * inv) - 1.0,
+            2.0 * ((iy as f32 + f.y) * inv) - 1.0,
+        );
         let r2 = x * x + y * y;
         (r2 < 1.0).then(|| Vec3::new(x, y, (1.0 - r2).sqrt()))
     }
 
-    /// [`Table::sample_h`] of eight points ([`Marginal2D::sample_x8`]), lane by lane the
-    /// same.
+    /// [`Table::sample_h`] of eight points, lane by lane the same.
     pub fn sample_h_x8(&self, u: &[Vec2; 8]) -> [Option<Vec3>; 8] {
-        let xi = [
-            f32x8::new(simd::lanes(|i| u[i].x)),
-            f32x8::new(simd::lanes(|i| u[i].y)),
-        ];
-        let ([ux, uy], _) = self.sampler.sample_x8(xi, &Slicesx8::none());
-        let (ux, uy) = (ux.to_array(), uy.to_array());
+        let [ux, uy] = simd::vec2s(u);
+        let [(cx, cy, rx, ry)] = self.cells.sample_x8s([ux], [uy]);
+        let n = self.n as i32;
+        let k = wide::bytemuck::cast::<_, i32x8>(cy) * i32x8::splat(n)
+            + wide::bytemuck::cast::<_, i32x8>(cx);
+        let at = |offset: i32| simd::gather(&self.p, k + i32x8::splat(offset));
+        let (fx, fy) = square_to_bilinear_x8(rx, ry, [at(0), at(1), at(n), at(n + 1)]);
+        let inv = f32x8::splat(1.0 / (self.n - 1) as f32);
+        let (two, one) = (f32x8::splat(2.0), f32x8::splat(1.0));
+        let lane = |c: wide::u32x8, f: f32x8| {
+            let c = wide::bytemuck::cast::<_, i32x8>(c);
+            (two * ((f32x8::from_i32x8(c) + f) * inv) - one).to_array()
+        };
+        let (x, y) = (lane(cx, fx), lane(cy, fy));
         simd::lanes(|i| {
-            let (x, y) = (2.0 * ux[i] - 1.0, 2.0 * uy[i] - 1.0);
-            let r2 = x * x + y * y;
-            (r2 < 1.0).then(|| Vec3::new(x, y, (1.0 - r2).sqrt()))
+            let r2 = x[i] * x[i] + y[i] * y[i];
+            (r2 < 1.0).then(|| Vec3::new(x[i], y[i], (1.0 - r2).sqrt()))
         })
     }
 

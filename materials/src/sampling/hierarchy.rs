@@ -89,6 +89,14 @@ impl Hierarchy2D {
         (Self { nu, nv, levels }, mean)
     }
 
+    /// Bytes held by the levels.
+    pub fn memory_bytes(&self) -> usize {
+        self.levels
+            .iter()
+            .map(|l| l.data.len() * std::mem::size_of::<[f32; 4]>())
+            .sum()
+    }
+
     /// (column, row, position within the cell in [0, 1)^2).
     #[inline]
     pub fn sample(&self, u: Vec2) -> (usize, usize, Vec2) {
