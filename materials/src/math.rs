@@ -189,3 +189,15 @@ impl V3<f64> {
 pub fn half<T: Real>(wo: V3<T>, wi: V3<T>) -> Option<V3<T>> {
     (wo + wi).normalize()
 }
+
+/// Marsaglia's xorshift64 from `seed` (non-zero): a fixed stream of pseudo-random 64-bit
+/// values for tests' random points, the same in every run.
+#[cfg(test)]
+pub(crate) fn xorshift64(mut seed: u64) -> impl FnMut() -> u64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed
+    }
+}

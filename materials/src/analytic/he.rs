@@ -638,13 +638,8 @@ mod tests {
     /// grazing, below the horizon and opposite (no half vector).
     #[test]
     fn rendered_lanes_equal_single_evaluations() {
-        let mut x = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut bits = crate::math::xorshift64(0x9e37_79b9_7f4a_7c15);
+        let mut next = move || (bits() >> 40) as f32 / (1u64 << 24) as f32;
         let mut nonzero = 0;
         for (sigma0, tau) in [
             (0.0, 3.0),

@@ -20,6 +20,7 @@
 //! how the Eq. (1) metric weighs it.
 
 use crate::simd::{self, f32x8, i32x8};
+use std::ops::{Add, Mul, Neg, Sub};
 use std::sync::LazyLock;
 
 /// Largest g of the table: He sums the series while the red channel's g is at most 19,
@@ -93,15 +94,20 @@ static TABLE: LazyLock<Table> = LazyLock::new(|| {
     Table { nodes }
 });
 
-/// Cubic Hermite basis at t in [0, 1]: (value at 0, slope at 0, value at 1, slope at 1).
+/// Cubic Hermite basis at t in [0, 1]: (value at 0, slope at 0, value at 1, slope at 1),
+/// for f64 (fitting), f32 and f32 lanes (the render path) alike, with the constants 1, 2
+/// and 3 of the type.
 #[inline(always)]
-fn hermite(t: f64) -> [f64; 4] {
+fn hermite<T>(t: T, [one, two, three]: [T; 3]) -> [T; 4]
+where
+    T: Copy + Add<Output = T> + Sub<Output = T> + Mul<Output = T> + Neg<Output = T>,
+{
     let t2 = t * t;
     let t3 = t2 * t;
     [
-        2.0 * t3 - 3.0 * t2 + 1.0,
-        t3 - 2.0 * t2 + t,
-        -2.0 * t3 + 3.0 * t2,
+        two * t3 - three * t2 + one,
+        t3 - two * t2 + t,
+        -two * t3 + three * t2,
         t3 - t2,
     ]
 }
@@ -130,19 +136,6 @@ pub fn build_table() {
     LazyLock::force(&TABLE32);
 }
 
-/// [`hermite`] in f32, with [`hermite_x8`]'s operations.
-#[inline(always)]
-fn hermite_f32(t: f32) -> [f32; 4] {
-    let t2 = t * t;
-    let t3 = t2 * t;
-    [
-        2.0 * t3 - 3.0 * t2 + 1.0,
-        t3 - 2.0 * t2 + t,
-        3.0 * t2 - 2.0 * t3,
-        t3 - t2,
-    ]
-}
-
 /// [`tabulated_x8`] of one point, bit for bit a lane of it.
 #[inline]
 pub fn tabulated_f32(g: f32, e: f32) -> f32 {
@@ -158,7 +151,11 @@ pub fn tabulated_f32(g: f32, e: f32) -> f32 {
         i.max(0).min(top as i32)
     };
     let (i, j) = (index(gs, G_NODES - 2), index(us, U_NODES - 2));
-    let (hg, hu) = (hermite_f32(gs - i as f32), hermite_f32(us - j as f32));
+    let consts = [1.0, 2.0, 3.0];
+    let (hg, hu) = (
+        hermite(gs - i as f32, consts),
+        hermite(us - j as f32, consts),
+    );
     let k = i as usize * U_NODES + j as usize;
     let t = &*TABLE32;
     let mut sum = 0.0f32;
@@ -170,20 +167,6 @@ pub fn tabulated_f32(g: f32, e: f32) -> f32 {
     }
     let s = g * simd::max_lane(sum, 0.0);
     if u >= U_MAX as f32 { 0.0 } else { s }
-}
-
-/// [`hermite`] per lane, in f32.
-#[inline(always)]
-fn hermite_x8(t: f32x8) -> [f32x8; 4] {
-    let (one, two, three) = (f32x8::splat(1.0), f32x8::splat(2.0), f32x8::splat(3.0));
-    let t2 = t * t;
-    let t3 = t2 * t;
-    [
-        two * t3 - three * t2 + one,
-        t3 - two * t2 + t,
-        three * t2 - two * t3,
-        t3 - t2,
-    ]
 }
 
 /// [`tabulated`] in eight lanes and in f32 (the render path: within
@@ -206,8 +189,8 @@ pub fn tabulated_x8(g: f32x8, e: f32x8) -> f32x8 {
     };
     let (i, j) = (index(gs, G_NODES - 2), index(us, U_NODES - 2));
     let (hg, hu) = (
-        hermite_x8(gs - f32x8::from_i32x8(i)),
-        hermite_x8(us - f32x8::from_i32x8(j)),
+        hermite(gs - f32x8::from_i32x8(i), [1.0, 2.0, 3.0].map(f32x8::splat)),
+        hermite(us - f32x8::from_i32x8(j), [1.0, 2.0, 3.0].map(f32x8::splat)),
     );
     let k = (i * i32x8::splat(U_NODES as i32) + j).to_array();
     let t = &*TABLE32;
@@ -240,7 +223,11 @@ pub fn tabulated(g: f64, e: f64) -> Option<f64> {
     let (gs, us) = (g / G_STEP, u / U_STEP);
     let i = (gs as usize).min(G_NODES - 2);
     let j = (us as usize).min(U_NODES - 2);
-    let (hg, hu) = (hermite(gs - i as f64), hermite(us - j as f64));
+    let consts = [1.0, 2.0, 3.0];
+    let (hg, hu) = (
+        hermite(gs - i as f64, consts),
+        hermite(us - j as f64, consts),
+    );
     let t = &TABLE.nodes;
     let mut sum = 0.0;
     for (di, wg) in [(0, (hg[0], hg[1])), (1, (hg[2], hg[3]))] {
@@ -288,13 +275,8 @@ mod tests {
         let (err, at) = worst(mid);
         assert!(err <= TABLE_ERROR_BOUND, "error {err:e} at (g, e) = {at:?}");
         // Random points, the small g and e where the first terms dominate included.
-        let mut x = 0x2545f4914f6cdd1du64;
-        let mut next = move || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut bits = crate::math::xorshift64(0x2545f4914f6cdd1d);
+        let mut next = move || (bits() >> 11) as f64 / (1u64 << 53) as f64;
         let random: Vec<(f64, f64)> = (0..20_000)
             .map(|k| {
                 let g = if k % 4 == 0 {

@@ -240,6 +240,23 @@ mod tests {
             .collect()
     }
 
+    /// Draws per cell of an m x m stratified grid of samples (each checked to land in the
+    /// grid, at a position within its cell in [0, 1)^2).
+    fn draw_counts(t: &Hierarchy2D, m: usize) -> Vec<u32> {
+        let mut counts = vec![0u32; t.nu * t.nv];
+        for i in 0..m {
+            for j in 0..m {
+                let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
+                let (x, y, r) = t.sample(u);
+                assert!(
+                    x < t.nu && y < t.nv && (0.0..1.0).contains(&r.x) && (0.0..1.0).contains(&r.y)
+                );
+                counts[y * t.nu + x] += 1;
+            }
+        }
+        counts
+    }
+
     /// The hierarchical warp draws every cell with probability mass / total (a stratified
     /// grid of samples, so the counts are exact up to the grid's resolution), never an
     /// empty cell, on grids of odd and power-of-two sizes and thin ones; an all-zero grid
@@ -272,20 +289,7 @@ mod tests {
                 };
                 assert!((mean * (nu * nv) as f64 - total).abs() < 1e-6 * total);
                 let m = 512;
-                let mut counts = vec![0u32; nu * nv];
-                for i in 0..m {
-                    for j in 0..m {
-                        let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
-                        let (x, y, r) = t.sample(u);
-                        assert!(
-                            x < nu
-                                && y < nv
-                                && (0.0..1.0).contains(&r.x)
-                                && (0.0..1.0).contains(&r.y)
-                        );
-                        counts[y * nu + x] += 1;
-                    }
-                }
+                let counts = draw_counts(&t, m);
                 for k in 0..nu * nv {
                     let w = if zero { 1.0 } else { vals[k] as f64 };
                     let expect = w / total * (m * m) as f64;
@@ -321,14 +325,7 @@ mod tests {
         let (t, _) = Hierarchy2D::new(&vals, nu, nv);
         let total: f64 = vals.iter().map(|&v| v as f64).sum();
         let m = 600;
-        let mut counts = vec![0u32; nu * nv];
-        for i in 0..m {
-            for j in 0..m {
-                let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
-                let (x, y, _) = t.sample(u);
-                counts[y * nu + x] += 1;
-            }
-        }
+        let counts = draw_counts(&t, m);
         for k in 0..nu * nv {
             let expect = vals[k] as f64 / total * (m * m) as f64;
             assert!(
