@@ -22,10 +22,11 @@ i.e. how much longer renderer X needs than lobe to reach the same error (RMSE^2 
 1/spp for these unbiased renderers, and about so for the low-discrepancy samplers at these
 spp). Each renderer's RMSE is that of all its renders of the rounds (the mean of their
 squared errors, then the root): one render's error varies by several percent from seed
-to seed, which the equal-error ratio would carry twice. lobe's padded, XOR-scrambled Sobol' sampler has less variance per sample than
-Mitsuba's default `independent` sampler, so `llvm_ad_rgb` is also run with Mitsuba's
-`ldsampler` (the same construction: XOR-scrambled (0,2)-sequences per dimension pair):
-that column is the like-for-like equal-error comparison. Materials Mitsuba cannot load
+to seed, which the equal-error ratio would carry twice. lobe's padded, XOR-scrambled
+Sobol' sampler has less variance per sample than Mitsuba's default `independent`
+sampler, so `llvm_ad_rgb` is also run with Mitsuba's `ldsampler` (the same construction:
+XOR-scrambled (0,2)-sequences per dimension pair): that column is the like-for-like
+equal-error comparison. Materials Mitsuba cannot load
 (MERL tables, binned data) are compared with Mitsuba's render of the suite's `mitsuba_peer`
 scene (the same RGL measurement that the tables tabulate), each against its own reference.
 Prints a Markdown table (with the machine) and writes it to --out if given; the per-renderer

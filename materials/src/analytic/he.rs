@@ -43,7 +43,7 @@ use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, Rgbx8, Vec3x8, f32x8, sel};
+use crate::simd::{self, Mask8, Rgbx8, Vec3x8, f32x8, sel};
 use crate::{Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::sync::Arc;
@@ -161,6 +161,22 @@ impl He {
         he_series::tabulated(g, e).unwrap_or_else(|| Self::series(g, e))
     }
 
+    /// The render path's per-channel constants, in f32: (2 pi / lambda, with which
+    /// g = (k sigma (cos_i + cos_o))^2; the prefactor pi^2 tau^2 / (4 lambda^2); and
+    /// pi^2 tau^2 / lambda^2, with which e = that |(wi + wo)_xy|^2).
+    #[inline(always)]
+    fn channel_constants(&self) -> [(f32, f32, f32); 3] {
+        let pi2tau2 = std::f64::consts::PI * std::f64::consts::PI * self.tau * self.tau;
+        WAVELENGTHS_UM.map(|l| {
+            let l2 = l * l;
+            (
+                (2.0 * std::f64::consts::PI / l) as f32,
+                (pi2tau2 / (4.0 * l2)) as f32,
+                (pi2tau2 / l2) as f32,
+            )
+        })
+    }
+
     /// [`He::value_x8`] of one pair, bit for bit a lane of it (the same operations in the
     /// same order, on f32 scalars).
     pub fn value_f32(&self, wo: Vec3, wi: Vec3) -> [f32; 3] {
@@ -177,18 +193,17 @@ impl He {
         let g_geo = 4.0 * cd * cd / (ch * ch);
         let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
         let vxy2 = sx * sx + sy * sy;
-        let pi2tau2 = std::f64::consts::PI * std::f64::consts::PI * self.tau * self.tau;
-        let gs = WAVELENGTHS_UM.map(|l| {
-            let k = (2.0 * std::f64::consts::PI / l) as f32 * sigma * (ci + co);
+        let consts = self.channel_constants();
+        let gs = consts.map(|(k, _, _)| {
+            let k = k * sigma * (ci + co);
             k * k
         });
         let g_min = simd::min_lane(simd::min_lane(gs[0], gs[1]), gs[2]);
         let common = fresnel * shadow * g_geo / (std::f32::consts::PI * ci * co);
         let w = g_min - 18.0;
         std::array::from_fn(|c| {
-            let l2 = WAVELENGTHS_UM[c] * WAVELENGTHS_UM[c];
-            let n = (pi2tau2 / (4.0 * l2)) as f32;
-            let e = (pi2tau2 / l2) as f32 * vxy2;
+            let (_, n, e_per_vxy2) = consts[c];
+            let e = e_per_vxy2 * vxy2;
             let g = gs[c];
             let rough = || fastmath::exp(-e / g) / g;
             let series = || he_series::tabulated_f32(g, e);
@@ -214,9 +229,14 @@ impl He {
     /// ([`he_series::tabulated_x8`]); within [`RENDER_ERROR_BOUND`] of the fitted lobe
     /// (tested).
     pub fn value_x8(&self, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
+        self.value_x8_at_half(wo, wi, lobe::x8::half(wo, wi))
+    }
+
+    /// [`He::value_x8`] with the half vectors (and where they exist) already found.
+    #[inline(always)]
+    fn value_x8_at_half(&self, wo: Vec3x8, wi: Vec3x8, (h, has_half): (Vec3x8, Mask8)) -> Rgbx8 {
         let s = f32x8::splat;
         let zero = s(0.0);
-        let (h, has_half) = lobe::x8::half(wo, wi);
         let (co, ci) = (wo.z, wi.z);
         let cd = wi.dot(h);
         let ch = h.z;
@@ -231,9 +251,9 @@ impl He {
         let g_geo = s(4.0) * cd * cd / (ch * ch);
         let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
         let vxy2 = sx * sx + sy * sy;
-        let pi2tau2 = std::f64::consts::PI * std::f64::consts::PI * self.tau * self.tau;
-        let gs = WAVELENGTHS_UM.map(|l| {
-            let k = s((2.0 * std::f64::consts::PI / l) as f32) * sigma * (ci + co);
+        let consts = self.channel_constants();
+        let gs = consts.map(|(k, _, _)| {
+            let k = s(k) * sigma * (ci + co);
             k * k
         });
         let g_min = gs[0].min(gs[1]).min(gs[2]);
@@ -241,9 +261,8 @@ impl He {
         let (rough_only, blended) = (g_min.simd_gt(s(19.0)), g_min.simd_gt(s(18.0)));
         let w = g_min - s(18.0);
         let channel = |c: usize| {
-            let l2 = WAVELENGTHS_UM[c] * WAVELENGTHS_UM[c];
-            let n = s((pi2tau2 / (4.0 * l2)) as f32);
-            let e = s((pi2tau2 / l2) as f32) * vxy2;
+            let (_, n, e_per_vxy2) = consts[c];
+            let (n, e) = (s(n), s(e_per_vxy2) * vxy2);
             let g = gs[c];
             let rough = x8::exp(-e / g) / g;
             let series = he_series::tabulated_x8(g, e);
@@ -342,10 +361,10 @@ impl Lobe for He {
         "he"
     }
 
-    /// [`He::value_f32`] (bit for bit a lane of [`Lobe::eval_pdf_x8`]): the series from its table (the summed series
-    /// cost up to 64 exponentials per channel and was the largest single cost of rendering
-    /// He's fits), the elevation terms from their universal table (four `erfc` and four
-    /// `exp` per call before, the next largest).
+    /// [`He::value_f32`] (bit for bit a lane of [`Lobe::eval_pdf_x8`]): the series from
+    /// its table (the summed series cost up to 64 exponentials per channel and was the
+    /// largest single cost of rendering He's fits), the elevation terms from their
+    /// universal table (four `erfc` and four `exp` per call before, the next largest).
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         Rgb::from(self.value_f32(wo, wi))
     }
@@ -405,9 +424,9 @@ impl Lobe for He {
     /// [`He::pdf`]).
     fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
         let o = wo.to_array();
-        let f = self.value_x8(wo, wi);
-        let zero = f32x8::splat(0.0);
         let (h, has_half) = lobe::x8::half(wo, wi);
+        let f = self.value_x8_at_half(wo, wi, (h, has_half));
+        let zero = f32x8::splat(0.0);
         let ok = lobe::x8::above(wo, wi) & has_half;
         let m2 = simd::lanes(|k| self.proposal_roughness(o[k]).map(|m| (m * m) as f32));
         let cos = h.z;

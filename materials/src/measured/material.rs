@@ -14,7 +14,7 @@ use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
-use crate::simd::{self, Rgbx8, Vec3x8, f32x8};
+use crate::simd::{self, Rgbx8, Vec3x8};
 use glam::{Vec2, Vec3};
 use std::any::Any;
 use std::path::PathBuf;
@@ -450,10 +450,9 @@ impl Bsdf for RglBsdf {
             n,
             |k| !(wo[k].z <= 0.0),
             |idx| {
-                let uu = simd::lanes_of(idx, |k| u[k]);
                 let (wi, p, v, ok) = self.table.sample_value_x8(
                     Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k])),
-                    [f32x8::new(uu.map(|u| u.x)), f32x8::new(uu.map(|u| u.y))],
+                    simd::vec2s(&simd::lanes_of(idx, |k| u[k])),
                 );
                 let (p, ok) = (p.to_array(), simd::mask_bits(ok));
                 for (lane, &k) in idx.iter().enumerate() {

@@ -21,8 +21,8 @@
 //! h over the disk with respect to p(h) h_z dw: normalizing it to unit integral over the
 //! disk normalizes <h.n>, and the sampler draws h with density p(h) h_z exactly (a cell by
 //! hierarchical warping in proportion to its bilinear patch's mass, then a point of the
-//! patch by its bilinear density). g(k) is tabulated over (theta_k, phi_k) on 2 x 5 degree nodes by
-//! quadrature over the same grid.
+//! patch by its bilinear density). g(k) is tabulated over (theta_k, phi_k) on 2 x 5 degree
+//! nodes by quadrature over the same grid.
 //!
 //! Estimation (Ngan et al. Eq. 4): p(h) = rho(k1, k2) 4 g(k1) g(k2) / (<h.n> F(k.h)),
 //! averaged over all measured pairs whose half vector falls near each node (bilinear

@@ -3,8 +3,8 @@
 //! <h.n> = 1, interpolated bilinearly; APS2000's shadowing term g(k) = int (h.k)+ p(h) dw
 //! tabulated on (theta_k, phi_k) nodes by quadrature over the same grid; the sampler of h
 //! (a grid cell by hierarchical warping in proportion to its bilinear patch's mass, then a
-//! point by the patch's bilinear density: exactly the density p(h) h_z); the forward model rho (Ngan et al. 2005, section 5,
-//! Eq. 3); and the EXR file a table is stored in.
+//! point by the patch's bilinear density: exactly the density p(h) h_z); the forward model
+//! rho (Ngan et al. 2005, section 5, Eq. 3); and the EXR file a table is stored in.
 //!
 //! Each lookup has an f64 form (fitting) and an eight-lane f32 form (rendering:
 //! [`crate::fastmath::x8`]'s acos and atan2, gathers from the f32 tables).
