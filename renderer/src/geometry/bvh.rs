@@ -207,6 +207,9 @@ impl Geometry {
                 let t = p.intersect_lanes(&lanes);
                 let not_skipped = f32x8::from_bits(!skip.simd_eq(u32x8::splat(j as u32)));
                 hit |= t.simd_lt(lanes.tmax) & not_skipped;
+                if hit.all() {
+                    break;
+                }
             }
             let hit = hit.to_array();
             out.extend(hit[..n].iter().map(|&h| h != 0.0));

@@ -86,6 +86,12 @@ pub fn sphere(r: &RayLanes, c: V3, radius: f32x8) -> f32x8 {
     let s = b * inv_len2;
     let l = [f[0] + d[0] * s, f[1] + d[1] * s, f[2] + d[2] * s];
     let disc = (r2 - dot(l, l)) * d_len2;
+    // Rays of a batch often all miss a sphere (the coherent camera rays of a wavefront,
+    // a scene's far spheres): then the square root and divisions are skipped, as the
+    // scalar test returns early. The answer is the same (every lane infinite).
+    if disc.simd_lt(zero).all() {
+        return inf;
+    }
     let cc = dot(f, f) - r2;
     let sq = disc.sqrt();
     let q = sel(b.simd_ge(zero), b + sq, b - sq);
