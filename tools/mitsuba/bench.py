@@ -40,6 +40,12 @@ a time, as when a user renders a scene: with a second copy of the scene loaded i
 process, Dr.Jit compiles a different kernel for it that runs 1.3-1.4x faster on
 sphere-envmap (measured: 15-17 against 20-24 Msamples/s), a state no single-scene render
 reaches. `scalar_rgb`, tens of times slower, runs after the rounds.
+
+Dr.Jit compiles Mitsuba's kernels for the CPU it runs on: on an AVX-512 CPU with 16 f32
+lanes, twice lobe's eight (lobe is built for x86-64-v3, AVX2). The table's header names
+the target; `--mitsuba-vector-width 8` makes Mitsuba AVX2-class code of lobe's width, a
+diagnostic of how much of its speed is the wider vectors (the targets are set against
+the default).
 """
 
 import argparse
@@ -119,6 +125,29 @@ def uses_python_plugin(d):
     if isinstance(d, dict):
         return d.get("type") == "lobe" or any(uses_python_plugin(v) for v in d.values())
     return False
+
+
+def llvm_target(vector_width=None):
+    """Dr.Jit's LLVM code generation target: (CPU name, vector width), or None when the
+    library does not expose it. With `vector_width`, first sets it: 8 also turns off the
+    AVX-512 features, so that Mitsuba runs as AVX2-class code of lobe's lane width (lobe is
+    built for x86-64-v3: eight f32 lanes); 16 is what Dr.Jit picks on an AVX-512 CPU. Must
+    be called before a kernel is compiled (Dr.Jit's C++ API, `jit_llvm_set_target`)."""
+    import ctypes
+    try:
+        lib = ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
+        cpu_of, features_of = lib._Z19jit_llvm_target_cpuv, lib._Z24jit_llvm_target_featuresv
+        width_of, set_target = lib._Z21jit_llvm_vector_widthv, lib._Z19jit_llvm_set_targetPKcS0_j
+    except (OSError, AttributeError):
+        return None
+    cpu_of.restype = features_of.restype = ctypes.c_char_p
+    width_of.restype = ctypes.c_uint32
+    if vector_width is not None:
+        features = features_of().split(b",")
+        if vector_width < 16:
+            features = [f.replace(b"+avx512", b"-avx512") for f in features]
+        set_target(cpu_of(), b",".join(features), ctypes.c_uint32(vector_width))
+    return cpu_of().decode(), int(width_of())
 
 
 def mse(a, b):
@@ -254,6 +283,10 @@ def main():
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--scalar-runs", type=int, default=None,
                     help="scalar_rgb renders per scene (default min(runs, 3); 0 skips scalar_rgb)")
+    ap.add_argument("--mitsuba-vector-width", type=int, choices=(4, 8, 16), default=None,
+                    help="Dr.Jit LLVM lanes (default: Dr.Jit's choice for this CPU, 16 with "
+                         "AVX-512); below 16 without AVX-512 instructions: a diagnostic of "
+                         "how much of Mitsuba's speed is its vector width")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
     if a.scalar_runs is None:
@@ -271,12 +304,20 @@ def main():
             cpu = next(l.split(":", 1)[1].strip() for l in f if l.startswith("model name"))
     except (OSError, StopIteration):
         pass
+    try:
+        mi.set_variant("llvm_ad_rgb")
+        target = llvm_target(a.mitsuba_vector_width)
+    except Exception:  # noqa: BLE001 - no LLVM: the llvm rows report it per scene
+        target = None
+    if target is None and a.mitsuba_vector_width is not None:
+        sys.exit("bench.py: --mitsuba-vector-width: this Dr.Jit does not expose jit_llvm_set_target")
+    target_text = f"Dr.Jit LLVM target {target[0]}, {target[1]} lanes" if target else "Dr.Jit LLVM target unknown"
     results = []
     for scene, peer in scenes:
         results.append(measure(exe, scene, a, peer))
         print("\n".join(detail_lines(results[-1])), file=sys.stderr)
     lines = [f"Machine: {cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
-             f"Mitsuba {mi.__version__}; {a.spp} spp, medians of {a.runs} rounds (lobe and each "
+             f"Mitsuba {mi.__version__} ({target_text}); {a.spp} spp, medians of {a.runs} rounds (lobe and each "
              f"llvm_ad_rgb configuration alternating, ratios paired per round; scalar_rgb: "
              f"{a.scalar_runs} renders against lobe's median), RMSE (over every render of the rounds) against lobe at "
              f"{a.reference_spp} spp with another seed; {time.strftime('%Y-%m-%d')}.", "",
