@@ -108,8 +108,11 @@ fn permute(mut i: u32, n: u32, seed: u32) -> u32 {
     (i.wrapping_add(seed)) % n
 }
 
-/// [`permute`] of many indices with one seed: a first round over all lanes with no
-/// branch (it vectorizes), then cycle walking only for the lanes that need it.
+/// [`permute`] of many indices with one seed, the same values: a first round over all
+/// lanes, then cycle walking eight lanes at a time, each further round applied to the
+/// eight with a select (no branch per lane: a lane needs another round with probability
+/// up to 1/2, which a branch predicts badly), and the final shift modulo n without a
+/// division per lane. All three loops vectorize.
 #[inline(never)]
 fn permute_lanes(idx: &[u32], n: u32, seed: u32, out: &mut [u32]) {
     if n <= 1 {
@@ -124,13 +127,39 @@ fn permute_lanes(idx: &[u32], n: u32, seed: u32, out: &mut [u32]) {
         for o in out.iter_mut() {
             *o = o.wrapping_add(seed) & (n - 1);
         }
-    } else {
-        for o in out.iter_mut() {
-            while *o >= n {
-                *o = permute_round(*o, w, seed);
+        return;
+    }
+    let (chunks, rest) = out.as_chunks_mut::<8>();
+    for chunk in chunks {
+        // Over a fixed eight lanes both the test and the round vectorize.
+        while chunk.iter().fold(false, |any, &o| any | (o >= n)) {
+            for o in chunk.iter_mut() {
+                let next = permute_round(*o, w, seed);
+                *o = if *o >= n { next } else { *o };
             }
+        }
+    }
+    for o in rest {
+        while *o >= n {
+            *o = permute_round(*o, w, seed);
+        }
+    }
+    if n > 1 << 31 {
+        for o in out.iter_mut() {
             *o = o.wrapping_add(seed) % n;
         }
+        return;
+    }
+    // (o + seed) mod 2^32, then mod n, for o < n <= 2^31: with s = seed mod n and
+    // c = 2^32 mod n, it is o + s reduced once, less c when the sum wrapped around 2^32.
+    let (s, c) = (seed % n, ((1u64 << 32) % n as u64) as u32);
+    for o in out.iter_mut() {
+        let wrapped = *o > u32::MAX - seed;
+        let mut r = *o + s;
+        r = if r >= n { r - n } else { r };
+        let back = r + n - c;
+        r = if wrapped { back } else { r };
+        *o = if r >= n { r - n } else { r };
     }
 }
 
@@ -462,6 +491,41 @@ mod tests {
         for _ in 0..4 {
             assert_eq!(b.next_2d(), c.next_2d());
             assert_eq!(b.next_1d().to_bits(), c.next_1d().to_bits());
+        }
+    }
+
+    /// The lane form of the permutation equals the one-at-a-time form for sample counts
+    /// of every kind (powers of two, counts just above one, the largest ones) and seeds
+    /// whose sum with an index wraps around 2^32.
+    #[test]
+    fn permute_lanes_equals_permute() {
+        let ns = [
+            2u32,
+            3,
+            5,
+            17,
+            100,
+            192,
+            1000,
+            65_537,
+            (1 << 31) - 1,
+            1 << 31,
+            3_000_000_001,
+        ];
+        let seeds = [0u32, 1, 0xdead_beef, 0x7fff_ffff, 0xffff_fff0, u32::MAX];
+        for n in ns {
+            for seed in seeds {
+                // The first indices, the last ones and a spread between them.
+                let idx: Vec<u32> = (0..70u32.min(n))
+                    .chain((n - 70u32.min(n))..n)
+                    .chain((0..50u64).map(|k| (k * n as u64 / 50) as u32))
+                    .collect();
+                let mut out = vec![0u32; idx.len()];
+                permute_lanes(&idx, n, seed, &mut out);
+                for (&i, &o) in idx.iter().zip(&out) {
+                    assert_eq!(o, permute(i, n, seed), "n {n} seed {seed:#x} index {i}");
+                }
+            }
         }
     }
 
