@@ -129,9 +129,9 @@ def uses_python_plugin(d):
 
 def llvm_target(vector_width=None):
     """Dr.Jit's LLVM code generation target: (CPU name, vector width), or None when the
-    library does not expose it. With `vector_width`, first sets it: 8 also turns off the
-    AVX-512 features, so that Mitsuba runs as AVX2-class code of lobe's lane width (lobe is
-    built for x86-64-v3: eight f32 lanes); 16 is what Dr.Jit picks on an AVX-512 CPU. Must
+    library does not expose it. With `vector_width`, first sets it: below 16 also turns off
+    the AVX-512 features, so that 8 makes Mitsuba AVX2-class code of lobe's lane width (lobe
+    is built for x86-64-v3: eight f32 lanes); 16 is what Dr.Jit picks on an AVX-512 CPU. Must
     be called before a kernel is compiled (Dr.Jit's C++ API, `jit_llvm_set_target`)."""
     import ctypes
     try:
