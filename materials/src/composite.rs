@@ -9,9 +9,9 @@
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::lobe::Lobe;
 use crate::sampling::warp::{
-    cosine_hemisphere_pdf, cosine_hemisphere_pdf_x8, square_to_cosine_hemisphere,
+    cosine_hemisphere_pdf, cosine_hemisphere_pdf_xn, square_to_cosine_hemisphere,
 };
-use crate::simd::{self, Rgbx8, Vec3x8, f32x8, i32x8, max_lane, sel};
+use crate::simd::{self, RgbxN, Vec3xN, f32xn, i32xn, max_lane, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -151,8 +151,8 @@ const SAMPLE_BLOCK: usize = 64;
 
 /// The component weights of eight queries, `w[k]` lane by lane, and their sums.
 struct LaneWeights {
-    w: [f32x8; MAX_INLINE + 1],
-    total: f32x8,
+    w: [f32xn; MAX_INLINE + 1],
+    total: f32xn,
 }
 
 impl LaneWeights {
@@ -197,7 +197,7 @@ impl Bsdf for Composite {
     }
 
     /// The pairs above the surface eight at a time: every lobe's
-    /// [`Lobe::eval_pdf_x8`] once per eight pairs ([`Composite::mix_x8`]).
+    /// [`Lobe::eval_pdf_xn`] once per eight pairs ([`Composite::mix_xn`]).
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
@@ -211,12 +211,12 @@ impl Bsdf for Composite {
         pdf.fill(0.0);
         let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
         simd::chunks_where(n, above, |idx| {
-            let o = Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k]));
+            let o = Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k]));
             let w = self.lane_weights(o.z);
-            let i = Vec3x8::from_array(&simd::lanes_of(idx, |k| wi[k]));
-            let (v, p) = self.mix_x8(o, i, &w);
+            let i = Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k]));
+            let (v, p) = self.mix_xn(o, i, &w);
             // A pair whose components are all black has density 0.
-            let p = sel(w.total.simd_gt(f32x8::splat(0.0)), p, f32x8::splat(0.0)).to_array();
+            let p = sel(w.total.simd_gt(f32xn::splat(0.0)), p, f32xn::splat(0.0)).to_array();
             let v = v.to_array();
             for (lane, &k) in idx.iter().enumerate() {
                 (f[k], pdf[k]) = (v[lane], p[lane]);
@@ -225,7 +225,7 @@ impl Bsdf for Composite {
     }
 
     /// Components chosen and sampled query by query, the mixture density and the value of
-    /// eight sampled directions at a time ([`Composite::mix_x8`]).
+    /// eight sampled directions at a time ([`Composite::mix_xn`]).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
@@ -302,7 +302,7 @@ impl Composite {
     /// [`Bsdf::sample_many`] of at most [`SAMPLE_BLOCK`] queries (`out` all None), each
     /// bit for bit [`Bsdf::sample`]: every query above the surface chooses its component
     /// as the scalar call does (weights eight at a time), then the queries that chose
-    /// each lobe are sampled together, eight at a time ([`Lobe::sample_x8`]), so that no
+    /// each lobe are sampled together, eight at a time ([`Lobe::sample_xn`]), so that no
     /// lane samples a lobe its query did not choose; last, the value and the mixture
     /// density of every drawn direction, eight at a time. Queries whose weights sum to
     /// zero get None.
@@ -318,7 +318,7 @@ impl Composite {
             m,
             |k| !(wo[k].z <= 0.0),
             |idx| {
-                let w = self.lane_weights(f32x8::new(simd::lanes_of(idx, |k| wo[k].z)));
+                let w = self.lane_weights(f32xn::new(simd::lanes_of(idx, |k| wo[k].z)));
                 let total = w.total.to_array();
                 for (lane, &k) in idx.iter().enumerate() {
                     if total[lane] > 0.0 {
@@ -339,7 +339,7 @@ impl Composite {
                     let o = simd::lanes_of(idx, |k| wo[k]);
                     let lane_u = simd::lanes_of(idx, |k| u[k]);
                     let lane_uc = simd::lanes_of(idx, |k| choice[k].1);
-                    let s = lobe.sample_x8(&o, &lane_u, &lane_uc);
+                    let s = lobe.sample_xn(&o, &lane_u, &lane_uc);
                     for (lane, &k) in idx.iter().enumerate() {
                         wi[k] = s[lane];
                     }
@@ -352,8 +352,8 @@ impl Composite {
             |idx| {
                 let o = simd::lanes_of(idx, |k| wo[k]);
                 let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo[k]));
-                let w = self.lane_weights(f32x8::new(simd::lanes(|lane| o[lane].z)));
-                let (v, p) = self.mix_x8(Vec3x8::from_array(&o), Vec3x8::from_array(&d), &w);
+                let w = self.lane_weights(f32xn::new(simd::lanes(|lane| o[lane].z)));
+                let (v, p) = self.mix_xn(Vec3xN::from_array(&o), Vec3xN::from_array(&d), &w);
                 let p = p.to_array();
                 for (lane, &k) in idx.iter().enumerate() {
                     out[k] = BsdfSample::finish(d[lane], || p[lane], || v.lane(lane));
@@ -382,13 +382,13 @@ impl Composite {
 
     /// The component weights of eight outgoing directions (lane by lane
     /// [`Composite::weights`]: the same bins, values and sums).
-    fn lane_weights(&self, wo_z: f32x8) -> LaneWeights {
-        let bin = (wo_z * f32x8::splat(ALBEDO_BINS as f32))
+    fn lane_weights(&self, wo_z: f32xn) -> LaneWeights {
+        let bin = (wo_z * f32xn::splat(ALBEDO_BINS as f32))
             .trunc_int()
-            .max(i32x8::splat(0))
-            .min(i32x8::splat(ALBEDO_BINS as i32 - 1));
-        let mut w = [f32x8::splat(0.0); MAX_INLINE + 1];
-        w[0] = f32x8::splat(self.diffuse.luminance().max(0.0));
+            .max(i32xn::splat(0))
+            .min(i32xn::splat(ALBEDO_BINS as i32 - 1));
+        let mut w = [f32xn::splat(0.0); MAX_INLINE + 1];
+        w[0] = f32xn::splat(self.diffuse.luminance().max(0.0));
         let mut total = w[0];
         for (k, t) in self.lobe_weights.iter().enumerate() {
             w[k + 1] = simd::gather(t, bin);
@@ -400,14 +400,14 @@ impl Composite {
     /// [`Bsdf::eval`] and the mixture density ([`Composite::mixture_pdf`], before the test of
     /// a positive total) of eight pairs above the surface, lane by lane bit for bit: the
     /// same sums in the same order, each lobe's value and density from its
-    /// [`Lobe::eval_pdf_x8`].
-    fn mix_x8(&self, wo: Vec3x8, wi: Vec3x8, w: &LaneWeights) -> (Rgbx8, f32x8) {
-        let zero = f32x8::splat(0.0);
-        let mut f = Rgbx8::splat(self.diffuse * FRAC_1_PI);
-        let mut pdf = w.w[0] * cosine_hemisphere_pdf_x8(wi.z);
+    /// [`Lobe::eval_pdf_xn`].
+    fn mix_xn(&self, wo: Vec3xN, wi: Vec3xN, w: &LaneWeights) -> (RgbxN, f32xn) {
+        let zero = f32xn::splat(0.0);
+        let mut f = RgbxN::splat(self.diffuse * FRAC_1_PI);
+        let mut pdf = w.w[0] * cosine_hemisphere_pdf_xn(wi.z);
         for (k, (c, l)) in self.lobes.iter().enumerate() {
-            let (v, p) = l.eval_pdf_x8(wo, wi);
-            f = Rgbx8::select(v.is_finite(), f + Rgbx8::splat(*c) * v.max(0.0), f);
+            let (v, p) = l.eval_pdf_xn(wo, wi);
+            f = RgbxN::select(v.is_finite(), f + RgbxN::splat(*c) * v.max(0.0), f);
             let wk = w.w[k + 1];
             pdf = sel(wk.simd_gt(zero), pdf + wk * p, pdf);
         }

@@ -13,7 +13,7 @@
 //! (below 2 ulp of its result near pi) and `asin`, relative error under 4e-7 for
 //! `atan2`. NaN inputs give NaN.
 //!
-//! [`x8`] has eight-lane forms of the same functions on `wide`'s AVX vectors, for the
+//! [`xn`] has eight-lane forms of the same functions on `wide`'s AVX vectors, for the
 //! renderer's SIMD batches: the same operations lane by lane, so each lane equals the
 //! scalar function bit for bit (tested), and batched and one-at-a-time renders agree
 //! exactly. The other SIMD building blocks (lane types, transposes, selects, gathers) are
@@ -238,103 +238,103 @@ pub fn powf(x: f32, y: f32) -> f32 {
 /// [`asin`]) on `wide`'s AVX vectors: the same operations in the same order on each
 /// lane, so every lane's result equals the scalar function's bit for bit (tested below),
 /// and batched lookups agree exactly with one-at-a-time ones.
-pub mod x8 {
+pub mod xn {
     use crate::simd::sel;
+    use crate::simd::{f32xn, i32xn, u32xn};
     use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
-    use wide::{f32x8, i32x8, u32x8};
 
     const SIGN: u32 = 0x8000_0000;
 
     /// [`super::sin_cos_moderate`] per lane.
     #[inline(always)]
-    pub fn sin_cos_moderate(x: f32x8) -> (f32x8, f32x8) {
-        let k = (x * f32x8::splat(std::f32::consts::FRAC_2_PI)).round_ties_even();
-        let r = ((x - k * f32x8::splat(1.570_312_5)) - k * f32x8::splat(4.837_512_969_970_703e-4))
-            - k * f32x8::splat(7.549_789_948_768_648e-8);
+    pub fn sin_cos_moderate(x: f32xn) -> (f32xn, f32xn) {
+        let k = (x * f32xn::splat(std::f32::consts::FRAC_2_PI)).round_ties_even();
+        let r = ((x - k * f32xn::splat(1.570_312_5)) - k * f32xn::splat(4.837_512_969_970_703e-4))
+            - k * f32xn::splat(7.549_789_948_768_648e-8);
         let z = r * r;
         let s = r + r
             * z
-            * ((f32x8::splat(-1.951_529_589_1e-4) * z + f32x8::splat(8.332_160_873_6e-3)) * z
-                - f32x8::splat(1.666_665_461_1e-1));
-        let c = f32x8::splat(1.0) - f32x8::splat(0.5) * z
+            * ((f32xn::splat(-1.951_529_589_1e-4) * z + f32xn::splat(8.332_160_873_6e-3)) * z
+                - f32xn::splat(1.666_665_461_1e-1));
+        let c = f32xn::splat(1.0) - f32xn::splat(0.5) * z
             + z * z
-                * ((f32x8::splat(2.443_315_711_809_948e-5) * z
-                    - f32x8::splat(1.388_731_625_493_765e-3))
+                * ((f32xn::splat(2.443_315_711_809_948e-5) * z
+                    - f32xn::splat(1.388_731_625_493_765e-3))
                     * z
-                    + f32x8::splat(4.166_664_568_298_827e-2));
+                    + f32xn::splat(4.166_664_568_298_827e-2));
         // The quadrant; `k as i32` of the scalar form is 0 for NaN, and so is this.
-        let q: u32x8 = wide::bytemuck::cast(k.trunc_int());
-        let odd = f32x8::from_bits((q & u32x8::splat(1)).simd_eq(u32x8::splat(1)));
+        let q: u32xn = wide::bytemuck::cast(k.trunc_int());
+        let odd = f32xn::from_bits((q & u32xn::splat(1)).simd_eq(u32xn::splat(1)));
         let (s1, c1) = (sel(odd, c, s), sel(odd, s, c));
-        let neg_s = (q & u32x8::splat(2)) << 30;
-        let neg_c = ((q + u32x8::splat(1)) & u32x8::splat(2)) << 30;
+        let neg_s = (q & u32xn::splat(2)) << 30;
+        let neg_c = ((q + u32xn::splat(1)) & u32xn::splat(2)) << 30;
         (
-            f32x8::from_bits(s1.to_bits() ^ neg_s),
-            f32x8::from_bits(c1.to_bits() ^ neg_c),
+            f32xn::from_bits(s1.to_bits() ^ neg_s),
+            f32xn::from_bits(c1.to_bits() ^ neg_c),
         )
     }
 
     #[inline(always)]
-    fn atan_unit(t: f32x8) -> f32x8 {
-        let one = f32x8::splat(1.0);
-        let big = t.simd_gt(f32x8::splat(0.414_213_57));
+    fn atan_unit(t: f32xn) -> f32xn {
+        let one = f32xn::splat(1.0);
+        let big = t.simd_gt(f32xn::splat(0.414_213_57));
         let x = sel(big, (t - one) / (t + one), t);
         let z = x * x;
-        let p = (((f32x8::splat(8.053_744_495_38e-2) * z - f32x8::splat(1.387_768_560_32e-1)) * z
-            + f32x8::splat(1.997_771_064_78e-1))
+        let p = (((f32xn::splat(8.053_744_495_38e-2) * z - f32xn::splat(1.387_768_560_32e-1)) * z
+            + f32xn::splat(1.997_771_064_78e-1))
             * z
-            - f32x8::splat(3.333_294_915_39e-1))
+            - f32xn::splat(3.333_294_915_39e-1))
             * z
             * x
             + x;
-        sel(big, p + f32x8::splat(FRAC_PI_4), p)
+        sel(big, p + f32xn::splat(FRAC_PI_4), p)
     }
 
     /// [`super::atan2`] per lane.
     #[inline(always)]
-    pub fn atan2(y: f32x8, x: f32x8) -> f32x8 {
+    pub fn atan2(y: f32xn, x: f32xn) -> f32xn {
         let (ax, ay) = (x.abs(), y.abs());
         let (lo, hi) = (ax.min(ay), ax.max(ay));
-        let zero = f32x8::splat(0.0);
+        let zero = f32xn::splat(0.0);
         let t = sel(hi.simd_gt(zero), lo / hi, zero);
         let mut a = atan_unit(t);
-        a = sel(ay.simd_gt(ax), f32x8::splat(FRAC_PI_2) - a, a);
-        a = sel(x.is_sign_negative(), f32x8::splat(PI) - a, a);
-        let sign = u32x8::splat(SIGN);
-        let a = f32x8::from_bits((a.to_bits() & !sign) | (y.to_bits() & sign));
-        sel(x.is_nan() | y.is_nan(), f32x8::splat(f32::NAN), a)
+        a = sel(ay.simd_gt(ax), f32xn::splat(FRAC_PI_2) - a, a);
+        a = sel(x.is_sign_negative(), f32xn::splat(PI) - a, a);
+        let sign = u32xn::splat(SIGN);
+        let a = f32xn::from_bits((a.to_bits() & !sign) | (y.to_bits() & sign));
+        sel(x.is_nan() | y.is_nan(), f32xn::splat(f32::NAN), a)
     }
 
     #[inline(always)]
-    fn asin_unit(x: f32x8) -> f32x8 {
-        let big = x.simd_gt(f32x8::splat(0.5));
-        let z = sel(big, f32x8::splat(0.5) * (f32x8::splat(1.0) - x), x * x);
+    fn asin_unit(x: f32xn) -> f32xn {
+        let big = x.simd_gt(f32xn::splat(0.5));
+        let z = sel(big, f32xn::splat(0.5) * (f32xn::splat(1.0) - x), x * x);
         let s = sel(big, z.sqrt(), x);
-        let p = ((((f32x8::splat(4.216_319_904_8e-2) * z + f32x8::splat(2.418_131_104_9e-2)) * z
-            + f32x8::splat(4.547_002_599_8e-2))
+        let p = ((((f32xn::splat(4.216_319_904_8e-2) * z + f32xn::splat(2.418_131_104_9e-2)) * z
+            + f32xn::splat(4.547_002_599_8e-2))
             * z
-            + f32x8::splat(7.495_300_268_6e-2))
+            + f32xn::splat(7.495_300_268_6e-2))
             * z
-            + f32x8::splat(1.666_675_242_2e-1))
+            + f32xn::splat(1.666_675_242_2e-1))
             * z
             * s
             + s;
-        sel(big, f32x8::splat(FRAC_PI_2) - f32x8::splat(2.0) * p, p)
+        sel(big, f32xn::splat(FRAC_PI_2) - f32xn::splat(2.0) * p, p)
     }
 
     /// [`super::pow2_halves`] per lane.
     #[inline(always)]
-    fn pow2_halves(n: i32x8) -> (f32x8, f32x8) {
+    fn pow2_halves(n: i32xn) -> (f32xn, f32xn) {
         let n1 = n >> 1;
         let n2 = n - n1;
-        let f = |k: i32x8| f32x8::from_bits(wide::bytemuck::cast((k + i32x8::splat(127)) << 23));
+        let f = |k: i32xn| f32xn::from_bits(wide::bytemuck::cast((k + i32xn::splat(127)) << 23));
         (f(n1), f(n2))
     }
 
     /// [`super::exp`] per lane.
     #[inline(always)]
-    pub fn exp(x: f32x8) -> f32x8 {
-        let s = f32x8::splat;
+    pub fn exp(x: f32xn) -> f32xn {
+        let s = f32xn::splat;
         let xc = crate::simd::clamp(x, -104.0, 88.8);
         let n = (xc * s(std::f32::consts::LOG2_E) + s(0.5)).floor();
         let r = xc - n * s(0.693_359_375) - n * s(-2.121_944_40e-4);
@@ -359,19 +359,20 @@ pub mod x8 {
 
     /// [`super::ln`] per lane.
     #[inline(always)]
-    pub fn ln(x: f32x8) -> f32x8 {
-        let s = f32x8::splat;
+    pub fn ln(x: f32xn) -> f32xn {
+        let s = f32xn::splat;
         let sub = x.simd_lt(s(f32::MIN_POSITIVE));
         let xs = sel(sub, x * s(8_388_608.0), x);
-        let bits: i32x8 = wide::bytemuck::cast(xs.to_bits());
-        let sub_i: i32x8 = wide::bytemuck::cast(sub);
+        let bits: i32xn = wide::bytemuck::cast(xs.to_bits());
+        let sub_i: i32xn = wide::bytemuck::cast(sub);
         // `sub_i` is -1 where set: 23 of it is the scaling's exponent.
-        let e = ((bits >> 23) & i32x8::splat(0xff)) - i32x8::splat(126) + sub_i * i32x8::splat(23);
-        let m = f32x8::from_bits(
-            (xs.to_bits() & wide::u32x8::splat(0x807f_ffff)) | wide::u32x8::splat(0x3f00_0000),
+        let e = ((bits >> 23) & i32xn::splat(0xff)) - i32xn::splat(126) + sub_i * i32xn::splat(23);
+        let m = f32xn::from_bits(
+            (xs.to_bits() & crate::simd::u32xn::splat(0x807f_ffff))
+                | crate::simd::u32xn::splat(0x3f00_0000),
         );
         let small = m.simd_lt(s(std::f32::consts::FRAC_1_SQRT_2));
-        let small_i: i32x8 = wide::bytemuck::cast(small);
+        let small_i: i32xn = wide::bytemuck::cast(small);
         let e = e + small_i;
         let t = sel(small, m + m - s(1.0), m - s(1.0));
         let z = t * t;
@@ -391,7 +392,7 @@ pub mod x8 {
             + s(3.333_333_117_4e-1))
             * t
             * z;
-        let ef = f32x8::from_i32x8(e);
+        let ef = crate::simd::float_of(e);
         let y = y + s(-2.121_944_40e-4) * ef;
         let y = y + s(-0.5) * z;
         let r = t + y + s(0.693_359_375) * ef;
@@ -404,33 +405,33 @@ pub mod x8 {
 
     /// [`super::powf`] per lane.
     #[inline(always)]
-    pub fn powf(x: f32x8, y: f32x8) -> f32x8 {
+    pub fn powf(x: f32xn, y: f32xn) -> f32xn {
         let r = exp(y * ln(x));
-        sel(y.simd_eq(f32x8::splat(0.0)), f32x8::splat(1.0), r)
+        sel(y.simd_eq(f32xn::splat(0.0)), f32xn::splat(1.0), r)
     }
 
     /// [`super::asin`] per lane.
     #[inline(always)]
-    pub fn asin(x: f32x8) -> f32x8 {
-        let sign = u32x8::splat(SIGN);
+    pub fn asin(x: f32xn) -> f32xn {
+        let sign = u32xn::splat(SIGN);
         let a = asin_unit(x.abs());
-        let r = f32x8::from_bits((a.to_bits() & !sign) | (x.to_bits() & sign));
+        let r = f32xn::from_bits((a.to_bits() & !sign) | (x.to_bits() & sign));
         sel(
-            x.abs().simd_le(f32x8::splat(1.0)),
+            x.abs().simd_le(f32xn::splat(1.0)),
             r,
-            f32x8::splat(f32::NAN),
+            f32xn::splat(f32::NAN),
         )
     }
 
     /// [`super::acos`] per lane.
     #[inline(always)]
-    pub fn acos(x: f32x8) -> f32x8 {
-        let a = f32x8::splat(FRAC_PI_2) - asin_unit(x.abs());
-        let r = sel(x.simd_lt(f32x8::splat(0.0)), f32x8::splat(PI) - a, a);
+    pub fn acos(x: f32xn) -> f32xn {
+        let a = f32xn::splat(FRAC_PI_2) - asin_unit(x.abs());
+        let r = sel(x.simd_lt(f32xn::splat(0.0)), f32xn::splat(PI) - a, a);
         sel(
-            x.abs().simd_le(f32x8::splat(1.0)),
+            x.abs().simd_le(f32xn::splat(1.0)),
             r,
-            f32x8::splat(f32::NAN),
+            f32xn::splat(f32::NAN),
         )
     }
 }
@@ -438,6 +439,7 @@ pub mod x8 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simd::LANES;
 
     #[test]
     fn sin_cos_matches_f64() {
@@ -626,7 +628,7 @@ mod tests {
     /// The eight-lane forms equal the scalar functions bit for bit.
     #[test]
     fn x8_forms_are_bit_identical() {
-        use wide::f32x8;
+        use crate::simd::f32xn;
         let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
         let mut xs: Vec<f32> = (0..=400_000)
             .map(|i| -1.0e4 + 2.0e4 * i as f32 / 400_000.0)
@@ -655,21 +657,21 @@ mod tests {
             0.999_999,
         ]);
         let ys: Vec<f32> = xs.iter().rev().copied().collect();
-        for (xc, yc) in xs.chunks(8).zip(ys.chunks(8)) {
-            let mut xa = [0.0f32; 8];
-            let mut ya = [0.0f32; 8];
+        for (xc, yc) in xs.chunks(LANES).zip(ys.chunks(LANES)) {
+            let mut xa = [0.0f32; LANES];
+            let mut ya = [0.0f32; LANES];
             xa[..xc.len()].copy_from_slice(xc);
             ya[..yc.len()].copy_from_slice(yc);
-            let (x, y) = (f32x8::new(xa), f32x8::new(ya));
-            let (s, c) = x8::sin_cos_moderate(x);
+            let (x, y) = (f32xn::new(xa), f32xn::new(ya));
+            let (s, c) = xn::sin_cos_moderate(x);
             let (s, c) = (s.to_array(), c.to_array());
-            let at = x8::atan2(y, x).to_array();
-            let ac = x8::acos(x).to_array();
-            let asn = x8::asin(x).to_array();
-            let ex = x8::exp(x * f32x8::splat(0.01)).to_array();
-            let lg = x8::ln(x).to_array();
-            let pw = x8::powf(x.abs(), y).to_array();
-            for i in 0..8 {
+            let at = xn::atan2(y, x).to_array();
+            let ac = xn::acos(x).to_array();
+            let asn = xn::asin(x).to_array();
+            let ex = xn::exp(x * f32xn::splat(0.01)).to_array();
+            let lg = xn::ln(x).to_array();
+            let pw = xn::powf(x.abs(), y).to_array();
+            for i in 0..LANES {
                 if xa[i].abs() <= 1.0e4 {
                     let (se, ce) = sin_cos_moderate(xa[i]);
                     assert!(same(s[i], se) && same(c[i], ce), "sin_cos({})", xa[i]);

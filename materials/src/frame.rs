@@ -56,20 +56,21 @@ impl Frame {
 
 /// Eight-lane forms of the frame operations, each lane operation for operation the scalar
 /// one (so batched and one-at-a-time samples agree bit for bit).
-pub mod x8 {
-    use crate::simd::{Vec3x8, f32x8};
+pub mod xn {
+    use crate::simd::{Vec3xN, f32xn};
 
     /// `Frame::from_normal(n).to_world(v)` per lane.
     #[inline(always)]
-    pub fn to_world_of_normal(n: Vec3x8, v: Vec3x8) -> Vec3x8 {
-        let one = f32x8::splat(1.0);
+    pub fn to_world_of_normal(n: Vec3xN, v: Vec3xN) -> Vec3xN {
+        let one = f32xn::splat(1.0);
         // copysign(1, n.z)
-        let sign =
-            f32x8::from_bits(one.to_bits() | (n.z.to_bits() & wide::u32x8::splat(0x8000_0000)));
-        let a = f32x8::splat(-1.0) / (sign + n.z);
+        let sign = f32xn::from_bits(
+            one.to_bits() | (n.z.to_bits() & crate::simd::u32xn::splat(0x8000_0000)),
+        );
+        let a = f32xn::splat(-1.0) / (sign + n.z);
         let b = n.x * n.y * a;
-        let s = Vec3x8::new(one + sign * n.x * n.x * a, sign * b, -sign * n.x);
-        let t = Vec3x8::new(b, sign + n.y * n.y * a, -n.y);
+        let s = Vec3xN::new(one + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3xN::new(b, sign + n.y * n.y * a, -n.y);
         s * v.x + t * v.y + n * v.z
     }
 }

@@ -9,7 +9,7 @@
 //! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
 
 use crate::math::{Real, V3};
-use crate::simd::{Rgbx8, Vec3x8, f32x8, lanes};
+use crate::simd::{LANES, RgbxN, Vec3xN, f32xn, lanes};
 use crate::{Flags, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 
@@ -40,18 +40,23 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     /// `wi.lane(k)`), each lane bit for bit the scalar calls: the batched calls of the
     /// materials made of lobes ([`crate::composite::Composite`]). The default calls the
     /// scalar forms lane by lane; models override it with SIMD arithmetic.
-    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let (o, i) = (wo.to_array(), wi.to_array());
         let f = lanes(|k| self.eval(o[k], i[k]));
         (
-            Rgbx8::from_array(&f),
-            f32x8::new(lanes(|k| self.pdf(o[k], i[k]))),
+            RgbxN::from_array(&f),
+            f32xn::new(lanes(|k| self.pdf(o[k], i[k]))),
         )
     }
     /// [`Lobe::sample`] of eight queries, each lane bit for bit the scalar call (the
     /// batched sampling of [`crate::composite::Composite`]). The default samples lane by
     /// lane; tabulated lobes override it with their eight-lane samplers.
-    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+    fn sample_xn(
+        &self,
+        wo: &[Vec3; LANES],
+        u: &[Vec2; LANES],
+        uc: &[f32; LANES],
+    ) -> [Option<Vec3>; LANES] {
         lanes(|k| self.sample(wo[k], u[k], uc[k]))
     }
     fn flags(&self) -> Flags;
@@ -112,60 +117,60 @@ pub fn sample_via_half(wo: Vec3, h: Vec3) -> Option<Vec3> {
     (wi.z > 0.0).then_some(wi)
 }
 
-/// Eight-lane forms of this module's helpers, for the lobes' [`Lobe::eval_pdf_x8`]
+/// Eight-lane forms of this module's helpers, for the lobes' [`Lobe::eval_pdf_xn`]
 /// kernels: each lane computes what the scalar helper computes, operation for operation.
-pub mod x8 {
-    use crate::simd::{Mask8, Vec3x8, f32x8, sel};
+pub mod xn {
+    use crate::simd::{LANES, MaskN, Vec3xN, f32xn, sel};
     use glam::Vec3;
 
     /// [`super::sample_via_half`] per lane: the mirror of `wo` about `h`, where `wo` and
     /// it are above the surface and `wo . h` is positive, as options.
     #[inline(always)]
-    pub fn sample_via_half(wo: Vec3x8, h: Vec3x8) -> [Option<Vec3>; 8] {
-        let zero = f32x8::splat(0.0);
+    pub fn sample_via_half(wo: Vec3xN, h: Vec3xN) -> [Option<Vec3>; LANES] {
+        let zero = f32xn::splat(0.0);
         let d = wo.dot(h);
         // `reflect`: 2 (wo . h) h - wo.
-        let wi = h * (f32x8::splat(2.0) * d) - wo;
+        let wi = h * (f32xn::splat(2.0) * d) - wo;
         wi.options(wo.z.simd_gt(zero) & d.simd_gt(zero) & wi.z.simd_gt(zero))
     }
 
     /// A half vector in lanes from its elevation cosine and the azimuth `2 pi ux`
     /// (`ux` in [0, 1)), as the scalar samplers build it.
     #[inline(always)]
-    pub fn half_from(cos_t: f32x8, ux: f32x8) -> Vec3x8 {
-        let sin_t = (f32x8::splat(1.0) - cos_t * cos_t)
-            .max(f32x8::splat(0.0))
+    pub fn half_from(cos_t: f32xn, ux: f32xn) -> Vec3xN {
+        let sin_t = (f32xn::splat(1.0) - cos_t * cos_t)
+            .max(f32xn::splat(0.0))
             .sqrt();
         let (s, c) =
-            crate::fastmath::x8::sin_cos_moderate(f32x8::splat(2.0 * std::f32::consts::PI) * ux);
-        Vec3x8::new(sin_t * c, sin_t * s, cos_t)
+            crate::fastmath::xn::sin_cos_moderate(f32xn::splat(2.0 * std::f32::consts::PI) * ux);
+        Vec3xN::new(sin_t * c, sin_t * s, cos_t)
     }
 
     /// [`super::above`] per lane: both directions above the surface.
     #[inline(always)]
-    pub fn above(wo: Vec3x8, wi: Vec3x8) -> Mask8 {
-        let zero = f32x8::splat(0.0);
+    pub fn above(wo: Vec3xN, wi: Vec3xN) -> MaskN {
+        let zero = f32xn::splat(0.0);
         wo.z.simd_gt(zero) & wi.z.simd_gt(zero)
     }
 
     /// [`crate::math::half`] per lane: the unit half vector, and where it exists (a
     /// positive, finite squared length).
     #[inline(always)]
-    pub fn half(wo: Vec3x8, wi: Vec3x8) -> (Vec3x8, Mask8) {
+    pub fn half(wo: Vec3xN, wi: Vec3xN) -> (Vec3xN, MaskN) {
         let h = wo + wi;
         let l2 = h.length_squared();
-        let ok = l2.simd_gt(f32x8::splat(0.0)) & l2.is_finite();
-        (h * (f32x8::splat(1.0) / l2.sqrt()), ok)
+        let ok = l2.simd_gt(f32xn::splat(0.0)) & l2.is_finite();
+        (h * (f32xn::splat(1.0) / l2.sqrt()), ok)
     }
 
     /// [`super::half_to_incident_pdf`] per lane.
     #[inline(always)]
-    pub fn half_to_incident_pdf(pdf_h: f32x8, wo_dot_h: f32x8) -> f32x8 {
-        let zero = f32x8::splat(0.0);
+    pub fn half_to_incident_pdf(pdf_h: f32xn, wo_dot_h: f32xn) -> f32xn {
+        let zero = f32xn::splat(0.0);
         sel(
             wo_dot_h.simd_le(zero),
             zero,
-            pdf_h / (f32x8::splat(4.0) * wo_dot_h),
+            pdf_h / (f32xn::splat(4.0) * wo_dot_h),
         )
     }
 }

@@ -1,57 +1,132 @@
-//! SIMD building blocks of lobe: eight-lane types and helpers over `wide`'s AVX vectors,
-//! shared by the materials' batched kernels (`Bsdf::eval_pdf_many`, `Bsdf::sample_many`)
-//! and the renderer's wavefront stages (camera rays, sphere tests, shading frames, env-map
-//! lookups and sampling).
+//! SIMD building blocks of lobe: the lane vectors and helpers over `wide`'s vectors, shared
+//! by the materials' batched kernels (`Bsdf::eval_pdf_many`, `Bsdf::sample_many`) and the
+//! renderer's wavefront stages (camera rays, sphere tests, shading frames, env-map lookups
+//! and sampling).
+//!
+//! The lane count is chosen here, once, for the CPU the build targets: [`LANES`] is 16
+//! (`wide::f32x16`, one AVX-512 register) when the build enables AVX-512F, else 8
+//! (`wide::f32x8`, one AVX register). Every kernel is written over [`f32xn`], [`i32xn`],
+//! [`u32xn`] and `[T; LANES]`, so no kernel names a width of its own. (This is how Dr.Jit
+//! serves Mitsuba: its kernels are compiled for the host, 16 lanes wide on AVX-512 CPUs.)
 //!
 //! Every batched kernel of lobe must give, in each lane, bit for bit what its one-at-a-time
 //! scalar form gives (the wavefront integrator is tested against the scalar one), so the
-//! operations here are the scalar ones in the same order per lane: [`Vec3x8::dot`] is
-//! glam's `(x x' + y y') + z z'`, [`Vec3x8::normalize`] multiplies by `1 / length` as glam
-//! does, [`fmadd`] is fused in every build as `f32::mul_add` is, and [`Rgbx8::luminance`]
-//! is [`Rgb::luminance`]. The eight-lane forms of the transcendental approximations
-//! (`sin_cos`, `atan2`, `acos`, `asin`) live beside their scalar forms in
-//! [`crate::fastmath::x8`].
+//! operations here are the scalar ones in the same order per lane: [`Vec3xN::dot`] is
+//! glam's `(x x' + y y') + z z'`, [`Vec3xN::normalize`] multiplies by `1 / length` as glam
+//! does, [`fmadd`] is fused in every build as `f32::mul_add` is, and [`RgbxN::luminance`]
+//! is [`Rgb::luminance`]. Results therefore do not depend on the lane count either. The
+//! lane forms of the transcendental approximations (`sin_cos`, `atan2`, `acos`, `asin`)
+//! live beside their scalar forms in [`crate::fastmath::xn`].
 //!
-//! Contents: [`lanes`], [`padded`] and [`lanes_of`] (arrays of eight, written out so they
-//! inline), [`chunks_where`] (the queries a batched kernel works on, eight at a time),
-//! transposes of eight records into lane vectors ([`transpose4x8`], [`rows4`], [`vec2s`], [`vec3s`],
-//! [`arrays3`]), per-lane select and clamp ([`sel`], [`clamp`]), masks ([`Mask8`],
-//! [`mask_from_bools`], [`mask_bits`]), [`gather`], [`fmadd`], and the small types
-//! [`Vec3x8`] and [`Rgbx8`].
+//! Contents: [`lanes`], [`padded`] and [`lanes_of`] (arrays of [`LANES`], written out so
+//! they inline), [`chunks_where`] (the queries a batched kernel works on, a lane vector at
+//! a time), transposes of records into lane vectors ([`transpose4xn`], [`rows4`],
+//! [`vec2s`], [`vec3s`], [`arrays3`]), per-lane select and clamp ([`sel`], [`clamp`]),
+//! masks ([`MaskN`], [`mask_from_bools`], [`mask_bits`], [`ALL_LANES`]), [`gather`],
+//! [`float_of`], [`fmadd`], and the small types [`Vec3xN`] and [`RgbxN`].
 
 use crate::Rgb;
 use glam::{Vec2, Vec3};
 use std::ops::{Add, Mul, Neg, Sub};
-pub use wide::{f32x8, i32x8, u32x8};
 
-/// Lanes per vector.
-pub const LANES: usize = 8;
+#[cfg(target_feature = "avx512f")]
+mod width {
+    pub use wide::{f32x16 as f32xn, i32x16 as i32xn, u32x16 as u32xn};
+    /// Lanes per vector: one AVX-512 register of f32.
+    pub const LANES: usize = 16;
+}
+#[cfg(not(target_feature = "avx512f"))]
+mod width {
+    pub use wide::{f32x8 as f32xn, i32x8 as i32xn, u32x8 as u32xn};
+    /// Lanes per vector: one AVX register of f32.
+    pub const LANES: usize = 8;
+}
+pub use width::{LANES, f32xn, i32xn, u32xn};
+
+/// [`mask_bits`] of a mask with every lane set.
+pub const ALL_LANES: u32 = ((1u64 << LANES) - 1) as u32;
 
 /// A per-lane condition: all bits set (true) or clear (false) in each lane, as `wide`'s
 /// comparisons (`simd_lt`, `simd_eq`, ...) return it; `&`, `|` and `!` combine masks.
-pub type Mask8 = f32x8;
+pub type MaskN = f32xn;
 
-/// `[f(0), .., f(7)]`, written out so that it always inlines (`array::map` and
+/// `[f(0), .., f(LANES - 1)]`, written out so that it always inlines (`array::map` and
 /// `array::from_fn` do not reliably, which costs a call per lane).
 #[inline(always)]
-pub fn lanes<T>(f: impl Fn(usize) -> T) -> [T; 8] {
+pub fn lanes<T>(f: impl Fn(usize) -> T) -> [T; LANES] {
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        [f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7)]
+    }
+    #[cfg(target_feature = "avx512f")]
+    {
+        [
+            f(0),
+            f(1),
+            f(2),
+            f(3),
+            f(4),
+            f(5),
+            f(6),
+            f(7),
+            f(8),
+            f(9),
+            f(10),
+            f(11),
+            f(12),
+            f(13),
+            f(14),
+            f(15),
+        ]
+    }
+}
+
+/// `[f(0), .., f(7)]`, written out: for kernels over eight lanes whatever [`LANES`] is
+/// (the renderer's geometry blocks: eight primitives per BVH8 leaf block).
+#[inline(always)]
+pub fn lanes8<T>(f: impl Fn(usize) -> T) -> [T; 8] {
     [f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7)]
 }
 
-/// The first eight elements of a chunk of one to eight, the last repeated into the lanes
-/// past its end (so that those lanes compute something valid, to be ignored).
+/// The first [`LANES`] elements of a chunk of one to [`LANES`], the last repeated into the
+/// lanes past its end (so that those lanes compute something valid, to be ignored).
 #[inline(always)]
-pub fn padded<T: Copy>(chunk: &[T]) -> [T; 8] {
+pub fn padded<T: Copy>(chunk: &[T]) -> [T; LANES] {
     let n = chunk.len();
-    assert!((1..=LANES).contains(&n), "a chunk of 1 to 8 elements");
+    assert!((1..=LANES).contains(&n), "a chunk of 1 to LANES elements");
     lanes(|i| chunk[i.min(n - 1)])
 }
 
-/// Eight 4-float records as four lane vectors, `[r[0][k], .., r[7][k]]` for k = 0..4:
-/// with AVX, eight 16-byte loads and eight shuffles (a 4x8 transpose) instead of 32
-/// scalar loads and inserts.
+/// [`LANES`] 4-float records as four lane vectors, `[r[0][k], .., r[LANES - 1][k]]` for
+/// k = 0..4: with AVX, one 16-byte load per record and a 4x8 transpose by shuffles per
+/// eight records instead of four scalar loads and inserts per record.
 #[inline(always)]
-pub fn transpose4x8(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
+pub fn transpose4xn(r: &[[f32; 4]; LANES]) -> [f32xn; 4] {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+    {
+        let (lo, hi) = r.split_at(8);
+        let lo = transpose4x8(lo.try_into().expect("8 records"));
+        let hi = transpose4x8(hi.try_into().expect("8 records"));
+        // Lanes 0..8 from the first eight records, 8..16 from the others.
+        [0, 1, 2, 3].map(|k| wide::bytemuck::cast::<_, f32xn>([lo[k], hi[k]]))
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
+    {
+        transpose4x8(r)
+    }
+}
+
+/// [`transpose4xn`] of the rows `row(0)`, .., `row(LANES - 1)`: fields that lie four
+/// floats in a row in memory are read as one 16-byte load per lane.
+#[inline(always)]
+pub fn rows4(row: impl Fn(usize) -> [f32; 4]) -> [f32xn; 4] {
+    transpose4xn(&lanes(row))
+}
+
+/// Eight 4-float records as four eight-lane vectors, `[r[0][k], .., r[7][k]]` for
+/// k = 0..4 (the 4x8 transpose of [`transpose4xn`]; for eight-lane kernels).
+#[inline(always)]
+pub fn transpose4x8(r: &[[f32; 4]; 8]) -> [wide::f32x8; 4] {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
     {
         // SAFETY: only needs AVX, which this build enables (the cfg above).
@@ -59,26 +134,21 @@ pub fn transpose4x8(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
     {
-        let c = |k: usize| f32x8::new(lanes(|i| r[i][k]));
+        let c = |k: usize| wide::f32x8::new(lanes8(|i| r[i][k]));
         [c(0), c(1), c(2), c(3)]
     }
 }
 
-/// [`transpose4x8`] of the rows `row(0)`, .., `row(7)`: fields that lie four floats in a
-/// row in memory are read as one 16-byte load per lane.
-#[inline(always)]
-pub fn rows4(row: impl Fn(usize) -> [f32; 4]) -> [f32x8; 4] {
-    transpose4x8(&lanes(row))
-}
-
+/// [`transpose4x8`] with AVX: eight 16-byte loads and eight shuffles.
 #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
 #[target_feature(enable = "avx")]
 #[inline]
-fn transpose4x8_avx(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
+fn transpose4x8_avx(r: &[[f32; 4]; 8]) -> [wide::f32x8; 4] {
     use core::arch::x86_64::{
         __m128, _mm256_castpd_ps, _mm256_castps_pd, _mm256_set_m128, _mm256_unpackhi_pd,
         _mm256_unpackhi_ps, _mm256_unpacklo_pd, _mm256_unpacklo_ps,
     };
+    use wide::f32x8;
     let q = |k: usize| __m128::from(wide::f32x4::new(r[k]));
     // Records k and k + 4 side by side: [r0 | r4], [r1 | r5], [r2 | r6], [r3 | r7].
     let a = _mm256_set_m128(q(4), q(0));
@@ -98,12 +168,25 @@ fn transpose4x8_avx(r: &[[f32; 4]; 8]) -> [f32x8; 4] {
     ]
 }
 
-/// `f(idx[i])` in lane i for a chunk of one to eight indices, the last repeated into the
+/// The integers of `i` as floats, per lane (`f32xn::from_i32x8` or `from_i32x16`).
+#[inline(always)]
+pub fn float_of(i: i32xn) -> f32xn {
+    #[cfg(target_feature = "avx512f")]
+    {
+        f32xn::from_i32x16(i)
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        f32xn::from_i32x8(i)
+    }
+}
+
+/// `f(idx[i])` in lane i for a chunk of one to [`LANES`] indices, the last repeated into the
 /// lanes past its end (as [`padded`]).
 #[inline(always)]
-pub fn lanes_of<T>(idx: &[usize], f: impl Fn(usize) -> T) -> [T; 8] {
+pub fn lanes_of<T>(idx: &[usize], f: impl Fn(usize) -> T) -> [T; LANES] {
     let n = idx.len();
-    assert!((1..=LANES).contains(&n), "a chunk of 1 to 8 indices");
+    assert!((1..=LANES).contains(&n), "a chunk of 1 to LANES indices");
     lanes(|i| f(idx[i.min(n - 1)]))
 }
 
@@ -130,55 +213,55 @@ pub fn chunks_where(n: usize, keep: impl Fn(usize) -> bool, mut f: impl FnMut(&[
 
 /// Eight vectors as their x, y and z components in three SIMD registers.
 #[inline(always)]
-pub fn vec3s(v: &[Vec3; 8]) -> [f32x8; 3] {
+pub fn vec3s(v: &[Vec3; LANES]) -> [f32xn; 3] {
     [
-        f32x8::new(lanes(|i| v[i].x)),
-        f32x8::new(lanes(|i| v[i].y)),
-        f32x8::new(lanes(|i| v[i].z)),
+        f32xn::new(lanes(|i| v[i].x)),
+        f32xn::new(lanes(|i| v[i].y)),
+        f32xn::new(lanes(|i| v[i].z)),
     ]
 }
 
 /// Eight 2D points as their x and y components in two SIMD registers.
 #[inline(always)]
-pub fn vec2s(v: &[Vec2; 8]) -> [f32x8; 2] {
-    [f32x8::new(lanes(|i| v[i].x)), f32x8::new(lanes(|i| v[i].y))]
+pub fn vec2s(v: &[Vec2; LANES]) -> [f32xn; 2] {
+    [f32xn::new(lanes(|i| v[i].x)), f32xn::new(lanes(|i| v[i].y))]
 }
 
 /// The components of [`vec3s`] back as arrays (`[x, y, z]`, eight lanes each).
 #[inline(always)]
-pub fn arrays3(v: [f32x8; 3]) -> [[f32; 8]; 3] {
+pub fn arrays3(v: [f32xn; 3]) -> [[f32; LANES]; 3] {
     [v[0].to_array(), v[1].to_array(), v[2].to_array()]
 }
 
 /// glam's `Vec3::dot` per lane: (a.x b.x + a.y b.y) + a.z b.z.
 #[inline(always)]
-pub fn dot3(a: [f32x8; 3], b: [f32x8; 3]) -> f32x8 {
+pub fn dot3<T: Copy + Add<Output = T> + Mul<Output = T>>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// `if m { a } else { b }` per lane (`m` from a comparison).
+/// `if m { a } else { b }` per lane (`m` from a comparison), for vectors of any width.
 #[inline(always)]
-pub fn sel(m: Mask8, a: f32x8, b: f32x8) -> f32x8 {
+pub fn sel<T: wide::Select<T>>(m: T, a: T, b: T) -> T {
     m.select(a, b)
 }
 
 /// `f32::clamp` per lane (NaN stays NaN).
 #[inline(always)]
-pub fn clamp(x: f32x8, lo: f32, hi: f32) -> f32x8 {
-    let (lo, hi) = (f32x8::splat(lo), f32x8::splat(hi));
+pub fn clamp(x: f32xn, lo: f32, hi: f32) -> f32xn {
+    let (lo, hi) = (f32xn::splat(lo), f32xn::splat(hi));
     let x = sel(x.simd_lt(lo), lo, x);
     sel(x.simd_gt(hi), hi, x)
 }
 
 /// A mask with lane i set where `b[i]`.
 #[inline(always)]
-pub fn mask_from_bools(b: [bool; 8]) -> Mask8 {
-    f32x8::from_bits(u32x8::new(lanes(|i| 0u32.wrapping_sub(b[i] as u32))))
+pub fn mask_from_bools(b: [bool; LANES]) -> MaskN {
+    f32xn::from_bits(u32xn::new(lanes(|i| 0u32.wrapping_sub(b[i] as u32))))
 }
 
 /// Bit i set where lane i of the mask is set.
 #[inline(always)]
-pub fn mask_bits(m: Mask8) -> u32 {
+pub fn mask_bits(m: MaskN) -> u32 {
     m.to_bitmask()
 }
 
@@ -186,12 +269,12 @@ pub fn mask_bits(m: Mask8) -> u32 {
 /// gather instruction is slower than that; docs/performance.md). Indices must be
 /// non-negative and in bounds (checked).
 #[inline(always)]
-pub fn gather(table: &[f32], idx: i32x8) -> f32x8 {
+pub fn gather(table: &[f32], idx: i32xn) -> f32xn {
     let idx = idx.to_array();
-    f32x8::new(lanes(|i| table[idx[i] as usize]))
+    f32xn::new(lanes(|i| table[idx[i] as usize]))
 }
 
-/// The scalar twin of `f32x8::max` (`wide`'s): `if lo < x { x } else { lo }`, so NaN and
+/// The scalar twin of `f32xn::max` (`wide`'s): `if lo < x { x } else { lo }`, so NaN and
 /// -0.0 against +0.0 give `lo`. Scalar forms of batched kernels use it where they clamp:
 /// `f32::max` gives -0.0 for `(-0.0).max(0.0)` in some builds and +0.0 in others.
 #[inline(always)]
@@ -199,7 +282,7 @@ pub fn max_lane(x: f32, lo: f32) -> f32 {
     if lo < x { x } else { lo }
 }
 
-/// The scalar twin of `f32x8::min` (`wide`'s): `if x < hi { x } else { hi }`, so NaN
+/// The scalar twin of `f32xn::min` (`wide`'s): `if x < hi { x } else { hi }`, so NaN
 /// gives `hi`.
 #[inline(always)]
 pub fn min_lane(x: f32, hi: f32) -> f32 {
@@ -209,7 +292,7 @@ pub fn min_lane(x: f32, hi: f32) -> f32 {
 /// `a * b + c` per lane with a single rounding, as `f32::mul_add` gives it, in every build
 /// (`wide`'s `mul_add` rounds twice when the target has no FMA unit).
 #[inline(always)]
-pub fn fmadd(a: f32x8, b: f32x8, c: f32x8) -> f32x8 {
+pub fn fmadd(a: f32xn, b: f32xn, c: f32xn) -> f32xn {
     #[cfg(all(target_arch = "x86_64", target_feature = "fma"))]
     {
         a.mul_add(b, c)
@@ -217,33 +300,33 @@ pub fn fmadd(a: f32x8, b: f32x8, c: f32x8) -> f32x8 {
     #[cfg(not(all(target_arch = "x86_64", target_feature = "fma")))]
     {
         let (a, b, c) = (a.to_array(), b.to_array(), c.to_array());
-        f32x8::new(lanes(|i| a[i].mul_add(b[i], c[i])))
+        f32xn::new(lanes(|i| a[i].mul_add(b[i], c[i])))
     }
 }
 
 /// Eight 3-vectors, one component per register.
 #[derive(Clone, Copy, Debug)]
-pub struct Vec3x8 {
-    pub x: f32x8,
-    pub y: f32x8,
-    pub z: f32x8,
+pub struct Vec3xN {
+    pub x: f32xn,
+    pub y: f32xn,
+    pub z: f32xn,
 }
 
-impl Vec3x8 {
+impl Vec3xN {
     #[inline(always)]
-    pub fn new(x: f32x8, y: f32x8, z: f32x8) -> Self {
+    pub fn new(x: f32xn, y: f32xn, z: f32xn) -> Self {
         Self { x, y, z }
     }
 
     /// The same vector in every lane.
     #[inline(always)]
     pub fn splat(v: Vec3) -> Self {
-        Self::new(f32x8::splat(v.x), f32x8::splat(v.y), f32x8::splat(v.z))
+        Self::new(f32xn::splat(v.x), f32xn::splat(v.y), f32xn::splat(v.z))
     }
 
     /// Eight vectors, vector i in lane i.
     #[inline(always)]
-    pub fn from_array(v: &[Vec3; 8]) -> Self {
+    pub fn from_array(v: &[Vec3; LANES]) -> Self {
         Self::from(vec3s(v))
     }
 
@@ -265,19 +348,19 @@ impl Vec3x8 {
 
     /// The eight vectors.
     #[inline(always)]
-    pub fn to_array(self) -> [Vec3; 8] {
+    pub fn to_array(self) -> [Vec3; LANES] {
         let [x, y, z] = arrays3(self.into());
         lanes(|i| Vec3::new(x[i], y[i], z[i]))
     }
 
     /// glam's `dot` per lane.
     #[inline(always)]
-    pub fn dot(self, o: Self) -> f32x8 {
+    pub fn dot(self, o: Self) -> f32xn {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
 
     #[inline(always)]
-    pub fn length_squared(self) -> f32x8 {
+    pub fn length_squared(self) -> f32xn {
         self.dot(self)
     }
 
@@ -294,23 +377,23 @@ impl Vec3x8 {
     /// glam's `normalize` per lane: `self * (1 / length)` (no check).
     #[inline(always)]
     pub fn normalize(self) -> Self {
-        self * (f32x8::splat(1.0) / self.length_squared().sqrt())
+        self * (f32xn::splat(1.0) / self.length_squared().sqrt())
     }
 
     /// glam's `normalize_or_zero` per lane: zero where `1 / length` is not finite and
     /// positive.
     #[inline(always)]
     pub fn normalize_or_zero(self) -> Self {
-        let rcp = f32x8::splat(1.0) / self.length_squared().sqrt();
-        let ok = rcp.is_finite() & rcp.simd_gt(f32x8::splat(0.0));
+        let rcp = f32xn::splat(1.0) / self.length_squared().sqrt();
+        let ok = rcp.is_finite() & rcp.simd_gt(f32xn::splat(0.0));
         let n = self * rcp;
-        let zero = f32x8::splat(0.0);
+        let zero = f32xn::splat(0.0);
         Self::new(sel(ok, n.x, zero), sel(ok, n.y, zero), sel(ok, n.z, zero))
     }
 
     /// `self * a + b` per component, fused ([`fmadd`]).
     #[inline(always)]
-    pub fn mul_add(self, a: f32x8, b: Self) -> Self {
+    pub fn mul_add(self, a: f32xn, b: Self) -> Self {
         Self::new(
             fmadd(self.x, a, b.x),
             fmadd(self.y, a, b.y),
@@ -320,33 +403,33 @@ impl Vec3x8 {
 
     /// `if m { a } else { b }` per lane.
     #[inline(always)]
-    pub fn select(m: Mask8, a: Self, b: Self) -> Self {
+    pub fn select(m: MaskN, a: Self, b: Self) -> Self {
         Self::new(sel(m, a.x, b.x), sel(m, a.y, b.y), sel(m, a.z, b.z))
     }
 
     /// The lanes as options: `Some` where `m` is set.
     #[inline(always)]
-    pub fn options(self, m: Mask8) -> [Option<Vec3>; 8] {
+    pub fn options(self, m: MaskN) -> [Option<Vec3>; LANES] {
         let (bits, v) = (mask_bits(m), self.to_array());
         lanes(|i| (bits >> i & 1 != 0).then_some(v[i]))
     }
 }
 
-impl From<[f32x8; 3]> for Vec3x8 {
+impl From<[f32xn; 3]> for Vec3xN {
     #[inline(always)]
-    fn from(v: [f32x8; 3]) -> Self {
+    fn from(v: [f32xn; 3]) -> Self {
         Self::new(v[0], v[1], v[2])
     }
 }
 
-impl From<Vec3x8> for [f32x8; 3] {
+impl From<Vec3xN> for [f32xn; 3] {
     #[inline(always)]
-    fn from(v: Vec3x8) -> Self {
+    fn from(v: Vec3xN) -> Self {
         [v.x, v.y, v.z]
     }
 }
 
-impl Add for Vec3x8 {
+impl Add for Vec3xN {
     type Output = Self;
     #[inline(always)]
     fn add(self, o: Self) -> Self {
@@ -354,7 +437,7 @@ impl Add for Vec3x8 {
     }
 }
 
-impl Sub for Vec3x8 {
+impl Sub for Vec3xN {
     type Output = Self;
     #[inline(always)]
     fn sub(self, o: Self) -> Self {
@@ -362,15 +445,15 @@ impl Sub for Vec3x8 {
     }
 }
 
-impl Mul<f32x8> for Vec3x8 {
+impl Mul<f32xn> for Vec3xN {
     type Output = Self;
     #[inline(always)]
-    fn mul(self, s: f32x8) -> Self {
+    fn mul(self, s: f32xn) -> Self {
         Self::new(self.x * s, self.y * s, self.z * s)
     }
 }
 
-impl Mul for Vec3x8 {
+impl Mul for Vec3xN {
     type Output = Self;
     #[inline(always)]
     fn mul(self, o: Self) -> Self {
@@ -378,7 +461,7 @@ impl Mul for Vec3x8 {
     }
 }
 
-impl Neg for Vec3x8 {
+impl Neg for Vec3xN {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
@@ -388,31 +471,31 @@ impl Neg for Vec3x8 {
 
 /// Eight RGB triples, one channel per register, with [`Rgb`]'s operations per lane.
 #[derive(Clone, Copy, Debug)]
-pub struct Rgbx8 {
-    pub r: f32x8,
-    pub g: f32x8,
-    pub b: f32x8,
+pub struct RgbxN {
+    pub r: f32xn,
+    pub g: f32xn,
+    pub b: f32xn,
 }
 
-impl Rgbx8 {
+impl RgbxN {
     #[inline(always)]
-    pub fn new(r: f32x8, g: f32x8, b: f32x8) -> Self {
+    pub fn new(r: f32xn, g: f32xn, b: f32xn) -> Self {
         Self { r, g, b }
     }
 
     /// The same colour in every lane.
     #[inline(always)]
     pub fn splat(c: Rgb) -> Self {
-        Self::new(f32x8::splat(c.r), f32x8::splat(c.g), f32x8::splat(c.b))
+        Self::new(f32xn::splat(c.r), f32xn::splat(c.g), f32xn::splat(c.b))
     }
 
     /// Eight colours, colour i in lane i.
     #[inline(always)]
-    pub fn from_array(c: &[Rgb; 8]) -> Self {
+    pub fn from_array(c: &[Rgb; LANES]) -> Self {
         Self::new(
-            f32x8::new(lanes(|i| c[i].r)),
-            f32x8::new(lanes(|i| c[i].g)),
-            f32x8::new(lanes(|i| c[i].b)),
+            f32xn::new(lanes(|i| c[i].r)),
+            f32xn::new(lanes(|i| c[i].g)),
+            f32xn::new(lanes(|i| c[i].b)),
         )
     }
 
@@ -428,40 +511,40 @@ impl Rgbx8 {
 
     /// The eight colours.
     #[inline(always)]
-    pub fn to_array(self) -> [Rgb; 8] {
+    pub fn to_array(self) -> [Rgb; LANES] {
         let (r, g, b) = (self.r.to_array(), self.g.to_array(), self.b.to_array());
         lanes(|i| Rgb::new(r[i], g[i], b[i]))
     }
 
     /// [`Rgb::luminance`] per lane.
     #[inline(always)]
-    pub fn luminance(self) -> f32x8 {
-        f32x8::splat(0.212671) * self.r
-            + f32x8::splat(0.715160) * self.g
-            + f32x8::splat(0.072169) * self.b
+    pub fn luminance(self) -> f32xn {
+        f32xn::splat(0.212671) * self.r
+            + f32xn::splat(0.715160) * self.g
+            + f32xn::splat(0.072169) * self.b
     }
 
     /// [`max_lane`] per channel (`wide`'s `max`).
     #[inline(always)]
     pub fn max(self, lo: f32) -> Self {
-        let lo = f32x8::splat(lo);
+        let lo = f32xn::splat(lo);
         Self::new(self.r.max(lo), self.g.max(lo), self.b.max(lo))
     }
 
     /// [`Rgb::is_finite`] per lane.
     #[inline(always)]
-    pub fn is_finite(self) -> Mask8 {
+    pub fn is_finite(self) -> MaskN {
         self.r.is_finite() & self.g.is_finite() & self.b.is_finite()
     }
 
     /// `if m { a } else { b }` per lane.
     #[inline(always)]
-    pub fn select(m: Mask8, a: Self, b: Self) -> Self {
+    pub fn select(m: MaskN, a: Self, b: Self) -> Self {
         Self::new(sel(m, a.r, b.r), sel(m, a.g, b.g), sel(m, a.b, b.b))
     }
 }
 
-impl Add for Rgbx8 {
+impl Add for RgbxN {
     type Output = Self;
     #[inline(always)]
     fn add(self, o: Self) -> Self {
@@ -469,7 +552,7 @@ impl Add for Rgbx8 {
     }
 }
 
-impl Mul for Rgbx8 {
+impl Mul for RgbxN {
     type Output = Self;
     #[inline(always)]
     fn mul(self, o: Self) -> Self {
@@ -477,10 +560,10 @@ impl Mul for Rgbx8 {
     }
 }
 
-impl Mul<f32x8> for Rgbx8 {
+impl Mul<f32xn> for RgbxN {
     type Output = Self;
     #[inline(always)]
-    fn mul(self, s: f32x8) -> Self {
+    fn mul(self, s: f32xn) -> Self {
         Self::new(self.r * s, self.g * s, self.b * s)
     }
 }
@@ -522,28 +605,28 @@ mod tests {
     }
 
     #[test]
-    fn transpose4x8_puts_component_k_of_record_i_in_lane_i() {
-        let r: [[f32; 4]; 8] = lanes(|i| [0, 1, 2, 3].map(|k| (10 * i + k) as f32));
-        let t = transpose4x8(&r);
+    fn transpose4xn_puts_component_k_of_record_i_in_lane_i() {
+        let r: [[f32; 4]; LANES] = lanes(|i| [0, 1, 2, 3].map(|k| (10 * i + k) as f32));
+        let t = transpose4xn(&r);
         for (k, v) in t.iter().enumerate() {
             assert_eq!(v.to_array(), lanes(|i| r[i][k]), "component {k}");
         }
-        let t = rows4(|i| r[7 - i]);
-        assert_eq!(t[2].to_array(), lanes(|i| r[7 - i][2]));
+        let t = rows4(|i| r[LANES - 1 - i]);
+        assert_eq!(t[2].to_array(), lanes(|i| r[LANES - 1 - i][2]));
+        let t8 = transpose4x8(&lanes8(|i| r[(i + 1) % LANES]));
+        assert_eq!(t8[3].to_array(), lanes8(|i| r[(i + 1) % LANES][3]));
     }
 
     #[test]
     fn padded_repeats_the_last_element() {
-        assert_eq!(padded(&[1, 2, 3]), [1, 2, 3, 3, 3, 3, 3, 3]);
-        assert_eq!(padded(&[1, 2, 3, 4, 5, 6, 7, 8]), [1, 2, 3, 4, 5, 6, 7, 8]);
-        assert_eq!(
-            lanes_of(&[4, 9], |k| 10 * k),
-            [40, 90, 90, 90, 90, 90, 90, 90]
-        );
+        assert_eq!(padded(&[1, 2, 3]), lanes(|i| [1, 2, 3][i.min(2)]));
+        let full: Vec<usize> = (1..=LANES).collect();
+        assert_eq!(padded(&full), lanes(|i| i + 1));
+        assert_eq!(lanes_of(&[4, 9], |k| 10 * k), lanes(|i| [40, 90][i.min(1)]));
     }
 
     #[test]
-    fn chunks_where_visits_the_kept_indices_in_order_eight_at_a_time() {
+    fn chunks_where_visits_the_kept_indices_in_order_a_lane_vector_at_a_time() {
         for n in [0usize, 1, 7, 8, 9, 16, 17, 100] {
             let keep = |k: usize| k % 3 != 1;
             let mut seen = Vec::new();
@@ -553,18 +636,21 @@ mod tests {
                 sizes.push(idx.len());
             });
             assert_eq!(seen, (0..n).filter(|&k| keep(k)).collect::<Vec<_>>());
-            assert!(sizes.iter().rev().skip(1).all(|&s| s == 8));
-            assert!(sizes.last().is_none_or(|&s| (1..=8).contains(&s)));
+            assert!(sizes.iter().rev().skip(1).all(|&s| s == LANES));
+            assert!(sizes.last().is_none_or(|&s| (1..=LANES).contains(&s)));
         }
     }
 
     #[test]
-    fn vec3x8_operations_equal_glams_per_lane() {
+    fn vec3xn_operations_equal_glams_per_lane() {
         let v = vecs();
-        for (a, b) in v.chunks(8).zip(v.chunks(8).skip(1).chain(v.chunks(8))) {
+        for (a, b) in v
+            .chunks(LANES)
+            .zip(v.chunks(LANES).skip(1).chain(v.chunks(LANES)))
+        {
             let (a, b) = (padded(a), padded(b));
-            let (va, vb) = (Vec3x8::from_array(&a), Vec3x8::from_array(&b));
-            let s = f32x8::new(lanes(|i| b[i].y));
+            let (va, vb) = (Vec3xN::from_array(&a), Vec3xN::from_array(&b));
+            let s = f32xn::new(lanes(|i| b[i].y));
             let dot = va.dot(vb).to_array();
             let cross = va.cross(vb).to_array();
             let norm = va.normalize().to_array();
@@ -576,7 +662,7 @@ mod tests {
             let scaled = (va * s).to_array();
             let neg = (-va).to_array();
             let sv = |x: Vec3, y: Vec3| same(x.x, y.x) && same(x.y, y.y) && same(x.z, y.z);
-            for i in 0..8 {
+            for i in 0..LANES {
                 let (x, y) = (a[i], b[i]);
                 assert!(same(dot[i], x.dot(y)), "dot {x} {y}");
                 assert!(sv(cross[i], x.cross(y)), "cross {x} {y}");
@@ -596,20 +682,20 @@ mod tests {
     }
 
     #[test]
-    fn rgbx8_operations_equal_rgbs_per_lane() {
+    fn rgbxn_operations_equal_rgbs_per_lane() {
         let v = vecs();
         let rgb: Vec<Rgb> = v.iter().map(|v| Rgb::new(v.x, v.y, v.z)).collect();
         for (a, b) in rgb
-            .chunks(8)
-            .zip(rgb.chunks(8).skip(3).chain(rgb.chunks(8)))
+            .chunks(LANES)
+            .zip(rgb.chunks(LANES).skip(3).chain(rgb.chunks(LANES)))
         {
             let (a, b) = (padded(a), padded(b));
-            let (ca, cb) = (Rgbx8::from_array(&a), Rgbx8::from_array(&b));
-            let s = f32x8::new(lanes(|i| b[i].g));
+            let (ca, cb) = (RgbxN::from_array(&a), RgbxN::from_array(&b));
+            let s = f32xn::new(lanes(|i| b[i].g));
             let sr = |x: Rgb, y: Rgb| same(x.r, y.r) && same(x.g, y.g) && same(x.b, y.b);
             let (lum, max, fin) = (ca.luminance().to_array(), ca.max(0.0), ca.is_finite());
             let fin = mask_bits(fin);
-            for i in 0..8 {
+            for i in 0..LANES {
                 assert!(same(lum[i], a[i].luminance()), "luminance {:?}", a[i]);
                 let m = a[i].map(|x| max_lane(x, 0.0));
                 assert!(sr(max.lane(i), m), "max {:?}", a[i]);
@@ -624,12 +710,12 @@ mod tests {
     #[test]
     fn fmadd_is_fused_as_f32_mul_add() {
         let v = values();
-        for c in v.chunks(8) {
+        for c in v.chunks(LANES) {
             let a = padded(c);
-            let b = lanes(|i| a[(i + 3) % 8] * 1.000_001);
-            let d = lanes(|i| -a[(i + 5) % 8]);
-            let r = fmadd(f32x8::new(a), f32x8::new(b), f32x8::new(d)).to_array();
-            for i in 0..8 {
+            let b = lanes(|i| a[(i + 3) % LANES] * 1.000_001);
+            let d = lanes(|i| -a[(i + 5) % LANES]);
+            let r = fmadd(f32xn::new(a), f32xn::new(b), f32xn::new(d)).to_array();
+            for i in 0..LANES {
                 assert!(
                     same(r[i], a[i].mul_add(b[i], d[i])),
                     "{} {} {}",
@@ -642,9 +728,9 @@ mod tests {
         // A case where one rounding and two differ: (1 + e)(1 - e) - 1 = -e^2 exactly.
         let e = f32::EPSILON;
         let r = fmadd(
-            f32x8::splat(1.0 + e),
-            f32x8::splat(1.0 - e),
-            f32x8::splat(-1.0),
+            f32xn::splat(1.0 + e),
+            f32xn::splat(1.0 - e),
+            f32xn::splat(-1.0),
         );
         assert_eq!(r.to_array()[0], -e * e);
     }
@@ -652,17 +738,20 @@ mod tests {
     #[test]
     fn gather_masks_and_clamp() {
         let table: Vec<f32> = (0..100).map(|k| k as f32 * 0.5).collect();
-        let g = gather(&table, i32x8::new([3, 99, 0, 7, 7, 50, 1, 2])).to_array();
-        assert_eq!(g, [1.5, 49.5, 0.0, 3.5, 3.5, 25.0, 0.5, 1.0]);
-        let b = [true, false, false, true, true, false, true, false];
+        let idx = lanes(|i| [3, 99, 0, 7, 7, 50, 1, 2][i % 8]);
+        let g = gather(&table, i32xn::new(idx)).to_array();
+        assert_eq!(g, idx.map(|k| k as f32 * 0.5));
+        let b = lanes(|i| [true, false, false, true, true, false, true, false][i % 8]);
         let m = mask_from_bools(b);
-        assert_eq!(mask_bits(m), 0b0101_1001);
-        let x = f32x8::new([-2.0, 0.5, 3.0, f32::NAN, 1.0, 0.0, -0.0, 9.0]);
+        assert_eq!(mask_bits(m), ALL_LANES / 0xff * 0b0101_1001);
+        assert_eq!(mask_bits(!f32xn::splat(0.0)), ALL_LANES);
+        let x = lanes(|i| [-2.0, 0.5, 3.0, f32::NAN, 1.0, 0.0, -0.0, 9.0][i % 8]);
+        let x = f32xn::new(x);
         let c = clamp(x, 0.0, 1.0).to_array();
         for (c, x) in c.into_iter().zip(x.to_array()) {
             assert!(same(c, x.clamp(0.0, 1.0)), "clamp {x}");
         }
-        let s = sel(m, f32x8::splat(1.0), f32x8::splat(2.0)).to_array();
+        let s = sel(m, f32xn::splat(1.0), f32xn::splat(2.0)).to_array();
         assert_eq!(s, b.map(|t| if t { 1.0 } else { 2.0 }));
     }
 }

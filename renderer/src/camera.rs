@@ -13,7 +13,7 @@
 use crate::geometry::Ray;
 use glam::{Mat4, Vec2, Vec3};
 use lobe_materials::simd;
-use wide::f32x8;
+use lobe_materials::simd::{LANES, f32xn};
 
 /// The axis along which a perspective field of view is measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -197,38 +197,38 @@ impl Camera {
             out.extend(jitter.iter().map(|&j| self.ray((pixel + j) * inv)));
             return;
         };
-        let one = f32x8::splat(1.0);
-        let two = f32x8::splat(2.0);
-        let tan_half = f32x8::splat(*tan_half);
+        let one = f32xn::splat(1.0);
+        let two = f32xn::splat(2.0);
+        let tan_half = f32xn::splat(*tan_half);
         let o = to_world.w_axis.truncate();
         let axis = |c: usize| {
             [
-                f32x8::splat(to_world.x_axis[c]),
-                f32x8::splat(to_world.y_axis[c]),
-                f32x8::splat(to_world.z_axis[c]),
+                f32xn::splat(to_world.x_axis[c]),
+                f32xn::splat(to_world.y_axis[c]),
+                f32xn::splat(to_world.z_axis[c]),
             ]
         };
         let m = [axis(0), axis(1), axis(2)];
-        for jc in jitter.chunks(8) {
+        for jc in jitter.chunks(LANES) {
             let n = jc.len();
             let j = simd::lanes(|i| jc[i.min(n - 1)]);
             let sx =
-                (f32x8::splat(pixel.x) + f32x8::new(simd::lanes(|i| j[i].x))) * f32x8::splat(inv.x);
+                (f32xn::splat(pixel.x) + f32xn::new(simd::lanes(|i| j[i].x))) * f32xn::splat(inv.x);
             let sy =
-                (f32x8::splat(pixel.y) + f32x8::new(simd::lanes(|i| j[i].y))) * f32x8::splat(inv.y);
+                (f32xn::splat(pixel.y) + f32xn::new(simd::lanes(|i| j[i].y))) * f32xn::splat(inv.y);
             let x = (one - two * sx) * tan_half;
-            let y = (one - two * sy) * tan_half / f32x8::splat(*aspect);
+            let y = (one - two * sy) * tan_half / f32xn::splat(*aspect);
             let len = (x * x + y * y + one).sqrt();
             // glam's Mat4::transform_vector3 then Vec3::normalize, per lane.
-            let t = |r: &[f32x8; 3]| r[1] * y + r[0] * x + r[2];
+            let t = |r: &[f32xn; 3]| r[1] * y + r[0] * x + r[2];
             let d = [t(&m[0]), t(&m[1]), t(&m[2])];
             let inv_len = one / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             let d = [d[0] * inv_len, d[1] * inv_len, d[2] * inv_len];
-            let s = f32x8::splat(*near_clip) * len;
+            let s = f32xn::splat(*near_clip) * len;
             let org = [
-                f32x8::splat(o.x) + d[0] * s,
-                f32x8::splat(o.y) + d[1] * s,
-                f32x8::splat(o.z) + d[2] * s,
+                f32xn::splat(o.x) + d[0] * s,
+                f32xn::splat(o.y) + d[1] * s,
+                f32xn::splat(o.z) + d[2] * s,
             ];
             let (d, org) = (simd::arrays3(d), simd::arrays3(org));
             out.extend((0..n).map(|i| {

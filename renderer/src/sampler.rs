@@ -17,6 +17,7 @@
 //! scenes; Owen's faster asymptotic convergence wins on some scenes from 256 spp.
 
 use glam::Vec2;
+use lobe_materials::simd::LANES;
 
 /// 64-bit finalizer of MurmurHash3 / SplitMix64: a well-mixed hash of its input.
 #[inline]
@@ -109,8 +110,8 @@ fn permute(mut i: u32, n: u32, seed: u32) -> u32 {
 }
 
 /// [`permute`] of many indices with one seed, the same values: a first round over all
-/// lanes, then cycle walking eight lanes at a time, each further round applied to the
-/// eight with a select (no branch per lane: a lane needs another round with probability
+/// lanes, then cycle walking [`LANES`] lanes at a time, each further round applied to
+/// those lanes with a select (no branch per lane: a lane needs another round with probability
 /// up to 1/2, which a branch predicts badly), and the final shift modulo n without a
 /// division per lane. All three loops vectorize.
 #[inline(never)]
@@ -129,9 +130,9 @@ fn permute_lanes(idx: &[u32], n: u32, seed: u32, out: &mut [u32]) {
         }
         return;
     }
-    let (chunks, rest) = out.as_chunks_mut::<8>();
+    let (chunks, rest) = out.as_chunks_mut::<LANES>();
     for chunk in chunks {
-        // Over a fixed eight lanes both the test and the round vectorize.
+        // Over a fixed LANES lanes both the test and the round vectorize.
         while chunk.iter().fold(false, |any, &o| any | (o >= n)) {
             for o in chunk.iter_mut() {
                 let next = permute_round(*o, w, seed);

@@ -13,14 +13,14 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::fresnel::schlick;
-use crate::fastmath::{self, x8};
+use crate::fastmath::{self, xn};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, ParamSpec, Params,
     PublishedFit,
 };
-use crate::simd::{self, Rgbx8, Vec3x8, f32x8, sel};
+use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -90,17 +90,17 @@ impl AshikhminShirley {
 
     /// [`AshikhminShirley::sample_h`] of eight points (x, y) in lanes, bit for bit the same.
     #[inline(always)]
-    fn sample_h_x8(&self, ux: f32x8, uy: f32x8) -> Vec3x8 {
-        let s8 = f32x8::splat;
+    fn sample_h_xn(&self, ux: f32xn, uy: f32xn) -> Vec3xN {
+        let s8 = f32xn::splat;
         let (nu, nv) = (self.nu as f32, self.nv as f32);
         let q = (s8(4.0) * ux).min(s8(3.999_999));
         let quadrant = q.trunc_int();
-        let t = q - f32x8::from_i32x8(quadrant);
-        let (s, c) = x8::sin_cos_moderate(s8(FRAC_PI_2) * t);
-        let phi = x8::atan2(s8(((nu + 1.0) / (nv + 1.0)).sqrt()) * s, c);
+        let t = q - crate::simd::float_of(quadrant);
+        let (s, c) = xn::sin_cos_moderate(s8(FRAC_PI_2) * t);
+        let phi = xn::atan2(s8(((nu + 1.0) / (nv + 1.0)).sqrt()) * s, c);
         let is = |k: i32| {
-            f32x8::from_bits(wide::bytemuck::cast(
-                quadrant.simd_eq(wide::i32x8::splat(k)),
+            f32xn::from_bits(wide::bytemuck::cast(
+                quadrant.simd_eq(crate::simd::i32xn::splat(k)),
             ))
         };
         let phi = sel(
@@ -112,17 +112,17 @@ impl AshikhminShirley {
                 sel(is(2), s8(PI) + phi, s8(2.0 * PI) - phi),
             ),
         );
-        let (sp, cp) = x8::sin_cos_moderate(phi);
+        let (sp, cp) = xn::sin_cos_moderate(phi);
         let e = s8(nu) * cp * cp + s8(nv) * sp * sp;
-        let cos_t = x8::powf(uy, s8(1.0) / (e + s8(1.0)));
+        let cos_t = xn::powf(uy, s8(1.0) / (e + s8(1.0)));
         let sin_t = (s8(1.0) - cos_t * cos_t).max(s8(0.0)).sqrt();
-        Vec3x8::new(sin_t * cp, sin_t * sp, cos_t)
+        Vec3xN::new(sin_t * cp, sin_t * sp, cos_t)
     }
 
     /// [`AshikhminShirley::exponent`] per lane (f32).
     #[inline(always)]
-    fn exponent_x8(&self, h: Vec3x8) -> f32x8 {
-        let s = f32x8::splat;
+    fn exponent_xn(&self, h: Vec3xN) -> f32xn {
+        let s = f32xn::splat;
         let s2 = h.x * h.x + h.y * h.y;
         let e = (s(self.nu as f32) * h.x * h.x + s(self.nv as f32) * h.y * h.y) / s2;
         sel(s2.simd_le(s(1e-12)), s(self.nu as f32), e)
@@ -147,9 +147,14 @@ impl Lobe for AshikhminShirley {
         sample_via_half(wo, self.sample_h(u))
     }
 
-    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+    fn sample_xn(
+        &self,
+        wo: &[Vec3; LANES],
+        u: &[Vec2; LANES],
+        _uc: &[f32; LANES],
+    ) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
-        lobe::x8::sample_via_half(Vec3x8::from_array(wo), self.sample_h_x8(ux, uy))
+        lobe::xn::sample_via_half(Vec3xN::from_array(wo), self.sample_h_xn(ux, uy))
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -164,26 +169,26 @@ impl Lobe for AshikhminShirley {
     }
 
     /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
-    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
-        let s = f32x8::splat;
+    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
+        let s = f32xn::splat;
         let zero = s(0.0);
-        let (h, has_half) = lobe::x8::half(wo, wi);
-        let ok = lobe::x8::above(wo, wi) & has_half;
+        let (h, has_half) = lobe::xn::half(wo, wi);
+        let ok = lobe::xn::above(wo, wi) & has_half;
         let (nu, nv) = (self.nu as f32, self.nv as f32);
-        let e = self.exponent_x8(h);
+        let e = self.exponent_xn(h);
         let kh = wi.dot(h);
         let norm = ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI);
         let rs = self.rs as f32;
         let m = (s(1.0) - kh).max(zero).min(s(1.0));
         let m2 = m * m;
         let fresnel = s(rs) + s(1.0 - rs) * m2 * m2 * m;
-        let v = s(norm) * x8::powf(h.z, e) * fresnel / (kh * wi.z.max(wo.z));
+        let v = s(norm) * xn::powf(h.z, e) * fresnel / (kh * wi.z.max(wo.z));
         let lit = ok & kh.simd_gt(zero) & h.z.simd_gt(zero) & v.is_finite();
         let v = sel(lit, v, zero);
         let c = (((self.nu + 1.0) * (self.nv + 1.0)).sqrt() as f32) / (2.0 * PI);
-        let ph = sel(h.z.simd_le(zero), zero, s(c) * x8::powf(h.z, e));
-        let p = lobe::x8::half_to_incident_pdf(ph, wo.dot(h));
-        (Rgbx8::new(v, v, v), sel(ok, p, zero))
+        let ph = sel(h.z.simd_le(zero), zero, s(c) * xn::powf(h.z, e));
+        let p = lobe::xn::half_to_incident_pdf(ph, wo.dot(h));
+        (RgbxN::new(v, v, v), sel(ok, p, zero))
     }
 
     fn flags(&self) -> Flags {

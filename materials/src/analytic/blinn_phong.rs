@@ -13,13 +13,13 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use crate::fastmath;
-use crate::fastmath::x8;
+use crate::fastmath::xn;
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, Rgbx8, Vec3x8, f32x8, sel};
+use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -38,8 +38,8 @@ pub fn sample_cos_power_h(n: f32, u: Vec2) -> Vec3 {
 
 /// [`sample_cos_power_h`] of eight points (x, y) in lanes, bit for bit the same.
 #[inline(always)]
-pub fn sample_cos_power_h_x8(n: f32, ux: f32x8, uy: f32x8) -> Vec3x8 {
-    lobe::x8::half_from(x8::powf(uy, f32x8::splat(1.0 / (n + 1.0))), ux)
+pub fn sample_cos_power_h_xn(n: f32, ux: f32xn, uy: f32xn) -> Vec3xN {
+    lobe::xn::half_from(xn::powf(uy, f32xn::splat(1.0 / (n + 1.0))), ux)
 }
 
 #[inline]
@@ -52,9 +52,9 @@ pub fn cos_power_pdf(n: f32, cos_t: f32) -> f32 {
 
 /// [`cos_power_pdf`] per lane.
 #[inline(always)]
-pub fn cos_power_pdf_x8(n: f32, cos_t: f32x8) -> f32x8 {
-    let zero = f32x8::splat(0.0);
-    let p = f32x8::splat((n + 1.0) / (2.0 * PI)) * x8::powf(cos_t, f32x8::splat(n));
+pub fn cos_power_pdf_xn(n: f32, cos_t: f32xn) -> f32xn {
+    let zero = f32xn::splat(0.0);
+    let p = f32xn::splat((n + 1.0) / (2.0 * PI)) * xn::powf(cos_t, f32xn::splat(n));
     sel(cos_t.simd_le(zero), zero, p)
 }
 
@@ -92,22 +92,27 @@ impl Lobe for BlinnPhong {
         half_to_incident_pdf(cos_power_pdf(self.n as f32, h.z), wo.dot(h.into()))
     }
 
-    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+    fn sample_xn(
+        &self,
+        wo: &[Vec3; LANES],
+        u: &[Vec2; LANES],
+        _uc: &[f32; LANES],
+    ) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
-        let h = sample_cos_power_h_x8(self.n as f32, ux, uy);
-        lobe::x8::sample_via_half(Vec3x8::from_array(wo), h)
+        let h = sample_cos_power_h_xn(self.n as f32, ux, uy);
+        lobe::xn::sample_via_half(Vec3xN::from_array(wo), h)
     }
 
     /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
-    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
-        let zero = f32x8::splat(0.0);
-        let (h, has_half) = lobe::x8::half(wo, wi);
-        let ok = lobe::x8::above(wo, wi) & has_half;
+    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
+        let zero = f32xn::splat(0.0);
+        let (h, has_half) = lobe::xn::half(wo, wi);
+        let ok = lobe::xn::above(wo, wi) & has_half;
         let n = self.n as f32;
-        let v = f32x8::splat((n + 2.0) / (2.0 * PI)) * x8::powf(h.z.max(zero), f32x8::splat(n));
+        let v = f32xn::splat((n + 2.0) / (2.0 * PI)) * xn::powf(h.z.max(zero), f32xn::splat(n));
         let v = sel(ok, v, zero);
-        let p = lobe::x8::half_to_incident_pdf(cos_power_pdf_x8(n, h.z), wo.dot(h));
-        (Rgbx8::new(v, v, v), sel(ok, p, zero))
+        let p = lobe::xn::half_to_incident_pdf(cos_power_pdf_xn(n, h.z), wo.dot(h));
+        (RgbxN::new(v, v, v), sel(ok, p, zero))
     }
 
     fn flags(&self) -> Flags {

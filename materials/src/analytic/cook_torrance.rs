@@ -14,13 +14,13 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
 use super::microfacet::fresnel::{FRESNELS, Fresnel};
-use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g, vgroove_g_x8};
+use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g, vgroove_g_xn};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, Rgbx8, Vec3x8, f32x8, sel};
+use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
@@ -74,10 +74,15 @@ impl Lobe for CookTorrance {
         sample_via_half(wo, self.distribution.sample_h(u))
     }
 
-    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+    fn sample_xn(
+        &self,
+        wo: &[Vec3; LANES],
+        u: &[Vec2; LANES],
+        _uc: &[f32; LANES],
+    ) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
-        let h = self.distribution.sample_h_x8(ux, uy);
-        lobe::x8::sample_via_half(Vec3x8::from_array(wo), h)
+        let h = self.distribution.sample_h_xn(ux, uy);
+        lobe::xn::sample_via_half(Vec3xN::from_array(wo), h)
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -91,18 +96,18 @@ impl Lobe for CookTorrance {
     }
 
     /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
-    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
-        let zero = f32x8::splat(0.0);
-        let (h, has_half) = lobe::x8::half(wo, wi);
-        let ok = lobe::x8::above(wo, wi) & has_half;
+    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
+        let zero = f32xn::splat(0.0);
+        let (h, has_half) = lobe::xn::half(wo, wi);
+        let ok = lobe::xn::above(wo, wi) & has_half;
         let (co, ci, ch, oh) = (wo.z, wi.z, h.z, wo.dot(h));
-        let d = self.distribution.d_x8(ch);
-        let g = vgroove_g_x8(ch, co, ci, oh);
-        let f = self.fresnel.eval_x8(wi.dot(h));
-        let v = d * g * f / (f32x8::splat(std::f32::consts::PI) * ci * co);
+        let d = self.distribution.d_xn(ch);
+        let g = vgroove_g_xn(ch, co, ci, oh);
+        let f = self.fresnel.eval_xn(wi.dot(h));
+        let v = d * g * f / (f32xn::splat(std::f32::consts::PI) * ci * co);
         let v = sel(ok & !d.simd_eq(zero) & v.is_finite(), v.max(zero), zero);
-        let p = lobe::x8::half_to_incident_pdf(self.distribution.pdf_h_x8(ch), oh);
-        (Rgbx8::new(v, v, v), sel(ok, p, zero))
+        let p = lobe::xn::half_to_incident_pdf(self.distribution.pdf_h_xn(ch), oh);
+        (RgbxN::new(v, v, v), sel(ok, p, zero))
     }
 
     fn flags(&self) -> Flags {

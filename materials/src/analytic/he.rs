@@ -36,14 +36,14 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
 use super::he_shadowing;
 use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
-use super::microfacet::{Distribution, beckmann_cos_x8, beckmann_d_x8};
-use crate::fastmath::{self, x8};
+use super::microfacet::{Distribution, beckmann_cos_xn, beckmann_d_xn};
+use crate::fastmath::{self, xn};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, Mask8, Rgbx8, Vec3x8, f32x8, sel};
+use crate::simd::{self, LANES, MaskN, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::sync::Arc;
@@ -51,7 +51,7 @@ use std::sync::Arc;
 /// Wavelengths of the R, G, B channels in micrometres (bbm's `Config::wavelength`).
 pub const WAVELENGTHS_UM: [f64; 3] = [0.645, 0.526, 0.444];
 
-/// Tested bound of the rendered lobe ([`He::value_x8`]) against the fitted one
+/// Tested bound of the rendered lobe ([`He::value_xn`]) against the fitted one
 /// ([`He::value_tabulated`]), relative to the latter's value.
 pub const RENDER_ERROR_BOUND: f64 = 5e-4;
 
@@ -177,7 +177,7 @@ impl He {
         })
     }
 
-    /// [`He::value_x8`] of one pair, bit for bit a lane of it (the same operations in the
+    /// [`He::value_xn`] of one pair, bit for bit a lane of it (the same operations in the
     /// same order, on f32 scalars).
     pub fn value_f32(&self, wo: Vec3, wi: Vec3) -> [f32; 3] {
         let hv = wo + wi;
@@ -226,28 +226,28 @@ impl He {
     /// The lobe as rendered, eight pairs in SIMD lanes and in f32: [`He::value_tabulated`]'s
     /// terms in the same order, with the elevation terms from [`he_shadowing`]'s universal
     /// tables (lane by lane) and the series from its f32 table
-    /// ([`he_series::tabulated_x8`]); within [`RENDER_ERROR_BOUND`] of the fitted lobe
+    /// ([`he_series::tabulated_xn`]); within [`RENDER_ERROR_BOUND`] of the fitted lobe
     /// (tested).
-    pub fn value_x8(&self, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
-        self.value_x8_at_half(wo, wi, lobe::x8::half(wo, wi))
+    pub fn value_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
+        self.value_x8_at_half(wo, wi, lobe::xn::half(wo, wi))
     }
 
-    /// [`He::value_x8`] with the half vectors (and where they exist) already found.
+    /// [`He::value_xn`] with the half vectors (and where they exist) already found.
     #[inline(always)]
-    fn value_x8_at_half(&self, wo: Vec3x8, wi: Vec3x8, (h, has_half): (Vec3x8, Mask8)) -> Rgbx8 {
-        let s = f32x8::splat;
+    fn value_x8_at_half(&self, wo: Vec3xN, wi: Vec3xN, (h, has_half): (Vec3xN, MaskN)) -> RgbxN {
+        let s = f32xn::splat;
         let zero = s(0.0);
         let (co, ci) = (wo.z, wi.z);
         let cd = wi.dot(h);
         let ch = h.z;
-        let ok = lobe::x8::above(wo, wi) & has_half & cd.simd_gt(zero) & ch.simd_gt(zero);
-        let fresnel = Dielectric { eta: self.eta }.eval_x8(cd);
+        let ok = lobe::xn::above(wo, wi) & has_half & cd.simd_gt(zero) & ch.simd_gt(zero);
+        let fresnel = Dielectric { eta: self.eta }.eval_xn(cd);
         let (ci_l, co_l) = (ci.to_array(), co.to_array());
         let terms = simd::lanes(|k| {
             he_shadowing::elevation_terms(self.sigma0 as f32, self.tau as f32, ci_l[k], co_l[k])
         });
-        let shadow = f32x8::new(terms.map(|t| t.0));
-        let sigma = f32x8::new(terms.map(|t| t.1));
+        let shadow = f32xn::new(terms.map(|t| t.0));
+        let sigma = f32xn::new(terms.map(|t| t.1));
         let g_geo = s(4.0) * cd * cd / (ch * ch);
         let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
         let vxy2 = sx * sx + sy * sy;
@@ -264,8 +264,8 @@ impl He {
             let (_, n, e_per_vxy2) = consts[c];
             let (n, e) = (s(n), s(e_per_vxy2) * vxy2);
             let g = gs[c];
-            let rough = x8::exp(-e / g) / g;
-            let series = he_series::tabulated_x8(g, e);
+            let rough = xn::exp(-e / g) / g;
+            let series = he_series::tabulated_xn(g, e);
             let sum = sel(
                 rough_only,
                 rough,
@@ -274,7 +274,7 @@ impl He {
             let v = common * n * sum;
             sel(ok & v.is_finite(), v.max(zero), zero)
         };
-        Rgbx8::new(channel(0), channel(1), channel(2))
+        RgbxN::new(channel(0), channel(1), channel(2))
     }
 
     /// The lobe per channel, with the elevation factors from `terms(cos_i, cos_o)` (called
@@ -361,7 +361,7 @@ impl Lobe for He {
         "he"
     }
 
-    /// [`He::value_f32`] (bit for bit a lane of [`Lobe::eval_pdf_x8`]): the series from
+    /// [`He::value_f32`] (bit for bit a lane of [`Lobe::eval_pdf_xn`]): the series from
     /// its table (the summed series cost up to 64 exponentials per channel and was the
     /// largest single cost of rendering He's fits), the elevation terms from their
     /// universal table (four `erfc` and four `exp` per call before, the next largest).
@@ -409,35 +409,40 @@ impl Lobe for He {
 
     /// [`He::sample`] in lanes: each lane's proposal (its roughness depends on `wo`) one
     /// by one, the Beckmann half vectors and their mirrors eight at a time.
-    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+    fn sample_xn(
+        &self,
+        wo: &[Vec3; LANES],
+        u: &[Vec2; LANES],
+        uc: &[f32; LANES],
+    ) -> [Option<Vec3>; LANES] {
         let m = simd::lanes(|i| {
             let [smooth, rough] = self.proposal_roughness(wo[i]);
             (if uc[i] < 0.5 { smooth } else { rough }) as f32
         });
         let [ux, uy] = simd::vec2s(u);
-        let h = lobe::x8::half_from(beckmann_cos_x8(f32x8::new(m), uy), ux);
-        lobe::x8::sample_via_half(Vec3x8::from_array(wo), h)
+        let h = lobe::xn::half_from(beckmann_cos_xn(f32xn::new(m), uy), ux);
+        lobe::xn::sample_via_half(Vec3xN::from_array(wo), h)
     }
 
-    /// The value in lanes ([`He::value_x8`]), `pdf` in lanes: each lane's proposal
+    /// The value in lanes ([`He::value_xn`]), `pdf` in lanes: each lane's proposal
     /// roughnesses one by one, the two Beckmann densities eight at a time (bit for bit
     /// [`He::pdf`]).
-    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
+    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let o = wo.to_array();
-        let (h, has_half) = lobe::x8::half(wo, wi);
+        let (h, has_half) = lobe::xn::half(wo, wi);
         let f = self.value_x8_at_half(wo, wi, (h, has_half));
-        let zero = f32x8::splat(0.0);
-        let ok = lobe::x8::above(wo, wi) & has_half;
+        let zero = f32xn::splat(0.0);
+        let ok = lobe::xn::above(wo, wi) & has_half;
         let m2 = simd::lanes(|k| self.proposal_roughness(o[k]).map(|m| (m * m) as f32));
         let cos = h.z;
         let positive = cos.simd_gt(zero);
-        let pdf_h = |m2: f32x8| sel(positive, beckmann_d_x8(m2, cos), zero) * cos;
+        let pdf_h = |m2: f32xn| sel(positive, beckmann_d_xn(m2, cos), zero) * cos;
         let (smooth, rough) = (
-            f32x8::new(simd::lanes(|k| m2[k][0])),
-            f32x8::new(simd::lanes(|k| m2[k][1])),
+            f32xn::new(simd::lanes(|k| m2[k][0])),
+            f32xn::new(simd::lanes(|k| m2[k][1])),
         );
-        let p = lobe::x8::half_to_incident_pdf(
-            f32x8::splat(0.5) * (pdf_h(smooth) + pdf_h(rough)),
+        let p = lobe::xn::half_to_incident_pdf(
+            f32xn::splat(0.5) * (pdf_h(smooth) + pdf_h(rough)),
             wo.dot(h),
         );
         let p = sel(ok & p.is_finite(), p, zero);
@@ -625,9 +630,9 @@ mod tests {
                             let f64_of = |v: V3<f32>| V3::new(v.x as f64, v.y as f64, v.z as f64);
                             let t = he.value_tabulated(f64_of(wo), f64_of(wi));
                             let r = he
-                                .value_x8(
-                                    Vec3x8::splat(Vec3::from(wo)),
-                                    Vec3x8::splat(Vec3::from(wi)),
+                                .value_xn(
+                                    Vec3xN::splat(Vec3::from(wo)),
+                                    Vec3xN::splat(Vec3::from(wi)),
                                 )
                                 .lane(0)
                                 .to_array()
@@ -680,16 +685,16 @@ mod tests {
                     let r = (1.0 - z * z).max(0.0).sqrt();
                     Vec3::new(r * phi.cos(), r * phi.sin(), z.abs().max(1e-6))
                 };
-                let wo: [Vec3; 8] = std::array::from_fn(|_| d(&mut next));
-                let wi: [Vec3; 8] = std::array::from_fn(|k| match (round + k) % 9 {
+                let wo: [Vec3; LANES] = std::array::from_fn(|_| d(&mut next));
+                let wi: [Vec3; LANES] = std::array::from_fn(|k| match (round + k) % 9 {
                     0 => Vec3::new(-wo[k].x, -wo[k].y, wo[k].z), // the mirror direction
                     1 => -wo[k],
                     2 => Vec3::new(wo[k].x, wo[k].y, -wo[k].z),
                     3 => Vec3::new(0.0, 0.0, 1.0),
                     _ => d(&mut next),
                 });
-                let lanes = he.value_x8(Vec3x8::from_array(&wo), Vec3x8::from_array(&wi));
-                for k in 0..8 {
+                let lanes = he.value_xn(Vec3xN::from_array(&wo), Vec3xN::from_array(&wi));
+                for k in 0..LANES {
                     let one = he.value_f32(wo[k], wi[k]);
                     let lane = lanes.lane(k).to_array();
                     for c in 0..3 {

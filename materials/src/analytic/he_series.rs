@@ -19,7 +19,7 @@
 //! the lobe's own peak at the same elevations (the specular direction, e = 0), which is
 //! how the Eq. (1) metric weighs it.
 
-use crate::simd::{self, f32x8, i32x8};
+use crate::simd::{self, f32xn, i32xn};
 use std::ops::{Add, Mul, Neg, Sub};
 use std::sync::LazyLock;
 
@@ -112,7 +112,7 @@ where
     ]
 }
 
-/// The table in f32 for rendering ([`tabulated_x8`]): per node F and its derivatives
+/// The table in f32 for rendering ([`tabulated_xn`]): per node F and its derivatives
 /// scaled by the steps, [F, G_STEP F_g, U_STEP F_u, G_STEP U_STEP F_gu], one 16-byte read.
 static TABLE32: LazyLock<Vec<[f32; 4]>> = LazyLock::new(|| {
     TABLE
@@ -130,13 +130,13 @@ static TABLE32: LazyLock<Vec<[f32; 4]>> = LazyLock::new(|| {
 });
 
 /// Builds the tables now if they are not built yet (they are otherwise built at the first
-/// [`tabulated`] or [`tabulated_x8`] call).
+/// [`tabulated`] or [`tabulated_xn`] call).
 pub fn build_table() {
     LazyLock::force(&TABLE);
     LazyLock::force(&TABLE32);
 }
 
-/// [`tabulated_x8`] of one point, bit for bit a lane of it.
+/// [`tabulated_xn`] of one point, bit for bit a lane of it.
 #[inline]
 pub fn tabulated_f32(g: f32, e: f32) -> f32 {
     let u = simd::max_lane(e, 0.0).sqrt();
@@ -175,24 +175,30 @@ pub fn tabulated_f32(g: f32, e: f32) -> f32 {
 /// clamped cell of the table and get a finite value or NaN the caller discards (the lobe
 /// sums the series only where every channel's g is within the table).
 #[inline]
-pub fn tabulated_x8(g: f32x8, e: f32x8) -> f32x8 {
-    let zero = f32x8::splat(0.0);
+pub fn tabulated_xn(g: f32xn, e: f32xn) -> f32xn {
+    let zero = f32xn::splat(0.0);
     let u = e.max(zero).sqrt();
     let (gs, us) = (
-        g * f32x8::splat((1.0 / G_STEP) as f32),
-        u * f32x8::splat((1.0 / U_STEP) as f32),
+        g * f32xn::splat((1.0 / G_STEP) as f32),
+        u * f32xn::splat((1.0 / U_STEP) as f32),
     );
-    let index = |x: f32x8, top: usize| {
+    let index = |x: f32xn, top: usize| {
         x.trunc_int()
-            .max(i32x8::splat(0))
-            .min(i32x8::splat(top as i32))
+            .max(i32xn::splat(0))
+            .min(i32xn::splat(top as i32))
     };
     let (i, j) = (index(gs, G_NODES - 2), index(us, U_NODES - 2));
     let (hg, hu) = (
-        hermite(gs - f32x8::from_i32x8(i), [1.0, 2.0, 3.0].map(f32x8::splat)),
-        hermite(us - f32x8::from_i32x8(j), [1.0, 2.0, 3.0].map(f32x8::splat)),
+        hermite(
+            gs - crate::simd::float_of(i),
+            [1.0, 2.0, 3.0].map(f32xn::splat),
+        ),
+        hermite(
+            us - crate::simd::float_of(j),
+            [1.0, 2.0, 3.0].map(f32xn::splat),
+        ),
     );
-    let k = (i * i32x8::splat(U_NODES as i32) + j).to_array();
+    let k = (i * i32xn::splat(U_NODES as i32) + j).to_array();
     let t = &*TABLE32;
     let mut sum = zero;
     for (di, (wg, wg_d)) in [(0, (hg[0], hg[1])), (1, (hg[2], hg[3]))] {
@@ -201,12 +207,12 @@ pub fn tabulated_x8(g: f32x8, e: f32x8) -> f32x8 {
             // k <= (G_NODES - 2) U_NODES + U_NODES - 2 (clamped above), so k + offset is
             // within the table.
             let [f, f_g, f_u, f_gu] =
-                simd::transpose4x8(&simd::lanes(|l| t[k[l] as usize + offset]));
+                simd::transpose4xn(&simd::lanes(|l| t[k[l] as usize + offset]));
             sum += wg * (wu * f + wu_d * f_u) + wg_d * (wu * f_g + wu_d * f_gu);
         }
     }
     let s = g * sum.max(zero);
-    simd::sel(u.simd_ge(f32x8::splat(U_MAX as f32)), zero, s)
+    simd::sel(u.simd_ge(f32xn::splat(U_MAX as f32)), zero, s)
 }
 
 /// S(g, e) from the table, for 0 <= g <= [`G_MAX`] (None outside, or for a non-finite

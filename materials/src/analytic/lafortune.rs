@@ -13,16 +13,16 @@
 //! Sampling: a cosine-power lobe (n) around the generalized mirror direction
 //! u' = normalize(Cx wo_x, Cy wo_y, Cz wo_z): the lobe is |C o wo|^n (u' . wi)^n.
 
-use super::blinn_phong::{cos_power_pdf, cos_power_pdf_x8};
+use super::blinn_phong::{cos_power_pdf, cos_power_pdf_xn};
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
-use crate::fastmath::{self, x8};
+use crate::fastmath::{self, xn};
 use crate::frame::{self, Frame};
 use crate::lobe::{self, Lobe, above};
 use crate::math::{Real, V3};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, Rgbx8, Vec3x8, f32x8, sel};
+use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -96,11 +96,16 @@ impl Lobe for Lafortune {
     }
 
     /// [`Lafortune::sample`] of eight queries in lanes, bit for bit the same.
-    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
-        let s = f32x8::splat;
-        let o = Vec3x8::from_array(wo);
+    fn sample_xn(
+        &self,
+        wo: &[Vec3; LANES],
+        u: &[Vec2; LANES],
+        _uc: &[f32; LANES],
+    ) -> [Option<Vec3>; LANES] {
+        let s = f32xn::splat;
+        let o = Vec3xN::from_array(wo);
         // `axis`: the scaled direction, normalized as glam's `try_normalize`.
-        let a = Vec3x8::new(
+        let a = Vec3xN::new(
             s(self.cx as f32) * o.x,
             s(self.cy as f32) * o.y,
             s(self.cz as f32) * o.z,
@@ -110,8 +115,8 @@ impl Lobe for Lafortune {
         let axis = a * rcp;
         let [ux, uy] = simd::vec2s(u);
         let n = self.n as f32;
-        let local = lobe::x8::half_from(x8::powf(uy, s(1.0 / (n + 1.0))), ux);
-        let wi = frame::x8::to_world_of_normal(axis, local);
+        let local = lobe::xn::half_from(xn::powf(uy, s(1.0 / (n + 1.0))), ux);
+        let wi = frame::xn::to_world_of_normal(axis, local);
         wi.options(o.z.simd_gt(s(0.0)) & has_axis & wi.z.simd_gt(s(0.0)))
     }
 
@@ -126,10 +131,10 @@ impl Lobe for Lafortune {
     }
 
     /// [`Lafortune::value`] and [`Lobe::pdf`] in SIMD lanes, operation for operation.
-    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
-        let s = f32x8::splat;
+    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
+        let s = f32xn::splat;
         let zero = s(0.0);
-        let ok = lobe::x8::above(wo, wi);
+        let ok = lobe::xn::above(wo, wi);
         let (cx, cy, cz) = (s(self.cx as f32), s(self.cy as f32), s(self.cz as f32));
         let dot = cx * wi.x * wo.x + cy * wi.y * wo.y + cz * wi.z * wo.z;
         let n = self.n as f32;
@@ -138,15 +143,15 @@ impl Lobe for Lafortune {
             if cmax <= 0.0 {
                 zero
             } else {
-                s((n + 2.0) / (2.0 * PI)) * x8::powf((dot / s(cmax)).min(s(1.0)), s(n))
+                s((n + 2.0) / (2.0 * PI)) * xn::powf((dot / s(cmax)).min(s(1.0)), s(n))
             }
         } else {
-            x8::powf(dot, s(n))
+            xn::powf(dot, s(n))
         };
         let v = sel(ok & dot.simd_gt(zero) & v.is_finite(), v, zero);
-        let axis = Vec3x8::new(cx * wo.x, cy * wo.y, cz * wo.z).normalize_or_zero();
-        let p = sel(ok, cos_power_pdf_x8(n, axis.dot(wi)), zero);
-        (Rgbx8::new(v, v, v), p)
+        let axis = Vec3xN::new(cx * wo.x, cy * wo.y, cz * wo.z).normalize_or_zero();
+        let p = sel(ok, cos_power_pdf_xn(n, axis.dot(wi)), zero);
+        (RgbxN::new(v, v, v), p)
     }
 
     fn flags(&self) -> Flags {

@@ -8,14 +8,14 @@ use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::fastmath::select;
 use crate::sampling::warp::{
-    cosine_hemisphere_pdf, square_to_cosine_hemisphere, square_to_cosine_hemisphere_x8,
+    cosine_hemisphere_pdf, square_to_cosine_hemisphere, square_to_cosine_hemisphere_xn,
 };
 use crate::schema::{Bounds, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params};
 use crate::simd;
+use crate::simd::{LANES, f32xn};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
-use wide::f32x8;
 
 /// f_r = reflectance / pi.
 #[derive(Clone, Debug)]
@@ -59,17 +59,17 @@ impl Bsdf for Lambert {
     /// Eight pairs per SIMD warp, with `eval`'s and `pdf`'s operations.
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         assert!(wo.len() == f.len() && wi.len() == f.len() && pdf.len() == f.len());
-        let zero = f32x8::splat(0.0);
-        let inv_pi = f32x8::splat(FRAC_1_PI);
+        let zero = f32xn::splat(0.0);
+        let inv_pi = f32xn::splat(FRAC_1_PI);
         for (((oc, ic), fc), pc) in wo
-            .chunks(8)
-            .zip(wi.chunks(8))
-            .zip(f.chunks_mut(8))
-            .zip(pdf.chunks_mut(8))
+            .chunks(LANES)
+            .zip(wi.chunks(LANES))
+            .zip(f.chunks_mut(LANES))
+            .zip(pdf.chunks_mut(LANES))
         {
             let n = fc.len();
-            let zo = f32x8::new(simd::lanes(|i| oc[i.min(n - 1)].z));
-            let zi = f32x8::new(simd::lanes(|i| ic[i.min(n - 1)].z));
+            let zo = f32xn::new(simd::lanes(|i| oc[i.min(n - 1)].z));
+            let zi = f32xn::new(simd::lanes(|i| ic[i.min(n - 1)].z));
             let above = zo.simd_gt(zero) & zi.simd_gt(zero);
             let s = simd::sel(above, inv_pi, zero).to_array();
             let p = simd::sel(above, zi.max(zero) * inv_pi, zero).to_array();
@@ -80,18 +80,22 @@ impl Bsdf for Lambert {
         }
     }
 
-    /// Eight queries per SIMD warp ([`square_to_cosine_hemisphere_x8`]).
+    /// Eight queries per SIMD warp ([`square_to_cosine_hemisphere_xn`]).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
         assert!(wo.len() == out.len() && u.len() == out.len());
-        for ((wc, uc), oc) in wo.chunks(8).zip(u.chunks(8)).zip(out.chunks_mut(8)) {
+        for ((wc, uc), oc) in wo
+            .chunks(LANES)
+            .zip(u.chunks(LANES))
+            .zip(out.chunks_mut(LANES))
+        {
             let n = oc.len();
             let uu = simd::lanes(|i| uc[i.min(n - 1)]);
-            let [x, y, z] = square_to_cosine_hemisphere_x8(
-                f32x8::new(simd::lanes(|i| uu[i].x)),
-                f32x8::new(simd::lanes(|i| uu[i].y)),
+            let [x, y, z] = square_to_cosine_hemisphere_xn(
+                f32xn::new(simd::lanes(|i| uu[i].x)),
+                f32xn::new(simd::lanes(|i| uu[i].y)),
             );
             // cosine_hemisphere_pdf, per lane.
-            let pdf = (z.max(f32x8::splat(0.0)) * f32x8::splat(FRAC_1_PI)).to_array();
+            let pdf = (z.max(f32xn::splat(0.0)) * f32xn::splat(FRAC_1_PI)).to_array();
             let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
             for i in 0..n {
                 // The scalar form's tests, negated as written there (NaN goes through).

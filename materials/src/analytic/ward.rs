@@ -15,13 +15,13 @@
 //! p(h) = exp(-tan^2(theta_h)(...)) / (pi ax ay cos^3(theta_h)).
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
-use crate::fastmath::{self, x8};
+use crate::fastmath::{self, xn};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, Rgbx8, Vec3x8, f32x8, sel};
+use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -102,19 +102,19 @@ impl Ward {
 
     /// [`Ward::sample_h`] of eight points (x, y) in lanes, bit for bit the same.
     #[inline(always)]
-    fn sample_h_x8(&self, ux: f32x8, uy: f32x8) -> Vec3x8 {
-        let s8 = f32x8::splat;
+    fn sample_h_xn(&self, ux: f32xn, uy: f32xn) -> Vec3xN {
+        let s8 = f32xn::splat;
         let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);
-        let (s, c) = x8::sin_cos_moderate(s8(2.0 * PI) * ux);
+        let (s, c) = xn::sin_cos_moderate(s8(2.0 * PI) * ux);
         let (vx, vy) = (s8(ax) * c, s8(ay) * s);
         let rcp = s8(1.0) / (vx * vx + vy * vy).sqrt();
         let ok = rcp.is_finite() & rcp.simd_gt(s8(0.0));
         let (cp, sp) = (sel(ok, vx * rcp, s8(1.0)), sel(ok, vy * rcp, s8(0.0)));
         let k = cp * cp / s8(ax * ax) + sp * sp / s8(ay * ay);
-        let tan2 = -x8::ln((s8(1.0) - uy).max(s8(f32::MIN_POSITIVE))) / k;
+        let tan2 = -xn::ln((s8(1.0) - uy).max(s8(f32::MIN_POSITIVE))) / k;
         let cos_t = s8(1.0) / (s8(1.0) + tan2).sqrt();
         let sin_t = (s8(1.0) - cos_t * cos_t).max(s8(0.0)).sqrt();
-        Vec3x8::new(sin_t * cp, sin_t * sp, cos_t)
+        Vec3xN::new(sin_t * cp, sin_t * sp, cos_t)
     }
 
     fn pdf_h(&self, h: Vec3) -> f32 {
@@ -127,9 +127,9 @@ impl Ward {
 
     /// [`Ward::exponent`] of eight half vectors (unnormalized).
     #[inline(always)]
-    fn exponent_x8(&self, h: Vec3x8) -> f32x8 {
+    fn exponent_xn(&self, h: Vec3xN) -> f32xn {
         let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);
-        (h.x * h.x / f32x8::splat(ax * ax) + h.y * h.y / f32x8::splat(ay * ay)) / (h.z * h.z)
+        (h.x * h.x / f32xn::splat(ax * ax) + h.y * h.y / f32xn::splat(ay * ay)) / (h.z * h.z)
     }
 }
 
@@ -143,9 +143,14 @@ impl Lobe for Ward {
         sample_via_half(wo, self.sample_h(u))
     }
 
-    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
+    fn sample_xn(
+        &self,
+        wo: &[Vec3; LANES],
+        u: &[Vec2; LANES],
+        _uc: &[f32; LANES],
+    ) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
-        lobe::x8::sample_via_half(Vec3x8::from_array(wo), self.sample_h_x8(ux, uy))
+        lobe::xn::sample_via_half(Vec3xN::from_array(wo), self.sample_h_xn(ux, uy))
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -161,13 +166,13 @@ impl Lobe for Ward {
     }
 
     /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
-    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
-        let s = f32x8::splat;
+    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
+        let s = f32xn::splat;
         let zero = s(0.0);
-        let above = lobe::x8::above(wo, wi);
+        let above = lobe::xn::above(wo, wi);
         // value::<f32>, from the unnormalized half vector.
         let h = wo + wi;
-        let e = x8::exp(-self.exponent_x8(h));
+        let e = xn::exp(-self.exponent_xn(h));
         let norm = 4.0f32 * PI * (self.alpha_x * self.alpha_y) as f32;
         let cos = if self.duer {
             let floor = s(DUER_COS_FLOOR as f32);
@@ -179,13 +184,13 @@ impl Lobe for Ward {
         let ok = above & h.z.simd_gt(zero) & !e.simd_eq(zero) & v.is_finite();
         let v = sel(ok, v, zero);
         // pdf: the unit half vector, pdf_h, half_to_incident_pdf.
-        let (hn, has_half) = lobe::x8::half(wo, wi);
-        let ph = x8::exp(-self.exponent_x8(hn))
+        let (hn, has_half) = lobe::xn::half(wo, wi);
+        let ph = xn::exp(-self.exponent_xn(hn))
             / (s(PI * (self.alpha_x * self.alpha_y) as f32) * hn.z * hn.z * hn.z);
         let ph = sel(hn.z.simd_le(zero), zero, ph);
-        let p = lobe::x8::half_to_incident_pdf(ph, wo.dot(hn));
+        let p = lobe::xn::half_to_incident_pdf(ph, wo.dot(hn));
         let valid = above & has_half & p.is_finite();
-        (Rgbx8::new(v, v, v), sel(valid, p, zero))
+        (RgbxN::new(v, v, v), sel(valid, p, zero))
     }
 
     fn flags(&self) -> Flags {

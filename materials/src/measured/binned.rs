@@ -18,14 +18,14 @@
 //! phi_d = |phi_o - phi_i| folded into [0, 180] degrees (isotropy and reciprocity).
 //!
 //! Lookups: [`Binned::bin_of`] finds a bin from f64 angles (fitting, tabulation);
-//! rendering uses [`Binned::lookup_f32`] and [`Binned::lookup_x8`], one query or eight in
+//! rendering uses [`Binned::lookup_f32`] and [`Binned::lookup_xn`], one query or eight in
 //! SIMD lanes, with f32 angles from [`crate::fastmath`] (the same bin except within about
 //! 1e-4 degrees of a bin edge).
 
 use crate::Rgb;
 use crate::error::FileError;
-use crate::fastmath::{self, x8};
-use crate::simd::{self, Rgbx8, Vec3x8, f32x8, i32x8, sel};
+use crate::fastmath::{self, xn};
+use crate::simd::{self, RgbxN, Vec3xN, f32xn, i32xn, sel};
 use glam::Vec3;
 use std::path::Path;
 
@@ -60,8 +60,8 @@ impl Axis {
     }
     /// [`Axis::bin_f32`] per lane.
     #[inline(always)]
-    fn bin_x8(&self, deg: f32x8) -> i32x8 {
-        let s = f32x8::splat;
+    fn bin_xn(&self, deg: f32xn) -> i32xn {
+        let s = f32xn::splat;
         let t = (deg - s(self.min as f32)) / s((self.max - self.min) as f32) * s(self.count as f32);
         t.max(s(0.0)).min(s((self.count - 1) as f32)).trunc_int()
     }
@@ -220,7 +220,7 @@ impl Binned {
     }
 
     /// [`Binned::lookup`] with f32 angles (rendering; lane for lane
-    /// [`Binned::lookup_x8`]).
+    /// [`Binned::lookup_xn`]).
     pub fn lookup_f32(&self, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
@@ -246,28 +246,28 @@ impl Binned {
     }
 
     /// [`Binned::lookup_f32`] of eight pairs: the bins in SIMD lanes, then one load each.
-    pub fn lookup_x8(&self, wi: Vec3x8, wo: Vec3x8) -> Rgbx8 {
-        let s = f32x8::splat;
-        let sph = |w: Vec3x8| {
-            let t = x8::acos(w.z.max(s(-1.0)).min(s(1.0))) * s(DEGREES);
-            let p = x8::atan2(w.y, w.x) * s(DEGREES);
+    pub fn lookup_xn(&self, wi: Vec3xN, wo: Vec3xN) -> RgbxN {
+        let s = f32xn::splat;
+        let sph = |w: Vec3xN| {
+            let t = xn::acos(w.z.max(s(-1.0)).min(s(1.0))) * s(DEGREES);
+            let p = xn::atan2(w.y, w.x) * s(DEGREES);
             (t, sel(p.simd_lt(s(0.0)), p + s(360.0), p))
         };
         let ((ti, pi), (to, po)) = (sph(wi), sph(wo));
         let a = &self.axes;
-        let count = |d: usize| i32x8::splat(a[d].count as i32);
+        let count = |d: usize| i32xn::splat(a[d].count as i32);
         let k = if self.anisotropic {
-            ((a[0].bin_x8(ti) * count(1) + a[1].bin_x8(to)) * count(2) + a[2].bin_x8(pi)) * count(3)
-                + a[3].bin_x8(po)
+            ((a[0].bin_xn(ti) * count(1) + a[1].bin_xn(to)) * count(2) + a[2].bin_xn(pi)) * count(3)
+                + a[3].bin_xn(po)
         } else {
             let d = po - pi;
             let d = sel(d.simd_lt(s(0.0)), d + s(360.0), d);
             let d = sel(d.simd_gt(s(180.0)), s(360.0) - d, d);
-            (a[0].bin_x8(ti) * count(1) + a[1].bin_x8(to)) * count(2) + a[2].bin_x8(d)
+            (a[0].bin_xn(ti) * count(1) + a[1].bin_xn(to)) * count(2) + a[2].bin_xn(d)
         };
         let above = wi.z.simd_gt(s(0.0)) & wo.z.simd_gt(s(0.0));
         let (k, above) = (k.to_array(), simd::mask_bits(above));
-        Rgbx8::from_array(&simd::lanes(|i| {
+        RgbxN::from_array(&simd::lanes(|i| {
             let v = (above >> i) & 1 == 1;
             let value = if v { self.values[k[i] as usize] } else { None };
             value.map_or(Rgb::ZERO, Rgb::from)
@@ -510,6 +510,7 @@ impl Binned {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simd::LANES;
 
     /// The f32 lookups of rendering find the bin the f64 angles find, except within
     /// 1e-3 degrees of a bin edge, and the eight-lane form equals the single one bit for
@@ -539,10 +540,12 @@ mod tests {
             };
             let (mut same, mut edge) = (0, 0);
             for chunk in 0..2000 {
-                let wi: [Vec3; 8] = simd::lanes(|i| dir(8 * chunk + i, 0.618_034, 0.414_214));
-                let wo: [Vec3; 8] = simd::lanes(|i| dir(8 * chunk + i + 5, 0.754_878, 0.569_840));
-                let lanes = t.lookup_x8(Vec3x8::from_array(&wi), Vec3x8::from_array(&wo));
-                for i in 0..8 {
+                let wi: [Vec3; LANES] =
+                    simd::lanes(|i| dir(LANES * chunk + i, 0.618_034, 0.414_214));
+                let wo: [Vec3; LANES] =
+                    simd::lanes(|i| dir(LANES * chunk + i + 5, 0.754_878, 0.569_840));
+                let lanes = t.lookup_xn(Vec3xN::from_array(&wi), Vec3xN::from_array(&wo));
+                for i in 0..LANES {
                     let one = t.lookup_f32(wi[i], wo[i]);
                     let lane = lanes.lane(i);
                     assert_eq!(

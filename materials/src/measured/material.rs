@@ -14,7 +14,7 @@ use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
-use crate::simd::{self, Rgbx8, Vec3x8};
+use crate::simd::{self, RgbxN, Vec3xN};
 use glam::{Vec2, Vec3};
 use std::any::Any;
 use std::path::PathBuf;
@@ -26,7 +26,7 @@ pub trait Table: Send + Sync + std::fmt::Debug {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
     /// [`Table::eval`] of eight pairs, each lane bit for bit the single call (the default
     /// calls it lane by lane; tables with a SIMD lookup override it).
-    fn eval_x8(&self, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
+    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
         eval_lanes(|o, i| self.eval(o, i), wo, wi)
     }
     fn is_isotropic(&self) -> bool {
@@ -36,9 +36,9 @@ pub trait Table: Send + Sync + std::fmt::Debug {
 }
 
 /// `eval` of eight pairs, lane by lane.
-fn eval_lanes(eval: impl Fn(Vec3, Vec3) -> Rgb, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
+fn eval_lanes(eval: impl Fn(Vec3, Vec3) -> Rgb, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
     let (o, i) = (wo.to_array(), wi.to_array());
-    Rgbx8::from_array(&simd::lanes(|k| eval(o[k], i[k])))
+    RgbxN::from_array(&simd::lanes(|k| eval(o[k], i[k])))
 }
 
 #[derive(Debug)]
@@ -58,9 +58,9 @@ impl Table for MerlTable {
             self.table.lookup_nearest(wi, wo)
         }
     }
-    fn eval_x8(&self, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
+    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
         if self.interpolate {
-            self.table.lookup_x8(wi, wo)
+            self.table.lookup_xn(wi, wo)
         } else {
             eval_lanes(|o, i| self.table.lookup_nearest(i, o), wo, wi)
         }
@@ -83,8 +83,8 @@ impl Table for BinnedTable {
             .lookup_f32(wi, wo)
             .map(|x| simd::max_lane(x, 0.0))
     }
-    fn eval_x8(&self, wo: Vec3x8, wi: Vec3x8) -> Rgbx8 {
-        self.table.lookup_x8(wi, wo).max(0.0)
+    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
+        self.table.lookup_xn(wi, wo).max(0.0)
     }
     fn is_isotropic(&self) -> bool {
         !self.table.anisotropic
@@ -118,13 +118,13 @@ impl Measured {
     }
 
     /// Sets the weights `f cos / pdf` of the samples `out[k]` of `idx` (one to eight, each
-    /// holding its direction and density), their values from [`Table::eval_x8`]; a sample
+    /// holding its direction and density), their values from [`Table::eval_xn`]; a sample
     /// whose weight is not finite becomes `None`, as [`BsdfSample::finish`] decides.
     fn weigh_samples(&self, wo: &[Vec3], idx: &[usize], out: &mut [Option<BsdfSample>]) {
         let wi = |k: usize| out[k].map_or(Vec3::Z, |s| s.wi);
-        let f = self.table.eval_x8(
-            Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k])),
-            Vec3x8::from_array(&simd::lanes_of(idx, wi)),
+        let f = self.table.eval_xn(
+            Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
+            Vec3xN::from_array(&simd::lanes_of(idx, wi)),
         );
         for (lane, &k) in idx.iter().enumerate() {
             out[k] = out[k].and_then(|s| {
@@ -153,13 +153,13 @@ impl Bsdf for Measured {
     }
 
     /// Directions and densities from the sampler one query at a time, then the values of
-    /// the sampled directions eight at a time ([`Table::eval_x8`]); bit for bit
+    /// the sampled directions eight at a time ([`Table::eval_xn`]); bit for bit
     /// [`Measured::sample`] (a sample's value is only needed once its density is positive).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         // Eight queries at a time: directions one by one, their densities in lanes
-        // (TabulatedSampler::pdf_x8), the values of those with a density in lanes.
+        // (TabulatedSampler::pdf_xn), the values of those with a density in lanes.
         for start in (0..n).step_by(simd::LANES) {
             let len = (n - start).min(simd::LANES);
             let at = |i: usize| start + i.min(len - 1);
@@ -170,9 +170,9 @@ impl Bsdf for Measured {
             });
             let pdf = self
                 .sampler
-                .pdf_x8(
-                    Vec3x8::from_array(&simd::lanes(|i| wo[at(i)])),
-                    Vec3x8::from_array(&simd::lanes(|i| wi[i].unwrap_or(Vec3::Z))),
+                .pdf_xn(
+                    Vec3xN::from_array(&simd::lanes(|i| wo[at(i)])),
+                    Vec3xN::from_array(&simd::lanes(|i| wi[i].unwrap_or(Vec3::Z))),
                 )
                 .to_array();
             let mut pending = [0usize; simd::LANES];
@@ -197,16 +197,16 @@ impl Bsdf for Measured {
     }
 
     /// The values of the pairs above the surface and the sampler's densities, eight at a
-    /// time ([`Table::eval_x8`], [`TabulatedSampler::pdf_x8`]).
+    /// time ([`Table::eval_xn`], [`TabulatedSampler::pdf_xn`]).
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
         f.fill(Rgb::ZERO);
         let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
         simd::chunks_where(n, above, |idx| {
-            let v = self.table.eval_x8(
-                Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k])),
-                Vec3x8::from_array(&simd::lanes_of(idx, |k| wi[k])),
+            let v = self.table.eval_xn(
+                Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
+                Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k])),
             );
             for (lane, &k) in idx.iter().enumerate() {
                 f[k] = v.lane(lane);
@@ -214,9 +214,9 @@ impl Bsdf for Measured {
         });
         for (start, chunk) in pdf.chunks_mut(simd::LANES).enumerate() {
             let at = |i: usize| simd::LANES * start + i.min(chunk.len() - 1);
-            let p = self.sampler.pdf_x8(
-                Vec3x8::from_array(&simd::lanes(|i| wo[at(i)])),
-                Vec3x8::from_array(&simd::lanes(|i| wi[at(i)])),
+            let p = self.sampler.pdf_xn(
+                Vec3xN::from_array(&simd::lanes(|i| wo[at(i)])),
+                Vec3xN::from_array(&simd::lanes(|i| wi[at(i)])),
             );
             chunk.copy_from_slice(&p.to_array()[..chunk.len()]);
         }
@@ -421,7 +421,7 @@ impl Bsdf for RglBsdf {
         self.table.pdf(wo, wi)
     }
 
-    /// The pairs above the surface eight at a time through [`Rgl::eval_projected_pdf_x8`].
+    /// The pairs above the surface eight at a time through [`Rgl::eval_projected_pdf_xn`].
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
@@ -429,9 +429,9 @@ impl Bsdf for RglBsdf {
         pdf.fill(0.0);
         let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
         simd::chunks_where(n, above, |idx| {
-            let (v, p) = self.table.eval_projected_pdf_x8(
-                Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k])),
-                Vec3x8::from_array(&simd::lanes_of(idx, |k| wi[k])),
+            let (v, p) = self.table.eval_projected_pdf_xn(
+                Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
+                Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k])),
             );
             let p = p.to_array();
             for (lane, &k) in idx.iter().enumerate() {
@@ -441,7 +441,7 @@ impl Bsdf for RglBsdf {
         });
     }
 
-    /// The queries above the surface eight at a time ([`Rgl::sample_value_x8`]).
+    /// The queries above the surface eight at a time ([`Rgl::sample_value_xn`]).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
@@ -450,8 +450,8 @@ impl Bsdf for RglBsdf {
             n,
             |k| !(wo[k].z <= 0.0),
             |idx| {
-                let (wi, p, v, ok) = self.table.sample_value_x8(
-                    Vec3x8::from_array(&simd::lanes_of(idx, |k| wo[k])),
+                let (wi, p, v, ok) = self.table.sample_value_xn(
+                    Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
                     simd::vec2s(&simd::lanes_of(idx, |k| u[k])),
                 );
                 let (p, ok) = (p.to_array(), simd::mask_bits(ok));

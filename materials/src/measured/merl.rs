@@ -13,14 +13,14 @@
 //! In memory the table is f32 RGB (17.5 MB). Lookups are nearest (the bin) or trilinear
 //! between bin centres (periodic in phi_d), skipping missing corners. The trilinear lookup
 //! the renderer uses runs in f32 without trigonometric rotations ([`coords_f32`]), one pair
-//! at a time or eight ([`Merl::lookup_x8`], the batched evaluation of the `merl` material);
+//! at a time or eight ([`Merl::lookup_xn`], the batched evaluation of the `merl` material);
 //! fitting and the nearest-bin lookup keep the f64 angles of [`half_diff`].
 
 use crate::Rgb;
 use crate::error::FileError;
-use crate::fastmath::{self, x8};
+use crate::fastmath::{self, xn};
 use crate::frame::{from_half_diff, half_diff};
-use crate::simd::{Rgbx8, Vec3x8, clamp, f32x8, gather, i32x8, max_lane, sel};
+use crate::simd::{RgbxN, Vec3xN, clamp, f32xn, gather, i32xn, max_lane, sel};
 use glam::Vec3;
 use std::f32::consts::{FRAC_PI_2 as FRAC_PI_2_32, PI as PI32};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -75,7 +75,7 @@ fn unit(v: Vec3) -> Option<Vec3> {
 /// with the two rotations taken from the half vector's own components (cos and sin of
 /// theta_h and phi_h are h.z, |h.xy| and h.xy / |h.xy|: no trigonometric call) and every
 /// angle an `atan2` of a sine and a cosine ([`fastmath::atan2`]), which stays accurate near
-/// 0 where `acos` loses half the digits (theta_h's bins are finest there). [`coords_x8`]
+/// 0 where `acos` loses half the digits (theta_h's bins are finest there). [`coords_xn`]
 /// does the same operations in the same order on eight pairs.
 #[inline]
 pub fn coords_f32(wi: Vec3, wo: Vec3) -> [f32; 3] {
@@ -111,29 +111,29 @@ pub fn coords_f32(wi: Vec3, wo: Vec3) -> [f32; 3] {
 
 /// [`coords_f32`] of eight pairs, lane by lane bit for bit.
 #[inline(always)]
-pub fn coords_x8(wi: Vec3x8, wo: Vec3x8) -> [f32x8; 3] {
-    let s = f32x8::splat;
+pub fn coords_xn(wi: Vec3xN, wo: Vec3xN) -> [f32xn; 3] {
+    let s = f32xn::splat;
     let (wi, wo) = (wi.normalize_or_zero(), wo.normalize_or_zero());
     let sum = wi + wo;
     let rcp = s(1.0) / (sum.x * sum.x + sum.y * sum.y + sum.z * sum.z).sqrt();
     let ok = rcp.is_finite() & rcp.simd_gt(s(0.0));
     let h = sum * rcp;
-    let h = Vec3x8::new(
+    let h = Vec3xN::new(
         sel(ok, h.x, s(0.0)),
         sel(ok, h.y, s(0.0)),
         sel(ok, h.z, s(1.0)),
     );
     let sin_h = (h.x * h.x + h.y * h.y).sqrt();
-    let theta_h = x8::atan2(sin_h, h.z);
+    let theta_h = xn::atan2(sin_h, h.z);
     let has_phi = sin_h.simd_gt(s(0.0));
     let (cp, sp) = (
         sel(has_phi, h.x / sin_h, s(1.0)),
         sel(has_phi, h.y / sin_h, s(0.0)),
     );
-    let t = Vec3x8::new(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);
-    let d = Vec3x8::new(t.x * h.z - t.z * sin_h, t.y, t.x * sin_h + t.z * h.z);
-    let theta_d = x8::atan2((d.x * d.x + d.y * d.y).sqrt(), d.z);
-    let phi_d = x8::atan2(d.y, d.x);
+    let t = Vec3xN::new(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);
+    let d = Vec3xN::new(t.x * h.z - t.z * sin_h, t.y, t.x * sin_h + t.z * h.z);
+    let theta_d = xn::atan2((d.x * d.x + d.y * d.y).sqrt(), d.z);
+    let phi_d = xn::atan2(d.y, d.x);
     let phi_d = sel(phi_d.simd_lt(s(0.0)), phi_d + s(PI32), phi_d);
     let n_pd = s(RES_PHI_D as f32);
     let pd = phi_d / s(PI32) * n_pd;
@@ -156,13 +156,13 @@ fn split_clamped(x: f32, n: usize) -> (usize, usize, f32) {
 
 /// [`split_clamped`] per lane.
 #[inline(always)]
-fn split_clamped_x8(x: f32x8, n: usize) -> (i32x8, i32x8, f32x8) {
-    let x = clamp(x - f32x8::splat(0.5), 0.0, (n - 1) as f32);
+fn split_clamped_xn(x: f32xn, n: usize) -> (i32xn, i32xn, f32xn) {
+    let x = clamp(x - f32xn::splat(0.5), 0.0, (n - 1) as f32);
     let i = x.floor();
     let i0 = i.trunc_int();
     (
         i0,
-        (i0 + i32x8::splat(1)).min(i32x8::splat(n as i32 - 1)),
+        (i0 + i32xn::splat(1)).min(i32xn::splat(n as i32 - 1)),
         x - i,
     )
 }
@@ -180,14 +180,14 @@ fn split_periodic(x: f32) -> (usize, usize, f32) {
 
 /// [`split_periodic`] per lane.
 #[inline(always)]
-fn split_periodic_x8(x: f32x8) -> (i32x8, i32x8, f32x8) {
-    let xc = x - f32x8::splat(0.5);
+fn split_periodic_xn(x: f32xn) -> (i32xn, i32xn, f32xn) {
+    let xc = x - f32xn::splat(0.5);
     let f = xc.floor();
     let i = f.trunc_int();
-    let n = i32x8::splat(RES_PHI_D as i32);
-    let i0 = i.simd_lt(i32x8::splat(0)).select(i + n, i);
-    let i1 = i0 + i32x8::splat(1);
-    let i1 = i1.simd_eq(n).select(i32x8::splat(0), i1);
+    let n = i32xn::splat(RES_PHI_D as i32);
+    let i0 = i.simd_lt(i32xn::splat(0)).select(i + n, i);
+    let i1 = i0 + i32xn::splat(1);
+    let i1 = i1.simd_eq(n).select(i32xn::splat(0), i1);
     (i0, i1, xc - f)
 }
 
@@ -355,7 +355,7 @@ impl Merl {
     /// Trilinear lookup between bin centres (clamped in theta, periodic in phi_d),
     /// renormalized over the corners that are not missing. In f32 throughout, for the
     /// renderer: the bin coordinates come from [`coords_f32`], the corners' weights and
-    /// sums in f32; [`Merl::lookup_x8`] gives the same values eight at a time.
+    /// sums in f32; [`Merl::lookup_xn`] gives the same values eight at a time.
     pub fn lookup(&self, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
@@ -383,35 +383,35 @@ impl Merl {
 
     /// [`Merl::lookup`] of eight pairs, lane by lane bit for bit: the coordinates and
     /// weights in SIMD lanes, the eight corners' values gathered.
-    pub fn lookup_x8(&self, wi: Vec3x8, wo: Vec3x8) -> Rgbx8 {
-        let s = f32x8::splat;
+    pub fn lookup_xn(&self, wi: Vec3xN, wo: Vec3xN) -> RgbxN {
+        let s = f32xn::splat;
         let above = wi.z.simd_gt(s(0.0)) & wo.z.simd_gt(s(0.0));
-        let [a, b, c] = coords_x8(wi, wo);
-        let (a0, a1, wa) = split_clamped_x8(a, RES_THETA_H);
-        let (b0, b1, wb) = split_clamped_x8(b, RES_THETA_D);
-        let (c0, c1, wc) = split_periodic_x8(c);
+        let [a, b, c] = coords_xn(wi, wo);
+        let (a0, a1, wa) = split_clamped_xn(a, RES_THETA_H);
+        let (b0, b1, wb) = split_clamped_xn(b, RES_THETA_D);
+        let (c0, c1, wc) = split_periodic_xn(c);
         let flat = self.data.as_flattened();
         let (mut r, mut g, mut bl, mut wsum) = (s(0.0), s(0.0), s(0.0), s(0.0));
         for (ia, fa) in [(a0, s(1.0) - wa), (a1, wa)] {
             for (ib, fb) in [(b0, s(1.0) - wb), (b1, wb)] {
                 let row =
-                    (ia * i32x8::splat(RES_THETA_D as i32) + ib) * i32x8::splat(RES_PHI_D as i32);
+                    (ia * i32xn::splat(RES_THETA_D as i32) + ib) * i32xn::splat(RES_PHI_D as i32);
                 for (ic, fc) in [(c0, s(1.0) - wc), (c1, wc)] {
                     let w = fa * fb * fc;
-                    let at = (row + ic) * i32x8::splat(3);
+                    let at = (row + ic) * i32xn::splat(3);
                     let vr = gather(flat, at);
                     let keep = above & w.simd_gt(s(0.0)) & vr.simd_ge(s(0.0));
                     let w = sel(keep, w, s(0.0));
                     r += vr * w;
-                    g += gather(flat, at + i32x8::splat(1)) * w;
-                    bl += gather(flat, at + i32x8::splat(2)) * w;
+                    g += gather(flat, at + i32xn::splat(1)) * w;
+                    bl += gather(flat, at + i32xn::splat(2)) * w;
                     wsum += w;
                 }
             }
         }
         let some = wsum.simd_gt(s(0.0));
-        let norm = |x: f32x8| sel(some, x / wsum, s(0.0));
-        Rgbx8::new(norm(r), norm(g), norm(bl))
+        let norm = |x: f32xn| sel(some, x / wsum, s(0.0));
+        RgbxN::new(norm(r), norm(g), norm(bl))
     }
 
     /// Fraction of bins that hold a sample.

@@ -29,9 +29,9 @@ use super::tensor::TensorFile;
 use crate::Rgb;
 use crate::error::FileError;
 use crate::fastmath;
-use crate::fastmath::x8;
-use crate::sampling::marginal2d::{Marginal2D, Slices, Slicesx8};
-use crate::simd::{Mask8, Rgbx8, Vec3x8, clamp, f32x8, max_lane, sel};
+use crate::fastmath::xn;
+use crate::sampling::marginal2d::{Marginal2D, Slices, SlicesxN};
+use crate::simd::{MaskN, RgbxN, Vec3xN, clamp, f32xn, max_lane, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
 use std::path::Path;
@@ -446,40 +446,40 @@ impl Rgl {
 }
 
 /// [`View`] of eight viewers.
-struct Viewx8 {
-    wo: Vec3x8,
-    phi_o: f32x8,
-    slices: Slicesx8,
-    sigma4: f32x8,
+struct ViewxN {
+    wo: Vec3xN,
+    phi_o: f32xn,
+    slices: SlicesxN,
+    sigma4: f32xn,
 }
 
 /// [`Half`] of eight pairs.
-struct Halfx8 {
-    m: Vec3x8,
-    u_m: [f32x8; 2],
-    s: [f32x8; 2],
-    p_vndf: f32x8,
+struct HalfxN {
+    m: Vec3xN,
+    u_m: [f32xn; 2],
+    s: [f32xn; 2],
+    p_vndf: f32xn,
 }
 
 #[inline(always)]
-fn theta2u_x8(t: f32x8) -> f32x8 {
-    (t * f32x8::splat(2.0 / PI)).max(f32x8::splat(0.0)).sqrt()
+fn theta2u_xn(t: f32xn) -> f32xn {
+    (t * f32xn::splat(2.0 / PI)).max(f32xn::splat(0.0)).sqrt()
 }
 #[inline(always)]
-fn phi2u_x8(p: f32x8) -> f32x8 {
-    (p + f32x8::splat(PI)) * f32x8::splat(0.5 / PI)
+fn phi2u_xn(p: f32xn) -> f32xn {
+    (p + f32xn::splat(PI)) * f32xn::splat(0.5 / PI)
 }
 #[inline(always)]
-fn elevation_x8(d: Vec3x8) -> f32x8 {
-    let zm = d.z - f32x8::splat(1.0);
+fn elevation_xn(d: Vec3xN) -> f32xn {
+    let zm = d.z - f32xn::splat(1.0);
     let dist = (d.x * d.x + d.y * d.y + zm * zm).sqrt();
-    f32x8::splat(2.0) * x8::asin(clamp(f32x8::splat(0.5) * dist, -1.0, 1.0))
+    f32xn::splat(2.0) * xn::asin(clamp(f32xn::splat(0.5) * dist, -1.0, 1.0))
 }
 /// [`mulsign_neg`] per lane: the sign bit of v flipped where s's is clear.
 #[inline(always)]
-fn mulsign_neg_x8(v: f32x8, s: f32x8) -> f32x8 {
-    let sign = wide::u32x8::splat(0x8000_0000);
-    f32x8::from_bits(v.to_bits() ^ (!s.to_bits() & sign))
+fn mulsign_neg_xn(v: f32xn, s: f32xn) -> f32xn {
+    let sign = crate::simd::u32xn::splat(0x8000_0000);
+    f32xn::from_bits(v.to_bits() ^ (!s.to_bits() & sign))
 }
 
 /// The eight-lane forms of evaluation, density and sampling: every lane equals the
@@ -487,53 +487,53 @@ fn mulsign_neg_x8(v: f32x8, s: f32x8) -> f32x8 {
 /// renderer's batched calls agree exactly with its one-at-a-time ones.
 impl Rgl {
     #[inline(always)]
-    fn fold_x8(&self, v: Vec3x8, by: Vec3x8) -> Vec3x8 {
+    fn fold_xn(&self, v: Vec3xN, by: Vec3xN) -> Vec3xN {
         if self.reduction < 2 {
             return v;
         }
         let sx = if self.reduction == 4 { by.x } else { by.y };
-        Vec3x8::new(mulsign_neg_x8(v.x, sx), mulsign_neg_x8(v.y, by.y), v.z)
+        Vec3xN::new(mulsign_neg_xn(v.x, sx), mulsign_neg_xn(v.y, by.y), v.z)
     }
 
     #[inline(always)]
-    fn view_x8(&self, wo: Vec3x8) -> Viewx8 {
-        let wo = self.fold_x8(wo, wo);
-        let theta_o = elevation_x8(wo);
-        let phi_o = x8::atan2(wo.y, wo.x);
+    fn view_xn(&self, wo: Vec3xN) -> ViewxN {
+        let wo = self.fold_xn(wo, wo);
+        let theta_o = elevation_xn(wo);
+        let phi_o = xn::atan2(wo.y, wo.x);
         let sigma4 = if self.jacobian {
-            let u_o = [theta2u_x8(theta_o), phi2u_x8(phi_o)];
-            f32x8::splat(4.0) * self.sigma.eval_x8(u_o, &Slicesx8::none())
+            let u_o = [theta2u_xn(theta_o), phi2u_xn(phi_o)];
+            f32xn::splat(4.0) * self.sigma.eval_xn(u_o, &SlicesxN::none())
         } else {
-            f32x8::splat(1.0)
+            f32xn::splat(1.0)
         };
-        Viewx8 {
+        ViewxN {
             wo,
             phi_o,
-            slices: self.vndf.slices_x8(&[phi_o, theta_o]),
+            slices: self.vndf.slices_xn(&[phi_o, theta_o]),
             sigma4,
         }
     }
 
     #[inline(always)]
-    fn half_x8(&self, v: &Viewx8, wi: Vec3x8, wo: Vec3x8) -> Halfx8 {
-        let m = (v.wo + self.fold_x8(wi, wo)).normalize_or_zero();
-        let mut phi_m = x8::atan2(m.y, m.x);
+    fn half_xn(&self, v: &ViewxN, wi: Vec3xN, wo: Vec3xN) -> HalfxN {
+        let m = (v.wo + self.fold_xn(wi, wo)).normalize_or_zero();
+        let mut phi_m = xn::atan2(m.y, m.x);
         if self.isotropic {
             phi_m -= v.phi_o;
         }
-        let uy = phi2u_x8(phi_m);
+        let uy = phi2u_xn(phi_m);
         let uy = uy - uy.floor();
-        let u_m = [theta2u_x8(elevation_x8(m)), uy];
-        let (s, p_vndf) = self.vndf.invert_x8(u_m, &v.slices);
-        Halfx8 { m, u_m, s, p_vndf }
+        let u_m = [theta2u_xn(elevation_xn(m)), uy];
+        let (s, p_vndf) = self.vndf.invert_xn(u_m, &v.slices);
+        HalfxN { m, u_m, s, p_vndf }
     }
 
     #[inline(always)]
-    fn lookup_x8(&self, v: &Viewx8, s: [f32x8; 2], u_m: [f32x8; 2]) -> (Rgbx8, f32x8) {
-        let [r, g, b, p_lum] = self.colour.eval_channels_x8::<4>(s, &v.slices);
-        let c = Rgbx8::new(r, g, b);
+    fn lookup_xn(&self, v: &ViewxN, s: [f32xn; 2], u_m: [f32xn; 2]) -> (RgbxN, f32xn) {
+        let [r, g, b, p_lum] = self.colour.eval_channels_xn::<4>(s, &v.slices);
+        let c = RgbxN::new(r, g, b);
         if self.jacobian {
-            let k = self.ndf.eval_x8(u_m, &Slicesx8::none()) / v.sigma4;
+            let k = self.ndf.eval_xn(u_m, &SlicesxN::none()) / v.sigma4;
             (c * k, p_lum)
         } else {
             (c, p_lum)
@@ -541,50 +541,50 @@ impl Rgl {
     }
 
     #[inline(always)]
-    fn density_x8(&self, v: &Viewx8, h: &Halfx8, p_lum: f32x8) -> f32x8 {
-        let zero = f32x8::splat(0.0);
+    fn density_xn(&self, v: &ViewxN, h: &HalfxN, p_lum: f32xn) -> f32xn {
+        let zero = f32xn::splat(0.0);
         let sin_m = (h.m.x * h.m.x + h.m.y * h.m.y).max(zero).sqrt();
-        let jac = (f32x8::splat(2.0 * PI * PI) * h.u_m[0] * sin_m).max(f32x8::splat(1e-6))
-            * f32x8::splat(4.0)
+        let jac = (f32xn::splat(2.0 * PI * PI) * h.u_m[0] * sin_m).max(f32xn::splat(1e-6))
+            * f32xn::splat(4.0)
             * v.wo.dot(h.m);
         let p = h.p_vndf * p_lum / jac;
         sel(p.is_finite() & p.simd_gt(zero), p, zero)
     }
 
     /// [`Rgl::eval_projected_pdf`] of eight pairs.
-    pub fn eval_projected_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
-        let zero = f32x8::splat(0.0);
+    pub fn eval_projected_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
+        let zero = f32xn::splat(0.0);
         let below = wo.z.simd_le(zero) | wi.z.simd_le(zero);
-        let v = self.view_x8(wo);
-        let h = self.half_x8(&v, wi, wo);
-        let (c, p_lum) = self.lookup_x8(&v, h.s, h.u_m);
-        let black = Rgbx8::splat(Rgb::ZERO);
-        let c = Rgbx8::select(c.is_finite() & !below, c, black);
-        (c, sel(below, zero, self.density_x8(&v, &h, p_lum)))
+        let v = self.view_xn(wo);
+        let h = self.half_xn(&v, wi, wo);
+        let (c, p_lum) = self.lookup_xn(&v, h.s, h.u_m);
+        let black = RgbxN::splat(Rgb::ZERO);
+        let c = RgbxN::select(c.is_finite() & !below, c, black);
+        (c, sel(below, zero, self.density_xn(&v, &h, p_lum)))
     }
 
     /// [`Rgl::sample_value`] of eight viewers: (wi, pdf, value, where a sample exists).
-    pub fn sample_value_x8(&self, wo: Vec3x8, u: [f32x8; 2]) -> (Vec3x8, f32x8, Rgbx8, Mask8) {
-        let zero = f32x8::splat(0.0);
-        let v = self.view_x8(wo);
-        let (s, p_lum) = self.luminance.sample_x8([u[1], u[0]], &v.slices);
-        let (u_m, p_vndf) = self.vndf.sample_x8(s, &v.slices);
-        let mut phi_m = (f32x8::splat(2.0) * u_m[1] - f32x8::splat(1.0)) * f32x8::splat(PI);
-        let theta_m = u_m[0] * u_m[0] * f32x8::splat(FRAC_PI_2);
+    pub fn sample_value_xn(&self, wo: Vec3xN, u: [f32xn; 2]) -> (Vec3xN, f32xn, RgbxN, MaskN) {
+        let zero = f32xn::splat(0.0);
+        let v = self.view_xn(wo);
+        let (s, p_lum) = self.luminance.sample_xn([u[1], u[0]], &v.slices);
+        let (u_m, p_vndf) = self.vndf.sample_xn(s, &v.slices);
+        let mut phi_m = (f32xn::splat(2.0) * u_m[1] - f32xn::splat(1.0)) * f32xn::splat(PI);
+        let theta_m = u_m[0] * u_m[0] * f32xn::splat(FRAC_PI_2);
         if self.isotropic {
             phi_m += v.phi_o;
         }
-        let (st, ct) = x8::sin_cos_moderate(theta_m);
-        let (sp, cp) = x8::sin_cos_moderate(phi_m);
-        let m = Vec3x8::new(cp * st, sp * st, ct);
-        let jac = (f32x8::splat(2.0 * PI * PI) * u_m[0] * st).max(f32x8::splat(1e-6))
-            * f32x8::splat(4.0)
+        let (st, ct) = xn::sin_cos_moderate(theta_m);
+        let (sp, cp) = xn::sin_cos_moderate(phi_m);
+        let m = Vec3xN::new(cp * st, sp * st, ct);
+        let jac = (f32xn::splat(2.0 * PI * PI) * u_m[0] * st).max(f32xn::splat(1e-6))
+            * f32xn::splat(4.0)
             * v.wo.dot(m);
         let pdf = p_vndf * p_lum / jac;
-        let wi = self.fold_x8(m * (f32x8::splat(2.0) * m.dot(v.wo)) - v.wo, wo);
+        let wi = self.fold_xn(m * (f32xn::splat(2.0) * m.dot(v.wo)) - v.wo, wo);
         let ok = wo.z.simd_gt(zero) & wi.z.simd_gt(zero) & pdf.is_finite() & pdf.simd_gt(zero);
-        let (c, _) = self.lookup_x8(&v, s, u_m);
-        let c = Rgbx8::select(c.is_finite(), c, Rgbx8::splat(Rgb::ZERO));
+        let (c, _) = self.lookup_xn(&v, s, u_m);
+        let c = RgbxN::select(c.is_finite(), c, RgbxN::splat(Rgb::ZERO));
         (wi, pdf, c, ok)
     }
 }

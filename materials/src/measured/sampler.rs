@@ -9,12 +9,12 @@
 //! unbiased whatever the table's accuracy. Angles at render time come from [`fastmath`]
 //! (no C library call per query).
 
-use crate::fastmath::{self, x8};
+use crate::fastmath::{self, xn};
 use crate::sampling::cdf::Cdf2D;
 use crate::sampling::warp::{
-    cosine_hemisphere_pdf, cosine_hemisphere_pdf_x8, square_to_cosine_hemisphere,
+    cosine_hemisphere_pdf, cosine_hemisphere_pdf_xn, square_to_cosine_hemisphere,
 };
-use crate::simd::{self, Vec3x8, f32x8, i32x8, sel};
+use crate::simd::{self, Vec3xN, f32xn, i32xn, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
 
@@ -125,26 +125,26 @@ impl TabulatedSampler {
     }
 
     /// [`TabulatedSampler::pdf`] of eight pairs, lane by lane bit for bit (the angles by
-    /// [`fastmath::x8`], the wrap of phi_i - phi_o by selects: the exact remainder for
+    /// [`fastmath::xn`], the wrap of phi_i - phi_o by selects: the exact remainder for
     /// its range).
-    pub fn pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> f32x8 {
-        let s = f32x8::splat;
+    pub fn pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
+        let s = f32xn::splat;
         let zero = s(0.0);
-        let bin = |x: f32x8, n: usize| {
+        let bin = |x: f32xn, n: usize| {
             x.trunc_int()
-                .max(i32x8::splat(0))
-                .min(i32x8::splat(n as i32 - 1))
+                .max(i32xn::splat(0))
+                .min(i32xn::splat(n as i32 - 1))
         };
-        let polar = |z: f32x8| x8::acos(z.max(s(-1.0)).min(s(1.0)));
+        let polar = |z: f32xn| xn::acos(z.max(s(-1.0)).min(s(1.0)));
         let io = bin(polar(wo.z) / s(FRAC_PI_2) * s(N_THETA_O as f32), N_THETA_O);
         let it = bin(polar(wi.z) / s(FRAC_PI_2) * s(N_THETA as f32), N_THETA);
-        let x = x8::atan2(wi.y, wi.x) - x8::atan2(wo.y, wo.x) + s(PI);
+        let x = xn::atan2(wi.y, wi.x) - xn::atan2(wo.y, wo.x) + s(PI);
         let x = sel(x.simd_ge(s(2.0 * PI)), x - s(2.0 * PI), x);
         let x = sel(x.simd_lt(zero), x + s(2.0 * PI), x);
         let dphi = x - s(PI);
         let ip = bin(dphi.abs() / s(PI) * s(N_PHI as f32), N_PHI);
-        let cell = (io * i32x8::splat(N_THETA as i32) + it) * i32x8::splat(N_PHI as i32) + ip;
-        let cos = cosine_hemisphere_pdf_x8(wi.z);
+        let cell = (io * i32xn::splat(N_THETA as i32) + it) * i32xn::splat(N_PHI as i32) + ip;
+        let cos = cosine_hemisphere_pdf_xn(wi.z);
         let mixed =
             s(COSINE_FRACTION) * cos + s(1.0 - COSINE_FRACTION) * simd::gather(&self.density, cell);
         let io = io.to_array();

@@ -12,7 +12,7 @@ use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
-use crate::simd::{Rgbx8, Vec3x8, f32x8, sel};
+use crate::simd::{LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Bsdf, Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::path::PathBuf;
@@ -29,9 +29,9 @@ impl Lobe for SampledMicrofacet {
     fn model(&self) -> &'static str {
         "sampled-microfacet"
     }
-    /// Lane 0 of [`SampledMicrofacet::eval_pdf_x8`]'s value: one formula for both.
+    /// Lane 0 of [`SampledMicrofacet::eval_pdf_xn`]'s value: one formula for both.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        let v = self.rho_x8(Vec3x8::splat(wo), Vec3x8::splat(wi));
+        let v = self.rho_xn(Vec3xN::splat(wo), Vec3xN::splat(wi));
         Rgb::splat(v.to_array()[0])
     }
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
@@ -40,19 +40,24 @@ impl Lobe for SampledMicrofacet {
     fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
         sample_via_half(wo, self.table.sample_h(u)?)
     }
-    fn sample_x8(&self, wo: &[Vec3; 8], u: &[Vec2; 8], _uc: &[f32; 8]) -> [Option<Vec3>; 8] {
-        let h = self.table.sample_h_x8(u);
+    fn sample_xn(
+        &self,
+        wo: &[Vec3; LANES],
+        u: &[Vec2; LANES],
+        _uc: &[f32; LANES],
+    ) -> [Option<Vec3>; LANES] {
+        let h = self.table.sample_h_xn(u);
         crate::simd::lanes(|i| sample_via_half(wo[i], h[i]?))
     }
-    /// Lane 0 of [`SampledMicrofacet::eval_pdf_x8`]'s density.
+    /// Lane 0 of [`SampledMicrofacet::eval_pdf_xn`]'s density.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.pdf_x8(Vec3x8::splat(wo), Vec3x8::splat(wi)).to_array()[0]
+        self.pdf_xn(Vec3xN::splat(wo), Vec3xN::splat(wi)).to_array()[0]
     }
-    /// The generator's value ([`Table::rho_x8`]) and density (p(h) h_z, converted to
+    /// The generator's value ([`Table::rho_xn`]) and density (p(h) h_z, converted to
     /// the density of wi) of eight pairs.
-    fn eval_pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> (Rgbx8, f32x8) {
-        let v = self.rho_x8(wo, wi);
-        (Rgbx8::new(v, v, v), self.pdf_x8(wo, wi))
+    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
+        let v = self.rho_xn(wo, wi);
+        (RgbxN::new(v, v, v), self.pdf_xn(wo, wi))
     }
     fn flags(&self) -> Flags {
         Flags::RECIPROCAL | Flags::GLOSSY
@@ -64,17 +69,17 @@ impl Lobe for SampledMicrofacet {
 
 impl SampledMicrofacet {
     #[inline]
-    fn rho_x8(&self, wo: Vec3x8, wi: Vec3x8) -> f32x8 {
-        self.table.rho_x8(wo, wi, self.f0 as f32)
+    fn rho_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
+        self.table.rho_xn(wo, wi, self.f0 as f32)
     }
 
     /// The density of wi: p(h) h_z / (4 wo.h), zero below the surface or where not finite.
     #[inline]
-    fn pdf_x8(&self, wo: Vec3x8, wi: Vec3x8) -> f32x8 {
-        let zero = f32x8::splat(0.0);
+    fn pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
+        let zero = f32xn::splat(0.0);
         let h = (wo + wi).normalize_or_zero();
-        let p = lobe::x8::half_to_incident_pdf(self.table.pdf_h_x8(h), wo.dot(h));
-        let ok = lobe::x8::above(wo, wi) & p.is_finite();
+        let p = lobe::xn::half_to_incident_pdf(self.table.pdf_h_xn(h), wo.dot(h));
+        let ok = lobe::xn::above(wo, wi) & p.is_finite();
         sel(ok, p, zero)
     }
 }

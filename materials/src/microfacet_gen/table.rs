@@ -7,12 +7,12 @@
 //! rho (Ngan et al. 2005, section 5, Eq. 3); and the EXR file a table is stored in.
 //!
 //! Each lookup has an f64 form (fitting) and an eight-lane f32 form (rendering:
-//! [`crate::fastmath::x8`]'s acos and atan2, gathers from the f32 tables).
+//! [`crate::fastmath::xn`]'s acos and atan2, gathers from the f32 tables).
 
-use crate::fastmath::x8;
+use crate::fastmath::xn;
 use crate::sampling::hierarchy::Hierarchy2D;
-use crate::sampling::warp::{square_to_bilinear, square_to_bilinear_x8};
-use crate::simd::{self, Vec3x8, f32x8, i32x8, sel};
+use crate::sampling::warp::{square_to_bilinear, square_to_bilinear_xn};
+use crate::simd::{self, LANES, Vec3xN, f32xn, i32xn, sel};
 use glam::{DVec3, Vec2, Vec3};
 use std::path::Path;
 
@@ -43,16 +43,16 @@ pub(super) fn node_dir(n: usize, i: usize, j: usize) -> Option<DVec3> {
 
 /// The node below a non-negative table coordinate, at most `last` (NaN gives 0).
 #[inline(always)]
-fn node_index(x: f32x8, last: usize) -> i32x8 {
+fn node_index(x: f32xn, last: usize) -> i32xn {
     x.trunc_int()
-        .max(i32x8::splat(0))
-        .min(i32x8::splat(last as i32))
+        .max(i32xn::splat(0))
+        .min(i32xn::splat(last as i32))
 }
 
 /// Bilinear interpolation of corners [(0, 0), (1, 0), (0, 1), (1, 1)] at (fx, fy).
 #[inline(always)]
-fn bilinear(fx: f32x8, fy: f32x8, [a, b, c, d]: [f32x8; 4]) -> f32x8 {
-    let one = f32x8::splat(1.0);
+fn bilinear(fx: f32xn, fy: f32xn, [a, b, c, d]: [f32xn; 4]) -> f32xn {
+    let one = f32xn::splat(1.0);
     (one - fy) * ((one - fx) * a + fx * b) + fy * ((one - fx) * c + fx * d)
 }
 
@@ -182,14 +182,17 @@ impl Table {
 
     /// [`Table::p`] per lane, in f32.
     #[inline]
-    pub fn p_x8(&self, hx: f32x8, hy: f32x8) -> f32x8 {
-        let s = f32x8::splat;
+    pub fn p_xn(&self, hx: f32xn, hy: f32xn) -> f32xn {
+        let s = f32xn::splat;
         let half_span = s((self.n - 1) as f32 / 2.0);
         let (px, py) = ((hx + s(1.0)) * half_span, (hy + s(1.0)) * half_span);
         let (ix, iy) = (node_index(px, self.n - 2), node_index(py, self.n - 2));
-        let (fx, fy) = (px - f32x8::from_i32x8(ix), py - f32x8::from_i32x8(iy));
-        let k = iy * i32x8::splat(self.n as i32) + ix;
-        let at = |offset: i32| simd::gather(&self.p, k + i32x8::splat(offset));
+        let (fx, fy) = (
+            px - crate::simd::float_of(ix),
+            py - crate::simd::float_of(iy),
+        );
+        let k = iy * i32xn::splat(self.n as i32) + ix;
+        let at = |offset: i32| simd::gather(&self.p, k + i32xn::splat(offset));
         let n = self.n as i32;
         let v = bilinear(fx, fy, [at(0), at(1), at(n), at(n + 1)]);
         sel((hx * hx + hy * hy).simd_ge(s(1.0)), s(0.0), v)
@@ -197,41 +200,44 @@ impl Table {
 
     /// [`Table::g`] per lane, in f32.
     #[inline]
-    pub fn g_x8(&self, k: Vec3x8) -> f32x8 {
-        let s = f32x8::splat;
+    pub fn g_xn(&self, k: Vec3xN) -> f32xn {
+        let s = f32xn::splat;
         let deg = s(180.0 / std::f32::consts::PI);
         let cos_t = k.z.max(s(-1.0)).min(s(1.0));
-        let theta = (x8::acos(cos_t) * deg).min(s(89.9)) / s(2.0);
-        let phi = x8::atan2(k.y, k.x) * deg;
+        let theta = (xn::acos(cos_t) * deg).min(s(89.9)) / s(2.0);
+        let phi = xn::atan2(k.y, k.x) * deg;
         let phi = sel(phi.simd_lt(s(0.0)), phi + s(360.0), phi) / s(5.0);
         let (it, ip) = (node_index(theta, G_THETA - 2), node_index(phi, G_PHI - 2));
-        let (ft, fp) = (theta - f32x8::from_i32x8(it), phi - f32x8::from_i32x8(ip));
-        let idx = it * i32x8::splat(G_PHI as i32) + ip;
-        let at = |offset: i32| simd::gather(&self.g, idx + i32x8::splat(offset));
+        let (ft, fp) = (
+            theta - crate::simd::float_of(it),
+            phi - crate::simd::float_of(ip),
+        );
+        let idx = it * i32xn::splat(G_PHI as i32) + ip;
+        let at = |offset: i32| simd::gather(&self.g, idx + i32xn::splat(offset));
         let row = G_PHI as i32;
         bilinear(fp, ft, [at(0), at(1), at(row), at(row + 1)])
     }
 
     /// [`Table::rho`] per lane, in f32.
     #[inline]
-    pub fn rho_x8(&self, wo: Vec3x8, wi: Vec3x8, f0: f32) -> f32x8 {
-        let s = f32x8::splat;
+    pub fn rho_xn(&self, wo: Vec3xN, wi: Vec3xN, f0: f32) -> f32xn {
+        let s = f32xn::splat;
         let zero = s(0.0);
         let h = (wo + wi).normalize_or_zero();
         let c = wi.dot(h).max(zero).min(s(1.0));
         let m = s(1.0) - c;
         let m2 = m * m;
         let fresnel = s(f0) + s(1.0 - f0) * (m2 * m2 * m);
-        let v = self.p_x8(h.x, h.y) * fresnel / (s(4.0) * self.g_x8(wo) * self.g_x8(wi));
+        let v = self.p_xn(h.x, h.y) * fresnel / (s(4.0) * self.g_xn(wo) * self.g_xn(wi));
         let ok = wo.z.simd_gt(zero) & wi.z.simd_gt(zero) & h.z.simd_gt(zero) & v.is_finite();
         sel(ok, v.max(zero), zero)
     }
 
     /// [`Table::pdf_h`] per lane, in f32.
     #[inline]
-    pub fn pdf_h_x8(&self, h: Vec3x8) -> f32x8 {
-        let zero = f32x8::splat(0.0);
-        sel(h.z.simd_le(zero), zero, self.p_x8(h.x, h.y) * h.z)
+    pub fn pdf_h_xn(&self, h: Vec3xN) -> f32xn {
+        let zero = f32xn::splat(0.0);
+        sel(h.z.simd_le(zero), zero, self.p_xn(h.x, h.y) * h.z)
     }
 
     /// Density of h with respect to solid angle of `sample_h`: p(h) h_z.
@@ -261,19 +267,19 @@ impl Table {
     }
 
     /// [`Table::sample_h`] of eight points, lane by lane the same.
-    pub fn sample_h_x8(&self, u: &[Vec2; 8]) -> [Option<Vec3>; 8] {
+    pub fn sample_h_xn(&self, u: &[Vec2; LANES]) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
         let [(cx, cy, rx, ry)] = self.cells.sample_x8s([ux], [uy]);
         let n = self.n as i32;
-        let k = wide::bytemuck::cast::<_, i32x8>(cy) * i32x8::splat(n)
-            + wide::bytemuck::cast::<_, i32x8>(cx);
-        let at = |offset: i32| simd::gather(&self.p, k + i32x8::splat(offset));
-        let (fx, fy) = square_to_bilinear_x8(rx, ry, [at(0), at(1), at(n), at(n + 1)]);
-        let inv = f32x8::splat(1.0 / (self.n - 1) as f32);
-        let (two, one) = (f32x8::splat(2.0), f32x8::splat(1.0));
-        let lane = |c: wide::u32x8, f: f32x8| {
-            let c = wide::bytemuck::cast::<_, i32x8>(c);
-            (two * ((f32x8::from_i32x8(c) + f) * inv) - one).to_array()
+        let k = wide::bytemuck::cast::<_, i32xn>(cy) * i32xn::splat(n)
+            + wide::bytemuck::cast::<_, i32xn>(cx);
+        let at = |offset: i32| simd::gather(&self.p, k + i32xn::splat(offset));
+        let (fx, fy) = square_to_bilinear_xn(rx, ry, [at(0), at(1), at(n), at(n + 1)]);
+        let inv = f32xn::splat(1.0 / (self.n - 1) as f32);
+        let (two, one) = (f32xn::splat(2.0), f32xn::splat(1.0));
+        let lane = |c: crate::simd::u32xn, f: f32xn| {
+            let c = wide::bytemuck::cast::<_, i32xn>(c);
+            (two * ((crate::simd::float_of(c) + f) * inv) - one).to_array()
         };
         let (x, y) = (lane(cx, fx), lane(cy, fy));
         simd::lanes(|i| {
@@ -408,12 +414,14 @@ mod tests {
             };
             let (mut checked, mut nonzero) = (0, 0);
             for chunk in 0..400 {
-                let wo: [DVec3; 8] = simd::lanes(|i| dir(8 * chunk + i, 0.618_034, 0.414_214));
-                let wi: [DVec3; 8] = simd::lanes(|i| dir(8 * chunk + i + 3, 0.754_878, 0.569_840));
-                let v8 = |d: &[DVec3; 8]| Vec3x8::from_array(&simd::lanes(|i| d[i].as_vec3()));
-                let rho = table.rho_x8(v8(&wo), v8(&wi), 0.3).to_array();
-                let g = table.g_x8(v8(&wo)).to_array();
-                for i in 0..8 {
+                let wo: [DVec3; LANES] =
+                    simd::lanes(|i| dir(LANES * chunk + i, 0.618_034, 0.414_214));
+                let wi: [DVec3; LANES] =
+                    simd::lanes(|i| dir(LANES * chunk + i + 3, 0.754_878, 0.569_840));
+                let v8 = |d: &[DVec3; LANES]| Vec3xN::from_array(&simd::lanes(|i| d[i].as_vec3()));
+                let rho = table.rho_xn(v8(&wo), v8(&wi), 0.3).to_array();
+                let g = table.g_xn(v8(&wo)).to_array();
+                for i in 0..LANES {
                     // The f64 form of the same f32 inputs.
                     let (o, w) = (wo[i].as_vec3().as_dvec3(), wi[i].as_vec3().as_dvec3());
                     let expected = table.rho(o, w, 0.3);

@@ -4,8 +4,8 @@
 //! nearby samples land in nearby cells at every scale, for environment-map light sampling.
 
 use crate::simd;
+use crate::simd::{f32xn, u32xn};
 use glam::Vec2;
-use wide::{f32x8, u32x8};
 
 /// One level of a [`Hierarchy2D`]: `w` x `h` (both even) values stored in 2x2 packets, so
 /// that the four children of a node of the next coarser level are one contiguous read.
@@ -121,45 +121,45 @@ impl Hierarchy2D {
     #[inline(always)]
     pub fn sample_x8s<const N: usize>(
         &self,
-        ux: [f32x8; N],
-        uy: [f32x8; N],
-    ) -> [(u32x8, u32x8, f32x8, f32x8); N] {
-        let mut x = [u32x8::splat(0); N];
-        let mut y = [u32x8::splat(0); N];
+        ux: [f32xn; N],
+        uy: [f32xn; N],
+    ) -> [(u32xn, u32xn, f32xn, f32xn); N] {
+        let mut x = [u32xn::splat(0); N];
+        let mut y = [u32xn::splat(0); N];
         let mut ux = ux.map(|u| simd::clamp(u, 0.0, ONE_MINUS_EPS));
         let mut uy = uy.map(|u| simd::clamp(u, 0.0, ONE_MINUS_EPS));
-        let one = u32x8::splat(1);
+        let one = u32xn::splat(1);
         for level in self.levels.iter().rev() {
             for j in 0..N {
                 let q = if let [p] = level.data.as_slice() {
                     // The root: one packet for every lane.
                     [
-                        f32x8::splat(p[0]),
-                        f32x8::splat(p[1]),
-                        f32x8::splat(p[2]),
-                        f32x8::splat(p[3]),
+                        f32xn::splat(p[0]),
+                        f32xn::splat(p[1]),
+                        f32xn::splat(p[2]),
+                        f32xn::splat(p[3]),
                     ]
                 } else {
                     // Clamped to the level (a no-op: descents stay inside it), so that
                     // the reads need no bounds check per lane.
-                    let last = u32x8::splat(level.data.len() as u32 - 1);
-                    let idx = (y[j] * u32x8::splat(level.packets_per_row as u32) + x[j])
+                    let last = u32xn::splat(level.data.len() as u32 - 1);
+                    let idx = (y[j] * u32xn::splat(level.packets_per_row as u32) + x[j])
                         .min(last)
                         .to_array();
-                    simd::transpose4x8(&simd::lanes(|i| {
+                    simd::transpose4xn(&simd::lanes(|i| {
                         // SAFETY: idx[i] <= data.len() - 1 by the clamp above.
                         unsafe { *level.data.get_unchecked(idx[i] as usize) }
                     }))
                 };
                 let (right, lower);
-                (right, lower, ux[j], uy[j]) = descend_x8(q, ux[j], uy[j]);
+                (right, lower, ux[j], uy[j]) = descend_xn(q, ux[j], uy[j]);
                 x[j] = (x[j] << 1) + (right.to_bits() & one);
                 y[j] = (y[j] << 1) + (lower.to_bits() & one);
             }
         }
         let (mx, my) = (
-            u32x8::splat(self.nu as u32 - 1),
-            u32x8::splat(self.nv as u32 - 1),
+            u32xn::splat(self.nu as u32 - 1),
+            u32xn::splat(self.nv as u32 - 1),
         );
         std::array::from_fn(|j| (x[j].min(mx), y[j].min(my), ux[j], uy[j]))
     }
@@ -200,8 +200,8 @@ fn descend(p: [f32; 4], ux: f32, uy: f32) -> (u32, u32, f32, f32) {
 
 /// [`descend`] in eight lanes, with the same operations: (right, lower) as lane masks.
 #[inline(always)]
-fn descend_x8(p: [f32x8; 4], ux: f32x8, uy: f32x8) -> (f32x8, f32x8, f32x8, f32x8) {
-    let zero = f32x8::splat(0.0);
+fn descend_xn(p: [f32xn; 4], ux: f32xn, uy: f32xn) -> (f32xn, f32xn, f32xn, f32xn) {
+    let zero = f32xn::splat(0.0);
     let (r0, r1) = (p[0] + p[1], p[2] + p[3]);
     let ty = uy * (r0 + r1);
     let lower = (ty.simd_ge(r0) & r1.simd_gt(zero)) | r0.simd_le(zero);
@@ -227,6 +227,7 @@ fn descend_x8(p: [f32x8; 4], ux: f32x8, uy: f32x8) -> (f32x8, f32x8, f32x8, f32x
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simd::LANES;
 
     fn masses(nu: usize, nv: usize) -> Vec<f32> {
         (0..nu * nv)
@@ -362,8 +363,8 @@ mod tests {
         let vals = masses(37, 19);
         let (t, _) = Hierarchy2D::new(&vals, 37, 19);
         for k in 0..300 {
-            let u: [Vec2; 8] = std::array::from_fn(|i| {
-                let j = (k * 8 + i) as f32;
+            let u: [Vec2; LANES] = std::array::from_fn(|i| {
+                let j = (k * LANES + i) as f32;
                 match k {
                     0 => Vec2::new(i as f32 / 7.0, 1.0 - i as f32 / 7.0),
                     1 => Vec2::new(f32::NAN, i as f32 / 8.0),
@@ -371,9 +372,9 @@ mod tests {
                 }
             });
             let [(cx, cy, fx, fy)] =
-                t.sample_x8s([f32x8::new(u.map(|v| v.x))], [f32x8::new(u.map(|v| v.y))]);
+                t.sample_x8s([f32xn::new(u.map(|v| v.x))], [f32xn::new(u.map(|v| v.y))]);
             let (cx, cy, fx, fy) = (cx.to_array(), cy.to_array(), fx.to_array(), fy.to_array());
-            for i in 0..8 {
+            for i in 0..LANES {
                 let lane = (cx[i] as usize, cy[i] as usize, Vec2::new(fx[i], fy[i]));
                 assert_eq!(format!("{lane:?}"), format!("{:?}", t.sample(u[i])));
                 assert!(vals[lane.1 * 37 + lane.0] > 0.0 || u[i].is_nan());

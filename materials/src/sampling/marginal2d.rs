@@ -15,7 +15,7 @@
 //! A table may hold several values per node (`channels`: the RGL colour table keeps r, g
 //! and b of a node side by side, so that one patch lookup reads all three).
 
-use crate::simd::{clamp, f32x8, fmadd, gather, i32x8, max_lane, rows4, sel};
+use crate::simd::{clamp, f32xn, fmadd, gather, i32xn, max_lane, rows4, sel};
 use wide::Select;
 
 /// At most this many parameters take part in the interpolation (parameters with a single
@@ -338,81 +338,81 @@ impl Marginal2D {
     }
 }
 
-/// [`Slices`] of eight queries, one per lane ([`Marginal2D::slices_x8`]).
+/// [`Slices`] of eight queries, one per lane ([`Marginal2D::slices_xn`]).
 #[derive(Clone, Copy, Debug)]
-pub struct Slicesx8 {
-    first: i32x8,
+pub struct SlicesxN {
+    first: i32xn,
     dims: usize,
     stride: [i32; MAX_PARAMS],
-    weight: [(f32x8, f32x8); MAX_PARAMS],
+    weight: [(f32xn, f32xn); MAX_PARAMS],
 }
 
-impl Slicesx8 {
+impl SlicesxN {
     /// The only slice of a table without parameters, in every lane.
     pub fn none() -> Self {
         Self {
-            first: i32x8::splat(0),
+            first: i32xn::splat(0),
             dims: 0,
             stride: [0; MAX_PARAMS],
-            weight: [(f32x8::splat(1.0), f32x8::splat(0.0)); MAX_PARAMS],
+            weight: [(f32xn::splat(1.0), f32xn::splat(0.0)); MAX_PARAMS],
         }
     }
 
     /// [`Slices::at`] per lane (entry `i[k]` in lane k).
     #[inline(always)]
-    pub fn at(&self, arr: &[f32], n: usize, i: i32x8) -> f32x8 {
+    pub fn at(&self, arr: &[f32], n: usize, i: i32xn) -> f32xn {
         let n = n as i32;
-        let b = self.first * i32x8::splat(n) + i;
+        let b = self.first * i32xn::splat(n) + i;
         match self.dims {
             0 => gather(arr, b),
             1 => self.inner(arr, n, b),
             _ => {
                 let (w0, w1) = self.weight[1];
-                let far = self.inner(arr, n, b + i32x8::splat(self.stride[1] * n));
+                let far = self.inner(arr, n, b + i32xn::splat(self.stride[1] * n));
                 fmadd(self.inner(arr, n, b), w0, far * w1)
             }
         }
     }
 
-    /// [`Slicesx8::at`] of the four entries `i[k]..i[k] + 4` in lane k (a node of a
+    /// [`SlicesxN::at`] of the four entries `i[k]..i[k] + 4` in lane k (a node of a
     /// four-channel table): one 16-byte load per lane and slice, transposed
     /// ([`crate::simd::rows4`]), instead of four gathers.
     #[inline(always)]
-    pub fn at4(&self, arr: &[f32], n: usize, i: i32x8) -> [f32x8; 4] {
+    pub fn at4(&self, arr: &[f32], n: usize, i: i32xn) -> [f32xn; 4] {
         let n = n as i32;
-        let b = self.first * i32x8::splat(n) + i;
+        let b = self.first * i32xn::splat(n) + i;
         match self.dims {
             0 => rows(arr, b),
             1 => self.inner4(arr, n, b),
             _ => {
                 let (w0, w1) = self.weight[1];
                 let near = self.inner4(arr, n, b);
-                let far = self.inner4(arr, n, b + i32x8::splat(self.stride[1] * n));
+                let far = self.inner4(arr, n, b + i32xn::splat(self.stride[1] * n));
                 [0, 1, 2, 3].map(|c| fmadd(near[c], w0, far[c] * w1))
             }
         }
     }
 
     #[inline(always)]
-    fn inner4(&self, arr: &[f32], n: i32, j: i32x8) -> [f32x8; 4] {
+    fn inner4(&self, arr: &[f32], n: i32, j: i32xn) -> [f32xn; 4] {
         let (w0, w1) = self.weight[0];
         let near = rows(arr, j);
-        let far = rows(arr, j + i32x8::splat(self.stride[0] * n));
+        let far = rows(arr, j + i32xn::splat(self.stride[0] * n));
         [0, 1, 2, 3].map(|c| fmadd(near[c], w0, far[c] * w1))
     }
 
     /// The blend over the first interpolated parameter at entries `j`.
     #[inline(always)]
-    fn inner(&self, arr: &[f32], n: i32, j: i32x8) -> f32x8 {
+    fn inner(&self, arr: &[f32], n: i32, j: i32xn) -> f32xn {
         let (w0, w1) = self.weight[0];
-        let far = gather(arr, j + i32x8::splat(self.stride[0] * n));
+        let far = gather(arr, j + i32xn::splat(self.stride[0] * n));
         fmadd(gather(arr, j), w0, far * w1)
     }
 }
 
 /// The four values from `arr[j[k]]` on, lane k, as four lane vectors.
 #[inline(always)]
-fn rows(arr: &[f32], j: i32x8) -> [f32x8; 4] {
+fn rows(arr: &[f32], j: i32xn) -> [f32xn; 4] {
     let j = j.to_array();
     rows4(|k| {
         let j = j[k] as usize;
@@ -422,42 +422,42 @@ fn rows(arr: &[f32], j: i32x8) -> [f32x8; 4] {
 
 /// [`first_at_least`] per lane: the same probes, lane by lane.
 #[inline(always)]
-pub fn first_at_least_x8(n: usize, x: f32x8, v: impl Fn(i32x8) -> f32x8) -> i32x8 {
-    let mut base = i32x8::splat(0);
+pub fn first_at_least_xn(n: usize, x: f32xn, v: impl Fn(i32xn) -> f32xn) -> i32xn {
+    let mut base = i32xn::splat(0);
     let mut size = n;
     while size > 1 {
         let half = size / 2;
-        let next = base + i32x8::splat(half as i32);
-        base = Select::<i32x8>::select(v(next).simd_lt(x), next, base);
+        let next = base + i32xn::splat(half as i32);
+        base = Select::<i32xn>::select(v(next).simd_lt(x), next, base);
         size -= half;
     }
-    let below: i32x8 = wide::bytemuck::cast(v(base).simd_lt(x));
+    let below: i32xn = wide::bytemuck::cast(v(base).simd_lt(x));
     // `below` is -1 where set: subtracting it adds one.
-    (base - below).min(i32x8::splat(n as i32 - 1))
+    (base - below).min(i32xn::splat(n as i32 - 1))
 }
 
 #[inline(always)]
-fn lerp_x8(a: f32x8, b: f32x8, t: f32x8) -> f32x8 {
+fn lerp_xn(a: f32xn, b: f32xn, t: f32xn) -> f32xn {
     fmadd(b, t, fmadd(-a, t, a))
 }
 
 impl Marginal2D {
     /// [`Marginal2D::slices`] per lane.
-    pub fn slices_x8(&self, p: &[f32x8]) -> Slicesx8 {
-        let mut s = Slicesx8::none();
+    pub fn slices_xn(&self, p: &[f32xn]) -> SlicesxN {
+        let mut s = SlicesxN::none();
         for (d, vals) in self.params.iter().enumerate() {
             let n = vals.len();
             if n <= 1 {
                 continue;
             }
             let x = p[d];
-            let i = first_at_least_x8(n - 1, x, |k| gather(vals, k + i32x8::splat(1)));
+            let i = first_at_least_xn(n - 1, x, |k| gather(vals, k + i32xn::splat(1)));
             let v0 = gather(vals, i);
-            let v1 = gather(vals, i + i32x8::splat(1));
+            let v1 = gather(vals, i + i32xn::splat(1));
             let t = clamp((x - v0) / (v1 - v0), 0.0, 1.0);
-            s.first += i * i32x8::splat(self.strides[d] as i32);
+            s.first += i * i32xn::splat(self.strides[d] as i32);
             s.stride[s.dims] = self.strides[d] as i32;
-            s.weight[s.dims] = (f32x8::splat(1.0) - t, t);
+            s.weight[s.dims] = (f32xn::splat(1.0) - t, t);
             s.dims += 1;
         }
         s
@@ -465,35 +465,35 @@ impl Marginal2D {
 
     /// [`Marginal2D::patch`] per lane.
     #[inline(always)]
-    fn patch_x8(&self, u: [f32x8; 2]) -> (i32x8, i32x8, f32x8, f32x8) {
+    fn patch_xn(&self, u: [f32xn; 2]) -> (i32xn, i32xn, f32xn, f32xn) {
         let (w, h) = (self.w, self.h);
-        let px = clamp(u[0], 0.0, 1.0) * f32x8::splat((w - 1) as f32);
-        let py = clamp(u[1], 0.0, 1.0) * f32x8::splat((h - 1) as f32);
-        let ox = px.trunc_int().min(i32x8::splat(w as i32 - 2));
-        let oy = py.trunc_int().min(i32x8::splat(h as i32 - 2));
+        let px = clamp(u[0], 0.0, 1.0) * f32xn::splat((w - 1) as f32);
+        let py = clamp(u[1], 0.0, 1.0) * f32xn::splat((h - 1) as f32);
+        let ox = px.trunc_int().min(i32xn::splat(w as i32 - 2));
+        let oy = py.trunc_int().min(i32xn::splat(h as i32 - 2));
         (
             ox,
             oy,
-            px - f32x8::from_i32x8(ox),
-            py - f32x8::from_i32x8(oy),
+            px - crate::simd::float_of(ox),
+            py - crate::simd::float_of(oy),
         )
     }
 
     /// [`Marginal2D::eval_in`] per lane.
     #[inline]
-    pub fn eval_x8(&self, u: [f32x8; 2], sl: &Slicesx8) -> f32x8 {
-        self.eval_channels_x8::<1>(u, sl)[0]
+    pub fn eval_xn(&self, u: [f32xn; 2], sl: &SlicesxN) -> f32xn {
+        self.eval_channels_xn::<1>(u, sl)[0]
     }
 
     /// [`Marginal2D::eval_channels`] per lane (four-channel tables by transposed loads).
     #[inline]
-    pub fn eval_channels_x8<const C: usize>(&self, u: [f32x8; 2], sl: &Slicesx8) -> [f32x8; C] {
+    pub fn eval_channels_xn<const C: usize>(&self, u: [f32xn; 2], sl: &SlicesxN) -> [f32xn; C] {
         assert_eq!(C, self.channels);
-        let (ox, oy, fx, fy) = self.patch_x8(u);
+        let (ox, oy, fx, fy) = self.patch_xn(u);
         let n = self.w * self.h * C;
-        let i = (oy * i32x8::splat(self.w as i32) + ox) * i32x8::splat(C as i32);
-        let (c1, row) = (i32x8::splat(C as i32), i32x8::splat((self.w * C) as i32));
-        let mut out = [f32x8::splat(0.0); C];
+        let i = (oy * i32xn::splat(self.w as i32) + ox) * i32xn::splat(C as i32);
+        let (c1, row) = (i32xn::splat(C as i32), i32xn::splat((self.w * C) as i32));
+        let mut out = [f32xn::splat(0.0); C];
         if C == 4 {
             let (v00, v10) = (sl.at4(&self.data, n, i), sl.at4(&self.data, n, i + c1));
             let (v01, v11) = (
@@ -501,121 +501,121 @@ impl Marginal2D {
                 sl.at4(&self.data, n, i + row + c1),
             );
             for (c, o) in out.iter_mut().enumerate() {
-                *o = lerp_x8(lerp_x8(v00[c], v10[c], fx), lerp_x8(v01[c], v11[c], fx), fy);
+                *o = lerp_xn(lerp_xn(v00[c], v10[c], fx), lerp_xn(v01[c], v11[c], fx), fy);
             }
             return out;
         }
         for (c, o) in out.iter_mut().enumerate() {
-            let at = |k: i32x8| sl.at(&self.data, n, k + i32x8::splat(c as i32));
+            let at = |k: i32xn| sl.at(&self.data, n, k + i32xn::splat(c as i32));
             let (v00, v10) = (at(i), at(i + c1));
             let (v01, v11) = (at(i + row), at(i + row + c1));
-            *o = lerp_x8(lerp_x8(v00, v10, fx), lerp_x8(v01, v11, fx), fy);
+            *o = lerp_xn(lerp_xn(v00, v10, fx), lerp_xn(v01, v11, fx), fy);
         }
         out
     }
 
     /// [`Marginal2D::sample_segment`] per lane.
     #[inline(always)]
-    fn sample_segment_x8(u: f32x8, inv_w: f32, v0: f32x8, v1: f32x8) -> f32x8 {
-        let zero = f32x8::splat(0.0);
-        let nonconst = (v0 - v1).abs().simd_gt(f32x8::splat(1e-4) * (v0 + v1));
+    fn sample_segment_xn(u: f32xn, inv_w: f32, v0: f32xn, v1: f32xn) -> f32xn {
+        let zero = f32xn::splat(0.0);
+        let nonconst = (v0 - v1).abs().simd_gt(f32xn::splat(1e-4) * (v0 + v1));
         let div = sel(nonconst, v0 - v1, v0 + v1);
-        let u = u * f32x8::splat(2.0) * f32x8::splat(inv_w);
+        let u = u * f32xn::splat(2.0) * f32xn::splat(inv_w);
         let u = sel(nonconst, v0 - (v0 * v0 + u * (v1 - v0)).max(zero).sqrt(), u);
         sel(!div.simd_eq(zero), u / div, u)
     }
 
     /// [`Marginal2D::sample_in`] per lane.
-    pub fn sample_x8(&self, xi: [f32x8; 2], b: &Slicesx8) -> ([f32x8; 2], f32x8) {
+    pub fn sample_xn(&self, xi: [f32xn; 2], b: &SlicesxN) -> ([f32xn; 2], f32xn) {
         let (w, h) = (self.w, self.h);
         let eps = f32::EPSILON / 2.0;
         let (mut x, mut y) = (clamp(xi[0], eps, 1.0 - eps), clamp(xi[1], eps, 1.0 - eps));
         let (nm, nc) = (h - 1, h * (w - 1));
-        let (one, zero) = (i32x8::splat(1), i32x8::splat(0));
-        let row = first_at_least_x8(h - 1, y, |r| b.at(&self.marg, nm, r));
+        let (one, zero) = (i32xn::splat(1), i32xn::splat(0));
+        let row = first_at_least_xn(h - 1, y, |r| b.at(&self.marg, nm, r));
         let prev = b.at(&self.marg, nm, (row - one).max(zero));
         y = sel(
-            f32x8::from_i32x8(row).simd_gt(f32x8::splat(0.0)),
+            crate::simd::float_of(row).simd_gt(f32xn::splat(0.0)),
             y - prev,
             y,
         );
-        let wm1 = i32x8::splat(w as i32 - 1);
+        let wm1 = i32xn::splat(w as i32 - 1);
         let (row0, row1) = (row * wm1, (row + one) * wm1);
-        let last = i32x8::splat(w as i32 - 2);
+        let last = i32xn::splat(w as i32 - 2);
         let r0 = b.at(&self.cond, nc, row0 + last);
         let r1 = b.at(&self.cond, nc, row1 + last);
-        let ty = Self::sample_segment_x8(y, (h - 1) as f32, r0, r1);
-        x *= lerp_x8(r0, r1, ty);
-        let c = |k: i32x8| {
-            lerp_x8(
+        let ty = Self::sample_segment_xn(y, (h - 1) as f32, r0, r1);
+        x *= lerp_xn(r0, r1, ty);
+        let c = |k: i32xn| {
+            lerp_xn(
                 b.at(&self.cond, nc, row0 + k),
                 b.at(&self.cond, nc, row1 + k),
                 ty,
             )
         };
-        let col = first_at_least_x8(w - 1, x, c);
+        let col = first_at_least_xn(w - 1, x, c);
         let prev = c((col - one).max(zero));
         x = sel(
-            f32x8::from_i32x8(col).simd_gt(f32x8::splat(0.0)),
+            crate::simd::float_of(col).simd_gt(f32xn::splat(0.0)),
             x - prev,
             x,
         );
         let n = w * h;
-        let i = row * i32x8::splat(w as i32) + col;
-        let wi = i32x8::splat(w as i32);
+        let i = row * i32xn::splat(w as i32) + col;
+        let wi = i32xn::splat(w as i32);
         let v00 = b.at(&self.data, n, i);
         let v10 = b.at(&self.data, n, i + one);
         let v01 = b.at(&self.data, n, i + wi);
         let v11 = b.at(&self.data, n, i + wi + one);
-        let c0 = lerp_x8(v00, v01, ty);
-        let c1 = lerp_x8(v10, v11, ty);
-        let tx = Self::sample_segment_x8(x, (w - 1) as f32, c0, c1);
-        let inv = [1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32].map(f32x8::splat);
+        let c0 = lerp_xn(v00, v01, ty);
+        let c1 = lerp_xn(v10, v11, ty);
+        let tx = Self::sample_segment_xn(x, (w - 1) as f32, c0, c1);
+        let inv = [1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32].map(f32xn::splat);
         (
             [
-                (f32x8::from_i32x8(col) + tx) * inv[0],
-                (f32x8::from_i32x8(row) + ty) * inv[1],
+                (crate::simd::float_of(col) + tx) * inv[0],
+                (crate::simd::float_of(row) + ty) * inv[1],
             ],
-            lerp_x8(c0, c1, tx),
+            lerp_xn(c0, c1, tx),
         )
     }
 
     /// [`Marginal2D::invert_in`] per lane.
-    pub fn invert_x8(&self, u: [f32x8; 2], b: &Slicesx8) -> ([f32x8; 2], f32x8) {
+    pub fn invert_xn(&self, u: [f32xn; 2], b: &SlicesxN) -> ([f32xn; 2], f32xn) {
         let (w, h) = (self.w, self.h);
-        let (px, py, fx, fy) = self.patch_x8(u);
-        let (one, zero) = (i32x8::splat(1), i32x8::splat(0));
+        let (px, py, fx, fy) = self.patch_xn(u);
+        let (one, zero) = (i32xn::splat(1), i32xn::splat(0));
         let n = w * h;
-        let wi = i32x8::splat(w as i32);
+        let wi = i32xn::splat(w as i32);
         let i = py * wi + px;
         let v00 = b.at(&self.data, n, i);
         let v10 = b.at(&self.data, n, i + one);
         let v01 = b.at(&self.data, n, i + wi);
         let v11 = b.at(&self.data, n, i + wi + one);
-        let c0 = lerp_x8(v00, v01, fy);
-        let c1 = lerp_x8(v10, v11, fy);
-        let pdf = lerp_x8(c0, c1, fx);
+        let c0 = lerp_xn(v00, v01, fy);
+        let c1 = lerp_xn(v10, v11, fy);
+        let pdf = lerp_xn(c0, c1, fx);
         let (nc, nm) = (h * (w - 1), h - 1);
-        let half = f32x8::splat(0.5);
-        let mut x = fx * lerp_x8(c0, c1, half * fx) * f32x8::splat(1.0 / (w - 1) as f32);
-        let wm1 = i32x8::splat(w as i32 - 1);
+        let half = f32xn::splat(0.5);
+        let mut x = fx * lerp_xn(c0, c1, half * fx) * f32xn::splat(1.0 / (w - 1) as f32);
+        let wm1 = i32xn::splat(w as i32 - 1);
         let (row0, row1) = (py * wm1, (py + one) * wm1);
         let left = (px - one).max(zero);
-        let before = lerp_x8(
+        let before = lerp_xn(
             b.at(&self.cond, nc, row0 + left),
             b.at(&self.cond, nc, row1 + left),
             fy,
         );
-        let fzero = f32x8::splat(0.0);
-        x = sel(f32x8::from_i32x8(px).simd_gt(fzero), x + before, x);
-        let last = i32x8::splat(w as i32 - 2);
+        let fzero = f32xn::splat(0.0);
+        x = sel(crate::simd::float_of(px).simd_gt(fzero), x + before, x);
+        let last = i32xn::splat(w as i32 - 2);
         let r0 = b.at(&self.cond, nc, row0 + last);
         let r1 = b.at(&self.cond, nc, row1 + last);
-        let rl = lerp_x8(r0, r1, fy);
+        let rl = lerp_xn(r0, r1, fy);
         x = sel(rl.simd_gt(fzero), x / rl, x);
-        let mut y = fy * lerp_x8(r0, r1, half * fy) * f32x8::splat(1.0 / (h - 1) as f32);
+        let mut y = fy * lerp_xn(r0, r1, half * fy) * f32xn::splat(1.0 / (h - 1) as f32);
         let above = b.at(&self.marg, nm, (py - one).max(zero));
-        y = sel(f32x8::from_i32x8(py).simd_gt(fzero), y + above, y);
+        y = sel(crate::simd::float_of(py).simd_gt(fzero), y + above, y);
         ([x, y], pdf)
     }
 }
@@ -623,6 +623,7 @@ impl Marginal2D {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simd::LANES;
 
     /// Two parameter slices of a 5 x 4 table.
     fn table() -> Marginal2D {
@@ -766,18 +767,18 @@ mod tests {
         let m = Marginal2D::new(&data, w, h, params, true);
         let same = |a: f32, b: f32| a.to_bits() == b.to_bits();
         for round in 0..400 {
-            let q = |j: usize| awkward(round * 8 * 6 + j);
+            let q = |j: usize| awkward(round * LANES * 6 + j);
             let p0 = lanes(|i| q(i * 6) * 1.4 - 0.2);
             let p1 = lanes(|i| q(i * 6 + 1) * 5.0 - 1.5);
             let u = lanes(|i| [q(i * 6 + 2), q(i * 6 + 3)]);
             let xi = lanes(|i| [q(i * 6 + 4), q(i * 6 + 5)]);
-            let sl8 = m.slices_x8(&[f32x8::new(p0), f32x8::new(p1)]);
-            let u8 = [f32x8::new(u.map(|v| v[0])), f32x8::new(u.map(|v| v[1]))];
-            let xi8 = [f32x8::new(xi.map(|v| v[0])), f32x8::new(xi.map(|v| v[1]))];
-            let e = m.eval_x8(u8, &sl8).to_array();
-            let (iv, ip) = m.invert_x8(u8, &sl8);
-            let (sv, sp) = m.sample_x8(xi8, &sl8);
-            for i in 0..8 {
+            let sl8 = m.slices_xn(&[f32xn::new(p0), f32xn::new(p1)]);
+            let u8 = [f32xn::new(u.map(|v| v[0])), f32xn::new(u.map(|v| v[1]))];
+            let xi8 = [f32xn::new(xi.map(|v| v[0])), f32xn::new(xi.map(|v| v[1]))];
+            let e = m.eval_xn(u8, &sl8).to_array();
+            let (iv, ip) = m.invert_xn(u8, &sl8);
+            let (sv, sp) = m.sample_xn(xi8, &sl8);
+            for i in 0..LANES {
                 let sl = m.slices(&[p0[i], p1[i]]);
                 let ctx = format!("p ({}, {}), u {:?}, xi {:?}", p0[i], p1[i], u[i], xi[i]);
                 assert!(same(e[i], m.eval_in(u[i], &sl)), "eval {ctx}");
@@ -801,8 +802,8 @@ mod tests {
             let v: Vec<f32> = (0..n).map(|k| (k / 3) as f32).collect();
             for x10 in (-10..(n as i32 * 5)).step_by(8) {
                 let xs = lanes(|i| (x10 + i as i32) as f32 * 0.1);
-                let got = first_at_least_x8(n, f32x8::new(xs), |k| gather(&v, k)).to_array();
-                for i in 0..8 {
+                let got = first_at_least_xn(n, f32xn::new(xs), |k| gather(&v, k)).to_array();
+                for i in 0..LANES {
                     assert_eq!(got[i] as usize, first_at_least(n, xs[i], |k| v[k]), "n {n}");
                 }
             }
@@ -849,11 +850,11 @@ mod tests {
                 let q = |j: usize| awkward(round * 32 + j);
                 let u = lanes(|i| [q(4 * i) * 1.2 - 0.1, q(4 * i + 1)]);
                 let p = lanes(|i| [q(4 * i + 2) * 1.4 - 0.2, q(4 * i + 3) * 3.0]);
-                let p8 = [f32x8::new(p.map(|p| p[0])), f32x8::new(p.map(|p| p[1]))];
-                let sl8 = table.slices_x8(&p8[..params.len()]);
-                let u8 = [f32x8::new(u.map(|u| u[0])), f32x8::new(u.map(|u| u[1]))];
-                let got8 = table.eval_channels_x8::<C>(u8, &sl8);
-                for i in 0..8 {
+                let p8 = [f32xn::new(p.map(|p| p[0])), f32xn::new(p.map(|p| p[1]))];
+                let sl8 = table.slices_xn(&p8[..params.len()]);
+                let u8 = [f32xn::new(u.map(|u| u[0])), f32xn::new(u.map(|u| u[1]))];
+                let got8 = table.eval_channels_xn::<C>(u8, &sl8);
+                for i in 0..LANES {
                     let p = &p[i][..params.len()];
                     let got = table.eval_channels::<C>(u[i], &table.slices(p));
                     for c in 0..C {

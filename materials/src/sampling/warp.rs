@@ -5,11 +5,11 @@
 //! pbrt-v4's `SampleLinear`/`SampleBilinear`; and Veach's power heuristic (1997,
 //! beta = 2) that weighs two such strategies in multiple importance sampling.
 
-use crate::fastmath::x8;
+use crate::fastmath::xn;
 use crate::simd;
+use crate::simd::f32xn;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
-use wide::f32x8;
 
 /// Concentric square-to-disk map (Shirley and Chiu 1997). Both wedges' angles are
 /// computed and one is selected, with no branch: which wedge a uniform point falls in is a
@@ -35,15 +35,15 @@ pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
 /// [`square_to_disk_concentric`] in eight lanes, with the same operations (bit for bit
 /// the same).
 #[inline(always)]
-pub fn square_to_disk_concentric_x8(ux: f32x8, uy: f32x8) -> (f32x8, f32x8) {
-    let (one, two, zero) = (f32x8::splat(1.0), f32x8::splat(2.0), f32x8::splat(0.0));
+pub fn square_to_disk_concentric_xn(ux: f32xn, uy: f32xn) -> (f32xn, f32xn) {
+    let (one, two, zero) = (f32xn::splat(1.0), f32xn::splat(2.0), f32xn::splat(0.0));
     let (ox, oy) = (two * ux - one, two * uy - one);
     let wide = ox.abs().simd_gt(oy.abs());
     let r = simd::sel(wide, ox, oy);
-    let theta_x = f32x8::splat(FRAC_PI_4) * (oy / ox);
-    let theta_y = f32x8::splat(FRAC_PI_2) - f32x8::splat(FRAC_PI_4) * (ox / oy);
+    let theta_x = f32xn::splat(FRAC_PI_4) * (oy / ox);
+    let theta_y = f32xn::splat(FRAC_PI_2) - f32xn::splat(FRAC_PI_4) * (ox / oy);
     let theta = simd::sel(wide, theta_x, theta_y);
-    let (s, c) = x8::sin_cos_moderate(theta);
+    let (s, c) = xn::sin_cos_moderate(theta);
     let centre = ox.simd_eq(zero) & oy.simd_eq(zero);
     (
         simd::sel(centre, zero, r * c),
@@ -53,10 +53,10 @@ pub fn square_to_disk_concentric_x8(ux: f32x8, uy: f32x8) -> (f32x8, f32x8) {
 
 /// [`square_to_cosine_hemisphere`] in eight lanes (bit for bit the same): (x, y, z).
 #[inline(always)]
-pub fn square_to_cosine_hemisphere_x8(ux: f32x8, uy: f32x8) -> [f32x8; 3] {
-    let (x, y) = square_to_disk_concentric_x8(ux, uy);
-    let z = (f32x8::splat(1.0) - (x * x + y * y))
-        .max(f32x8::splat(0.0))
+pub fn square_to_cosine_hemisphere_xn(ux: f32xn, uy: f32xn) -> [f32xn; 3] {
+    let (x, y) = square_to_disk_concentric_xn(ux, uy);
+    let z = (f32xn::splat(1.0) - (x * x + y * y))
+        .max(f32xn::splat(0.0))
         .sqrt();
     [x, y, z]
 }
@@ -77,8 +77,8 @@ pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
 
 /// [`cosine_hemisphere_pdf`] per lane.
 #[inline(always)]
-pub fn cosine_hemisphere_pdf_x8(cos_theta: f32x8) -> f32x8 {
-    cos_theta.max(f32x8::splat(0.0)) * f32x8::splat(FRAC_1_PI)
+pub fn cosine_hemisphere_pdf_xn(cos_theta: f32xn) -> f32xn {
+    cos_theta.max(f32xn::splat(0.0)) * f32xn::splat(FRAC_1_PI)
 }
 
 /// Uniform direction on the unit sphere.
@@ -152,10 +152,10 @@ pub fn square_to_bilinear(u: Vec2, w: [f32; 4]) -> Vec2 {
 
 /// [`sample_linear`] in eight lanes, with the same operations (bit for bit the same).
 #[inline(always)]
-pub fn sample_linear_x8(u: f32x8, a: f32x8, b: f32x8) -> f32x8 {
-    let (zero, one) = (f32x8::splat(0.0), f32x8::splat(1.0));
+pub fn sample_linear_xn(u: f32xn, a: f32xn, b: f32xn) -> f32xn {
+    let (zero, one) = (f32xn::splat(0.0), f32xn::splat(1.0));
     let denom = a + ((one - u) * a * a + u * b * b).max(zero).sqrt();
-    let x = (u * (a + b) / denom).min(f32x8::splat(1.0 - f32::EPSILON / 2.0));
+    let x = (u * (a + b) / denom).min(f32xn::splat(1.0 - f32::EPSILON / 2.0));
     let x = simd::sel(denom.simd_gt(zero), x, u);
     simd::sel(u.simd_eq(zero) & a.simd_eq(zero), zero, x)
 }
@@ -163,15 +163,16 @@ pub fn sample_linear_x8(u: f32x8, a: f32x8, b: f32x8) -> f32x8 {
 /// [`square_to_bilinear`] in eight lanes (bit for bit the same): `w` holds the corner
 /// weights of each lane.
 #[inline(always)]
-pub fn square_to_bilinear_x8(ux: f32x8, uy: f32x8, w: [f32x8; 4]) -> (f32x8, f32x8) {
-    let y = sample_linear_x8(uy, w[0] + w[1], w[2] + w[3]);
-    let x = sample_linear_x8(ux, w[0] + (w[2] - w[0]) * y, w[1] + (w[3] - w[1]) * y);
+pub fn square_to_bilinear_xn(ux: f32xn, uy: f32xn, w: [f32xn; 4]) -> (f32xn, f32xn) {
+    let y = sample_linear_xn(uy, w[0] + w[1], w[2] + w[3]);
+    let x = sample_linear_xn(ux, w[0] + (w[2] - w[0]) * y, w[1] + (w[3] - w[1]) * y);
     (x, y)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simd::LANES;
 
     #[test]
     fn warps_land_where_they_should() {
@@ -265,21 +266,21 @@ mod tests {
         ];
         for (k, w) in ws.iter().enumerate() {
             for j in 0..257 {
-                let us: [Vec2; 8] = std::array::from_fn(|i| {
-                    let t = (j * 8 + i) as f32;
+                let us: [Vec2; LANES] = std::array::from_fn(|i| {
+                    let t = (j * LANES + i) as f32;
                     if j == 0 {
                         Vec2::new(i as f32 / 7.0, (7 - i) as f32 / 7.0)
                     } else {
                         Vec2::new((t * 0.618_034).fract(), (t * 0.754_878 + k as f32).fract())
                     }
                 });
-                let (x, y) = square_to_bilinear_x8(
-                    f32x8::new(us.map(|u| u.x)),
-                    f32x8::new(us.map(|u| u.y)),
-                    w.map(f32x8::splat),
+                let (x, y) = square_to_bilinear_xn(
+                    f32xn::new(us.map(|u| u.x)),
+                    f32xn::new(us.map(|u| u.y)),
+                    w.map(f32xn::splat),
                 );
                 let (x, y) = (x.to_array(), y.to_array());
-                for i in 0..8 {
+                for i in 0..LANES {
                     let e = square_to_bilinear(us[i], *w);
                     assert!(
                         x[i].to_bits() == e.x.to_bits() && y[i].to_bits() == e.y.to_bits(),
@@ -304,14 +305,14 @@ mod tests {
             Vec2::new((t * 0.618_034).fract(), (t * 0.754_878).fract())
         }));
         us.push(Vec2::splat(0.5));
-        for c in us.chunks(8) {
-            let u = std::array::from_fn::<Vec2, 8, _>(|i| c[i.min(c.len() - 1)]);
-            let [x, y, z] = square_to_cosine_hemisphere_x8(
-                f32x8::new(u.map(|u| u.x)),
-                f32x8::new(u.map(|u| u.y)),
+        for c in us.chunks(LANES) {
+            let u = std::array::from_fn::<Vec2, LANES, _>(|i| c[i.min(c.len() - 1)]);
+            let [x, y, z] = square_to_cosine_hemisphere_xn(
+                f32xn::new(u.map(|u| u.x)),
+                f32xn::new(u.map(|u| u.y)),
             );
             let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
-            for i in 0..8 {
+            for i in 0..LANES {
                 let e = square_to_cosine_hemisphere(u[i]);
                 assert_eq!(
                     [x[i], y[i], z[i]].map(f32::to_bits),

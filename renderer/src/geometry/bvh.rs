@@ -261,15 +261,21 @@ impl Geometry {
         let hit = |k: usize| hits[which[k.min(n - 1)]];
         let (lanes, _) = Self::ray_lanes(|k| &rays[hit(k).0 as usize]);
         let (o, d) = (lanes.o, lanes.d);
-        let t = f32x8::new(simd::lanes(|k| hit(k).1));
-        let cr = simd::rows4(|k| match &self.prims[hit(k).2 as usize].kind {
-            PrimKind::Sphere(s) => [s.center.x, s.center.y, s.center.z, s.radius],
-            _ => unreachable!("sphere hits only"),
-        });
+        let t = f32x8::new(simd::lanes8(|k| hit(k).1));
+        let cr = simd::transpose4x8(&simd::lanes8(|k| {
+            match &self.prims[hit(k).2 as usize].kind {
+                PrimKind::Sphere(s) => [s.center.x, s.center.y, s.center.z, s.radius],
+                _ => unreachable!("sphere hits only"),
+            }
+        }));
         // Ray::at: o + d t.
         let at = [o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t];
         let (p, nrm, dpdu) = Sphere::surface_x8(at, [cr[0], cr[1], cr[2]], cr[3]);
-        let (p, nrm, dpdu) = (simd::arrays3(p), simd::arrays3(nrm), simd::arrays3(dpdu));
+        let (p, nrm, dpdu) = (
+            p.map(|v| v.to_array()),
+            nrm.map(|v| v.to_array()),
+            dpdu.map(|v| v.to_array()),
+        );
         for (k, &h) in which.iter().enumerate() {
             let (_, t, prim) = hits[h];
             let shape = self.prims[prim as usize].shape;
@@ -299,11 +305,11 @@ impl Geometry {
     /// read as two 4x8 transposes.
     #[inline(always)]
     fn ray_lanes<'a>(ray: impl Fn(usize) -> &'a Ray) -> (RayLanes, u32x8) {
-        let a = simd::transpose4x8(&simd::lanes(|k| {
+        let a = simd::transpose4x8(&simd::lanes8(|k| {
             let r = ray(k);
             [r.o.x, r.o.y, r.o.z, r.d.x]
         }));
-        let b = simd::transpose4x8(&simd::lanes(|k| {
+        let b = simd::transpose4x8(&simd::lanes8(|k| {
             let r = ray(k);
             [r.d.y, r.d.z, r.tmin, r.tmax]
         }));
@@ -313,7 +319,7 @@ impl Geometry {
             tmin: b[2],
             tmax: b[3],
         };
-        (lanes, u32x8::new(simd::lanes(|k| ray(k).skip)))
+        (lanes, u32x8::new(simd::lanes8(|k| ray(k).skip)))
     }
 
     /// Closest hit with its local geometry.

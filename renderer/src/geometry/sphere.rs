@@ -142,9 +142,10 @@ mod tests {
                 radius: 130.0,
             },
         ];
+        let vec3s = |v: [Vec3; 8]| [0, 1, 2].map(|a| f32x8::new(v.map(|p| p[a])));
         for round in 0..96 {
-            let s = simd::lanes(|k| spheres[(round + k) % 3]);
-            let p = simd::lanes(|k| {
+            let s = simd::lanes8(|k| spheres[(round + k) % 3]);
+            let p = simd::lanes8(|k| {
                 let t = (round * 8 + k) as f32;
                 let c = s[k].center;
                 match (round + k) % 9 {
@@ -157,10 +158,14 @@ mod tests {
                     }
                 }
             });
-            let c = simd::vec3s(&simd::lanes(|k| s[k].center));
-            let r = f32x8::new(simd::lanes(|k| s[k].radius));
-            let (pp, n, u) = Sphere::surface_x8(simd::vec3s(&p), c, r);
-            let (pp, n, u) = (simd::arrays3(pp), simd::arrays3(n), simd::arrays3(u));
+            let c = vec3s(simd::lanes8(|k| s[k].center));
+            let r = f32x8::new(simd::lanes8(|k| s[k].radius));
+            let (pp, n, u) = Sphere::surface_x8(vec3s(p), c, r);
+            let (pp, n, u) = (
+                pp.map(|v| v.to_array()),
+                n.map(|v| v.to_array()),
+                u.map(|v| v.to_array()),
+            );
             for k in 0..8 {
                 let (ep, en, eu) = s[k].surface(p[k]);
                 let v = |a: &[[f32; 8]; 3]| [a[0][k], a[1][k], a[2][k]].map(f32::to_bits);

@@ -17,7 +17,7 @@ use glam::Vec3;
 use lobe_materials::Bsdf;
 use lobe_materials::frame::Frame;
 use lobe_materials::simd;
-use wide::f32x8;
+use lobe_materials::simd::{LANES, f32xn};
 
 /// Which light transport algorithm renders the image.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -128,7 +128,11 @@ impl<'a> Shading<'a> {
 /// normals `ns`, tangents `dpdu`, ray directions `d`), bit for bit the same: the
 /// arithmetic of [`Frame::from_normal_tangent`], `to_local` and `normalize` in SIMD lanes;
 /// lanes whose tangent is degenerate take the scalar fallback.
-pub(crate) fn shading_x8(ns: [Vec3; 8], dpdu: [Vec3; 8], d: [Vec3; 8]) -> ([Frame; 8], [Vec3; 8]) {
+pub(crate) fn shading_xn(
+    ns: [Vec3; LANES],
+    dpdu: [Vec3; LANES],
+    d: [Vec3; LANES],
+) -> ([Frame; LANES], [Vec3; LANES]) {
     let dot = simd::dot3;
     let (n, u, dir) = (simd::vec3s(&ns), simd::vec3s(&dpdu), simd::vec3s(&d));
     // s = dpdu - n (n . dpdu), normalized by division; t = n x s (glam's cross).
@@ -145,7 +149,7 @@ pub(crate) fn shading_x8(ns: [Vec3; 8], dpdu: [Vec3; 8], d: [Vec3; 8]) -> ([Fram
     // wo = to_local(-d), normalized as glam does (times 1 / length).
     let w = [-dir[0], -dir[1], -dir[2]];
     let wl = [dot(w, s), dot(w, t), dot(w, n)];
-    let inv = f32x8::splat(1.0) / dot(wl, wl).sqrt();
+    let inv = f32xn::splat(1.0) / dot(wl, wl).sqrt();
     let wl = [wl[0] * inv, wl[1] * inv, wl[2] * inv];
     let (sa, ta, wa, l2) = (
         simd::arrays3(s),
@@ -159,7 +163,7 @@ pub(crate) fn shading_x8(ns: [Vec3; 8], dpdu: [Vec3; 8], d: [Vec3; 8]) -> ([Fram
         n: ns[i],
     });
     let mut wo = simd::lanes(|i| Vec3::new(wa[0][i], wa[1][i], wa[2][i]));
-    for i in 0..8 {
+    for i in 0..LANES {
         if !(l2[i] > 1e-12) || !l2[i].is_finite() {
             frames[i] = Frame::from_normal_tangent(ns[i], dpdu[i]);
             wo[i] = frames[i].to_local(-d[i]).normalize();
@@ -220,16 +224,16 @@ mod tests {
             Vec3::new(t.sin(), (1.7 * t).cos(), (0.3 * t).sin() + 0.2).normalize()
         };
         for round in 0..64 {
-            let ns = simd::lanes(|i| v(round * 8 + i, 0.77));
+            let ns = simd::lanes(|i| v(round * LANES + i, 0.77));
             let dpdu = simd::lanes(|i| match (round + i) % 11 {
                 0 => Vec3::ZERO,
                 1 => ns[i] * 2.0,
                 2 => Vec3::new(f32::NAN, 0.0, 1.0),
-                _ => v(round * 8 + i, 1.31) * 3.0,
+                _ => v(round * LANES + i, 1.31) * 3.0,
             });
-            let d = simd::lanes(|i| -v(round * 8 + i, 0.53));
-            let (frames, wo) = shading_x8(ns, dpdu, d);
-            for i in 0..8 {
+            let d = simd::lanes(|i| -v(round * LANES + i, 0.53));
+            let (frames, wo) = shading_xn(ns, dpdu, d);
+            for i in 0..LANES {
                 let f = Frame::from_normal_tangent(ns[i], dpdu[i]);
                 let w = f.to_local(-d[i]).normalize();
                 let bits =

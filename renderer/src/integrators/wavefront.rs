@@ -26,7 +26,7 @@
 //! paths start together and each bounce moves them on by one, so they share their depth
 //! and their sampler dimension, drawn for all at once ([`Sampler::next_1d_lanes`]).
 
-use super::{shading_x8, shadow_ray};
+use super::{shading_xn, shadow_ray};
 use crate::Rgb;
 use crate::camera::Camera;
 use crate::geometry::{Interaction, Ray, spawn_ray};
@@ -39,6 +39,7 @@ use glam::{Vec2, Vec3};
 use lobe_materials::frame::Frame;
 use lobe_materials::sampling::warp::power_heuristic;
 use lobe_materials::simd;
+use lobe_materials::simd::LANES;
 use lobe_materials::{Bsdf, BsdfSample};
 
 /// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
@@ -364,7 +365,7 @@ impl Wavefront {
     }
 
     /// Shading frames and outgoing directions of the scattering hits (eight at a time in
-    /// SIMD lanes: [`shading_x8`]), the sampler dimensions of this bounce for all of them
+    /// SIMD lanes: [`shading_xn`]), the sampler dimensions of this bounce for all of them
     /// (light choice and point, BSDF lobe and direction), and the hits grouped by
     /// material.
     pub fn scatter_setup(&mut self, scene: &Scene, sampler: &mut Sampler) {
@@ -372,9 +373,9 @@ impl Wavefront {
         let m = h.it.len();
         s.frame.clear();
         s.wo.clear();
-        for (ic, pc) in h.it.chunks(8).zip(h.path.chunks(8)) {
+        for (ic, pc) in h.it.chunks(LANES).zip(h.path.chunks(LANES)) {
             let n = ic.len();
-            let (frames, wo) = shading_x8(
+            let (frames, wo) = shading_xn(
                 simd::lanes(|k| ic[k.min(n - 1)].ns),
                 simd::lanes(|k| ic[k.min(n - 1)].dpdu),
                 simd::lanes(|k| p.ray[pc[k.min(n - 1)] as usize].d),

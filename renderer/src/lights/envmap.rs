@@ -28,13 +28,13 @@ use crate::Rgb;
 use crate::error::{Error, Result};
 use crate::image_io::{RgbImage, read_rgb_image};
 use glam::{Mat3, Vec2, Vec3};
-use lobe_materials::fastmath::{self, x8};
+use lobe_materials::fastmath::{self, xn};
 use lobe_materials::sampling::hierarchy::Hierarchy2D;
-use lobe_materials::sampling::warp::{square_to_bilinear, square_to_bilinear_x8};
+use lobe_materials::sampling::warp::{square_to_bilinear, square_to_bilinear_xn};
 use lobe_materials::simd;
+use lobe_materials::simd::{LANES, f32xn, i32xn, u32xn};
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
-use wide::{f32x8, i32x8, u32x8};
 
 #[derive(Clone, Debug)]
 pub struct EnvMap {
@@ -42,7 +42,7 @@ pub struct EnvMap {
     height: usize,
     /// H rows of W + 1 pixels, three floats (r, g, b) each: the last column repeats the
     /// first (periodic boundary). Flat, so that the SIMD lookups load a pixel pair of
-    /// eight cells as 16-byte rows and transpose them ([`simd::transpose4x8`]).
+    /// eight cells as 16-byte rows and transpose them ([`simd::transpose4xn`]).
     data: Vec<f32>,
     scale: f32,
     to_world: Mat3,
@@ -257,11 +257,11 @@ impl EnvMap {
     /// sin top, sin bottom)`. The cells are clamped to the grid first (a no-op for the
     /// cells the callers compute), so the reads need no bounds check per lane.
     #[inline(always)]
-    fn cells_x8(&self, ix: u32x8, iy: u32x8) -> ([Rgb8; 4], f32x8, f32x8) {
+    fn cells_xn(&self, ix: u32xn, iy: u32xn) -> ([Rgb8; 4], f32xn, f32xn) {
         let (w, h) = (self.width, self.height);
-        let ix = ix.min(u32x8::splat(w as u32 - 1));
-        let iy = iy.min(u32x8::splat(h as u32 - 2));
-        let k = (iy * u32x8::splat(w as u32 + 1) + ix).to_array();
+        let ix = ix.min(u32xn::splat(w as u32 - 1));
+        let iy = iy.min(u32xn::splat(h as u32 - 2));
+        let k = (iy * u32xn::splat(w as u32 + 1) + ix).to_array();
         let iy = iy.to_array();
         let (d, rows) = (&self.data, &self.sin_row);
         assert!(w >= 2 && h >= 3 && d.len() == 3 * (w + 1) * h && rows.len() == h);
@@ -276,8 +276,8 @@ impl EnvMap {
                 let f = |j: usize| unsafe { *d.get_unchecked(s + j) };
                 ([f(0), f(1), f(2), f(3)], [f(2), f(3), f(4), f(5)])
             });
-            let a = simd::transpose4x8(&simd::lanes(|i| p[i].0));
-            let b = simd::transpose4x8(&simd::lanes(|i| p[i].1));
+            let a = simd::transpose4xn(&simd::lanes(|i| p[i].0));
+            let b = simd::transpose4xn(&simd::lanes(|i| p[i].1));
             (
                 Rgb8 {
                     r: a[0],
@@ -295,7 +295,7 @@ impl EnvMap {
         let (bl, br) = pairs(3 * (w + 1));
         // SAFETY: iy + 1 <= h - 1 < rows.len() (clamped above, asserted).
         let sine = |j: usize| {
-            f32x8::new(simd::lanes(|i| unsafe {
+            f32xn::new(simd::lanes(|i| unsafe {
                 *rows.get_unchecked(iy[i] as usize + j)
             }))
         };
@@ -306,24 +306,24 @@ impl EnvMap {
     /// `scale`) and density at (`fx`, `fy`) in cells with corner texels `t`, whose rows
     /// have sin(theta) `s_top` and `s_bottom`.
     #[inline(always)]
-    fn blend_x8(
+    fn blend_xn(
         &self,
         t: &[Rgb8; 4],
-        s_top: f32x8,
-        s_bottom: f32x8,
-        fx: f32x8,
-        fy: f32x8,
-    ) -> (Rgb8, f32x8) {
-        let one = f32x8::splat(1.0);
-        let zero = f32x8::splat(0.0);
+        s_top: f32xn,
+        s_bottom: f32xn,
+        fx: f32xn,
+        fy: f32xn,
+    ) -> (Rgb8, f32xn) {
+        let one = f32xn::splat(1.0);
+        let zero = f32xn::splat(0.0);
         let top = t[0].lerp_weights(one - fx, t[1], fx);
         let bottom = t[2].lerp_weights(one - fx, t[3], fx);
         let texel = top.lerp_weights(one - fy, bottom, fy);
-        let inv_mean = f32x8::splat(self.inv_mean);
+        let inv_mean = f32xn::splat(self.inv_mean);
         let density = if self.inv_mean == 0.0 {
             one
         } else if self.offset > 0.0 {
-            let c = self.corner_weights_x8(t, s_top, s_bottom);
+            let c = self.corner_weights_xn(t, s_top, s_bottom);
             ((one - fy) * (c[0] * (one - fx) + c[1] * fx) + fy * (c[2] * (one - fx) + c[3] * fx))
                 * inv_mean
         } else {
@@ -336,9 +336,9 @@ impl EnvMap {
 
     /// [`EnvMap::corner_weights`] in eight lanes.
     #[inline(always)]
-    fn corner_weights_x8(&self, t: &[Rgb8; 4], s_top: f32x8, s_bottom: f32x8) -> [f32x8; 4] {
-        let (offset, zero) = (f32x8::splat(self.offset), f32x8::splat(0.0));
-        let w = |c: &Rgb8, s: f32x8| (c.luminance() - offset).max(zero) * s;
+    fn corner_weights_xn(&self, t: &[Rgb8; 4], s_top: f32xn, s_bottom: f32xn) -> [f32xn; 4] {
+        let (offset, zero) = (f32xn::splat(self.offset), f32xn::splat(0.0));
+        let w = |c: &Rgb8, s: f32xn| (c.luminance() - offset).max(zero) * s;
         [
             w(&t[0], s_top),
             w(&t[1], s_top),
@@ -349,43 +349,43 @@ impl EnvMap {
 
     /// [`EnvMap::eval_pdf`] of many directions, `out[i]` for `dirs[i]`, bit for bit the
     /// same: eight at a time in SIMD lanes (`wide`'s AVX vectors), with the lane forms of
-    /// the same functions ([`fastmath::x8`]), so that the independent texel reads of eight
+    /// the same functions ([`fastmath::xn`]), so that the independent texel reads of eight
     /// lookups overlap and the arithmetic runs once per eight directions.
     pub fn eval_pdf_many(&self, dirs: &[Vec3], out: &mut [(Rgb, f32)]) {
         assert_eq!(dirs.len(), out.len());
         let (w, h) = (self.width, self.height);
-        let zero = f32x8::splat(0.0);
-        for (dc, oc) in dirs.chunks(8).zip(out.chunks_mut(8)) {
+        let zero = f32xn::splat(0.0);
+        for (dc, oc) in dirs.chunks(LANES).zip(out.chunks_mut(LANES)) {
             let n = dc.len();
             let d = simd::lanes(|i| dc[i.min(n - 1)]);
             let [dx, dy, dz] = simd::vec3s(&d);
-            let [lx, ly, lz] = mat3_mul_x8(&self.to_local, dx, dy, dz);
+            let [lx, ly, lz] = mat3_mul_xn(&self.to_local, dx, dy, dz);
             // Texture coordinates ([`EnvMap::uv_of`]).
-            let u = x8::atan2(lx, -lz) * f32x8::splat(1.0 / TAU);
-            let u = simd::sel(u.simd_lt(zero), u + f32x8::splat(1.0), u);
-            let v = x8::acos(simd::clamp(ly, -1.0, 1.0)) * f32x8::splat(1.0 / PI);
+            let u = xn::atan2(lx, -lz) * f32xn::splat(1.0 / TAU);
+            let u = simd::sel(u.simd_lt(zero), u + f32xn::splat(1.0), u);
+            let v = xn::acos(simd::clamp(ly, -1.0, 1.0)) * f32xn::splat(1.0 / PI);
             let st = (lx * lx + lz * lz).sqrt();
             // The bilinear cell ([`EnvMap::texel_cell`]).
-            let x = u - f32x8::splat(0.5 / w as f32);
-            let x = (x - x.floor()) * f32x8::splat(w as f32);
-            let y = (v - v.floor()) * f32x8::splat((h - 1) as f32);
+            let x = u - f32xn::splat(0.5 / w as f32);
+            let x = (x - x.floor()) * f32xn::splat(w as f32);
+            let y = (v - v.floor()) * f32xn::splat((h - 1) as f32);
             let ix = x
                 .trunc_int()
-                .max(i32x8::splat(0))
-                .min(i32x8::splat(w as i32 - 1));
+                .max(i32xn::splat(0))
+                .min(i32xn::splat(w as i32 - 1));
             let iy = y
                 .trunc_int()
-                .max(i32x8::splat(0))
-                .min(i32x8::splat(h as i32 - 2));
-            let fx = x - f32x8::from_i32x8(ix);
-            let fy = y - f32x8::from_i32x8(iy);
-            let (t, s_top, s_bottom) = self.cells_x8(to_u32(ix), to_u32(iy));
-            let (texel, density) = self.blend_x8(&t, s_top, s_bottom, fx, fy);
+                .max(i32xn::splat(0))
+                .min(i32xn::splat(h as i32 - 2));
+            let fx = x - lobe_materials::simd::float_of(ix);
+            let fy = y - lobe_materials::simd::float_of(iy);
+            let (t, s_top, s_bottom) = self.cells_xn(to_u32(ix), to_u32(iy));
+            let (texel, density) = self.blend_xn(&t, s_top, s_bottom, fx, fy);
             let radiance = texel.scale(self.scale);
             let pdf = simd::sel(
-                st.simd_le(f32x8::splat(1e-7)),
+                st.simd_le(f32xn::splat(1e-7)),
                 zero,
-                density / (f32x8::splat(2.0 * PI * PI) * st),
+                density / (f32xn::splat(2.0 * PI * PI) * st),
             )
             .to_array();
             for (i, o) in oc.iter_mut().enumerate() {
@@ -401,13 +401,13 @@ impl EnvMap {
     pub fn sample_many(&self, us: &[Vec2], wi: &mut [Vec3], li: &mut [Rgb], pdf: &mut [f32]) {
         assert!(us.len() == wi.len() && us.len() == li.len() && us.len() == pdf.len());
         let (w, h) = (self.width as f32, (self.height - 1) as f32);
-        let zero = f32x8::splat(0.0);
-        let one_minus_eps = f32x8::splat(1.0 - f32::EPSILON / 2.0);
+        let zero = f32xn::splat(0.0);
+        let one_minus_eps = f32xn::splat(1.0 - f32::EPSILON / 2.0);
         // Sixteen points at a time: two groups of eight descend the hierarchy side by side
         // (two independent dependency chains the core overlaps; three or four groups
         // measured no faster), then each goes on alone.
         const GROUPS: usize = 2;
-        for (c2, uc2) in us.chunks(8 * GROUPS).enumerate() {
+        for (c2, uc2) in us.chunks(LANES * GROUPS).enumerate() {
             let group = |uc: &[Vec2]| simd::vec2s(&simd::padded(&uc[..uc.len().min(8)]));
             let [x0, y0] = group(uc2);
             let cells = match uc2.get(8..) {
@@ -421,33 +421,33 @@ impl EnvMap {
                     [c, c]
                 }
             };
-            for (g, uc) in uc2.chunks(8).enumerate() {
+            for (g, uc) in uc2.chunks(LANES).enumerate() {
                 let n = uc.len();
                 let (cx, cy, rx, ry) = cells[g];
-                let (t, s_top, s_bottom) = self.cells_x8(cx, cy);
+                let (t, s_top, s_bottom) = self.cells_xn(cx, cy);
                 let (ix, iy) = (cx.to_array(), cy.to_array());
                 // Within the cell, the bilinear density of the corner weights.
                 let (fx, fy) = if self.inv_mean == 0.0 {
                     (rx, ry)
                 } else {
-                    let cw = self.corner_weights_x8(&t, s_top, s_bottom);
-                    square_to_bilinear_x8(rx, ry, cw)
+                    let cw = self.corner_weights_xn(&t, s_top, s_bottom);
+                    square_to_bilinear_xn(rx, ry, cw)
                 };
-                let cxf = f32x8::new(simd::lanes(|i| ix[i] as f32));
-                let cyf = f32x8::new(simd::lanes(|i| iy[i] as f32));
-                let ax = ((cxf + fx) / f32x8::splat(w)).min(one_minus_eps);
-                let vv = ((cyf + fy) / f32x8::splat(h)).min(one_minus_eps);
-                let x = ax + f32x8::splat(0.5 / w);
-                let uu = simd::sel(x.simd_ge(f32x8::splat(1.0)), x - f32x8::splat(1.0), x);
-                let (st, ct) = x8::sin_cos_moderate(vv * f32x8::splat(PI));
-                let (sp, cp) = x8::sin_cos_moderate(uu * f32x8::splat(TAU));
-                let (texel, pdf_ab) = self.blend_x8(&t, s_top, s_bottom, fx, fy);
-                let valid = st.simd_gt(f32x8::splat(1e-7)) & pdf_ab.simd_gt(zero);
-                let [dx, dy, dz] = mat3_mul_x8(&self.to_world, st * sp, ct, -(st * cp));
+                let cxf = f32xn::new(simd::lanes(|i| ix[i] as f32));
+                let cyf = f32xn::new(simd::lanes(|i| iy[i] as f32));
+                let ax = ((cxf + fx) / f32xn::splat(w)).min(one_minus_eps);
+                let vv = ((cyf + fy) / f32xn::splat(h)).min(one_minus_eps);
+                let x = ax + f32xn::splat(0.5 / w);
+                let uu = simd::sel(x.simd_ge(f32xn::splat(1.0)), x - f32xn::splat(1.0), x);
+                let (st, ct) = xn::sin_cos_moderate(vv * f32xn::splat(PI));
+                let (sp, cp) = xn::sin_cos_moderate(uu * f32xn::splat(TAU));
+                let (texel, pdf_ab) = self.blend_xn(&t, s_top, s_bottom, fx, fy);
+                let valid = st.simd_gt(f32xn::splat(1e-7)) & pdf_ab.simd_gt(zero);
+                let [dx, dy, dz] = mat3_mul_xn(&self.to_world, st * sp, ct, -(st * cp));
                 let radiance = texel.scale(self.scale);
-                let p = pdf_ab / (f32x8::splat(2.0 * PI * PI) * st);
+                let p = pdf_ab / (f32xn::splat(2.0 * PI * PI) * st);
                 // Invalid lanes get a zero direction, radiance and pdf.
-                let keep = |v: f32x8| simd::sel(valid, v, zero);
+                let keep = |v: f32xn| simd::sel(valid, v, zero);
                 let [dx, dy, dz] = simd::arrays3([keep(dx), keep(dy), keep(dz)]);
                 let [r, gr, b] = simd::arrays3([radiance.r, radiance.g, radiance.b].map(keep));
                 let p = keep(p).to_array();
@@ -512,15 +512,15 @@ impl EnvMap {
 /// Eight RGB values, one per SIMD lane.
 #[derive(Clone, Copy)]
 struct Rgb8 {
-    r: f32x8,
-    g: f32x8,
-    b: f32x8,
+    r: f32xn,
+    g: f32xn,
+    b: f32xn,
 }
 
 impl Rgb8 {
     /// `self * a + o * b` with [`Rgb`]'s operations.
     #[inline(always)]
-    fn lerp_weights(&self, a: f32x8, o: Rgb8, b: f32x8) -> Self {
+    fn lerp_weights(&self, a: f32xn, o: Rgb8, b: f32xn) -> Self {
         Self {
             r: self.r * a + o.r * b,
             g: self.g * a + o.g * b,
@@ -530,15 +530,15 @@ impl Rgb8 {
 
     /// [`Rgb::luminance`] per lane.
     #[inline(always)]
-    fn luminance(&self) -> f32x8 {
-        f32x8::splat(0.212671) * self.r
-            + f32x8::splat(0.715160) * self.g
-            + f32x8::splat(0.072169) * self.b
+    fn luminance(&self) -> f32xn {
+        f32xn::splat(0.212671) * self.r
+            + f32xn::splat(0.715160) * self.g
+            + f32xn::splat(0.072169) * self.b
     }
 
     #[inline(always)]
     fn scale(&self, s: f32) -> Self {
-        let s = f32x8::splat(s);
+        let s = f32xn::splat(s);
         Self {
             r: self.r * s,
             g: self.g * s,
@@ -565,11 +565,11 @@ fn texel(d: &[f32], k: usize) -> Rgb {
 
 /// `m * (x, y, z)` in eight lanes, with glam's `Mat3 * Vec3` operations.
 #[inline(always)]
-fn mat3_mul_x8(m: &Mat3, x: f32x8, y: f32x8, z: f32x8) -> [f32x8; 3] {
+fn mat3_mul_xn(m: &Mat3, x: f32xn, y: f32xn, z: f32xn) -> [f32xn; 3] {
     let row = |c: usize| {
-        f32x8::splat(m.x_axis[c]) * x
-            + f32x8::splat(m.y_axis[c]) * y
-            + f32x8::splat(m.z_axis[c]) * z
+        f32xn::splat(m.x_axis[c]) * x
+            + f32xn::splat(m.y_axis[c]) * y
+            + f32xn::splat(m.z_axis[c]) * z
     };
     [row(0), row(1), row(2)]
 }
@@ -611,8 +611,8 @@ fn validate_image(mut img: RgbImage, name: &str) -> Result<RgbImage> {
 
 /// Non-negative lanes as unsigned ones (the same bits).
 #[inline(always)]
-fn to_u32(v: i32x8) -> u32x8 {
-    u32x8::new(v.to_array().map(|x| x as u32))
+fn to_u32(v: i32xn) -> u32xn {
+    u32xn::new(v.to_array().map(|x| x as u32))
 }
 
 #[cfg(test)]

@@ -19,8 +19,8 @@ use lobe_materials::sampling::warp::{
     UNIFORM_SPHERE_PDF, square_to_uniform_cone, square_to_uniform_sphere,
     square_to_uniform_triangle, uniform_cone_pdf,
 };
-use lobe_materials::simd::{self, Vec3x8};
-use wide::f32x8;
+use lobe_materials::simd::{self, Vec3xN};
+use lobe_materials::simd::{LANES, f32xn};
 
 /// Emitting geometry of an area light.
 #[derive(Clone, Debug)]
@@ -309,23 +309,23 @@ fn sample_rectangle_many(
     u: &[Vec2],
     out: &mut LightSamples,
 ) {
-    let zero = f32x8::splat(0.0);
-    let n = Vec3x8::splat(if flip { -rect.n } else { rect.n });
-    let area_pdf = f32x8::splat(1.0 / rect.area());
+    let zero = f32xn::splat(0.0);
+    let n = Vec3xN::splat(if flip { -rect.n } else { rect.n });
+    let area_pdf = f32xn::splat(1.0 / rect.area());
     let (corner, eu, ev) = (
-        Vec3x8::splat(rect.corner),
-        Vec3x8::splat(rect.eu),
-        Vec3x8::splat(rect.ev),
+        Vec3xN::splat(rect.corner),
+        Vec3xN::splat(rect.eu),
+        Vec3xN::splat(rect.ev),
     );
-    for (c, uc) in u.chunks(8).enumerate() {
-        let first = 8 * c;
+    for (c, uc) in u.chunks(LANES).enumerate() {
+        let first = LANES * c;
         let len = uc.len();
         let uu = simd::padded(uc);
         let (ux, uy) = (
-            f32x8::new(simd::lanes(|i| uu[i].x)),
-            f32x8::new(simd::lanes(|i| uu[i].y)),
+            f32xn::new(simd::lanes(|i| uu[i].x)),
+            f32xn::new(simd::lanes(|i| uu[i].y)),
         );
-        let pp = Vec3x8::from_array(&simd::lanes(|i| p(first + i.min(len - 1))));
+        let pp = Vec3xN::from_array(&simd::lanes(|i| p(first + i.min(len - 1))));
         // Rectangle::point: corner + eu u + ev v.
         let q = corner + eu * ux + ev * uy;
         // area_to_solid_angle(p, q, n, 1 / area).
@@ -338,7 +338,7 @@ fn sample_rectangle_many(
         let ok = dist2.simd_gt(zero) & pdf.simd_gt(zero);
         // d / |d|, a division per component as glam's `Vec3 / f32`.
         let dist = dist2.sqrt();
-        let wi = Vec3x8::new(d.x / dist, d.y / dist, d.z / dist);
+        let wi = Vec3xN::new(d.x / dist, d.y / dist, d.z / dist);
         let lit = n.dot(-wi).simd_gt(zero);
         let (ok, lit, pdf) = (simd::mask_bits(ok), simd::mask_bits(lit), pdf.to_array());
         let (wi, q) = (wi.to_array(), q.to_array());

@@ -3,7 +3,7 @@
 //! relative index of refraction eta (Cook and Torrance 1981, eq. 5; Born and Wolf).
 
 use crate::math::Real;
-use crate::simd::{f32x8, sel};
+use crate::simd::{f32xn, sel};
 
 /// Which Fresnel term a model uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,8 +34,8 @@ impl Fresnel {
 /// [`Fresnel::eval`] per lane.
 impl Fresnel {
     #[inline(always)]
-    pub fn eval_x8(&self, c: f32x8) -> f32x8 {
-        let s = f32x8::splat;
+    pub fn eval_xn(&self, c: f32xn) -> f32xn {
+        let s = f32xn::splat;
         match *self {
             Fresnel::None => s(1.0),
             Fresnel::Schlick { f0 } => {

@@ -12,10 +12,10 @@
 
 pub mod fresnel;
 
-use crate::fastmath::{self, x8};
+use crate::fastmath::{self, xn};
 use crate::lobe::{self, half_from};
 use crate::math::Real;
-use crate::simd::{Vec3x8, f32x8, sel};
+use crate::simd::{Vec3xN, f32xn, sel};
 use glam::{Vec2, Vec3};
 
 /// A microfacet normal distribution.
@@ -95,30 +95,30 @@ impl Distribution {
 
     /// [`Distribution::sample_h`] of eight points (x, y) in lanes, bit for bit the same.
     #[inline(always)]
-    pub fn sample_h_x8(&self, ux: f32x8, uy: f32x8) -> Vec3x8 {
+    pub fn sample_h_xn(&self, ux: f32xn, uy: f32xn) -> Vec3xN {
         let cos_t = match *self {
             Distribution::Beckmann { m } | Distribution::Gaussian { m, .. } => {
-                beckmann_cos_x8(f32x8::splat(m as f32), uy)
+                beckmann_cos_xn(f32xn::splat(m as f32), uy)
             }
-            Distribution::CosinePower { n } => x8::powf(uy, f32x8::splat(1.0 / (n as f32 + 2.0))),
+            Distribution::CosinePower { n } => xn::powf(uy, f32xn::splat(1.0 / (n as f32 + 2.0))),
         };
-        lobe::x8::half_from(cos_t, ux)
+        lobe::xn::half_from(cos_t, ux)
     }
 
     /// [`Distribution::d`] per lane (f32).
     #[inline(always)]
-    pub fn d_x8(&self, cos_h: f32x8) -> f32x8 {
-        let s = f32x8::splat;
+    pub fn d_xn(&self, cos_h: f32xn) -> f32xn {
+        let s = f32xn::splat;
         let zero = s(0.0);
         let d = match *self {
-            Distribution::Beckmann { m } => beckmann_d_x8(s((m * m) as f32), cos_h),
+            Distribution::Beckmann { m } => beckmann_d_xn(s((m * m) as f32), cos_h),
             Distribution::Gaussian { m, c } => {
-                let theta = x8::acos(cos_h.min(s(1.0)));
+                let theta = xn::acos(cos_h.min(s(1.0)));
                 let r = theta / s(m as f32);
-                s(c as f32) * x8::exp(-r * r)
+                s(c as f32) * xn::exp(-r * r)
             }
             Distribution::CosinePower { n } => {
-                s(((n + 2.0) / (2.0 * std::f64::consts::PI)) as f32) * x8::powf(cos_h, s(n as f32))
+                s(((n + 2.0) / (2.0 * std::f64::consts::PI)) as f32) * xn::powf(cos_h, s(n as f32))
             }
         };
         sel(cos_h.simd_le(zero), zero, d)
@@ -126,12 +126,12 @@ impl Distribution {
 
     /// [`Distribution::pdf_h`] per lane.
     #[inline(always)]
-    pub fn pdf_h_x8(&self, cos_h: f32x8) -> f32x8 {
+    pub fn pdf_h_xn(&self, cos_h: f32xn) -> f32xn {
         match *self {
             Distribution::Beckmann { .. } | Distribution::CosinePower { .. } => {
-                self.d_x8(cos_h) * cos_h
+                self.d_xn(cos_h) * cos_h
             }
-            Distribution::Gaussian { m, .. } => Distribution::Beckmann { m }.d_x8(cos_h) * cos_h,
+            Distribution::Gaussian { m, .. } => Distribution::Beckmann { m }.d_xn(cos_h) * cos_h,
         }
     }
 
@@ -149,13 +149,13 @@ impl Distribution {
 
 /// Beckmann's D per lane for positive `cos_h`, each lane its own squared roughness `m2`
 /// (`(m * m) as f32`, as [`Distribution::d`] rounds it): the lanes of
-/// [`Distribution::d_x8`] (which zeroes `cos_h <= 0`).
+/// [`Distribution::d_xn`] (which zeroes `cos_h <= 0`).
 #[inline(always)]
-pub fn beckmann_d_x8(m2: f32x8, cos_h: f32x8) -> f32x8 {
-    let (s, zero) = (f32x8::splat, f32x8::splat(0.0));
+pub fn beckmann_d_xn(m2: f32xn, cos_h: f32xn) -> f32xn {
+    let (s, zero) = (f32xn::splat, f32xn::splat(0.0));
     let c2 = cos_h * cos_h;
     let tan2 = (s(1.0) - c2).max(zero) / c2;
-    let e = x8::exp(-tan2 / m2);
+    let e = xn::exp(-tan2 / m2);
     let d = e / (s(std::f32::consts::PI) * m2 * c2 * c2);
     sel(e.simd_eq(zero), zero, d)
 }
@@ -169,9 +169,9 @@ pub fn beckmann_cos(m: f32, u: f32) -> f32 {
 
 /// [`beckmann_cos`] per lane (each lane its own roughness).
 #[inline(always)]
-pub fn beckmann_cos_x8(m: f32x8, u: f32x8) -> f32x8 {
-    let one = f32x8::splat(1.0);
-    let tan2 = -m * m * x8::ln((one - u).max(f32x8::splat(f32::MIN_POSITIVE)));
+pub fn beckmann_cos_xn(m: f32xn, u: f32xn) -> f32xn {
+    let one = f32xn::splat(1.0);
+    let tan2 = -m * m * xn::ln((one - u).max(f32xn::splat(f32::MIN_POSITIVE)));
     one / (one + tan2).sqrt()
 }
 
@@ -209,8 +209,8 @@ pub fn vgroove_g<T: Real>(cos_h: T, cos_o: T, cos_i: T, wo_dot_h: T) -> T {
 
 /// [`vgroove_g`] per lane.
 #[inline(always)]
-pub fn vgroove_g_x8(cos_h: f32x8, cos_o: f32x8, cos_i: f32x8, wo_dot_h: f32x8) -> f32x8 {
-    let s = f32x8::splat;
+pub fn vgroove_g_xn(cos_h: f32xn, cos_o: f32xn, cos_i: f32xn, wo_dot_h: f32xn) -> f32xn {
+    let s = f32xn::splat;
     let a = s(2.0) * cos_h * cos_o / wo_dot_h;
     let b = s(2.0) * cos_h * cos_i / wo_dot_h;
     let g = s(1.0).min(a).min(b).max(s(0.0));
