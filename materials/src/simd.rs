@@ -108,7 +108,8 @@ pub fn transpose4xn(r: &[[f32; 4]; LANES]) -> [f32xn; 4] {
         let lo = transpose4x8(lo.try_into().expect("8 records"));
         let hi = transpose4x8(hi.try_into().expect("8 records"));
         // Lanes 0..8 from the first eight records, 8..16 from the others.
-        [0, 1, 2, 3].map(|k| wide::bytemuck::cast::<_, f32xn>([lo[k], hi[k]]))
+        let join = |k: usize| wide::bytemuck::cast::<_, f32xn>([lo[k], hi[k]]);
+        [join(0), join(1), join(2), join(3)]
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
     {

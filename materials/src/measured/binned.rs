@@ -539,7 +539,7 @@ mod tests {
                 Vec3::new(s * phi.cos(), s * phi.sin(), z)
             };
             let (mut same, mut edge) = (0, 0);
-            for chunk in 0..2000 {
+            for chunk in 0..16_000 / LANES {
                 let wi: [Vec3; LANES] =
                     simd::lanes(|i| dir(LANES * chunk + i, 0.618_034, 0.414_214));
                 let wo: [Vec3; LANES] =

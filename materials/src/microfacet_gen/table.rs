@@ -269,7 +269,7 @@ impl Table {
     /// [`Table::sample_h`] of eight points, lane by lane the same.
     pub fn sample_h_xn(&self, u: &[Vec2; LANES]) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
-        let [(cx, cy, rx, ry)] = self.cells.sample_x8s([ux], [uy]);
+        let [(cx, cy, rx, ry)] = self.cells.sample_groups([ux], [uy]);
         let n = self.n as i32;
         let k = wide::bytemuck::cast::<_, i32xn>(cy) * i32xn::splat(n)
             + wide::bytemuck::cast::<_, i32xn>(cx);
@@ -413,7 +413,7 @@ mod tests {
                 DVec3::new(s * phi.cos(), s * phi.sin(), z)
             };
             let (mut checked, mut nonzero) = (0, 0);
-            for chunk in 0..400 {
+            for chunk in 0..3200 / LANES {
                 let wo: [DVec3; LANES] =
                     simd::lanes(|i| dir(LANES * chunk + i, 0.618_034, 0.414_214));
                 let wi: [DVec3; LANES] =

@@ -119,7 +119,7 @@ impl Hierarchy2D {
     /// is one long chain of loads, divisions and selects per group). Per group: (columns,
     /// rows, positions within the cells).
     #[inline(always)]
-    pub fn sample_x8s<const N: usize>(
+    pub fn sample_groups<const N: usize>(
         &self,
         ux: [f32xn; N],
         uy: [f32xn; N],
@@ -170,7 +170,7 @@ const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
 /// One step of [`Hierarchy2D::sample`]: in a 2x2 block `p` = [top-left, top-right,
 /// bottom-left, bottom-right], picks the row with `uy` and the column within it with `ux`,
 /// never a child of zero mass, and rescales both to [0, 1): (right, lower, ux', uy').
-/// Written with selects only (no branch), so that [`Hierarchy2D::sample_x8s`]
+/// Written with selects only (no branch), so that [`Hierarchy2D::sample_groups`]
 /// vectorizes.
 #[inline(always)]
 fn descend(p: [f32; 4], ux: f32, uy: f32) -> (u32, u32, f32, f32) {
@@ -372,7 +372,7 @@ mod tests {
                 }
             });
             let [(cx, cy, fx, fy)] =
-                t.sample_x8s([f32xn::new(u.map(|v| v.x))], [f32xn::new(u.map(|v| v.y))]);
+                t.sample_groups([f32xn::new(u.map(|v| v.x))], [f32xn::new(u.map(|v| v.y))]);
             let (cx, cy, fx, fy) = (cx.to_array(), cy.to_array(), fx.to_array(), fy.to_array());
             for i in 0..LANES {
                 let lane = (cx[i] as usize, cy[i] as usize, Vec2::new(fx[i], fy[i]));

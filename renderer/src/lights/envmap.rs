@@ -32,7 +32,7 @@ use lobe_materials::fastmath::{self, xn};
 use lobe_materials::sampling::hierarchy::Hierarchy2D;
 use lobe_materials::sampling::warp::{square_to_bilinear, square_to_bilinear_xn};
 use lobe_materials::simd;
-use lobe_materials::simd::{LANES, f32xn, i32xn, u32xn};
+use lobe_materials::simd::{LANES, RgbxN, f32xn, i32xn, u32xn};
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
 
@@ -257,7 +257,7 @@ impl EnvMap {
     /// sin top, sin bottom)`. The cells are clamped to the grid first (a no-op for the
     /// cells the callers compute), so the reads need no bounds check per lane.
     #[inline(always)]
-    fn cells_xn(&self, ix: u32xn, iy: u32xn) -> ([Rgb8; 4], f32xn, f32xn) {
+    fn cells_xn(&self, ix: u32xn, iy: u32xn) -> ([RgbxN; 4], f32xn, f32xn) {
         let (w, h) = (self.width, self.height);
         let ix = ix.min(u32xn::splat(w as u32 - 1));
         let iy = iy.min(u32xn::splat(h as u32 - 2));
@@ -265,34 +265,11 @@ impl EnvMap {
         let iy = iy.to_array();
         let (d, rows) = (&self.data, &self.sin_row);
         assert!(w >= 2 && h >= 3 && d.len() == 3 * (w + 1) * h && rows.len() == h);
-        // A pixel pair is six floats, r0 g0 b0 r1 g1 b1: its first four and its last four
-        // (overlapping) are read as two 4x8 transposes.
-        let pairs = |offset: usize| {
-            let p = simd::lanes(|i| {
-                let s = 3 * k[i] as usize + offset;
-                // SAFETY: with ix <= w - 1 and iy <= h - 2 (clamped above), the last
-                // float read, that of the bottom-right texel k + w + 2 <= (h - 1)(w + 1) + w,
-                // is within the h (w + 1) texels of `data` (asserted).
-                let f = |j: usize| unsafe { *d.get_unchecked(s + j) };
-                ([f(0), f(1), f(2), f(3)], [f(2), f(3), f(4), f(5)])
-            });
-            let a = simd::transpose4xn(&simd::lanes(|i| p[i].0));
-            let b = simd::transpose4xn(&simd::lanes(|i| p[i].1));
-            (
-                Rgb8 {
-                    r: a[0],
-                    g: a[1],
-                    b: a[2],
-                },
-                Rgb8 {
-                    r: a[3],
-                    g: b[2],
-                    b: b[3],
-                },
-            )
-        };
-        let (tl, tr) = pairs(0);
-        let (bl, br) = pairs(3 * (w + 1));
+        // SAFETY: with ix <= w - 1 and iy <= h - 2 (clamped above), the last float read,
+        // that of the bottom-right texel k + w + 2 <= (h - 1)(w + 1) + w, is within the
+        // h (w + 1) texels of `data` (asserted).
+        let (tl, tr) = unsafe { Self::pixel_pairs(d, &k, 0) };
+        let (bl, br) = unsafe { Self::pixel_pairs(d, &k, 3 * (w + 1)) };
         // SAFETY: iy + 1 <= h - 1 < rows.len() (clamped above, asserted).
         let sine = |j: usize| {
             f32xn::new(simd::lanes(|i| unsafe {
@@ -302,23 +279,42 @@ impl EnvMap {
         ([tl, tr, bl, br], sine(0), sine(1))
     }
 
+    /// The texels `k[i]` and `k[i] + 1` of `data`, offset by `offset` floats, in lane i:
+    /// a pixel pair is six floats, r0 g0 b0 r1 g1 b1, whose first four and last four
+    /// (overlapping) are read as two 4-float transposes.
+    ///
+    /// # Safety
+    /// `3 k[i] + offset + 6 <= data.len()` in every lane.
+    #[inline(always)]
+    unsafe fn pixel_pairs(data: &[f32], k: &[u32; LANES], offset: usize) -> (RgbxN, RgbxN) {
+        let p = simd::lanes(|i| {
+            let s = 3 * k[i] as usize + offset;
+            // SAFETY: in bounds by the caller's contract.
+            let f = |j: usize| unsafe { *data.get_unchecked(s + j) };
+            ([f(0), f(1), f(2), f(3)], [f(2), f(3), f(4), f(5)])
+        });
+        let a = simd::transpose4xn(&simd::lanes(|i| p[i].0));
+        let b = simd::transpose4xn(&simd::lanes(|i| p[i].1));
+        (RgbxN::new(a[0], a[1], a[2]), RgbxN::new(a[3], b[2], b[3]))
+    }
+
     /// [`EnvMap::blend`] in eight lanes, with the same operations: radiance (without
     /// `scale`) and density at (`fx`, `fy`) in cells with corner texels `t`, whose rows
     /// have sin(theta) `s_top` and `s_bottom`.
     #[inline(always)]
     fn blend_xn(
         &self,
-        t: &[Rgb8; 4],
+        t: &[RgbxN; 4],
         s_top: f32xn,
         s_bottom: f32xn,
         fx: f32xn,
         fy: f32xn,
-    ) -> (Rgb8, f32xn) {
+    ) -> (RgbxN, f32xn) {
         let one = f32xn::splat(1.0);
         let zero = f32xn::splat(0.0);
-        let top = t[0].lerp_weights(one - fx, t[1], fx);
-        let bottom = t[2].lerp_weights(one - fx, t[3], fx);
-        let texel = top.lerp_weights(one - fy, bottom, fy);
+        let top = t[0] * (one - fx) + t[1] * fx;
+        let bottom = t[2] * (one - fx) + t[3] * fx;
+        let texel = top * (one - fy) + bottom * fy;
         let inv_mean = f32xn::splat(self.inv_mean);
         let density = if self.inv_mean == 0.0 {
             one
@@ -336,9 +332,9 @@ impl EnvMap {
 
     /// [`EnvMap::corner_weights`] in eight lanes.
     #[inline(always)]
-    fn corner_weights_xn(&self, t: &[Rgb8; 4], s_top: f32xn, s_bottom: f32xn) -> [f32xn; 4] {
+    fn corner_weights_xn(&self, t: &[RgbxN; 4], s_top: f32xn, s_bottom: f32xn) -> [f32xn; 4] {
         let (offset, zero) = (f32xn::splat(self.offset), f32xn::splat(0.0));
-        let w = |c: &Rgb8, s: f32xn| (c.luminance() - offset).max(zero) * s;
+        let w = |c: &RgbxN, s: f32xn| (c.luminance() - offset).max(zero) * s;
         [
             w(&t[0], s_top),
             w(&t[1], s_top),
@@ -381,7 +377,7 @@ impl EnvMap {
             let fy = y - lobe_materials::simd::float_of(iy);
             let (t, s_top, s_bottom) = self.cells_xn(to_u32(ix), to_u32(iy));
             let (texel, density) = self.blend_xn(&t, s_top, s_bottom, fx, fy);
-            let radiance = texel.scale(self.scale);
+            let radiance = texel * f32xn::splat(self.scale);
             let pdf = simd::sel(
                 st.simd_le(f32xn::splat(1e-7)),
                 zero,
@@ -403,21 +399,21 @@ impl EnvMap {
         let (w, h) = (self.width as f32, (self.height - 1) as f32);
         let zero = f32xn::splat(0.0);
         let one_minus_eps = f32xn::splat(1.0 - f32::EPSILON / 2.0);
-        // Sixteen points at a time: two groups of eight descend the hierarchy side by side
+        // Two lane vectors of points at a time: two groups descend the hierarchy side by side
         // (two independent dependency chains the core overlaps; three or four groups
         // measured no faster), then each goes on alone.
         const GROUPS: usize = 2;
         for (c2, uc2) in us.chunks(LANES * GROUPS).enumerate() {
-            let group = |uc: &[Vec2]| simd::vec2s(&simd::padded(&uc[..uc.len().min(8)]));
+            let group = |uc: &[Vec2]| simd::vec2s(&simd::padded(&uc[..uc.len().min(LANES)]));
             let [x0, y0] = group(uc2);
-            let cells = match uc2.get(8..) {
+            let cells = match uc2.get(LANES..) {
                 Some(rest) if !rest.is_empty() => {
                     let [x1, y1] = group(rest);
-                    self.cells.sample_x8s([x0, x1], [y0, y1])
+                    self.cells.sample_groups([x0, x1], [y0, y1])
                 }
                 // A lone group descends alone.
                 _ => {
-                    let [c] = self.cells.sample_x8s([x0], [y0]);
+                    let [c] = self.cells.sample_groups([x0], [y0]);
                     [c, c]
                 }
             };
@@ -444,14 +440,14 @@ impl EnvMap {
                 let (texel, pdf_ab) = self.blend_xn(&t, s_top, s_bottom, fx, fy);
                 let valid = st.simd_gt(f32xn::splat(1e-7)) & pdf_ab.simd_gt(zero);
                 let [dx, dy, dz] = mat3_mul_xn(&self.to_world, st * sp, ct, -(st * cp));
-                let radiance = texel.scale(self.scale);
+                let radiance = texel * f32xn::splat(self.scale);
                 let p = pdf_ab / (f32xn::splat(2.0 * PI * PI) * st);
                 // Invalid lanes get a zero direction, radiance and pdf.
                 let keep = |v: f32xn| simd::sel(valid, v, zero);
                 let [dx, dy, dz] = simd::arrays3([keep(dx), keep(dy), keep(dz)]);
                 let [r, gr, b] = simd::arrays3([radiance.r, radiance.g, radiance.b].map(keep));
                 let p = keep(p).to_array();
-                let base = 8 * (GROUPS * c2 + g);
+                let base = LANES * (GROUPS * c2 + g);
                 for i in 0..n {
                     let o = base + i;
                     wi[o] = Vec3::new(dx[i], dy[i], dz[i]);
@@ -506,53 +502,6 @@ impl EnvMap {
         let local = Vec3::new(st * sp, ct, -st * cp);
         let pdf = pdf_ab / (2.0 * PI * PI * st);
         Some((self.to_world * local, texel * self.scale, pdf))
-    }
-}
-
-/// Eight RGB values, one per SIMD lane.
-#[derive(Clone, Copy)]
-struct Rgb8 {
-    r: f32xn,
-    g: f32xn,
-    b: f32xn,
-}
-
-impl Rgb8 {
-    /// `self * a + o * b` with [`Rgb`]'s operations.
-    #[inline(always)]
-    fn lerp_weights(&self, a: f32xn, o: Rgb8, b: f32xn) -> Self {
-        Self {
-            r: self.r * a + o.r * b,
-            g: self.g * a + o.g * b,
-            b: self.b * a + o.b * b,
-        }
-    }
-
-    /// [`Rgb::luminance`] per lane.
-    #[inline(always)]
-    fn luminance(&self) -> f32xn {
-        f32xn::splat(0.212671) * self.r
-            + f32xn::splat(0.715160) * self.g
-            + f32xn::splat(0.072169) * self.b
-    }
-
-    #[inline(always)]
-    fn scale(&self, s: f32) -> Self {
-        let s = f32xn::splat(s);
-        Self {
-            r: self.r * s,
-            g: self.g * s,
-            b: self.b * s,
-        }
-    }
-
-    #[inline(always)]
-    fn lane(&self, i: usize) -> Rgb {
-        Rgb::new(
-            self.r.as_array()[i],
-            self.g.as_array()[i],
-            self.b.as_array()[i],
-        )
     }
 }
 
