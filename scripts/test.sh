@@ -16,9 +16,17 @@ venv="$(bash tools/mitsuba/setup.sh | tail -n 1)"
 # workspace's dependencies so that scripts/fuzz.sh never rewrites it. (Not --offline: a
 # fresh machine has not downloaded the fuzz crate's own dependencies, libfuzzer-sys.)
 cargo metadata --locked --manifest-path fuzz/Cargo.toml --format-version 1 >/dev/null
-# The portable forms of the SIMD helpers (materials/src/simd.rs and fastmath::x8: what a
-# build for baseline x86-64 without AVX uses, RUSTFLAGS="-C target-cpu=x86-64": see
-# .cargo/config.toml), tested too.
+# The builds above target this CPU (.cargo/config.toml): 16 SIMD lanes where it has
+# AVX-512F. Then the 8-lane kernels an AVX2 build uses are tested too: every batched
+# kernel against its scalar form, and the wavefront integrator against the scalar one.
+if [ "$(uname -m)" = "x86_64" ] && rustc --print cfg -C target-cpu=native | grep -q avx512f; then
+  RUSTFLAGS="-C target-cpu=x86-64-v3" cargo test --release --target-dir target/x86-64-v3 \
+    -p lobe-materials -p lobe-renderer -p lobe-tests --lib \
+    --test wavefront --test envmap_sampling --test lights --test bsdfs --test determinism
+fi
+# The portable forms of the SIMD helpers (materials/src/simd.rs and fastmath::xn: what a
+# build for baseline x86-64 without AVX uses, RUSTFLAGS="-C target-cpu=x86-64"), tested
+# too.
 if [ "$(uname -m)" = "x86_64" ]; then
   RUSTFLAGS="-C target-cpu=x86-64" cargo test --release -p lobe-materials \
     --target-dir target/x86-64-baseline -- fastmath simd
