@@ -146,10 +146,10 @@ impl Composite {
 /// one-at-a-time path beyond this many).
 const MAX_INLINE: usize = 8;
 /// Queries [`Bsdf::sample_many`] handles together: the queries of one block that chose
-/// the same lobe share its eight-lane calls.
+/// the same lobe share its lane calls.
 const SAMPLE_BLOCK: usize = 64;
 
-/// The component weights of eight queries, `w[k]` lane by lane, and their sums.
+/// The component weights of `LANES` queries, `w[k]` lane by lane, and their sums.
 struct LaneWeights {
     w: [f32xn; MAX_INLINE + 1],
     total: f32xn,
@@ -196,8 +196,8 @@ impl Bsdf for Composite {
             .unwrap_or(0.0)
     }
 
-    /// The pairs above the surface eight at a time: every lobe's
-    /// [`Lobe::eval_pdf_xn`] once per eight pairs ([`Composite::mix_xn`]).
+    /// The pairs above the surface a lane vector at a time: every lobe's
+    /// [`Lobe::eval_pdf_xn`] once per `LANES` pairs ([`Composite::mix_xn`]).
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
@@ -225,7 +225,7 @@ impl Bsdf for Composite {
     }
 
     /// Components chosen and sampled query by query, the mixture density and the value of
-    /// eight sampled directions at a time ([`Composite::mix_xn`]).
+    /// `LANES` sampled directions at a time ([`Composite::mix_xn`]).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
@@ -301,10 +301,10 @@ impl Composite {
 
     /// [`Bsdf::sample_many`] of at most [`SAMPLE_BLOCK`] queries (`out` all None), each
     /// bit for bit [`Bsdf::sample`]: every query above the surface chooses its component
-    /// as the scalar call does (weights eight at a time), then the queries that chose
-    /// each lobe are sampled together, eight at a time ([`Lobe::sample_xn`]), so that no
+    /// as the scalar call does (weights a lane vector at a time), then the queries that chose
+    /// each lobe are sampled together, a lane vector at a time ([`Lobe::sample_xn`]), so that no
     /// lane samples a lobe its query did not choose; last, the value and the mixture
-    /// density of every drawn direction, eight at a time. Queries whose weights sum to
+    /// density of every drawn direction, a lane vector at a time. Queries whose weights sum to
     /// zero get None.
     fn sample_block(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let m = wo.len();
@@ -380,7 +380,7 @@ impl Composite {
         (chosen, uc_rest)
     }
 
-    /// The component weights of eight outgoing directions (lane by lane
+    /// The component weights of `LANES` outgoing directions (lane by lane
     /// [`Composite::weights`]: the same bins, values and sums).
     fn lane_weights(&self, wo_z: f32xn) -> LaneWeights {
         let bin = (wo_z * f32xn::splat(ALBEDO_BINS as f32))
@@ -398,7 +398,7 @@ impl Composite {
     }
 
     /// [`Bsdf::eval`] and the mixture density ([`Composite::mixture_pdf`], before the test of
-    /// a positive total) of eight pairs above the surface, lane by lane bit for bit: the
+    /// a positive total) of `LANES` pairs above the surface, lane by lane bit for bit: the
     /// same sums in the same order, each lobe's value and density from its
     /// [`Lobe::eval_pdf_xn`].
     fn mix_xn(&self, wo: Vec3xN, wi: Vec3xN, w: &LaneWeights) -> (RgbxN, f32xn) {

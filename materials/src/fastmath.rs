@@ -13,7 +13,7 @@
 //! (below 2 ulp of its result near pi) and `asin`, relative error under 4e-7 for
 //! `atan2`. NaN inputs give NaN.
 //!
-//! [`xn`] has eight-lane forms of the same functions on `wide`'s AVX vectors, for the
+//! [`xn`] has lane forms of the same functions on `wide`'s AVX vectors, for the
 //! renderer's SIMD batches: the same operations lane by lane, so each lane equals the
 //! scalar function bit for bit (tested), and batched and one-at-a-time renders agree
 //! exactly. The other SIMD building blocks (lane types, transposes, selects, gathers) are
@@ -234,7 +234,7 @@ pub fn powf(x: f32, y: f32) -> f32 {
     if y == 0.0 { 1.0 } else { r }
 }
 
-/// Eight-lane forms of the functions above ([`sin_cos_moderate`], [`atan2`], [`acos`],
+/// Lane forms of the functions above ([`sin_cos_moderate`], [`atan2`], [`acos`],
 /// [`asin`]) on `wide`'s AVX vectors: the same operations in the same order on each
 /// lane, so every lane's result equals the scalar function's bit for bit (tested below),
 /// and batched lookups agree exactly with one-at-a-time ones.
@@ -625,7 +625,7 @@ mod tests {
         assert_eq!(powf(0.999, 1e9), 0.0);
     }
 
-    /// The eight-lane forms equal the scalar functions bit for bit.
+    /// The lane forms equal the scalar functions bit for bit.
     #[test]
     fn x8_forms_are_bit_identical() {
         use crate::simd::f32xn;

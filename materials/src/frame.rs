@@ -54,7 +54,7 @@ impl Frame {
     }
 }
 
-/// Eight-lane forms of the frame operations, each lane operation for operation the scalar
+/// Lane forms of the frame operations, each lane operation for operation the scalar
 /// one (so batched and one-at-a-time samples agree bit for bit).
 pub mod xn {
     use crate::simd::{Vec3xN, f32xn};

@@ -36,7 +36,7 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3>;
     /// Solid-angle density of `sample`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
-    /// [`Lobe::eval`] and [`Lobe::pdf`] of eight pairs (lane k: `wo.lane(k)`,
+    /// [`Lobe::eval`] and [`Lobe::pdf`] of `LANES` pairs (lane k: `wo.lane(k)`,
     /// `wi.lane(k)`), each lane bit for bit the scalar calls: the batched calls of the
     /// materials made of lobes ([`crate::composite::Composite`]). The default calls the
     /// scalar forms lane by lane; models override it with SIMD arithmetic.
@@ -48,9 +48,9 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
             f32xn::new(lanes(|k| self.pdf(o[k], i[k]))),
         )
     }
-    /// [`Lobe::sample`] of eight queries, each lane bit for bit the scalar call (the
+    /// [`Lobe::sample`] of `LANES` queries, each lane bit for bit the scalar call (the
     /// batched sampling of [`crate::composite::Composite`]). The default samples lane by
-    /// lane; tabulated lobes override it with their eight-lane samplers.
+    /// lane; tabulated lobes override it with their lane samplers.
     fn sample_xn(
         &self,
         wo: &[Vec3; LANES],
@@ -117,7 +117,7 @@ pub fn sample_via_half(wo: Vec3, h: Vec3) -> Option<Vec3> {
     (wi.z > 0.0).then_some(wi)
 }
 
-/// Eight-lane forms of this module's helpers, for the lobes' [`Lobe::eval_pdf_xn`]
+/// Lane forms of this module's helpers, for the lobes' [`Lobe::eval_pdf_xn`]
 /// kernels: each lane computes what the scalar helper computes, operation for operation.
 pub mod xn {
     use crate::simd::{LANES, MaskN, Vec3xN, f32xn, sel};

@@ -1,6 +1,6 @@
 //! The small float abstraction that lets each model's formula be written once and
 //! evaluated in f32 (rendering) and f64 (fitting): [`Real`] over num-traits' `Float`
-//! (with `exp_r`, `powf_r`, `acos_r`: `fastmath`'s in f32, whose eight-lane forms the
+//! (with `exp_r`, `powf_r`, `acos_r`: `fastmath`'s in f32, whose lane forms the
 //! models' SIMD kernels use), and a minimal generic 3-vector [`V3`].
 
 use num_traits::{Float, FloatConst};
@@ -14,7 +14,7 @@ pub trait Real: Float + FloatConst + std::fmt::Debug + Send + Sync + 'static {
     /// Complementary error function (libm, the musl port).
     fn erfc(self) -> Self;
     /// e^x: the C library's in f64 (fitting), [`crate::fastmath::exp`] in f32 (rendering:
-    /// the function whose eight-lane form the SIMD kernels use, so that they equal the
+    /// the function whose lane form the SIMD kernels use, so that they equal the
     /// scalar models bit for bit).
     fn exp_r(self) -> Self;
     /// x^y, as [`Real::exp_r`]: [`crate::fastmath::powf`] in f32.

@@ -191,7 +191,7 @@ pub fn lanes_of<T>(idx: &[usize], f: impl Fn(usize) -> T) -> [T; LANES] {
     lanes(|i| f(idx[i.min(n - 1)]))
 }
 
-/// Calls `f` with the indices `k` of `0..n` where `keep(k)`, in increasing order, eight at
+/// Calls `f` with the indices `k` of `0..n` where `keep(k)`, in increasing order, `LANES` at
 /// a time (the last chunk shorter), without allocating: batched kernels give their SIMD
 /// lanes only to the queries that need them (not to light samples below the surface, say).
 #[inline]
@@ -212,7 +212,7 @@ pub fn chunks_where(n: usize, keep: impl Fn(usize) -> bool, mut f: impl FnMut(&[
     }
 }
 
-/// Eight vectors as their x, y and z components in three SIMD registers.
+/// `LANES` vectors as their x, y and z components in three SIMD registers.
 #[inline(always)]
 pub fn vec3s(v: &[Vec3; LANES]) -> [f32xn; 3] {
     [
@@ -222,13 +222,13 @@ pub fn vec3s(v: &[Vec3; LANES]) -> [f32xn; 3] {
     ]
 }
 
-/// Eight 2D points as their x and y components in two SIMD registers.
+/// `LANES` 2D points as their x and y components in two SIMD registers.
 #[inline(always)]
 pub fn vec2s(v: &[Vec2; LANES]) -> [f32xn; 2] {
     [f32xn::new(lanes(|i| v[i].x)), f32xn::new(lanes(|i| v[i].y))]
 }
 
-/// The components of [`vec3s`] back as arrays (`[x, y, z]`, eight lanes each).
+/// The components of [`vec3s`] back as arrays (`[x, y, z]`, `LANES` lanes each).
 #[inline(always)]
 pub fn arrays3(v: [f32xn; 3]) -> [[f32; LANES]; 3] {
     [v[0].to_array(), v[1].to_array(), v[2].to_array()]
@@ -266,7 +266,7 @@ pub fn mask_bits(m: MaskN) -> u32 {
     m.to_bitmask()
 }
 
-/// `table[idx[i]]` in lane i (eight scalar loads: on the CPUs lobe is measured on, AVX2's
+/// `table[idx[i]]` in lane i (`LANES` scalar loads: on the CPUs lobe is measured on, AVX2's
 /// gather instruction is slower than that; docs/performance.md). Indices must be
 /// non-negative and in bounds (checked).
 #[inline(always)]
@@ -305,7 +305,7 @@ pub fn fmadd(a: f32xn, b: f32xn, c: f32xn) -> f32xn {
     }
 }
 
-/// Eight 3-vectors, one component per register.
+/// `LANES` 3-vectors, one component per register.
 #[derive(Clone, Copy, Debug)]
 pub struct Vec3xN {
     pub x: f32xn,
@@ -325,13 +325,13 @@ impl Vec3xN {
         Self::new(f32xn::splat(v.x), f32xn::splat(v.y), f32xn::splat(v.z))
     }
 
-    /// Eight vectors, vector i in lane i.
+    /// `LANES` vectors, vector i in lane i.
     #[inline(always)]
     pub fn from_array(v: &[Vec3; LANES]) -> Self {
         Self::from(vec3s(v))
     }
 
-    /// A chunk of one to eight vectors ([`padded`]).
+    /// A chunk of one to `LANES` vectors ([`padded`]).
     #[inline(always)]
     pub fn from_chunk(chunk: &[Vec3]) -> Self {
         Self::from_array(&padded(chunk))
@@ -347,7 +347,7 @@ impl Vec3xN {
         )
     }
 
-    /// The eight vectors.
+    /// The `LANES` vectors.
     #[inline(always)]
     pub fn to_array(self) -> [Vec3; LANES] {
         let [x, y, z] = arrays3(self.into());
@@ -470,7 +470,7 @@ impl Neg for Vec3xN {
     }
 }
 
-/// Eight RGB triples, one channel per register, with [`Rgb`]'s operations per lane.
+/// `LANES` RGB triples, one channel per register, with [`Rgb`]'s operations per lane.
 #[derive(Clone, Copy, Debug)]
 pub struct RgbxN {
     pub r: f32xn,
@@ -490,7 +490,7 @@ impl RgbxN {
         Self::new(f32xn::splat(c.r), f32xn::splat(c.g), f32xn::splat(c.b))
     }
 
-    /// Eight colours, colour i in lane i.
+    /// `LANES` colours, colour i in lane i.
     #[inline(always)]
     pub fn from_array(c: &[Rgb; LANES]) -> Self {
         Self::new(
@@ -510,7 +510,7 @@ impl RgbxN {
         )
     }
 
-    /// The eight colours.
+    /// The `LANES` colours.
     #[inline(always)]
     pub fn to_array(self) -> [Rgb; LANES] {
         let (r, g, b) = (self.r.to_array(), self.g.to_array(), self.b.to_array());

@@ -184,7 +184,7 @@ impl Camera {
     }
 
     /// [`Camera::ray`] of the film positions `(pixel + j) * inv` for each `j` in
-    /// `jitter`, appended to `out`, bit for bit the same: perspective rays eight at a time
+    /// `jitter`, appended to `out`, bit for bit the same: perspective rays a lane vector at a time
     /// in SIMD lanes with the scalar form's operations.
     pub fn rays_many(&self, pixel: Vec2, jitter: &[Vec2], inv: Vec2, out: &mut Vec<Ray>) {
         let Camera::Perspective {
@@ -291,7 +291,7 @@ mod tests {
         assert_eq!(cams[0].project(Vec3::new(0.3, 1.0, 9.0)), None);
     }
 
-    /// The batched rays (eight perspective rays per SIMD op) equal `ray` bit for bit.
+    /// The batched rays (`LANES` perspective rays per SIMD op) equal `ray` bit for bit.
     #[test]
     fn batched_rays_equal_single_rays() {
         let m = look_at(Vec3::new(0.3, 1.0, 5.0), Vec3::new(0.1, -0.2, 0.0), Vec3::Y).unwrap();

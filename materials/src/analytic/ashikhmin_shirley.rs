@@ -88,7 +88,7 @@ impl AshikhminShirley {
         Vec3::new(sin_t * cp, sin_t * sp, cos_t)
     }
 
-    /// [`AshikhminShirley::sample_h`] of eight points (x, y) in lanes, bit for bit the same.
+    /// [`AshikhminShirley::sample_h`] of `LANES` points (x, y) in lanes, bit for bit the same.
     #[inline(always)]
     fn sample_h_xn(&self, ux: f32xn, uy: f32xn) -> Vec3xN {
         let s8 = f32xn::splat;

@@ -36,7 +36,7 @@ pub fn sample_cos_power_h(n: f32, u: Vec2) -> Vec3 {
     lobe::half_from(fastmath::powf(u.y, 1.0 / (n + 1.0)), u.x)
 }
 
-/// [`sample_cos_power_h`] of eight points (x, y) in lanes, bit for bit the same.
+/// [`sample_cos_power_h`] of `LANES` points (x, y) in lanes, bit for bit the same.
 #[inline(always)]
 pub fn sample_cos_power_h_xn(n: f32, ux: f32xn, uy: f32xn) -> Vec3xN {
     lobe::xn::half_from(xn::powf(uy, f32xn::splat(1.0 / (n + 1.0))), ux)

@@ -223,18 +223,18 @@ impl He {
         })
     }
 
-    /// The lobe as rendered, eight pairs in SIMD lanes and in f32: [`He::value_tabulated`]'s
+    /// The lobe as rendered, `LANES` pairs in SIMD lanes and in f32: [`He::value_tabulated`]'s
     /// terms in the same order, with the elevation terms from [`he_shadowing`]'s universal
     /// tables (lane by lane) and the series from its f32 table
     /// ([`he_series::tabulated_xn`]); within [`RENDER_ERROR_BOUND`] of the fitted lobe
     /// (tested).
     pub fn value_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
-        self.value_x8_at_half(wo, wi, lobe::xn::half(wo, wi))
+        self.value_xn_at_half(wo, wi, lobe::xn::half(wo, wi))
     }
 
     /// [`He::value_xn`] with the half vectors (and where they exist) already found.
     #[inline(always)]
-    fn value_x8_at_half(&self, wo: Vec3xN, wi: Vec3xN, (h, has_half): (Vec3xN, MaskN)) -> RgbxN {
+    fn value_xn_at_half(&self, wo: Vec3xN, wi: Vec3xN, (h, has_half): (Vec3xN, MaskN)) -> RgbxN {
         let s = f32xn::splat;
         let zero = s(0.0);
         let (co, ci) = (wo.z, wi.z);
@@ -408,7 +408,7 @@ impl Lobe for He {
     }
 
     /// [`He::sample`] in lanes: each lane's proposal (its roughness depends on `wo`) one
-    /// by one, the Beckmann half vectors and their mirrors eight at a time.
+    /// by one, the Beckmann half vectors and their mirrors a lane vector at a time.
     fn sample_xn(
         &self,
         wo: &[Vec3; LANES],
@@ -425,12 +425,12 @@ impl Lobe for He {
     }
 
     /// The value in lanes ([`He::value_xn`]), `pdf` in lanes: each lane's proposal
-    /// roughnesses one by one, the two Beckmann densities eight at a time (bit for bit
+    /// roughnesses one by one, the two Beckmann densities a lane vector at a time (bit for bit
     /// [`He::pdf`]).
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let o = wo.to_array();
         let (h, has_half) = lobe::xn::half(wo, wi);
-        let f = self.value_x8_at_half(wo, wi, (h, has_half));
+        let f = self.value_xn_at_half(wo, wi, (h, has_half));
         let zero = f32xn::splat(0.0);
         let ok = lobe::xn::above(wo, wi) & has_half;
         let m2 = simd::lanes(|k| self.proposal_roughness(o[k]).map(|m| (m * m) as f32));

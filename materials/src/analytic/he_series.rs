@@ -169,7 +169,7 @@ pub fn tabulated_f32(g: f32, e: f32) -> f32 {
     if u >= U_MAX as f32 { 0.0 } else { s }
 }
 
-/// [`tabulated`] in eight lanes and in f32 (the render path: within
+/// [`tabulated`] in SIMD lanes and in f32 (the render path: within
 /// [`super::he::RENDER_ERROR_BOUND`] of the f64 lobe, tested there): S(g, e) for
 /// 0 <= g <= [`G_MAX`] and e >= 0, 0 for u = sqrt(e) >= [`U_MAX`]. Other lanes read a
 /// clamped cell of the table and get a finite value or NaN the caller discards (the lobe

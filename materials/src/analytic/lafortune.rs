@@ -95,7 +95,7 @@ impl Lobe for Lafortune {
         (wi.z > 0.0).then_some(wi)
     }
 
-    /// [`Lafortune::sample`] of eight queries in lanes, bit for bit the same.
+    /// [`Lafortune::sample`] of `LANES` queries in lanes, bit for bit the same.
     fn sample_xn(
         &self,
         wo: &[Vec3; LANES],

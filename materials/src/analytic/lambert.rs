@@ -56,7 +56,7 @@ impl Bsdf for Lambert {
         select(wo.z > 0.0 && wi.z > 0.0, cosine_hemisphere_pdf(wi.z), 0.0)
     }
 
-    /// Eight pairs per SIMD warp, with `eval`'s and `pdf`'s operations.
+    /// `LANES` pairs per SIMD warp, with `eval`'s and `pdf`'s operations.
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         assert!(wo.len() == f.len() && wi.len() == f.len() && pdf.len() == f.len());
         let zero = f32xn::splat(0.0);
@@ -80,7 +80,7 @@ impl Bsdf for Lambert {
         }
     }
 
-    /// Eight queries per SIMD warp ([`square_to_cosine_hemisphere_xn`]).
+    /// `LANES` queries per SIMD warp ([`square_to_cosine_hemisphere_xn`]).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
         assert!(wo.len() == out.len() && u.len() == out.len());
         for ((wc, uc), oc) in wo

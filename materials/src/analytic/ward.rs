@@ -100,7 +100,7 @@ impl Ward {
         Vec3::new(sin_t * cp, sin_t * sp, cos_t)
     }
 
-    /// [`Ward::sample_h`] of eight points (x, y) in lanes, bit for bit the same.
+    /// [`Ward::sample_h`] of `LANES` points (x, y) in lanes, bit for bit the same.
     #[inline(always)]
     fn sample_h_xn(&self, ux: f32xn, uy: f32xn) -> Vec3xN {
         let s8 = f32xn::splat;
@@ -125,7 +125,7 @@ impl Ward {
         e / (PI * (self.alpha_x * self.alpha_y) as f32 * h.z * h.z * h.z)
     }
 
-    /// [`Ward::exponent`] of eight half vectors (unnormalized).
+    /// [`Ward::exponent`] of `LANES` half vectors (unnormalized).
     #[inline(always)]
     fn exponent_xn(&self, h: Vec3xN) -> f32xn {
         let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);

@@ -18,7 +18,7 @@
 //! phi_d = |phi_o - phi_i| folded into [0, 180] degrees (isotropy and reciprocity).
 //!
 //! Lookups: [`Binned::bin_of`] finds a bin from f64 angles (fitting, tabulation);
-//! rendering uses [`Binned::lookup_f32`] and [`Binned::lookup_xn`], one query or eight in
+//! rendering uses [`Binned::lookup_f32`] and [`Binned::lookup_xn`], one query or `LANES` in
 //! SIMD lanes, with f32 angles from [`crate::fastmath`] (the same bin except within about
 //! 1e-4 degrees of a bin edge).
 
@@ -245,7 +245,7 @@ impl Binned {
         self.values[k].map_or(Rgb::ZERO, Rgb::from)
     }
 
-    /// [`Binned::lookup_f32`] of eight pairs: the bins in SIMD lanes, then one load each.
+    /// [`Binned::lookup_f32`] of `LANES` pairs: the bins in SIMD lanes, then one load each.
     pub fn lookup_xn(&self, wi: Vec3xN, wo: Vec3xN) -> RgbxN {
         let s = f32xn::splat;
         let sph = |w: Vec3xN| {
@@ -513,7 +513,7 @@ mod tests {
     use crate::simd::LANES;
 
     /// The f32 lookups of rendering find the bin the f64 angles find, except within
-    /// 1e-3 degrees of a bin edge, and the eight-lane form equals the single one bit for
+    /// 1e-3 degrees of a bin edge, and the lane form equals the single one bit for
     /// bit; empty bins and pairs below the surface give zero.
     #[test]
     fn f32_lookups_find_the_f64_bin() {

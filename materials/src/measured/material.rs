@@ -24,7 +24,7 @@ use std::sync::Arc;
 pub trait Table: Send + Sync + std::fmt::Debug {
     /// f_r(wo, wi) in 1/sr (RGB), zero below the surface.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
-    /// [`Table::eval`] of eight pairs, each lane bit for bit the single call (the default
+    /// [`Table::eval`] of `LANES` pairs, each lane bit for bit the single call (the default
     /// calls it lane by lane; tables with a SIMD lookup override it).
     fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
         eval_lanes(|o, i| self.eval(o, i), wo, wi)
@@ -35,7 +35,7 @@ pub trait Table: Send + Sync + std::fmt::Debug {
     fn memory_bytes(&self) -> usize;
 }
 
-/// `eval` of eight pairs, lane by lane.
+/// `eval` of `LANES` pairs, lane by lane.
 fn eval_lanes(eval: impl Fn(Vec3, Vec3) -> Rgb, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
     let (o, i) = (wo.to_array(), wi.to_array());
     RgbxN::from_array(&simd::lanes(|k| eval(o[k], i[k])))
@@ -117,7 +117,7 @@ impl Measured {
         &self.table
     }
 
-    /// Sets the weights `f cos / pdf` of the samples `out[k]` of `idx` (one to eight, each
+    /// Sets the weights `f cos / pdf` of the samples `out[k]` of `idx` (one to `LANES`, each
     /// holding its direction and density), their values from [`Table::eval_xn`]; a sample
     /// whose weight is not finite becomes `None`, as [`BsdfSample::finish`] decides.
     fn weigh_samples(&self, wo: &[Vec3], idx: &[usize], out: &mut [Option<BsdfSample>]) {
@@ -153,12 +153,12 @@ impl Bsdf for Measured {
     }
 
     /// Directions and densities from the sampler one query at a time, then the values of
-    /// the sampled directions eight at a time ([`Table::eval_xn`]); bit for bit
+    /// the sampled directions a lane vector at a time ([`Table::eval_xn`]); bit for bit
     /// [`Measured::sample`] (a sample's value is only needed once its density is positive).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
-        // Eight queries at a time: directions one by one, their densities in lanes
+        // `LANES` queries at a time: directions one by one, their densities in lanes
         // (TabulatedSampler::pdf_xn), the values of those with a density in lanes.
         for start in (0..n).step_by(simd::LANES) {
             let len = (n - start).min(simd::LANES);
@@ -196,7 +196,7 @@ impl Bsdf for Measured {
         }
     }
 
-    /// The values of the pairs above the surface and the sampler's densities, eight at a
+    /// The values of the pairs above the surface and the sampler's densities, `LANES` at a
     /// time ([`Table::eval_xn`], [`TabulatedSampler::pdf_xn`]).
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
@@ -421,7 +421,7 @@ impl Bsdf for RglBsdf {
         self.table.pdf(wo, wi)
     }
 
-    /// The pairs above the surface eight at a time through [`Rgl::eval_projected_pdf_xn`].
+    /// The pairs above the surface a lane vector at a time through [`Rgl::eval_projected_pdf_xn`].
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
@@ -441,7 +441,7 @@ impl Bsdf for RglBsdf {
         });
     }
 
-    /// The queries above the surface eight at a time ([`Rgl::sample_value_xn`]).
+    /// The queries above the surface a lane vector at a time ([`Rgl::sample_value_xn`]).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);

@@ -13,7 +13,7 @@
 //! In memory the table is f32 RGB (17.5 MB). Lookups are nearest (the bin) or trilinear
 //! between bin centres (periodic in phi_d), skipping missing corners. The trilinear lookup
 //! the renderer uses runs in f32 without trigonometric rotations ([`coords_f32`]), one pair
-//! at a time or eight ([`Merl::lookup_xn`], the batched evaluation of the `merl` material);
+//! at a time or `LANES` ([`Merl::lookup_xn`], the batched evaluation of the `merl` material);
 //! fitting and the nearest-bin lookup keep the f64 angles of [`half_diff`].
 
 use crate::Rgb;
@@ -76,7 +76,7 @@ fn unit(v: Vec3) -> Option<Vec3> {
 /// theta_h and phi_h are h.z, |h.xy| and h.xy / |h.xy|: no trigonometric call) and every
 /// angle an `atan2` of a sine and a cosine ([`fastmath::atan2`]), which stays accurate near
 /// 0 where `acos` loses half the digits (theta_h's bins are finest there). [`coords_xn`]
-/// does the same operations in the same order on eight pairs.
+/// does the same operations in the same order on `LANES` pairs.
 #[inline]
 pub fn coords_f32(wi: Vec3, wo: Vec3) -> [f32; 3] {
     let (wi, wo) = (
@@ -109,7 +109,7 @@ pub fn coords_f32(wi: Vec3, wo: Vec3) -> [f32; 3] {
     ]
 }
 
-/// [`coords_f32`] of eight pairs, lane by lane bit for bit.
+/// [`coords_f32`] of `LANES` pairs, lane by lane bit for bit.
 #[inline(always)]
 pub fn coords_xn(wi: Vec3xN, wo: Vec3xN) -> [f32xn; 3] {
     let s = f32xn::splat;
@@ -355,7 +355,7 @@ impl Merl {
     /// Trilinear lookup between bin centres (clamped in theta, periodic in phi_d),
     /// renormalized over the corners that are not missing. In f32 throughout, for the
     /// renderer: the bin coordinates come from [`coords_f32`], the corners' weights and
-    /// sums in f32; [`Merl::lookup_xn`] gives the same values eight at a time.
+    /// sums in f32; [`Merl::lookup_xn`] gives the same values a lane vector at a time.
     pub fn lookup(&self, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
@@ -381,7 +381,7 @@ impl Merl {
         if wsum > 0.0 { acc / wsum } else { Rgb::ZERO }
     }
 
-    /// [`Merl::lookup`] of eight pairs, lane by lane bit for bit: the coordinates and
+    /// [`Merl::lookup`] of `LANES` pairs, lane by lane bit for bit: the coordinates and
     /// weights in SIMD lanes, the eight corners' values gathered.
     pub fn lookup_xn(&self, wi: Vec3xN, wo: Vec3xN) -> RgbxN {
         let s = f32xn::splat;

@@ -445,7 +445,7 @@ impl Rgl {
     }
 }
 
-/// [`View`] of eight viewers.
+/// [`View`] of `LANES` viewers.
 struct ViewxN {
     wo: Vec3xN,
     phi_o: f32xn,
@@ -453,7 +453,7 @@ struct ViewxN {
     sigma4: f32xn,
 }
 
-/// [`Half`] of eight pairs.
+/// [`Half`] of `LANES` pairs.
 struct HalfxN {
     m: Vec3xN,
     u_m: [f32xn; 2],
@@ -482,7 +482,7 @@ fn mulsign_neg_xn(v: f32xn, s: f32xn) -> f32xn {
     f32xn::from_bits(v.to_bits() ^ (!s.to_bits() & sign))
 }
 
-/// The eight-lane forms of evaluation, density and sampling: every lane equals the
+/// The lane forms of evaluation, density and sampling: every lane equals the
 /// scalar form bit for bit (the same operations in the same order, tested), so that the
 /// renderer's batched calls agree exactly with its one-at-a-time ones.
 impl Rgl {
@@ -551,7 +551,7 @@ impl Rgl {
         sel(p.is_finite() & p.simd_gt(zero), p, zero)
     }
 
-    /// [`Rgl::eval_projected_pdf`] of eight pairs.
+    /// [`Rgl::eval_projected_pdf`] of `LANES` pairs.
     pub fn eval_projected_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let zero = f32xn::splat(0.0);
         let below = wo.z.simd_le(zero) | wi.z.simd_le(zero);
@@ -563,7 +563,7 @@ impl Rgl {
         (c, sel(below, zero, self.density_xn(&v, &h, p_lum)))
     }
 
-    /// [`Rgl::sample_value`] of eight viewers: (wi, pdf, value, where a sample exists).
+    /// [`Rgl::sample_value`] of `LANES` viewers: (wi, pdf, value, where a sample exists).
     pub fn sample_value_xn(&self, wo: Vec3xN, u: [f32xn; 2]) -> (Vec3xN, f32xn, RgbxN, MaskN) {
         let zero = f32xn::splat(0.0);
         let v = self.view_xn(wo);

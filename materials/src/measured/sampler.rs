@@ -124,7 +124,7 @@ impl TabulatedSampler {
         }
     }
 
-    /// [`TabulatedSampler::pdf`] of eight pairs, lane by lane bit for bit (the angles by
+    /// [`TabulatedSampler::pdf`] of `LANES` pairs, lane by lane bit for bit (the angles by
     /// [`fastmath::xn`], the wrap of phi_i - phi_o by selects: the exact remainder for
     /// its range).
     pub fn pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {

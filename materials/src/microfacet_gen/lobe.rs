@@ -54,7 +54,7 @@ impl Lobe for SampledMicrofacet {
         self.pdf_xn(Vec3xN::splat(wo), Vec3xN::splat(wi)).to_array()[0]
     }
     /// The generator's value ([`Table::rho_xn`]) and density (p(h) h_z, converted to
-    /// the density of wi) of eight pairs.
+    /// the density of wi) of `LANES` pairs.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let v = self.rho_xn(wo, wi);
         (RgbxN::new(v, v, v), self.pdf_xn(wo, wi))

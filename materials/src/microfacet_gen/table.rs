@@ -6,7 +6,7 @@
 //! point by the patch's bilinear density: exactly the density p(h) h_z); the forward model
 //! rho (Ngan et al. 2005, section 5, Eq. 3); and the EXR file a table is stored in.
 //!
-//! Each lookup has an f64 form (fitting) and an eight-lane f32 form (rendering:
+//! Each lookup has an f64 form (fitting) and a lane f32 form (rendering:
 //! [`crate::fastmath::xn`]'s acos and atan2, gathers from the f32 tables).
 
 use crate::fastmath::xn;
@@ -266,7 +266,7 @@ impl Table {
         (r2 < 1.0).then(|| Vec3::new(x, y, (1.0 - r2).sqrt()))
     }
 
-    /// [`Table::sample_h`] of eight points, lane by lane the same.
+    /// [`Table::sample_h`] of `LANES` points, lane by lane the same.
     pub fn sample_h_xn(&self, u: &[Vec2; LANES]) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
         let [(cx, cy, rx, ry)] = self.cells.sample_groups([ux], [uy]);

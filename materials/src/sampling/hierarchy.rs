@@ -112,7 +112,7 @@ impl Hierarchy2D {
         (x, y, Vec2::new(ux, uy))
     }
 
-    /// [`Hierarchy2D::sample`] of `N` groups of eight points, bit for bit the same, level
+    /// [`Hierarchy2D::sample`] of `N` groups of `LANES` points, bit for bit the same, level
     /// by level in SIMD lanes (their independent memory reads overlap) and the groups
     /// descended side by side: each level's reads and arithmetic for one group are
     /// independent of the others', so the core overlaps `N` dependency chains (a descent
@@ -198,7 +198,7 @@ fn descend(p: [f32; 4], ux: f32, uy: f32) -> (u32, u32, f32, f32) {
     (right as u32, lower as u32, nx, ny)
 }
 
-/// [`descend`] in eight lanes, with the same operations: (right, lower) as lane masks.
+/// [`descend`] in SIMD lanes, with the same operations: (right, lower) as lane masks.
 #[inline(always)]
 fn descend_xn(p: [f32xn; 4], ux: f32xn, uy: f32xn) -> (f32xn, f32xn, f32xn, f32xn) {
     let zero = f32xn::splat(0.0);

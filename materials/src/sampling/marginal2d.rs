@@ -338,7 +338,7 @@ impl Marginal2D {
     }
 }
 
-/// [`Slices`] of eight queries, one per lane ([`Marginal2D::slices_xn`]).
+/// [`Slices`] of `LANES` queries, one per lane ([`Marginal2D::slices_xn`]).
 #[derive(Clone, Copy, Debug)]
 pub struct SlicesxN {
     first: i32xn,
@@ -722,7 +722,7 @@ mod tests {
         );
     }
 
-    /// Awkward inputs for the eight-lane forms: nodes, edges, outside the square or the
+    /// Awkward inputs for the lane forms: nodes, edges, outside the square or the
     /// parameter range, NaN.
     fn awkward(k: usize) -> f32 {
         const SPECIAL: [f32; 10] = [
@@ -744,7 +744,7 @@ mod tests {
         }
     }
 
-    /// The eight-lane forms (slices, eval, channels, invert, sample) equal the scalar ones
+    /// The lane forms (slices, eval, channels, invert, sample) equal the scalar ones
     /// bit for bit, lane by lane, on a table of two interpolated parameters with constant
     /// and zero rows (the degenerate branches of the segment warp).
     #[test]
@@ -796,7 +796,7 @@ mod tests {
 
     /// The binary search per lane finds what the scalar one finds.
     #[test]
-    fn first_at_least_x8_equals_the_scalar_search() {
+    fn first_at_least_xn_equals_the_scalar_search() {
         use crate::simd::lanes;
         for n in 1..40 {
             let v: Vec<f32> = (0..n).map(|k| (k / 3) as f32).collect();
@@ -811,7 +811,7 @@ mod tests {
     }
 
     /// A table of several channels per node evaluates each channel as a one-channel table
-    /// of that channel does, bit for bit, one query at a time and eight (three channels by
+    /// of that channel does, bit for bit, one query at a time and `LANES` (three channels by
     /// gathers, four by transposed loads), with one and two interpolated parameters.
     #[test]
     fn channels_evaluate_as_separate_tables() {
@@ -863,7 +863,7 @@ mod tests {
                         assert_eq!(
                             got8[c].to_array()[i].to_bits(),
                             want,
-                            "x8, {C}: {u:?} {p:?}"
+                            "lanes, {C}: {u:?} {p:?}"
                         );
                     }
                 }

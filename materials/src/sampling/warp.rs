@@ -32,7 +32,7 @@ pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
     }
 }
 
-/// [`square_to_disk_concentric`] in eight lanes, with the same operations (bit for bit
+/// [`square_to_disk_concentric`] in SIMD lanes, with the same operations (bit for bit
 /// the same).
 #[inline(always)]
 pub fn square_to_disk_concentric_xn(ux: f32xn, uy: f32xn) -> (f32xn, f32xn) {
@@ -51,7 +51,7 @@ pub fn square_to_disk_concentric_xn(ux: f32xn, uy: f32xn) -> (f32xn, f32xn) {
     )
 }
 
-/// [`square_to_cosine_hemisphere`] in eight lanes (bit for bit the same): (x, y, z).
+/// [`square_to_cosine_hemisphere`] in SIMD lanes (bit for bit the same): (x, y, z).
 #[inline(always)]
 pub fn square_to_cosine_hemisphere_xn(ux: f32xn, uy: f32xn) -> [f32xn; 3] {
     let (x, y) = square_to_disk_concentric_xn(ux, uy);
@@ -150,7 +150,7 @@ pub fn square_to_bilinear(u: Vec2, w: [f32; 4]) -> Vec2 {
     Vec2::new(x, y)
 }
 
-/// [`sample_linear`] in eight lanes, with the same operations (bit for bit the same).
+/// [`sample_linear`] in SIMD lanes, with the same operations (bit for bit the same).
 #[inline(always)]
 pub fn sample_linear_xn(u: f32xn, a: f32xn, b: f32xn) -> f32xn {
     let (zero, one) = (f32xn::splat(0.0), f32xn::splat(1.0));
@@ -160,7 +160,7 @@ pub fn sample_linear_xn(u: f32xn, a: f32xn, b: f32xn) -> f32xn {
     simd::sel(u.simd_eq(zero) & a.simd_eq(zero), zero, x)
 }
 
-/// [`square_to_bilinear`] in eight lanes (bit for bit the same): `w` holds the corner
+/// [`square_to_bilinear`] in SIMD lanes (bit for bit the same): `w` holds the corner
 /// weights of each lane.
 #[inline(always)]
 pub fn square_to_bilinear_xn(ux: f32xn, uy: f32xn, w: [f32xn; 4]) -> (f32xn, f32xn) {
@@ -252,10 +252,10 @@ mod tests {
             }
         }
     }
-    /// The eight-lane bilinear warp equals the scalar one bit for bit, including the
+    /// The lane bilinear warp equals the scalar one bit for bit, including the
     /// degenerate ramps (zero weights, zero u).
     #[test]
-    fn bilinear_x8_is_bit_identical() {
+    fn bilinear_xn_is_bit_identical() {
         let ws = [
             [1.0, 2.0, 3.0, 4.0],
             [0.0, 0.0, 0.0, 0.0],
@@ -293,10 +293,10 @@ mod tests {
             }
         }
     }
-    /// The eight-lane cosine warp equals the scalar one bit for bit, including the centre
+    /// The lane cosine warp equals the scalar one bit for bit, including the centre
     /// and the diagonals of the square.
     #[test]
-    fn cosine_hemisphere_x8_is_bit_identical() {
+    fn cosine_hemisphere_xn_is_bit_identical() {
         let mut us: Vec<Vec2> = (0..=64)
             .flat_map(|i| (0..=64).map(move |j| Vec2::new(i as f32 / 64.0, j as f32 / 64.0)))
             .collect();

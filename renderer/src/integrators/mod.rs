@@ -124,7 +124,7 @@ impl<'a> Shading<'a> {
     }
 }
 
-/// [`Shading::new`]'s frames and local outgoing directions for eight hits at once (shading
+/// [`Shading::new`]'s frames and local outgoing directions for `LANES` hits at once (shading
 /// normals `ns`, tangents `dpdu`, ray directions `d`), bit for bit the same: the
 /// arithmetic of [`Frame::from_normal_tangent`], `to_local` and `normalize` in SIMD lanes;
 /// lanes whose tangent is degenerate take the scalar fallback.
@@ -214,11 +214,11 @@ pub(crate) fn shadow_ray(it: &Interaction, wi: Vec3, at: Option<(Vec3, Vec3)>) -
 mod tests {
     use super::*;
 
-    /// The eight-lane frames equal `Frame::from_normal_tangent` and the normalized local
+    /// The lane frames equal `Frame::from_normal_tangent` and the normalized local
     /// `-d` bit for bit, including lanes with a degenerate tangent (zero, along the normal,
     /// NaN), which take the scalar fallback.
     #[test]
-    fn shading_x8_is_bit_identical() {
+    fn shading_xn_is_bit_identical() {
         let v = |k: usize, a: f32| {
             let t = k as f32 * a;
             Vec3::new(t.sin(), (1.7 * t).cos(), (0.3 * t).sin() + 0.2).normalize()

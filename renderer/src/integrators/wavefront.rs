@@ -364,7 +364,7 @@ impl Wavefront {
         }
     }
 
-    /// Shading frames and outgoing directions of the scattering hits (eight at a time in
+    /// Shading frames and outgoing directions of the scattering hits (a lane vector at a time in
     /// SIMD lanes: [`shading_xn`]), the sampler dimensions of this bounce for all of them
     /// (light choice and point, BSDF lobe and direction), and the hits grouped by
     /// material.

@@ -42,7 +42,7 @@ pub struct EnvMap {
     height: usize,
     /// H rows of W + 1 pixels, three floats (r, g, b) each: the last column repeats the
     /// first (periodic boundary). Flat, so that the SIMD lookups load a pixel pair of
-    /// eight cells as 16-byte rows and transpose them ([`simd::transpose4xn`]).
+    /// `LANES` cells as 16-byte rows and transpose them ([`simd::transpose4xn`]).
     data: Vec<f32>,
     scale: f32,
     to_world: Mat3,
@@ -252,7 +252,7 @@ impl EnvMap {
         (radiance, density / (2.0 * PI * PI * sin_theta))
     }
 
-    /// The corner texels of eight cells (columns `ix`, rows `iy`) and the sines of their
+    /// The corner texels of `LANES` cells (columns `ix`, rows `iy`) and the sines of their
     /// top and bottom pixel rows: `([top-left, top-right, bottom-left, bottom-right],
     /// sin top, sin bottom)`. The cells are clamped to the grid first (a no-op for the
     /// cells the callers compute), so the reads need no bounds check per lane.
@@ -298,7 +298,7 @@ impl EnvMap {
         (RgbxN::new(a[0], a[1], a[2]), RgbxN::new(a[3], b[2], b[3]))
     }
 
-    /// [`EnvMap::blend`] in eight lanes, with the same operations: radiance (without
+    /// [`EnvMap::blend`] in SIMD lanes, with the same operations: radiance (without
     /// `scale`) and density at (`fx`, `fy`) in cells with corner texels `t`, whose rows
     /// have sin(theta) `s_top` and `s_bottom`.
     #[inline(always)]
@@ -330,7 +330,7 @@ impl EnvMap {
         (texel, density)
     }
 
-    /// [`EnvMap::corner_weights`] in eight lanes.
+    /// [`EnvMap::corner_weights`] in SIMD lanes.
     #[inline(always)]
     fn corner_weights_xn(&self, t: &[RgbxN; 4], s_top: f32xn, s_bottom: f32xn) -> [f32xn; 4] {
         let (offset, zero) = (f32xn::splat(self.offset), f32xn::splat(0.0));
@@ -344,9 +344,9 @@ impl EnvMap {
     }
 
     /// [`EnvMap::eval_pdf`] of many directions, `out[i]` for `dirs[i]`, bit for bit the
-    /// same: eight at a time in SIMD lanes (`wide`'s AVX vectors), with the lane forms of
-    /// the same functions ([`fastmath::xn`]), so that the independent texel reads of eight
-    /// lookups overlap and the arithmetic runs once per eight directions.
+    /// same: a lane vector at a time in SIMD lanes (`wide`'s AVX vectors), with the lane forms of
+    /// the same functions ([`fastmath::xn`]), so that the independent texel reads of `LANES`
+    /// lookups overlap and the arithmetic runs once per `LANES` directions.
     pub fn eval_pdf_many(&self, dirs: &[Vec3], out: &mut [(Rgb, f32)]) {
         assert_eq!(dirs.len(), out.len());
         let (w, h) = (self.width, self.height);
@@ -390,7 +390,7 @@ impl EnvMap {
         }
     }
 
-    /// [`EnvMap::sample`] of many points, bit for bit the same, eight at a time in SIMD
+    /// [`EnvMap::sample`] of many points, bit for bit the same, a lane vector at a time in SIMD
     /// lanes as [`EnvMap::eval_pdf_many`]: for `us[i]`, the direction `wi[i]`, radiance
     /// `li[i]` and pdf `pdf[i]`, or a pdf of 0 (and zero direction and radiance) where
     /// `sample` gives None.
@@ -512,7 +512,7 @@ fn texel(d: &[f32], k: usize) -> Rgb {
     Rgb::new(p[0], p[1], p[2])
 }
 
-/// `m * (x, y, z)` in eight lanes, with glam's `Mat3 * Vec3` operations.
+/// `m * (x, y, z)` in SIMD lanes, with glam's `Mat3 * Vec3` operations.
 #[inline(always)]
 fn mat3_mul_xn(m: &Mat3, x: f32xn, y: f32xn, z: f32xn) -> [f32xn; 3] {
     let row = |c: usize| {

@@ -298,7 +298,7 @@ impl Light {
     }
 }
 
-/// [`Light::sample_li`] of a rectangle emitter for many points, eight at a time in SIMD
+/// [`Light::sample_li`] of a rectangle emitter for many points, a lane vector at a time in SIMD
 /// lanes with the scalar form's operations ([`Rectangle::point`], the conversion of the
 /// uniform area density to solid angle, the one-sided emission test), bit for bit the same.
 fn sample_rectangle_many(

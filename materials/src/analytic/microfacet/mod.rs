@@ -93,7 +93,7 @@ impl Distribution {
         half_from(cos_t, u.x)
     }
 
-    /// [`Distribution::sample_h`] of eight points (x, y) in lanes, bit for bit the same.
+    /// [`Distribution::sample_h`] of `LANES` points (x, y) in lanes, bit for bit the same.
     #[inline(always)]
     pub fn sample_h_xn(&self, ux: f32xn, uy: f32xn) -> Vec3xN {
         let cos_t = match *self {
