@@ -23,11 +23,12 @@
 //! a time), transposes of records into lane vectors ([`transpose4xn`], [`rows4`],
 //! [`vec2s`], [`vec3s`], [`arrays3`]), per-lane select and clamp ([`sel`], [`clamp`]),
 //! masks ([`MaskN`], [`mask_from_bools`], [`mask_bits`], [`ALL_LANES`]), [`gather`],
-//! [`float_of`], [`fmadd`], and the small types [`Vec3xN`] and [`RgbxN`].
+//! [`float_of`], [`fmadd`], the small types [`Vec3xN`] and [`RgbxN`], and [`FloatLanes`] (the
+//! operations of kernels written for either vector width).
 
 use crate::Rgb;
 use glam::{Vec2, Vec3};
-use std::ops::{Add, Mul, Neg, Sub};
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 #[cfg(target_feature = "avx512f")]
 mod width {
@@ -42,6 +43,87 @@ mod width {
     pub const LANES: usize = 8;
 }
 pub use width::{LANES, f32xn, i32xn, u32xn};
+
+/// An f32 vector of either width `wide` offers on x86 (`f32x8`, `f32x16`), with the
+/// operations of kernels that serve two batch shapes: the renderer's ray-primitive tests
+/// run [`LANES`] rays against one primitive ([`f32xn`]) and one ray against the eight
+/// primitives of a BVH8 leaf block (`wide::f32x8`), the same code for both. Comparisons
+/// return masks of the same type (all bits set where true), as `wide`'s do.
+pub trait FloatLanes:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + BitAnd<Output = Self>
+    + BitOr<Output = Self>
+    + Not<Output = Self>
+    + wide::Select<Self>
+{
+    /// `a == b` per lane, as a mask.
+    fn simd_eq(self, o: Self) -> Self;
+    /// `a < b` per lane, as a mask.
+    fn simd_lt(self, o: Self) -> Self;
+    /// `a <= b` per lane, as a mask.
+    fn simd_le(self, o: Self) -> Self;
+    /// `a > b` per lane, as a mask.
+    fn simd_gt(self, o: Self) -> Self;
+    /// `a >= b` per lane, as a mask.
+    fn simd_ge(self, o: Self) -> Self;
+    /// Every lane `x`.
+    fn splat(x: f32) -> Self;
+    /// Square root per lane (IEEE, as `f32::sqrt`).
+    fn sqrt(self) -> Self;
+    /// Absolute value per lane.
+    fn abs(self) -> Self;
+    /// Whether every lane of a mask is set.
+    fn all(self) -> bool;
+}
+
+macro_rules! float_lanes {
+    ($($t:ty),*) => {$(
+        impl FloatLanes for $t {
+            #[inline(always)]
+            fn simd_eq(self, o: Self) -> Self {
+                <$t>::simd_eq(self, o)
+            }
+            #[inline(always)]
+            fn simd_lt(self, o: Self) -> Self {
+                <$t>::simd_lt(self, o)
+            }
+            #[inline(always)]
+            fn simd_le(self, o: Self) -> Self {
+                <$t>::simd_le(self, o)
+            }
+            #[inline(always)]
+            fn simd_gt(self, o: Self) -> Self {
+                <$t>::simd_gt(self, o)
+            }
+            #[inline(always)]
+            fn simd_ge(self, o: Self) -> Self {
+                <$t>::simd_ge(self, o)
+            }
+            #[inline(always)]
+            fn splat(x: f32) -> Self {
+                <$t>::splat(x)
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn all(self) -> bool {
+                <$t>::all(self)
+            }
+        }
+    )*};
+}
+float_lanes!(wide::f32x8, wide::f32x16);
 
 /// [`mask_bits`] of a mask with every lane set.
 pub const ALL_LANES: u32 = ((1u64 << LANES) - 1) as u32;
@@ -81,13 +163,6 @@ pub fn lanes<T>(f: impl Fn(usize) -> T) -> [T; LANES] {
     }
 }
 
-/// `[f(0), .., f(7)]`, written out: for kernels over eight lanes whatever [`LANES`] is
-/// (the renderer's geometry blocks: eight primitives per BVH8 leaf block).
-#[inline(always)]
-pub fn lanes8<T>(f: impl Fn(usize) -> T) -> [T; 8] {
-    [f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7)]
-}
-
 /// The first [`LANES`] elements of a chunk of one to [`LANES`], the last repeated into the
 /// lanes past its end (so that those lanes compute something valid, to be ignored).
 #[inline(always)]
@@ -125,9 +200,9 @@ pub fn rows4(row: impl Fn(usize) -> [f32; 4]) -> [f32xn; 4] {
 }
 
 /// Eight 4-float records as four eight-lane vectors, `[r[0][k], .., r[7][k]]` for
-/// k = 0..4 (the 4x8 transpose of [`transpose4xn`]; for eight-lane kernels).
+/// k = 0..4: the 4x8 transpose [`transpose4xn`] is made of.
 #[inline(always)]
-pub fn transpose4x8(r: &[[f32; 4]; 8]) -> [wide::f32x8; 4] {
+fn transpose4x8(r: &[[f32; 4]; 8]) -> [wide::f32x8; 4] {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
     {
         // SAFETY: only needs AVX, which this build enables (the cfg above).
@@ -135,7 +210,7 @@ pub fn transpose4x8(r: &[[f32; 4]; 8]) -> [wide::f32x8; 4] {
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
     {
-        let c = |k: usize| wide::f32x8::new(lanes8(|i| r[i][k]));
+        let c = |k: usize| wide::f32x8::new(std::array::from_fn(|i| r[i][k]));
         [c(0), c(1), c(2), c(3)]
     }
 }
@@ -614,8 +689,9 @@ mod tests {
         }
         let t = rows4(|i| r[LANES - 1 - i]);
         assert_eq!(t[2].to_array(), lanes(|i| r[LANES - 1 - i][2]));
-        let t8 = transpose4x8(&lanes8(|i| r[(i + 1) % LANES]));
-        assert_eq!(t8[3].to_array(), lanes8(|i| r[(i + 1) % LANES][3]));
+        let t8 = transpose4x8(&std::array::from_fn(|i| r[(i + 1) % LANES]));
+        let expected: [f32; 8] = std::array::from_fn(|i| r[(i + 1) % LANES][3]);
+        assert_eq!(t8[3].to_array(), expected);
     }
 
     #[test]

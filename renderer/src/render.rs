@@ -106,6 +106,7 @@ impl RenderStats {
             "msamples_per_second": self.msamples_per_second(),
             "nonfinite_dropped": self.nonfinite_dropped,
             "threads": self.threads,
+            "simd_lanes": lobe_materials::simd::LANES,
             "geometry": {
                 "primitives": self.primitives,
                 "bvh_build_seconds": self.bvh_build_seconds,

@@ -42,8 +42,9 @@ sphere-envmap (measured: 15-17 against 20-24 Msamples/s), a state no single-scen
 reaches. `scalar_rgb`, tens of times slower, runs after the rounds.
 
 Dr.Jit compiles Mitsuba's kernels for the CPU it runs on: on an AVX-512 CPU with 16 f32
-lanes, twice lobe's eight (lobe is built for x86-64-v3, AVX2). The table's header names
-the target; `--mitsuba-vector-width 8` makes Mitsuba AVX2-class code of lobe's width, a
+lanes. lobe is built for the CPU that builds it (.cargo/config.toml), so its kernels are
+16 lanes wide there too (`lobe_materials::simd::LANES`; 8 on AVX2 CPUs). The table's header
+names both; `--mitsuba-vector-width 8` makes Mitsuba AVX2-class code of 8 lanes, a
 diagnostic of how much of its speed is the wider vectors (the targets are set against
 the default).
 """
@@ -78,12 +79,18 @@ def read_exr(path):
     return np.array(mi.Bitmap(path), dtype=np.float64)[..., :3]
 
 
+# What lobe's renders report of its build (the SIMD lane count), for the table's header.
+LOBE_BUILD = {}
+
+
 def lobe_render(exe, scene, spp, seed, out):
     subprocess.run([exe, "render", scene, "--spp", str(spp), "--seed", str(seed), "-o", out, "--no-png", "-q"],
                    check=True)
     stats = out[:-4] + ".stats.json"
     with open(stats) as f:
         s = json.load(f)
+    if "simd_lanes" in s:
+        LOBE_BUILD["simd_lanes"] = s["simd_lanes"]
     return read_exr(out), float(s["seconds"])
 
 
@@ -130,8 +137,8 @@ def uses_python_plugin(d):
 def llvm_target(vector_width=None):
     """Dr.Jit's LLVM code generation target: (CPU name, vector width), or None when the
     library does not expose it. With `vector_width`, first sets it: below 16 also turns off
-    the AVX-512 features, so that 8 makes Mitsuba AVX2-class code of lobe's lane width (lobe
-    is built for x86-64-v3: eight f32 lanes); 16 is what Dr.Jit picks on an AVX-512 CPU. Must
+    the AVX-512 features, so that 8 makes Mitsuba AVX2-class code of the lane width of an
+    AVX2 build of lobe; 16 is what Dr.Jit picks on an AVX-512 CPU. Must
     be called before a kernel is compiled (Dr.Jit's C++ API, `jit_llvm_set_target`)."""
     import ctypes
     try:
@@ -317,6 +324,7 @@ def main():
         results.append(measure(exe, scene, a, peer))
         print("\n".join(detail_lines(results[-1])), file=sys.stderr)
     lines = [f"Machine: {cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
+             f"lobe {LOBE_BUILD.get('simd_lanes', 'unknown')} SIMD lanes; "
              f"Mitsuba {mi.__version__} ({target_text}); {a.spp} spp, medians of {a.runs} rounds (lobe and each "
              f"llvm_ad_rgb configuration alternating, ratios paired per round; scalar_rgb: "
              f"{a.scalar_runs} renders against lobe's median), RMSE (over every render of the rounds) against lobe at "

@@ -7,9 +7,9 @@ use super::kernels::{self, RayLanes};
 use super::{Interaction, Mesh, Ray, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3, Vec3A};
 use lobe_materials::simd;
+use lobe_materials::simd::{LANES, f32xn, u32xn};
 use obvhs::Boundable;
 use obvhs::aabb::Aabb;
-use wide::{f32x8, u32x8};
 
 /// The shape of one primitive.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -38,12 +38,12 @@ impl Primitive {
 }
 
 impl Primitive {
-    /// [`Primitive::intersect`] of eight rays in SIMD lanes, bit for bit the same.
+    /// [`Primitive::intersect`] of rays in SIMD lanes, bit for bit the same.
     #[inline(always)]
-    pub fn intersect_lanes(&self, r: &RayLanes) -> f32x8 {
+    pub fn intersect_lanes(&self, r: &RayLanes<f32xn>) -> f32xn {
         use kernels::splat3;
         match &self.kind {
-            PrimKind::Sphere(s) => kernels::sphere(r, splat3(s.center), f32x8::splat(s.radius)),
+            PrimKind::Sphere(s) => kernels::sphere(r, splat3(s.center), f32xn::splat(s.radius)),
             PrimKind::Triangle(t) => kernels::triangle(r, splat3(t.p0), splat3(t.e1), splat3(t.e2)),
             PrimKind::Rectangle(q) => kernels::rectangle(
                 r,
@@ -167,24 +167,24 @@ impl Geometry {
 
     /// [`Geometry::closest`] of the rays `rays[i]` for each `i` in `idx`, appended to
     /// `out`, bit for bit the same. With a BVH, ray by ray ([`Bvh8::closest`]); small
-    /// scenes test eight rays at a time against each primitive in SIMD lanes
+    /// scenes test `LANES` rays at a time against each primitive in SIMD lanes
     /// ([`kernels`]).
     pub fn closest_many(&self, rays: &[Ray], idx: &[u32], out: &mut Vec<Option<(f32, u32)>>) {
         if let Some(bvh) = &self.bvh {
             out.extend(idx.iter().map(|&i| bvh.closest(&rays[i as usize])));
             return;
         }
-        for ic in idx.chunks(8) {
+        for ic in idx.chunks(LANES) {
             let n = ic.len();
             let (mut lanes, skip) = Self::ray_lanes(|k| &rays[ic[k.min(n - 1)] as usize]);
-            let mut best = u32x8::splat(u32::MAX);
+            let mut best = u32xn::splat(u32::MAX);
             for (j, p) in self.prims.iter().enumerate() {
                 let t = p.intersect_lanes(&lanes);
                 // A lane's skipped primitive counts as a miss, as in `closest_brute_force`.
-                let not_skipped = f32x8::from_bits(!skip.simd_eq(u32x8::splat(j as u32)));
+                let not_skipped = f32xn::from_bits(!skip.simd_eq(u32xn::splat(j as u32)));
                 let closer = t.simd_lt(lanes.tmax) & not_skipped;
                 lanes.tmax = simd::sel(closer, t, lanes.tmax);
-                best = closer.to_bits().select(u32x8::splat(j as u32), best);
+                best = closer.to_bits().select(u32xn::splat(j as u32), best);
             }
             let (t, best) = (lanes.tmax.to_array(), best.to_array());
             out.extend((0..n).map(|k| (best[k] != u32::MAX).then_some((t[k], best[k]))));
@@ -192,20 +192,20 @@ impl Geometry {
     }
 
     /// [`Geometry::occluded`] of each ray, appended to `out`, the same answers: ray by ray
-    /// through the BVH, or in small scenes eight rays at a time per primitive in SIMD lanes
+    /// through the BVH, or in small scenes `LANES` rays at a time per primitive in SIMD lanes
     /// (as [`Geometry::closest_many`]).
     pub fn occluded_many(&self, rays: &[Ray], out: &mut Vec<bool>) {
         if let Some(bvh) = &self.bvh {
             out.extend(rays.iter().map(|r| bvh.occluded(r)));
             return;
         }
-        for rc in rays.chunks(8) {
+        for rc in rays.chunks(LANES) {
             let n = rc.len();
             let (lanes, skip) = Self::ray_lanes(|k| &rc[k.min(n - 1)]);
-            let mut hit = f32x8::splat(0.0);
+            let mut hit = f32xn::splat(0.0);
             for (j, p) in self.prims.iter().enumerate() {
                 let t = p.intersect_lanes(&lanes);
-                let not_skipped = f32x8::from_bits(!skip.simd_eq(u32x8::splat(j as u32)));
+                let not_skipped = f32xn::from_bits(!skip.simd_eq(u32xn::splat(j as u32)));
                 hit |= t.simd_lt(lanes.tmax) & not_skipped;
                 if hit.all() {
                     break;
@@ -217,8 +217,8 @@ impl Geometry {
     }
 
     /// [`Geometry::interaction`] of many hits, appended to `out` in order: hit (i, t, prim)
-    /// of ray `rays[i]`. Hits on spheres are computed eight at a time in SIMD lanes
-    /// ([`Sphere::surface_x8`]: its square roots and divisions are a long dependency chain
+    /// of ray `rays[i]`. Hits on spheres are computed a lane vector at a time in SIMD lanes
+    /// ([`Sphere::surface_lanes`]: its square roots and divisions are a long dependency chain
     /// per hit), bit for bit the same; other hits one by one.
     pub fn interactions_many(
         &self,
@@ -229,13 +229,13 @@ impl Geometry {
         let first = out.len();
         out.resize(first + hits.len(), Interaction::ZERO);
         let out = &mut out[first..];
-        let mut spheres = [0usize; 8];
+        let mut spheres = [0usize; LANES];
         let mut n = 0;
         for (h, &(i, t, prim)) in hits.iter().enumerate() {
             if matches!(self.prims[prim as usize].kind, PrimKind::Sphere(_)) {
                 spheres[n] = h;
                 n += 1;
-                if n == 8 {
+                if n == LANES {
                     self.sphere_interactions(rays, hits, &spheres, out);
                     n = 0;
                 }
@@ -248,7 +248,7 @@ impl Geometry {
         }
     }
 
-    /// The interactions of up to eight hits `which` (indices into `hits` and `out`), all
+    /// The interactions of up to `LANES` hits `which` (indices into `hits` and `out`), all
     /// on spheres, in SIMD lanes.
     fn sphere_interactions(
         &self,
@@ -261,16 +261,14 @@ impl Geometry {
         let hit = |k: usize| hits[which[k.min(n - 1)]];
         let (lanes, _) = Self::ray_lanes(|k| &rays[hit(k).0 as usize]);
         let (o, d) = (lanes.o, lanes.d);
-        let t = f32x8::new(simd::lanes8(|k| hit(k).1));
-        let cr = simd::transpose4x8(&simd::lanes8(|k| {
-            match &self.prims[hit(k).2 as usize].kind {
-                PrimKind::Sphere(s) => [s.center.x, s.center.y, s.center.z, s.radius],
-                _ => unreachable!("sphere hits only"),
-            }
-        }));
+        let t = f32xn::new(simd::lanes(|k| hit(k).1));
+        let cr = simd::rows4(|k| match &self.prims[hit(k).2 as usize].kind {
+            PrimKind::Sphere(s) => [s.center.x, s.center.y, s.center.z, s.radius],
+            _ => unreachable!("sphere hits only"),
+        });
         // Ray::at: o + d t.
         let at = [o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t];
-        let (p, nrm, dpdu) = Sphere::surface_x8(at, [cr[0], cr[1], cr[2]], cr[3]);
+        let (p, nrm, dpdu) = Sphere::surface_lanes(at, [cr[0], cr[1], cr[2]], cr[3]);
         let (p, nrm, dpdu) = (
             p.map(|v| v.to_array()),
             nrm.map(|v| v.to_array()),
@@ -279,7 +277,7 @@ impl Geometry {
         for (k, &h) in which.iter().enumerate() {
             let (_, t, prim) = hits[h];
             let shape = self.prims[prim as usize].shape;
-            let v = |a: &[[f32; 8]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
+            let v = |a: &[[f32; LANES]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
             let nk = v(&nrm);
             let oriented = if self.shapes[shape as usize].flip_normals {
                 -nk
@@ -300,26 +298,26 @@ impl Geometry {
         }
     }
 
-    /// Eight rays in SIMD lanes, `ray(k)` in lane k, and their skipped primitives. A
+    /// [`LANES`] rays in SIMD lanes, `ray(k)` in lane k, and their skipped primitives. A
     /// ray's first 32 bytes are two rows of four floats (o, d.x and d.y, d.z, tmin, tmax),
-    /// read as two 4x8 transposes.
+    /// read as two transposes ([`simd::rows4`]).
     #[inline(always)]
-    fn ray_lanes<'a>(ray: impl Fn(usize) -> &'a Ray) -> (RayLanes, u32x8) {
-        let a = simd::transpose4x8(&simd::lanes8(|k| {
+    fn ray_lanes<'a>(ray: impl Fn(usize) -> &'a Ray) -> (RayLanes<f32xn>, u32xn) {
+        let a = simd::rows4(|k| {
             let r = ray(k);
             [r.o.x, r.o.y, r.o.z, r.d.x]
-        }));
-        let b = simd::transpose4x8(&simd::lanes8(|k| {
+        });
+        let b = simd::rows4(|k| {
             let r = ray(k);
             [r.d.y, r.d.z, r.tmin, r.tmax]
-        }));
+        });
         let lanes = RayLanes {
             o: [a[0], a[1], a[2]],
             d: [a[3], b[0], b[1]],
             tmin: b[2],
             tmax: b[3],
         };
-        (lanes, u32x8::new(simd::lanes8(|k| ray(k).skip)))
+        (lanes, u32xn::new(simd::lanes(|k| ray(k).skip)))
     }
 
     /// Closest hit with its local geometry.

@@ -159,7 +159,7 @@ impl LaneRay {
     }
 
     #[inline(always)]
-    fn with_tmax(&self, tmax: f32x8) -> RayLanes {
+    fn with_tmax(&self, tmax: f32x8) -> RayLanes<f32x8> {
         RayLanes {
             o: self.o,
             d: self.d,

@@ -1,36 +1,37 @@
-//! Ray-primitive intersection in eight SIMD lanes, one kernel per primitive kind, each with
-//! the operations of the scalar test ([`Triangle::intersect`], [`Sphere::intersect`],
+//! Ray-primitive intersection in SIMD lanes, one kernel per primitive kind, each with the
+//! operations of the scalar test ([`Triangle::intersect`], [`Sphere::intersect`],
 //! [`Rectangle::intersect`]) in the same order, so a lane's distance is bit for bit the
-//! scalar one. Every operand is eight lanes, so one kernel serves both batch shapes the
-//! renderer uses: one ray against eight primitives (the BVH's leaf blocks, the ray
-//! splatted) and eight rays against one primitive (small scenes tested exhaustively, the
-//! primitive splatted).
+//! scalar one. The kernels are generic over the vector ([`FloatLanes`]), so one kernel
+//! serves both batch shapes the renderer uses: one ray against the eight primitives of a
+//! BVH8 leaf block (`wide::f32x8`, the ray splatted) and [`LANES`] rays against one
+//! primitive (small scenes tested exhaustively, `f32xn`, the primitive splatted).
 
 #[cfg(doc)]
 use super::{Rectangle, Sphere, Triangle};
-use lobe_materials::simd::{dot3 as dot, sel};
-use wide::f32x8;
+#[cfg(doc)]
+use lobe_materials::simd::LANES;
+use lobe_materials::simd::{FloatLanes, dot3 as dot, sel};
 
-/// Eight lanes of a 3-vector, one array per axis.
-pub type V3 = [f32x8; 3];
+/// Lanes of a 3-vector, one array per axis.
+pub type V3<F> = [F; 3];
 
 /// Rays in lanes: origins, directions and the open range (tmin, tmax).
 #[derive(Clone, Copy)]
-pub struct RayLanes {
-    pub o: V3,
-    pub d: V3,
-    pub tmin: f32x8,
-    pub tmax: f32x8,
+pub struct RayLanes<F> {
+    pub o: V3<F>,
+    pub d: V3<F>,
+    pub tmin: F,
+    pub tmax: F,
 }
 
 /// Every lane of `v`.
 #[inline(always)]
-pub fn splat3(v: glam::Vec3) -> V3 {
-    [f32x8::splat(v.x), f32x8::splat(v.y), f32x8::splat(v.z)]
+pub fn splat3<F: FloatLanes>(v: glam::Vec3) -> V3<F> {
+    [F::splat(v.x), F::splat(v.y), F::splat(v.z)]
 }
 
 #[inline(always)]
-fn cross(a: V3, b: V3) -> V3 {
+fn cross<F: FloatLanes>(a: V3<F>, b: V3<F>) -> V3<F> {
     // glam's order.
     [
         a[1] * b[2] - b[1] * a[2],
@@ -40,7 +41,7 @@ fn cross(a: V3, b: V3) -> V3 {
 }
 
 #[inline(always)]
-fn sub(a: V3, b: V3) -> V3 {
+fn sub<F: FloatLanes>(a: V3<F>, b: V3<F>) -> V3<F> {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
@@ -49,8 +50,8 @@ const INF: f32 = f32::INFINITY;
 /// Möller-Trumbore ([`Triangle::intersect`]) of triangles (vertex `p0`, edges `e1`, `e2`):
 /// the distance in (tmin, tmax), else infinity.
 #[inline(always)]
-pub fn triangle(r: &RayLanes, p0: V3, e1: V3, e2: V3) -> f32x8 {
-    let (zero, one) = (f32x8::splat(0.0), f32x8::splat(1.0));
+pub fn triangle<F: FloatLanes>(r: &RayLanes<F>, p0: V3<F>, e1: V3<F>, e2: V3<F>) -> F {
+    let (zero, one) = (F::splat(0.0), F::splat(1.0));
     let pvec = cross(r.d, e2);
     let det = dot(e1, pvec);
     let inv_det = one / det;
@@ -62,21 +63,21 @@ pub fn triangle(r: &RayLanes, p0: V3, e1: V3, e2: V3) -> f32x8 {
     // The scalar test's conditions, NaN cases included: det nonzero and finite, u in
     // [0, 1], not v < 0, not u + v > 1, t in (tmin, tmax).
     let ok = !det.simd_eq(zero)
-        & det.abs().simd_lt(f32x8::splat(INF))
+        & det.abs().simd_lt(F::splat(INF))
         & u.simd_ge(zero)
         & u.simd_le(one)
         & !v.simd_lt(zero)
         & !(u + v).simd_gt(one)
         & t.simd_gt(r.tmin)
         & t.simd_lt(r.tmax);
-    sel(ok, t, f32x8::splat(INF))
+    sel(ok, t, F::splat(INF))
 }
 
 /// Spheres ([`Sphere::intersect`]: Haines et al.'s careful quadratic) of centres `c` and
 /// radii `radius`.
 #[inline(always)]
-pub fn sphere(r: &RayLanes, c: V3, radius: f32x8) -> f32x8 {
-    let (zero, one, inf) = (f32x8::splat(0.0), f32x8::splat(1.0), f32x8::splat(INF));
+pub fn sphere<F: FloatLanes>(r: &RayLanes<F>, c: V3<F>, radius: F) -> F {
+    let (zero, one, inf) = (F::splat(0.0), F::splat(1.0), F::splat(INF));
     let d = r.d;
     let r2 = radius * radius;
     let d_len2 = dot(d, d);
@@ -109,8 +110,14 @@ pub fn sphere(r: &RayLanes, c: V3, radius: f32x8) -> f32x8 {
 /// Rectangles ([`Rectangle::intersect`]) of corner `corner`, unit normal `n` and dual
 /// edge vectors `du`, `dv`.
 #[inline(always)]
-pub fn rectangle(r: &RayLanes, corner: V3, n: V3, du: V3, dv: V3) -> f32x8 {
-    let (zero, one) = (f32x8::splat(0.0), f32x8::splat(1.0));
+pub fn rectangle<F: FloatLanes>(
+    r: &RayLanes<F>,
+    corner: V3<F>,
+    n: V3<F>,
+    du: V3<F>,
+    dv: V3<F>,
+) -> F {
+    let (zero, one) = (F::splat(0.0), F::splat(1.0));
     let denom = dot(r.d, n);
     let t = dot(sub(corner, r.o), n) / denom;
     // ray.at(t) - corner: o + d t - corner.
@@ -129,5 +136,5 @@ pub fn rectangle(r: &RayLanes, corner: V3, n: V3, du: V3, dv: V3) -> f32x8 {
         & u.simd_le(one)
         & v.simd_ge(zero)
         & v.simd_le(one);
-    sel(ok, t, f32x8::splat(INF))
+    sel(ok, t, F::splat(INF))
 }

@@ -6,8 +6,8 @@
 use super::Ray;
 use glam::{Vec2, Vec3};
 use lobe_materials::simd;
+use lobe_materials::simd::FloatLanes;
 use std::f32::consts::{PI, TAU};
-use wide::f32x8;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
@@ -68,15 +68,15 @@ impl Sphere {
         (p, n, dpdu)
     }
 
-    /// [`Sphere::surface`] of eight points on eight spheres (centres `c`, radii `r`, one per
-    /// lane), with the same operations: bit for bit the same.
+    /// [`Sphere::surface`] of points on spheres in SIMD lanes (centres `c`, radii `r`, one
+    /// per lane), with the same operations: bit for bit the same.
     #[inline(always)]
-    pub fn surface_x8(
-        p_approx: [f32x8; 3],
-        c: [f32x8; 3],
-        r: f32x8,
-    ) -> ([f32x8; 3], [f32x8; 3], [f32x8; 3]) {
-        let (zero, one) = (f32x8::splat(0.0), f32x8::splat(1.0));
+    pub fn surface_lanes<F: FloatLanes>(
+        p_approx: [F; 3],
+        c: [F; 3],
+        r: F,
+    ) -> ([F; 3], [F; 3], [F; 3]) {
+        let (zero, one) = (F::splat(0.0), F::splat(1.0));
         let local = [p_approx[0] - c[0], p_approx[1] - c[1], p_approx[2] - c[2]];
         let len = simd::dot3(local, local).sqrt();
         // local *= radius / len where len > 0, else (0, 0, radius).
@@ -123,11 +123,12 @@ impl Sphere {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lobe_materials::simd::{LANES, f32xn};
 
-    /// The eight-lane surface equals `surface` bit for bit, including points at the centre
+    /// The lane surface equals `surface` bit for bit, including points at the centre
     /// (no direction: the +z pole) and on the z axis (no tangent: +x).
     #[test]
-    fn surface_x8_is_bit_identical() {
+    fn surface_lanes_is_bit_identical() {
         let spheres = [
             Sphere {
                 center: Vec3::new(0.3, -1.2, 2.0),
@@ -142,11 +143,10 @@ mod tests {
                 radius: 130.0,
             },
         ];
-        let vec3s = |v: [Vec3; 8]| [0, 1, 2].map(|a| f32x8::new(v.map(|p| p[a])));
-        for round in 0..96 {
-            let s = simd::lanes8(|k| spheres[(round + k) % 3]);
-            let p = simd::lanes8(|k| {
-                let t = (round * 8 + k) as f32;
+        for round in 0..768 / LANES {
+            let s = simd::lanes(|k| spheres[(round + k) % 3]);
+            let p = simd::lanes(|k| {
+                let t = (round * LANES + k) as f32;
                 let c = s[k].center;
                 match (round + k) % 9 {
                     0 => c,
@@ -158,17 +158,17 @@ mod tests {
                     }
                 }
             });
-            let c = vec3s(simd::lanes8(|k| s[k].center));
-            let r = f32x8::new(simd::lanes8(|k| s[k].radius));
-            let (pp, n, u) = Sphere::surface_x8(vec3s(p), c, r);
+            let c = simd::vec3s(&simd::lanes(|k| s[k].center));
+            let r = f32xn::new(simd::lanes(|k| s[k].radius));
+            let (pp, n, u) = Sphere::surface_lanes(simd::vec3s(&p), c, r);
             let (pp, n, u) = (
                 pp.map(|v| v.to_array()),
                 n.map(|v| v.to_array()),
                 u.map(|v| v.to_array()),
             );
-            for k in 0..8 {
+            for k in 0..LANES {
                 let (ep, en, eu) = s[k].surface(p[k]);
-                let v = |a: &[[f32; 8]; 3]| [a[0][k], a[1][k], a[2][k]].map(f32::to_bits);
+                let v = |a: &[[f32; LANES]; 3]| [a[0][k], a[1][k], a[2][k]].map(f32::to_bits);
                 let b = |w: Vec3| w.to_array().map(f32::to_bits);
                 assert_eq!(v(&pp), b(ep), "point, lane {k} of round {round}");
                 assert_eq!(v(&n), b(en), "normal, lane {k} of round {round}");
