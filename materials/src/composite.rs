@@ -10,6 +10,7 @@ use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::lobe::Lobe;
 use crate::sampling::warp::{
     cosine_hemisphere_pdf, cosine_hemisphere_pdf_xn, square_to_cosine_hemisphere,
+    square_to_cosine_hemisphere_xn,
 };
 use crate::simd::{self, RgbxN, Vec3xN, f32xn, i32xn, max_lane, sel};
 use glam::{Vec2, Vec3};
@@ -153,17 +154,6 @@ const SAMPLE_BLOCK: usize = 64;
 struct LaneWeights {
     w: [f32xn; MAX_INLINE + 1],
     total: f32xn,
-}
-
-impl LaneWeights {
-    /// The weights of one lane (the diffuse component's and those of `lobes` lobes).
-    fn lane(&self, lane: usize, lobes: usize) -> [f32; MAX_INLINE + 1] {
-        let mut out = [0.0; MAX_INLINE + 1];
-        for (o, w) in out.iter_mut().zip(&self.w).take(lobes + 1) {
-            *o = w.as_array()[lane];
-        }
-        out
-    }
 }
 
 impl Bsdf for Composite {
@@ -319,13 +309,18 @@ impl Composite {
             |k| !(wo[k].z <= 0.0),
             |idx| {
                 let w = self.lane_weights(f32xn::new(simd::lanes_of(idx, |k| wo[k].z)));
-                let total = w.total.to_array();
+                let lane_uc = f32xn::new(simd::lanes_of(idx, |k| uc[k]));
+                let (chosen, uc_rest) = Self::choose_xn(lane_uc, &w, self.lobes.len() + 1);
+                let [ux, uy] = simd::vec2s(&simd::lanes_of(idx, |k| u[k]));
+                let diffuse = simd::arrays3(square_to_cosine_hemisphere_xn(ux, uy));
+                let (total, chosen, uc_rest) =
+                    (w.total.to_array(), chosen.to_array(), uc_rest.to_array());
                 for (lane, &k) in idx.iter().enumerate() {
                     if total[lane] > 0.0 {
-                        let lw = w.lane(lane, self.lobes.len());
-                        choice[k] = Self::choose(uc[k], &lw[..self.lobes.len() + 1], total[lane]);
+                        choice[k] = (chosen[lane] as usize, uc_rest[lane]);
                         if choice[k].0 == 0 {
-                            wi[k] = Some(square_to_cosine_hemisphere(u[k]));
+                            let [x, y, z] = diffuse.map(|c| c[lane]);
+                            wi[k] = Some(Vec3::new(x, y, z));
                         }
                     }
                 }
@@ -378,6 +373,25 @@ impl Composite {
         let uc_rest =
             (target / w[chosen].max(f32::MIN_POSITIVE)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
         (chosen, uc_rest)
+    }
+
+    /// [`Composite::choose`] per lane, with the same operations (bit for bit): the
+    /// component each lane's `uc` chooses among the first `n` weights of `w` (as a float)
+    /// and what is left of `uc` within it.
+    fn choose_xn(uc: f32xn, w: &LaneWeights, n: usize) -> (f32xn, f32xn) {
+        let mut target = uc * w.total;
+        let mut chosen = f32xn::splat((n - 1) as f32);
+        let mut w_chosen = w.w[n - 1];
+        let mut searching = f32xn::splat(0.0).simd_eq(f32xn::splat(0.0));
+        for (k, &wk) in w.w[..n].iter().enumerate() {
+            let found = searching & target.simd_lt(wk);
+            chosen = sel(found, f32xn::splat(k as f32), chosen);
+            w_chosen = sel(found, wk, w_chosen);
+            searching = searching & !found;
+            target = sel(searching, target - wk, target);
+        }
+        let rest = target / w_chosen.max(f32xn::splat(f32::MIN_POSITIVE));
+        (chosen, simd::clamp(rest, 0.0, 1.0 - f32::EPSILON / 2.0))
     }
 
     /// The component weights of `LANES` outgoing directions (lane by lane
