@@ -387,7 +387,7 @@ impl Composite {
             let found = searching & target.simd_lt(wk);
             chosen = sel(found, f32xn::splat(k as f32), chosen);
             w_chosen = sel(found, wk, w_chosen);
-            searching = searching & !found;
+            searching &= !found;
             target = sel(searching, target - wk, target);
         }
         let rest = target / w_chosen.max(f32xn::splat(f32::MIN_POSITIVE));
