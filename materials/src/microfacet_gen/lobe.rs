@@ -54,10 +54,12 @@ impl Lobe for SampledMicrofacet {
         self.pdf_xn(Vec3xN::splat(wo), Vec3xN::splat(wi)).to_array()[0]
     }
     /// The generator's value ([`Table::rho_xn`]) and density (p(h) h_z, converted to
-    /// the density of wi) of `LANES` pairs.
+    /// the density of wi) of `LANES` pairs, p(h) looked up once for both.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let v = self.rho_xn(wo, wi);
-        (RgbxN::new(v, v, v), self.pdf_xn(wo, wi))
+        let h = (wo + wi).normalize_or_zero();
+        let p_h = self.table.p_xn(h.x, h.y);
+        let v = self.table.rho_at_xn(wo, wi, h, p_h, self.f0 as f32);
+        (RgbxN::new(v, v, v), Self::pdf_at_xn(wo, wi, h, p_h))
     }
     fn flags(&self) -> Flags {
         Flags::RECIPROCAL | Flags::GLOSSY
@@ -76,9 +78,16 @@ impl SampledMicrofacet {
     /// The density of wi: p(h) h_z / (4 wo.h), zero below the surface or where not finite.
     #[inline]
     fn pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
-        let zero = f32xn::splat(0.0);
         let h = (wo + wi).normalize_or_zero();
-        let p = lobe::xn::half_to_incident_pdf(self.table.pdf_h_xn(h), wo.dot(h));
+        Self::pdf_at_xn(wo, wi, h, self.table.p_xn(h.x, h.y))
+    }
+
+    /// [`SampledMicrofacet::pdf_xn`] given the half vector `h` of `wo` and `wi` and
+    /// `p_h`, [`Table::p_xn`] of it.
+    #[inline]
+    fn pdf_at_xn(wo: Vec3xN, wi: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
+        let zero = f32xn::splat(0.0);
+        let p = lobe::xn::half_to_incident_pdf(Table::pdf_h_at_xn(h, p_h), wo.dot(h));
         let ok = lobe::xn::above(wo, wi) & p.is_finite();
         sel(ok, p, zero)
     }

@@ -221,14 +221,22 @@ impl Table {
     /// [`Table::rho`] per lane, in f32.
     #[inline]
     pub fn rho_xn(&self, wo: Vec3xN, wi: Vec3xN, f0: f32) -> f32xn {
+        let h = (wo + wi).normalize_or_zero();
+        self.rho_at_xn(wo, wi, h, self.p_xn(h.x, h.y), f0)
+    }
+
+    /// [`Table::rho_xn`] given the half vector `h` of `wo` and `wi` (normalized or zero)
+    /// and `p_h`, [`Table::p_xn`] of it: callers that also need the density of `h`
+    /// ([`Table::pdf_h_at_xn`]) look p(h) up once.
+    #[inline]
+    pub fn rho_at_xn(&self, wo: Vec3xN, wi: Vec3xN, h: Vec3xN, p_h: f32xn, f0: f32) -> f32xn {
         let s = f32xn::splat;
         let zero = s(0.0);
-        let h = (wo + wi).normalize_or_zero();
         let c = wi.dot(h).max(zero).min(s(1.0));
         let m = s(1.0) - c;
         let m2 = m * m;
         let fresnel = s(f0) + s(1.0 - f0) * (m2 * m2 * m);
-        let v = self.p_xn(h.x, h.y) * fresnel / (s(4.0) * self.g_xn(wo) * self.g_xn(wi));
+        let v = p_h * fresnel / (s(4.0) * self.g_xn(wo) * self.g_xn(wi));
         let ok = wo.z.simd_gt(zero) & wi.z.simd_gt(zero) & h.z.simd_gt(zero) & v.is_finite();
         sel(ok, v.max(zero), zero)
     }
@@ -236,8 +244,14 @@ impl Table {
     /// [`Table::pdf_h`] per lane, in f32.
     #[inline]
     pub fn pdf_h_xn(&self, h: Vec3xN) -> f32xn {
+        Self::pdf_h_at_xn(h, self.p_xn(h.x, h.y))
+    }
+
+    /// [`Table::pdf_h_xn`] given `p_h`, [`Table::p_xn`] of `h`.
+    #[inline]
+    pub fn pdf_h_at_xn(h: Vec3xN, p_h: f32xn) -> f32xn {
         let zero = f32xn::splat(0.0);
-        sel(h.z.simd_le(zero), zero, self.p_xn(h.x, h.y) * h.z)
+        sel(h.z.simd_le(zero), zero, p_h * h.z)
     }
 
     /// Density of h with respect to solid angle of `sample_h`: p(h) h_z.
