@@ -128,10 +128,18 @@ pub mod xn {
     #[inline(always)]
     pub fn sample_via_half(wo: Vec3xN, h: Vec3xN) -> [Option<Vec3>; LANES] {
         let zero = f32xn::splat(0.0);
+        sample_via_half_where(zero.simd_eq(zero), wo, h)
+    }
+
+    /// [`sample_via_half`] in the lanes of `drawn` (where a half vector was drawn), None
+    /// in the others.
+    #[inline(always)]
+    pub fn sample_via_half_where(drawn: MaskN, wo: Vec3xN, h: Vec3xN) -> [Option<Vec3>; LANES] {
+        let zero = f32xn::splat(0.0);
         let d = wo.dot(h);
         // `reflect`: 2 (wo . h) h - wo.
         let wi = h * (f32xn::splat(2.0) * d) - wo;
-        wi.options(wo.z.simd_gt(zero) & d.simd_gt(zero) & wi.z.simd_gt(zero))
+        wi.options(drawn & wo.z.simd_gt(zero) & d.simd_gt(zero) & wi.z.simd_gt(zero))
     }
 
     /// A half vector in lanes from its elevation cosine and the azimuth `2 pi ux`

@@ -46,8 +46,8 @@ impl Lobe for SampledMicrofacet {
         u: &[Vec2; LANES],
         _uc: &[f32; LANES],
     ) -> [Option<Vec3>; LANES] {
-        let h = self.table.sample_h_xn(u);
-        crate::simd::lanes(|i| sample_via_half(wo[i], h[i]?))
+        let (h, drawn) = self.table.sample_h_lanes(u);
+        lobe::xn::sample_via_half_where(drawn, Vec3xN::from_array(wo), h)
     }
     /// Lane 0 of [`SampledMicrofacet::eval_pdf_xn`]'s density.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {

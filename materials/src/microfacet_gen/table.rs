@@ -12,7 +12,7 @@
 use crate::fastmath::xn;
 use crate::sampling::hierarchy::Hierarchy2D;
 use crate::sampling::warp::{square_to_bilinear, square_to_bilinear_xn};
-use crate::simd::{self, LANES, Vec3xN, f32xn, i32xn, sel};
+use crate::simd::{self, LANES, MaskN, Vec3xN, f32xn, i32xn, sel};
 use glam::{DVec3, Vec2, Vec3};
 use std::path::Path;
 
@@ -282,6 +282,14 @@ impl Table {
 
     /// [`Table::sample_h`] of `LANES` points, lane by lane the same.
     pub fn sample_h_xn(&self, u: &[Vec2; LANES]) -> [Option<Vec3>; LANES] {
+        let (h, drawn) = self.sample_h_lanes(u);
+        h.options(drawn)
+    }
+
+    /// [`Table::sample_h_xn`] as lane vectors: the half vectors, and the mask of the
+    /// lanes where one was drawn (the others hold no direction).
+    #[inline]
+    pub fn sample_h_lanes(&self, u: &[Vec2; LANES]) -> (Vec3xN, MaskN) {
         let [ux, uy] = simd::vec2s(u);
         let [(cx, cy, rx, ry)] = self.cells.sample_groups([ux], [uy]);
         let n = self.n as i32;
@@ -291,15 +299,15 @@ impl Table {
         let (fx, fy) = square_to_bilinear_xn(rx, ry, [at(0), at(1), at(n), at(n + 1)]);
         let inv = f32xn::splat(1.0 / (self.n - 1) as f32);
         let (two, one) = (f32xn::splat(2.0), f32xn::splat(1.0));
-        let lane = |c: crate::simd::u32xn, f: f32xn| {
+        let coordinate = |c: crate::simd::u32xn, f: f32xn| {
             let c = wide::bytemuck::cast::<_, i32xn>(c);
-            (two * ((crate::simd::float_of(c) + f) * inv) - one).to_array()
+            two * ((crate::simd::float_of(c) + f) * inv) - one
         };
-        let (x, y) = (lane(cx, fx), lane(cy, fy));
-        simd::lanes(|i| {
-            let r2 = x[i] * x[i] + y[i] * y[i];
-            (r2 < 1.0).then(|| Vec3::new(x[i], y[i], (1.0 - r2).sqrt()))
-        })
+        let (x, y) = (coordinate(cx, fx), coordinate(cy, fy));
+        let r2 = x * x + y * y;
+        let drawn = r2.simd_lt(one);
+        let z = sel(drawn, one - r2, f32xn::splat(0.0)).sqrt();
+        (Vec3xN::new(x, y, z), drawn)
     }
 
     /// Reads a distribution written by [`Table::write_exr`] (any square EXR; the first
