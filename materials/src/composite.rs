@@ -382,7 +382,7 @@ impl Composite {
         let mut target = uc * w.total;
         let mut chosen = f32xn::splat((n - 1) as f32);
         let mut w_chosen = w.w[n - 1];
-        let mut searching = f32xn::splat(0.0).simd_eq(f32xn::splat(0.0));
+        let mut searching = simd::all_set();
         for (k, &wk) in w.w[..n].iter().enumerate() {
             let found = searching & target.simd_lt(wk);
             chosen = sel(found, f32xn::splat(k as f32), chosen);

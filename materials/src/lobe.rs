@@ -127,8 +127,7 @@ pub mod xn {
     /// it are above the surface and `wo . h` is positive, as options.
     #[inline(always)]
     pub fn sample_via_half(wo: Vec3xN, h: Vec3xN) -> [Option<Vec3>; LANES] {
-        let zero = f32xn::splat(0.0);
-        sample_via_half_where(zero.simd_eq(zero), wo, h)
+        sample_via_half_where(crate::simd::all_set(), wo, h)
     }
 
     /// [`sample_via_half`] in the lanes of `drawn` (where a half vector was drawn), None

@@ -132,6 +132,12 @@ pub const ALL_LANES: u32 = ((1u64 << LANES) - 1) as u32;
 /// comparisons (`simd_lt`, `simd_eq`, ...) return it; `&`, `|` and `!` combine masks.
 pub type MaskN = f32xn;
 
+/// The mask with every lane set (true).
+#[inline(always)]
+pub fn all_set() -> MaskN {
+    !f32xn::splat(0.0)
+}
+
 /// `[f(0), .., f(LANES - 1)]`, written out so that it always inlines (`array::map` and
 /// `array::from_fn` do not reliably, which costs a call per lane).
 #[inline(always)]
@@ -821,7 +827,7 @@ mod tests {
         let b = lanes(|i| [true, false, false, true, true, false, true, false][i % 8]);
         let m = mask_from_bools(b);
         assert_eq!(mask_bits(m), ALL_LANES / 0xff * 0b0101_1001);
-        assert_eq!(mask_bits(!f32xn::splat(0.0)), ALL_LANES);
+        assert_eq!(mask_bits(all_set()), ALL_LANES);
         let x = lanes(|i| [-2.0, 0.5, 3.0, f32::NAN, 1.0, 0.0, -0.0, 9.0][i % 8]);
         let x = f32xn::new(x);
         let c = clamp(x, 0.0, 1.0).to_array();
