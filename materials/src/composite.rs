@@ -148,7 +148,7 @@ impl Composite {
 const MAX_INLINE: usize = 8;
 /// Queries [`Bsdf::sample_many`] handles together: the queries of one block that chose
 /// the same lobe share its lane calls.
-const SAMPLE_BLOCK: usize = 64;
+const SAMPLE_BLOCK: usize = 256;
 
 /// The component weights of `LANES` queries, `w[k]` lane by lane, and their sums.
 struct LaneWeights {
