@@ -30,6 +30,8 @@ pub struct Table {
     pub(super) p: Vec<f32>,
     /// g(k) at (theta, phi) nodes.
     g: Vec<f32>,
+    /// The corners of each (theta, phi) cell of `g`, for the lane lookups.
+    g_cells: CellCorners,
     /// The (n - 1)^2 grid cells, drawn in proportion to the mass of their bilinear patch.
     cells: Hierarchy2D,
 }
@@ -47,6 +49,51 @@ fn node_index(x: f32xn, last: usize) -> i32xn {
     x.trunc_int()
         .max(i32xn::splat(0))
         .min(i32xn::splat(last as i32))
+}
+
+/// The four corner values of every cell of a row-major grid of nodes, one 16-byte packet
+/// per cell ([v(i, j), v(i + 1, j), v(i, j + 1), v(i + 1, j + 1)]), so that a lane
+/// lookup reads one packet per lane and transposes them ([`simd::rows4`]) instead of
+/// gathering four values per lane.
+#[derive(Clone, Debug)]
+struct CellCorners {
+    /// Cells per row (nodes per row - 1).
+    cells_per_row: usize,
+    packets: Vec<[f32; 4]>,
+}
+
+impl CellCorners {
+    /// From `cols` x `rows` node values, row-major.
+    fn new(v: &[f32], cols: usize, rows: usize) -> Self {
+        assert!(cols >= 2 && rows >= 2 && v.len() == cols * rows);
+        let packets = (0..rows - 1)
+            .flat_map(|j| (0..cols - 1).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                let at = |i: usize, j: usize| v[j * cols + i];
+                [at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)]
+            })
+            .collect();
+        CellCorners {
+            cells_per_row: cols - 1,
+            packets,
+        }
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.packets.len() * std::mem::size_of::<[f32; 4]>()
+    }
+
+    /// The corners of cell (ix, iy) per lane (indices are clamped to the grid).
+    #[inline(always)]
+    fn corners_xn(&self, ix: i32xn, iy: i32xn) -> [f32xn; 4] {
+        let last = i32xn::splat(self.packets.len() as i32 - 1);
+        let k = (iy * i32xn::splat(self.cells_per_row as i32) + ix)
+            .max(i32xn::splat(0))
+            .min(last)
+            .to_array();
+        // SAFETY: 0 <= k[i] <= packets.len() - 1 by the clamp above.
+        simd::rows4(|i| unsafe { *self.packets.get_unchecked(k[i] as usize) })
+    }
 }
 
 /// Bilinear interpolation of corners [(0, 0), (1, 0), (0, 1), (1, 1)] at (fx, fy).
@@ -102,6 +149,7 @@ impl Table {
         }
         let p: Vec<f32> = nodes.iter().map(|v| (v / total) as f32).collect();
         let g = compute_g(n, &p);
+        let g_cells = CellCorners::new(&g, G_PHI, G_THETA);
         // A cell's mass is the mean of its corner nodes (the integral of its bilinear patch
         // over the cell's area, which is the same for every cell).
         let m = n - 1;
@@ -113,12 +161,18 @@ impl Table {
             })
             .collect();
         let (cells, _) = Hierarchy2D::new(&masses, m, m);
-        Ok(Table { n, p, g, cells })
+        Ok(Table {
+            n,
+            p,
+            g,
+            g_cells,
+            cells,
+        })
     }
 
     /// Bytes held by the node values, the g table and the sampler.
     pub fn memory_bytes(&self) -> usize {
-        (self.p.len() + self.g.len()) * 4 + self.cells.memory_bytes()
+        (self.p.len() + self.g.len()) * 4 + self.g_cells.memory_bytes() + self.cells.memory_bytes()
     }
 
     pub fn resolution(&self) -> usize {
@@ -212,10 +266,7 @@ impl Table {
             theta - crate::simd::float_of(it),
             phi - crate::simd::float_of(ip),
         );
-        let idx = it * i32xn::splat(G_PHI as i32) + ip;
-        let at = |offset: i32| simd::gather(&self.g, idx + i32xn::splat(offset));
-        let row = G_PHI as i32;
-        bilinear(fp, ft, [at(0), at(1), at(row), at(row + 1)])
+        bilinear(fp, ft, self.g_cells.corners_xn(ip, it))
     }
 
     /// [`Table::rho`] per lane, in f32.
@@ -292,17 +343,17 @@ impl Table {
     pub fn sample_h_lanes(&self, u: &[Vec2; LANES]) -> (Vec3xN, MaskN) {
         let [ux, uy] = simd::vec2s(u);
         let [(cx, cy, rx, ry)] = self.cells.sample_groups([ux], [uy]);
+        let (cx, cy) = (
+            wide::bytemuck::cast::<_, i32xn>(cx),
+            wide::bytemuck::cast::<_, i32xn>(cy),
+        );
         let n = self.n as i32;
-        let k = wide::bytemuck::cast::<_, i32xn>(cy) * i32xn::splat(n)
-            + wide::bytemuck::cast::<_, i32xn>(cx);
+        let k = cy * i32xn::splat(n) + cx;
         let at = |offset: i32| simd::gather(&self.p, k + i32xn::splat(offset));
         let (fx, fy) = square_to_bilinear_xn(rx, ry, [at(0), at(1), at(n), at(n + 1)]);
         let inv = f32xn::splat(1.0 / (self.n - 1) as f32);
         let (two, one) = (f32xn::splat(2.0), f32xn::splat(1.0));
-        let coordinate = |c: crate::simd::u32xn, f: f32xn| {
-            let c = wide::bytemuck::cast::<_, i32xn>(c);
-            two * ((crate::simd::float_of(c) + f) * inv) - one
-        };
+        let coordinate = |c: i32xn, f: f32xn| two * ((crate::simd::float_of(c) + f) * inv) - one;
         let (x, y) = (coordinate(cx, fx), coordinate(cy, fy));
         let r2 = x * x + y * y;
         let drawn = r2.simd_lt(one);
