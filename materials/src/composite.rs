@@ -326,20 +326,33 @@ impl Composite {
                 }
             },
         );
+        // Each lobe samples the queries that chose it as one batch ([`Lobe::sample_batch`]).
+        let mut idx = [0usize; SAMPLE_BLOCK];
+        let mut batch_wo = [Vec3::ZERO; SAMPLE_BLOCK];
+        let mut batch_u = [Vec2::ZERO; SAMPLE_BLOCK];
+        let mut batch_uc = [0.0f32; SAMPLE_BLOCK];
+        let mut batch_wi = [None::<Vec3>; SAMPLE_BLOCK];
         for (j, (_, lobe)) in self.lobes.iter().enumerate() {
-            simd::chunks_where(
-                m,
-                |k| choice[k].0 == j + 1,
-                |idx| {
-                    let o = simd::lanes_of(idx, |k| wo[k]);
-                    let lane_u = simd::lanes_of(idx, |k| u[k]);
-                    let lane_uc = simd::lanes_of(idx, |k| choice[k].1);
-                    let s = lobe.sample_xn(&o, &lane_u, &lane_uc);
-                    for (lane, &k) in idx.iter().enumerate() {
-                        wi[k] = s[lane];
-                    }
-                },
+            let mut len = 0;
+            for (k, c) in choice[..m].iter().enumerate() {
+                idx[len] = k;
+                len += (c.0 == j + 1) as usize;
+            }
+            if len == 0 {
+                continue;
+            }
+            for (q, &k) in idx[..len].iter().enumerate() {
+                (batch_wo[q], batch_u[q], batch_uc[q]) = (wo[k], u[k], choice[k].1);
+            }
+            lobe.sample_batch(
+                &batch_wo[..len],
+                &batch_u[..len],
+                &batch_uc[..len],
+                &mut batch_wi[..len],
             );
+            for (q, &k) in idx[..len].iter().enumerate() {
+                wi[k] = batch_wi[q];
+            }
         }
         simd::chunks_where(
             m,

@@ -9,7 +9,7 @@
 //! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
 
 use crate::math::{Real, V3};
-use crate::simd::{LANES, RgbxN, Vec3xN, f32xn, lanes};
+use crate::simd::{LANES, RgbxN, Vec3xN, f32xn, lanes, padded};
 use crate::{Flags, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 
@@ -58,6 +58,24 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
         uc: &[f32; LANES],
     ) -> [Option<Vec3>; LANES] {
         lanes(|k| self.sample(wo[k], u[k], uc[k]))
+    }
+    /// [`Lobe::sample`] of every query of a batch (`out[k]` for `wo[k]`, `u[k]`,
+    /// `uc[k]`), each bit for bit the scalar call: the queries of a
+    /// [`crate::composite::Composite`] block that chose this lobe. The default calls
+    /// [`Lobe::sample_xn`] a lane vector at a time; lobes whose sampler is a long
+    /// dependency chain override it to overlap two lane vectors.
+    fn sample_batch(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<Vec3>]) {
+        let n = out.len();
+        assert!(wo.len() == n && u.len() == n && uc.len() == n);
+        for first in (0..n).step_by(LANES) {
+            let r = first..(first + LANES).min(n);
+            let s = self.sample_xn(
+                &padded(&wo[r.clone()]),
+                &padded(&u[r.clone()]),
+                &padded(&uc[r.clone()]),
+            );
+            out[r.clone()].copy_from_slice(&s[..r.len()]);
+        }
     }
     fn flags(&self) -> Flags;
     /// Bytes this lobe holds (its tables, if any).

@@ -12,7 +12,7 @@ use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
-use crate::simd::{LANES, RgbxN, Vec3xN, f32xn, sel};
+use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Bsdf, Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::path::PathBuf;
@@ -48,6 +48,32 @@ impl Lobe for SampledMicrofacet {
     ) -> [Option<Vec3>; LANES] {
         let (h, drawn) = self.table.sample_h_lanes(u);
         lobe::xn::sample_via_half_where(drawn, Vec3xN::from_array(wo), h)
+    }
+    /// Two lane vectors at a time, their hierarchy descents side by side
+    /// ([`Table::sample_h_groups`]); a last lone lane vector alone.
+    fn sample_batch(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<Vec3>]) {
+        let n = out.len();
+        assert!(wo.len() == n && u.len() == n);
+        for first in (0..n).step_by(2 * LANES) {
+            let end = (first + 2 * LANES).min(n);
+            let mid = (first + LANES).min(end);
+            let u0 = simd::padded(&u[first..mid]);
+            let hs = if mid == end {
+                let [h] = self.table.sample_h_groups([&u0]);
+                [h, h]
+            } else {
+                self.table
+                    .sample_h_groups([&u0, &simd::padded(&u[mid..end])])
+            };
+            for (r, (h, drawn)) in [first..mid, mid..end].into_iter().zip(hs) {
+                if r.is_empty() {
+                    break;
+                }
+                let o = Vec3xN::from_array(&simd::padded(&wo[r.clone()]));
+                let s = lobe::xn::sample_via_half_where(drawn, o, h);
+                out[r.clone()].copy_from_slice(&s[..r.len()]);
+            }
+        }
     }
     /// Lane 0 of [`SampledMicrofacet::eval_pdf_xn`]'s density.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {

@@ -341,24 +341,39 @@ impl Table {
     /// lanes where one was drawn (the others hold no direction).
     #[inline]
     pub fn sample_h_lanes(&self, u: &[Vec2; LANES]) -> (Vec3xN, MaskN) {
-        let [ux, uy] = simd::vec2s(u);
-        let [(cx, cy, rx, ry)] = self.cells.sample_groups([ux], [uy]);
-        let (cx, cy) = (
-            wide::bytemuck::cast::<_, i32xn>(cx),
-            wide::bytemuck::cast::<_, i32xn>(cy),
-        );
-        let n = self.n as i32;
-        let k = cy * i32xn::splat(n) + cx;
-        let at = |offset: i32| simd::gather(&self.p, k + i32xn::splat(offset));
-        let (fx, fy) = square_to_bilinear_xn(rx, ry, [at(0), at(1), at(n), at(n + 1)]);
-        let inv = f32xn::splat(1.0 / (self.n - 1) as f32);
-        let (two, one) = (f32xn::splat(2.0), f32xn::splat(1.0));
-        let coordinate = |c: i32xn, f: f32xn| two * ((crate::simd::float_of(c) + f) * inv) - one;
-        let (x, y) = (coordinate(cx, fx), coordinate(cy, fy));
-        let r2 = x * x + y * y;
-        let drawn = r2.simd_lt(one);
-        let z = sel(drawn, one - r2, f32xn::splat(0.0)).sqrt();
-        (Vec3xN::new(x, y, z), drawn)
+        let [r] = self.sample_h_groups([u]);
+        r
+    }
+
+    /// [`Table::sample_h_lanes`] of `N` lane vectors of points, each bit for bit its own
+    /// call: the groups descend the cell hierarchy side by side
+    /// ([`Hierarchy2D::sample_groups`]), so that the core overlaps their dependency
+    /// chains of reads and divisions.
+    #[inline]
+    pub fn sample_h_groups<const N: usize>(&self, u: [&[Vec2; LANES]; N]) -> [(Vec3xN, MaskN); N] {
+        let xy = u.map(simd::vec2s);
+        let cells = self
+            .cells
+            .sample_groups(xy.map(|[x, _]| x), xy.map(|[_, y]| y));
+        cells.map(|(cx, cy, rx, ry)| {
+            let (cx, cy) = (
+                wide::bytemuck::cast::<_, i32xn>(cx),
+                wide::bytemuck::cast::<_, i32xn>(cy),
+            );
+            let n = self.n as i32;
+            let k = cy * i32xn::splat(n) + cx;
+            let at = |offset: i32| simd::gather(&self.p, k + i32xn::splat(offset));
+            let (fx, fy) = square_to_bilinear_xn(rx, ry, [at(0), at(1), at(n), at(n + 1)]);
+            let inv = f32xn::splat(1.0 / (self.n - 1) as f32);
+            let (two, one) = (f32xn::splat(2.0), f32xn::splat(1.0));
+            let coordinate =
+                |c: i32xn, f: f32xn| two * ((crate::simd::float_of(c) + f) * inv) - one;
+            let (x, y) = (coordinate(cx, fx), coordinate(cy, fy));
+            let r2 = x * x + y * y;
+            let drawn = r2.simd_lt(one);
+            let z = sel(drawn, one - r2, f32xn::splat(0.0)).sqrt();
+            (Vec3xN::new(x, y, z), drawn)
+        })
     }
 
     /// Reads a distribution written by [`Table::write_exr`] (any square EXR; the first
