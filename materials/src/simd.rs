@@ -356,16 +356,17 @@ pub fn mask_bits(m: MaskN) -> u32 {
 pub fn gather(table: &[f32], idx: i32xn) -> f32xn {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
     {
-        use std::arch::x86_64::{__m512i, _mm512_cmplt_epu32_mask, _mm512_i32gather_ps};
+        use std::arch::x86_64::{__m512, __m512i, _mm512_cmplt_epu32_mask, _mm512_i32gather_ps};
         let len = table.len().min(u32::MAX as usize) as u32;
         // SAFETY: `i32xn` is `wide::i32x16`, 64 bytes of 16 i32 as `__m512i` (and the
         // result 16 f32 as `__m512`); the gather reads table[idx[i]] only once every
         // index, taken as unsigned, is below the table's length.
         unsafe {
-            let v: __m512i = std::mem::transmute(idx);
-            let len_v: __m512i = std::mem::transmute(u32xn::splat(len));
+            let v = std::mem::transmute::<i32xn, __m512i>(idx);
+            let len_v = std::mem::transmute::<u32xn, __m512i>(u32xn::splat(len));
             if _mm512_cmplt_epu32_mask(v, len_v) == u16::MAX {
-                return std::mem::transmute(_mm512_i32gather_ps::<4>(v, table.as_ptr()));
+                let g = _mm512_i32gather_ps::<4>(v, table.as_ptr());
+                return std::mem::transmute::<__m512, f32xn>(g);
             }
         }
     }
