@@ -315,14 +315,16 @@ impl Composite {
                 let diffuse = simd::arrays3(square_to_cosine_hemisphere_xn(ux, uy));
                 let (total, chosen, uc_rest) =
                     (w.total.to_array(), chosen.to_array(), uc_rest.to_array());
+                // Without a branch on the choice, a coin flip between components.
                 for (lane, &k) in idx.iter().enumerate() {
-                    if total[lane] > 0.0 {
-                        choice[k] = (chosen[lane] as usize, uc_rest[lane]);
-                        if choice[k].0 == 0 {
-                            let [x, y, z] = diffuse.map(|c| c[lane]);
-                            wi[k] = Some(Vec3::new(x, y, z));
-                        }
-                    }
+                    let c = if total[lane] > 0.0 {
+                        chosen[lane] as usize
+                    } else {
+                        NONE
+                    };
+                    choice[k] = (c, uc_rest[lane]);
+                    let [x, y, z] = diffuse.map(|c| c[lane]);
+                    wi[k] = (c == 0).then_some(Vec3::new(x, y, z));
                 }
             },
         );
@@ -361,10 +363,11 @@ impl Composite {
                 let o = simd::lanes_of(idx, |k| wo[k]);
                 let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo[k]));
                 let w = self.lane_weights(f32xn::new(simd::lanes(|lane| o[lane].z)));
-                let (v, p) = self.mix_xn(Vec3xN::from_array(&o), Vec3xN::from_array(&d), &w);
-                let p = p.to_array();
+                let d = Vec3xN::from_array(&d);
+                let (v, p) = self.mix_xn(Vec3xN::from_array(&o), d, &w);
+                let s = BsdfSample::finish_xn(d, p, v);
                 for (lane, &k) in idx.iter().enumerate() {
-                    out[k] = BsdfSample::finish(d[lane], || p[lane], || v.lane(lane));
+                    out[k] = s[lane];
                 }
             },
         );
