@@ -124,15 +124,19 @@ impl<'a> Shading<'a> {
     }
 }
 
-/// [`Shading::new`]'s frames and local outgoing directions for `LANES` hits at once (shading
-/// normals `ns`, tangents `dpdu`, ray directions `d`), bit for bit the same: the
+/// [`Shading::new`]'s frames and local outgoing directions for up to `LANES` hits at once
+/// (shading normals `ns`, tangents `dpdu`, ray directions `d`), bit for bit the same: the
 /// arithmetic of [`Frame::from_normal_tangent`], `to_local` and `normalize` in SIMD lanes;
-/// lanes whose tangent is degenerate take the scalar fallback.
+/// lanes whose tangent is degenerate take the scalar fallback. Writes the frames' `s` and
+/// `t` (their `n` is `ns`) and the directions of lanes `0..wo.len()` to `s`, `t` and `wo`.
 pub(crate) fn shading_xn(
     ns: [Vec3; LANES],
     dpdu: [Vec3; LANES],
     d: [Vec3; LANES],
-) -> ([Frame; LANES], [Vec3; LANES]) {
+    out_s: &mut [Vec3],
+    out_t: &mut [Vec3],
+    out_wo: &mut [Vec3],
+) {
     let dot = simd::dot3;
     let (n, u, dir) = (simd::vec3s(&ns), simd::vec3s(&dpdu), simd::vec3s(&d));
     // s = dpdu - n (n . dpdu), normalized by division; t = n x s (glam's cross).
@@ -151,25 +155,17 @@ pub(crate) fn shading_xn(
     let wl = [dot(w, s), dot(w, t), dot(w, n)];
     let inv = f32xn::splat(1.0) / dot(wl, wl).sqrt();
     let wl = [wl[0] * inv, wl[1] * inv, wl[2] * inv];
-    let (sa, ta, wa, l2) = (
-        simd::arrays3(s),
-        simd::arrays3(t),
-        simd::arrays3(wl),
-        len2.to_array(),
-    );
-    let mut frames = simd::lanes(|i| Frame {
-        s: Vec3::new(sa[0][i], sa[1][i], sa[2][i]),
-        t: Vec3::new(ta[0][i], ta[1][i], ta[2][i]),
-        n: ns[i],
-    });
-    let mut wo = simd::lanes(|i| Vec3::new(wa[0][i], wa[1][i], wa[2][i]));
-    for i in 0..LANES {
+    simd::write_vec3s(s, out_s);
+    simd::write_vec3s(t, out_t);
+    simd::write_vec3s(wl, out_wo);
+    let l2 = len2.to_array();
+    for i in 0..out_wo.len() {
         if !(l2[i] > 1e-12) || !l2[i].is_finite() {
-            frames[i] = Frame::from_normal_tangent(ns[i], dpdu[i]);
-            wo[i] = frames[i].to_local(-d[i]).normalize();
+            let frame = Frame::from_normal_tangent(ns[i], dpdu[i]);
+            (out_s[i], out_t[i]) = (frame.s, frame.t);
+            out_wo[i] = frame.to_local(-d[i]).normalize();
         }
     }
-    (frames, wo)
 }
 
 /// Samples one light uniformly (Mitsuba's emitter selection) and returns the sample,
@@ -232,14 +228,20 @@ mod tests {
                 _ => v(round * LANES + i, 1.31) * 3.0,
             });
             let d = simd::lanes(|i| -v(round * LANES + i, 0.53));
-            let (frames, wo) = shading_xn(ns, dpdu, d);
+            let [mut fs, mut ft, mut wo] = [[Vec3::ZERO; LANES]; 3];
+            shading_xn(ns, dpdu, d, &mut fs, &mut ft, &mut wo);
             for i in 0..LANES {
                 let f = Frame::from_normal_tangent(ns[i], dpdu[i]);
                 let w = f.to_local(-d[i]).normalize();
                 let bits =
                     |f: &Frame, w: Vec3| [f.s, f.t, f.n, w].map(|v| v.to_array().map(f32::to_bits));
+                let frame = Frame {
+                    s: fs[i],
+                    t: ft[i],
+                    n: ns[i],
+                };
                 assert_eq!(
-                    bits(&frames[i], wo[i]),
+                    bits(&frame, wo[i]),
                     bits(&f, w),
                     "lane {i} of round {round}"
                 );

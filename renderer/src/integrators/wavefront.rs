@@ -96,12 +96,14 @@ pub struct EscapedQueue {
     pub le_pdf: Vec<(Rgb, f32)>,
 }
 
-/// The hits that scatter (paths that go on), indexed like [`HitQueue::it`]: shading
-/// frames, local outgoing directions, this bounce's sampler values, and the hits grouped
+/// The hits that scatter (paths that go on), indexed like [`HitQueue::it`]: the tangents
+/// of their shading frames (the frame of hit h is `frame_s[h]`, `frame_t[h]` and the
+/// hit's `ns`: [`ScatterQueue::frame`]), local outgoing directions, this bounce's sampler values, and the hits grouped
 /// by material.
 #[derive(Default)]
 pub struct ScatterQueue {
-    pub frame: Vec<Frame>,
+    pub frame_s: Vec<Vec3>,
+    pub frame_t: Vec<Vec3>,
     pub wo: Vec<Vec3>,
     pub sample_key: Vec<u64>,
     pub sample_index: Vec<u32>,
@@ -371,17 +373,22 @@ impl Wavefront {
     pub fn scatter_setup(&mut self, scene: &Scene, sampler: &mut Sampler) {
         let (h, s, p) = (&self.hits, &mut self.scatter, &self.paths);
         let m = h.it.len();
-        s.frame.clear();
-        s.wo.clear();
-        for (ic, pc) in h.it.chunks(LANES).zip(h.path.chunks(LANES)) {
+        for v in [&mut s.frame_s, &mut s.frame_t, &mut s.wo] {
+            v.resize(m, Vec3::ZERO);
+        }
+        let chunks = (h.it.chunks(LANES).zip(h.path.chunks(LANES)))
+            .zip(s.frame_s.chunks_mut(LANES).zip(s.frame_t.chunks_mut(LANES)))
+            .zip(s.wo.chunks_mut(LANES));
+        for (((ic, pc), (fs, ft)), wo) in chunks {
             let n = ic.len();
-            let (frames, wo) = shading_xn(
+            shading_xn(
                 simd::lanes(|k| ic[k.min(n - 1)].ns),
                 simd::lanes(|k| ic[k.min(n - 1)].dpdu),
                 simd::lanes(|k| p.ray[pc[k.min(n - 1)] as usize].d),
+                fs,
+                ft,
+                wo,
             );
-            s.frame.extend_from_slice(&frames[..n]);
-            s.wo.extend_from_slice(&wo[..n]);
         }
         s.streams_of(p, &h.path);
         s.light_uc.resize(m, 0.0);
@@ -452,14 +459,12 @@ impl Wavefront {
     /// values are not used).
     pub fn bsdf_eval(&mut self, scene: &Scene) {
         let (s, q) = (&mut self.scatter, &mut self.lights);
-        let m = s.frame.len();
+        let m = s.wo.len();
+        let its = &self.hits.it;
         q.wi_local.clear();
-        q.wi_local.extend(
-            s.frame
-                .iter()
-                .zip(&q.samples.wi)
-                .map(|(frame, &wi)| frame.to_local(wi)),
-        );
+        q.wi_local.extend((0..m).map(|h| {
+            ScatterQueue::frame(&s.frame_s, &s.frame_t, its, h).to_local(q.samples.wi[h])
+        }));
         q.f.resize(m, Rgb::ZERO);
         q.bsdf_pdf.resize(m, 0.0);
         s.groups
@@ -523,7 +528,7 @@ impl Wavefront {
     pub fn bsdf_samples(&mut self, scene: &Scene) {
         let s = &mut self.scatter;
         self.bsdf_samples.clear();
-        self.bsdf_samples.resize(s.frame.len(), None);
+        self.bsdf_samples.resize(s.wo.len(), None);
         s.groups
             .sample(scene, &s.wo, &s.bsdf_u, &s.bsdf_uc, &mut self.bsdf_samples);
     }
@@ -533,17 +538,13 @@ impl Wavefront {
     pub fn spawn(&mut self, sampler: &mut Sampler, rr_depth: u32) {
         let p = &mut self.paths;
         self.next.clear();
-        for (((it, frame), bs), &i) in self
-            .hits
-            .it
-            .iter()
-            .zip(&self.scatter.frame)
-            .zip(&self.bsdf_samples)
-            .zip(&self.hits.path)
-        {
+        let (its, s) = (&self.hits.it, &self.scatter);
+        for (h, (bs, &i)) in self.bsdf_samples.iter().zip(&self.hits.path).enumerate() {
             let Some(bs) = bs else {
                 continue;
             };
+            let it = &its[h];
+            let frame = ScatterQueue::frame(&s.frame_s, &s.frame_t, its, h);
             let v = &mut p.vars[i as usize];
             v.beta *= bs.weight;
             if v.beta.is_black() || !v.beta.is_finite() {
@@ -580,6 +581,17 @@ impl Wavefront {
 }
 
 impl ScatterQueue {
+    /// The shading frame of hit `h` (tangents `frame_s`, `frame_t` of the queue, normal the
+    /// hit's `ns`).
+    #[inline]
+    fn frame(frame_s: &[Vec3], frame_t: &[Vec3], its: &[Interaction], h: usize) -> Frame {
+        Frame {
+            s: frame_s[h],
+            t: frame_t[h],
+            n: its[h].ns,
+        }
+    }
+
     /// The sampler streams (pixel keys and sample indices) of the paths `paths`.
     fn streams_of(&mut self, p: &Paths, paths: &[u32]) {
         self.sample_key.clear();
