@@ -20,11 +20,12 @@
 //!
 //! Contents: [`lanes`], [`padded`] and [`lanes_of`] (arrays of [`LANES`], written out so
 //! they inline), [`chunks_where`] (the queries a batched kernel works on, a lane vector at
-//! a time), transposes of records into lane vectors ([`transpose4xn`], [`rows4`],
-//! [`vec2s`], [`vec3s`], [`write_vec3s`], [`arrays3`]), per-lane select and clamp ([`sel`], [`clamp`]),
-//! masks ([`MaskN`], [`mask_from_bools`], [`mask_bits`], [`ALL_LANES`]), [`gather`],
-//! [`float_of`], [`fmadd`], the small types [`Vec3xN`] and [`RgbxN`], and [`FloatLanes`] (the
-//! operations of kernels written for either vector width).
+//! a time), transposes of records into lane vectors and back ([`transpose4xn`],
+//! [`rows4`], [`vec2s`], [`vec3s`], [`write_vec3s`], [`arrays3`]), per-lane select and
+//! clamp ([`sel`], [`clamp`]), masks ([`MaskN`], [`mask_from_bools`], [`mask_bits`],
+//! [`ALL_LANES`]), [`gather`], [`float_of`], [`fmadd`], the small types [`Vec3xN`] and
+//! [`RgbxN`], and [`FloatLanes`] (the operations of kernels written for either vector
+//! width).
 
 use crate::Rgb;
 use glam::{Vec2, Vec3};

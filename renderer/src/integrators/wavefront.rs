@@ -98,8 +98,8 @@ pub struct EscapedQueue {
 
 /// The hits that scatter (paths that go on), indexed like [`HitQueue::it`]: the tangents
 /// of their shading frames (the frame of hit h is `frame_s[h]`, `frame_t[h]` and the
-/// hit's `ns`: [`ScatterQueue::frame`]), local outgoing directions, this bounce's sampler values, and the hits grouped
-/// by material.
+/// hit's `ns`: [`ScatterQueue::frame`]), local outgoing directions, this bounce's sampler
+/// values, and the hits grouped by material.
 #[derive(Default)]
 pub struct ScatterQueue {
     pub frame_s: Vec<Vec3>,
@@ -462,9 +462,8 @@ impl Wavefront {
         let m = s.wo.len();
         let its = &self.hits.it;
         q.wi_local.clear();
-        q.wi_local.extend((0..m).map(|h| {
-            ScatterQueue::frame(&s.frame_s, &s.frame_t, its, h).to_local(q.samples.wi[h])
-        }));
+        q.wi_local
+            .extend((0..m).map(|h| s.frame(its, h).to_local(q.samples.wi[h])));
         q.f.resize(m, Rgb::ZERO);
         q.bsdf_pdf.resize(m, 0.0);
         s.groups
@@ -544,7 +543,7 @@ impl Wavefront {
                 continue;
             };
             let it = &its[h];
-            let frame = ScatterQueue::frame(&s.frame_s, &s.frame_t, its, h);
+            let frame = s.frame(its, h);
             let v = &mut p.vars[i as usize];
             v.beta *= bs.weight;
             if v.beta.is_black() || !v.beta.is_finite() {
@@ -581,13 +580,12 @@ impl Wavefront {
 }
 
 impl ScatterQueue {
-    /// The shading frame of hit `h` (tangents `frame_s`, `frame_t` of the queue, normal the
-    /// hit's `ns`).
+    /// The shading frame of hit `h` of `its`: the queue's tangents, the hit's normal.
     #[inline]
-    fn frame(frame_s: &[Vec3], frame_t: &[Vec3], its: &[Interaction], h: usize) -> Frame {
+    fn frame(&self, its: &[Interaction], h: usize) -> Frame {
         Frame {
-            s: frame_s[h],
-            t: frame_t[h],
+            s: self.frame_s[h],
+            t: self.frame_t[h],
             n: its[h].ns,
         }
     }
