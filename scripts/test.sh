@@ -5,6 +5,10 @@ cd "$(dirname "$0")/.."
 cargo fmt --all -- --check
 cargo clippy --release --workspace --all-targets -- -D warnings
 cargo test --release --workspace
+# Every reader's fuzz replay (seed corpora, their mutations, tests/fuzz-regressions/) in a
+# build with overflow checks and debug assertions, as scripts/fuzz.sh's libFuzzer build
+# has: an arithmetic overflow is a crash there, and must be one here.
+cargo test --profile checked -p lobe-tests --test fuzz_smoke
 # The lobe Python package (tools/python): built from source and installed into
 # tools/mitsuba's venv by its setup.sh (with Mitsuba 3 for the plugin tests), then its
 # pytest suite against the lobe binary (bit-for-bit evaluation, readers, fits, errors,

@@ -56,8 +56,18 @@ pub fn check_finite(pixels: &[Rgb], what: &str) -> Result<()> {
     Ok(())
 }
 
-/// Refuses variances that are non-finite or negative.
-fn check_variance(variance: &[Rgb], what: &str) -> Result<()> {
+/// Refuses a variance image of another size than its image, and variances that are
+/// non-finite or negative.
+fn check_variance(image: &Image, what: &str) -> Result<()> {
+    let variance = &image.variance;
+    if variance.len() != image.pixels.len() {
+        return Err(Error::Other(format!(
+            "{what}: {} pixels; expected one per pixel of the {}x{} image",
+            variance.len(),
+            image.width,
+            image.height
+        )));
+    }
     check_finite(variance, what)?;
     let negative = variance.iter().filter(|v| v.min_component() < 0.0).count();
     if negative > 0 {
@@ -215,8 +225,8 @@ pub const Z_TEST_SCALES: [u32; 4] = [1, 4, 16, 64];
 /// `1e-6 (1 + |ref|)`.
 pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
     comparable(test, reference)?;
-    check_variance(&test.variance, "the test image's variance")?;
-    check_variance(&reference.variance, "the reference image's variance")?;
+    check_variance(test, "the test image's variance")?;
+    check_variance(reference, "the reference image's variance")?;
     if !(alpha > 0.0 && alpha < 1.0) {
         return Err(Error::Other(format!(
             "z-test: expected a false-alarm rate in (0, 1), found {alpha}"

@@ -107,8 +107,11 @@ pub fn tonemap(pixels: &[Rgb], exposure: f32) -> Vec<u8> {
 
 /// Writes a JSON value, pretty-printed.
 pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
-    atomic_write(path, |out| {
-        serde_json::to_writer_pretty(&mut *out, value).map_err(std::io::Error::other)?;
-        out.write_all(b"\n")
-    })
+    atomic_write(path, |out| encode_json(out, value))
+}
+
+/// Encodes a JSON value, pretty-printed and ending in a newline, into `out`.
+pub fn encode_json<W: Write>(mut out: W, value: &serde_json::Value) -> std::io::Result<()> {
+    serde_json::to_writer_pretty(&mut out, value).map_err(std::io::Error::other)?;
+    out.write_all(b"\n")
 }

@@ -744,8 +744,14 @@ fn fit_inputs(
         .and_then(|mut r| r.models.remove(p.text("model")))
         .map(|m| m.material);
     let mut out = vec![path];
+    // Only what `build_fit` accepts is followed: an analytic model or a composite. A
+    // report naming a report (itself, or one that names it back) is refused when built,
+    // and must not be followed here, where it would recurse without end.
     if let Some(m) = model {
-        out.extend(ctx.registry.inputs(&m, ctx));
+        let ty = m.get("type").and_then(Value::as_str).unwrap_or("");
+        if ty == crate::registry::COMPOSITE || ctx.registry.is_lobe_model(ty) {
+            out.extend(ctx.registry.inputs(&m, ctx));
+        }
     }
     out
 }

@@ -506,8 +506,8 @@ impl Bvh8 {
         mut mask: u32,
     ) -> usize {
         let tn = tn.to_array();
-        if mask & (mask - 1) == 0 {
-            // One child (the common case deep in the tree): no ordering to do.
+        if mask.count_ones() <= 1 {
+            // No child or one (the common case deep in the tree): no ordering to do.
             if mask != 0 {
                 let k = mask.trailing_zeros() as usize;
                 stack[sp].write((node.child[k], tn[k]));

@@ -26,7 +26,7 @@
 
 use crate::Rgb;
 use crate::error::{Error, Result};
-use crate::image_io::{RgbImage, read_rgb_image};
+use crate::image_io::{RgbImage, read_rgb_image_windows};
 use glam::{Mat3, Vec2, Vec3};
 use lobe_materials::fastmath::{self, xn};
 use lobe_materials::sampling::hierarchy::Hierarchy2D;
@@ -523,12 +523,14 @@ fn mat3_mul_xn(m: &Mat3, x: f32xn, y: f32xn, z: f32xn) -> [f32xn; 3] {
     [row(0), row(1), row(2)]
 }
 
-/// Reads an environment map image (see [`crate::image_io::read_rgb_image`]) and checks it: at least 2x3
-/// pixels, non-finite pixels rejected, negative ones (ringing of lossy sources) clamped
-/// to zero.
+/// Reads an environment map image (see [`crate::image_io::read_rgb_image`]) and checks it:
+/// a whole image (its data window is its display window), at least 2x3 pixels, non-finite
+/// pixels rejected, negative ones (ringing of lossy sources) clamped to zero.
 pub fn load_rgb_image(path: &Path) -> Result<RgbImage> {
-    let img = read_rgb_image(path)?;
-    validate_image(img, &path.display().to_string())
+    let (img, windows) = read_rgb_image_windows(path)?;
+    let name = path.display().to_string();
+    windows.require_whole(&name)?;
+    validate_image(img, &name)
 }
 
 fn validate_image(mut img: RgbImage, name: &str) -> Result<RgbImage> {

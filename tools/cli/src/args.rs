@@ -26,9 +26,13 @@ pub fn finite<T: FromStr + Into<f64> + Copy>(s: &str) -> Result<T, String> {
 
 static CANCEL: OnceLock<Arc<AtomicBool>> = OnceLock::new();
 
-/// The flag Ctrl-C sets, with the handler installed on first use: the first Ctrl-C sets
-/// it and prints `lobe: ACK` on stderr (what happens now), a second one exits with
-/// status 130 without waiting for anything.
+/// The flag an interrupt sets, with the handler installed on first use. Ctrl-C (SIGINT),
+/// SIGTERM (sent by `timeout`, Slurm and Kubernetes) and SIGHUP are handled alike: the
+/// first sets the flag, stops every later commit of outputs
+/// ([`lobe_materials::io::interrupt_outputs`]) and prints `lobe: ACK` on stderr (what
+/// happens now); a second one exits with status 130 at once, waiting only for a set of
+/// outputs being moved into place, so that no set is left half replaced. An interrupt
+/// that arrives while a set is being moved into place lets it complete and says so.
 pub fn ctrl_c(ack: &'static str) -> Arc<AtomicBool> {
     CANCEL
         .get_or_init(|| {
@@ -37,10 +41,17 @@ pub fn ctrl_c(ack: &'static str) -> Arc<AtomicBool> {
             // Without a handler (one is already set), work simply cannot be cancelled.
             let _ = ctrlc::set_handler(move || {
                 if f.swap(true, Ordering::SeqCst) {
+                    lobe_materials::io::wait_for_commit();
                     eprintln!("lobe: aborted");
                     std::process::exit(130);
                 }
-                eprintln!("lobe: {ack}");
+                if lobe_materials::io::interrupt_outputs() {
+                    eprintln!(
+                        "lobe: interrupted while the outputs were moved into place; they are complete"
+                    );
+                } else {
+                    eprintln!("lobe: {ack}");
+                }
             });
             flag
         })

@@ -4,7 +4,7 @@
 use crate::args::finite;
 use lobe_renderer::Error;
 use lobe_renderer::compare::{check_finite, flip_heatmap, metrics, z_test};
-use lobe_renderer::image_io::{read_exr, write_png_rgb8};
+use lobe_renderer::image_io::{ImageWindows, read_exr_windows, write_png_rgb8};
 use lobe_renderer::outputs::FilePlan;
 use std::path::{Path, PathBuf};
 
@@ -65,21 +65,70 @@ fn threshold(spec: &str, flag: &str, allowed: &[&str]) -> Result<(String, f64), 
 }
 
 /// Reads an image, refusing non-finite pixels with their count and the file's name.
-fn load(path: &Path) -> Result<lobe_renderer::film::Image, Error> {
+fn load(path: &Path) -> Result<(lobe_renderer::film::Image, ImageWindows), Error> {
     if !path.exists() {
         return Err(Error::file(
             path.display(),
             "does not exist; expected an EXR or HDR image",
         ));
     }
-    let img = read_exr(path)?;
+    let (img, windows) = read_exr_windows(path)?;
     check_finite(&img.pixels, &path.display().to_string())?;
-    Ok(img)
+    Ok((img, windows))
+}
+
+/// Refuses two images whose pixels lie in different places (OpenEXR data or display
+/// windows differ), as OpenImageIO's idiff tells them apart: compared pixel by pixel they
+/// would match where they should not.
+fn same_windows(a: (&Path, &ImageWindows), b: (&Path, &ImageWindows)) -> Result<(), Error> {
+    for (what, wa, wb) in [
+        ("data window", a.1.data, b.1.data),
+        ("display window", a.1.display, b.1.display),
+    ] {
+        if wa != wb {
+            return Err(Error::file(
+                a.0.display(),
+                format!(
+                    "{what} {wa} differs from {}'s {wb}; expected images over the same pixels",
+                    b.0.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The variance image next to `image` (NAME.var.exr), as `lobe render --variance` writes.
 fn variance_path(image: &Path) -> PathBuf {
     image.with_extension("var.exr")
+}
+
+/// The variance image of `image` (read from `path`): refused unless it has the image's
+/// size, pixel for pixel.
+fn load_variance(
+    path: &Path,
+    image: &lobe_renderer::film::Image,
+    image_windows: &ImageWindows,
+) -> Result<Vec<lobe_renderer::Rgb>, Error> {
+    let vpath = variance_path(path);
+    let (v, windows) = load(&vpath)?;
+    if windows.data.width == image.width as usize && windows.data.height == image.height as usize {
+        same_windows((&vpath, &windows), (path, image_windows))?;
+    }
+    if (v.width, v.height) != (image.width, image.height) {
+        return Err(Error::file(
+            vpath.display(),
+            format!(
+                "the variance image is {}x{}; expected the size of {}, {}x{}",
+                v.width,
+                v.height,
+                path.display(),
+                image.width,
+                image.height
+            ),
+        ));
+    }
+    Ok(v.pixels)
 }
 
 fn plan(args: &CompareArgs) -> FilePlan {
@@ -108,8 +157,12 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
         .map(|s| threshold(s, "fail-below", &["psnr", "ssim"]))
         .collect::<Result<_, _>>()?;
     plan(&args).check()?;
-    let test = load(&args.test)?;
-    let reference = load(&args.reference)?;
+    let (test, test_windows) = load(&args.test)?;
+    let (reference, reference_windows) = load(&args.reference)?;
+    same_windows(
+        (&args.test, &test_windows),
+        (&args.reference, &reference_windows),
+    )?;
     let (m, err) = metrics(&test, &reference, args.exposure)?;
     let z = match args.z_test {
         None => None,
@@ -121,8 +174,8 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             }
             let mut t = test.clone();
             let mut r = reference.clone();
-            t.variance = load(&variance_path(&args.test))?.pixels;
-            r.variance = load(&variance_path(&args.reference))?.pixels;
+            t.variance = load_variance(&args.test, &test, &test_windows)?;
+            r.variance = load_variance(&args.reference, &reference, &reference_windows)?;
             t.variance_dof = args.test_dof.unwrap_or(f64::INFINITY);
             r.variance_dof = args.reference_dof.unwrap_or(f64::INFINITY);
             Some(z_test(&t, &r, alpha)?)

@@ -3,6 +3,7 @@
 
 use crate::args::{self, finite};
 use lobe_analysis::plot::draw_labels;
+use lobe_materials::io::OutputSet;
 use lobe_renderer::film::Image;
 use lobe_renderer::outputs::{FilePlan, RenderFiles};
 use lobe_renderer::render::{Progress, RenderOptions, RenderStats, render};
@@ -136,6 +137,11 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
         b.finish_and_clear();
     }
     let (img, stats) = rendered?;
+    if args::cancelled() {
+        return Err(Error::Other(
+            "interrupted after the render: nothing is written".into(),
+        ));
+    }
     let labels = match args.scene {
         Some(_) => Vec::new(),
         None => lobe_renderer::showcase::labels(&scene),
@@ -178,16 +184,23 @@ fn write_render(
     stats: &RenderStats,
     labels: &[(String, glam::Vec2)],
 ) -> Result<(), Error> {
-    image_io::write_exr(&files.exr, img.width, img.height, &img.pixels)?;
+    // All or none: each file is staged, then the set is moved into place together.
+    let mut set = OutputSet::new();
+    let (w, h) = (img.width, img.height);
+    set.stage(&files.exr, |out| {
+        image_io::encode_exr(out, w, h, &img.pixels)
+    })?;
     if let Some(v) = &files.variance {
-        image_io::write_exr(v, img.width, img.height, &img.variance)?;
+        set.stage(v, |out| image_io::encode_exr(out, w, h, &img.variance))?;
     }
     if let Some(png) = &files.png {
         let mut rgb = film::tonemap(&img.pixels, scene.exposure);
-        draw_labels(&mut rgb, (img.width, img.height), labels)?;
-        image_io::write_png_rgb8(png, img.width, img.height, &rgb)?;
+        draw_labels(&mut rgb, (w, h), labels)?;
+        set.stage(png, |out| image_io::encode_png_rgb8(out, w, h, &rgb))?;
     }
-    film::write_json(&files.stats, &stats_json(scene, stats, files))
+    let stats = stats_json(scene, stats, files);
+    set.stage(&files.stats, |out| film::encode_json(out, &stats))?;
+    Ok(set.commit()?)
 }
 
 fn stats_json(scene: &Scene, stats: &RenderStats, files: &RenderFiles) -> serde_json::Value {

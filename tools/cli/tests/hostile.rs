@@ -1,0 +1,274 @@
+//! Hostile input, third round (docs/robustness.md): cases that once crashed, passed
+//! silently or lost a user's work, each ending now in a one-line error or a right answer.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn lobe() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_lobe"))
+}
+
+fn run_in(dir: &Path, args: &[&str]) -> Output {
+    lobe().current_dir(dir).args(args).output().unwrap()
+}
+
+/// `args` fails with one line on stderr holding every needle, and no panic or abort.
+fn refused(dir: &Path, args: &[&str], needles: &[&str]) -> String {
+    let o = run_in(dir, args);
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: {err} lacks {n:?}");
+    }
+    err
+}
+
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    v.sort();
+    v
+}
+
+const SCENE: &str = r#"{
+  "camera": {"type": "perspective", "fov": 40, "origin": [0, 0, 4], "target": [0, 0, 0]},
+  "film": {"width": 16, "height": 12},
+  "sampler": {"spp": 4},
+  "shapes": [{"type": "sphere", "material": "m"}],
+  "materials": {"m": MATERIAL},
+  "lights": [{"type": "envmap", "file": "builtin:studio"}]
+}"#;
+
+/// A fit report whose ward model is `material`.
+fn report(material: serde_json::Value) -> String {
+    serde_json::json!({
+        "format_version": 3, "material": "m", "source": "m.binary", "resolution_deg": 1.0,
+        "samples": 100, "max_albedo": 0.5,
+        "models": {"ward": {"material": material, "error": 0.1, "error_normalized": 0.2,
+                            "starts": 1, "starts_agreeing": 1, "evaluations": 10, "seconds": 0.1}}
+    })
+    .to_string()
+}
+
+#[test]
+fn fit_reports_that_name_themselves_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fit = |file: &str| serde_json::json!({"type": "fit", "file": file, "model": "ward"});
+    std::fs::write(d.join("self.fit.json"), report(fit("self.fit.json"))).unwrap();
+    std::fs::write(d.join("a.fit.json"), report(fit("b.fit.json"))).unwrap();
+    std::fs::write(d.join("b.fit.json"), report(fit("a.fit.json"))).unwrap();
+    for file in ["self.fit.json", "a.fit.json"] {
+        let m = fit(file).to_string();
+        let scene = SCENE.replace("MATERIAL", &m);
+        std::fs::write(d.join("s.json"), scene).unwrap();
+        let cases: [&[&str]; 4] = [
+            &["tabulate", "--material", &m, "-o", "t.binary"],
+            &["render", "s.json", "-o", "r.exr"],
+            &["eval", "--material", &m, "--grid", "30,0,30,180"],
+            &[
+                "figure",
+                "polar",
+                "--material",
+                &m,
+                "--report",
+                file,
+                "-o",
+                "p.png",
+            ],
+        ];
+        for args in cases {
+            refused(d, args, &["expected an analytic model or a composite"]);
+        }
+        let before = listing(d);
+        assert!(
+            !before
+                .iter()
+                .any(|f| f.starts_with("t.") || f.starts_with("r."))
+        );
+    }
+}
+
+/// Writes an RGB OpenEXR image of `size` whose data window starts at `origin` (its
+/// display window is the data window unless `display` is given).
+fn write_exr_at(
+    path: &Path,
+    size: (usize, usize),
+    origin: (i32, i32),
+    display: Option<((i32, i32), (usize, usize))>,
+) {
+    use exr::prelude::*;
+    let channels =
+        SpecificChannels::rgb(|p: Vec2<usize>| (p.x() as f32 * 0.1, p.y() as f32 * 0.05, 0.5));
+    let mut layer = Layer::new(
+        size,
+        LayerAttributes::named("rgb"),
+        Encoding::FAST_LOSSLESS,
+        channels,
+    );
+    layer.attributes.layer_position = Vec2(origin.0, origin.1);
+    let mut image = Image::from_layer(layer);
+    image.attributes.display_window = match display {
+        Some((o, s)) => IntegerBounds::new(o, s),
+        None => IntegerBounds::new(origin, size),
+    };
+    image.write().to_file(path).unwrap();
+}
+
+#[test]
+fn images_whose_windows_differ_are_not_compared_and_crops_are_no_environment_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_exr_at(&d.join("at0.exr"), (32, 32), (0, 0), None);
+    write_exr_at(&d.join("at57.exr"), (32, 32), (5, 7), None);
+    refused(
+        d,
+        &["compare", "at57.exr", "at0.exr"],
+        &["at57.exr", "data window (5,7)-(36,38)", "(0,0)-(31,31)"],
+    );
+    // The same pixels over the same windows compare equal.
+    write_exr_at(&d.join("again57.exr"), (32, 32), (5, 7), None);
+    let o = run_in(d, &["compare", "at57.exr", "again57.exr", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["rmse"], 0.0);
+    // A crop of a larger frame is no environment map.
+    write_exr_at(
+        &d.join("crop.exr"),
+        (32, 16),
+        (0, 0),
+        Some(((0, 0), (64, 32))),
+    );
+    let scene = SCENE
+        .replace("MATERIAL", r#"{"type": "lambert"}"#)
+        .replace("builtin:studio", "crop.exr");
+    std::fs::write(d.join("s.json"), scene).unwrap();
+    refused(
+        d,
+        &["render", "s.json", "-o", "r.exr"],
+        &[
+            "crop.exr",
+            "differs from display window",
+            "expected a whole image",
+        ],
+    );
+}
+
+#[test]
+fn a_variance_image_of_another_size_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for f in ["t", "r"] {
+        write_exr_at(&d.join(format!("{f}.exr")), (32, 32), (0, 0), None);
+    }
+    write_exr_at(&d.join("r.var.exr"), (32, 32), (0, 0), None);
+    for size in [(1, 1), (64, 64), (32, 31)] {
+        write_exr_at(&d.join("t.var.exr"), size, (0, 0), None);
+        refused(
+            d,
+            &["compare", "t.exr", "r.exr", "--z-test", "0.01"],
+            &["t.var.exr", "expected the size of t.exr, 32x32"],
+        );
+    }
+    write_exr_at(&d.join("t.var.exr"), (32, 32), (0, 0), None);
+    let o = run_in(d, &["compare", "t.exr", "r.exr", "--z-test", "0.01"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// Sends `signal` to `child`.
+fn signal(child: &std::process::Child, signal: libc::c_int) {
+    let pid = libc::pid_t::try_from(child.id()).unwrap();
+    // SAFETY: kill(2) has no memory-safety preconditions.
+    assert_eq!(unsafe { libc::kill(pid, signal) }, 0);
+}
+
+/// Renders `s.json` to out.exr with its variance, PNG and statistics.
+fn render_args<'a>() -> [&'a str; 5] {
+    ["render", "s.json", "-o", "out.exr", "--variance"]
+}
+
+fn write_scene(d: &Path, spp: u32, size: u32) {
+    let scene = SCENE
+        .replace("MATERIAL", r#"{"type": "lambert"}"#)
+        .replace("\"spp\": 4", &format!("\"spp\": {spp}"))
+        .replace(
+            "\"width\": 16, \"height\": 12",
+            &format!("\"width\": {size}, \"height\": {size}"),
+        );
+    std::fs::write(d.join("s.json"), scene).unwrap();
+}
+
+const OUTPUTS: [&str; 4] = ["out.exr", "out.png", "out.stats.json", "out.var.exr"];
+
+/// The bytes of every output of a render, in [`OUTPUTS`] order.
+fn outputs(d: &Path) -> Vec<Vec<u8>> {
+    OUTPUTS
+        .iter()
+        .map(|f| std::fs::read(d.join(f)).unwrap())
+        .collect()
+}
+
+#[test]
+fn sigterm_stops_a_render_like_ctrl_c_and_keeps_the_old_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_scene(d, 4, 16);
+    assert!(run_in(d, &render_args()).status.success());
+    let old = outputs(d);
+    write_scene(d, 400_000, 16);
+    let child = lobe()
+        .current_dir(d)
+        .args(render_args())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1000));
+    signal(&child, libc::SIGTERM);
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("nothing is written"), "{err}");
+    assert_eq!(outputs(d), old, "the old outputs changed");
+    let mut expected: Vec<&str> = OUTPUTS.to_vec();
+    expected.push("s.json");
+    assert_eq!(listing(d), expected);
+}
+
+/// A render killed (SIGKILL) at any moment leaves either the old set of outputs or the
+/// whole new one, and no temporary file: the outputs are staged unnamed and moved into
+/// place together.
+#[test]
+fn a_killed_render_leaves_the_old_set_or_the_new_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_scene(d, 1, 16);
+    assert!(run_in(d, &render_args()).status.success());
+    let mut expected: Vec<&str> = OUTPUTS.to_vec();
+    expected.push("s.json");
+    // A film large enough that writing it takes a while, at few samples.
+    write_scene(d, 2, 1500);
+    for delay_ms in [150, 300, 450, 600, 800, 1000, 1300] {
+        let old = outputs(d);
+        let seed = delay_ms.to_string();
+        let mut child = lobe()
+            .current_dir(d)
+            .args(render_args())
+            .args(["--seed", &seed])
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(delay_ms));
+        signal(&child, libc::SIGKILL);
+        let _ = child.wait();
+        assert_eq!(listing(d), expected, "killed after {delay_ms} ms");
+        let now = outputs(d);
+        let changed: Vec<bool> = now.iter().zip(&old).map(|(a, b)| a != b).collect();
+        // The first render was 16x16, so the new set differs in every file.
+        assert!(
+            changed.iter().all(|&c| c) || changed.iter().all(|&c| !c),
+            "killed after {delay_ms} ms: a mixed set {changed:?} of {OUTPUTS:?}"
+        );
+    }
+}
