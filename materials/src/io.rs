@@ -73,8 +73,10 @@ pub const MAX_IMAGE_PIXELS: usize = 1 << 27;
 /// Checks an OpenEXR file's declared layer sizes before its pixels are allocated (a header
 /// can declare any size; found by fuzzing).
 pub fn check_exr_size(path: &Path) -> Result<(), String> {
+    let (file, _) =
+        open_regular(path, MAX_DATA_BYTES, "an OpenEXR image").map_err(|e| e.message)?;
     let meta = crate::guard::third_party("OpenEXR", || {
-        exr::meta::MetaData::read_from_file(path, false)
+        exr::meta::MetaData::read_from_buffered(std::io::BufReader::new(file), false)
     })?
     .map_err(|e| format!("cannot read OpenEXR header: {e}"))?;
     for h in &meta.headers {
@@ -355,4 +357,105 @@ pub fn wait_for_commit() {
     while COMMIT_STATE.load(std::sync::atomic::Ordering::SeqCst) == COMMITTING {
         std::thread::sleep(std::time::Duration::from_millis(1));
     }
+}
+
+/// Largest text input lobe reads (a scene, material, fit report, Ngan `.fit` or glTF JSON
+/// file): 256 MiB.
+pub const MAX_TEXT_BYTES: u64 = 1 << 28;
+/// Largest binary input (a measured table, mesh, image): 4 GiB.
+pub const MAX_DATA_BYTES: u64 = 1 << 32;
+
+/// Opens `path` for reading if it is a regular file of at most `max_bytes`; `what`
+/// completes "expected ...". A device (`/dev/zero` would be read until memory runs out), a
+/// pipe (which blocks) or a socket is refused, as is a file beyond the limit, before
+/// anything is read. Returns the file and its size.
+pub fn open_regular(
+    path: &Path,
+    max_bytes: u64,
+    what: &str,
+) -> Result<(std::fs::File, u64), FileError> {
+    let shown = path.display().to_string();
+    let meta = std::fs::metadata(path).map_err(|e| {
+        let m = match e.kind() {
+            std::io::ErrorKind::NotFound => format!("does not exist; expected {what}"),
+            _ => format!("cannot read: {e}; expected {what}"),
+        };
+        FileError::new(&shown, m)
+    })?;
+    let check = |meta: &std::fs::Metadata| -> Result<u64, FileError> {
+        if meta.is_dir() {
+            return Err(FileError::new(
+                &shown,
+                format!("is a directory; expected {what}"),
+            ));
+        }
+        if !meta.is_file() {
+            return Err(FileError::new(
+                &shown,
+                format!("is not a regular file (a device, pipe or socket); expected {what}"),
+            ));
+        }
+        if meta.len() > max_bytes {
+            return Err(FileError::new(
+                &shown,
+                format!(
+                    "is {} bytes; expected {what} of at most {max_bytes} bytes",
+                    meta.len()
+                ),
+            ));
+        }
+        Ok(meta.len())
+    };
+    check(&meta)?;
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    // Should a pipe replace the file between the check and the open, the open must not
+    // block (the check below then refuses it).
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options
+        .open(path)
+        .map_err(|e| FileError::new(&shown, format!("cannot read: {e}; expected {what}")))?;
+    let len = file
+        .metadata()
+        .map_err(|e| FileError::new(&shown, format!("cannot read: {e}")))
+        .and_then(|m| check(&m))?;
+    Ok((file, len))
+}
+
+/// The bytes of `path`, a regular file of at most `max_bytes` ([`open_regular`]).
+pub fn read_regular(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>, FileError> {
+    use std::io::Read;
+    let (file, len) = open_regular(path, max_bytes, what)?;
+    let shown = path.display().to_string();
+    let mut bytes = Vec::new();
+    bytes
+        .try_reserve_exact(len as usize)
+        .map_err(|_| FileError::new(&shown, format!("cannot allocate {len} bytes to read it")))?;
+    // At most the limit, should the file grow while it is read.
+    file.take(max_bytes)
+        .read_to_end(&mut bytes)
+        .map_err(|e| FileError::new(&shown, format!("cannot read: {e}")))?;
+    Ok(bytes)
+}
+
+/// The text of `path`, a regular UTF-8 file of at most `max_bytes` ([`open_regular`]).
+pub fn read_regular_to_string(
+    path: &Path,
+    max_bytes: u64,
+    what: &str,
+) -> Result<String, FileError> {
+    let bytes = read_regular(path, max_bytes, what)?;
+    String::from_utf8(bytes).map_err(|e| {
+        FileError::new(
+            path.display().to_string(),
+            format!(
+                "is not UTF-8 text (invalid byte at offset {}); expected {what}",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
 }

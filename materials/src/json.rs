@@ -13,14 +13,7 @@ use std::path::Path;
 /// Reads and parses a JSON file (see [`parse`]); a folder or an empty file is an error.
 pub fn read(path: &Path) -> Result<Value, FileError> {
     let shown = path.display().to_string();
-    if path.is_dir() {
-        return Err(FileError::new(
-            &shown,
-            "is a directory; expected a JSON file",
-        ));
-    }
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| FileError::new(&shown, format!("cannot read: {e}")))?;
+    let text = crate::io::read_regular_to_string(path, crate::io::MAX_TEXT_BYTES, "a JSON file")?;
     if text.trim().is_empty() {
         return Err(FileError::new(&shown, "is empty; expected JSON"));
     }

@@ -193,8 +193,12 @@ pub fn parse_line(line: &str) -> Option<Fit> {
 
 /// Reads every fit of a file.
 pub fn read_fits(path: &Path) -> Result<Vec<Fit>, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let text = crate::io::read_regular_to_string(
+        path,
+        crate::io::MAX_TEXT_BYTES,
+        "a .fit file of Ngan et al.'s fits",
+    )
+    .map_err(|e| e.to_string())?;
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let t = line.trim();

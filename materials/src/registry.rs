@@ -95,6 +95,8 @@ fn describe_json(v: &Value) -> String {
         Value::Bool(b) => format!("{b}"),
         Value::Number(n) => format!("{n}"),
         Value::String(s) => format!("\"{s}\""),
+        // A short array of numbers (a colour) is shown as it is.
+        Value::Array(a) if a.len() <= 4 && a.iter().all(Value::is_number) => v.to_string(),
         Value::Array(_) => "an array".into(),
         Value::Object(_) => "an object".into(),
     }

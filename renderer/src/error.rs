@@ -18,6 +18,11 @@ pub enum Error {
     /// Anything else, already phrased for the user.
     #[error("{0}")]
     Other(String),
+    /// Outputs were written but are biased: more than
+    /// [`crate::render::MAX_DROPPED_SHARE`] of the samples were non-finite and dropped.
+    /// `lobe` exits with status 3 (docs/robustness.md).
+    #[error("{0}")]
+    Biased(String),
 }
 
 impl Error {

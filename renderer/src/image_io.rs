@@ -93,12 +93,11 @@ pub fn read_rgb_image_windows(path: &Path) -> Result<(RgbImage, ImageWindows)> {
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default();
-    if path.is_dir() {
-        return Err(Error::file(
-            shown,
-            "is a directory; expected an .exr or .hdr image",
-        ));
-    }
+    lobe_materials::io::open_regular(
+        path,
+        lobe_materials::io::MAX_DATA_BYTES,
+        "an .exr or .hdr image",
+    )?;
     let img = match ext.as_str() {
         "exr" => {
             use exr::prelude::*;

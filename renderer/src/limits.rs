@@ -25,6 +25,10 @@ pub const MAX_TRIANGLES: usize = 1 << 26;
 /// the BVH build's costs to NaN) for coordinates near 1e13; 1e9 scene units leave room.
 pub const MAX_COORDINATE: f32 = 1e9;
 
+/// Most samples per pixel, in a scene file and on every command line (2^24: the sample
+/// index of a pixel stays exact in f32, and a 1x1 film of it takes hours).
+pub const MAX_SPP: u32 = 1 << 24;
+
 /// Deepest glTF node hierarchy: real files nest a few levels; a deeper one is malformed.
 pub const MAX_GLTF_DEPTH: usize = 64;
 

@@ -77,7 +77,29 @@ pub struct RenderStats {
     pub primitive_bytes: usize,
 }
 
+/// The share of a render's samples that may be non-finite (and dropped) before its image
+/// counts as biased: [`RenderStats::check_dropped`] fails above it.
+pub const MAX_DROPPED_SHARE: f64 = 1e-4;
+
 impl RenderStats {
+    /// Fails ([`Error::Biased`]) when more than [`MAX_DROPPED_SHARE`] of the samples were
+    /// NaN or infinite: the image then lacks their light and is biased, however long the
+    /// render. The causes are values beyond f32: an emitter's radiance or scale, or a
+    /// material's value or sample weight.
+    pub fn check_dropped(&self, scene: &str) -> Result<()> {
+        let share = self.nonfinite_dropped as f64 / self.samples.max(1) as f64;
+        if share > MAX_DROPPED_SHARE {
+            return Err(Error::Biased(format!(
+                "{scene}: {} of {} samples ({:.3} %) were NaN or infinite and were dropped, so the image is biased; expected at most {} % (look for radiance, scales or material values that overflow f32)",
+                self.nonfinite_dropped,
+                self.samples,
+                share * 100.0,
+                MAX_DROPPED_SHARE * 100.0
+            )));
+        }
+        Ok(())
+    }
+
     pub fn msamples_per_second(&self) -> f64 {
         self.samples as f64 / self.seconds.max(1e-9) / 1e6
     }

@@ -127,7 +127,7 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             "m",
             Bounds::above(0.0, 10.0),
             0.2,
-            "microfacet roughness m (rms slope for Beckmann)",
+            "microfacet roughness m (rms slope for Beckmann); below 1e-4 it acts as 1e-4, as in Mitsuba",
         )
         .fitted(FitRange::log(1e-3, 1.0, &[0.03, 0.1, 0.3])),
         setting(

@@ -36,7 +36,7 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
 use super::he_shadowing;
 use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
-use super::microfacet::{Distribution, beckmann_cos_xn, beckmann_d_xn};
+use super::microfacet::{Distribution, MIN_ROUGHNESS, beckmann_cos_xn, beckmann_d_xn};
 use crate::fastmath::{self, xn};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
@@ -348,7 +348,8 @@ impl He {
 
     /// The roughnesses of [`He::proposals`]: (smooth, rough).
     fn proposal_roughness(&self, wo: Vec3) -> [f64; 2] {
-        let smooth = (WAVELENGTHS_UM[1] / (2.0 * std::f64::consts::PI * self.tau)).clamp(1e-4, 2.0);
+        let smooth =
+            (WAVELENGTHS_UM[1] / (2.0 * std::f64::consts::PI * self.tau)).clamp(MIN_ROUGHNESS, 2.0);
         let co = wo.z.clamp(1e-4, 1.0) as f64;
         let sigma = he_shadowing::self_roughness(self.sigma0 as f32, self.tau as f32, co as f32);
         let rough = (2.0 * sigma as f64 / self.tau).clamp(smooth, 2.0);

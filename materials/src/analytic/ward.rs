@@ -15,6 +15,7 @@
 //! p(h) = exp(-tan^2(theta_h)(...)) / (pi ax ay cos^3(theta_h)).
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
+use super::microfacet::MIN_ROUGHNESS;
 use crate::fastmath::{self, xn};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
@@ -41,10 +42,14 @@ pub struct Ward {
 }
 
 impl Ward {
+    /// Ward's lobe with slope deviations `alpha_x`, `alpha_y` (> 0; each below
+    /// [`MIN_ROUGHNESS`] acts as [`MIN_ROUGHNESS`], as Mitsuba clamps its microfacet
+    /// roughness: narrower, 1 / alpha^2 overflows f32 near alpha 1e-19 and the lobe would
+    /// vanish).
     pub fn new(alpha_x: f64, alpha_y: f64, duer: bool) -> Self {
         Self {
-            alpha_x,
-            alpha_y,
+            alpha_x: alpha_x.max(MIN_ROUGHNESS),
+            alpha_y: alpha_y.max(MIN_ROUGHNESS),
             duer,
         }
     }
@@ -215,7 +220,7 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             "alpha",
             ALPHA_BOUNDS,
             0.1,
-            "standard deviation of the surface slope",
+            "standard deviation of the surface slope; below 1e-4 it acts as 1e-4",
         )
         .fitted(FitRange::log(1e-3, 1.0, &[0.03, 0.1, 0.3])),
     ],
@@ -231,14 +236,14 @@ pub const SCHEMA_ANISO: ModelSchema = ModelSchema {
             "alpha_x",
             ALPHA_BOUNDS,
             0.1,
-            "slope deviation along the tangent (x)",
+            "slope deviation along the tangent (x); below 1e-4 it acts as 1e-4",
         )
         .fitted(FitRange::log(1e-3, 1.0, &[0.03, 0.2])),
         lobe_param(
             "alpha_y",
             ALPHA_BOUNDS,
             0.1,
-            "slope deviation along the bitangent (y)",
+            "slope deviation along the bitangent (y); below 1e-4 it acts as 1e-4",
         )
         .fitted(FitRange::log(1e-3, 1.0, &[0.03, 0.2])),
     ],

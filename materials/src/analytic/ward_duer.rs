@@ -43,7 +43,7 @@ pub const SCHEMA: ModelSchema = ModelSchema {
             "alpha",
             Bounds::above(0.0, 10.0),
             0.1,
-            "standard deviation of the surface slope",
+            "standard deviation of the surface slope; below 1e-4 it acts as 1e-4",
         )
         .fitted(FitRange::log(1e-3, 1.0, &[0.03, 0.1, 0.3])),
     ],

@@ -184,6 +184,16 @@ impl Dataset {
                 s.value
             ));
         }
+        if self
+            .samples
+            .iter()
+            .all(|s| s.value.iter().all(|&v| v == 0.0))
+        {
+            return Err(format!(
+                "every one of the {} measured values is zero; expected a material that reflects light",
+                self.samples.len()
+            ));
+        }
         Ok(())
     }
 

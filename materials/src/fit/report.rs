@@ -254,6 +254,32 @@ impl ModelFit {
 }
 
 impl FitReport {
+    /// Refuses a report that a `{"type": "fit"}` material could not load: every model's
+    /// material must build through `registry` (its parameters within their ranges) and be
+    /// finite in f32. Every writer of reports checks this first, so that no report is
+    /// written that cannot be rendered.
+    pub fn check_loads(&self, registry: &crate::registry::Registry) -> Result<(), String> {
+        for (label, m) in &self.models {
+            let at = format!("models.{label}.material");
+            let b = registry.create(&m.material, &at).map_err(|e| {
+                let mut msg = format!("the fit of model \"{label}\" would not load: {e}");
+                if self.max_albedo > 1.0 {
+                    msg += &format!(
+                        " (the data reflect more than they receive: largest albedo {:.4})",
+                        self.max_albedo
+                    );
+                }
+                msg
+            })?;
+            if let Some(bad) = crate::bsdf::first_nonfinite(b.as_ref()) {
+                return Err(format!(
+                    "the fit of model \"{label}\" is not finite in f32 at {bad}; expected parameters whose BRDF f32 holds"
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The report of fitting `data` (named `material`, read from `source` at
     /// `resolution_deg`) to the models of `results`, without a selection.
     pub fn new(

@@ -374,14 +374,7 @@ impl Binned {
 
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let shown = path.display().to_string();
-        if path.is_dir() {
-            return Err(FileError::new(
-                &shown,
-                "is a directory; expected a binned BRDF file",
-            ));
-        }
-        let bytes =
-            std::fs::read(path).map_err(|e| FileError::new(&shown, format!("cannot read: {e}")))?;
+        let bytes = crate::io::read_regular(path, crate::io::MAX_DATA_BYTES, "a binned BRDF file")?;
         Self::from_bytes(&bytes, &shown)
     }
 

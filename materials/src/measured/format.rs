@@ -60,15 +60,11 @@ impl Format {
 /// them.
 pub fn detect(path: &Path) -> Result<Format, FileError> {
     let shown = path.display().to_string();
-    if path.is_dir() {
-        return Err(FileError::new(
-            &shown,
-            "is a directory; expected a measured BRDF file (MERL, binned or RGL)",
-        ));
-    }
+    let (file, _) =
+        crate::io::open_regular(path, u64::MAX, "a measured BRDF file (MERL, binned or RGL)")?;
     let mut head = Vec::with_capacity(12);
-    std::fs::File::open(path)
-        .and_then(|f| f.take(12).read_to_end(&mut head))
+    file.take(12)
+        .read_to_end(&mut head)
         .map_err(|e| FileError::new(&shown, format!("cannot read: {e}")))?;
     let expected = "expected a MERL table (int32 header 90 90 180), binned data (LOBEBIN1) or an RGL tensor file (tensor_file)";
     Format::of_header(&head).ok_or_else(|| {

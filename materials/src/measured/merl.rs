@@ -199,14 +199,9 @@ impl Merl {
 
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let shown = path.display().to_string();
-        if path.is_dir() {
-            return Err(FileError::new(
-                &shown,
-                "is a directory; expected a MERL .binary file",
-            ));
-        }
-        let bytes =
-            std::fs::read(path).map_err(|e| FileError::new(&shown, format!("cannot read: {e}")))?;
+        // A MERL file has one size: nothing beyond it is read.
+        let size = (12 + 3 * SAMPLES * 8) as u64;
+        let bytes = crate::io::read_regular(path, size, "a MERL .binary file")?;
         Self::from_bytes(&bytes, &shown)
     }
 

@@ -35,14 +35,8 @@ pub struct TensorFile {
 impl TensorFile {
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let shown = path.display().to_string();
-        if path.is_dir() {
-            return Err(FileError::new(
-                &shown,
-                "is a directory; expected a tensor file (.bsdf)",
-            ));
-        }
         let bytes =
-            std::fs::read(path).map_err(|e| FileError::new(&shown, format!("cannot read: {e}")))?;
+            crate::io::read_regular(path, crate::io::MAX_DATA_BYTES, "a tensor file (.bsdf)")?;
         Self::from_bytes(&bytes, &shown)
     }
 

@@ -8,6 +8,7 @@ use super::mesh_io::GltfCamera;
 use super::{non_negative, positive, transform};
 use crate::camera::{Camera, FovAxis, fov_x_degrees, look_at};
 use crate::error::{Error, Result};
+use crate::limits::MAX_COORDINATE;
 use glam::{Mat4, Vec3};
 use serde_json::Value;
 
@@ -45,6 +46,16 @@ fn camera_frame(o: &Obj, file: &str) -> Result<Mat4> {
     let origin = o.vec3_opt("origin")?.unwrap_or(Vec3::ZERO);
     let target = o.vec3_opt("target")?.unwrap_or(Vec3::Z);
     let up = o.vec3_opt("up")?.unwrap_or(Vec3::Y);
+    for (key, p) in [("origin", origin), ("target", target)] {
+        if !(p.abs().max_element() <= MAX_COORDINATE) {
+            return Err(o.err(
+                key,
+                format!(
+                    "is {p}; expected finite coordinates within {MAX_COORDINATE:e} (as mesh vertices)"
+                ),
+            ));
+        }
+    }
     look_at(origin, target, up).ok_or_else(|| {
         Error::scene(
             file,

@@ -89,7 +89,9 @@ fn gltf_buffers(path: &Path) -> Vec<PathBuf> {
     if path.extension().and_then(|e| e.to_str()) != Some("gltf") {
         return Vec::new();
     }
-    let Ok(bytes) = std::fs::read(path) else {
+    let Ok(bytes) =
+        lobe_materials::io::read_regular(path, lobe_materials::io::MAX_DATA_BYTES, "a glTF file")
+    else {
         return Vec::new();
     };
     let Ok(v) = serde_json::from_slice::<Value>(&bytes) else {

@@ -92,8 +92,17 @@ impl<'a> Obj<'a> {
             None => Ok(None),
             Some(v) => {
                 let x = self.number(key, v, what)?;
-                if !ok(x) || !((x as f32).is_finite()) {
+                if !ok(x) {
                     return Err(self.err(key, format!("expected {what}, found {x}")));
+                }
+                if !(x as f32).is_finite() {
+                    return Err(self.err(
+                        key,
+                        format!(
+                            "{x} is beyond single precision (at most {:e}); expected {what} that f32 holds",
+                            f32::MAX
+                        ),
+                    ));
                 }
                 Ok(Some(x as f32))
             }

@@ -55,20 +55,24 @@ pub fn check_positions(mesh: &Mesh, shown: &str) -> Result<()> {
 
 /// Loads an OBJ file as one mesh (all its objects and groups).
 pub fn load_obj(path: &Path) -> Result<Mesh> {
+    use std::io::Read;
     let shown = path.display().to_string();
-    if path.is_dir() {
-        return Err(Error::file(&shown, "is a directory; expected an OBJ file"));
-    }
+    let limit = lobe_materials::io::MAX_DATA_BYTES;
+    let (file, _) = lobe_materials::io::open_regular(path, limit, "an OBJ file")?;
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _materials) =
-        lobe_materials::guard::third_party("OBJ", || tobj::load_obj(path, &opts))
-            .map_err(|m| Error::file(&shown, m))?
-            .map_err(|e| Error::file(&shown, format!("cannot read OBJ: {e}")))?;
+    // Streamed, at most the limit; `mtllib` files are neither opened nor used (lobe's
+    // materials come from the scene).
+    let mut reader = std::io::BufReader::with_capacity(1 << 20, file.take(limit));
+    let (models, _materials) = lobe_materials::guard::third_party("OBJ", || {
+        tobj::load_obj_buf(&mut reader, &opts, |_| Ok(Default::default()))
+    })
+    .map_err(|m| Error::file(&shown, m))?
+    .map_err(|e| Error::file(&shown, format!("cannot read OBJ: {e}")))?;
     let mut mesh = Mesh::default();
     let mut all_have_normals = true;
     for m in &models {
@@ -157,11 +161,8 @@ impl GltfCamera {
 pub fn load_gltf(path: &Path) -> Result<GltfScene> {
     use super::gltf_check as check;
     let shown = path.display().to_string();
-    if path.is_dir() {
-        return Err(Error::file(&shown, "is a directory; expected a glTF file"));
-    }
     let bytes =
-        std::fs::read(path).map_err(|e| Error::file(&shown, format!("cannot read: {e}")))?;
+        lobe_materials::io::read_regular(path, lobe_materials::io::MAX_DATA_BYTES, "a glTF file")?;
     let fail = |m: String| Error::file(&shown, m);
     let parts = check::container(&bytes).map_err(fail)?;
     // Everything the gltf crate reads must pass the checks, so a document they cannot

@@ -281,6 +281,8 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
         .map(|(i, _)| i as u32)
         .collect();
     let camera = camera::scene_camera(file, top.get("camera"), shapes.gltf_camera, width, height)?;
+    let eye = camera.ray(glam::Vec2::splat(0.5)).o;
+    shapes::check_sphere_precision(file, eye, &shapes.prims)?;
     let geometry = Geometry::build(shapes.prims, shapes.meshes, shapes.shape_geom)
         .map_err(|e| Error::scene(file, "shapes", e))?;
     Ok(Scene {
@@ -325,7 +327,8 @@ fn parse_sampler(file: &str, v: Option<&Value>) -> Result<(u32, u64, Scramble)> 
                 .name_opt("scramble", &Scramble::NAMES, Scramble::parse)?
                 .unwrap_or_default();
             (
-                s.int_opt("spp", 1, 1 << 24)?.unwrap_or(16) as u32,
+                s.int_opt("spp", 1, crate::limits::MAX_SPP as i64)?
+                    .unwrap_or(16) as u32,
                 s.int_opt("seed", 0, i64::MAX)?.unwrap_or(0) as u64,
                 scramble,
             )

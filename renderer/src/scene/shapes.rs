@@ -10,6 +10,7 @@ use crate::error::{Error, Result};
 use crate::geometry::bvh::{PrimKind, Primitive, ShapeGeom};
 use crate::geometry::{Mesh, Rectangle, Sphere, Triangle};
 use crate::lights::{AreaShape, Light};
+use crate::limits::MAX_COORDINATE;
 use glam::{Mat4, Vec3};
 use serde_json::Value;
 
@@ -134,6 +135,16 @@ impl Shapes {
     fn sphere(&mut self, o: &Obj, c: &Common) -> Result<Option<AreaShape>> {
         let center = o.vec3_opt("center")?.unwrap_or(Vec3::ZERO);
         let radius = o.f32_or("radius", 1.0, "a positive radius", positive)?;
+        // The limit of mesh vertices: beyond it f32 holds positions to 64 units or worse.
+        let reach = center.abs().max_element() + radius;
+        if !(reach <= MAX_COORDINATE) {
+            return Err(o.err(
+                "radius",
+                format!(
+                    "the sphere at {center} of radius {radius} reaches {reach:e} from the origin; expected within {MAX_COORDINATE:e} per axis (as mesh vertices)"
+                ),
+            ));
+        }
         let s = Sphere { center, radius };
         self.prims.push(Primitive {
             kind: PrimKind::Sphere(s),
@@ -242,4 +253,37 @@ impl Shapes {
         self.lights.push(Light::Area { shape, radiance });
         Ok(Some(self.lights.len() as u32 - 1))
     }
+}
+
+/// Refuses spheres that f32 cannot resolve as the camera sees them, with the scale of
+/// their coordinates and the camera's: the radius and the camera's distance to the
+/// surface must each span at least 64 f32 steps (ulps) at that scale. Below, a camera
+/// ray's closest approach to the centre is off by a good part of the radius (a camera
+/// 1e7 from a unit sphere) or the surface lies between representable points (a camera
+/// 4.5 from a sphere of radius 1e8), and the sphere renders black or in pieces.
+pub(super) fn check_sphere_precision(file: &str, eye: Vec3, prims: &[Primitive]) -> Result<()> {
+    for p in prims {
+        let PrimKind::Sphere(s) = &p.kind else {
+            continue;
+        };
+        let scale = (s.center.abs().max_element() + s.radius).max(eye.abs().max_element());
+        let step = 64.0 * scale * f32::EPSILON;
+        let clearance = ((eye - s.center).length() - s.radius).abs();
+        let (what, value) = if s.radius < step {
+            ("radius", s.radius)
+        } else if clearance < step {
+            ("distance from the camera to the surface", clearance)
+        } else {
+            continue;
+        };
+        return Err(Error::scene(
+            file,
+            &format!("shapes[{}]", p.shape),
+            format!(
+                "the sphere's {what} is {value:e}, below 64 single-precision steps ({step:e}) at the scene's scale {scale:e} (the camera at {eye}, the sphere at {}): expected the scene moved or scaled so that f32 resolves it",
+                s.center
+            ),
+        ));
+    }
+    Ok(())
 }

@@ -158,6 +158,9 @@ pub fn fit_material_with(
         results.push(r);
     }
     let mut report = FitReport::new(name, source, opts.resolution, data, &results);
+    report
+        .check_loads(registry)
+        .map_err(|e| Error::file(source, e))?;
     if let Some(tolerance) = opts.select {
         report.selected = Some(select(registry, &results, tolerance)?);
     }

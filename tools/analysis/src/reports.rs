@@ -64,6 +64,23 @@ pub struct Tables {
     pub markdown: String,
 }
 
+/// A CSV field as RFC 4180 writes it: quoted (with inner quotes doubled) when it holds a
+/// comma, a quote or a line break.
+pub fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Text for a Markdown table cell: `|` and `\` escaped, line breaks made spaces.
+pub fn markdown_cell(s: &str) -> String {
+    s.replace('\\', "\\\\")
+        .replace('|', "\\|")
+        .replace(['\n', '\r'], " ")
+}
+
 /// Joins reports into [`Tables`].
 pub fn merge(reports: &[FitReport]) -> Tables {
     let mut sorted: Vec<&FitReport> = reports.iter().collect();
@@ -71,12 +88,17 @@ pub fn merge(reports: &[FitReport]) -> Tables {
     let models = model_labels(&sorted);
     let mut csv = String::from("material,max_albedo,metric");
     for m in &models {
-        csv += &format!(",{m} error,{m} normalized error");
+        csv += &format!(
+            ",{},{}",
+            csv_field(&format!("{m} error")),
+            csv_field(&format!("{m} normalized error"))
+        );
     }
     csv.push('\n');
+    let cells: Vec<String> = models.iter().map(|m| markdown_cell(m)).collect();
     let mut md = format!(
         "| material | metric | {} |\n|---|---|{}\n",
-        models.join(" | "),
+        cells.join(" | "),
         "---|".repeat(models.len())
     );
     let finite = |x: f64| Some(x).filter(|x| x.is_finite());
@@ -84,11 +106,12 @@ pub fn merge(reports: &[FitReport]) -> Tables {
         let name = &r.material;
         // Written as JSON writes the number (null when not finite), as reports hold it.
         csv += &format!(
-            "{name},{},{}",
+            "{},{},{}",
+            csv_field(name),
             serde_json::Value::from(r.max_albedo),
             r.metric
         );
-        md += &format!("| {name} | {} |", r.metric);
+        md += &format!("| {} | {} |", markdown_cell(name), r.metric);
         for m in &models {
             let e = r.models.get(m);
             let a = e.and_then(|e| finite(e.error));

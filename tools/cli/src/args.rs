@@ -16,12 +16,30 @@ pub fn finite<T: FromStr + Into<f64> + Copy>(s: &str) -> Result<T, String> {
         .parse()
         .map_err(|_| format!("expected a number, found \"{s}\""))?;
     if v.into().is_finite() {
-        Ok(v)
-    } else {
-        Err(format!(
-            "expected a finite number, found \"{s}\" (NaN and infinity are not accepted)"
-        ))
+        return Ok(v);
     }
+    // A finite number that overflowed the option's type (1e308 for an f32 option).
+    match s.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() => Err(format!(
+            "{s} is beyond the option's precision (at most {:e}); expected a smaller finite number",
+            f32::MAX
+        )),
+        _ => Err(format!(
+            "expected a finite number, found \"{s}\" (NaN and infinity are not accepted)"
+        )),
+    }
+}
+
+/// Checks a samples-per-pixel option (`--spp`, `--reference-spp`): 1 to
+/// [`lobe_renderer::limits::MAX_SPP`], the limit of scene files.
+pub fn check_spp(option: &str, spp: u32) -> Result<u32, Error> {
+    let max = lobe_renderer::limits::MAX_SPP;
+    if spp == 0 || spp > max {
+        return Err(Error::Other(format!(
+            "{option}: expected a positive number of samples per pixel of at most {max} (2^24, as in scene files), found {spp}"
+        )));
+    }
+    Ok(spp)
 }
 
 static CANCEL: OnceLock<Arc<AtomicBool>> = OnceLock::new();

@@ -121,6 +121,9 @@ fn main() -> ExitCode {
             // The shell's convention for a command stopped by SIGINT.
             if args::cancelled() {
                 ExitCode::from(130)
+            } else if matches!(e, lobe_renderer::Error::Biased(_)) {
+                // Written, but biased (docs/robustness.md).
+                ExitCode::from(3)
             } else {
                 ExitCode::FAILURE
             }

@@ -272,3 +272,314 @@ fn a_killed_render_leaves_the_old_set_or_the_new_one() {
         );
     }
 }
+
+/// Binned isotropic data (5-degree bins to 80 degrees) of value `f(wi, wo)` in every bin.
+fn write_binned(path: &Path, f: impl Fn(glam::Vec3, glam::Vec3) -> [f32; 3]) {
+    use lobe_materials::measured::binned::{Axis, Binned};
+    let mut b = Binned::empty(
+        false,
+        vec![
+            Axis::new(16, 0.0, 80.0),
+            Axis::new(16, 0.0, 80.0),
+            Axis::new(36, 0.0, 180.0),
+        ],
+    );
+    for i in 0..b.len() {
+        let (wi, wo) = b.directions(i);
+        b.values[i] = Some(f(wi, wo));
+    }
+    b.write(path).unwrap();
+}
+
+fn ward_data(wi: glam::Vec3, wo: glam::Vec3) -> [f32; 3] {
+    let ward = lobe_materials::registry::Registry::builtin()
+        .create(
+            &serde_json::json!({"type": "ward", "diffuse": 0.3, "specular": 0.2, "alpha": 0.2}),
+            "m",
+        )
+        .unwrap();
+    ward.eval(wo, wi).to_array()
+}
+
+#[test]
+fn a_study_goes_on_past_a_corrupt_file_and_lists_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("data")).unwrap();
+    write_binned(&d.join("data/good.bin"), ward_data);
+    std::fs::write(d.join("data/broken.bsdf"), b"tensor_file\0garbage").unwrap();
+    let o = run_in(
+        d,
+        &[
+            "study",
+            "data",
+            "--quick",
+            "-o",
+            "s",
+            "--env",
+            "builtin:studio",
+        ],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("broken failed")
+            && err.contains("broken.bsdf")
+            && err.contains("1 of 2 materials failed"),
+        "{err}"
+    );
+    let index = std::fs::read_to_string(d.join("s/index.html")).unwrap();
+    assert!(
+        index.contains("Materials that failed") && index.contains("broken"),
+        "no failure list"
+    );
+    assert!(d.join("s/materials/good.html").exists());
+    assert!(!d.join("s/materials/broken.html").exists());
+}
+
+#[cfg(unix)]
+#[test]
+fn devices_pipes_and_oversized_files_are_refused_by_every_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fifo = d.join("fifo");
+    let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: a NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o644) }, 0);
+    for special in ["/dev/zero", "fifo"] {
+        let shape = |s: &str| {
+            SCENE
+                .replace("MATERIAL", r#"{"type": "lambert"}"#)
+                .replace(r#"{"type": "sphere", "material": "m"}"#, s)
+        };
+        std::fs::write(
+            d.join("obj.json"),
+            shape(&format!(
+                r#"{{"type": "obj", "file": "{special}", "material": "m"}}"#
+            )),
+        )
+        .unwrap();
+        std::fs::write(
+            d.join("gltf.json"),
+            shape(&format!(
+                r#"{{"type": "gltf", "file": "{special}", "material": "m"}}"#
+            )),
+        )
+        .unwrap();
+        let fit = serde_json::json!({"type": "fit", "file": special, "model": "ward"}).to_string();
+        let merl = serde_json::json!({"type": "merl", "file": special}).to_string();
+        let at = format!("@{special}");
+        let cases: [&[&str]; 7] = [
+            &["render", special, "-o", "r.exr"],
+            &["render", "obj.json", "-o", "r.exr"],
+            &["render", "gltf.json", "-o", "r.exr"],
+            &["tabulate", "--material", &at, "-o", "t.binary"],
+            &["tabulate", "--material", &fit, "-o", "t.binary"],
+            &["tabulate", "--material", &merl, "-o", "t.binary"],
+            &["compare", special, special],
+        ];
+        for args in cases {
+            let t0 = std::time::Instant::now();
+            refused(d, args, &[special, "not a regular file"]);
+            assert!(
+                t0.elapsed().as_secs() < 20,
+                "{args:?} took {:?}",
+                t0.elapsed()
+            );
+        }
+    }
+}
+
+#[test]
+fn fits_that_would_not_load_are_not_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // 0.5 1/sr everywhere reflects pi / 2 of the light: no diffuse colour in [0, 1] fits.
+    write_binned(&d.join("bright.bin"), |_, _| [0.5; 3]);
+    refused(
+        d,
+        &[
+            "fit",
+            "bright.bin",
+            "--models",
+            "ward",
+            "-o",
+            "b.fit.json",
+            "-q",
+        ],
+        &[
+            "bright.bin",
+            "ward",
+            "diffuse",
+            "would not load",
+            "largest albedo",
+        ],
+    );
+    write_binned(&d.join("black.bin"), |_, _| [0.0; 3]);
+    refused(
+        d,
+        &[
+            "fit",
+            "black.bin",
+            "--models",
+            "ward",
+            "-o",
+            "k.fit.json",
+            "-q",
+        ],
+        &["black.bin", "is zero"],
+    );
+    assert!(!d.join("b.fit.json").exists() && !d.join("k.fit.json").exists());
+}
+
+#[test]
+fn far_away_geometry_is_refused_where_f32_cannot_hold_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lambert = SCENE.replace("MATERIAL", r#"{"type": "lambert"}"#);
+    let cases = [
+        // A sphere of radius 1e9 whose surface is 4.5 in front of the camera.
+        (
+            lambert.replace(
+                r#"{"type": "sphere", "material": "m"}"#,
+                r#"{"type": "sphere", "center": [0, 0, -1000000000], "radius": 1000000000, "material": "m"}"#,
+            ),
+            "expected within 1e9",
+        ),
+        // A huge sphere that f32 holds, but not 4.5 from its surface.
+        (
+            lambert.replace(
+                r#"{"type": "sphere", "material": "m"}"#,
+                r#"{"type": "sphere", "center": [0, 0, -100000000], "radius": 100000000, "material": "m"}"#,
+            ),
+            "distance from the camera to the surface",
+        ),
+        // A camera 1e7 from a unit sphere.
+        (
+            lambert.replace("[0, 0, 4]", "[0, 0, 10000000]"),
+            "radius is 1e0, below 64 single-precision steps",
+        ),
+        (
+            lambert.replace("[0, 0, 4]", "[0, 0, 1e30]"),
+            "camera.origin: is",
+        ),
+    ];
+    for (scene, needle) in cases {
+        std::fs::write(d.join("s.json"), scene).unwrap();
+        refused(d, &["render", "s.json", "-o", "r.exr"], &["s.json", needle]);
+    }
+    // A camera 1e4 from a unit sphere is resolved, and renders it.
+    std::fs::write(
+        d.join("s.json"),
+        lambert
+            .replace("[0, 0, 4]", "[0, 0, 10000]")
+            .replace("\"fov\": 40", "\"fov\": 0.02"),
+    )
+    .unwrap();
+    let o = run_in(d, &["render", "s.json", "-o", "r.exr"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn renders_that_drop_samples_fail_with_status_3() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = SCENE.replace("MATERIAL", r#"{"type": "lambert"}"#).replace(
+        r#""file": "builtin:studio""#,
+        r#""file": "builtin:studio", "scale": 1e38"#,
+    );
+    std::fs::write(d.join("s.json"), scene).unwrap();
+    let o = run_in(d, &["render", "s.json", "-o", "r.exr"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("were NaN or infinite and were dropped") && err.contains("biased"),
+        "{err}"
+    );
+    // The biased image is written, for inspection, with its statistics.
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("r.stats.json")).unwrap()).unwrap();
+    assert!(stats["nonfinite_dropped"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn small_things() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lambert = SCENE.replace("MATERIAL", r#"{"type": "lambert"}"#);
+    std::fs::write(d.join("s.json"), &lambert).unwrap();
+    // Names that CSV and Markdown must quote or escape.
+    std::fs::create_dir(d.join("reports")).unwrap();
+    let ward = serde_json::json!({"type": "ward", "alpha": 0.1, "specular": 0.5});
+    for (k, name) in ["a,b", "say \"hi\"", "x|y", "two\nlines"]
+        .iter()
+        .enumerate()
+    {
+        let mut r: serde_json::Value = serde_json::from_str(&report(ward.clone())).unwrap();
+        r["material"] = (*name).into();
+        std::fs::write(d.join(format!("reports/{k}.fit.json")), r.to_string()).unwrap();
+    }
+    let o = run_in(d, &["fit", "merge", "reports", "-o", "merged"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(d.join("merged.csv")).unwrap();
+    for quoted in ["\"a,b\"", "\"say \"\"hi\"\"\"", "\"two\nlines\""] {
+        assert!(csv.contains(quoted), "{quoted} not quoted in {csv}");
+    }
+    let md = std::fs::read_to_string(d.join("merged.md")).unwrap();
+    assert!(md.contains("x\\|y") && md.contains("two lines"), "{md}");
+    let rows = md.lines().filter(|l| l.starts_with('|')).count();
+    assert_eq!(rows, 6, "{md}");
+    // Options out of range, with messages that say what is wrong.
+    let ward_m = ward.to_string();
+    refused(
+        d,
+        &[
+            "tabulate",
+            "--material",
+            &ward_m,
+            "--empty-fraction",
+            "1",
+            "-o",
+            "t.binary",
+        ],
+        &["no bin would hold a value"],
+    );
+    assert!(!d.join("t.binary").exists());
+    refused(
+        d,
+        &["render", "s.json", "--bench", "--runs", "0"],
+        &["--runs"],
+    );
+    refused(
+        d,
+        &["render", "s.json", "--spp", "16777217"],
+        &["--spp", "16777216"],
+    );
+    // (clap's own error format: its usage hint follows, and the status is 2.)
+    let o = run_in(d, &["render", "s.json", "--exposure", "1e308"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--exposure") && err.contains("beyond the option's precision"),
+        "{err}"
+    );
+    std::fs::write(
+        d.join("far.json"),
+        lambert.replace("\"fov\": 40", "\"fov\": 40, \"near_clip\": 1e300"),
+    )
+    .unwrap();
+    refused(
+        d,
+        &["render", "far.json", "-o", "r.exr"],
+        &["near_clip", "beyond single precision"],
+    );
+    // A data file whose stem is ".." cannot name the study's files.
+    std::fs::create_dir(d.join("dots")).unwrap();
+    write_binned(&d.join("dots/...binary"), ward_data);
+    refused(
+        d,
+        &["study", "dots/...binary", "--quick", "-o", "st"],
+        &["...binary", "cannot name the study's files"],
+    );
+    assert!(!d.join("renders").exists() && !d.join("st/renders").exists());
+}

@@ -135,6 +135,8 @@ fn write_fit_report(path: PathBuf, text: &str) -> PyResult<()> {
         let shown = path.display().to_string();
         let v = lobe_materials::json::parse(text, &shown).map_err(file_err)?;
         let r: FitReport = FitReport::from_json(&v, &shown).map_err(file_err)?;
+        r.check_loads(&Registry::builtin())
+            .map_err(|e| file_err(lobe_materials::FileError::new(&shown, e)))?;
         report::write(&path, &r).map_err(file_err)
     })
 }

@@ -35,7 +35,7 @@ pub(crate) fn to_py(e: lobe_renderer::Error) -> PyErr {
         lobe_renderer::Error::Scene { message, .. } => message
             .split_once(": ")
             .is_some_and(|(f, _)| Path::new(f).is_absolute() && missing(f)),
-        lobe_renderer::Error::Other(_) => false,
+        lobe_renderer::Error::Other(_) | lobe_renderer::Error::Biased(_) => false,
     };
     if not_found {
         PyFileNotFoundError::new_err(e.to_string())

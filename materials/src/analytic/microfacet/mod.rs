@@ -36,9 +36,18 @@ pub enum Distribution {
 
 pub const DISTRIBUTIONS: &[&str] = &["beckmann", "gaussian", "cosine-power"];
 
+/// The smallest roughness a distribution uses: a smaller m acts as this one (Mitsuba 3
+/// clamps its alpha at the same 1e-4). Below it the lobe is narrower than f32 directions
+/// can resolve: a half vector recomputed from a sampled direction is a few ulps off the
+/// normal, exp(-tan^2 / m^2) underflows to 0 there (at m = 5e-5 after 2 ulps), and every
+/// sample of the peak would be lost, leaving a near-mirror without its reflection.
+pub const MIN_ROUGHNESS: f64 = 1e-4;
+
 impl Distribution {
-    /// The named distribution with roughness m (> 0).
+    /// The named distribution with roughness m (> 0; below [`MIN_ROUGHNESS`] it is
+    /// [`MIN_ROUGHNESS`]).
     pub fn new(name: &str, m: f64) -> Option<Self> {
+        let m = m.max(MIN_ROUGHNESS);
         Some(match name {
             "beckmann" => Distribution::Beckmann { m },
             "gaussian" => Distribution::Gaussian {

@@ -273,6 +273,7 @@ pub fn materials(inputs: &[PathBuf]) -> Result<Vec<StudyMaterial>, Error> {
         };
         for f in files {
             let name = crate::fitting::stem(&f);
+            check_output_name(&name).map_err(|e| Error::file(f.display(), e))?;
             if let Some(other) = v.iter().find(|m| m.name == name) {
                 return Err(Error::file(
                     f.display(),
@@ -289,6 +290,18 @@ pub fn materials(inputs: &[PathBuf]) -> Result<Vec<StudyMaterial>, Error> {
         }
     }
     Ok(v)
+}
+
+/// Refuses a material or map name that cannot name the study's files inside its folders:
+/// empty, `.` or `..` (a data file named `...binary` has the stem `..`), or holding a path
+/// separator.
+fn check_output_name(name: &str) -> Result<(), String> {
+    if name.is_empty() || name == "." || name == ".." || name.contains(['/', '\\']) {
+        return Err(format!(
+            "its name \"{name}\" cannot name the study's files; expected a file name with a stem other than \".\" or \"..\""
+        ));
+    }
+    Ok(())
 }
 
 /// An environment map the renders are lit by.
@@ -328,6 +341,7 @@ pub fn environments(config: &StudyConfig) -> Result<Vec<Env>, Error> {
             Some(b) => b.to_string(),
             None => crate::fitting::stem(Path::new(e)),
         };
+        check_output_name(&name).map_err(|m| Error::Other(format!("--env {e}: {m}")))?;
         if v.iter().any(|o| o.name == name) {
             return Err(Error::Other(format!(
                 "--env {e}: a second environment map named \"{name}\"; expected distinct names"
@@ -371,6 +385,15 @@ pub struct StudySummary {
     pub pending: usize,
     /// The report's index page, when it was built.
     pub index: Option<PathBuf>,
+    /// Materials that failed (their data could not be read or fitted), with the error:
+    /// their later steps are skipped, the report lists them, and the study goes on.
+    pub failures: Vec<(String, String)>,
+}
+
+impl StudySummary {
+    fn failed(&self, name: &str) -> bool {
+        self.failures.iter().any(|(n, _)| n == name)
+    }
 }
 
 /// Refuses an input inside the study folder (its outputs could overwrite it) and an
@@ -488,17 +511,30 @@ pub fn run_materials(
                 "interrupted: finished steps are kept; rerun to resume".into(),
             ));
         }
+        if summary.failed(&m.name) {
+            continue;
+        }
         progress.began(&what);
-        step.run(&ctx, m)?;
-        summary.computed += 1;
+        match step.run(&ctx, m) {
+            Ok(()) => summary.computed += 1,
+            // An interrupt stops the study; a material's own failure (a corrupt file)
+            // skips that material's later steps and the study goes on with the others.
+            Err(e) if stop() => return Err(e),
+            Err(e) => summary.failures.push((m.name.clone(), e.to_string())),
+        }
         progress.finished(&what);
     }
-    summary.pending = mats
+    let complete: Vec<StudyMaterial> = mats
+        .iter()
+        .filter(|m| !summary.failed(&m.name))
+        .cloned()
+        .collect();
+    summary.pending = complete
         .iter()
         .filter(|m| !steps::Step::all(envs.len()).iter().all(|s| s.done(&ctx, m)))
         .count();
-    if summary.pending == 0 {
-        summary.index = Some(site::build(&ctx, mats)?);
+    if summary.pending == 0 && !complete.is_empty() {
+        summary.index = Some(site::build(&ctx, &complete, &summary.failures)?);
     }
     Ok(summary)
 }

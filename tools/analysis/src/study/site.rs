@@ -268,7 +268,13 @@ fn overview_table(data: &[MaterialData], models: &[String]) -> String {
 }
 
 /// The index page.
-fn index(ctx: &Context<'_>, data: &[MaterialData], fig5: bool, trade_rows: &str) -> String {
+fn index(
+    ctx: &Context<'_>,
+    data: &[MaterialData],
+    fig5: bool,
+    trade_rows: &str,
+    failures: &[(String, String)],
+) -> String {
     let reports: Vec<&FitReport> = data.iter().map(|d| &d.report).collect();
     let models = crate::reports::model_labels(&reports);
     let s = ctx.settings;
@@ -286,6 +292,13 @@ fn index(ctx: &Context<'_>, data: &[MaterialData], fig5: bool, trade_rows: &str)
         s.spp,
         s.reference_spp
     );
+    if !failures.is_empty() {
+        b += "<h2>Materials that failed</h2>\n<p class=\"note\">Not in this report: each stopped at the error shown. Fix or remove the file and rerun; the study resumes.</p>\n<ul>\n";
+        for (name, error) in failures {
+            b += &format!("<li><b>{}</b>: {}</li>\n", esc(name), esc(error));
+        }
+        b += "</ul>\n";
+    }
     b += "<h2>Fitting error per model</h2>\n";
     b += &overview_table(data, &models);
     b += "<h2>Figures</h2>\n<div class=\"grid\">\n";
@@ -457,7 +470,13 @@ fn write_text(path: &Path, text: &str) -> Result<(), Error> {
 
 /// Builds the report from the finished steps of every material: Figures 14 and 5, the
 /// trade-off table, the pages; returns the index page's path.
-pub fn build(ctx: &Context<'_>, mats: &[StudyMaterial]) -> Result<PathBuf, Error> {
+/// Builds the report of the complete materials `mats`; `failures` (material, error) are
+/// listed on the index page.
+pub fn build(
+    ctx: &Context<'_>,
+    mats: &[StudyMaterial],
+    failures: &[(String, String)],
+) -> Result<PathBuf, Error> {
     let data = gather(ctx, mats)?;
     let l = ctx.layout;
     let reports: Vec<FitReport> = data.iter().map(|d| d.report.clone()).collect();
@@ -480,6 +499,6 @@ pub fn build(ctx: &Context<'_>, mats: &[StudyMaterial]) -> Result<PathBuf, Error
         write_text(&p, &material_page(ctx, d))?;
     }
     let index_path = l.root.join("index.html");
-    write_text(&index_path, &index(ctx, &data, fig5, &rows))?;
+    write_text(&index_path, &index(ctx, &data, fig5, &rows, failures))?;
     Ok(index_path)
 }

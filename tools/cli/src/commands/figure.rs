@@ -188,6 +188,7 @@ pub fn cmd_figure(cmd: FigureCmd, quiet: bool) -> Result<(), Error> {
             exposure,
             output,
         } => {
+            crate::args::check_spp("--spp", spp)?;
             let source = material_figure_inputs(&material, Some(&report), Some(&env), &output)?;
             let mut items = vec![("measured".to_string(), source.build()?)];
             items.extend(report_models(

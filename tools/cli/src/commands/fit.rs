@@ -126,12 +126,12 @@ fn compare_metrics(a: &CompareMetricsArgs, quiet: bool) -> Result<(), Error> {
         .split(',')
         .map(|m| Metric::parse(m.trim()).map_err(|e| Error::Other(format!("--metrics: {e}"))))
         .collect::<Result<Vec<_>, _>>()?;
-    let sizes_ok =
-        (0.25..=20.0).contains(&a.resolution) && (16..=2048).contains(&a.size) && a.spp > 0;
+    crate::args::check_spp("--spp", a.spp)?;
+    let sizes_ok = (0.25..=20.0).contains(&a.resolution) && (16..=2048).contains(&a.size);
     if !sizes_ok {
         return Err(Error::Other(format!(
-            "--resolution {} / --size {} / --spp {}: expected [0.25, 20] degrees, 16 to 2048 pixels and at least one sample",
-            a.resolution, a.size, a.spp
+            "--resolution {} / --size {}: expected [0.25, 20] degrees and 16 to 2048 pixels",
+            a.resolution, a.size
         )));
     }
     let mut plan = FilePlan::new();

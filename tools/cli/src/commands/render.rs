@@ -46,7 +46,7 @@ pub struct RenderArgs {
     #[arg(long)]
     bench: bool,
     /// Number of timed runs for --bench.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, requires = "bench")]
     runs: u32,
 }
 
@@ -57,12 +57,7 @@ fn load_scene(args: &RenderArgs) -> Result<Scene, Error> {
         None => lobe_renderer::showcase::showcase()?,
     };
     if let Some(spp) = args.spp {
-        if spp == 0 {
-            return Err(Error::Other(
-                "--spp: expected a positive number of samples per pixel, found 0".into(),
-            ));
-        }
-        scene.spp = spp;
+        scene.spp = args::check_spp("--spp", spp)?;
     }
     if let Some(seed) = args.seed {
         scene.seed = seed;
@@ -107,14 +102,14 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
         }),
         cancel: Some(args::ctrl_c(scene_kind)),
     };
+    if args.runs == 0 {
+        return Err(Error::Other(
+            "--runs: expected at least 1 timed run, found 0".into(),
+        ));
+    }
     if args.bench {
         let ack = "interrupted: stopping the benchmark; Ctrl-C again to abort";
-        return bench(
-            &load_scene(&args)?,
-            &opts(ack, None),
-            args.runs.max(1),
-            quiet,
-        );
+        return bench(&load_scene(&args)?, &opts(ack, None), args.runs, quiet);
     }
     let files = render_files(&args)?;
     let mut plan = FilePlan::new();
@@ -160,7 +155,7 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
             .collect();
         eprintln!("wrote {}", all.join(", "));
     }
-    Ok(())
+    stats.check_dropped(&scene.file)
 }
 
 /// The bar on stderr that the render's progress reports drive (pixels done, with ETA).

@@ -140,5 +140,22 @@ pub fn cmd_study(args: StudyArgs, quiet: bool) -> Result<(), Error> {
         ),
         None => {}
     }
+    // As `lobe fit DIR`: every other material is done, and the exit status says that
+    // some failed (1, after the report is written).
+    if !summary.failures.is_empty() {
+        for (name, error) in &summary.failures {
+            eprintln!("lobe: {name} failed: {error}");
+        }
+        return Err(Error::Other(format!(
+            "{} of {} materials failed (listed above{}); the others are done",
+            summary.failures.len(),
+            summary.materials,
+            if summary.index.is_some() {
+                " and in the report"
+            } else {
+                ""
+            }
+        )));
+    }
     Ok(())
 }

@@ -71,16 +71,31 @@ pub fn cmd_tabulate(args: TabulateArgs, quiet: bool) -> Result<(), Error> {
         seed: args.seed,
     };
     let f = |wo: glam::Vec3, wi: glam::Vec3| m.eval(wo, wi);
+    // A table without a value cannot be read back (nor fitted, nor rendered): refused
+    // before it is written.
+    let nothing_left = || {
+        Error::Other(format!(
+            "{}: no bin would hold a value (--empty-fraction {}, --grazing-cutoff {}, --retro-exclusion {}); expected settings that keep at least one bin",
+            args.output.display(),
+            args.empty_fraction,
+            args.grazing_cutoff,
+            args.retro_exclusion
+        ))
+    };
     let (filled, total) = if args.format == "merl" {
         let t = merl_from(&f, &acq);
-        t.write(&args.output)?;
         let cov = t.coverage();
-        (
-            (cov * lobe_materials::measured::merl::SAMPLES as f64).round() as usize,
-            lobe_materials::measured::merl::SAMPLES,
-        )
+        let filled = (cov * lobe_materials::measured::merl::SAMPLES as f64).round() as usize;
+        if filled == 0 {
+            return Err(nothing_left());
+        }
+        t.write(&args.output)?;
+        (filled, lobe_materials::measured::merl::SAMPLES)
     } else {
         let t = binned_from(&f, args.anisotropic, &acq);
+        if t.filled() == 0 {
+            return Err(nothing_left());
+        }
         t.write(&args.output)?;
         (t.filled(), t.len())
     };

@@ -42,8 +42,8 @@ pub fn cmd_tradeoff(args: TradeoffArgs, quiet: bool) -> Result<(), Error> {
     let config = TradeoffConfig {
         data: args.data,
         scene: args.scene,
-        reference_spp: args.reference_spp,
-        spp: args.spp,
+        reference_spp: crate::args::check_spp("--reference-spp", args.reference_spp)?,
+        spp: crate::args::check_spp("--spp", args.spp)?,
         size: args.size,
         resolution: args.resolution,
         models: args.models,
