@@ -510,7 +510,14 @@ mod tests {
         let e = r
             .create(&json!({"type": "lambert", "reflectance": [0.1, 0.2]}), "m")
             .unwrap_err();
-        assert!(e.message.contains("an array"));
+        assert!(e.message.contains("found [0.1,0.2]"), "{e}");
+        let e = r
+            .create(
+                &json!({"type": "lambert", "reflectance": [1, 2, 3, 4, 5]}),
+                "m",
+            )
+            .unwrap_err();
+        assert!(e.message.contains("found an array"), "{e}");
         assert!(r.create(&json!("lambert"), "m").is_err());
     }
 }

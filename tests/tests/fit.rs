@@ -521,3 +521,41 @@ fn published_fits_outside_the_old_ranges_are_reached_and_bounds_are_reported() {
         r.at_bounds
     );
 }
+
+/// An Eq. (1) fit is the same bits at any thread count and on every run: parameters,
+/// errors and evaluation counts (its sums are merged in a fixed order). Data of 1-degree
+/// bins (hundreds of chunks of 4096), so that the parallel sums have many parts.
+#[test]
+fn eq1_fits_are_bit_identical_across_thread_counts_and_runs() {
+    let truth = material(&truth_desc("cook-torrance"));
+    let acq = Acquisition {
+        noise: 0.05,
+        seed: 5,
+        ..Default::default()
+    };
+    let merl = merl_from(&|wo, wi| truth.eval(wo, wi), &acq);
+    let data = Dataset::from_merl(&merl, 1.0);
+    assert!(data.samples.len() > 100 * 4096, "{}", data.samples.len());
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| fit(&REGISTRY, &data, &spec("cook-torrance"), 60).unwrap())
+    };
+    let key = |r: &FitResult| {
+        (
+            r.material.to_string(),
+            r.error.to_bits(),
+            r.evaluations,
+            r.start_errors
+                .iter()
+                .map(|e| e.to_bits())
+                .collect::<Vec<_>>(),
+        )
+    };
+    let one = key(&run(1));
+    for threads in [2, 3, 2] {
+        assert_eq!(key(&run(threads)), one, "{threads} threads");
+    }
+}

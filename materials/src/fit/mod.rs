@@ -65,7 +65,9 @@ pub struct FitResult {
 /// within which a fitted parameter counts as at a bound.
 pub const AT_BOUND: f64 = 1e-3;
 
-/// Normal equations per channel of the colours for fixed lobes.
+/// Normal equations per channel of the colours for fixed lobes: chunks of 4096 samples in
+/// parallel, merged in order (as [`metric::ordered_sum`]), so that a fit is the same bits
+/// for any thread count and any run.
 fn grams(data: &Dataset, lobes: &[Arc<dyn Lobe>]) -> [Gram; 3] {
     use rayon::prelude::*;
     let n = 1 + lobes.len();
@@ -99,10 +101,11 @@ fn grams(data: &Dataset, lobes: &[Arc<dyn Lobe>]) -> [Gram; 3] {
             }
             g
         })
-        .reduce(
-            || [Gram::new(n), Gram::new(n), Gram::new(n)],
-            |a, b| [a[0].merge(&b[0]), a[1].merge(&b[1]), a[2].merge(&b[2])],
-        )
+        .collect::<Vec<_>>()
+        .into_iter()
+        .fold([Gram::new(n), Gram::new(n), Gram::new(n)], |a, b| {
+            [a[0].merge(&b[0]), a[1].merge(&b[1]), a[2].merge(&b[2])]
+        })
 }
 
 fn linear_colours_with(
@@ -295,17 +298,18 @@ impl Problem<'_> {
 /// The Eq. (1) error of any BRDF `f(wi, wo)` (per channel, cosine not included) on the data:
 /// the measure that compares a fit, a tabulated distribution and the truth on equal terms.
 pub fn eq1_error(data: &Dataset, f: &(dyn Fn(glam::Vec3, glam::Vec3) -> [f64; 3] + Sync)) -> f64 {
-    use rayon::prelude::*;
-    let sum: f64 = data
-        .samples
-        .par_iter()
-        .map(|s| {
+    let sum = metric::ordered_sum(
+        data.samples.len(),
+        |acc: &mut f64, i| {
+            let s = &data.samples[i];
             let m = f(s.wi, s.wo);
-            (0..3)
+            *acc += (0..3)
                 .map(|c| s.weight * s.cos2 * (s.value[c] - m[c]).powi(2))
-                .sum::<f64>()
-        })
-        .sum();
+                .sum::<f64>();
+        },
+        0.0,
+        |a, b| a + b,
+    );
     (sum / (3.0 * data.total_weight().max(1e-300))).sqrt()
 }
 

@@ -278,7 +278,7 @@ pub(super) fn check_sphere_precision(file: &str, eye: Vec3, prims: &[Primitive])
         };
         return Err(Error::scene(
             file,
-            &format!("shapes[{}]", p.shape),
+            format!("shapes[{}]", p.shape),
             format!(
                 "the sphere's {what} is {value:e}, below 64 single-precision steps ({step:e}) at the scene's scale {scale:e} (the camera at {eye}, the sphere at {}): expected the scene moved or scaled so that f32 resolves it",
                 s.center
