@@ -184,10 +184,26 @@ fn finite_and_non_negative_everywhere() {
 
 #[test]
 fn reciprocal_where_the_model_is() {
+    let mut checked = Vec::new();
     for c in cases() {
         if c.bsdf.flags().contains(Flags::RECIPROCAL) {
             check_reciprocity(&c.name, c.bsdf.as_ref());
+            checked.push(c.bsdf.name().to_string());
         }
+    }
+    // The reciprocal models of the study must all be among them: a lost flag would
+    // otherwise make this test pass by checking nothing.
+    for model in [
+        "lambert",
+        "ward",
+        "blinn-phong",
+        "cook-torrance",
+        "ashikhmin-shirley",
+    ] {
+        assert!(
+            checked.iter().any(|n| n == model),
+            "{model} was not checked for reciprocity (checked: {checked:?})"
+        );
     }
 }
 

@@ -75,4 +75,15 @@ fn scenes_build_only_the_tables_and_distributions_they_use() {
     let after = counts();
     assert_eq!(after.0, before.0 + 1, "measured tables built");
     assert_eq!(after.1, before.1 + 1, "environment distributions built");
+    // Two shapes of one table, one by a named material and one inline, share one build.
+    let mut shared = used.clone();
+    shared["shapes"][0]["material"] = json!({"type": "merl", "file": "t.binary"});
+    from_value(
+        &shared,
+        "shared.json",
+        dir.path(),
+        &LoadOptions::with_builtins(),
+    )
+    .unwrap();
+    assert_eq!(counts().0, after.0 + 1, "one table for two shapes");
 }

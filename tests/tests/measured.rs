@@ -285,9 +285,9 @@ fn tabulated_sampling_is_exact_and_beats_cosine_sampling() {
 }
 
 #[test]
-fn scenes_load_tables_lazily_and_share_them() {
+fn scenes_load_tables_lazily() {
     let dir = tempfile::tempdir().unwrap();
-    let path = write_merl(
+    write_merl(
         dir.path(),
         "t.binary",
         glossy().as_ref(),
@@ -305,16 +305,11 @@ fn scenes_load_tables_lazily_and_share_them() {
     let load = |v: serde_json::Value| {
         lobe_renderer::scene::from_value(&v, "s.json", dir.path(), &Default::default())
     };
-    // An unused material's missing file is never read.
+    // An unused material's missing file is never read: the scene loads. (That the two
+    // shapes, one named and one inline, share one table is counted in lazy_build.rs, whose
+    // process-wide build counter no other test moves.)
     let s = load(scene(json!([{"type": "sphere", "material": "table"}, {"type": "sphere", "center": [2, 0, 0], "material": {"type": "merl", "file": "t.binary"}}]))).unwrap();
-    // Both shapes (one named, one inline) share one table and one sampler.
-    let a = &s.shapes[0].material;
-    let b = &s.shapes[1].material;
-    let wo = dir_deg(30.0, 0.0);
-    assert_eq!(
-        a.eval(wo, dir_deg(30.0, 180.0)),
-        b.eval(wo, dir_deg(30.0, 180.0))
-    );
+    assert_eq!(s.shapes.len(), 2);
     let e = match load(scene(json!([{"type": "sphere", "material": "unused"}]))) {
         Ok(_) => panic!("a missing table was accepted"),
         Err(e) => e.to_string(),
@@ -323,5 +318,4 @@ fn scenes_load_tables_lazily_and_share_them() {
         e.contains("materials.unused.file") && e.contains("missing.binary"),
         "{e}"
     );
-    assert!(path.exists());
 }
