@@ -50,6 +50,77 @@ pub fn shared_data() -> Option<PathBuf> {
     p.is_dir().then_some(p)
 }
 
+/// Where skipped checks are listed, one line each: scripts/test.sh clears it first and
+/// prints a summary of it last (`cargo test` hides the stderr of passing tests).
+pub fn skip_log() -> PathBuf {
+    workspace().join("target/skipped-checks.log")
+}
+
+fn record_skip(line: &str) {
+    use std::io::Write;
+    eprintln!("SKIPPED {line}");
+    let log = skip_log();
+    if let Some(dir) = log.parent() {
+        let _ = std::fs::create_dir_all(dir);
+    }
+    if let Ok(mut f) = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&log)
+    {
+        let _ = writeln!(f, "{line}");
+    }
+}
+
+/// Records a check that could not run because `../shared/data` (or `LOBE_DATA`) is absent.
+/// With `LOBE_REQUIRE_DATA=1` (CI sets it: CI has the data) it fails the test instead.
+pub fn skip_without_data(what: &str) {
+    if std::env::var("LOBE_REQUIRE_DATA").is_ok_and(|v| v == "1") {
+        panic!("LOBE_REQUIRE_DATA=1 but ../shared/data (or LOBE_DATA) is absent: {what}");
+    }
+    record_skip(&format!("(no shared data) {what}"));
+}
+
+/// The shared data folder, or `None` with the skipped check recorded
+/// ([`skip_without_data`]).
+pub fn shared_data_or_skip(what: &str) -> Option<PathBuf> {
+    let d = shared_data();
+    if d.is_none() {
+        skip_without_data(what);
+    }
+    d
+}
+
+/// Records a check that could not run on this machine for another reason (a missing
+/// program, permissions not enforced as root); never fatal.
+pub fn skip_on_this_machine(what: &str) {
+    record_skip(&format!("(this machine) {what}"));
+}
+
+/// Waits until process `pid` catches `signal` (its handler is installed: Linux's
+/// /proc/PID/status `SigCgt` mask), so that a test can interrupt a child at a known
+/// point of its life instead of after a guessed delay. Returns false if the process ended
+/// first or the mask cannot be read (then a test should skip, not guess).
+pub fn wait_for_signal_handler(pid: u32, signal: i32) -> bool {
+    let status = format!("/proc/{pid}/status");
+    let start = std::time::Instant::now();
+    while start.elapsed() < std::time::Duration::from_secs(60) {
+        let Ok(text) = std::fs::read_to_string(&status) else {
+            return false;
+        };
+        let caught = text
+            .lines()
+            .find_map(|l| l.strip_prefix("SigCgt:"))
+            .and_then(|m| u64::from_str_radix(m.trim(), 16).ok());
+        match caught {
+            Some(mask) if mask & (1 << (signal - 1)) != 0 => return true,
+            Some(_) => std::thread::sleep(std::time::Duration::from_millis(5)),
+            None => return false,
+        }
+    }
+    false
+}
+
 /// The workspace root.
 pub fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")

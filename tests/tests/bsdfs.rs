@@ -417,7 +417,7 @@ fn measured_cases() -> &'static [Case] {
                 }
             }
         } else {
-            eprintln!("RGL cases SKIPPED: ../shared/data (or LOBE_DATA) is absent");
+            lobe_tests::skip_without_data("the RGL cases of the BSDF battery");
         }
         let source = Registry::builtin()
             .create(

@@ -285,8 +285,7 @@ fn anisotropic_ward_is_recovered_from_sparse_4d_data() {
 
 #[test]
 fn real_rgl_measurements_fit_with_every_model_and_render_close() {
-    let Some(base) = lobe_tests::shared_data() else {
-        eprintln!("SKIPPED: ../shared/data (or LOBE_DATA) not found; the RGL fits were not tested");
+    let Some(base) = lobe_tests::shared_data_or_skip("fits of the real RGL measurements") else {
         return;
     };
     let rgl = base.join("rgl");

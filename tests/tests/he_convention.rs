@@ -32,10 +32,8 @@ const OTHERS: &[&str] = &[
 
 #[test]
 fn published_he_fits_evaluate_close_to_the_published_cook_torrance() {
-    let Some(base) = lobe_tests::shared_data() else {
-        eprintln!(
-            "SKIPPED: ../shared/data (or LOBE_DATA) not found; the He convention was not checked"
-        );
+    let Some(base) = lobe_tests::shared_data_or_skip("the He convention against Ngan's fits")
+    else {
         return;
     };
     let fits = base.join("ngan-fits");
@@ -78,8 +76,7 @@ fn published_he_fits_evaluate_close_to_the_published_cook_torrance() {
 /// is zero, and only the diffuse term of these fits is left.
 #[test]
 fn a_published_eta_of_one_leaves_no_lobe() {
-    let Some(base) = lobe_tests::shared_data() else {
-        eprintln!("SKIPPED: ../shared/data (or LOBE_DATA) not found");
+    let Some(base) = lobe_tests::shared_data_or_skip("He with a published eta of one") else {
         return;
     };
     let reg = Registry::builtin();

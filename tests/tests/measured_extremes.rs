@@ -136,8 +136,7 @@ fn binned_values_beyond_the_limit_are_refused_naming_the_bin() {
 
 #[test]
 fn rgl_fields_that_overflow_are_refused() {
-    let Some(data) = lobe_tests::shared_data() else {
-        eprintln!("skipped: no shared data");
+    let Some(data) = lobe_tests::shared_data_or_skip("RGL fields that overflow") else {
         return;
     };
     let src = data.join("rgl/paper_white_rgb.bsdf");

@@ -140,15 +140,13 @@ fn lobe_matches_every_mitsuba_reference_and_sees_wrong_materials() {
         );
         let text = String::from_utf8(bytes).unwrap();
         if text.contains("\"ngan-fit\"") && lobe_tests::shared_data().is_none() {
-            eprintln!(
-                "SKIPPED {name}: it uses the Ngan et al. fits of ../shared/data, which is absent"
-            );
+            lobe_tests::skip_without_data(&format!("the Mitsuba reference {name} (Ngan fits)"));
             continue;
         }
         if text.contains("shared/data/") && !root.join("../shared/data").is_dir() {
-            eprintln!(
-                "SKIPPED {name}: it reads measured files from ../shared/data next to the checkout, which is absent"
-            );
+            lobe_tests::skip_without_data(&format!(
+                "the Mitsuba reference {name} (reads ../shared/data next to the checkout)"
+            ));
             continue;
         }
         let desc: Value = serde_json::from_str(&text).unwrap();

@@ -10,15 +10,7 @@ use lobe_tests::bsdf_checks::{albedo, dir_deg};
 use serde_json::json;
 
 fn fits_dir() -> Option<std::path::PathBuf> {
-    match lobe_tests::shared_data() {
-        Some(d) => Some(d.join("ngan-fits")),
-        None => {
-            eprintln!(
-                "SKIPPED: ../shared/data (or LOBE_DATA) is absent, so the Ngan et al. fits cannot be checked"
-            );
-            None
-        }
-    }
+    lobe_tests::shared_data_or_skip("the published Ngan et al. fits").map(|d| d.join("ngan-fits"))
 }
 
 #[test]

@@ -467,10 +467,7 @@ fn close(a: f64, b: f64) -> bool {
 
 #[test]
 fn rgl_matches_mitsuba_measured() {
-    let Some(data) = lobe_tests::shared_data() else {
-        eprintln!(
-            "SKIPPED: ../shared/data (or LOBE_DATA) is absent, so the RGL files cannot be checked"
-        );
+    let Some(data) = lobe_tests::shared_data_or_skip("RGL files against Mitsuba's measured") else {
         return;
     };
     let mut checked = 0;
@@ -528,8 +525,7 @@ fn rgl_matches_mitsuba_measured() {
 #[test]
 fn rgl_material_passes_the_bsdf_battery() {
     use lobe_tests::bsdf_checks::*;
-    let Some(data) = lobe_tests::shared_data() else {
-        eprintln!("SKIPPED: ../shared/data (or LOBE_DATA) is absent");
+    let Some(data) = lobe_tests::shared_data_or_skip("the BSDF battery on RGL files") else {
         return;
     };
     let reg = lobe_materials::registry::Registry::builtin();

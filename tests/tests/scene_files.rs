@@ -21,10 +21,10 @@ fn every_shipped_scene_loads_and_renders() {
             .contains("\"ngan-fit\"")
             && lobe_tests::shared_data().is_none()
         {
-            eprintln!(
-                "SKIPPED {}: it uses the Ngan et al. fits of ../shared/data, which is absent",
+            lobe_tests::skip_without_data(&format!(
+                "loading {} (Ngan et al. fits)",
                 path.display()
-            );
+            ));
             continue;
         }
         let mut scene = load(&path).unwrap_or_else(|e| panic!("{e}"));

@@ -88,8 +88,8 @@ fn mixed_lights_and_materials() {
     });
     let mut v = v;
     if lobe_tests::shared_data().is_none() {
-        eprintln!(
-            "../shared/data (or LOBE_DATA) is absent: the published Ngan et al. fit is replaced by an analytic Cook-Torrance"
+        lobe_tests::skip_without_data(
+            "the mixed scene's published Ngan et al. fit (an analytic Cook-Torrance stands in)",
         );
         v["shapes"][2]["material"] =
             json!({"type": "cook-torrance", "diffuse": 0.1, "specular": 0.5, "m": 0.2});
@@ -133,9 +133,7 @@ fn scene_files() {
         "ngan-fits-green-metallic-paint.json",
     ] {
         if name.starts_with("ngan-fits") && lobe_tests::shared_data().is_none() {
-            eprintln!(
-                "SKIPPED {name}: it uses the Ngan et al. fits of ../shared/data, which is absent"
-            );
+            lobe_tests::skip_without_data(&format!("wavefront against scalar on {name}"));
             continue;
         }
         let mut scene = load(&root.join(name)).unwrap();

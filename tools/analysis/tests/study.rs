@@ -352,8 +352,8 @@ fn column(dom: &str, col: usize) -> Vec<f64> {
 #[test]
 fn the_index_sorts_in_headless_chromium_without_console_messages() {
     let Some(chromium) = chromium() else {
-        eprintln!(
-            "SKIPPED: chromium is not installed (Debian: apt-get install chromium; .ci/run installs it)"
+        lobe_tests::skip_on_this_machine(
+            "the report in headless chromium: chromium is not installed (Debian: apt-get install chromium; .ci/run installs it)",
         );
         return;
     };

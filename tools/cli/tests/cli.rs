@@ -215,10 +215,10 @@ fn compare_agrees_with_openimageio_idiff() {
     let idiff =
         std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../mitsuba/.venv/bin/idiff");
     if !idiff.exists() {
-        eprintln!(
-            "SKIPPED: {} is absent (run tools/mitsuba/setup.sh to create the venv)",
+        lobe_tests::skip_on_this_machine(&format!(
+            "the idiff cross-check: {} is absent (run tools/mitsuba/setup.sh to create the venv)",
             idiff.display()
-        );
+        ));
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -1158,7 +1158,12 @@ fn ctrl_c_stops_a_render_without_output_and_a_batch_fit_without_losing_reports()
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
+    // Interrupted once lobe handles SIGINT (installed before the scene loads), long before
+    // 200,000 spp can end: no guessed delay.
+    assert!(lobe_tests::wait_for_signal_handler(
+        child.id(),
+        libc::SIGINT
+    ));
     sigint(&child);
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(130));
@@ -1231,7 +1236,9 @@ fn read_only_folders_and_full_disks_are_one_line_errors() {
     use std::os::unix::fs::PermissionsExt;
     std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
     if std::fs::write(ro.join("probe"), b"x").is_ok() {
-        eprintln!("SKIPPED read-only folder case: permissions are not enforced (running as root)");
+        lobe_tests::skip_on_this_machine(
+            "the read-only folder case: permissions are not enforced (running as root)",
+        );
         std::fs::remove_file(ro.join("probe")).unwrap();
     } else {
         fails(
@@ -1268,7 +1275,7 @@ fn read_only_folders_and_full_disks_are_one_line_errors() {
         .status()
         .is_ok_and(|s| s.success());
     if !mounted {
-        eprintln!("SKIPPED full-disk case: cannot mount a tmpfs here");
+        lobe_tests::skip_on_this_machine("the full-disk case: cannot mount a tmpfs here");
         return;
     }
     let big = SCENE.replace(
@@ -1897,7 +1904,9 @@ fn a_second_ctrl_c_exits_at_once() {
 #[test]
 fn the_batch_progress_bar_counts_models() {
     if Command::new("script").arg("--version").output().is_err() {
-        eprintln!("SKIPPED: no `script` command to run lobe on a pseudo-terminal");
+        lobe_tests::skip_on_this_machine(
+            "the batch progress bar: no `script` command to run lobe on a pseudo-terminal",
+        );
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -2046,16 +2055,24 @@ fn study_refuses_bad_inputs_in_one_line() {
 #[cfg(unix)]
 #[test]
 fn a_closed_stdout_ends_the_process_without_a_panic() {
+    use std::os::fd::{FromRawFd, OwnedFd};
     use std::os::unix::process::ExitStatusExt;
     use std::process::Stdio;
-    let mut child = lobe()
+    // A pipe whose reading end is closed before the process starts: every write fails,
+    // however fast the process is (closing it after the spawn raced with the writes).
+    let mut fds = [0; 2];
+    // SAFETY: pipe(2) fills the two descriptors it is given.
+    assert_eq!(unsafe { libc::pipe(fds.as_mut_ptr()) }, 0);
+    // SAFETY: both descriptors were just created and are owned here alone.
+    let (read_end, write_end) =
+        unsafe { (OwnedFd::from_raw_fd(fds[0]), OwnedFd::from_raw_fd(fds[1])) };
+    drop(read_end);
+    let child = lobe()
         .arg("models")
-        .stdout(Stdio::piped())
+        .stdout(Stdio::from(write_end))
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // The reading end closes before the process has started writing.
-    drop(child.stdout.take());
     let out = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");

@@ -225,7 +225,12 @@ fn sigterm_stops_a_render_like_ctrl_c_and_keeps_the_old_outputs() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1000));
+    // Sent once lobe handles SIGTERM (its handler is installed before the scene loads),
+    // long before the render of 400,000 spp can end.
+    assert!(
+        lobe_tests::wait_for_signal_handler(child.id(), libc::SIGTERM),
+        "lobe never installed a SIGTERM handler"
+    );
     signal(&child, libc::SIGTERM);
     let o = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);

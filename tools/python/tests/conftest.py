@@ -36,10 +36,29 @@ def lobe_bin():
     return path
 
 
+REQUIRE_DATA = os.environ.get("LOBE_REQUIRE_DATA") == "1"
+
+
+def record_skip(what):
+    """Records a check that could not run (listed in target/skipped-checks.log, which
+    scripts/test.sh summarises). A check skipped for want of ../shared/data fails instead
+    when LOBE_REQUIRE_DATA=1 (CI, which has the data)."""
+    if REQUIRE_DATA and "shared data" in what:
+        pytest.fail(f"LOBE_REQUIRE_DATA=1 but {what}")
+    log = os.path.join(ROOT, "target", "skipped-checks.log")
+    os.makedirs(os.path.dirname(log), exist_ok=True)
+    with open(log, "a") as f:
+        f.write(f"(python) {what}\n")
+
+
 @pytest.fixture(scope="session")
 def data_dir():
     d = os.environ.get("LOBE_DATA", os.path.join(ROOT, "..", "shared", "data"))
-    return d if os.path.isdir(d) else None
+    if os.path.isdir(d):
+        return d
+    if REQUIRE_DATA:
+        pytest.fail(f"LOBE_REQUIRE_DATA=1 but the shared data folder {d} is absent")
+    return None
 
 
 def sphere_scene(material, width, height=None):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import lobe
-from conftest import MODELS, run
+from conftest import MODELS, record_skip, run
 
 GRID = "0..80..20,0..300..60,5..85..20,10..350..85"
 
@@ -40,6 +40,8 @@ def measured_and_fits(data_dir):
     if data_dir:
         out["rgl"] = {"type": "rgl", "file": os.path.join(data_dir, "rgl", "paper_white_rgb.bsdf")}
         out["ngan-fit"] = {"type": "ngan-fit", "material": "nickel", "model": "he", "fits": os.path.join(data_dir, "ngan-fits")}
+    else:
+        record_skip("no shared data: the rgl and ngan-fit cases of test_files_models_equal_cli")
     return out
 
 
