@@ -76,7 +76,9 @@ def read_image(path: PathLike) -> np.ndarray:
 
 def write_image(path: PathLike, image: np.ndarray) -> None:
     """Writes (H, W, 3) linear RGB as a float32 OpenEXR file, atomically."""
-    _lobe.write_image(os.fspath(path), np.ascontiguousarray(image, dtype=np.float32))
+    if isinstance(image, (str, os.PathLike)):
+        raise ValueError(f"image: expected an image array of shape (H, W, 3), found the path {os.fspath(image)!r}")
+    _lobe.write_image(os.fspath(path), _image(image, "image"))
 
 
 def _image(a: Image, what: str) -> np.ndarray:
