@@ -1,6 +1,8 @@
 //! The cost of a material per call: nanoseconds per `eval` and per `sample` over a fixed set
-//! of 32768 cosine-distributed direction pairs, the best of three passes (what model
-//! selection and the trade-off weigh against accuracy).
+//! of 32768 cosine-distributed direction pairs, the best of three passes (what the
+//! trade-off weighs against accuracy), and the committed per-model table of such costs
+//! ([`reference_cost`], `model_costs.json`) that model selection ranks by, so that the same
+//! inputs select the same model on every run and every machine.
 
 use lobe_materials::Bsdf;
 use lobe_materials::sampling::warp::square_to_cosine_hemisphere;
@@ -63,4 +65,23 @@ pub fn measure(b: &dyn Bsdf) -> Cost {
         eval_ns: time(&|d| b.eval(d.0, d.1).r),
         sample_ns: time(&|d| b.sample(d.0, d.2, d.3).map_or(0.0, |s| s.pdf)),
     }
+}
+
+/// The committed cost table: per fit label (`lobe fit --list`), nanoseconds per eval and
+/// per sample of that model at default parameters (two lobes and a diffuse term for the
+/// two-lobe variants), the median of five [`measure`]s on one machine. Regenerate it with
+/// `cargo test --release -p lobe-analysis --test model_costs -- --ignored` after a change
+/// that moves a model's speed; a test checks that every fit label has an entry.
+pub const MODEL_COSTS_JSON: &str = include_str!("model_costs.json");
+
+/// The committed cost of the fit variant `label` ([`MODEL_COSTS_JSON`]), if it has one.
+pub fn reference_cost(label: &str) -> Option<Cost> {
+    static TABLE: std::sync::LazyLock<serde_json::Value> = std::sync::LazyLock::new(|| {
+        serde_json::from_str(MODEL_COSTS_JSON).expect("model_costs.json is valid JSON")
+    });
+    let e = TABLE.get("models")?.get(label)?;
+    Some(Cost {
+        eval_ns: e.get("eval_ns")?.as_f64()?,
+        sample_ns: e.get("sample_ns")?.as_f64()?,
+    })
 }

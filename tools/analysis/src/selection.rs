@@ -1,8 +1,12 @@
-//! Model selection (`lobe fit --select`): per material, the cheapest fitted model (eval +
-//! sample time per call, [`crate::cost`]) whose Eq. (1) error is within a relative
-//! tolerance of the best model's, recorded in the fit report as "selected".
+//! Model selection (`lobe fit --select`): per material, the cheapest fitted model whose
+//! Eq. (1) error is within a relative tolerance of the best model's, recorded in the fit
+//! report as "selected". The cost ranked is the committed table's
+//! ([`crate::cost::reference_cost`]: eval + sample time per call, measured once), so the
+//! choice is the same on every run and machine; the timings measured in this run are
+//! recorded beside it. Only a model the table lacks (one registered by a user) is ranked by
+//! its measured timing.
 
-use crate::cost::{Cost, measure};
+use crate::cost::{Cost, measure, reference_cost};
 use lobe_materials::fit::FitResult;
 use lobe_materials::fit::report::{ModelCost, Selection};
 use lobe_materials::registry::Registry;
@@ -23,21 +27,26 @@ pub fn cheapest_within<'a>(candidates: &[(&'a str, f64, Cost)], tolerance: f64) 
     (pick.map(|p| p.0).unwrap_or_default(), best)
 }
 
-/// Measures the cost of every fitted model of `results` and selects the cheapest within
-/// `tolerance` of the best error; a fitted material that cannot be built is an error.
+/// Selects the cheapest model of `results` (by the committed cost table) within
+/// `tolerance` of the best error, recording the cost measured now for each; a fitted
+/// material that cannot be built is an error.
 pub fn select(
     registry: &Registry,
     results: &[FitResult],
     tolerance: f64,
 ) -> Result<Selection, Error> {
     let mut candidates = Vec::with_capacity(results.len());
+    let mut ranked = Vec::with_capacity(results.len());
     for r in results {
         let b = registry
             .create(&r.material, &r.label)
             .map_err(|e| Error::Other(e.to_string()))?;
-        candidates.push((r.label.as_str(), r.error, measure(b.as_ref())));
+        let measured = measure(b.as_ref());
+        let rank = reference_cost(&r.label).unwrap_or(measured);
+        candidates.push((r.label.as_str(), r.error, measured));
+        ranked.push((r.label.as_str(), r.error, rank));
     }
-    let (model, best_error) = cheapest_within(&candidates, tolerance);
+    let (model, best_error) = cheapest_within(&ranked, tolerance);
     Ok(Selection {
         model: model.to_string(),
         tolerance,

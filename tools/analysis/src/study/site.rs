@@ -5,9 +5,10 @@
 //! renders side by side (measured | each representation, and the FLIP heat maps),
 //! parameters, errors and plots. Also DIR/tradeoff.md and .csv.
 //!
-//! Values that come from a timing (costs, render seconds, equal-time errors, and the
-//! selection, which depends on costs) are marked `class="timed"`: they vary from run to
-//! run, everything else is a function of the data and the settings.
+//! Values that come from a timing (costs, render seconds, equal-time errors) are marked
+//! `class="timed"`: they vary from run to run. Everything else is a function of the data
+//! and the settings, the selection included (it ranks by the committed cost table,
+//! [`crate::cost::reference_cost`]).
 
 use super::StudyMaterial;
 use super::steps::{Context, Layout, headline_fits, representations};
@@ -252,7 +253,7 @@ fn overview_table(data: &[MaterialData], models: &[String]) -> String {
         let sel = d.report.selected.as_ref().map_or("", |x| x.model.as_str());
         let _ = write!(
             s,
-            "<tr><td><a href=\"{}\">{}</a></td><td class=\"timed\">{}</td>{}",
+            "<tr><td><a href=\"{}\">{}</a></td><td>{}</td>{}",
             url(&format!("materials/{}.html", d.name)),
             esc(&d.name),
             esc(sel),
@@ -283,7 +284,7 @@ fn index(
         "<h1>BRDF model study: {} materials</h1>\n<p class=\"note\">The experiment of Ngan, Durand and Matusik 2005 (sections 3 to 5), run by <code>lobe study</code>: \
          every model fitted to each material (Eq. 1 metric, {}\u{b0} bins, {} objective evaluations per start), the cheapest model within {} % of the best error selected, \
          the microfacet distribution estimated from the data, and renders of a sphere under {} at {} spp against a {} spp reference of the measured data. \
-         Errors are normalized by the material's largest albedo. <i>Italic</i> values come from timings and vary from run to run. Click a column to sort.</p>\n",
+         Errors are normalized by the material's largest albedo. The selection ranks models by the committed cost table (the same on every run); <i>italic</i> values come from this run's timings and vary from run to run. Click a column to sort.</p>\n",
         data.len(),
         s.resolution,
         s.max_evals,
@@ -369,7 +370,7 @@ fn fits_table(d: &MaterialData) -> String {
         };
         let _ = writeln!(
             s,
-            "<tr><td>{}<span class=\"timed\">{mark}</span></td>{}{}<td data-v=\"{}\">{} of {}</td>{}{}<td><pre>{}</pre></td></tr>",
+            "<tr><td>{}{mark}</td>{}{}<td data-v=\"{}\">{} of {}</td>{}{}<td><pre>{}</pre></td></tr>",
             esc(label),
             num(Some(f.error_normalized), false),
             num(Some(f.error), false),
