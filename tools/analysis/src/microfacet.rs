@@ -38,8 +38,27 @@ pub struct Synth {
     /// Correlation of the estimated p with the truth.
     pub correlation: f64,
     /// Per representation (the estimate first, then each anisotropic fit): its label, its
-    /// Eq. (1) error and its fitting time in seconds (0 for the estimate).
-    pub rows: Vec<(String, f64, f64)>,
+    /// Eq. (1) error, its fitting time in seconds (0 for the estimate) and a note on the
+    /// fitted lobe (see [`lobe_note`]).
+    pub rows: Vec<(String, f64, f64, String)>,
+}
+
+/// What a reader of the comparison must know about a fitted material: "specular lobe
+/// vanished at the optimum" when its specular colour is zero in every channel (the fit is
+/// then the best Lambertian term alone, and models whose lobes all vanish share one error),
+/// else its specular colour.
+pub fn lobe_note(material: &serde_json::Value) -> String {
+    let spec: Vec<f64> = match material.get("specular") {
+        Some(serde_json::Value::Array(a)) => a.iter().filter_map(|v| v.as_f64()).collect(),
+        Some(v) => v.as_f64().into_iter().collect(),
+        None => Vec::new(),
+    };
+    if !spec.is_empty() && spec.iter().all(|&s| s == 0.0) {
+        "specular lobe vanished at the optimum: the fit is its diffuse term alone".into()
+    } else {
+        let shown: Vec<String> = spec.iter().map(|s| format!("{s:.3}")).collect();
+        format!("specular [{}]", shown.join(", "))
+    }
 }
 
 /// Runs the experiment on `shape` (named `structure` in errors).
@@ -67,11 +86,17 @@ pub fn synth(
         "sampled-microfacet (estimated p)".to_string(),
         est.error,
         0.0,
+        String::new(),
     )];
     let specs = builtin_specs();
     for label in ANISOTROPIC_DEFAULT {
         let r = fit(registry, &data, &spec(&specs, label)?, 300).map_err(Error::Other)?;
-        rows.push((label.to_string(), r.error, r.seconds));
+        rows.push((
+            label.to_string(),
+            r.error,
+            r.seconds,
+            lobe_note(&r.material),
+        ));
     }
     Ok(Synth {
         correlation: correlation(&est.table, &truth),

@@ -637,6 +637,16 @@ fn the_synthetic_microfacet_experiment_recovers_the_structure() {
     );
     assert!(s.correlation > 0.8, "correlation {}", s.correlation);
     assert!(!s.data.samples.is_empty());
+    assert!(s.rows[1..].iter().all(|r| !r.3.is_empty()), "{:?}", s.rows);
+}
+
+#[test]
+fn a_vanished_specular_lobe_is_named() {
+    use lobe_analysis::microfacet::lobe_note;
+    let vanished = json!({"type": "ward-anisotropic", "diffuse": [0.2, 0.1, 0.1], "specular": [0.0, 0.0, 0.0]});
+    assert!(lobe_note(&vanished).contains("vanished"));
+    let kept = json!({"type": "ward-anisotropic", "specular": [0.0, 0.25, 0.0]});
+    assert_eq!(lobe_note(&kept), "specular [0.000, 0.250, 0.000]");
 }
 
 #[test]

@@ -218,10 +218,10 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
                     .map(|c| format!("{c:.2e}"))
                     .collect::<Vec<_>>()
             );
-            println!("\n| model | Eq. (1) error | normalized |\n|---|---|---|");
-            for (label, e, _) in &rows {
+            println!("\n| model | Eq. (1) error | normalized | fitted lobe |\n|---|---|---|---|");
+            for (label, e, _, note) in &rows {
                 println!(
-                    "| {label} | {e:.4e} | {:.4e} |",
+                    "| {label} | {e:.4e} | {:.4e} | {note} |",
                     e / data.max_albedo.max(1e-300)
                 );
             }
