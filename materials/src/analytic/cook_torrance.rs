@@ -18,7 +18,7 @@ use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g, vgroove_g_xn};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
-    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
+    Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
 use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
@@ -182,6 +182,14 @@ const fn variant(
     }
 }
 
+/// The two-lobe variant contains the one-lobe one: its fit starts from (and keeps, unless
+/// something beats it) the one-lobe optimum in both lobes, whose colours the linear solve
+/// can give to one lobe alone, so it is never worse than one lobe.
+const CONTAINS_ONE_LOBE: Contains = Contains {
+    label: "cook-torrance",
+    params: &[("m", "m"), ("f0", "f0")],
+};
+
 const BECKMANN_SCHLICK: &[(&str, &str)] = &[("distribution", "beckmann"), ("fresnel", "schlick")];
 
 /// Cook-Torrance as the study fits it: Beckmann with Schlick's Fresnel (section 4), the
@@ -216,7 +224,8 @@ pub const MODEL: LobeModel = LobeModel {
             1,
             FitGroup::Variant,
         ),
-        variant("cook-torrance-2", BECKMANN_SCHLICK, 2, FitGroup::TwoLobes),
+        variant("cook-torrance-2", BECKMANN_SCHLICK, 2, FitGroup::TwoLobes)
+            .containing(CONTAINS_ONE_LOBE),
     ],
     published: Some(PublishedFit {
         file: "ngan_cooktorrance.fit",

@@ -20,7 +20,7 @@ use crate::frame::{self, Frame};
 use crate::lobe::{self, Lobe, above};
 use crate::math::{Real, V3};
 use crate::schema::{
-    Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
+    Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
 use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
@@ -262,7 +262,12 @@ pub const MODEL: LobeModel = LobeModel {
             settings: NGAN,
             lobes: 2,
             group: FitGroup::TwoLobes,
-            contains: None,
+            // Starts from (and keeps, unless something beats it) the one-lobe optimum in
+            // both lobes: never worse than one lobe.
+            contains: Some(Contains {
+                label: "lafortune",
+                params: &[("cx", "cx"), ("cz", "cz"), ("n", "n")],
+            }),
         },
     ],
     published: Some(PublishedFit {
