@@ -293,7 +293,13 @@ mod tests {
                 ct("cook-torrance-cosine-power", "cosine-power", "schlick", 1),
                 ct("cook-torrance-no-fresnel", "beckmann", "none", 1),
                 ct("cook-torrance-dielectric", "beckmann", "dielectric", 1),
-                ct("cook-torrance-2", "beckmann", "schlick", 2),
+                ModelSpec {
+                    contains: Some(Contains {
+                        label: "cook-torrance",
+                        params: &[("m", "m"), ("f0", "f0")],
+                    }),
+                    ..ct("cook-torrance-2", "beckmann", "schlick", 2)
+                },
                 ModelSpec {
                     label: "lafortune-2",
                     model: "lafortune",
@@ -301,7 +307,10 @@ mod tests {
                     params: lafortune_params(),
                     lobes: 2,
                     group: FitGroup::TwoLobes,
-                    contains: None,
+                    contains: Some(Contains {
+                        label: "lafortune",
+                        params: &[("cx", "cx"), ("cz", "cz"), ("n", "n")],
+                    }),
                 },
                 // Section 5: anisotropic models, for 4D (binned) data.
                 ModelSpec {
