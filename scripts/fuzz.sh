@@ -32,6 +32,9 @@ cargo test --release -q -p lobe-tests --test fuzz_smoke -- --ignored write_corpu
 # nv-flip's bundled C++ (tinyexr with miniz) defines a global twice, which AddressSanitizer
 # reports as an ODR violation at start-up, before any input: not a bug of lobe's readers.
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_odr_violation=0}"
+# A thread-local's destructor list in never-ending pool threads is not a leak of lobe's
+# (fuzz/lsan-suppressions.txt).
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$PWD/fuzz/lsan-suppressions.txt}"
 status=0
 for t in "${targets[@]}"; do
   echo "== $t ($secs s)"

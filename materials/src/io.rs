@@ -14,22 +14,7 @@ pub fn atomic_write(
     fill: impl FnOnce(&mut BufWriter<&std::fs::File>) -> std::io::Result<()>,
 ) -> Result<(), FileError> {
     let shown = path.display().to_string();
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        return Err(FileError::new(
-            &shown,
-            format!("output folder {} does not exist", dir.display()),
-        ));
-    }
-    if path.is_dir() {
-        return Err(FileError::new(
-            &shown,
-            "is a directory; expected a file path to write",
-        ));
-    }
+    let dir = output_folder(path)?;
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
     let tmp = tempfile::Builder::new()
         .prefix(&format!(".{name}."))

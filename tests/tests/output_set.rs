@@ -7,14 +7,7 @@ use lobe_materials::io::{OutputSet, interrupt_outputs};
 use std::io::Write;
 use std::path::Path;
 
-fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
-        .collect();
-    v.sort();
-    v
-}
+use lobe_tests::listing;
 
 #[test]
 fn a_set_is_committed_whole_or_not_at_all() {

@@ -591,14 +591,7 @@ fn batch_fits_are_sharded_resumable_and_merge_into_tables() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     };
     run(&["--shard", "0/2"]);
-    let names = |d: &Path| {
-        let mut v: Vec<String> = std::fs::read_dir(d)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
-            .collect();
-        v.sort();
-        v
-    };
+    let names = |d: &Path| listing(d);
     assert_eq!(names(&out), vec!["ct0.fit.json", "ct2.fit.json"]);
     run(&["--shard", "1/2"]);
     assert_eq!(names(&out).len(), 3);
@@ -1118,14 +1111,7 @@ fn resource_limits_are_one_line_errors_not_aborts() {
 }
 
 /// Files in `dir` (names), sorted.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
-        .collect();
-    v.sort();
-    v
-}
+use lobe_tests::listing;
 
 /// Sends SIGINT (what Ctrl-C sends) to `child`.
 fn sigint(child: &std::process::Child) {

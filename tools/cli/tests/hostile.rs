@@ -24,14 +24,7 @@ fn refused(dir: &Path, args: &[&str], needles: &[&str]) -> String {
     err
 }
 
-fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
-        .collect();
-    v.sort();
-    v
-}
+use lobe_tests::listing;
 
 const SCENE: &str = r#"{
   "camera": {"type": "perspective", "fov": 40, "origin": [0, 0, 4], "target": [0, 0, 0]},
