@@ -5,7 +5,6 @@
 
 use lobe_materials::io::{OutputSet, interrupt_outputs};
 use std::io::Write;
-use std::path::Path;
 
 use lobe_tests::listing;
 
