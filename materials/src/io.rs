@@ -28,13 +28,7 @@ pub fn atomic_write(
         })?;
     {
         let file = tmp.as_file();
-        let mut w = BufWriter::new(file);
-        fill(&mut w)
-            .and_then(|_| w.flush())
-            .map_err(|e| FileError::new(&shown, format!("write failed: {e}")))?;
-        drop(w);
-        file.sync_all()
-            .map_err(|e| FileError::new(&shown, format!("write failed: {e}")))?;
+        fill_and_sync(file, &shown, fill)?;
         // Temporary files are created private (0600); a finished output is an ordinary
         // file (0644).
         #[cfg(unix)]
@@ -128,13 +122,7 @@ impl OutputSet {
             StagedFile::Unnamed(f) => f,
             StagedFile::Named(t) => t.as_file(),
         };
-        let mut w = BufWriter::new(f);
-        fill(&mut w)
-            .and_then(|_| w.flush())
-            .map_err(|e| FileError::new(&shown, format!("write failed: {e}")))?;
-        drop(w);
-        f.sync_all()
-            .map_err(|e| FileError::new(&shown, format!("write failed: {e}")))?;
+        fill_and_sync(f, &shown, fill)?;
         self.staged.push(Staged {
             dest: path.to_path_buf(),
             dir,
@@ -178,6 +166,22 @@ impl OutputSet {
         }
         Ok(())
     }
+}
+
+/// Writes `fill` into `file` through a buffer, flushes it and syncs it to disk; `shown`
+/// names the destination in the error.
+fn fill_and_sync(
+    file: &std::fs::File,
+    shown: &str,
+    fill: impl FnOnce(&mut BufWriter<&std::fs::File>) -> std::io::Result<()>,
+) -> Result<(), FileError> {
+    let mut w = BufWriter::new(file);
+    fill(&mut w)
+        .and_then(|_| w.flush())
+        .map_err(|e| FileError::new(shown, format!("write failed: {e}")))?;
+    drop(w);
+    file.sync_all()
+        .map_err(|e| FileError::new(shown, format!("write failed: {e}")))
 }
 
 /// The folder `path` is written in: it must exist, and `path` must not be a folder.
