@@ -713,7 +713,7 @@ fn build_fit(
     let reg = ctx.registry;
     let ty = m.get("type").and_then(Value::as_str).unwrap_or("");
     let at = format!("{}(from {})", p.path, path.display());
-    if ty != crate::registry::COMPOSITE && !reg.is_lobe_model(ty) {
+    if !report_may_hold(reg, ty) {
         let message = if reg.schema(ty).is_none() {
             format!(
                 "unknown model \"{ty}\" in model \"{label}\": the registry has no such model; expected one of: {}, {}",
@@ -737,6 +737,12 @@ fn build_fit(
     Ok(b)
 }
 
+/// Whether a fit report's model may be of type `ty`: an analytic model or a composite of
+/// them, as `lobe fit` writes (never a report naming a report, which could name itself).
+fn report_may_hold(reg: &Registry, ty: &str) -> bool {
+    ty == crate::registry::COMPOSITE || reg.is_lobe_model(ty)
+}
+
 /// The report a `fit` description reads, and the files of the model it names.
 fn fit_inputs(
     p: &crate::registry::Params,
@@ -753,7 +759,7 @@ fn fit_inputs(
     // and must not be followed here, where it would recurse without end.
     if let Some(m) = model {
         let ty = m.get("type").and_then(Value::as_str).unwrap_or("");
-        if ty == crate::registry::COMPOSITE || ctx.registry.is_lobe_model(ty) {
+        if report_may_hold(ctx.registry, ty) {
             out.extend(ctx.registry.inputs(&m, ctx));
         }
     }
