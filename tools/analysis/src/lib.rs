@@ -7,6 +7,8 @@
 //! - [`models`]: which fitted models a command uses (the study's defaults, a list by name);
 //! - [`cost`]: eval and sample time per call of a material;
 //! - [`selection`]: the cheapest fitted model within a tolerance of the best error;
+//! - [`sphere_errors`]: image errors of every representation on a sphere under a map,
+//!   with 95 % intervals and the noise floor (common random numbers, batches);
 //! - [`fitting`]: fitting one material into a report, and the data files of a folder;
 //! - [`fit_images`]: the environment maps and reference renders of the `image` metric;
 //! - [`reports`]: reading fit reports, merging them into tables, building their models;
@@ -30,6 +32,7 @@ pub mod models;
 pub mod plot;
 pub mod reports;
 pub mod selection;
+pub mod sphere_errors;
 pub mod stability;
 pub mod study;
 pub mod tradeoff;

@@ -1,0 +1,176 @@
+//! The sphere image-error estimator (`lobe_analysis::sphere_errors`): its images agree with
+//! the path tracer's, its 95 % intervals cover the true error at their stated rate, its
+//! noise floor matches the spread of repeated estimates, and it sees a 5 % error.
+
+use lobe_analysis::sphere_errors::{ErrorSettings, SphereErrors, Stage, estimate};
+use lobe_materials::Bsdf;
+use lobe_materials::registry::Registry;
+use lobe_renderer::lights::envmap::EnvMap;
+use lobe_renderer::scene::builtin_images::studio_environment;
+use serde_json::json;
+use std::sync::Arc;
+
+fn material(desc: serde_json::Value) -> Arc<dyn Bsdf> {
+    Registry::builtin().create(&desc, "m").unwrap()
+}
+
+fn studio() -> EnvMap {
+    EnvMap::new(&studio_environment(128, 64), 1.0, glam::Mat3::IDENTITY)
+}
+
+/// A glossy plastic (the data) and the same with a 20 % wider lobe (the fit).
+fn pair() -> [Arc<dyn Bsdf>; 2] {
+    let ward = |alpha: f64| {
+        material(
+            json!({"type": "ward", "diffuse": [0.3, 0.2, 0.1], "specular": 0.2, "alpha": alpha}),
+        )
+    };
+    [ward(0.1), ward(0.12)]
+}
+
+fn run(stage: &Stage<'_>, reps: &[Arc<dyn Bsdf>], spp: usize, seed: u64) -> SphereErrors {
+    let refs: Vec<&dyn Bsdf> = reps.iter().map(|b| b.as_ref()).collect();
+    let s = ErrorSettings {
+        pilot_spp: spp,
+        max_spp: spp,
+        seed,
+        ..Default::default()
+    };
+    estimate(stage, &refs, &s).unwrap()
+}
+
+#[test]
+fn intervals_cover_the_true_error_at_their_stated_rate() {
+    let env = studio();
+    let stage = Stage::sphere(&env, 24);
+    let reps = pair();
+    let truth = run(&stage, &reps, 16384, 999).errors[1].rmse;
+    let trials = 60;
+    let mut covered = 0;
+    let mut spread = Vec::new();
+    let mut noise = 0.0;
+    for seed in 0..trials {
+        let e = run(&stage, &reps, 64, seed);
+        let r = &e.errors[1];
+        covered += (r.ci95[0] <= truth && truth <= r.ci95[1]) as usize;
+        spread.push(r.rmse);
+        noise += e.noise_floor / trials as f64;
+    }
+    // 95 % intervals: at least 51 of 60 (P(X <= 50) = 0.4 % for a true 95 % rate).
+    assert!(
+        covered >= 51,
+        "{covered} of {trials} intervals cover {truth}"
+    );
+    // The mean square is unbiased: its average over the trials is within three standard
+    // errors of the truth's square.
+    let squares: Vec<f64> = spread.iter().map(|x| x * x).collect();
+    let mean = squares.iter().sum::<f64>() / trials as f64;
+    let se = (squares.iter().map(|x| (x - mean).powi(2)).sum::<f64>()
+        / (trials * (trials - 1)) as f64)
+        .sqrt();
+    assert!(
+        (mean - truth * truth).abs() < 3.0 * se,
+        "mean square {mean} +- {se} vs true {}",
+        truth * truth
+    );
+    assert!(
+        noise > 0.0 && noise < truth,
+        "noise floor {noise} vs error {truth}"
+    );
+}
+
+#[test]
+fn the_noise_floor_matches_the_spread_of_repeated_difference_images() {
+    // Brute force: the RMS over pixels of the standard deviation of a difference pixel,
+    // measured from 40 independent estimates, against the noise floor each reports.
+    let env = studio();
+    let stage = Stage::sphere(&env, 16);
+    let reps = pair();
+    let runs: Vec<SphereErrors> = (0..40).map(|s| run(&stage, &reps, 64, 100 + s)).collect();
+    let diff = |e: &SphereErrors, p: usize| {
+        let (a, b) = (e.images[1].pixels[p], e.images[0].pixels[p]);
+        [a.r - b.r, a.g - b.g, a.b - b.b].map(|v| v as f64)
+    };
+    let n = runs[0].images[0].pixels.len();
+    let mut var_sum = 0.0;
+    for p in 0..n {
+        for c in 0..3 {
+            let xs: Vec<f64> = runs.iter().map(|e| diff(e, p)[c]).collect();
+            let m = xs.iter().sum::<f64>() / xs.len() as f64;
+            var_sum += xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (xs.len() - 1) as f64;
+        }
+    }
+    let brute = (var_sum / (3 * n) as f64).sqrt();
+    let reported = runs.iter().map(|e| e.noise_floor).sum::<f64>() / runs.len() as f64;
+    assert!(
+        (reported / brute - 1.0).abs() < 0.15,
+        "reported noise floor {reported}, brute force {brute}"
+    );
+}
+
+#[test]
+fn images_agree_with_the_path_tracer() {
+    // The data's image from the estimator against 16 independent path-traced renders of
+    // the same scene, in the renderer's noise-aware test (every pixel and block).
+    let env = studio();
+    let stage = Stage::sphere(&env, 32);
+    let data = pair()[0].clone();
+    let e = run(&stage, std::slice::from_ref(&data), 1024, 7);
+    let dir = tempfile::tempdir().unwrap();
+    let envfile = dir.path().join("studio.exr");
+    let img = studio_environment(128, 64);
+    lobe_renderer::image_io::write_exr(&envfile, 128, 64, &img.pixels).unwrap();
+    let renders: Vec<_> = (0..16)
+        .map(|seed| {
+            let mut v = stage.scene_json(envfile.to_str().unwrap(), 64);
+            v["sampler"]["seed"] = json!(seed);
+            let mut scene = lobe_renderer::scene::from_value(
+                &v,
+                "t",
+                dir.path(),
+                &lobe_renderer::scene::LoadOptions::with_builtins(),
+            )
+            .unwrap();
+            scene.shapes[0].material = data.clone();
+            lobe_renderer::render::render(&scene, &Default::default())
+                .unwrap()
+                .0
+        })
+        .collect();
+    let traced = lobe_renderer::compare::mean_and_variance(&renders).unwrap();
+    let z = lobe_renderer::compare::z_test(&e.images[0], &traced, 0.01).unwrap();
+    assert!(z.passed(), "{z:?}");
+}
+
+#[test]
+fn a_five_percent_brighter_fit_is_told_apart_from_a_perfect_one() {
+    let env = studio();
+    let stage = Stage::sphere(&env, 24);
+    let desc =
+        |s: f64| json!({"type": "ward", "diffuse": [0.3, 0.2, 0.1], "specular": s, "alpha": 0.1});
+    let reps = [
+        material(desc(0.2)),
+        material(desc(0.2)),
+        material(desc(0.21)),
+    ];
+    let e = run(&stage, &reps, 128, 3);
+    let (same, wrong) = (&e.errors[1], &e.errors[2]);
+    assert!(same.rmse < 1e-9 && same.negligible, "{same:?}");
+    assert!(wrong.ci95[0] > 0.0 && !wrong.negligible, "{wrong:?}");
+    assert!(same.separated_below(wrong));
+}
+
+#[test]
+fn the_estimate_is_the_same_whatever_the_thread_count() {
+    let env = studio();
+    let stage = Stage::sphere(&env, 16);
+    let reps = pair();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let a = one.install(|| run(&stage, &reps, 64, 5));
+    let b = run(&stage, &reps, 64, 5);
+    assert_eq!(a.errors, b.errors);
+    assert_eq!(a.images[1].pixels, b.images[1].pixels);
+}
