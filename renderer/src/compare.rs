@@ -169,6 +169,19 @@ pub fn flip_heatmap(error: &[f32], width: u32, height: u32) -> Vec<u8> {
     img.apply_color_lut(&nv_flip::magma_lut()).to_vec()
 }
 
+/// The heat maps' colour scale ([`flip_heatmap`]) at `n` evenly spaced FLIP values from 0
+/// to 1, as 8-bit RGB (for colour bars).
+pub fn flip_colour_scale(n: usize) -> Vec<[u8; 3]> {
+    let lut = nv_flip::magma_lut().to_vec();
+    let entries = lut.len() / 3;
+    (0..n)
+        .map(|i| {
+            let k = (i * (entries - 1)) / n.saturating_sub(1).max(1);
+            [lut[3 * k], lut[3 * k + 1], lut[3 * k + 2]]
+        })
+        .collect()
+}
+
 /// Outcome of the noise-aware comparison.
 #[derive(Clone, Debug)]
 pub struct ZTest {

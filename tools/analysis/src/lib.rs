@@ -5,6 +5,7 @@
 //!
 //! One module per concern:
 //! - [`models`]: which fitted models a command uses (the study's defaults, a list by name);
+//! - [`convergence`]: speed/accuracy curves of path-traced renders, equal-time errors;
 //! - [`cost`]: eval and sample time per call of a material;
 //! - [`selection`]: the cheapest fitted model within a tolerance of the best error;
 //! - [`sphere_errors`]: image errors of every representation on a sphere under a map,
@@ -22,6 +23,7 @@
 //! - [`study`]: the whole experiment on a set of materials, resumable, and its report as a
 //!   static site.
 
+pub mod convergence;
 pub mod cost;
 pub mod figures;
 pub mod fit_images;

@@ -117,7 +117,7 @@ impl Default for ErrorSettings {
         Self {
             batches: 16,
             pilot_spp: 64,
-            max_spp: 2048,
+            max_spp: 512,
             noise_ratio: 0.1,
             interval_ratio: 0.2,
             negligible: 1e-3,
@@ -176,16 +176,25 @@ pub struct SphereErrors {
     pub interval_target_met: bool,
 }
 
-/// Exponents of the cones around the mirror direction.
+/// Exponents of the cones around the mirror direction (successive powers of 8).
 const CONE_EXPONENTS: [f64; 4] = [8.0, 64.0, 512.0, 4096.0];
 
+/// The cones' mixture density at `d` (each cone e: (e + 1) / 2pi cos^e); the exponents
+/// are successive powers of 8, so each power is the previous one raised to the 8th by
+/// three squarings.
 fn cone_pdf(mirror: glam::DVec3, d: glam::DVec3) -> f64 {
-    let c = mirror.dot(d).max(0.0);
-    CONE_EXPONENTS
-        .iter()
-        .map(|e| (e + 1.0) / (2.0 * PI) * c.powf(*e))
-        .sum::<f64>()
-        / CONE_EXPONENTS.len() as f64
+    let eighth = |x: f64| {
+        let x2 = x * x;
+        let x4 = x2 * x2;
+        x4 * x4
+    };
+    let mut p = mirror.dot(d).max(0.0);
+    let mut sum = 0.0;
+    for e in CONE_EXPONENTS {
+        p = eighth(p);
+        sum += (e + 1.0) / (2.0 * PI) * p;
+    }
+    sum / CONE_EXPONENTS.len() as f64
 }
 
 /// A well-mixed 64-bit hash (SplitMix64's finalizer) of three words.
@@ -227,23 +236,86 @@ fn point(k: usize, n: usize, shift: &[f64; 5]) -> [f64; 5] {
     std::array::from_fn(|i| (base[i] + shift[i]).fract())
 }
 
-/// One pass's batch estimates of one pixel: `[rep][batch]` RGB, and the data's two halves.
-struct PixelBatches {
-    values: Vec<[f64; 3]>,
+/// The samples of one pixel (all batches) that hit the sphere, as the batched
+/// evaluations take them, and the background each batch sees where a sample misses.
+#[derive(Default)]
+struct PixelSamples {
+    batch: Vec<usize>,
+    wo: Vec<glam::Vec3>,
+    wi: Vec<glam::Vec3>,
+    radiance: Vec<[f64; 3]>,
+    /// n_map p_map + n_cone p_cone of each sample (the data's term is added once its
+    /// density is evaluated).
+    density: Vec<f64>,
+    background: Vec<[f64; 3]>,
+}
+
+/// A sample's direction before its densities: local (wo, wi) and the world direction.
+struct Drawn {
+    wo: glam::Vec3,
+    wi: glam::Vec3,
+    world: glam::Vec3,
+    mirror: glam::DVec3,
 }
 
 impl Stage<'_> {
-    /// The batch estimates of pixel (x, y) for every representation (`reps[0]` the data,
-    /// whose sampling is one strategy), `per_batch` samples in each of `batches`.
+    /// The batch estimates (`[rep * batches + batch]`, RGB) of pixel (x, y) for every
+    /// representation (`reps[0]` the data, whose sampling is one strategy), `per_batch`
+    /// samples in each of `batches`: the samples are drawn first, then each
+    /// representation evaluates all of them in one batched call.
     fn pixel(
         &self,
         reps: &[&dyn Bsdf],
         (x, y): (u32, u32),
         (per_batch, batches): (usize, usize),
         seed: u64,
-    ) -> PixelBatches {
-        let m = reps.len();
-        let mut values = vec![[0.0f64; 3]; m * batches];
+    ) -> Vec<[f64; 3]> {
+        let set = self.draw(reps[0], (x, y), (per_batch, batches), seed);
+        let n = set.wi.len();
+        let mut values = vec![[0.0f64; 3]; reps.len() * batches];
+        for row in values.chunks_mut(batches) {
+            row.copy_from_slice(&set.background);
+        }
+        let (mut f, mut pdf) = (vec![Rgb::splat(0.0); n], vec![0.0f32; n]);
+        reps[0].eval_pdf_many(&set.wo, &set.wi, &mut f, &mut pdf);
+        let n_data = (per_batch / 4) as f64;
+        let weight: Vec<f64> = (0..n)
+            .map(|k| {
+                let density = set.density[k] + n_data * pdf[k] as f64;
+                match density > 0.0 {
+                    true => set.wi[k].z as f64 / density,
+                    false => 0.0,
+                }
+            })
+            .collect();
+        for (r, rep) in reps.iter().enumerate() {
+            if r > 0 {
+                rep.eval_pdf_many(&set.wo, &set.wi, &mut f, &mut pdf);
+            }
+            for k in 0..n {
+                let fk = f[k].to_array();
+                let v: [f64; 3] =
+                    std::array::from_fn(|c| fk[c] as f64 * set.radiance[k][c] * weight[k]);
+                if v.iter().all(|x| x.is_finite()) {
+                    add(&mut values[r * batches + set.batch[k]], v, 1.0);
+                }
+            }
+        }
+        values
+    }
+
+    /// The samples of pixel (x, y).
+    fn draw(
+        &self,
+        data: &dyn Bsdf,
+        (x, y): (u32, u32),
+        (per_batch, batches): (usize, usize),
+        seed: u64,
+    ) -> PixelSamples {
+        let mut set = PixelSamples {
+            background: vec![[0.0; 3]; batches],
+            ..Default::default()
+        };
         let pixel_id = y as u64 * self.width as u64 + x as u64;
         let counts = [per_batch / 2, per_batch / 4, per_batch / 4];
         for b in 0..batches {
@@ -259,10 +331,8 @@ impl Stage<'_> {
                 let t = self.sphere.intersect(&ray);
                 if !t.is_finite() {
                     let l = self.env.eval(ray.d.normalize());
-                    let l = [l.r as f64, l.g as f64, l.b as f64].map(|v| v / per_batch as f64);
-                    for r in 0..m {
-                        add(&mut values[r * batches + b], l, 1.0);
-                    }
+                    let l = [l.r as f64, l.g as f64, l.b as f64];
+                    add(&mut set.background[b], l, 1.0 / per_batch as f64);
                     continue;
                 }
                 let strategy = match k % 4 {
@@ -270,27 +340,29 @@ impl Stage<'_> {
                     2 => 1,
                     _ => 2,
                 };
-                let Some((wo, wi, l, weight)) =
-                    self.direction(reps[0], ray.o + ray.d * t, ray.d, strategy, &p, counts)
-                else {
+                let Some(d) = self.direction(data, ray.o + ray.d * t, ray.d, strategy, &p) else {
                     continue;
                 };
-                for (r, rep) in reps.iter().enumerate() {
-                    let f = rep.eval(wo, wi);
-                    let f = [f.r as f64, f.g as f64, f.b as f64];
-                    let v: [f64; 3] = std::array::from_fn(|c| f[c] * l[c] * weight);
-                    if v.iter().all(|x| x.is_finite()) {
-                        add(&mut values[r * batches + b], v, 1.0);
-                    }
+                let (l, p_env) = self.env.eval_pdf(d.world);
+                let l = [l.r as f64, l.g as f64, l.b as f64];
+                if !l.iter().any(|&v| v > 0.0) {
+                    continue;
                 }
+                set.batch.push(b);
+                set.wo.push(d.wo);
+                set.wi.push(d.wi);
+                set.radiance.push(l);
+                set.density.push(
+                    counts[0] as f64 * p_env as f64
+                        + counts[2] as f64 * cone_pdf(d.mirror, d.wi.as_dvec3()),
+                );
             }
         }
-        PixelBatches { values }
+        set
     }
 
-    /// The sample of `strategy` (0 map, 1 data, 2 cones) at the hit `p` of a ray along
-    /// `d`: local (wo, wi), the radiance and the weight cos / sum_j n_j p_j; None where it
-    /// adds nothing.
+    /// The direction of `strategy` (0 map, 1 data, 2 cones) at the hit `p` of a ray along
+    /// `d`; None where it adds nothing (below the surface, nothing drawn).
     fn direction(
         &self,
         data: &dyn Bsdf,
@@ -298,8 +370,7 @@ impl Stage<'_> {
         d: glam::Vec3,
         strategy: usize,
         pt: &[f64; 5],
-        counts: [usize; 3],
-    ) -> Option<(glam::Vec3, glam::Vec3, [f64; 3], f64)> {
+    ) -> Option<Drawn> {
         let (_, n, dpdu) = self.sphere.surface(p);
         let frame = Frame::from_normal_tangent(n, dpdu);
         let wo = frame.to_local(-d).normalize();
@@ -324,15 +395,12 @@ impl Stage<'_> {
                 cf.to_world(local.as_vec3()).normalize()
             }
         };
-        if !(wi.z > 0.0) {
-            return None;
-        }
-        let (l, p_env) = self.env.eval_pdf(frame.to_world(wi).normalize());
-        let density = counts[0] as f64 * p_env as f64
-            + counts[1] as f64 * data.pdf(wo, wi) as f64
-            + counts[2] as f64 * cone_pdf(mirror, wi.as_dvec3());
-        let l = [l.r as f64, l.g as f64, l.b as f64];
-        (density > 0.0 && l.iter().any(|&v| v > 0.0)).then(|| (wo, wi, l, wi.z as f64 / density))
+        (wi.z > 0.0).then(|| Drawn {
+            wo,
+            wi,
+            world: frame.to_world(wi).normalize(),
+            mirror,
+        })
     }
 }
 
@@ -451,7 +519,7 @@ fn pass(
             let mut d = vec![0.0; batches];
             for x in 0..w {
                 let px = stage.pixel(reps, (x, y), (per_batch, batches), seed);
-                let value = |r: usize, b: usize, c: usize| px.values[r * batches + b][c];
+                let value = |r: usize, b: usize, c: usize| px[r * batches + b][c];
                 for c in 0..3 {
                     for r in 0..m {
                         for (b, db) in d.iter_mut().enumerate() {
@@ -528,18 +596,25 @@ pub fn estimate(
     }
 }
 
-/// How many times more samples the targets call for (at most; 1 when met).
+/// How many times more samples the targets call for (1 when met): every non-negligible
+/// fit's own noise under `noise_ratio` of its error (so that its FLIP map shows its error
+/// rather than noise), every interval narrower than `interval_ratio` of its error, and the
+/// noise floor under `noise_ratio` of the smallest error.
 fn needed_factor(out: &SphereErrors, s: &ErrorSettings) -> f64 {
     let fits: Vec<&RepError> = out.errors[1..].iter().filter(|e| !e.negligible).collect();
     let Some(smallest) = fits.iter().map(|e| e.rmse).min_by(f64::total_cmp) else {
         return 1.0;
     };
-    let noise = (out.noise_floor / (s.noise_ratio * smallest)).powi(2);
+    let own = fits
+        .iter()
+        .map(|e| (e.noise / (s.noise_ratio * e.rmse)).powi(2))
+        .fold(0.0, f64::max);
+    let floor = (out.noise_floor / (s.noise_ratio * smallest)).powi(2);
     let width = fits
         .iter()
         .map(|e| (e.relative_width() / s.interval_ratio).powi(2))
         .fold(0.0, f64::max);
-    noise.max(width)
+    own.max(floor).max(width)
 }
 
 /// The errors and pictures of one pass's sums and images.

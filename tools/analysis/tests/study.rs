@@ -103,27 +103,37 @@ fn untimed(html: &str) -> String {
     out + rest
 }
 
-/// A fit report without its timings (fit seconds, the selection by cost).
+/// A fit report without its timings (fit seconds, the costs measured beside the
+/// selection); the selected model stays: it ranks by the committed cost table.
 fn untimed_report(p: &Path) -> serde_json::Value {
     let mut v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
-    v.as_object_mut().unwrap().remove("selected");
+    let selected = v["selected"]["model"].clone();
+    assert!(selected.is_string(), "{p:?} selects no model");
+    v["selected"] = selected;
     for m in v["models"].as_object_mut().unwrap().values_mut() {
         m.as_object_mut().unwrap().remove("seconds");
     }
     v
 }
 
-/// The metrics of a render step without its timed values.
+/// The metrics of a render step, or results.json, without the timed values (the
+/// equal-time errors and the speed/accuracy curves).
 fn untimed_metrics(p: &Path) -> serde_json::Value {
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
-    let rows: Vec<_> = v["rows"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| (r["name"].clone(), r["rmse"].clone(), r["flip"].clone()))
-        .collect();
-    serde_json::json!({"rows": format!("{rows:?}"), "spp": v["spp"], "reference_spp": v["reference_spp"]})
+    fn strip(v: &mut serde_json::Value) {
+        if let Some(o) = v.as_object_mut() {
+            for k in ["equal_time", "curve", "equal_time_budget"] {
+                o.remove(k);
+            }
+            o.values_mut().for_each(strip);
+        } else if let Some(a) = v.as_array_mut() {
+            a.iter_mut().for_each(strip);
+        }
+    }
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+    strip(&mut v);
+    v
 }
 
 #[test]
@@ -157,9 +167,9 @@ fn an_interrupted_study_resumes_to_the_same_report() {
             if rel.ends_with(".html") {
                 assert_eq!(untimed(&x), untimed(&y), "{what}");
             } else {
-                // The trade-off tables: material, representation, Eq. (1) error, RMSE and
-                // FLIP are not timed (Markdown lines start with an empty cell).
-                let n = if rel.ends_with(".md") { 6 } else { 5 };
+                // The trade-off tables: material, representation, Eq. (1) error, RMSE, its
+                // interval and FLIP are not timed (Markdown lines start with an empty cell).
+                let n = 7;
                 let cut = |t: &str| -> Vec<String> {
                     t.lines()
                         .map(|l| l.split([',', '|']).take(n).collect::<Vec<_>>().join(","))
@@ -169,7 +179,7 @@ fn an_interrupted_study_resumes_to_the_same_report() {
             }
         } else if rel.ends_with(".fit.json") {
             assert_eq!(untimed_report(pa), untimed_report(pb), "{what}");
-        } else if rel.ends_with("metrics.json") {
+        } else if rel.ends_with("metrics.json") || rel == "results.json" {
             assert_eq!(untimed_metrics(pa), untimed_metrics(pb), "{what}");
         } else if rel.starts_with("microfacet/") && rel.ends_with(".json") {
             let r = |p: &Path| -> serde_json::Value {
@@ -287,6 +297,46 @@ fn every_link_and_image_of_the_report_resolves_and_every_material_has_a_page() {
         }
     }
     assert!(checked > 40, "{checked} links");
+}
+
+#[test]
+fn results_json_holds_every_error_with_its_interval_and_the_pages_show_it() {
+    let root = STUDY.path();
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(root.join("results.json")).unwrap()).unwrap();
+    assert_eq!(v["format_version"], 1);
+    for m in materials() {
+        let entry = &v["materials"][&m.name];
+        let report: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(root.join(format!("fits/{}.fit.json", m.name))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(entry["selected"], report["selected"]["model"], "{}", m.name);
+        let map = &entry["maps"]["studio"];
+        assert!(map["noise_floor"].as_f64().unwrap() >= 0.0, "{map}");
+        let errors = map["errors"].as_object().unwrap();
+        assert!(errors.contains_key("measured"), "{map}");
+        for label in report["models"].as_object().unwrap().keys() {
+            assert!(errors.contains_key(label), "{}: no {label}", m.name);
+        }
+        let page =
+            std::fs::read_to_string(root.join(format!("materials/{}.html", m.name))).unwrap();
+        for (rep, e) in errors {
+            let (rmse, lo, hi) = (
+                e["rmse"].as_f64().unwrap(),
+                e["ci95"][0].as_f64().unwrap(),
+                e["ci95"][1].as_f64().unwrap(),
+            );
+            assert!(lo <= rmse && rmse <= hi, "{}: {rep}: {e}", m.name);
+            assert!(e["flip"].as_f64().unwrap() >= 0.0, "{rep}: {e}");
+            // The page shows the number results.json holds, with its interval.
+            assert!(
+                page.contains(&format!("data-v=\"{rmse:e}\"")),
+                "{rep}: {rmse}"
+            );
+            assert!(page.contains(&format!("[{lo:.3e}, {hi:.3e}]")), "{rep}");
+        }
+    }
 }
 
 /// Chromium, if installed.

@@ -54,10 +54,15 @@ pub struct Settings {
     pub models: Option<String>,
     /// Relative error tolerance of the model selection.
     pub tolerance: f64,
-    /// Render size, samples per pixel of the compared renders and of the reference.
+    /// Sphere image size (pixels across; a multiple of 4 for the speed/accuracy curves).
     pub size: u32,
+    /// Samples per pixel of the measured data's render whose time is the equal-time
+    /// budget.
     pub spp: u32,
-    pub reference_spp: u32,
+    /// Samples per pixel of the image-error estimate's pilot pass and its cap
+    /// ([`crate::sphere_errors`]).
+    pub error_pilot_spp: usize,
+    pub error_max_spp: usize,
     /// Nodes per side and alternations of the microfacet estimate.
     pub microfacet_nodes: usize,
     pub microfacet_iterations: usize,
@@ -76,15 +81,16 @@ impl Settings {
         }
     }
 
-    /// The built-in set's: every applicable model at 5-degree bins, 96-pixel renders at 32
-    /// spp against a 256 spp reference.
+    /// The built-in set's: every applicable model at 5-degree bins, 256-pixel sphere
+    /// images, equal time at the data's 32 spp.
     pub fn builtin() -> Self {
         Self {
             resolution: 5.0,
             max_evals: 100,
-            size: 96,
+            size: 256,
             spp: 32,
-            reference_spp: 256,
+            error_pilot_spp: 64,
+            error_max_spp: 512,
             microfacet_nodes: 33,
             microfacet_iterations: 3,
             ..Self::new(false)
@@ -99,9 +105,10 @@ impl Settings {
                 max_evals: 40,
                 models: Some("ward,cook-torrance,cook-torrance-2,lafortune,lafortune-2".into()),
                 tolerance: 0.1,
-                size: 48,
+                size: 64,
                 spp: 8,
-                reference_spp: 32,
+                error_pilot_spp: 32,
+                error_max_spp: 128,
                 microfacet_nodes: 17,
                 microfacet_iterations: 2,
                 angles: vec![45.0],
@@ -112,9 +119,10 @@ impl Settings {
                 max_evals: 150,
                 models: None,
                 tolerance: 0.1,
-                size: 128,
+                size: 256,
                 spp: 64,
-                reference_spp: 1024,
+                error_pilot_spp: 128,
+                error_max_spp: 2048,
                 microfacet_nodes: 65,
                 microfacet_iterations: 4,
                 angles: vec![30.0, 60.0],
@@ -129,10 +137,20 @@ impl Settings {
         json!({
             "resolution_deg": self.resolution, "max_evals": self.max_evals,
             "models": self.models, "tolerance": self.tolerance, "size": self.size,
-            "spp": self.spp, "reference_spp": self.reference_spp,
+            "spp": self.spp, "error_pilot_spp": self.error_pilot_spp,
+            "error_max_spp": self.error_max_spp,
             "microfacet_nodes": self.microfacet_nodes,
             "microfacet_iterations": self.microfacet_iterations, "angles_deg": self.angles,
         })
+    }
+
+    /// The image-error estimate's settings.
+    pub fn error_settings(&self) -> crate::sphere_errors::ErrorSettings {
+        crate::sphere_errors::ErrorSettings {
+            pilot_spp: self.error_pilot_spp,
+            max_spp: self.error_max_spp,
+            ..Default::default()
+        }
     }
 
     /// Records the settings in DIR/study.json, or checks that a study folder already

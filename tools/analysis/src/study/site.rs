@@ -26,8 +26,8 @@ struct MaterialData {
     report: FitReport,
     /// The microfacet estimate's JSON (error, material, costs).
     microfacet: Value,
-    /// Per environment map its metrics.json.
-    metrics: Vec<(String, Value)>,
+    /// Per environment map its entry of results.json.
+    maps: Vec<(String, Value)>,
     /// The representations' names, the measured data first.
     reps: Vec<String>,
 }
@@ -71,7 +71,8 @@ th[aria-sort=ascending]::after{content:' \\25B2'}th[aria-sort=descending]::after
 td.timed{color:#555;font-style:italic}
 .grid{display:flex;flex-wrap:wrap;gap:0.8em}
 figure{margin:0;text-align:center;font-size:0.85em}
-img.render{width:160px;height:160px;image-rendering:pixelated;border:1px solid #ccc}
+img.render{width:256px;height:256px;border:1px solid #ccc}
+.bar{display:flex;align-items:center;gap:0.5em;font-size:0.85em;margin:0.5em 0}.bar .scale{display:inline-block;width:256px;height:12px;border:1px solid #ccc}
 img.plot{max-width:100%;border:1px solid #eee}
 code,pre{font-size:0.85em;background:#f6f6f6}
 pre{padding:0.4em;white-space:pre-wrap;word-break:break-all;max-width:40em;text-align:left;margin:0}
@@ -141,40 +142,138 @@ fn short_json(v: &Value) -> String {
     }
 }
 
-/// Reads what the pages show of each material.
-fn gather(ctx: &Context<'_>, mats: &[StudyMaterial]) -> Result<Vec<MaterialData>, Error> {
+/// Reads what the pages show of each material; its image errors come from `results`
+/// (results.json as written).
+fn gather(
+    ctx: &Context<'_>,
+    mats: &[StudyMaterial],
+    results: &Value,
+) -> Result<Vec<MaterialData>, Error> {
     let l = ctx.layout;
     mats.iter()
         .map(|m| {
             let report = report::read(&l.fit(&m.name))?;
             let microfacet = lobe_materials::json::read(&l.microfacet(&m.name, "json"))?;
-            let metrics = ctx
+            let maps = ctx
                 .envs
                 .iter()
                 .map(|e| {
-                    let p = l.renders(&m.name, &e.name).join("metrics.json");
-                    Ok((e.name.clone(), lobe_materials::json::read(&p)?))
+                    let v = &results["materials"][&m.name]["maps"][&e.name];
+                    (e.name.clone(), v.clone())
                 })
-                .collect::<Result<Vec<_>, Error>>()?;
+                .collect();
             let reps = representations(ctx, m)?.into_iter().map(|r| r.0).collect();
             Ok(MaterialData {
                 name: m.name.clone(),
                 source: m.source_text(),
                 report,
                 microfacet,
-                metrics,
+                maps,
                 reps,
             })
         })
         .collect()
 }
 
-/// The metrics row of representation `rep` under the first environment map.
+/// Keys of a map's entry in results.json copied from its metrics.json.
+const MAP_KEYS: [&str; 8] = [
+    "noise_floor",
+    "spp",
+    "passes",
+    "batches",
+    "exposure",
+    "noise_target_met",
+    "interval_target_met",
+    "equal_time_budget",
+];
+
+/// DIR/results.json's content (format in docs/study.md): per material the selected model
+/// and, per environment map, the noise floor and every representation's error with its
+/// interval, FLIP and equal-time error, from the renders' metrics.json files.
+fn results(ctx: &Context<'_>, mats: &[StudyMaterial]) -> Result<Value, Error> {
+    let l = ctx.layout;
+    let mut materials = serde_json::Map::new();
+    for m in mats {
+        let report = report::read(&l.fit(&m.name))?;
+        let mut maps = serde_json::Map::new();
+        for e in ctx.envs {
+            let v = lobe_materials::json::read(&l.renders(&m.name, &e.name).join("metrics.json"))?;
+            let mut errors = serde_json::Map::new();
+            for r in v["rows"].as_array().into_iter().flatten() {
+                let mut entry = r["error"].clone();
+                entry["equal_time"] = r["equal_time"].clone();
+                entry["curve"] = r["curve"].clone();
+                errors.insert(r["name"].as_str().unwrap_or("").to_string(), entry);
+            }
+            let mut map: serde_json::Map<String, Value> = MAP_KEYS
+                .iter()
+                .map(|k| (k.to_string(), v[k].clone()))
+                .collect();
+            map.insert("errors".into(), Value::Object(errors));
+            maps.insert(e.name.clone(), Value::Object(map));
+        }
+        let selected = report.selected.as_ref().map(|s| s.model.clone());
+        materials.insert(
+            m.name.clone(),
+            serde_json::json!({"selected": selected, "maps": maps}),
+        );
+    }
+    Ok(serde_json::json!({
+        "format_version": 1,
+        "settings": ctx.settings.to_json(),
+        "materials": materials,
+    }))
+}
+
+/// The error entry of representation `rep` under the `env`-th environment map.
 fn row<'a>(d: &'a MaterialData, env: usize, rep: &str) -> Option<&'a Value> {
-    d.metrics.get(env)?.1["rows"]
-        .as_array()?
+    d.maps.get(env)?.1["errors"].get(rep)
+}
+
+/// An error's RMSE, interval, FLIP and equal-time RMSE.
+fn error_numbers(r: Option<&Value>) -> [Option<f64>; 5] {
+    let g = |p: &str| r.and_then(|r| r.pointer(p)).and_then(Value::as_f64);
+    [
+        g("/rmse"),
+        g("/ci95/0"),
+        g("/ci95/1"),
+        g("/flip"),
+        g("/equal_time/rmse"),
+    ]
+}
+
+/// The interval cell "[lo, hi]", sorted by its width; `timed` as in [`num`].
+fn interval(lo: Option<f64>, hi: Option<f64>, timed: bool) -> String {
+    let class = if timed { " class=\"timed\"" } else { "" };
+    match (lo, hi) {
+        (Some(a), Some(b)) => {
+            format!("<td{class} data-v=\"{:e}\">[{a:.3e}, {b:.3e}]</td>", b - a)
+        }
+        _ => format!("<td{class}></td>"),
+    }
+}
+
+/// The ranking of the fits under one map, best first: "<" only where the 95 % interval
+/// lies wholly above every better one's, "\u{2248}" where they overlap (no claim made).
+pub fn ranking(errors: &serde_json::Map<String, Value>) -> String {
+    let mut v: Vec<(&String, f64, f64, f64)> = errors
         .iter()
-        .find(|r| r["name"] == rep)
+        .filter(|(k, _)| k.as_str() != "measured")
+        .filter_map(|(k, e)| {
+            let g = |p: &str| e.pointer(p).and_then(Value::as_f64);
+            Some((k, g("/rmse")?, g("/ci95/0")?, g("/ci95/1")?))
+        })
+        .collect();
+    v.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
+    let mut s = String::new();
+    for (i, (k, _, lo, _)) in v.iter().enumerate() {
+        if i > 0 {
+            let separated = v[..i].iter().all(|p| p.3 < *lo);
+            s += if separated { " < " } else { " \u{2248} " };
+        }
+        s += k;
+    }
+    s
 }
 
 /// Eq. (1) normalized error, eval and sample ns of a representation.
@@ -206,33 +305,34 @@ fn brdf_numbers(d: &MaterialData, rep: &str) -> (Option<f64>, Option<f64>, Optio
 fn tradeoff(data: &[MaterialData]) -> (String, String, String) {
     let mut html = String::new();
     let mut md = String::from(
-        "| material | representation | Eq. (1) error (normalized) | image RMSE | FLIP | RMSE at equal time | eval ns | sample ns |\n|---|---|---|---|---|---|---|---|\n",
+        "| material | representation | Eq. (1) error (normalized) | image RMSE | 95 % interval | FLIP | RMSE at equal time | eval ns | sample ns |\n|---|---|---|---|---|---|---|---|---|\n",
     );
     let mut csv = String::from(
-        "material,representation,eq1_error_normalized,image_rmse,flip,equal_time_rmse,eval_ns,sample_ns\n",
+        "material,representation,eq1_error_normalized,image_rmse,image_rmse_ci95_lo,image_rmse_ci95_hi,flip,equal_time_rmse,eval_ns,sample_ns\n",
     );
     let f = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x:.4e}"));
     for d in data {
         for rep in &d.reps {
             let (e, ev, sa) = brdf_numbers(d, rep);
-            let r = row(d, 0, rep);
-            let g = |k: &str| r.and_then(|r| r[k].as_f64());
-            let (rmse, flip, eq) = (g("rmse"), g("flip"), g("equal_time_rmse"));
+            let [rmse, lo, hi, flip, eq] = error_numbers(row(d, 0, rep));
             let _ = writeln!(
                 html,
-                "<tr><td><a href=\"{}\">{}</a></td><td>{}</td>{}{}{}{}{}{}</tr>",
+                "<tr><td><a href=\"{}\">{}</a></td><td>{}</td>{}{}{}{}{}{}{}</tr>",
                 url(&format!("materials/{}.html", d.name)),
                 esc(&d.name),
                 esc(rep),
                 num(e, false),
                 num(rmse, false),
+                interval(lo, hi, false),
                 num(flip, false),
                 num(eq, true),
                 num(ev, true),
                 num(sa, true)
             );
-            let cells = [f(e), f(rmse), f(flip), f(eq), f(ev), f(sa)];
+            let ci = format!("[{}, {}]", f(lo), f(hi));
+            let cells = [f(e), f(rmse), ci, f(flip), f(eq), f(ev), f(sa)];
             let _ = writeln!(md, "| {} | {rep} | {} |", d.name, cells.join(" | "));
+            let cells = [f(e), f(rmse), f(lo), f(hi), f(flip), f(eq), f(ev), f(sa)];
             let _ = writeln!(csv, "{},{rep},{}", d.name, cells.join(","));
         }
     }
@@ -283,15 +383,15 @@ fn index(
     let mut b = format!(
         "<h1>BRDF model study: {} materials</h1>\n<p class=\"note\">The experiment of Ngan, Durand and Matusik 2005 (sections 3 to 5), run by <code>lobe study</code>: \
          every model fitted to each material (Eq. 1 metric, {}\u{b0} bins, {} objective evaluations per start), the cheapest model within {} % of the best error selected, \
-         the microfacet distribution estimated from the data, and renders of a sphere under {} at {} spp against a {} spp reference of the measured data. \
+         the microfacet distribution estimated from the data, and {}-pixel images of a sphere under {}, every representation from the same samples as the measured data's, \
+         with its RMSE against the data's image, a 95 % interval and the noise floor (numbers in <a href=\"results.json\">results.json</a>). \
          Errors are normalized by the material's largest albedo. The selection ranks models by the committed cost table (the same on every run); <i>italic</i> values come from this run's timings and vary from run to run. Click a column to sort.</p>\n",
         data.len(),
         s.resolution,
         s.max_evals,
         s.tolerance * 100.0,
+        s.size,
         esc(&envs.join(" and ")),
-        s.spp,
-        s.reference_spp
     );
     if !failures.is_empty() {
         b += "<h2>Materials that failed</h2>\n<p class=\"note\">Not in this report: each stopped at the error shown. Fix or remove the file and rerun; the study resumes.</p>\n<ul>\n";
@@ -318,38 +418,76 @@ fn index(
     b += "</div>\n<h2>Trade-off: image error and cost</h2>\n";
     let _ = writeln!(
         b,
-        "<p class=\"note\">Image errors under {} against the reference; equal time: each representation rendered with the spp its speed allows in the measured data's render time. Also in <a href=\"tradeoff.md\">tradeoff.md</a> and <a href=\"tradeoff.csv\">tradeoff.csv</a>.</p>",
+        "<p class=\"note\">Image errors under {} against the measured data's image, with 95 % intervals; equal time: the error each representation's path-traced render reaches in the time the data's takes, from its fitted speed/accuracy curve. Also in <a href=\"tradeoff.md\">tradeoff.md</a> and <a href=\"tradeoff.csv\">tradeoff.csv</a>.</p>",
         esc(envs.first().copied().unwrap_or(""))
     );
-    b += "<table class=\"sortable\" id=\"tradeoff\">\n<thead><tr><th>material</th><th>representation</th><th>Eq. (1) error</th><th>image RMSE</th><th>FLIP</th><th>RMSE at equal time</th><th>eval ns</th><th>sample ns</th></tr></thead>\n<tbody>\n";
+    b += "<table class=\"sortable\" id=\"tradeoff\">\n<thead><tr><th>material</th><th>representation</th><th>Eq. (1) error</th><th>image RMSE</th><th>95 % interval</th><th>FLIP</th><th>RMSE at equal time</th><th>eval ns</th><th>sample ns</th></tr></thead>\n<tbody>\n";
     b += trade_rows;
     b += "</tbody>\n</table>\n";
     page("BRDF model study", &b)
 }
 
-/// The renders of one environment map: each representation (linked to full size) with
-/// its errors, and its FLIP heat map under it.
+/// The FLIP colour bar: the heat maps' magma scale from 0 (no visible difference) to 1.
+fn colour_bar() -> String {
+    let stops: Vec<String> = lobe_renderer::compare::flip_colour_scale(11)
+        .iter()
+        .enumerate()
+        .map(|(i, c)| format!("rgb({},{},{}) {}%", c[0], c[1], c[2], i * 10))
+        .collect();
+    format!(
+        "<div class=\"bar\"><span>FLIP 0</span><span class=\"scale\" style=\"background:linear-gradient(to right,{})\"></span><span>1</span></div>\n",
+        stops.join(",")
+    )
+}
+
+/// The renders of one environment map: the measured data's image (the reference) first,
+/// then each representation (linked to full size) with its error, interval and FLIP, and
+/// its FLIP map against the reference under it.
 fn render_grid(d: &MaterialData, env: usize) -> String {
-    let (name, m) = &d.metrics[env];
+    let (name, m) = &d.maps[env];
     let dir = format!("../{}", Layout::renders_rel(&d.name, name));
     let mut s = format!(
-        "<h3>Under {}</h3>\n<p class=\"note\">Reference: the measured data at {} spp (<a href=\"{}\">image</a>). Renders at {} spp; below each, its FLIP error map against the reference.</p>\n<div class=\"grid\">\n",
+        "<h3>Under {}</h3>\n<p class=\"note\">{} spp per pixel for every image from the same samples (common random numbers), {} batches; exposure {:+.2} stops (under 1 % of the reference's pixels clip). Noise floor {:.2e}: the RMS noise left in a difference image. Below each fit: its FLIP map against the reference.</p>\n",
         esc(name),
-        m["reference_spp"],
-        url(&format!("{dir}/reference.png")),
-        m["spp"]
+        m["spp"],
+        m["batches"],
+        m["exposure"].as_f64().unwrap_or(0.0),
+        m["noise_floor"].as_f64().unwrap_or(f64::NAN),
     );
+    s += &colour_bar();
+    s += "<div class=\"grid\">\n";
     for rep in &d.reps {
-        let r = row(d, env, rep);
-        let g = |k: &str| r.and_then(|r| r[k].as_f64()).unwrap_or(f64::NAN);
+        let [rmse, lo, hi, flip, _] = error_numbers(row(d, env, rep));
+        let f = |x: Option<f64>| x.map_or("?".into(), |x| format!("{x:.2e}"));
         let img = url(&format!("{dir}/{rep}.png"));
         let heat = url(&format!("{dir}/{rep}-flip.png"));
+        let (title, under) = match rep.as_str() {
+            "measured" => (
+                "measured (reference)".to_string(),
+                format!("its own noise {}", f(rmse)),
+            ),
+            _ => (
+                rep.clone(),
+                format!(
+                    "RMSE {} [{}, {}]<br>FLIP {:.4}",
+                    f(rmse),
+                    f(lo),
+                    f(hi),
+                    flip.unwrap_or(f64::NAN)
+                ),
+            ),
+        };
+        let heat_img = match rep.as_str() {
+            "measured" => String::new(),
+            _ => format!(
+                "<br><a href=\"{heat}\"><img class=\"render\" src=\"{heat}\" alt=\"FLIP map of {}\"></a>",
+                esc(rep)
+            ),
+        };
         let _ = writeln!(
             s,
-            "<figure><a href=\"{img}\"><img class=\"render\" src=\"{img}\" alt=\"{r}\"></a><br><a href=\"{heat}\"><img class=\"render\" src=\"{heat}\" alt=\"FLIP map of {r}\"></a><figcaption><b>{r}</b><br>RMSE {:.3e}<br>FLIP {:.4}</figcaption></figure>",
-            g("rmse"),
-            g("flip"),
-            r = esc(rep)
+            "<figure><a href=\"{img}\"><img class=\"render\" src=\"{img}\" alt=\"{t}\"></a>{heat_img}<figcaption><b>{t}</b><br>{under}</figcaption></figure>",
+            t = esc(&title),
         );
     }
     s + "</div>\n"
@@ -398,6 +536,49 @@ fn fits_table(d: &MaterialData) -> String {
     s + "</tbody>\n</table>\n"
 }
 
+/// A material's image-error table under one map, with the ranking of its fits.
+fn error_table(env: &str, m: &Value) -> String {
+    let empty = serde_json::Map::new();
+    let errors = m["errors"].as_object().unwrap_or(&empty);
+    let mut b = format!(
+        "<h3>Under {}</h3>\n<p>Ranking (\u{201c}&lt;\u{201d} only where the 95 % intervals separate): {}</p>\n<p class=\"note\">Noise floor {:.3e}; targets: noise floor under 10 % of the smallest fit error {}, every interval narrower than 20 % of its error {}. Equal time: the error each representation reaches in the time the measured data's render takes at {} spp, from its speed/accuracy curve.</p>\n<table class=\"sortable\">\n<thead><tr><th>representation</th><th>RMSE</th><th>95 % interval</th><th>FLIP</th><th>spp at equal time</th><th>RMSE at equal time</th><th>its 95 % interval</th><th>s per spp</th></tr></thead>\n<tbody>\n",
+        esc(env),
+        esc(&ranking(errors)),
+        m["noise_floor"].as_f64().unwrap_or(f64::NAN),
+        if m["noise_target_met"] == true {
+            "met"
+        } else {
+            "<b>not met</b>"
+        },
+        if m["interval_target_met"] == true {
+            "met"
+        } else {
+            "<b>not met</b>"
+        },
+        m["equal_time_budget"]["spp"],
+    );
+    for (name, r) in errors {
+        let g = |p: &str| r.pointer(p).and_then(Value::as_f64);
+        let mark = match r["negligible"] == true {
+            true => " (indistinguishable)",
+            false => "",
+        };
+        let _ = writeln!(
+            b,
+            "<tr><td>{}{mark}</td>{}{}{}{}{}{}{}</tr>",
+            esc(name),
+            num(g("/rmse"), false),
+            interval(g("/ci95/0"), g("/ci95/1"), false),
+            num(g("/flip"), false),
+            num(g("/equal_time/spp"), true),
+            num(g("/equal_time/rmse"), true),
+            interval(g("/equal_time/ci95/0"), g("/equal_time/ci95/1"), true),
+            num(g("/curve/seconds_per_spp"), true),
+        );
+    }
+    b + "</tbody>\n</table>\n"
+}
+
 /// A material's page.
 fn material_page(ctx: &Context<'_>, d: &MaterialData) -> String {
     let mut b = format!(
@@ -407,33 +588,14 @@ fn material_page(ctx: &Context<'_>, d: &MaterialData) -> String {
         d.report.samples,
         d.report.max_albedo
     );
-    for k in 0..d.metrics.len() {
+    for k in 0..d.maps.len() {
         b += &render_grid(d, k);
     }
     b += "<h2>Fits</h2>\n";
     b += &fits_table(d);
     b += "<h2>Image errors</h2>\n";
-    for (env, m) in &d.metrics {
-        let _ = write!(
-            b,
-            "<h3>Under {}</h3>\n<table class=\"sortable\">\n<thead><tr><th>representation</th><th>RMSE</th><th>FLIP</th><th>render s</th><th>spp at equal time</th><th>RMSE at equal time</th><th>FLIP at equal time</th></tr></thead>\n<tbody>\n",
-            esc(env)
-        );
-        for r in m["rows"].as_array().into_iter().flatten() {
-            let g = |k: &str| r[k].as_f64();
-            let _ = writeln!(
-                b,
-                "<tr><td>{}</td>{}{}{}{}{}{}</tr>",
-                esc(r["name"].as_str().unwrap_or("")),
-                num(g("rmse"), false),
-                num(g("flip"), false),
-                num(g("seconds"), true),
-                num(g("equal_time_spp"), true),
-                num(g("equal_time_rmse"), true),
-                num(g("equal_time_flip"), true)
-            );
-        }
-        b += "</tbody>\n</table>\n";
+    for (env, m) in &d.maps {
+        b += &error_table(env, m);
     }
     let shown = headline_fits(&d.report, 4).join(", ");
     let _ = write!(
@@ -478,8 +640,10 @@ pub fn build(
     mats: &[StudyMaterial],
     failures: &[(String, String)],
 ) -> Result<PathBuf, Error> {
-    let data = gather(ctx, mats)?;
     let l = ctx.layout;
+    let results_path = l.root.join("results.json");
+    lobe_renderer::film::write_json(&results_path, &results(ctx, mats)?)?;
+    let data = gather(ctx, mats, &lobe_materials::json::read(&results_path)?)?;
     let reports: Vec<FitReport> = data.iter().map(|d| d.report.clone()).collect();
     std::fs::create_dir_all(l.root.join("materials"))
         .and_then(|_| std::fs::create_dir_all(l.root.join("figures")))

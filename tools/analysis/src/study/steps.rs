@@ -5,20 +5,22 @@
 //! 6), the polar and lobe plots (Figures 4, 7, 8).
 
 use super::{Env, Settings, StudyMaterial};
+use crate::convergence;
 use crate::cost::measure;
 use crate::figures;
+use crate::fit_images::FitEnvironment;
 use crate::fitting::{FitOptions, fit_material};
+use crate::sphere_errors::{self, RepError, Stage};
 use lobe_materials::Bsdf;
 use lobe_materials::fit::report::{self, FitReport};
 use lobe_materials::fit::{ANISOTROPIC_DEFAULT, Stop, builtin_specs};
 use lobe_materials::microfacet_gen::estimate;
 use lobe_materials::registry::{BuildContext, Registry};
 use lobe_renderer::Error;
-use lobe_renderer::compare::{flip_heatmap, metrics};
+use lobe_renderer::compare::flip_heatmap;
 use lobe_renderer::film::{Image, tonemap, write_json};
 use lobe_renderer::image_io::{write_exr, write_png_rgb8};
-use lobe_renderer::render::{RenderOptions, render};
-use lobe_renderer::scene::{LoadOptions, Scene, from_value};
+use lobe_renderer::scene::{LoadOptions, from_value};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -272,49 +274,30 @@ pub fn representations(
     Ok(v)
 }
 
-/// The sphere under `env` the representations are rendered in (as `lobe figure spheres`).
-fn stage(ctx: &Context<'_>, env: &Env) -> Result<Scene, Error> {
-    let size = ctx.settings.size;
-    let v = json!({
-        "camera": {"type": "perspective", "fov": 30, "origin": [0, 0, 4.5], "target": [0, 0, 0], "up": [0, 1, 0]},
-        "film": {"width": size, "height": size},
-        "sampler": {"spp": 1, "seed": 0},
-        "integrator": {"type": "path", "max_depth": 3},
-        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}],
-        "lights": [{"type": "envmap", "file": env.file}]
-    });
-    from_value(
-        &v,
-        "study-sphere",
-        &ctx.layout.root,
-        &LoadOptions::with_builtins(),
-    )
-}
-
-/// Renders the stage with material `b` at `spp`: the image and its seconds.
-fn shoot(scene: &mut Scene, b: &Arc<dyn Bsdf>, spp: u32) -> Result<(Image, f64), Error> {
-    scene.shapes[0].material = b.clone();
-    scene.spp = spp;
-    let (img, stats) = render(scene, &RenderOptions::default())?;
-    Ok((img, stats.seconds))
-}
-
-/// Writes an image as EXR and tonemapped PNG (`stem`.exr, `stem`.png).
-fn save_image(img: &Image, stem: &Path) -> Result<(), Error> {
+/// Writes an image as EXR and, at `exposure` stops, as PNG (`stem`.exr, `stem`.png).
+fn save_image(img: &Image, stem: &Path, exposure: f32) -> Result<(), Error> {
     let (w, h) = (img.width, img.height);
     write_exr(&stem.with_extension("exr"), w, h, &img.pixels)?;
     write_png_rgb8(
         &stem.with_extension("png"),
         w,
         h,
-        &tonemap(&img.pixels, 0.0),
+        &tonemap(&img.pixels, exposure),
     )
 }
 
-/// The renders under one environment map: the reference (the measured data at the
-/// reference spp), every representation at the study's spp (image, FLIP heat map, RMSE
-/// and FLIP against the reference, seconds), then each again at the spp its own rate
-/// allows in the measured data's render time (equal time, at most 16x); metrics.json last.
+/// An error with its interval as JSON.
+fn error_json(e: &RepError) -> Value {
+    json!({"rmse": e.rmse, "ci95": e.ci95, "noise": e.noise, "flip": e.flip,
+           "negligible": e.negligible})
+}
+
+/// The renders under one environment map ([`crate::sphere_errors`]): every representation's
+/// converged sphere image from common random numbers (EXR, PNG at the common exposure,
+/// FLIP map against the data's image) with its error, interval and the noise floor; then
+/// each representation's speed/accuracy curve ([`crate::convergence`]) and its error at
+/// equal time: in the time the measured data's render takes at the study's spp.
+/// metrics.json last.
 fn renders(ctx: &Context<'_>, m: &StudyMaterial, env: &Env) -> Result<(), Error> {
     let s = ctx.settings;
     let dir = ctx.layout.renders(&m.name, &env.name);
@@ -323,39 +306,55 @@ fn renders(ctx: &Context<'_>, m: &StudyMaterial, env: &Env) -> Result<(), Error>
         .iter()
         .map(|(name, desc)| ctx.build(desc, name))
         .collect::<Result<_, _>>()?;
-    let mut scene = stage(ctx, env)?;
-    let (reference, _) = shoot(&mut scene, &built[0], s.reference_spp)?;
-    save_image(&reference, &dir.join("reference"))?;
-    let mut rows = Vec::new();
-    for ((name, _), b) in reps.iter().zip(&built) {
-        ctx.interrupted()?;
-        let (img, secs) = shoot(&mut scene, b, s.spp)?;
-        let (mt, err) = metrics(&img, &reference, 0.0)?;
-        save_image(&img, &dir.join(name))?;
-        let heat = flip_heatmap(&err, img.width, img.height);
-        write_png_rgb8(
-            &dir.join(format!("{name}-flip.png")),
-            img.width,
-            img.height,
-            &heat,
-        )?;
-        rows.push((name.clone(), mt.rmse, mt.flip, secs));
+    let map = FitEnvironment::load(&env.file)?;
+    let stage = Stage::sphere(&map.0, s.size);
+    let refs: Vec<&dyn Bsdf> = built.iter().map(|b| b.as_ref()).collect();
+    let est = sphere_errors::estimate(&stage, &refs, &s.error_settings())?;
+    ctx.interrupted()?;
+    for (k, (name, _)) in reps.iter().enumerate() {
+        save_image(&est.images[k], &dir.join(name), est.exposure)?;
+        let heat = flip_heatmap(&est.flip_maps[k], s.size, s.size);
+        write_png_rgb8(&dir.join(format!("{name}-flip.png")), s.size, s.size, &heat)?;
     }
-    let budget = rows[0].3;
-    let mut out = Vec::new();
-    for ((name, rmse, flip, secs), b) in rows.into_iter().zip(&built) {
+    let mut scene = from_value(
+        &stage.scene_json(&env.file, s.spp),
+        "study-sphere",
+        &ctx.layout.root,
+        &LoadOptions::with_builtins(),
+    )?;
+    let mut curves = Vec::new();
+    for (b, img) in built.iter().zip(&est.images) {
         ctx.interrupted()?;
-        let spp_eq = ((s.spp as f64 * budget / secs.max(1e-6)).round() as u32).clamp(1, 16 * s.spp);
-        let (img, _) = shoot(&mut scene, b, spp_eq)?;
-        let (eq, _) = metrics(&img, &reference, 0.0)?;
-        out.push(json!({
-            "name": name, "rmse": rmse, "flip": flip, "seconds": secs,
-            "equal_time_spp": spp_eq, "equal_time_rmse": eq.rmse, "equal_time_flip": eq.flip,
-        }));
+        curves.push(convergence::measure(&mut scene, b, img)?);
     }
+    let budget = curves[0].seconds(s.spp as f64);
+    let rows: Vec<Value> = reps
+        .iter()
+        .zip(&est.errors)
+        .zip(&curves)
+        .enumerate()
+        .map(|(k, (((name, _), e), c))| {
+            // The data's render converges to itself: its error at equal time is noise.
+            let bias = |x: f64| if k == 0 { 0.0 } else { x };
+            let spp = c.spp_in(budget);
+            json!({
+                "name": name, "error": error_json(e),
+                "equal_time": {
+                    "spp": spp, "rmse": c.rmse(spp, bias(e.rmse)),
+                    "ci95": [c.rmse(spp, bias(e.ci95[0])), c.rmse(spp, bias(e.ci95[1]))],
+                },
+                "curve": {"v": c.v, "beta": c.beta, "seconds_fixed": c.a,
+                          "seconds_per_spp": c.c, "spread": c.spread,
+                          "points": c.points.iter().map(|p| json!({"spp": p.0, "seconds": p.1, "noise": p.2})).collect::<Vec<_>>()},
+            })
+        })
+        .collect();
     let v = json!({
-        "environment": env.name, "spp": s.spp, "reference_spp": s.reference_spp,
-        "budget_seconds": budget, "rows": out,
+        "environment": env.name, "size": s.size, "spp": est.spp, "passes": est.passes,
+        "batches": s.error_settings().batches, "noise_floor": est.noise_floor,
+        "exposure": est.exposure, "noise_target_met": est.noise_target_met,
+        "interval_target_met": est.interval_target_met,
+        "equal_time_budget": {"spp": s.spp, "seconds": budget}, "rows": rows,
     });
     write_json(&dir.join("metrics.json"), &v)
 }

@@ -17,7 +17,7 @@ pub struct StudyArgs {
     /// The study folder: every step's files and the report (index.html).
     #[arg(long, short, default_value = "lobe-study")]
     output: PathBuf,
-    /// The small version: five models, 6-degree bins, 48-pixel renders at 8 spp.
+    /// The small version: five models, 6-degree bins, 64-pixel sphere images.
     #[arg(long)]
     quick: bool,
     /// Only the materials whose index (in order) is i modulo n, e.g. 2/8 for the third
