@@ -182,6 +182,58 @@ pub fn flip_colour_scale(n: usize) -> Vec<[u8; 3]> {
         .collect()
 }
 
+/// The RMSE between two noisy renders with the noise taken out, its 95 % interval and the
+/// noise floor ([`noise_aware_rmse`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NoiseAwareRmse {
+    /// sqrt(max(0, mean(d^2 - v))): d the pixel difference, v the sum of both images'
+    /// variances of their means (unbiased for the squared difference of the converged
+    /// images).
+    pub rmse: f64,
+    pub ci95: [f64; 2],
+    /// sqrt(mean v): what noise alone adds, in quadrature, to the plain RMSE; the RMSE two
+    /// renders of one scene would show.
+    pub noise_floor: f64,
+}
+
+/// The error of `test` against `reference` without the bias Monte Carlo noise adds to the
+/// plain RMSE (the variances of both images' pixel means are subtracted), with a 95 %
+/// interval from the normal approximation per pixel (Var(d^2) = 4 D^2 v + 2 v^2 with D^2
+/// estimated by d^2 - v), taken through the square root; and the noise floor. The
+/// variances must be those of the pixel means: from independent runs
+/// ([`mean_and_variance`]) they are; a single Sobol' render's per-pixel sample variance
+/// overstates its mean's (stratification), which makes the floor an upper bound and the
+/// RMSE without noise a lower bound.
+pub fn noise_aware_rmse(test: &Image, reference: &Image) -> Result<NoiseAwareRmse> {
+    comparable(test, reference)?;
+    check_variance(test, "the test image's variance")?;
+    check_variance(reference, "the reference image's variance")?;
+    let (mut u, mut var_u, mut noise) = (0.0f64, 0.0f64, 0.0f64);
+    for i in 0..test.pixels.len() {
+        let (a, b) = (test.pixels[i].to_array(), reference.pixels[i].to_array());
+        let (va, vb) = (
+            test.variance[i].to_array(),
+            reference.variance[i].to_array(),
+        );
+        for c in 0..3 {
+            let d = a[c] as f64 - b[c] as f64;
+            let v = va[c] as f64 + vb[c] as f64;
+            let d2 = d * d - v;
+            u += d2;
+            noise += v;
+            var_u += (4.0 * d2.max(0.0) * v + 2.0 * v * v).max(0.0);
+        }
+    }
+    let n = 3.0 * test.pixels.len() as f64;
+    let (u, half) = (u / n, 1.959_964 * var_u.sqrt() / n);
+    let root = |x: f64| x.max(0.0).sqrt();
+    Ok(NoiseAwareRmse {
+        rmse: root(u),
+        ci95: [root(u - half), root(u + half)],
+        noise_floor: (noise / n).sqrt(),
+    })
+}
+
 /// Outcome of the noise-aware comparison.
 #[derive(Clone, Debug)]
 pub struct ZTest {
@@ -413,5 +465,60 @@ mod tests {
             .for_each(|p| *p = Rgb::splat(0.5 + 0.5 * sigma));
         let r = z_test(&biased, &reference, 0.01).unwrap();
         assert!(!r.passed() && r.worst.2 > 1, "{r:?}");
+    }
+}
+
+#[cfg(test)]
+mod noise_aware_tests {
+    use super::*;
+
+    /// A standard normal from two hashed uniforms (Box-Muller).
+    fn normal(k: u64) -> f64 {
+        let h = |x: u64| {
+            let mut z = x.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (u, v) = (h(2 * k + 1).max(1e-300), h(2 * k + 2));
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+    }
+
+    /// An image of `truth + offset` with noise of standard deviation `sigma` per pixel,
+    /// and that variance recorded.
+    fn noisy(n: u32, offset: f32, sigma: f64, seed: u64) -> Image {
+        let mut img = Image::new(n, n);
+        for (i, (p, v)) in img.pixels.iter_mut().zip(&mut img.variance).enumerate() {
+            let truth = 0.5 + 0.3 * ((i % 17) as f32 / 17.0);
+            let e: [f32; 3] = std::array::from_fn(|c| {
+                (sigma * normal(seed * 1_000_003 + 3 * i as u64 + c as u64)) as f32
+            });
+            *p = Rgb::new(
+                truth + offset + e[0],
+                truth + offset + e[1],
+                truth + offset + e[2],
+            );
+            *v = Rgb::splat((sigma * sigma) as f32);
+        }
+        img
+    }
+
+    #[test]
+    fn the_noise_is_taken_out_of_the_rmse_and_the_interval_covers_the_truth() {
+        // A 1 % offset under noise four times larger: the plain RMSE sees mostly noise.
+        let mut covered = 0;
+        for seed in 0..40 {
+            let t = noisy(64, 0.01, 0.04, 2 * seed);
+            let r = noisy(64, 0.0, 0.04, 2 * seed + 1);
+            let e = noise_aware_rmse(&t, &r).unwrap();
+            let plain = pixel_errors(&t, &r).unwrap().0;
+            assert!(plain > 0.05, "{plain}");
+            assert!((e.noise_floor - 0.04 * 2f64.sqrt()).abs() < 1e-3, "{e:?}");
+            covered += (e.ci95[0] <= 0.01 && 0.01 <= e.ci95[1]) as usize;
+        }
+        assert!(
+            covered >= 34,
+            "{covered} of 40 intervals cover the true 0.01"
+        );
     }
 }

@@ -189,3 +189,31 @@ fn ngan_fits_are_named_by_material_and_model() {
     );
     assert!(!a.stdout.is_empty() && a.stdout != b.stdout && a.stdout != c.stdout);
 }
+
+#[test]
+fn compare_takes_the_noise_out_of_the_rmse_of_two_renders_of_one_scene() {
+    // Two seeds of one scene differ only by noise: the RMSE without noise is compatible
+    // with zero, and the noise floor is at least the plain RMSE (a Sobol' render's
+    // per-pixel sample variance overstates the variance of its mean, so the floor is an
+    // upper bound).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.json"), SCENE).unwrap();
+    for (name, seed) in [("a", "1"), ("b", "2")] {
+        let out = format!("{name}.exr");
+        lobe_in(
+            d,
+            &["render", "s.json", "-o", &out, "--variance", "--seed", seed],
+        );
+    }
+    let args = ["compare", "a.exr", "b.exr", "--z-test", "0.01", "--json"];
+    let v: serde_json::Value = serde_json::from_slice(&lobe_in(d, &args).stdout).unwrap();
+    let (plain, n) = (v["rmse"].as_f64().unwrap(), &v["noise"]);
+    let floor = n["noise_floor"].as_f64().unwrap();
+    assert!(floor > 0.9 * plain, "{plain} vs {n}");
+    assert_eq!(n["ci95"][0].as_f64(), Some(0.0), "{n}");
+    assert!(
+        n["rmse_without_noise"].as_f64().unwrap() < 0.5 * plain,
+        "{n}"
+    );
+}

@@ -3,7 +3,7 @@
 
 use crate::args::finite;
 use lobe_renderer::Error;
-use lobe_renderer::compare::{check_finite, flip_heatmap, metrics, z_test};
+use lobe_renderer::compare::{check_finite, flip_heatmap, metrics, noise_aware_rmse, z_test};
 use lobe_renderer::image_io::{ImageWindows, read_exr_windows, write_png_rgb8};
 use lobe_renderer::outputs::FilePlan;
 use std::path::{Path, PathBuf};
@@ -33,7 +33,9 @@ pub struct CompareArgs {
     fail_below: Vec<String>,
     /// Noise-aware test: read each image's variance of the mean from NAME.var.exr next to
     /// it, z-test every pixel and channel, and fail if any is significant at this
-    /// family-wise false-alarm rate (Sidak-corrected), e.g. 0.01.
+    /// family-wise false-alarm rate (Sidak-corrected), e.g. 0.01. Also prints the RMSE
+    /// with the noise taken out, its 95 % interval and the noise floor (an upper bound
+    /// when a variance is a Sobol' render's own, exact from independent runs).
     #[arg(long, value_name = "ALPHA", value_parser = finite::<f64>)]
     z_test: Option<f64>,
     /// Degrees of freedom of the test image's variances (its spp - 1; default: normal).
@@ -178,9 +180,11 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             r.variance = load_variance(&args.reference, &reference, &reference_windows)?;
             t.variance_dof = args.test_dof.unwrap_or(f64::INFINITY);
             r.variance_dof = args.reference_dof.unwrap_or(f64::INFINITY);
-            Some(z_test(&t, &r, alpha)?)
+            Some((z_test(&t, &r, alpha)?, noise_aware_rmse(&t, &r)?))
         }
     };
+    let noise = z.as_ref().map(|z| z.1);
+    let z = z.map(|z| z.0);
     if let Some(h) = &args.heatmap {
         write_png_rgb8(
             h,
@@ -195,6 +199,9 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             "reference": args.reference.display().to_string(),
             "width": test.width, "height": test.height, "exposure": args.exposure,
             "rmse": m.rmse, "relmse": m.rel_mse, "psnr": m.psnr, "ssim": m.ssim, "flip": m.flip,
+            "noise": noise.map(|e| serde_json::json!({
+                "rmse_without_noise": e.rmse, "ci95": e.ci95, "noise_floor": e.noise_floor,
+            })),
             "z_test": z.as_ref().map(|z| serde_json::json!({
                 "min_p": z.min_p, "threshold": z.threshold, "failures": z.failures,
                 "tests": z.tests, "worst_block": [z.worst.0, z.worst.1], "worst_block_size": z.worst.2, "worst_z": z.worst.3,
@@ -209,6 +216,12 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             "RMSE    {:.6e}\nrelMSE  {:.6e}\nPSNR    {:.3} dB\nSSIM    {:.5}\nFLIP    {:.5}",
             m.rmse, m.rel_mse, m.psnr, m.ssim, m.flip
         );
+        if let Some(e) = &noise {
+            println!(
+                "RMSE without noise {:.6e} (95 % interval [{:.6e}, {:.6e}]), noise floor {:.6e}",
+                e.rmse, e.ci95[0], e.ci95[1], e.noise_floor
+            );
+        }
         if let Some(z) = &z {
             println!(
                 "z-test  min p {:.3e} (threshold {:.3e} over {} tests), {} significant, worst z {:.2} for the {}x{} block at ({}, {})",
