@@ -506,6 +506,32 @@ impl StabilityReport {
     }
 
     /// The models with non-finite or negative values, each with its first example.
+    /// The sweep's verdict as one line: PASS or FAIL (a non-finite or negative value is a
+    /// failure), saying which columns are failures and which are findings.
+    pub fn verdict(&self) -> String {
+        let evals: usize = self.rows.iter().map(|(_, c)| c.evals).sum();
+        let failed = self.failures();
+        let findings: usize = self
+            .rows
+            .iter()
+            .map(|(_, c)| c.reciprocity + c.energy + c.precision)
+            .sum();
+        let head = match failed.is_empty() {
+            true => format!(
+                "PASS: no non-finite or negative value in {evals} evaluations of {} models",
+                self.rows.len()
+            ),
+            false => format!(
+                "FAIL: non-finite or negative values in {} of {} models",
+                failed.len(),
+                self.rows.len()
+            ),
+        };
+        format!(
+            "{head}; the reciprocity, energy and f32/f64 columns ({findings} in all) are findings to read, not failures"
+        )
+    }
+
     pub fn failures(&self) -> Vec<String> {
         self.rows
             .iter()

@@ -394,9 +394,9 @@ pub fn markdown(study: &Study) -> String {
          | representation | Eq. (1) error (normalized) | image RMSE | median-of-means RMSE | outlier pixels | FLIP | eval ns | sample ns | memory | render s | RMSE at equal time | median-of-means RMSE at equal time |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|\n",
         study.source,
-        study.budget,
         study.reference_spp,
         study.spp,
+        study.budget,
         study.spp / 16,
         study.spp / 4,
         study.spp
@@ -506,4 +506,26 @@ pub fn pareto(rows: &[Row]) -> Result<Figure, Error> {
         root.present().map_err(plot_err)?;
     }
     Ok(fig)
+}
+
+#[cfg(test)]
+mod header_tests {
+    use super::*;
+
+    #[test]
+    fn the_header_puts_each_setting_in_its_place() {
+        let study = Study {
+            rows: Vec::new(),
+            budget: 0.262,
+            max_albedo: 1.0,
+            source: "paper.bsdf".into(),
+            spp: 64,
+            reference_spp: 1024,
+        };
+        let md = markdown(&study);
+        assert!(md.contains("measured table at 1024 spp"), "{md}");
+        assert!(md.contains("Renders at 64 spp"), "{md}");
+        assert!(md.contains("render time (0.26 s)"), "{md}");
+        assert!(md.contains("(4, 16, 64 spp and that one)"), "{md}");
+    }
 }

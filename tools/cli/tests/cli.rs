@@ -812,6 +812,9 @@ fn microfacet_synth_and_estimate_write_tables_plots_and_materials() {
     ] {
         assert!(out.join(f).is_file(), "{f}");
     }
+    // The table printed is also written into the folder.
+    let written = std::fs::read_to_string(out.join("velvet.md")).unwrap();
+    assert_eq!(written, table);
     // Estimate from a MERL table tabulated from the generator itself.
     let data = dir.path().join("beckmann.binary");
     let o = lobe()
@@ -1034,8 +1037,14 @@ fn stability_sweep_finds_no_nonfinite_or_negative_values() {
     ] {
         assert!(out.contains(m), "{m} missing:\n{out}");
     }
-    // Columns 5 and 6 (non-finite, negative) are zero on every row.
-    for row in out.lines().skip(2) {
+    // The verdict comes last; columns 5 and 6 (non-finite, negative) are zero on every
+    // row.
+    let last = out.lines().last().unwrap_or("");
+    assert!(
+        last.starts_with("PASS: no non-finite or negative value in "),
+        "{last}"
+    );
+    for row in out.lines().skip(2).filter(|l| l.starts_with('|')) {
         let cols: Vec<&str> = row.split('|').map(str::trim).collect();
         assert_eq!((cols[5], cols[6]), ("0", "0"), "{row}");
         assert!(

@@ -216,4 +216,9 @@ fn compare_takes_the_noise_out_of_the_rmse_of_two_renders_of_one_scene() {
         n["rmse_without_noise"].as_f64().unwrap() < 0.5 * plain,
         "{n}"
     );
+    // Without --json the last line is the verdict.
+    let o = lobe_in(d, &["compare", "a.exr", "b.exr", "--z-test", "0.01"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    let last = out.lines().last().unwrap_or("");
+    assert!(last.starts_with("PASS: 0 of "), "{out}");
 }

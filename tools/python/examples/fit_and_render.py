@@ -65,6 +65,16 @@ img_fit, var_fit = lobe.render(sphere(fit_desc), spp=256, variance=True)
 print("lobe, fitted", best, "against the measured data:", lobe.compare(img_fit, img_data))
 lobe.write_image(os.path.join(out, "lobe-fit.exr"), img_fit)
 
+
+def save_png(name, img):
+    """Writes a linear image as an sRGB-ish PNG (gamma 2.2, clipped) next to the EXRs."""
+    plt.imsave(os.path.join(out, name), np.clip(np.asarray(img)[..., :3], 0, 1) ** (1 / 2.2))
+    print("wrote", os.path.join(out, name))
+
+
+save_png("lobe-data.png", img_data)
+save_png("lobe-fit.png", img_fit)
+
 # %% The fitted model in Mitsuba 3 through lobe.mitsuba's plugin, z-tested against lobe.
 try:
     import mitsuba as mi
@@ -83,6 +93,7 @@ if mi is not None:
     scene = mi.load_dict(Converter(scene_file).convert(64))
     runs = np.stack([np.array(mi.render(scene, spp=64, seed=s), dtype=np.float64)[..., :3] for s in range(8)])
     ref, ref_var = runs.mean(0).astype(np.float32), (runs.var(0, ddof=1) / 8).astype(np.float32)
+    save_png("mitsuba-fit.png", ref)
     m = lobe.compare(img_fit, ref, variances=(var_fit, 255, ref_var, 7))
     print(f"Mitsuba ({variant}) against lobe, the fitted {best}:",
           {k: round(v, 5) for k, v in m.items() if k != "z_test"}, "z-test passed:", m["z_test"]["passed"])

@@ -4,10 +4,12 @@
 //!
 //! Per material ([`steps`]): the fits of every applicable model with the cheapest adequate
 //! one selected (section 4, [`crate::fitting::fit_material`]), the microfacet distribution
-//! estimated from the data (section 5), renders of the data and of every representation
-//! on a sphere under each environment map (Figures 3 and 6) with their image errors (RMSE,
-//! FLIP) at equal spp and at equal time, polar plots (Figure 4) and lobe contour plots
-//! (Figures 7 and 8). Over all materials: Figures 14 and 5 and the trade-off table.
+//! estimated from the data (section 5), images of the data and of every representation on
+//! a sphere under each environment map (Figures 3 and 6) with their image errors, 95 %
+//! intervals and noise floor ([`crate::sphere_errors`]) and equal-time errors
+//! ([`crate::convergence`]), polar plots (Figure 4) and lobe contour plots (Figures 7 and
+//! 8). Over all materials: Figures 14 and 5, the trade-off table and DIR/results.json
+//! (docs/study.md).
 //!
 //! Every step writes each file by temp file and rename and counts as done when its last
 //! file exists, so an interrupted study resumes where it stopped and a rerun computes only

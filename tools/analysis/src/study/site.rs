@@ -2,8 +2,10 @@
 //! server), like the website of Ngan et al. 2005's study: DIR/index.html with a sortable
 //! table of every material's errors per model, the selected model and the costs, the
 //! trade-off table and Figures 14 and 5; DIR/materials/NAME.html per material with its
-//! renders side by side (measured | each representation, and the FLIP heat maps),
-//! parameters, errors and plots. Also DIR/tradeoff.md and .csv.
+//! sphere images side by side (the measured data as reference, each representation with
+//! its FLIP heat map and colour bar), parameters, errors with their intervals, rankings
+//! that claim an order only where intervals separate, and plots. The image errors are read
+//! from DIR/results.json, written first. Also DIR/tradeoff.md and .csv.
 //!
 //! Values that come from a timing (costs, render seconds, equal-time errors) are marked
 //! `class="timed"`: they vary from run to run. Everything else is a function of the data

@@ -1,8 +1,8 @@
 //! The steps of a study, per material (see [`super`]): where each writes
 //! ([`Layout`]), when it is done (its last file exists) and how it runs: the fits with
-//! selection (Ngan et al. section 4), the microfacet estimate (section 5), the renders
-//! under one environment map with image errors at equal spp and equal time (Figures 3 and
-//! 6), the polar and lobe plots (Figures 4, 7, 8).
+//! selection (Ngan et al. section 4), the microfacet estimate (section 5), the sphere
+//! images under one environment map with image errors, intervals and equal-time errors
+//! (Figures 3 and 6), the polar and lobe plots (Figures 4, 7, 8).
 
 use super::{Env, Settings, StudyMaterial};
 use crate::convergence;

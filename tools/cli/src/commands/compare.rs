@@ -238,6 +238,17 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
         }
     }
     if let Some(z) = &z
+        && !args.json
+    {
+        let verdict = if z.passed() { "PASS" } else { "FAIL" };
+        println!(
+            "{verdict}: {} of {} tests significant at a family-wise false-alarm rate of {}",
+            z.failures,
+            z.tests,
+            args.z_test.unwrap_or_default()
+        );
+    }
+    if let Some(z) = &z
         && !z.passed()
     {
         return Err(Error::Other(format!(

@@ -12,6 +12,7 @@ use lobe_materials::microfacet_gen::{Estimate, Shape, Table, estimate};
 use lobe_renderer::Error;
 use lobe_renderer::outputs::FilePlan;
 use serde_json::json;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Subcommand)]
@@ -206,8 +207,8 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
             )?;
             write_table(&truth, &stems[0])?;
             write_table(&est.table, &stems[1])?;
-            println!(
-                "{structure}: {} bins ({resolution} degree 4D bins, {:.0} % filled), table {} x {}, correlation of p with the truth {:.4}, p change per iteration {:?}",
+            let mut text = format!(
+                "{structure}: {} bins ({resolution} degree 4D bins, {:.0} % filled), table {} x {}, correlation of p with the truth {:.4}, p change per iteration {:?}\n",
                 data.samples.len(),
                 filled * 100.0,
                 opts.nodes,
@@ -218,15 +219,22 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
                     .map(|c| format!("{c:.2e}"))
                     .collect::<Vec<_>>()
             );
-            println!("\n| model | Eq. (1) error | normalized | fitted lobe |\n|---|---|---|---|");
+            text += "\n| model | Eq. (1) error | normalized | fitted lobe |\n|---|---|---|---|\n";
             for (label, e, _, note) in &rows {
-                println!(
-                    "| {label} | {e:.4e} | {:.4e} | {note} |",
+                text += &format!(
+                    "| {label} | {e:.4e} | {:.4e} | {note} |\n",
                     e / data.max_albedo.max(1e-300)
                 );
             }
+            print!("{text}");
+            let table = output.join(format!("{structure}.md"));
+            lobe_renderer::film::atomic_write(&table, |w| w.write_all(text.as_bytes()))?;
             if !quiet {
-                eprintln!("wrote tables and plots into {}", output.display());
+                eprintln!(
+                    "wrote the tables, plots and {} into {}",
+                    table.display(),
+                    output.display()
+                );
             }
             Ok(())
         }

@@ -45,6 +45,7 @@ pub fn cmd_stability(args: StabilityArgs, quiet: bool) -> Result<(), Error> {
             }
         }
     }
+    println!("{}", report.verdict());
     let failed = report.failures();
     if failed.is_empty() {
         Ok(())

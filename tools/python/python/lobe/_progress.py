@@ -11,11 +11,13 @@ from typing import Optional
 class Progress:
     """A bar counting ``unit``s up to ``total`` (``None``: unknown). ``update_to(n,
     note)`` moves it to ``n``; without tqdm it prints a line per ``note``, or, for
-    updates without one, a line at each tenth of ``total``."""
+    updates without one, a line at each tenth of ``total`` on a terminal and only the
+    last one elsewhere (a log or a pipe)."""
 
     def __init__(self, desc: str, total: Optional[int], unit: str, unit_scale: bool = False):
         self.desc, self.total, self.n = desc, total, 0
         self._tenths = 0
+        self._interactive = hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
         try:
             from tqdm.auto import tqdm
         except ImportError:
@@ -33,6 +35,8 @@ class Progress:
             print(f"{self.desc}: {note}", file=sys.stderr)
         elif self.total:
             tenths = 10 * n // self.total
+            if not self._interactive and n < self.total:
+                return
             if tenths > self._tenths:
                 self._tenths = tenths
                 print(f"{self.desc}: {10 * tenths}% ({n} of {self.total})", file=sys.stderr)
