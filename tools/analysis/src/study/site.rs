@@ -54,19 +54,53 @@ pub fn url(path: &str) -> String {
         .collect()
 }
 
-/// A number cell: scientific notation, the value for sorting; empty when not finite.
+/// A number cell: scientific notation to 3 significant digits, the full value for
+/// sorting; empty when not finite. `timed` marks values that come from timings.
 fn num(x: Option<f64>, timed: bool) -> String {
     let class = if timed { " class=\"timed\"" } else { "" };
     match x.filter(|x| x.is_finite()) {
-        Some(x) => format!("<td{class} data-v=\"{x:e}\">{x:.3e}</td>"),
+        Some(x) => format!("<td{class} data-v=\"{x:e}\">{x:.2e}</td>"),
         None => format!("<td{class}></td>"),
     }
+}
+
+/// A number in plain notation to 3 significant digits, trailing zeros dropped (counts,
+/// times): 32, 75.4, 0.453.
+pub fn plain(x: f64) -> String {
+    let digits = match x.abs() {
+        a if a >= 100.0 || a == 0.0 => 0,
+        a if a >= 10.0 => 1,
+        a if a >= 1.0 => 2,
+        a => (2 - a.log10().floor() as i32).clamp(0, 12) as usize,
+    };
+    let s = format!("{x:.digits$}");
+    match s.contains('.') {
+        true => s.trim_end_matches('0').trim_end_matches('.').to_string(),
+        false => s,
+    }
+}
+
+/// A cell in plain notation ([`plain`]) with a unit.
+fn plain_cell(x: Option<f64>, unit: &str, timed: bool) -> String {
+    let class = if timed { " class=\"timed\"" } else { "" };
+    match x.filter(|x| x.is_finite()) {
+        Some(x) => format!("<td{class} data-v=\"{x:e}\">{}{unit}</td>", plain(x)),
+        None => format!("<td{class}></td>"),
+    }
+}
+
+/// A table in a container that scrolls sideways when the table is wider than the page.
+fn scroll(table: &str) -> String {
+    format!("<div class=\"scroll\">\n{table}</div>\n")
 }
 
 const STYLE: &str = "body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,'DejaVu Sans',sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222;line-height:1.45}
 h1{font-weight:600}h2{margin-top:2em;border-bottom:1px solid #ddd}
 table{border-collapse:collapse;font-size:0.9em;margin:1em 0}
-th,td{padding:0.25em 0.6em;border-bottom:1px solid #eee;text-align:right}
+th,td{padding:0.25em 0.6em;border-bottom:1px solid #eee;text-align:right;white-space:nowrap}
+.scroll{overflow-x:auto;max-width:100%}
+td.best{font-weight:600;background:#e6f2e6}
+table.params{font-size:0.85em;margin:0}table.params td{border:0;padding:0 0.4em}
 th:first-child,td:first-child{text-align:left}
 table.sortable th{cursor:pointer;user-select:none;background:#f6f6f6}
 th[aria-sort=ascending]::after{content:' \\25B2'}th[aria-sort=descending]::after{content:' \\25BC'}
@@ -142,6 +176,30 @@ fn short_json(v: &Value) -> String {
         ),
         other => other.to_string(),
     }
+}
+
+/// A material description as a small table: one row per parameter (numbers as
+/// [`short_json`] writes them, colours as triples, names without quotes), a composite's
+/// lobes as nested rows.
+fn params_table(v: &Value) -> String {
+    let Some(o) = v.as_object() else {
+        return format!("<pre>{}</pre>", esc(&short_json(v)));
+    };
+    let mut s = String::from("<table class=\"params\">");
+    for (k, x) in o {
+        let cell = match (k.as_str(), x) {
+            ("lobes", Value::Array(lobes)) => lobes
+                .iter()
+                .enumerate()
+                .map(|(i, l)| format!("lobe {}: {}", i + 1, params_table(l)))
+                .collect::<Vec<_>>()
+                .join(""),
+            (_, Value::String(text)) => esc(text),
+            _ => esc(&short_json(x)),
+        };
+        let _ = write!(s, "<tr><td>{}</td><td>{cell}</td></tr>", esc(k));
+    }
+    s + "</table>"
 }
 
 /// Reads what the pages show of each material; its image errors come from `results`
@@ -302,10 +360,12 @@ fn brdf_numbers(d: &MaterialData, rep: &str) -> (Option<f64>, Option<f64>, Optio
     }
 }
 
-/// The trade-off table (one row per material and representation) as HTML rows, Markdown
-/// and CSV; image errors under the first environment map.
+/// The trade-off table: per material a heading and a table of its representations
+/// (HTML), and one row per material and representation (Markdown and CSV); image errors
+/// under the first environment map.
 fn tradeoff(data: &[MaterialData]) -> (String, String, String) {
     let mut html = String::new();
+    let head = "<table class=\"sortable\">\n<thead><tr><th>representation</th><th>Eq. (1) error</th><th>image RMSE</th><th>95 % interval</th><th>FLIP</th><th>RMSE at equal time</th><th>eval</th><th>sample</th></tr></thead>\n<tbody>\n";
     let mut md = String::from(
         "| material | representation | Eq. (1) error (normalized) | image RMSE | 95 % interval | FLIP | RMSE at equal time | eval ns | sample ns |\n|---|---|---|---|---|---|---|---|---|\n",
     );
@@ -314,22 +374,27 @@ fn tradeoff(data: &[MaterialData]) -> (String, String, String) {
     );
     let f = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x:.4e}"));
     for d in data {
+        let _ = writeln!(
+            html,
+            "<h3><a href=\"{}\">{}</a></h3>",
+            url(&format!("materials/{}.html", d.name)),
+            esc(&d.name)
+        );
+        let mut rows = String::from(head);
         for rep in &d.reps {
             let (e, ev, sa) = brdf_numbers(d, rep);
             let [rmse, lo, hi, flip, eq] = error_numbers(row(d, 0, rep));
             let _ = writeln!(
-                html,
-                "<tr><td><a href=\"{}\">{}</a></td><td>{}</td>{}{}{}{}{}{}{}</tr>",
-                url(&format!("materials/{}.html", d.name)),
-                esc(&d.name),
+                rows,
+                "<tr><td>{}</td>{}{}{}{}{}{}{}</tr>",
                 esc(rep),
                 num(e, false),
                 num(rmse, false),
                 interval(lo, hi, false),
                 num(flip, false),
                 num(eq, true),
-                num(ev, true),
-                num(sa, true)
+                plain_cell(ev, " ns", true),
+                plain_cell(sa, " ns", true)
             );
             let ci = format!("[{}, {}]", f(lo), f(hi));
             let cells = [f(e), f(rmse), ci, f(flip), f(eq), f(ev), f(sa)];
@@ -337,6 +402,7 @@ fn tradeoff(data: &[MaterialData]) -> (String, String, String) {
             let cells = [f(e), f(rmse), f(lo), f(hi), f(flip), f(eq), f(ev), f(sa)];
             let _ = writeln!(csv, "{},{rep},{}", d.name, cells.join(","));
         }
+        html += &scroll(&(rows + "</tbody>\n</table>\n"));
     }
     (html, md, csv)
 }
@@ -361,13 +427,22 @@ fn overview_table(data: &[MaterialData], models: &[String]) -> String {
             esc(sel),
             num(Some(d.report.max_albedo), false)
         );
+        let best = models
+            .iter()
+            .filter_map(|m| d.report.models.get(m).map(|f| f.error_normalized))
+            .fold(f64::INFINITY, f64::min);
         for m in models {
-            s += &num(d.report.models.get(m).map(|f| f.error_normalized), false);
+            let e = d.report.models.get(m).map(|f| f.error_normalized);
+            let cell = num(e, false);
+            s += &match e == Some(best) {
+                true => cell.replacen("<td", "<td class=\"best\"", 1),
+                false => cell,
+            };
         }
         s += &num(d.microfacet["error_normalized"].as_f64(), false);
         s += "</tr>\n";
     }
-    s + "</tbody>\n</table>\n"
+    scroll(&(s + "</tbody>\n</table>\n"))
 }
 
 /// The index page.
@@ -387,7 +462,7 @@ fn index(
          every model fitted to each material (Eq. 1 metric, {}\u{b0} bins, {} objective evaluations per start), the cheapest model within {} % of the best error selected, \
          the microfacet distribution estimated from the data, and {}-pixel images of a sphere under {}, every representation from the same samples as the measured data's, \
          with its RMSE against the data's image, a 95 % interval and the noise floor (numbers in <a href=\"results.json\">results.json</a>). \
-         Errors are normalized by the material's largest albedo. The selection ranks models by the committed cost table (the same on every run); <i>italic</i> values come from this run's timings and vary from run to run. Click a column to sort.</p>\n",
+         Errors are normalized by the material's largest albedo. The selection ranks models by the committed cost table (the same on every run); <i>italic</i> values come from this run's timings and vary from run to run; each row's best model is highlighted. Click a column to sort.</p>\n",
         data.len(),
         s.resolution,
         s.max_evals,
@@ -423,9 +498,7 @@ fn index(
         "<p class=\"note\">Image errors under {} against the measured data's image, with 95 % intervals; equal time: the error each representation's path-traced render reaches in the time the data's takes, from its fitted speed/accuracy curve. Also in <a href=\"tradeoff.md\">tradeoff.md</a> and <a href=\"tradeoff.csv\">tradeoff.csv</a>.</p>",
         esc(envs.first().copied().unwrap_or(""))
     );
-    b += "<table class=\"sortable\" id=\"tradeoff\">\n<thead><tr><th>material</th><th>representation</th><th>Eq. (1) error</th><th>image RMSE</th><th>95 % interval</th><th>FLIP</th><th>RMSE at equal time</th><th>eval ns</th><th>sample ns</th></tr></thead>\n<tbody>\n";
     b += trade_rows;
-    b += "</tbody>\n</table>\n";
     page("BRDF model study", &b)
 }
 
@@ -510,32 +583,37 @@ fn fits_table(d: &MaterialData) -> String {
         };
         let _ = writeln!(
             s,
-            "<tr><td>{}{mark}</td>{}{}<td data-v=\"{}\">{} of {}</td>{}{}<td><pre>{}</pre></td></tr>",
+            "<tr><td>{}{mark}</td>{}{}<td data-v=\"{}\">{} of {}</td>{}{}<td>{}</td></tr>",
             esc(label),
             num(Some(f.error_normalized), false),
             num(Some(f.error), false),
             f.starts_agreeing,
             f.starts_agreeing,
             f.starts,
-            num(cost.map(|c| c.eval_ns), true),
-            num(cost.map(|c| c.sample_ns), true),
-            esc(&short_json(&f.material))
+            plain_cell(cost.map(|c| c.eval_ns), " ns", true),
+            plain_cell(cost.map(|c| c.sample_ns), " ns", true),
+            params_table(&f.material)
         );
     }
     let mf = &d.microfacet;
     let _ = writeln!(
         s,
-        "<tr><td>sampled-microfacet (estimated)</td>{}{}<td></td>{}{}<td><pre>{}</pre></td></tr>",
+        "<tr><td>sampled-microfacet (estimated)</td>{}{}<td></td>{}{}<td>{}</td></tr>",
         num(mf["error_normalized"].as_f64(), false),
         num(mf["error"].as_f64(), false),
-        num(mf["costs"]["sampled-microfacet"]["eval_ns"].as_f64(), true),
-        num(
-            mf["costs"]["sampled-microfacet"]["sample_ns"].as_f64(),
+        plain_cell(
+            mf["costs"]["sampled-microfacet"]["eval_ns"].as_f64(),
+            " ns",
             true
         ),
-        esc(&short_json(&mf["material"]))
+        plain_cell(
+            mf["costs"]["sampled-microfacet"]["sample_ns"].as_f64(),
+            " ns",
+            true
+        ),
+        params_table(&mf["material"])
     );
-    s + "</tbody>\n</table>\n"
+    scroll(&(s + "</tbody>\n</table>\n"))
 }
 
 /// A material's image-error table under one map, with the ranking of its fits.
@@ -543,7 +621,7 @@ fn error_table(env: &str, m: &Value) -> String {
     let empty = serde_json::Map::new();
     let errors = m["errors"].as_object().unwrap_or(&empty);
     let mut b = format!(
-        "<h3>Under {}</h3>\n<p>Ranking (\u{201c}&lt;\u{201d} only where the 95 % intervals separate): {}</p>\n<p class=\"note\">Noise floor {:.3e}; targets: noise floor under 10 % of the smallest fit error {}, every interval narrower than 20 % of its error {}. Equal time: the error each representation reaches in the time the measured data's render takes at {} spp, from its speed/accuracy curve.</p>\n<table class=\"sortable\">\n<thead><tr><th>representation</th><th>RMSE</th><th>95 % interval</th><th>FLIP</th><th>spp at equal time</th><th>RMSE at equal time</th><th>its 95 % interval</th><th>s per spp</th></tr></thead>\n<tbody>\n",
+        "<h3>Under {}</h3>\n<p>Ranking (\u{201c}&lt;\u{201d} only where the 95 % intervals separate): {}</p>\n<p class=\"note\">Noise floor {:.3e}; targets: noise floor under 10 % of the smallest fit error {}, every interval narrower than 20 % of its error {}. Equal time: the error each representation reaches in the time the measured data's render takes at {} spp, from its speed/accuracy curve.</p>\n<table class=\"sortable\">\n<thead><tr><th>representation</th><th>RMSE</th><th>95 % interval</th><th>FLIP</th><th>spp at equal time</th><th>RMSE at equal time</th><th>its 95 % interval</th><th>time per spp</th></tr></thead>\n<tbody>\n",
         esc(env),
         esc(&ranking(errors)),
         m["noise_floor"].as_f64().unwrap_or(f64::NAN),
@@ -572,13 +650,15 @@ fn error_table(env: &str, m: &Value) -> String {
             num(g("/rmse"), false),
             interval(g("/ci95/0"), g("/ci95/1"), false),
             num(g("/flip"), false),
-            num(g("/equal_time/spp"), true),
+            plain_cell(g("/equal_time/spp"), "", true),
             num(g("/equal_time/rmse"), true),
             interval(g("/equal_time/ci95/0"), g("/equal_time/ci95/1"), true),
-            num(g("/curve/seconds_per_spp"), true),
+            plain_cell(g("/curve/seconds_per_spp").map(|x| x * 1e3), " ms", true),
         );
     }
-    b + "</tbody>\n</table>\n"
+    let head = b.find("<table").unwrap_or(b.len());
+    let (text, table) = b.split_at(head);
+    format!("{text}{}", scroll(&format!("{table}</tbody>\n</table>\n")))
 }
 
 /// A material's page.
@@ -668,4 +748,50 @@ pub fn build(
     let index_path = l.root.join("index.html");
     write_text(&index_path, &index(ctx, &data, fig5, &rows, failures))?;
     Ok(index_path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_have_three_significant_digits_and_counts_are_plain() {
+        assert_eq!(
+            num(Some(0.469_812), false),
+            "<td data-v=\"4.69812e-1\">4.70e-1</td>"
+        );
+        assert_eq!(num(Some(f64::NAN), true), "<td class=\"timed\"></td>");
+        let cases = [
+            (32.0, "32"),
+            (75.389, "75.4"),
+            (33.19, "33.2"),
+            (7.024, "7.02"),
+            (0.4532, "0.453"),
+            (0.007_024, "0.00702"),
+            (1234.5, "1234"),
+            (0.0, "0"),
+        ];
+        for (x, s) in cases {
+            assert_eq!(plain(x), s, "{x}");
+        }
+        assert_eq!(
+            plain_cell(Some(33.19), " ns", true),
+            "<td class=\"timed\" data-v=\"3.319e1\">33.2 ns</td>"
+        );
+    }
+
+    #[test]
+    fn parameters_are_a_table_with_a_row_per_parameter_and_lobe() {
+        let v = serde_json::json!({"type": "composite", "diffuse": [0.1, 0.2, 0.3],
+            "lobes": [{"type": "ward", "alpha": 0.123456}]});
+        let t = params_table(&v);
+        assert!(t.starts_with("<table class=\"params\">"), "{t}");
+        assert!(
+            t.contains("<td>diffuse</td><td>[0.1, 0.2, 0.3]</td>"),
+            "{t}"
+        );
+        assert!(t.contains("lobe 1: <table class=\"params\">"), "{t}");
+        assert!(t.contains("<td>alpha</td><td>0.12346</td>"), "{t}");
+        assert!(t.contains("<td>type</td><td>ward</td>"), "{t}");
+    }
 }
