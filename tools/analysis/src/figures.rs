@@ -123,12 +123,19 @@ fn error_chart(title: &str, order: &[&FitReport], models: &[&str]) -> Result<Fig
         (-4.0, 0.0)
     };
     let names: Vec<String> = order.iter().map(|r| r.material.clone()).collect();
+    // The rotated names' height: their widths at the largest size they are drawn at.
+    crate::plot::register_font();
+    let font = ("sans-serif", 14.0).into_font();
     let longest = names
         .iter()
-        .map(|n| axis_name(n).chars().count())
+        .map(|n| {
+            let name = axis_name(n);
+            font.box_size(&name)
+                .map_or(8 * name.chars().count() as u32, |b| b.0)
+        })
         .max()
-        .unwrap_or(1) as u32;
-    let names_h = 16 + 8 * longest;
+        .unwrap_or(8);
+    let names_h = 12 + longest;
     let plot_w = (100 + 18 * order.len() as u32).max(W - LEGEND_W);
     let legend: Vec<(String, Style)> = models.iter().map(|m| (m.to_string(), style(m))).collect();
     let chart = ErrorChart {
@@ -171,12 +178,17 @@ impl ErrorChart<'_> {
             .y_label_area_size(60)
             .build_cartesian_2d(0f64..n as f64, self.range.clone())
             .map_err(plot_err)?;
+        // One gridline and label per decade, no minor lines.
+        let decades = (self.range.end - self.range.start).round() as usize + 1;
         chart
             .configure_mesh()
             .disable_x_mesh()
             .x_labels(0)
+            .y_labels(decades)
+            .max_light_lines(0)
+            .y_label_formatter(&|v| format!("1e{:.0}", v))
             .x_desc("material")
-            .y_desc("log10 normalized error (Eq. 1 error / max albedo)")
+            .y_desc("normalized error (Eq. 1 error / max albedo), log scale")
             .draw()
             .map_err(plot_err)?;
         let lo = self.range.start;
