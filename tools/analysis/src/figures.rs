@@ -40,25 +40,48 @@ pub fn err_of(r: &FitReport, model: &str) -> Option<f64> {
 /// material, materials sorted by the Lafortune error (by the first model's when no report
 /// has Lafortune).
 pub fn errors(reports: &[FitReport]) -> Result<Figure, Error> {
+    errors_with(reports, &[])
+}
+
+/// A normalized error of a material that its fit report does not hold: (material, label,
+/// error), e.g. the estimated microfacet distribution's.
+pub type ExtraError = (String, String, f64);
+
+/// [`errors`] with further series: every label of `extra` is drawn as one more model.
+pub fn errors_with(reports: &[FitReport], extra: &[ExtraError]) -> Result<Figure, Error> {
     let mut order: Vec<&FitReport> = reports.iter().collect();
-    let labels = model_labels(&order);
+    let mut labels = model_labels(&order);
+    for (_, label, _) in extra {
+        if !labels.contains(label) {
+            labels.push(label.clone());
+        }
+    }
     let models: Vec<&str> = labels.iter().map(String::as_str).collect();
+    let lookup = |r: &FitReport, m: &str| {
+        err_of(r, m).or_else(|| {
+            extra
+                .iter()
+                .find(|e| e.0 == r.material && e.1 == m)
+                .map(|e| e.2)
+                .filter(|x| x.is_finite() && *x > 0.0)
+        })
+    };
     let key = if models.contains(&"lafortune") {
         "lafortune"
     } else {
         models.first().copied().unwrap_or("lafortune")
     };
     order.sort_by(|a, b| {
-        err_of(a, key)
+        lookup(a, key)
             .unwrap_or(0.0)
-            .total_cmp(&err_of(b, key).unwrap_or(0.0))
+            .total_cmp(&lookup(b, key).unwrap_or(0.0))
     });
     let title = format!(
         "Normalized fitting error of {} models on {} materials, sorted by the {key} error",
         models.len(),
         order.len()
     );
-    error_chart(&title, &order, &models)
+    error_chart(&title, &order, &models, &lookup)
 }
 
 /// Figure 5: one lobe against two (Cook-Torrance, Lafortune) on the (at most) 30
@@ -104,16 +127,22 @@ pub fn multilobe(reports: &[FitReport]) -> Result<Figure, Error> {
             "lafortune",
             "lafortune-2",
         ],
+        &err_of,
     )
 }
 
 /// A line and markers per model (its [`style`]) of log10 normalized error over the
 /// materials in `order`, named under the x axis; y range from the data in whole decades;
 /// the legend beside the plot.
-fn error_chart(title: &str, order: &[&FitReport], models: &[&str]) -> Result<Figure, Error> {
+fn error_chart(
+    title: &str,
+    order: &[&FitReport],
+    models: &[&str],
+    error: &dyn Fn(&FitReport, &str) -> Option<f64>,
+) -> Result<Figure, Error> {
     let (lo, hi) = order
         .iter()
-        .flat_map(|r| models.iter().filter_map(move |m| err_of(r, m)))
+        .flat_map(|r| models.iter().filter_map(move |m| error(r, m)))
         .fold((f64::MAX, f64::MIN), |(a, b), x| {
             (a.min(x.log10()), b.max(x.log10()))
         });
@@ -142,6 +171,7 @@ fn error_chart(title: &str, order: &[&FitReport], models: &[&str]) -> Result<Fig
         title,
         order,
         models,
+        error,
         range: lo..hi,
         names: &names,
         names_h,
@@ -161,6 +191,7 @@ struct ErrorChart<'a> {
     title: &'a str,
     order: &'a [&'a FitReport],
     models: &'a [&'a str],
+    error: &'a dyn Fn(&FitReport, &str) -> Option<f64>,
     range: std::ops::Range<f64>,
     names: &'a [String],
     names_h: u32,
@@ -205,7 +236,7 @@ impl ErrorChart<'_> {
                 .order
                 .iter()
                 .enumerate()
-                .filter_map(|(i, r)| err_of(r, m).map(|e| (i as f64 + 0.5, e.log10())))
+                .filter_map(|(i, r)| (self.error)(r, m).map(|e| (i as f64 + 0.5, e.log10())))
                 .collect();
             chart
                 .draw_series(LineSeries::new(pts.clone(), st.color.stroke_width(2)))

@@ -413,6 +413,19 @@ fn error_charts_are_drawn_with_svg_and_true_counts() {
             "material {k} unnamed"
         );
     }
+    // A series the reports do not hold (the microfacet estimate's) is drawn as a model,
+    // with a legend entry, and decades label the axis.
+    let extra: Vec<figures::ExtraError> = rs
+        .iter()
+        .map(|r| (r.material.clone(), "sampled-microfacet".into(), 0.05))
+        .collect();
+    let with = figures::errors_with(&rs, &extra).unwrap();
+    let svg = with.svg.as_deref().unwrap();
+    assert!(svg.contains("6 models on 6 materials"), "no extra series");
+    assert!(
+        svg.contains("sampled-microfacet") && svg.contains("1e-1"),
+        "{svg}"
+    );
     let multi = figures::multilobe(&rs).unwrap();
     assert_drawn(&multi, "multilobe");
     assert!(

@@ -730,7 +730,14 @@ pub fn build(
     std::fs::create_dir_all(l.root.join("materials"))
         .and_then(|_| std::fs::create_dir_all(l.root.join("figures")))
         .map_err(|e| Error::file(l.root.display(), format!("cannot create: {e}")))?;
-    figures::errors(&reports)?.save(&l.figure("figure14"))?;
+    let microfacet: Vec<figures::ExtraError> = data
+        .iter()
+        .filter_map(|d| {
+            let e = d.microfacet["error_normalized"].as_f64()?;
+            Some((d.report.material.clone(), "sampled-microfacet".into(), e))
+        })
+        .collect();
+    figures::errors_with(&reports, &microfacet)?.save(&l.figure("figure14"))?;
     let fig5 = match figures::multilobe(&reports) {
         Ok(f) => {
             f.save(&l.figure("figure5"))?;
