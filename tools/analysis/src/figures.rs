@@ -27,6 +27,7 @@ use lobe_materials::microfacet_gen::Table;
 use lobe_renderer::Error;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// The normalized error of `model` in a report, if it has a positive finite one.
 pub fn err_of(r: &FitReport, model: &str) -> Option<f64> {
@@ -710,4 +711,58 @@ pub fn distribution(table: &Table) -> Figure {
         rgb,
         svg: None,
     }
+}
+
+/// A FLIP error map (`rgb`, `width` x `height`, as [`lobe_renderer::compare::flip_heatmap`]
+/// colours it) with its colour bar and scale under it: the bar spans FLIP 0 to 1 with
+/// ticks at 0, 0.25, 0.5, 0.75 and 1, and `caption` (e.g. the mean FLIP) beside the title.
+pub fn flip_map_with_bar(
+    rgb: &[u8],
+    width: u32,
+    height: u32,
+    caption: &str,
+) -> Result<Figure, Error> {
+    const BAR: u32 = 48;
+    let w = width.max(220);
+    let h = height + BAR;
+    crate::plot::register_font();
+    let mut fig = Figure::white(w, h);
+    for y in 0..height as usize {
+        let src = &rgb[y * width as usize * 3..(y + 1) * width as usize * 3];
+        let dst = y * w as usize * 3;
+        fig.rgb[dst..dst + src.len()].copy_from_slice(src);
+    }
+    {
+        let root = BitMapBackend::with_buffer(&mut fig.rgb, (w, h)).into_drawing_area();
+        let (x0, x1) = (12i32, w as i32 - 14);
+        let (y0, y1) = (height as i32 + 6, height as i32 + 18);
+        let scale = lobe_renderer::compare::flip_colour_scale((x1 - x0) as usize);
+        for (i, c) in scale.iter().enumerate() {
+            let x = x0 + i as i32;
+            root.draw(&Rectangle::new(
+                [(x, y0), (x + 1, y1)],
+                RGBColor(c[0], c[1], c[2]).filled(),
+            ))
+            .map_err(plot_err)?;
+        }
+        let font = ("sans-serif", 12).into_font().color(&BLACK);
+        for k in 0..=4 {
+            let t = k as f64 / 4.0;
+            let x = x0 + ((x1 - x0 - 1) as f64 * t).round() as i32;
+            root.draw(&PathElement::new([(x, y1), (x, y1 + 4)], BLACK))
+                .map_err(plot_err)?;
+            let style = font.clone().pos(Pos::new(HPos::Center, VPos::Top));
+            root.draw(&Text::new(format!("{t}"), (x, y1 + 5), style))
+                .map_err(plot_err)?;
+        }
+        let title = font.pos(Pos::new(HPos::Left, VPos::Top));
+        root.draw(&Text::new(
+            format!("FLIP {caption}"),
+            (x0, height as i32 + 34),
+            title,
+        ))
+        .map_err(plot_err)?;
+        root.present().map_err(plot_err)?;
+    }
+    Ok(fig)
 }

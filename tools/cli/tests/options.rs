@@ -222,3 +222,23 @@ fn compare_takes_the_noise_out_of_the_rmse_of_two_renders_of_one_scene() {
     let last = out.lines().last().unwrap_or("");
     assert!(last.starts_with("PASS: 0 of "), "{out}");
 }
+
+#[test]
+fn the_flip_heat_map_carries_its_colour_bar_and_scale() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.json"), SCENE).unwrap();
+    for (name, seed) in [("a", "1"), ("b", "2")] {
+        let out = format!("{name}.exr");
+        lobe_in(d, &["render", "s.json", "-o", &out, "--seed", seed]);
+    }
+    lobe_in(d, &["compare", "a.exr", "b.exr", "--heatmap", "h.png"]);
+    let png = std::fs::read(d.join("h.png")).unwrap();
+    // IHDR: width and height, big-endian, at bytes 16..24.
+    let (w, h) = (
+        u32::from_be_bytes(png[16..20].try_into().unwrap()),
+        u32::from_be_bytes(png[20..24].try_into().unwrap()),
+    );
+    // The 16 x 12 map, widened to hold the bar's scale, with 48 rows of bar under it.
+    assert_eq!((w, h), (220, 12 + 48));
+}

@@ -4,7 +4,7 @@
 use crate::args::finite;
 use lobe_renderer::Error;
 use lobe_renderer::compare::{check_finite, flip_heatmap, metrics, noise_aware_rmse, z_test};
-use lobe_renderer::image_io::{ImageWindows, read_exr_windows, write_png_rgb8};
+use lobe_renderer::image_io::{ImageWindows, read_exr_windows};
 use lobe_renderer::outputs::FilePlan;
 use std::path::{Path, PathBuf};
 
@@ -17,7 +17,8 @@ pub struct CompareArgs {
     /// Exposure in stops applied before tonemapping for SSIM and FLIP.
     #[arg(long, default_value_t = 0.0, value_parser = finite::<f32>)]
     exposure: f32,
-    /// Write the FLIP error map as a colour PNG.
+    /// Write the FLIP error map as a colour PNG, with its colour bar and scale (0 to 1)
+    /// and the mean FLIP under it.
     #[arg(long)]
     heatmap: Option<PathBuf>,
     /// Print the metrics as JSON.
@@ -186,12 +187,10 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
     let noise = z.as_ref().map(|z| z.1);
     let z = z.map(|z| z.0);
     if let Some(h) = &args.heatmap {
-        write_png_rgb8(
-            h,
-            test.width,
-            test.height,
-            &flip_heatmap(&err, test.width, test.height),
-        )?;
+        let map = flip_heatmap(&err, test.width, test.height);
+        let caption = format!("(mean {:.4}; 0: no visible difference)", m.flip);
+        lobe_analysis::figures::flip_map_with_bar(&map, test.width, test.height, &caption)?
+            .save(h)?;
     }
     if args.json {
         let v = serde_json::json!({
