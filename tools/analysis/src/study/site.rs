@@ -425,7 +425,7 @@ fn overview_table(data: &[MaterialData], models: &[String]) -> String {
             url(&format!("materials/{}.html", d.name)),
             esc(&d.name),
             esc(sel),
-            num(Some(d.report.max_albedo), false)
+            plain_cell(Some(d.report.max_albedo), "", false)
         );
         let best = models
             .iter()
