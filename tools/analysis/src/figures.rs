@@ -132,6 +132,11 @@ pub fn multilobe(reports: &[FitReport]) -> Result<Figure, Error> {
     )
 }
 
+/// Whether a report's data is a built-in analytic material tabulated in memory.
+fn is_synthetic(r: &FitReport) -> bool {
+    r.source.starts_with("built-in:")
+}
+
 /// A line and markers per model (its [`style`]) of log10 normalized error over the
 /// materials in `order`, named under the x axis; y range from the data in whole decades;
 /// the legend beside the plot.
@@ -141,7 +146,16 @@ fn error_chart(
     models: &[&str],
     error: &dyn Fn(&FitReport, &str) -> Option<f64>,
 ) -> Result<Figure, Error> {
-    let (lo, hi) = order
+    // The axis spans the measured materials' errors when there are any: a synthetic
+    // material fitted by its own generating model (errors of 1e-6 to 1e-8) would squeeze
+    // them into the top decade. Its smaller errors are drawn on the bottom edge with their
+    // value.
+    let real: Vec<&&FitReport> = order.iter().filter(|r| !is_synthetic(r)).collect();
+    let ranged: Vec<&&FitReport> = match real.is_empty() {
+        true => order.iter().collect(),
+        false => real,
+    };
+    let (lo, hi) = ranged
         .iter()
         .flat_map(|r| models.iter().filter_map(move |m| error(r, m)))
         .fold((f64::MAX, f64::MIN), |(a, b), x| {
@@ -152,7 +166,13 @@ fn error_chart(
     } else {
         (-4.0, 0.0)
     };
-    let names: Vec<String> = order.iter().map(|r| r.material.clone()).collect();
+    let names: Vec<String> = order
+        .iter()
+        .map(|r| match is_synthetic(r) {
+            true => format!("{}*", r.material),
+            false => r.material.clone(),
+        })
+        .collect();
     // The rotated names' height: their widths at the largest size they are drawn at.
     crate::plot::register_font();
     let font = ("sans-serif", 14.0).into_font();
@@ -219,7 +239,10 @@ impl ErrorChart<'_> {
             .y_labels(decades)
             .max_light_lines(0)
             .y_label_formatter(&|v| format!("1e{:.0}", v))
-            .x_desc("material")
+            .x_desc(match self.names.iter().any(|n| n.ends_with('*')) {
+                true => "material (*: built-in analytic material; errors under the axis written at its foot)",
+                false => "material",
+            })
             .y_desc("normalized error (Eq. 1 error / max albedo), log scale")
             .draw()
             .map_err(plot_err)?;
@@ -231,14 +254,31 @@ impl ErrorChart<'_> {
         let (x0, y0) = area.get_base_pixel();
         let xs_local: Vec<i32> = xs.iter().map(|x| x - x0).collect();
         draw_axis_names(&area, self.names, &xs_local, axis_y - y0 + 8)?;
+        let mut below_axis: std::collections::HashMap<u64, i32> = Default::default();
         for &m in self.models {
             let st = style(m);
-            let pts: Vec<(f64, f64)> = self
+            let lo = self.range.start;
+            let pts: Vec<(f64, f64, f64)> = self
                 .order
                 .iter()
                 .enumerate()
                 .filter_map(|(i, r)| (self.error)(r, m).map(|e| (i as f64 + 0.5, e.log10())))
+                .map(|(x, y)| (x, y.max(lo), y))
                 .collect();
+            let below = ("sans-serif", 11).into_font().color(&st.color);
+            for &(x, y, e) in pts.iter().filter(|p| p.2 < lo) {
+                // Values below the axis at one material stack upwards, one line each.
+                let k = below_axis.entry(x.to_bits()).or_insert(0);
+                let (px, py) = chart.backend_coord(&(x, y));
+                area.draw(&Text::new(
+                    format!("\u{2193}{:.0e}", 10f64.powf(e)),
+                    (px - x0 + 6, py - y0 - 14 - 12 * *k),
+                    below.clone(),
+                ))
+                .map_err(plot_err)?;
+                *k += 1;
+            }
+            let pts: Vec<(f64, f64)> = pts.into_iter().map(|p| (p.0, p.1)).collect();
             chart
                 .draw_series(LineSeries::new(pts.clone(), st.color.stroke_width(2)))
                 .map_err(plot_err)?;

@@ -439,6 +439,27 @@ fn error_charts_are_drawn_with_svg_and_true_counts() {
 }
 
 #[test]
+fn a_synthetic_material_fitted_exactly_does_not_squeeze_the_measured_ones() {
+    let mut rs = four_model_reports();
+    let mut synthetic = report_of("builtin-plastic", &[("ward", 1e-7), ("lafortune", 0.02)]);
+    synthetic.source = "built-in: {\"type\": \"ward\"}".into();
+    rs.push(synthetic);
+    let svg = figures::errors(&rs).unwrap().svg.unwrap();
+    // The axis spans the measured materials' decades; the synthetic one is starred and its
+    // exact fit written at the axis' foot.
+    assert!(svg.contains("builtin-plastic*"), "not starred");
+    // (normalized: the error over the max albedo, 0.5)
+    assert!(
+        svg.contains("\u{2193}2e-7"),
+        "the value under the axis is not written"
+    );
+    assert!(
+        !svg.contains("\n1e-7\n") && svg.contains("\n1e-1\n"),
+        "axis: {svg}"
+    );
+}
+
+#[test]
 fn every_model_has_one_distinct_style_in_every_figure() {
     // The palette tells the study's models apart: at least 13 entries, all different.
     let labels = plot::known_labels();
