@@ -242,3 +242,27 @@ fn the_flip_heat_map_carries_its_colour_bar_and_scale() {
     // The 16 x 12 map, widened to hold the bar's scale, with 48 rows of bar under it.
     assert_eq!((w, h), (220, 12 + 48));
 }
+
+#[test]
+fn a_comparison_with_thresholds_ends_with_its_verdict() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.json"), SCENE).unwrap();
+    for (name, seed) in [("a", "1"), ("b", "2")] {
+        let out = format!("{name}.exr");
+        lobe_in(d, &["render", "s.json", "-o", &out, "--seed", seed]);
+    }
+    let last = |o: &Output| {
+        let out = String::from_utf8_lossy(&o.stdout).to_string();
+        out.lines().last().unwrap_or("").to_string()
+    };
+    let o = lobe_in(d, &["compare", "a.exr", "b.exr", "--fail-above", "rmse=10"]);
+    assert_eq!(last(&o), "PASS: all 1 thresholds met");
+    let o = Command::new(env!("CARGO_BIN_EXE_lobe"))
+        .current_dir(d)
+        .args(["compare", "a.exr", "b.exr", "--fail-above", "rmse=0"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(last(&o).starts_with("FAIL: missed: rmse "), "{}", last(&o));
+}

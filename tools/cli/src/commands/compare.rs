@@ -236,15 +236,11 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             );
         }
     }
-    if let Some(z) = &z
-        && !args.json
-    {
-        let verdict = if z.passed() { "PASS" } else { "FAIL" };
+    let failed = threshold_failures(&m, &above, &below);
+    if !args.json && (z.is_some() || !above.is_empty() || !below.is_empty()) {
         println!(
-            "{verdict}: {} of {} tests significant at a family-wise false-alarm rate of {}",
-            z.failures,
-            z.tests,
-            args.z_test.unwrap_or_default()
+            "{}",
+            verdict(z.as_ref(), args.z_test, &failed, above.len() + below.len())
         );
     }
     if let Some(z) = &z
@@ -263,7 +259,6 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             z.worst.1
         )));
     }
-    let failed = threshold_failures(&m, &above, &below);
     if failed.is_empty() {
         Ok(())
     } else {
@@ -274,6 +269,37 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
             failed.join(", ")
         )))
     }
+}
+
+/// The one line that ends a checking comparison: PASS or FAIL, with the z-test's count
+/// and the thresholds missed.
+fn verdict(
+    z: Option<&lobe_renderer::compare::ZTest>,
+    alpha: Option<f64>,
+    failed: &[String],
+    thresholds: usize,
+) -> String {
+    let mut parts = Vec::new();
+    if let Some(z) = z {
+        parts.push(format!(
+            "{} of {} z-tests significant at a family-wise false-alarm rate of {}",
+            z.failures,
+            z.tests,
+            alpha.unwrap_or_default()
+        ));
+    }
+    if thresholds > 0 {
+        parts.push(match failed.is_empty() {
+            true => format!("all {thresholds} thresholds met"),
+            false => format!("missed: {}", failed.join(", ")),
+        });
+    }
+    let pass = z.is_none_or(|z| z.passed()) && failed.is_empty();
+    format!(
+        "{}: {}",
+        if pass { "PASS" } else { "FAIL" },
+        parts.join("; ")
+    )
 }
 
 /// The thresholds a metric misses; a metric that is NaN (SSIM of an image under 8x8
