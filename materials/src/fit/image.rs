@@ -26,8 +26,10 @@
 use super::linear::Gram;
 use crate::frame::Frame;
 use crate::lobe::Lobe;
+use crate::sampling::mirror_cones;
+use crate::sampling::random::{hash, unit};
 use glam::{DVec3, Vec3};
-use std::f64::consts::{FRAC_1_PI, PI};
+use std::f64::consts::FRAC_1_PI;
 use std::sync::Arc;
 
 /// An environment map as the image metric samples it (world directions, +y up).
@@ -56,32 +58,6 @@ impl Default for ImageSettings {
             samples: 64,
         }
     }
-}
-
-/// Exponents of the cones around the mirror direction.
-const CONE_EXPONENTS: [f64; 4] = [8.0, 64.0, 512.0, 4096.0];
-
-fn cone_pdf(r: DVec3, d: DVec3) -> f64 {
-    let c = r.dot(d).max(0.0);
-    CONE_EXPONENTS
-        .iter()
-        .map(|e| (e + 1.0) / (2.0 * PI) * c.powf(*e))
-        .sum::<f64>()
-        / CONE_EXPONENTS.len() as f64
-}
-
-/// A well-mixed 64-bit hash (SplitMix64's finalizer) of `a` and `b`.
-fn hash(a: u64, b: u64) -> u64 {
-    let mut z = a
-        .wrapping_mul(0x9e37_79b9_7f4a_7c15)
-        .wrapping_add(b.wrapping_mul(0xbf58_476d_1ce4_e5b9));
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
-fn unit(h: u64) -> f64 {
-    (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
 /// Point k of n of a Hammersley set, shifted by `rot` modulo 1 (Cranley-Patterson).
@@ -270,11 +246,10 @@ fn pixel_samples(
     let wo = local(view);
     let rot = |salt: u64| [unit(hash(p, salt)), unit(hash(p, salt + 1))];
     let (rot_env, rot_cone) = (rot(1), rot(3));
-    let cone_frame = Frame::from_normal(mirror.as_vec3());
     let mut out = Vec::with_capacity(n_env + n_cone);
     let mut push = |d: DVec3, radiance: [f64; 3], p_env: f64| {
         let cos = n.dot(d);
-        let density = n_env as f64 * p_env + n_cone as f64 * cone_pdf(mirror, d);
+        let density = n_env as f64 * p_env + n_cone as f64 * mirror_cones::pdf(mirror, d);
         if cos > 0.0 && density > 0.0 && radiance.iter().any(|&l| l > 0.0) {
             out.push(((wo, local(d)), radiance.map(|l| l.max(0.0) * cos / density)));
         }
@@ -286,12 +261,8 @@ fn pixel_samples(
     }
     for k in 0..n_cone {
         let [u, v] = hammersley(k, n_cone, rot_cone);
-        let e = CONE_EXPONENTS[k % CONE_EXPONENTS.len()];
-        let cos_a = u.powf(1.0 / (e + 1.0));
-        let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
-        let phi = 2.0 * PI * v;
-        let l = DVec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
-        let d = cone_frame.to_world(l.as_vec3()).as_dvec3().normalize();
+        let e = mirror_cones::EXPONENTS[k % mirror_cones::EXPONENTS.len()];
+        let d = mirror_cones::sample(mirror, e, [u, v]);
         let (radiance, p_env) = env.eval_pdf(d.as_vec3());
         push(d, radiance, p_env);
     }
@@ -301,6 +272,7 @@ fn pixel_samples(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::PI;
 
     /// A constant environment of radiance 1, sampled uniformly over the sphere.
     struct Uniform;

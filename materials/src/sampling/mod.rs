@@ -12,9 +12,14 @@
 //! - [`marginal2d`]: a parameterized piecewise-bilinear 2D distribution (Mitsuba 3's
 //!   `Marginal2D`; RGL tables and the tabulated microfacet normal distribution).
 //! - [`quadrature`]: Gauss-Legendre rules for the integrals of the analytic models.
+//! - [`mirror_cones`]: a mixture of cos^e cones around a mirror direction (the sphere
+//!   image estimators' BRDF-independent strategy).
+//! - [`random`]: counter-based random numbers (a two-word hash and its uniform double).
 
 pub mod cdf;
 pub mod hierarchy;
 pub mod marginal2d;
+pub mod mirror_cones;
 pub mod quadrature;
+pub mod random;
 pub mod warp;

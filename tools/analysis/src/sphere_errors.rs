@@ -32,6 +32,8 @@
 //! shows and are exempt from these targets.
 
 use lobe_materials::frame::Frame;
+use lobe_materials::sampling::mirror_cones;
+use lobe_materials::sampling::random::{hash, unit};
 use lobe_materials::{Bsdf, Rgb};
 use lobe_renderer::camera::Camera;
 use lobe_renderer::compare::metrics;
@@ -39,7 +41,6 @@ use lobe_renderer::film::Image;
 use lobe_renderer::geometry::sphere::Sphere;
 use lobe_renderer::lights::envmap::EnvMap;
 use rayon::prelude::*;
-use std::f64::consts::PI;
 
 /// A sphere seen by a camera under an environment map: what the images show.
 pub struct Stage<'a> {
@@ -165,8 +166,9 @@ pub struct SphereErrors {
     pub flip_maps: Vec<Vec<f32>>,
     /// The largest noise of the fits' difference images.
     pub noise_floor: f64,
-    /// Samples per pixel of the reported pass, and passes made.
+    /// Samples per pixel of the reported pass, in how many batches, and passes made.
     pub spp: usize,
+    pub batches: usize,
     pub passes: usize,
     /// The exposure (stops) of pictures and FLIP: under 1 % of the data image's pixels
     /// clip.
@@ -174,42 +176,6 @@ pub struct SphereErrors {
     /// Whether the noise and interval targets hold on the non-negligible fits.
     pub noise_target_met: bool,
     pub interval_target_met: bool,
-}
-
-/// Exponents of the cones around the mirror direction (successive powers of 8).
-const CONE_EXPONENTS: [f64; 4] = [8.0, 64.0, 512.0, 4096.0];
-
-/// The cones' mixture density at `d` (each cone e: (e + 1) / 2pi cos^e); the exponents
-/// are successive powers of 8, so each power is the previous one raised to the 8th by
-/// three squarings.
-fn cone_pdf(mirror: glam::DVec3, d: glam::DVec3) -> f64 {
-    let eighth = |x: f64| {
-        let x2 = x * x;
-        let x4 = x2 * x2;
-        x4 * x4
-    };
-    let mut p = mirror.dot(d).max(0.0);
-    let mut sum = 0.0;
-    for e in CONE_EXPONENTS {
-        p = eighth(p);
-        sum += (e + 1.0) / (2.0 * PI) * p;
-    }
-    sum / CONE_EXPONENTS.len() as f64
-}
-
-/// A well-mixed 64-bit hash (SplitMix64's finalizer) of three words.
-fn hash(a: u64, b: u64, c: u64) -> u64 {
-    let mut z = a
-        .wrapping_mul(0x9e37_79b9_7f4a_7c15)
-        .wrapping_add(b.wrapping_mul(0xbf58_476d_1ce4_e5b9))
-        .wrapping_add(c.wrapping_mul(0x94d0_49bb_1331_11eb));
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
-fn unit(h: u64) -> f64 {
-    (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
 /// Radical inverse of `k` in base `b`.
@@ -319,8 +285,8 @@ impl Stage<'_> {
         let pixel_id = y as u64 * self.width as u64 + x as u64;
         let counts = [per_batch / 2, per_batch / 4, per_batch / 4];
         for b in 0..batches {
-            let key = hash(seed, pixel_id, b as u64);
-            let shift: [f64; 5] = std::array::from_fn(|i| unit(hash(key, i as u64, 17)));
+            let key = hash(hash(seed, pixel_id), b as u64);
+            let shift: [f64; 5] = std::array::from_fn(|i| unit(hash(hash(key, i as u64), 17)));
             for k in 0..per_batch {
                 let p = point(k, per_batch, &shift);
                 let film = glam::Vec2::new(
@@ -354,7 +320,7 @@ impl Stage<'_> {
                 set.radiance.push(l);
                 set.density.push(
                     counts[0] as f64 * p_env as f64
-                        + counts[2] as f64 * cone_pdf(d.mirror, d.wi.as_dvec3()),
+                        + counts[2] as f64 * mirror_cones::pdf(d.mirror, d.wi.as_dvec3()),
                 );
             }
         }
@@ -386,13 +352,8 @@ impl Stage<'_> {
             0 => frame.to_local(self.env.sample(u)?.0).normalize(),
             1 => data.sample(wo, u, pt[4] as f32)?.wi,
             _ => {
-                let e = CONE_EXPONENTS[((pt[4] * 4.0) as usize).min(3)];
-                let cos_a = pt[2].powf(1.0 / (e + 1.0));
-                let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
-                let phi = 2.0 * PI * pt[3];
-                let local = glam::DVec3::new(sin_a * phi.cos(), sin_a * phi.sin(), cos_a);
-                let cf = Frame::from_normal(mirror.as_vec3());
-                cf.to_world(local.as_vec3()).normalize()
+                let e = mirror_cones::EXPONENTS[((pt[4] * 4.0) as usize).min(3)];
+                mirror_cones::sample(mirror, e, [pt[2], pt[3]]).as_vec3()
             }
         };
         (wi.z > 0.0).then(|| Drawn {
@@ -453,14 +414,14 @@ impl Sums {
         let b = d.len();
         let nb = b as f64;
         let mean = d.iter().sum::<f64>() / nb;
-        let centred: Vec<f64> = d.iter().map(|x| x - mean).collect();
-        let ss: f64 = centred.iter().map(|x| x * x).sum();
+        let ss: f64 = d.iter().map(|x| (x - mean).powi(2)).sum();
         let var = ss / (nb - 1.0);
         self.u[r] += mean * mean - var / nb;
         self.v[r] += var / nb;
         let n = nb - 1.0;
-        for (k, c) in centred.iter().enumerate() {
+        for (k, x) in d.iter().enumerate() {
             // Leave batch k out: the others' mean and sample variance.
+            let c = x - mean;
             let shift = -c / n;
             let ss_k = ss - c * c - n * shift * shift;
             let var_k = ss_k / (n - 1.0);
@@ -585,11 +546,12 @@ pub fn estimate(
     loop {
         passes += 1;
         let (sums, images) = pass(stage, reps, &settings, spp, settings.seed ^ passes as u64);
-        let mut out = summarize(stage, &sums, images, &settings)?;
+        let (mut out, halves) = summarize(stage, &sums, images, &settings);
         out.spp = spp;
         out.passes = passes;
         let factor = needed_factor(&out, &settings);
         if factor <= 1.0 || spp >= max_spp || passes >= 3 {
+            add_flip(&mut out, &halves)?;
             return Ok(out);
         }
         spp = round_up((spp as f64 * factor * 1.2).ceil() as usize).min(max_spp);
@@ -617,13 +579,31 @@ fn needed_factor(out: &SphereErrors, s: &ErrorSettings) -> f64 {
     own.max(floor).max(width)
 }
 
-/// The errors and pictures of one pass's sums and images.
+/// The FLIP of every representation against the data's image at the common exposure
+/// (for the data: between the images of its two halves of batches, `halves`), and the
+/// maps; computed for the reported pass only.
+fn add_flip(out: &mut SphereErrors, halves: &[Image; 2]) -> Result<(), lobe_renderer::Error> {
+    out.flip_maps.clear();
+    for r in 0..out.images.len() {
+        let (against, test) = match r {
+            0 => (&halves[0], &halves[1]),
+            _ => (&out.images[0], &out.images[r]),
+        };
+        let (mt, map) = metrics(test, against, out.exposure)?;
+        out.errors[r].flip = mt.flip;
+        out.flip_maps.push(map);
+    }
+    Ok(())
+}
+
+/// The errors (FLIP not yet: [`add_flip`]) and pictures of one pass's sums and images,
+/// and the data's images of its two halves of batches.
 fn summarize(
     stage: &Stage<'_>,
     sums: &Sums,
     mut images: Vec<Vec<Moments>>,
     s: &ErrorSettings,
-) -> Result<SphereErrors, lobe_renderer::Error> {
+) -> (SphereErrors, [Image; 2]) {
     let b = s.batches;
     let (w, h) = (stage.width, stage.height);
     let n = 3.0 * (w as f64) * (h as f64);
@@ -640,7 +620,6 @@ fn summarize(
     let exposure = exposure_for(&images[0]);
     let data_rms = (sums.data_sq / n).sqrt();
     let mut errors = Vec::new();
-    let mut flip_maps = Vec::new();
     for r in 0..images.len() {
         let loo = |v: &[f64]| -> Vec<f64> { v[r * b..(r + 1) * b].iter().map(|x| x / n).collect() };
         let noise = root(sums.v[r] / n);
@@ -651,34 +630,30 @@ fn summarize(
                 jackknife(sums.u[r] / n, &loo(&sums.u_loo)),
             ),
         };
-        let (against, test) = match r {
-            0 => (&half_a, &half_b),
-            _ => (&images[0], &images[r]),
-        };
-        let (mt, map) = metrics(test, against, exposure)?;
-        flip_maps.push(map);
         errors.push(RepError {
             rmse,
             ci95: [root(ci[0]), root(ci[1])],
             noise,
-            flip: mt.flip,
+            flip: f64::NAN,
             negligible: r > 0 && rmse < s.negligible * data_rms,
         });
     }
     let noise_floor = errors[1..].iter().map(|e| e.noise).fold(0.0, f64::max);
     let fits: Vec<&RepError> = errors[1..].iter().filter(|e| !e.negligible).collect();
     let smallest = fits.iter().map(|e| e.rmse).fold(f64::INFINITY, f64::min);
-    Ok(SphereErrors {
+    let out = SphereErrors {
         noise_target_met: noise_floor <= s.noise_ratio * smallest,
         interval_target_met: fits.iter().all(|e| e.relative_width() <= s.interval_ratio),
         images,
         errors,
-        flip_maps,
+        flip_maps: Vec::new(),
         noise_floor,
         spp: 0,
+        batches: b,
         passes: 0,
         exposure,
-    })
+    };
+    (out, [half_a, half_b])
 }
 
 /// The exposure (stops) at which under 1 % of the image's pixels clip: the 99.5th

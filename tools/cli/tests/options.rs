@@ -27,6 +27,23 @@ const SCENE: &str = r#"{
   "lights": [{"type": "envmap", "file": "builtin:studio"}]
 }"#;
 
+/// A folder holding two renders of [`SCENE`] with seeds 1 and 2 (a.exr, b.exr; with
+/// their variances when `variance`).
+fn two_renders(variance: bool) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.json"), SCENE).unwrap();
+    for (name, seed) in [("a", "1"), ("b", "2")] {
+        let out = format!("{name}.exr");
+        let mut args = vec!["render", "s.json", "-o", &out, "--seed", seed];
+        if variance {
+            args.push("--variance");
+        }
+        lobe_in(d, &args);
+    }
+    dir
+}
+
 #[test]
 fn models_lists_every_registered_model_with_its_parameters() {
     let dir = tempfile::tempdir().unwrap();
@@ -65,23 +82,8 @@ fn bench_times_the_runs_it_is_asked_for() {
 
 #[test]
 fn the_degrees_of_freedom_of_variances_change_the_z_test() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = two_renders(true);
     let d = dir.path();
-    std::fs::write(d.join("s.json"), SCENE).unwrap();
-    for (name, seed) in [("a", "1"), ("b", "2")] {
-        lobe_in(
-            d,
-            &[
-                "render",
-                "s.json",
-                "-o",
-                &format!("{name}.exr"),
-                "--variance",
-                "--seed",
-                seed,
-            ],
-        );
-    }
     let min_p = |extra: &[&str]| {
         let mut args = vec!["compare", "a.exr", "b.exr", "--z-test", "0.01", "--json"];
         args.extend_from_slice(extra);
@@ -196,16 +198,8 @@ fn compare_takes_the_noise_out_of_the_rmse_of_two_renders_of_one_scene() {
     // with zero, and the noise floor is at least the plain RMSE (a Sobol' render's
     // per-pixel sample variance overstates the variance of its mean, so the floor is an
     // upper bound).
-    let dir = tempfile::tempdir().unwrap();
+    let dir = two_renders(true);
     let d = dir.path();
-    std::fs::write(d.join("s.json"), SCENE).unwrap();
-    for (name, seed) in [("a", "1"), ("b", "2")] {
-        let out = format!("{name}.exr");
-        lobe_in(
-            d,
-            &["render", "s.json", "-o", &out, "--variance", "--seed", seed],
-        );
-    }
     let args = ["compare", "a.exr", "b.exr", "--z-test", "0.01", "--json"];
     let v: serde_json::Value = serde_json::from_slice(&lobe_in(d, &args).stdout).unwrap();
     let (plain, n) = (v["rmse"].as_f64().unwrap(), &v["noise"]);
@@ -225,13 +219,8 @@ fn compare_takes_the_noise_out_of_the_rmse_of_two_renders_of_one_scene() {
 
 #[test]
 fn the_flip_heat_map_carries_its_colour_bar_and_scale() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = two_renders(false);
     let d = dir.path();
-    std::fs::write(d.join("s.json"), SCENE).unwrap();
-    for (name, seed) in [("a", "1"), ("b", "2")] {
-        let out = format!("{name}.exr");
-        lobe_in(d, &["render", "s.json", "-o", &out, "--seed", seed]);
-    }
     lobe_in(d, &["compare", "a.exr", "b.exr", "--heatmap", "h.png"]);
     let png = std::fs::read(d.join("h.png")).unwrap();
     // IHDR: width and height, big-endian, at bytes 16..24.
@@ -245,13 +234,8 @@ fn the_flip_heat_map_carries_its_colour_bar_and_scale() {
 
 #[test]
 fn a_comparison_with_thresholds_ends_with_its_verdict() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = two_renders(false);
     let d = dir.path();
-    std::fs::write(d.join("s.json"), SCENE).unwrap();
-    for (name, seed) in [("a", "1"), ("b", "2")] {
-        let out = format!("{name}.exr");
-        lobe_in(d, &["render", "s.json", "-o", &out, "--seed", seed]);
-    }
     let last = |o: &Output| {
         let out = String::from_utf8_lossy(&o.stdout).to_string();
         out.lines().last().unwrap_or("").to_string()

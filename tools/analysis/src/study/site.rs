@@ -54,10 +54,15 @@ pub fn url(path: &str) -> String {
         .collect()
 }
 
+/// The class attribute of a cell whose value comes from a timing (none otherwise).
+fn timed_class(timed: bool) -> &'static str {
+    if timed { " class=\"timed\"" } else { "" }
+}
+
 /// A number cell: scientific notation to 3 significant digits, the full value for
 /// sorting; empty when not finite. `timed` marks values that come from timings.
 fn num(x: Option<f64>, timed: bool) -> String {
-    let class = if timed { " class=\"timed\"" } else { "" };
+    let class = timed_class(timed);
     match x.filter(|x| x.is_finite()) {
         Some(x) => format!("<td{class} data-v=\"{x:e}\">{x:.2e}</td>"),
         None => format!("<td{class}></td>"),
@@ -82,7 +87,7 @@ pub fn plain(x: f64) -> String {
 
 /// A cell in plain notation ([`plain`]) with a unit.
 fn plain_cell(x: Option<f64>, unit: &str, timed: bool) -> String {
-    let class = if timed { " class=\"timed\"" } else { "" };
+    let class = timed_class(timed);
     match x.filter(|x| x.is_finite()) {
         Some(x) => format!("<td{class} data-v=\"{x:e}\">{}{unit}</td>", plain(x)),
         None => format!("<td{class}></td>"),
@@ -304,7 +309,7 @@ fn error_numbers(r: Option<&Value>) -> [Option<f64>; 5] {
 
 /// The interval cell "[lo, hi]", sorted by its width; `timed` as in [`num`].
 fn interval(lo: Option<f64>, hi: Option<f64>, timed: bool) -> String {
-    let class = if timed { " class=\"timed\"" } else { "" };
+    let class = timed_class(timed);
     match (lo, hi) {
         (Some(a), Some(b)) => {
             format!("<td{class} data-v=\"{:e}\">[{a:.3e}, {b:.3e}]</td>", b - a)

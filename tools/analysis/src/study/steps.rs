@@ -351,7 +351,7 @@ fn renders(ctx: &Context<'_>, m: &StudyMaterial, env: &Env) -> Result<(), Error>
         .collect();
     let v = json!({
         "environment": env.name, "size": s.size, "spp": est.spp, "passes": est.passes,
-        "batches": s.error_settings().batches, "noise_floor": est.noise_floor,
+        "batches": est.batches, "noise_floor": est.noise_floor,
         "exposure": est.exposure, "noise_target_met": est.noise_target_met,
         "interval_target_met": est.interval_target_met,
         "equal_time_budget": {"spp": s.spp, "seconds": budget}, "rows": rows,
