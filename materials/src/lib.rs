@@ -31,6 +31,7 @@ pub mod frame;
 pub mod guard;
 pub mod io;
 pub mod json;
+pub mod key;
 pub mod lobe;
 pub mod math;
 pub mod measured;

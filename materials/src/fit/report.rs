@@ -13,7 +13,10 @@
 //! with those empty. Version 3 added the metric the fits minimized (`metric`, see
 //! [`super::metric`]) and, per model fitted with another metric than Eq. (1), that
 //! metric's value (`metric_error`; `error` stays the Eq. (1) error); an older report reads
-//! as fitted with Eq. (1).
+//! as fitted with Eq. (1). Version 4 added the report's content key (`key`: the digests of
+//! the data's bytes and of the settings that shape every fit, [`FitKey`]) and whether the
+//! data are anisotropic, so that a rerun fits only the models a report lacks and a report
+//! of other data or settings is redone; an older report has no key and is redone.
 //!
 //! Written JSON keeps its keys in alphabetical order (serde_json's map), as reports always
 //! had; a non-finite number (the normalized error of all-zero data) is written as `null` and
@@ -29,7 +32,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The report format this build writes and the newest it reads.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
 fn version_one() -> u32 {
     1
@@ -79,6 +82,26 @@ pub struct FitReport {
     /// The cheapest model within a tolerance of the best error (`lobe fit --select`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub selected: Option<Selection>,
+    /// What the fits were made from (absent before version 4, and for data given as a
+    /// material rather than a file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub key: Option<FitKey>,
+    /// The data hold anisotropic (4D) measurements (absent before version 4: false).
+    #[serde(default)]
+    pub anisotropic: bool,
+}
+
+/// The content key of a report ([`crate::key`]): every model fitted under the same key is
+/// the same fit, whatever machine or run made it, so reports of one key merge model by
+/// model.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitKey {
+    /// The digest of the data's bytes (or of the description of the material tabulated).
+    pub data: String,
+    /// The digest of the settings that shape each fit: bin size, metric, evaluations
+    /// allowed, the image metric's maps (by content) and image size, lobe's version.
+    pub settings: String,
 }
 
 /// One fitted model of a report.
@@ -302,6 +325,8 @@ impl FitReport {
                 .map(|r| (r.label.clone(), ModelFit::from_result(r)))
                 .collect(),
             selected: None,
+            key: None,
+            anisotropic: data.anisotropic,
         }
     }
 
@@ -410,6 +435,11 @@ mod tests {
                 .into_iter()
                 .collect(),
             }),
+            key: Some(FitKey {
+                data: "d".repeat(64),
+                settings: "s".repeat(64),
+            }),
+            anisotropic: false,
         }
     }
 

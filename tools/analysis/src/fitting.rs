@@ -1,16 +1,18 @@
 //! Fitting one material into a report (Ngan et al. 2005 section 4: every chosen model
 //! fitted to the data by [`lobe_materials::fit::fit_with`] with the chosen metric,
 //! optionally with the cheapest adequate model selected), and fitting a folder of measured
-//! data in a batch: in deterministic shards, in parallel, resumably (a report that exists
-//! is not redone).
+//! data in a batch: in deterministic shards, in parallel, resumably. Reports are keyed by
+//! content ([`lobe_materials::key`]): a rerun fits only the models a report of the same data
+//! and settings lacks and merges them in, and redoes a report of other data or settings.
 
-use crate::fit_images::fitting_images;
+use crate::fit_images::{DEFAULT_FIT_ENVS, fitting_images};
 use crate::models::choose;
-use crate::selection::select;
+use crate::selection::{select, select_fits};
 use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::image::ImageSettings;
-use lobe_materials::fit::report::{self, FitReport};
+use lobe_materials::fit::report::{self, FitKey, FitReport};
+use lobe_materials::key::{KeyBuilder, file_digest, input_digest};
 use lobe_materials::fit::{
     FitError, FitResult, Metric, ModelSpec, Objective, Stop, builtin_specs, fit_with,
 };
@@ -56,6 +58,129 @@ impl Default for FitOptions {
             image: ImageSettings::default(),
         }
     }
+}
+
+impl FitOptions {
+    /// The digest of the settings that shape each model's fit ([`FitKey::settings`]): the
+    /// bin size, the metric, the evaluations allowed and, for the image metric, its maps
+    /// (by content) and image size. Not the models (reports merge model by model) nor the
+    /// selection (made again when models are added).
+    pub fn settings_key(&self) -> Result<String, Error> {
+        let mut k = KeyBuilder::new("fit-settings")
+            .number("resolution", self.resolution)
+            .number("max_evals", self.max_evals as f64)
+            .text("metric", &self.metric.to_string());
+        if self.metric == Metric::Image {
+            let defaults = DEFAULT_FIT_ENVS.map(String::from);
+            let envs = match self.envs.is_empty() {
+                true => &defaults[..],
+                false => &self.envs[..],
+            };
+            for e in envs {
+                k = k.text("env", &input_digest(e, "an environment map")?);
+            }
+            k = k
+                .number("image_resolution", self.image.resolution as f64)
+                .number("image_samples", self.image.samples as f64);
+        }
+        Ok(k.finish())
+    }
+
+    /// The key of fitting data whose bytes digest to `data`.
+    pub fn key(&self, data: String) -> Result<FitKey, Error> {
+        Ok(FitKey {
+            data,
+            settings: self.settings_key()?,
+        })
+    }
+}
+
+/// The key of fitting the measured file `p` with `opts`.
+pub fn file_key(p: &Path, opts: &FitOptions) -> Result<FitKey, Error> {
+    opts.key(file_digest(p, "measured data")?)
+}
+
+/// The digest that stands for the data of a material description tabulated (not
+/// measured).
+pub fn material_digest(desc: &Value) -> String {
+    KeyBuilder::new("material").json("desc", desc).finish()
+}
+
+/// What a rerun must do with the report at hand.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Resume {
+    /// No usable report (none, unreadable, or of other data or settings): fit everything.
+    Fresh,
+    /// A report of the same key: fit these models (none: only the selection is stale).
+    Add(Vec<String>),
+    /// The report holds every model asked for and a current selection.
+    Done,
+}
+
+/// What a rerun does with `existing` (a report of key `key` or not) for `opts`.
+pub fn resume(existing: Option<&FitReport>, key: &FitKey, opts: &FitOptions) -> Result<Resume, Error> {
+    let Some(r) = existing.filter(|r| r.key.as_ref() == Some(key)) else {
+        return Ok(Resume::Fresh);
+    };
+    let specs = builtin_specs();
+    let missing: Vec<String> = choose(&specs, opts.models.as_deref(), r.anisotropic)?
+        .iter()
+        .filter(|s| !r.models.contains_key(s.label))
+        .map(|s| s.label.to_string())
+        .collect();
+    let selection_current = match opts.select {
+        None => true,
+        Some(t) => r.selected.as_ref().is_some_and(|s| s.tolerance == t),
+    };
+    Ok(match (missing.is_empty(), selection_current) {
+        (true, true) => Resume::Done,
+        _ => Resume::Add(missing),
+    })
+}
+
+/// The report at `out` when it exists and reads; a report that does not read is redone.
+pub fn existing_report(out: &Path) -> Option<FitReport> {
+    out.exists().then(|| report::read(out).ok()).flatten()
+}
+
+/// The report for `key`: a fresh fit ([`fit_material_with`]), or `existing` completed
+/// with the models `plan` names and, when models were added or the tolerance changed,
+/// selected again (at `opts.select`, else at the report's own tolerance).
+#[allow(clippy::too_many_arguments)]
+pub fn complete_report(
+    registry: &Registry,
+    (existing, plan, key): (Option<FitReport>, Resume, FitKey),
+    (name, source): (&str, &str),
+    (data, measured): (&Dataset, Option<&dyn Bsdf>),
+    opts: &FitOptions,
+    stop: &Stop<'_>,
+    on_model: &dyn Fn(&FitResult),
+) -> Result<FitReport, Error> {
+    let fit = |o: &FitOptions| {
+        fit_material_with(registry, (name, source), (data, measured), o, stop, on_model)
+    };
+    let mut report = match (existing, plan) {
+        (Some(mut r), Resume::Add(missing)) => {
+            if !missing.is_empty() {
+                let only = FitOptions {
+                    models: Some(missing.join(",")),
+                    select: None,
+                    ..opts.clone()
+                };
+                r.models.extend(fit(&only)?.models);
+            }
+            let tolerance = opts.select.or(r.selected.as_ref().map(|s| s.tolerance));
+            if let Some(t) = tolerance {
+                r.selected = Some(select_fits(registry, &r.models, t)?);
+            }
+            r.format_version = report::FORMAT_VERSION;
+            r
+        }
+        (Some(r), Resume::Done) => r,
+        _ => fit(opts)?,
+    };
+    report.key = Some(key);
+    Ok(report)
 }
 
 /// The material that renders a measured file (MERL, binned or RGL, told by its content).
@@ -259,7 +384,7 @@ pub fn batch_jobs(dir: &Path, out: &Path, (i, n): (usize, usize)) -> Result<Vec<
 
 /// What a batch tells as it goes (called from its worker threads).
 pub trait BatchProgress: Sync {
-    /// A job was skipped: its report exists.
+    /// A job was skipped: its report is complete for the same data and settings.
     fn skipped(&self) {}
     /// The data of `name` is being read.
     fn reading(&self, _name: &str) {}
@@ -276,15 +401,17 @@ pub trait BatchProgress: Sync {
 pub struct BatchSummary {
     /// Reports written.
     pub done: usize,
-    /// Reports that already existed.
+    /// Reports that were already complete.
     pub skipped: usize,
     /// One line per failed material (sorted); the others went on.
     pub failures: Vec<String>,
 }
 
 /// Fits the jobs (materials in parallel; each fit is parallel over its bins too) and writes
-/// each report atomically; a job whose report exists is skipped, so an interrupted batch
-/// resumes where it stopped. Once `stop` returns true no job starts and running fits end.
+/// each report atomically. A job whose report has the same key and every model asked for is
+/// skipped, one of the same key lacking models gets them added ([`resume`]), any other is
+/// redone; so an interrupted batch resumes where it stopped and a rerun with other models,
+/// metric, bins or data computes exactly what they change. Once `stop` returns true no job starts and running fits end.
 pub fn fit_batch(
     registry: &Registry,
     jobs: &[BatchJob],
@@ -295,26 +422,36 @@ pub fn fit_batch(
     use rayon::prelude::*;
     let (done, skipped) = (AtomicUsize::new(0), AtomicUsize::new(0));
     let fit_one = |p: &Path, out: &Path| -> Result<(), Error> {
-        if out.exists() {
-            skipped.fetch_add(1, Ordering::Relaxed);
-            progress.skipped();
+        if stop() {
             return Ok(());
         }
-        if stop() {
+        let key = file_key(p, opts)?;
+        let existing = existing_report(out);
+        let plan = resume(existing.as_ref(), &key, opts)?;
+        if plan == Resume::Done {
+            skipped.fetch_add(1, Ordering::Relaxed);
+            progress.skipped();
             return Ok(());
         }
         let name = stem(p);
         progress.reading(&name);
         let data = Dataset::read(p, opts.resolution)?;
         let specs = builtin_specs();
-        if let Ok(chosen) = choose(&specs, opts.models.as_deref(), data.anisotropic) {
-            progress.fitting(&name, chosen.len());
+        let count = match &plan {
+            Resume::Add(missing) => Some(missing.len()),
+            _ => choose(&specs, opts.models.as_deref(), data.anisotropic)
+                .ok()
+                .map(|c| c.len()),
+        };
+        if let Some(k) = count {
+            progress.fitting(&name, k);
         }
         let source = p.display().to_string();
         let on_model = |r: &FitResult| progress.fitted(&name, r);
         let measured = data_material(registry, p, opts)?;
-        let r = fit_material_with(
+        let r = complete_report(
             registry,
+            (existing, plan, key),
             (&name, &source),
             (&data, measured.as_deref()),
             opts,

@@ -34,9 +34,69 @@ pub fn report_files(inputs: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
     Ok(files)
 }
 
-/// Reads fit reports; the first bad one is an error naming its file and field.
+/// Reads fit reports; the first bad one is an error naming its file and field. Reports of
+/// one content key (the same data and settings, made by different runs or machines) are
+/// joined into one ([`join_keyed`]).
 pub fn read_reports(files: &[PathBuf]) -> Result<Vec<FitReport>, Error> {
-    files.iter().map(|f| Ok(report::read(f)?)).collect()
+    let reports = files
+        .iter()
+        .map(|f| Ok((f.display().to_string(), report::read(f)?)))
+        .collect::<Result<Vec<_>, Error>>()?;
+    join_keyed(reports)
+}
+
+/// Relative difference within which two fits of one key agree (fits are deterministic;
+/// this leaves room for another platform's last digits).
+const SAME_FIT: f64 = 1e-6;
+
+/// Joins (file, report) pairs of one key model by model, and checks them: a model in two
+/// reports of one key must have the same error; two reports of one material name and
+/// settings but different data are an error naming both files. Reports without a key
+/// (written before keys) pass as they are. A joined report whose models changed loses its
+/// selection (it was made over other models).
+pub fn join_keyed(reports: Vec<(String, FitReport)>) -> Result<Vec<FitReport>, Error> {
+    let mut out: Vec<(String, FitReport)> = Vec::new();
+    for (file, r) in reports {
+        let Some(key) = r.key.clone() else {
+            out.push((file, r));
+            continue;
+        };
+        let same_name = out.iter().find(|(_, o)| {
+            o.material == r.material
+                && o.key.as_ref().is_some_and(|k| k.settings == key.settings && k.data != key.data)
+        });
+        if let Some((other, _)) = same_name {
+            return Err(Error::Other(format!(
+                "{file} and {other}: material \"{}\" fitted with the same settings from different data; expected one data file per material name",
+                r.material
+            )));
+        }
+        let Some((first, joined)) = out.iter_mut().find(|(_, o)| o.key.as_ref() == Some(&key))
+        else {
+            out.push((file, r));
+            continue;
+        };
+        let mut added = false;
+        for (label, fit) in r.models {
+            match joined.models.get(&label) {
+                Some(f) if (f.error - fit.error).abs() > SAME_FIT * f.error.abs().max(1e-300) => {
+                    return Err(Error::Other(format!(
+                        "{file} and {first}: model {label} of the same data and settings has error {} in one and {} in the other; expected equal fits",
+                        fit.error, f.error
+                    )));
+                }
+                Some(_) => {}
+                None => {
+                    joined.models.insert(label, fit);
+                    added = true;
+                }
+            }
+        }
+        if added {
+            joined.selected = None;
+        }
+    }
+    Ok(out.into_iter().map(|(_, r)| r).collect())
 }
 
 /// The labels of the models of `reports`, in the order they are first met.

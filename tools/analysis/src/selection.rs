@@ -8,7 +8,9 @@
 
 use crate::cost::{Cost, measure, reference_cost};
 use lobe_materials::fit::FitResult;
-use lobe_materials::fit::report::{ModelCost, Selection};
+use lobe_materials::fit::report::{ModelCost, ModelFit, Selection};
+use serde_json::Value;
+use std::collections::BTreeMap;
 use lobe_materials::registry::Registry;
 use lobe_renderer::Error;
 
@@ -35,16 +37,36 @@ pub fn select(
     results: &[FitResult],
     tolerance: f64,
 ) -> Result<Selection, Error> {
-    let mut candidates = Vec::with_capacity(results.len());
-    let mut ranked = Vec::with_capacity(results.len());
-    for r in results {
+    let fits = results.iter().map(|r| (r.label.as_str(), &r.material, r.error));
+    select_among(registry, fits, tolerance)
+}
+
+/// [`select`] over the fits of a report (after models were added to it).
+pub fn select_fits(
+    registry: &Registry,
+    fits: &BTreeMap<String, ModelFit>,
+    tolerance: f64,
+) -> Result<Selection, Error> {
+    let fits = fits.iter().map(|(l, f)| (l.as_str(), &f.material, f.error));
+    select_among(registry, fits, tolerance)
+}
+
+/// [`select`] over (label, fitted material, Eq. (1) error).
+fn select_among<'a>(
+    registry: &Registry,
+    fits: impl Iterator<Item = (&'a str, &'a Value, f64)>,
+    tolerance: f64,
+) -> Result<Selection, Error> {
+    let mut candidates = Vec::new();
+    let mut ranked = Vec::new();
+    for (label, material, error) in fits {
         let b = registry
-            .create(&r.material, &r.label)
+            .create(material, label)
             .map_err(|e| Error::Other(e.to_string()))?;
         let measured = measure(b.as_ref());
-        let rank = reference_cost(&r.label).unwrap_or(measured);
-        candidates.push((r.label.as_str(), r.error, measured));
-        ranked.push((r.label.as_str(), r.error, rank));
+        let rank = reference_cost(label).unwrap_or(measured);
+        candidates.push((label, error, measured));
+        ranked.push((label, error, rank));
     }
     let (model, best_error) = cheapest_within(&ranked, tolerance);
     Ok(Selection {

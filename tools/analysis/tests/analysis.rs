@@ -266,6 +266,8 @@ fn report_of(material: &str, errors: &[(&str, f64)]) -> FitReport {
             })
             .collect(),
         selected: None,
+        key: None,
+        anisotropic: false,
     }
 }
 

@@ -479,3 +479,65 @@ fn a_study_of_anisotropic_data_fits_the_anisotropic_models() {
         report.models["ward-anisotropic"].error_normalized < report.models["ward"].error_normalized
     );
 }
+
+/// Writes coarse isotropic binned data of `material` to `path`.
+fn write_isotropic(material: serde_json::Value, path: &Path) {
+    use lobe_materials::measured::binned::{Axis, Binned};
+    let m = Registry::builtin().create(&material, "m").unwrap();
+    let theta = Axis::new(12, 0.0, 80.0);
+    let mut t = Binned::empty(false, vec![theta, theta, Axis::new(24, 0.0, 180.0)]);
+    t.values = (0..t.len())
+        .map(|k| t.directions(k))
+        .map(|(wi, wo)| Some(m.eval(wo, wi).to_array()))
+        .collect();
+    t.write(path).unwrap();
+}
+
+/// Steps are keyed by content: replacing the data file redoes every step of its material
+/// (before keys: "0 steps computed" and the old material's report), and a map file named
+/// like the built-in one (`--env .../studio.exr` after `builtin:studio`) redoes the renders
+/// only. Each output records its key.
+#[test]
+fn a_study_redoes_what_its_data_or_map_changed() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("paint.bin");
+    let ward = |alpha: f64| serde_json::json!({"type": "ward", "diffuse": 0.2, "specular": 0.1, "alpha": alpha});
+    write_isotropic(ward(0.1), &data);
+    let out = dir.path().join("study");
+    let mut config = config(&out);
+    config.inputs = vec![data.clone()];
+    let go = |c: &StudyConfig| {
+        study::run(&Registry::builtin(), c, &|| false, &Count::default()).unwrap()
+    };
+    let first = go(&config);
+    assert_eq!((first.computed, first.skipped), (4, 0), "{first:?}");
+    let same = go(&config);
+    assert_eq!((same.computed, same.skipped), (0, 4), "{same:?}");
+    let alpha = || {
+        let r = lobe_materials::fit::report::read(&out.join("fits/paint.fit.json")).unwrap();
+        assert!(r.key.is_some());
+        r.models["ward"].material["alpha"].as_f64().unwrap()
+    };
+    assert!((alpha() - 0.1).abs() < 0.01, "{}", alpha());
+    let metrics = out.join("renders/paint/studio/metrics.json");
+    let key_of = |p: &Path| -> String {
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        v["key"].as_str().unwrap().to_string()
+    };
+    let render_key = key_of(&metrics);
+    // Other data under the same name: everything is redone.
+    write_isotropic(ward(0.3), &data);
+    let changed = go(&config);
+    assert_eq!((changed.computed, changed.skipped), (4, 0), "{changed:?}");
+    assert!((alpha() - 0.3).abs() < 0.03, "{}", alpha());
+    assert_ne!(key_of(&metrics), render_key);
+    // A map file named studio: only the renders under it are redone.
+    let studio = dir.path().join("maps/studio.exr");
+    std::fs::create_dir_all(studio.parent().unwrap()).unwrap();
+    let px = vec![lobe_renderer::Rgb::splat(0.5); 32 * 16];
+    lobe_renderer::image_io::write_exr(&studio, 32, 16, &px).unwrap();
+    config.envs = vec![studio.display().to_string()];
+    let mapped = go(&config);
+    assert_eq!((mapped.computed, mapped.skipped), (1, 3), "{mapped:?}");
+}

@@ -2081,3 +2081,63 @@ fn a_closed_stdout_ends_the_process_without_a_panic() {
         out.status
     );
 }
+
+/// A batch's reports are keyed by content: a rerun with more models adds them to the
+/// report (keeping the models it had, bit for bit), and one with another metric, another
+/// bin size, or other data under the same file name redoes the report (before keys each
+/// of these said "already done" and kept the stale report). Reports of one name and
+/// settings from different data do not merge.
+#[test]
+fn batch_fits_are_keyed_by_content() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, out) = (dir.path().join("data"), dir.path().join("reports"));
+    std::fs::create_dir(&data).unwrap();
+    let ward = |alpha: f64| serde_json::json!({"type": "ward", "diffuse": 0.1, "specular": 0.2, "alpha": alpha});
+    write_binned(ward(0.1), (16, 36), &data.join("paint.bin"));
+    let report = out.join("paint.fit.json");
+    let fit = |extra: &[&str]| -> (String, serde_json::Value) {
+        let mut a = vec!["fit", data.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        a.extend_from_slice(extra);
+        let o = lobe().args(&a).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(o.status.success(), "{err}");
+        let v = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (err, v)
+    };
+    let (_, first) = fit(&["--models", "ward"]);
+    assert_eq!(first["key"]["data"].as_str().unwrap().len(), 64);
+    let (err, v) = fit(&["--models", "ward"]);
+    assert!(err.contains("fitted 0 materials, 1 already done"), "{err}");
+    assert_eq!(v, first);
+    // More models: added, the old fit kept as it was.
+    let (err, v) = fit(&["--models", "ward,lafortune"]);
+    assert!(err.contains("fitted 1 materials, 0 already done"), "{err}");
+    assert_eq!(v["models"]["ward"], first["models"]["ward"]);
+    assert!(v["models"]["lafortune"]["error"].as_f64().unwrap() > 0.0);
+    assert_eq!(v["key"], first["key"]);
+    // Another metric or bin size: redone under another key.
+    let (_, v) = fit(&["--models", "ward", "--metric", "log"]);
+    assert_eq!(v["metric"], "log");
+    assert_ne!(v["key"]["settings"], first["key"]["settings"]);
+    assert!(v["models"].get("lafortune").is_none());
+    let (_, v) = fit(&["--models", "ward", "--resolution", "6"]);
+    assert_eq!(v["resolution_deg"], 6.0);
+    // Other data under the same name: redone.
+    let (_, before) = fit(&["--models", "ward"]);
+    let old = dir.path().join("old");
+    std::fs::create_dir(&old).unwrap();
+    std::fs::copy(&report, old.join("paint.fit.json")).unwrap();
+    write_binned(ward(0.3), (16, 36), &data.join("paint.bin"));
+    let (_, v) = fit(&["--models", "ward"]);
+    assert_ne!(v["key"]["data"], before["key"]["data"]);
+    let alpha = v["models"]["ward"]["material"]["alpha"].as_f64().unwrap();
+    assert!((alpha - 0.3).abs() < 0.03, "{alpha}");
+    let o = lobe()
+        .args(["fit", "merge", out.to_str().unwrap(), old.to_str().unwrap()])
+        .args(["-o", dir.path().join("t").to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("from different data"), "{err}");
+}

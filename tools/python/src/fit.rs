@@ -7,7 +7,7 @@
 
 use crate::material::Material;
 use crate::{file_err, guarded, interrupt, to_py};
-use lobe_analysis::fitting::{FitOptions, data_material, fit_material_with, stem};
+use lobe_analysis::fitting::{FitOptions, data_material, file_key, fit_material_with, stem};
 use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
@@ -76,14 +76,19 @@ fn fit(
                     let d = Dataset::read(p, resolution)?;
                     let measured = data_material(&registry, p, &opts)?;
                     let source = p.display().to_string();
-                    fit_material_with(
+                    let key = file_key(p, &opts)?;
+                    let r = fit_material_with(
                         &registry,
                         (&stem(p), &source),
                         (&d, measured.as_deref()),
                         &opts,
                         &stop,
                         &on_model,
-                    )
+                    )?;
+                    Ok(FitReport {
+                        key: Some(key),
+                        ..r
+                    })
                 }
                 Source::Values(b) => {
                     let d = Dataset::isotropic(&|wi, wo| Some(b.eval(wo, wi)), resolution);

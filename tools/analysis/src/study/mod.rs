@@ -12,8 +12,9 @@
 //! (docs/study.md).
 //!
 //! Every step writes each file by temp file and rename and counts as done when its last
-//! file exists, so an interrupted study resumes where it stopped and a rerun computes only
-//! what is missing; a shard (i of n) takes every n-th material for job arrays, and the
+//! file exists and records the step's content key (the digests of the data, the map and
+//! the settings), so an interrupted study resumes where it stopped and a rerun computes
+//! only what is missing or was made from other data; a shard (i of n) takes every n-th material for job arrays, and the
 //! report is built once every material is complete.
 
 pub mod site;
@@ -219,6 +220,14 @@ impl StudyMaterial {
         }
     }
 
+    /// The digest of the data: the file's bytes, or the analytic description.
+    pub fn digest(&self) -> Result<String, Error> {
+        Ok(match &self.source {
+            Source::File(p) => lobe_materials::key::file_digest(p, "measured data")?,
+            Source::Analytic(d) => crate::fitting::material_digest(d),
+        })
+    }
+
     /// Where the data comes from, for reports and pages.
     pub fn source_text(&self) -> String {
         match &self.source {
@@ -331,6 +340,15 @@ pub struct Env {
     pub name: String,
     /// What the scene's envmap light reads (a path or builtin:studio).
     pub file: String,
+    /// The digest of its content ([`lobe_materials::key::input_digest`]).
+    pub digest: String,
+}
+
+impl Env {
+    fn new(name: String, file: String) -> Result<Self, Error> {
+        let digest = lobe_materials::key::input_digest(&file, "an EXR or HDR environment map")?;
+        Ok(Self { name, file, digest })
+    }
 }
 
 /// The environment maps: the configured ones, or builtin:studio and the embedded sunset
@@ -345,14 +363,8 @@ pub fn environments(config: &StudyConfig) -> Result<Vec<Env>, Error> {
         }
         let abs = std::fs::canonicalize(&sunset).unwrap_or(sunset);
         return Ok(vec![
-            Env {
-                name: "studio".into(),
-                file: "builtin:studio".into(),
-            },
-            Env {
-                name: "sunset".into(),
-                file: abs.display().to_string(),
-            },
+            Env::new("studio".into(), "builtin:studio".into())?,
+            Env::new("sunset".into(), abs.display().to_string())?,
         ]);
     }
     let mut v: Vec<Env> = Vec::new();
@@ -379,7 +391,7 @@ pub fn environments(config: &StudyConfig) -> Result<Vec<Env>, Error> {
                 .display()
                 .to_string(),
         };
-        v.push(Env { name, file });
+        v.push(Env::new(name, file)?);
     }
     Ok(v)
 }
@@ -505,6 +517,7 @@ pub fn run_materials(
         layout: &layout,
         envs: &envs,
         stop,
+        digests: Default::default(),
     };
     let plan: Vec<(&StudyMaterial, steps::Step)> = mine
         .iter()

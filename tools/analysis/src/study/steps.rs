@@ -1,5 +1,7 @@
 //! The steps of a study, per material (see [`super`]): where each writes
-//! ([`Layout`]), when it is done (its last file exists) and how it runs: the fits with
+//! ([`Layout`]), when it is done (its last file exists and records the step's content key:
+//! the digest of the material's data, of the environment map and of the settings,
+//! [`lobe_materials::key`]) and how it runs: the fits with
 //! selection (Ngan et al. section 4), the microfacet estimate (section 5), the sphere
 //! images under one environment map with image errors, intervals and equal-time errors
 //! (Figures 3 and 6), the polar and lobe plots (Figures 4, 7, 8).
@@ -9,10 +11,11 @@ use crate::convergence;
 use crate::cost::measure;
 use crate::figures;
 use crate::fit_images::FitEnvironment;
-use crate::fitting::{FitOptions, fit_material};
+use crate::fitting::{FitOptions, Resume, complete_report};
 use crate::sphere_errors::{self, RepError, Stage};
 use lobe_materials::Bsdf;
-use lobe_materials::fit::report::{self, FitReport};
+use lobe_materials::fit::report::{self, FitKey, FitReport};
+use lobe_materials::key::KeyBuilder;
 use lobe_materials::fit::{ANISOTROPIC_DEFAULT, Stop, builtin_specs};
 use lobe_materials::microfacet_gen::estimate;
 use lobe_materials::registry::{BuildContext, Registry};
@@ -79,6 +82,11 @@ impl Layout {
     pub fn lobes_name(m: &str, angle: f64) -> String {
         format!("{m}-lobes-{angle:.0}")
     }
+
+    /// The record of a material's plots (their names and key), written after them.
+    pub fn plots_record(&self, m: &str) -> PathBuf {
+        self.at(&format!("figures/{m}-plots.json"))
+    }
 }
 
 /// What every step needs.
@@ -88,6 +96,24 @@ pub struct Context<'a> {
     pub layout: &'a Layout,
     pub envs: &'a [Env],
     pub stop: &'a Stop<'a>,
+    /// The digests of the materials' data, computed once per run.
+    pub digests: Digests,
+}
+
+/// The digest of each material's data (its file's bytes, or its description), made the
+/// first time a step asks; a file that cannot be read has none (its steps are never done,
+/// and the fit step reports the error).
+#[derive(Default)]
+pub struct Digests(std::sync::Mutex<std::collections::BTreeMap<String, Option<String>>>);
+
+impl Digests {
+    fn of(&self, m: &StudyMaterial) -> Option<String> {
+        let mut cache = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        cache
+            .entry(m.name.clone())
+            .or_insert_with(|| m.digest().ok())
+            .clone()
+    }
 }
 
 impl Context<'_> {
@@ -154,26 +180,74 @@ impl Step {
             Step::Fit => l.fit(&m.name),
             Step::Microfacet => l.microfacet(&m.name, "json"),
             Step::Renders(k) => l.renders(&m.name, &ctx.envs[*k].name).join("metrics.json"),
-            Step::Plots => {
-                let a = ctx.settings.angles.last().copied().unwrap_or(45.0);
-                l.figure(&Layout::lobes_name(&m.name, a))
-            }
+            Step::Plots => l.plots_record(&m.name),
         }
     }
 
+    /// The step's content key: what its outputs were made from. None when the data
+    /// cannot be read.
+    pub fn key(&self, ctx: &Context<'_>, m: &StudyMaterial) -> Option<String> {
+        let data = ctx.digests.of(m)?;
+        let settings = ctx.settings.to_json();
+        let k = KeyBuilder::new("study-step")
+            .text("data", &data)
+            .json("settings", &settings);
+        Some(match self {
+            Step::Fit => fit_options(ctx.settings, false).key(data).ok()?.settings,
+            Step::Microfacet => k.text("step", "microfacet").finish(),
+            Step::Renders(e) => k
+                .text("step", "renders")
+                .text("environment", &ctx.envs[*e].digest)
+                .finish(),
+            Step::Plots => k.text("step", "plots").finish(),
+        })
+    }
+
+    /// Done when its last file exists and records the step's key (a fit report: every
+    /// model of the same data and settings, and a selection).
     pub fn done(&self, ctx: &Context<'_>, m: &StudyMaterial) -> bool {
-        self.last_file(ctx, m).exists()
+        let last = self.last_file(ctx, m);
+        let Some(key) = self.key(ctx, m) else {
+            return false;
+        };
+        match self {
+            Step::Fit => {
+                let Some(r) = crate::fitting::existing_report(&last) else {
+                    return false;
+                };
+                let want = FitKey {
+                    data: ctx.digests.of(m).unwrap_or_default(),
+                    settings: key,
+                };
+                let opts = fit_options(ctx.settings, r.anisotropic);
+                crate::fitting::resume(Some(&r), &want, &opts).ok() == Some(Resume::Done)
+            }
+            _ => recorded_key(&last).as_deref() == Some(key.as_str()),
+        }
     }
 
     pub fn run(&self, ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
         parent_dir(&self.last_file(ctx, m))?;
+        let key = || {
+            self.key(ctx, m).ok_or_else(|| {
+                m.digest()
+                    .err()
+                    .unwrap_or_else(|| Error::Other(format!("{}: no content key", m.name)))
+            })
+        };
         match self {
             Step::Fit => fit(ctx, m),
-            Step::Microfacet => microfacet(ctx, m),
-            Step::Renders(k) => renders(ctx, m, &ctx.envs[*k]),
-            Step::Plots => plots(ctx, m),
+            Step::Microfacet => microfacet(ctx, m, &key()?),
+            Step::Renders(k) => renders(ctx, m, &ctx.envs[*k], &key()?),
+            Step::Plots => plots(ctx, m, &key()?),
         }
     }
+}
+
+/// The `key` a step's JSON file records, if it reads.
+fn recorded_key(path: &Path) -> Option<String> {
+    let v = lobe_materials::json::read(path).ok()?;
+    v.get("key")?.as_str().map(str::to_string)
 }
 
 /// The models fitted to data: the configured list (with anisotropic Ward added for 4D
@@ -199,29 +273,39 @@ pub fn models_for(settings: &Settings, anisotropic: bool) -> String {
     }
 }
 
-/// Fits every model and selects the cheapest adequate one (fits/NAME.fit.json).
-fn fit(ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
-    let s = ctx.settings;
-    let data = m.dataset(ctx.registry, s.resolution)?;
-    let opts = FitOptions {
-        models: Some(models_for(s, data.anisotropic)),
+/// The fit options of the study's settings, for isotropic or anisotropic data.
+fn fit_options(s: &Settings, anisotropic: bool) -> FitOptions {
+    FitOptions {
+        models: Some(models_for(s, anisotropic)),
         resolution: s.resolution,
         max_evals: s.max_evals,
         select: Some(s.tolerance),
         ..Default::default()
-    };
+    }
+}
+
+/// Fits every model and selects the cheapest adequate one (fits/NAME.fit.json); a report
+/// of the same key keeps its models and gets only those it lacks.
+fn fit(ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
+    let s = ctx.settings;
+    let data = m.dataset(ctx.registry, s.resolution)?;
+    let opts = fit_options(s, data.anisotropic);
+    let key = opts.key(m.digest()?)?;
+    let path = ctx.layout.fit(&m.name);
+    let existing = crate::fitting::existing_report(&path);
+    let plan = crate::fitting::resume(existing.as_ref(), &key, &opts)?;
     let source = m.source_text();
-    let r = fit_material(
+    let r = complete_report(
         ctx.registry,
-        &m.name,
-        &source,
-        &data,
+        (existing, plan, key),
+        (&m.name, &source),
+        (&data, None),
         &opts,
         ctx.stop,
         &|_| {},
     )?;
     ctx.interrupted()?;
-    Ok(report::write(&ctx.layout.fit(&m.name), &r)?)
+    Ok(report::write(&path, &r)?)
 }
 
 /// Cost and memory of a material, as JSON.
@@ -232,7 +316,7 @@ fn cost_json(b: &dyn Bsdf) -> Value {
 
 /// The microfacet distribution estimated from the data (section 5): its table (EXR), its
 /// picture (PNG) and its error, material and the costs of it and of the measured data.
-fn microfacet(ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
+fn microfacet(ctx: &Context<'_>, m: &StudyMaterial, key: &str) -> Result<(), Error> {
     let s = ctx.settings;
     let data = m.dataset(ctx.registry, s.resolution)?;
     let est = estimate(&data, s.microfacet_nodes, None, s.microfacet_iterations)
@@ -245,6 +329,7 @@ fn microfacet(ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
     let measured = ctx.build(&m.desc()?, &m.name)?;
     let micro = ctx.build(&desc, "sampled-microfacet")?;
     let v = json!({
+        "key": key,
         "error": est.error,
         "error_normalized": est.error / data.max_albedo.max(1e-300),
         "material": desc,
@@ -298,7 +383,7 @@ fn error_json(e: &RepError) -> Value {
 /// each representation's speed/accuracy curve ([`crate::convergence`]) and its error at
 /// equal time: in the time the measured data's render takes at the study's spp.
 /// metrics.json last.
-fn renders(ctx: &Context<'_>, m: &StudyMaterial, env: &Env) -> Result<(), Error> {
+fn renders(ctx: &Context<'_>, m: &StudyMaterial, env: &Env, key: &str) -> Result<(), Error> {
     let s = ctx.settings;
     let dir = ctx.layout.renders(&m.name, &env.name);
     let reps = representations(ctx, m)?;
@@ -350,7 +435,7 @@ fn renders(ctx: &Context<'_>, m: &StudyMaterial, env: &Env) -> Result<(), Error>
         })
         .collect();
     let v = json!({
-        "environment": env.name, "size": s.size, "spp": est.spp, "passes": est.passes,
+        "key": key, "environment": env.name, "size": s.size, "spp": est.spp, "passes": est.passes,
         "batches": est.batches, "noise_floor": est.noise_floor,
         "exposure": est.exposure, "noise_target_met": est.noise_target_met,
         "interval_target_met": est.interval_target_met,
@@ -369,7 +454,7 @@ pub fn headline_fits(r: &FitReport, k: usize) -> Vec<String> {
 
 /// Polar plots and lobe contour plots (green channel) at each of the
 /// study's incidence angles, of the data and of its headline fits.
-fn plots(ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
+fn plots(ctx: &Context<'_>, m: &StudyMaterial, key: &str) -> Result<(), Error> {
     let r = report::read(&ctx.layout.fit(&m.name))?;
     let measured = ctx.build(&m.desc()?, &m.name)?;
     let mut fits = Vec::new();
@@ -388,5 +473,14 @@ fn plots(ctx: &Context<'_>, m: &StudyMaterial) -> Result<(), Error> {
         figures::lobe_contours(&m.name, &panels, a, 1)?
             .save(&ctx.layout.figure(&Layout::lobes_name(&m.name, a)))?;
     }
-    Ok(())
+    let names: Vec<String> = ctx
+        .settings
+        .angles
+        .iter()
+        .flat_map(|&a| [Layout::polar_name(&m.name, a), Layout::lobes_name(&m.name, a)])
+        .collect();
+    write_json(
+        &ctx.layout.plots_record(&m.name),
+        &json!({"key": key, "figures": names}),
+    )
 }

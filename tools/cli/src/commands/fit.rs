@@ -6,7 +6,7 @@
 use crate::args::{finite, parse_shard};
 use crate::material::{MaterialArgs, MaterialSource};
 use lobe_analysis::fitting::{
-    BatchProgress, BatchSummary, FitOptions, batch_jobs, data_material, fit_batch,
+    BatchProgress, BatchSummary, FitOptions, batch_jobs, data_material, file_key, fit_batch,
     fit_material_with, stem,
 };
 use lobe_analysis::reports::{merge, read_reports, report_files};
@@ -360,7 +360,11 @@ pub fn cmd_fit(args: FitArgs, quiet: bool) -> Result<(), Error> {
             )?;
             let source = p.display().to_string();
             let d = (&data, measured.as_deref());
-            fit_report((&stem(p), &source), d, &args, quiet, &stop)?
+            let key = file_key(p, &options(&args))?;
+            FitReport {
+                key: Some(key),
+                ..fit_report((&stem(p), &source), d, &args, quiet, &stop)?
+            }
         }
         None => {
             let source = MaterialSource::new(&args.material)?;
