@@ -23,6 +23,7 @@ pub mod integrators;
 pub mod lights;
 pub mod limits;
 pub mod outputs;
+pub mod partial;
 pub mod render;
 pub mod sampler;
 pub mod scene;

@@ -8,6 +8,7 @@
 use crate::Rgb;
 use crate::error::{Error, Result};
 use crate::film::Image;
+use crate::partial::PartialRender;
 use crate::integrators::wavefront::{CameraQueue, Wavefront};
 use crate::limits::MAX_THREADS;
 use crate::sampler::Sampler;
@@ -15,6 +16,7 @@ use crate::scene::Scene;
 use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::ops::Range;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use wide::f64x4;
@@ -144,8 +146,8 @@ struct TileResult {
     y0: u32,
     w: u32,
     h: u32,
-    mean: Vec<Rgb>,
-    var: Vec<Rgb>,
+    /// The tile's pixels in row-major order.
+    sums: Vec<PixelSums>,
     dropped: u64,
 }
 
@@ -179,32 +181,31 @@ impl PixelSums {
         }
     }
 
+    /// The sums of r, g, b and of their squares.
+    fn channels(&self) -> ([f64; 3], [f64; 3]) {
+        let (s, s2) = (self.sum.to_array(), self.sum2.to_array());
+        ([s[0], s[1], s[2]], [s2[0], s2[1], s2[2]])
+    }
+
     /// The mean and the variance of the mean.
     fn mean_and_variance(&self) -> (Rgb, Rgb) {
-        let (sum, sum2, n) = (self.sum.to_array(), self.sum2.to_array(), self.n);
-        let nf = n.max(1) as f64;
-        let m = sum.map(|s| s / nf);
-        let v: [f64; 3] = std::array::from_fn(|k| {
-            if n > 1 {
-                ((sum2[k] - sum[k] * m[k]) / (nf - 1.0)).max(0.0) / nf
-            } else {
-                0.0
-            }
-        });
-        (
-            Rgb::new(m[0] as f32, m[1] as f32, m[2] as f32),
-            Rgb::new(v[0] as f32, v[1] as f32, v[2] as f32),
-        )
+        let (sum, sum2) = self.channels();
+        crate::partial::mean_and_variance(sum, sum2, self.n)
     }
 }
 
-/// Renders one tile; returns None as soon as `cancel` is set (checked per wavefront, so
-/// that a high-spp render stops promptly). The tile's pixels, in row-major order, are cut
-/// into pieces of at most [`WAVEFRONT`] samples, and consecutive pieces are traced
+/// Renders the samples `samples` of each pixel of one tile; returns None as soon as
+/// `cancel` is set (checked per wavefront, so that a high-spp render stops promptly). The
+/// tile's pixels, in row-major order, are cut into pieces of at most [`WAVEFRONT`] samples, and consecutive pieces are traced
 /// together up to that many samples: every sample's numbers depend on its pixel and
 /// index alone, and each pixel sums its samples in order, so the image does not depend
 /// on how the pieces are grouped.
-fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> Option<TileResult> {
+fn render_tile(
+    scene: &Scene,
+    (x0, y0): (u32, u32),
+    samples: Range<u32>,
+    cancel: Option<&AtomicBool>,
+) -> Option<TileResult> {
     let w = TILE.min(scene.width - x0);
     let h = TILE.min(scene.height - y0);
     let spp = scene.spp;
@@ -216,14 +217,15 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
     let mut sums = vec![PixelSums::ZERO; pixels.len()];
     let mut dropped = 0u64;
     // (pixel, first sample, samples) of each piece, in order.
-    let piece = spp.min(WAVEFRONT);
+    let (begin, end) = (samples.start, samples.end.min(spp));
+    let piece = (end - begin.min(end)).clamp(1, WAVEFRONT);
     let mut pieces = (0..pixels.len())
         .flat_map(|p| {
-            (0..spp)
+            (begin..end)
                 .step_by(piece as usize)
                 .map(move |first| (p, first))
         })
-        .map(|(p, first)| (p, first, (spp - first).min(piece)))
+        .map(|(p, first)| (p, first, (end - first).min(piece)))
         .peekable();
     let mut radiance = Vec::new();
     let mut owners: Vec<(usize, usize)> = Vec::new();
@@ -262,14 +264,12 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
             rest = others;
         }
     }
-    let (mean, var) = sums.iter().map(PixelSums::mean_and_variance).unzip();
     Some(TileResult {
         x0,
         y0,
         w,
         h,
-        mean,
-        var,
+        sums,
         dropped,
     })
 }
@@ -278,6 +278,92 @@ fn render_tile(scene: &Scene, x0: u32, y0: u32, cancel: Option<&AtomicBool>) -> 
 /// [`MAX_THREADS`] threads, allocates the film fallibly (an error, not an abort, under a
 /// memory limit) and starts no more threads than there are tiles.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats)> {
+    let mut img = Image::try_new(scene.width, scene.height)?;
+    img.variance_dof = (scene.spp.max(2) - 1) as f64;
+    // Each finished tile goes straight into the film, so memory is the film plus a tile
+    // per thread; every pixel's value is computed by one tile alone, so the order in
+    // which tiles finish changes nothing.
+    let film = Mutex::new(&mut img);
+    let width = scene.width;
+    let run = run_tiles(scene, 0..scene.spp, opts, &|t: &TileResult| {
+        let mut img = film.lock().unwrap_or_else(|e| e.into_inner());
+        for j in 0..t.h {
+            for i in 0..t.w {
+                let dst = ((t.y0 + j) * width + t.x0 + i) as usize;
+                let (m, v) = t.sums[(j * t.w + i) as usize].mean_and_variance();
+                img.pixels[dst] = m;
+                img.variance[dst] = v;
+            }
+        }
+    })?;
+    Ok((img, run.stats(scene, scene.spp)))
+}
+
+/// Renders the samples `first..last` of every pixel (of the scene's `spp`), as per-pixel
+/// sums that add up with other ranges' to the whole render ([`PartialRender`]).
+pub fn render_samples(
+    scene: &Scene,
+    (first, last): (u32, u32),
+    opts: &RenderOptions,
+) -> Result<(PartialRender, RenderStats)> {
+    if !(first < last && last <= scene.spp) {
+        return Err(Error::Other(format!(
+            "samples {first}:{last}: expected a range FIRST:LAST with 0 <= FIRST < LAST <= {} (the scene's samples per pixel)",
+            scene.spp
+        )));
+    }
+    let size = (scene.width, scene.height);
+    let mut part = PartialRender::try_new(size, scene.spp, (first, last), scene.render_key())?;
+    let sums = Mutex::new(&mut part);
+    let width = scene.width;
+    let run = run_tiles(scene, first..last, opts, &|t: &TileResult| {
+        let mut p = sums.lock().unwrap_or_else(|e| e.into_inner());
+        for j in 0..t.h {
+            for i in 0..t.w {
+                let dst = ((t.y0 + j) * width + t.x0 + i) as usize;
+                let px = &t.sums[(j * t.w + i) as usize];
+                (p.sum[dst], p.sum2[dst]) = px.channels();
+                p.count[dst] = px.n;
+            }
+        }
+    })?;
+    part.dropped = run.dropped;
+    Ok((part, run.stats(scene, last - first)))
+}
+
+/// What a pass over the tiles did.
+struct TileRun {
+    seconds: f64,
+    threads: usize,
+    dropped: u64,
+}
+
+impl TileRun {
+    fn stats(&self, scene: &Scene, spp: u32) -> RenderStats {
+        RenderStats {
+            width: scene.width,
+            height: scene.height,
+            spp,
+            seconds: self.seconds,
+            samples: scene.width as u64 * scene.height as u64 * spp as u64,
+            nonfinite_dropped: self.dropped,
+            threads: self.threads,
+            primitives: scene.geometry.prims.len(),
+            bvh_build_seconds: scene.geometry.build_seconds,
+            bvh_bytes: scene.geometry.bvh_memory_bytes(),
+            primitive_bytes: scene.geometry.primitive_memory_bytes(),
+        }
+    }
+}
+
+/// Renders the samples `samples` of every tile in parallel, handing each finished tile to
+/// `store` and reporting progress; an error when cancelled.
+fn run_tiles(
+    scene: &Scene,
+    samples: Range<u32>,
+    opts: &RenderOptions,
+    store: &(dyn Fn(&TileResult) + Sync),
+) -> Result<TileRun> {
     let tiles: Vec<(u32, u32)> = (0..scene.height.div_ceil(TILE))
         .flat_map(|ty| (0..scene.width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
@@ -298,20 +384,14 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
     let threads = pool
         .as_ref()
         .map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
-    let mut img = Image::try_new(scene.width, scene.height)?;
-    img.variance_dof = (scene.spp.max(2) - 1) as f64;
     let total = scene.width as u64 * scene.height as u64;
     // Pixels done; its lock also keeps the progress calls one at a time and in order.
     let done = Mutex::new(0u64);
     let cancelled = AtomicBool::new(false);
     let dropped = AtomicU64::new(0);
     let start = Instant::now();
-    // Each finished tile goes straight into the film, so memory is the film plus a tile
-    // per thread; every pixel's value is computed by one tile alone, so the order in
-    // which tiles finish changes nothing.
-    let film = std::sync::Mutex::new(&mut img);
     let run = || {
-        tiles.par_iter().for_each(|&(x0, y0)| {
+        tiles.par_iter().for_each(|&tile| {
             let stop = || {
                 opts.cancel
                     .as_ref()
@@ -321,22 +401,13 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
                 cancelled.store(true, Ordering::Relaxed);
                 return;
             }
-            let Some(t) = render_tile(scene, x0, y0, opts.cancel.as_deref()) else {
+            let Some(t) = render_tile(scene, tile, samples.clone(), opts.cancel.as_deref())
+            else {
                 cancelled.store(true, Ordering::Relaxed);
                 return;
             };
             dropped.fetch_add(t.dropped, Ordering::Relaxed);
-            {
-                let mut img = film.lock().unwrap_or_else(|e| e.into_inner());
-                for j in 0..t.h {
-                    for i in 0..t.w {
-                        let dst = ((t.y0 + j) * scene.width + t.x0 + i) as usize;
-                        let src = (j * t.w + i) as usize;
-                        img.pixels[dst] = t.mean[src];
-                        img.variance[dst] = t.var[src];
-                    }
-                }
-            }
+            store(&t);
             if let Some(p) = &opts.progress {
                 let mut d = done.lock().unwrap_or_else(|e| e.into_inner());
                 *d += (t.w * t.h) as u64;
@@ -354,18 +425,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
             "render interrupted; nothing was written".into(),
         ));
     }
-    let stats = RenderStats {
-        width: scene.width,
-        height: scene.height,
-        spp: scene.spp,
+    Ok(TileRun {
         seconds,
-        samples: scene.width as u64 * scene.height as u64 * scene.spp as u64,
-        nonfinite_dropped: dropped.into_inner(),
         threads,
-        primitives: scene.geometry.prims.len(),
-        bvh_build_seconds: scene.geometry.build_seconds,
-        bvh_bytes: scene.geometry.bvh_memory_bytes(),
-        primitive_bytes: scene.geometry.primitive_memory_bytes(),
-    };
-    Ok((img, stats))
+        dropped: dropped.into_inner(),
+    })
 }

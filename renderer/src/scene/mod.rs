@@ -65,6 +65,25 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Indices of environment-like lights (env maps, constant), evaluated on escape.
     pub infinite_lights: Vec<u32>,
+    /// The digest of the scene description and the folder its paths resolve against
+    /// ([`lobe_materials::key`]; the files it names are not read into it).
+    pub description_digest: String,
+}
+
+impl Scene {
+    /// The key of this scene's render as now set up: its description with the samples per
+    /// pixel, seed, scrambling and film size (which callers may override after loading).
+    /// Parts of one render share it ([`crate::partial`]).
+    pub fn render_key(&self) -> String {
+        lobe_materials::key::KeyBuilder::new("render")
+            .text("scene", &self.description_digest)
+            .number("spp", self.spp as f64)
+            .text("seed", &self.seed.to_string())
+            .text("scramble", self.scramble.name())
+            .number("width", self.width as f64)
+            .number("height", self.height as f64)
+            .finish()
+    }
 }
 
 /// A procedural image, made only when a scene refers to it.
@@ -299,6 +318,10 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
         shapes: shapes.shapes,
         lights,
         infinite_lights,
+        description_digest: lobe_materials::key::KeyBuilder::new("scene")
+            .json("scene", v)
+            .text("base", &base.display().to_string())
+            .finish(),
     })
 }
 

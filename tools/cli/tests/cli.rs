@@ -2141,3 +2141,44 @@ fn batch_fits_are_keyed_by_content() {
     assert!(!o.status.success());
     assert!(err.contains("from different data"), "{err}");
 }
+
+/// `--samples A:B` writes a partial render and `render merge` joins parts of disjoint
+/// ranges into the whole render's image (to within one f32 step per pixel); a merge of
+/// parts that miss samples is refused and writes nothing.
+#[test]
+fn partial_renders_merge_into_the_whole_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.json"), SCENE.replace("\"spp\": 4", "\"spp\": 8")).unwrap();
+    let run = |args: &[&str]| {
+        let o = lobe_in(d, args);
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&["render", "s.json", "-o", "whole.exr", "-q"]);
+    run(&["render", "s.json", "--samples", "3:8", "-o", "b.lobepart", "-q"]);
+    run(&["render", "s.json", "--samples", "0:3", "-o", "a.lobepart", "-q"]);
+    refused_in(
+        d,
+        &["render", "merge", "b.lobepart", "-o", "m.exr"],
+        &["expected every sample"],
+    );
+    assert!(!d.join("m.exr").exists());
+    run(&["render", "merge", "b.lobepart", "a.lobepart", "-o", "m.exr", "-q"]);
+    let read = |f: &str| lobe_renderer::image_io::read_exr(&d.join(f)).unwrap();
+    let (w, m) = (read("whole.exr"), read("m.exr"));
+    for (a, b) in w.pixels.iter().zip(&m.pixels) {
+        for (x, y) in a.to_array().iter().zip(b.to_array()) {
+            assert!((x - y).abs() <= 1e-6 * x.abs().max(1e-30), "{x} vs {y}");
+        }
+    }
+    refused_in(
+        d,
+        &["render", "s.json", "--samples", "4:9", "-o", "c.lobepart"],
+        &["samples 4:9", "expected a range"],
+    );
+    refused_in(
+        d,
+        &["render", "s.json", "--samples", "0:4", "-o", "c.exr"],
+        &["expected -o NAME.lobepart"],
+    );
+}

@@ -1,19 +1,25 @@
 //! `lobe render`: render a scene file (or the built-in showcase) to EXR, a tonemapped PNG
-//! and a statistics JSON, or benchmark the renderer (`--bench`, Msamples/s).
+//! and a statistics JSON, or benchmark the renderer (`--bench`, Msamples/s); render a range
+//! of the samples to a partial render (`--samples A:B`, [`lobe_renderer::partial`]) and
+//! join partial renders into the image (`lobe render merge`).
 
 use crate::args::{self, finite};
 use lobe_analysis::plot::draw_labels;
 use lobe_materials::io::OutputSet;
 use lobe_renderer::film::Image;
 use lobe_renderer::outputs::{FilePlan, RenderFiles};
-use lobe_renderer::render::{Progress, RenderOptions, RenderStats, render};
+use lobe_renderer::partial::PartialRender;
+use lobe_renderer::render::{Progress, RenderOptions, RenderStats, render, render_samples};
 use lobe_renderer::scene::Scene;
 use lobe_renderer::{Error, film, image_io};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct RenderArgs {
+    #[command(subcommand)]
+    sub: Option<RenderSub>,
     /// Scene file (JSON, see docs/scene-format.md). Without it, the built-in showcase.
     scene: Option<PathBuf>,
     /// Output path, NAME.exr or NAME.png: the render writes NAME.exr (linear), NAME.png
@@ -48,6 +54,34 @@ pub struct RenderArgs {
     /// Number of timed runs for --bench.
     #[arg(long, default_value_t = 3, requires = "bench")]
     runs: u32,
+    /// Render only the samples FIRST to LAST-1 of every pixel (of the scene's spp) to a
+    /// partial render, -o NAME.lobepart; `lobe render merge` joins the parts of disjoint
+    /// ranges into the whole render's image.
+    #[arg(long, value_name = "FIRST:LAST", conflicts_with = "bench")]
+    samples: Option<String>,
+}
+
+#[derive(clap::Subcommand)]
+enum RenderSub {
+    /// Join partial renders (`lobe render --samples A:B`) of one scene whose ranges cover
+    /// every sample into the image, NAME.exr with NAME.png and NAME.stats.json.
+    Merge {
+        /// The partial renders (.lobepart), in any order.
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// Output path, NAME.exr or NAME.png.
+        #[arg(long, short)]
+        output: PathBuf,
+        /// PNG exposure in stops.
+        #[arg(long, default_value_t = 0.0, value_parser = finite::<f32>)]
+        exposure: f32,
+        /// Do not write the PNG.
+        #[arg(long)]
+        no_png: bool,
+        /// Also write the variance of each pixel's mean as NAME.var.exr.
+        #[arg(long)]
+        variance: bool,
+    },
 }
 
 fn load_scene(args: &RenderArgs) -> Result<Scene, Error> {
@@ -85,6 +119,17 @@ fn render_files(args: &RenderArgs) -> Result<RenderFiles, Error> {
 }
 
 pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
+    if let Some(RenderSub::Merge {
+        inputs,
+        output,
+        exposure,
+        no_png,
+        variance,
+    }) = &args.sub
+    {
+        let files = RenderFiles::new(output, !no_png, *variance)?;
+        return merge_parts(inputs, &files, *exposure, quiet);
+    }
     if args.threads == Some(0) {
         return Err(Error::Other(
             "--threads: expected at least 1 thread, found 0".into(),
@@ -110,6 +155,9 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
     if args.bench {
         let ack = "interrupted: stopping the benchmark; Ctrl-C again to abort";
         return bench(&load_scene(&args)?, &opts(ack, None), args.runs, quiet);
+    }
+    if let Some(range) = &args.samples {
+        return render_part(&args, range, &opts, quiet);
     }
     let files = render_files(&args)?;
     let mut plan = FilePlan::new();
@@ -156,6 +204,95 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
         eprintln!("wrote {}", all.join(", "));
     }
     stats.check_dropped(&scene.file)
+}
+
+/// The range of `--samples FIRST:LAST`.
+fn parse_range(s: &str) -> Result<(u32, u32), Error> {
+    let bad = || Error::Other(format!("--samples: expected FIRST:LAST (sample indices, FIRST < LAST), found \"{s}\""));
+    let (a, b) = s.split_once(':').ok_or_else(bad)?;
+    let (a, b) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+    if a >= b {
+        return Err(bad());
+    }
+    Ok((a, b))
+}
+
+/// `--samples FIRST:LAST`: renders that range of every pixel's samples to -o NAME.lobepart.
+fn render_part(
+    args: &RenderArgs,
+    range: &str,
+    opts: &dyn Fn(&'static str, Option<&indicatif::ProgressBar>) -> RenderOptions,
+    quiet: bool,
+) -> Result<(), Error> {
+    let range = parse_range(range)?;
+    let output = args
+        .output
+        .clone()
+        .filter(|o| o.extension().is_some_and(|e| e == "lobepart"))
+        .ok_or_else(|| {
+            Error::Other("--samples: expected -o NAME.lobepart, the partial render to write".into())
+        })?;
+    let mut plan = FilePlan::new();
+    if let Some(scene) = &args.scene {
+        plan.scene(scene)?;
+    }
+    plan.output(&output, "partial render").check()?;
+    let scene = load_scene(args)?;
+    let ack = "interrupted: stopping the render, nothing is written; Ctrl-C again to abort";
+    let (part, stats) = render_samples(&scene, range, &opts(ack, None))?;
+    if args::cancelled() {
+        return Err(Error::Other("interrupted after the render: nothing is written".into()));
+    }
+    let bytes = part.to_bytes();
+    film::atomic_write(&output, |w| std::io::Write::write_all(w, &bytes))?;
+    if !quiet {
+        eprintln!("samples {}:{} of {}: {}", range.0, range.1, scene.spp, stats.summary());
+        eprintln!("wrote {}", output.display());
+    }
+    stats.check_dropped(&scene.file)
+}
+
+/// `lobe render merge`: joins partial renders into the image files.
+fn merge_parts(inputs: &[PathBuf], files: &RenderFiles, exposure: f32, quiet: bool) -> Result<(), Error> {
+    let mut plan = FilePlan::new();
+    for p in inputs {
+        plan.input(p, "a partial render");
+    }
+    files.plan(&mut plan);
+    plan.check()?;
+    let mut parts = Vec::new();
+    for p in inputs {
+        let bytes = lobe_materials::io::read_regular(
+            p,
+            lobe_materials::io::MAX_DATA_BYTES,
+            "a partial render (.lobepart)",
+        )?;
+        parts.push(PartialRender::from_bytes(&bytes, &p.display().to_string())?);
+    }
+    let merged = PartialRender::merge(parts)?;
+    let img = merged.image()?;
+    let mut set = OutputSet::new();
+    let (w, h) = (img.width, img.height);
+    set.stage(&files.exr, |out| image_io::encode_exr(out, w, h, &img.pixels))?;
+    if let Some(v) = &files.variance {
+        set.stage(v, |out| image_io::encode_exr(out, w, h, &img.variance))?;
+    }
+    if let Some(png) = &files.png {
+        let rgb = film::tonemap(&img.pixels, exposure);
+        set.stage(png, |out| image_io::encode_png_rgb8(out, w, h, &rgb))?;
+    }
+    let stats = serde_json::json!({
+        "width": w, "height": h, "spp": merged.spp, "key": merged.key,
+        "nonfinite_dropped": merged.dropped,
+        "parts": inputs.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+        "lobe_version": env!("CARGO_PKG_VERSION"),
+    });
+    set.stage(&files.stats, |out| film::encode_json(out, &stats))?;
+    set.commit()?;
+    if !quiet {
+        eprintln!("merged {} partial renders ({w}x{h} at {} spp) into {}", inputs.len(), merged.spp, files.exr.display());
+    }
+    Ok(())
 }
 
 /// The bar on stderr that the render's progress reports drive (pixels done, with ETA).
