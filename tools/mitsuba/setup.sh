@@ -19,7 +19,7 @@ fi
 if [ ! -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
-if ! "$venv/bin/python" -c "import mitsuba, numpy, OpenImageIO, maturin, pytest, tqdm, ipykernel, ipywidgets, jupyter_client" 2>/dev/null \
+if ! "$venv/bin/python" -c "import mitsuba, numpy, OpenImageIO, maturin, pytest, tqdm, ipykernel, ipywidgets, jupyter_client, distributed" 2>/dev/null \
    || ! "$venv/bin/pip" freeze 2>/dev/null | grep -q '^mitsuba==3.9.1$'; then
   "$venv/bin/pip" install -q --disable-pip-version-check -r "$here/requirements.txt"
 fi

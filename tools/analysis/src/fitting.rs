@@ -407,6 +407,67 @@ pub struct BatchSummary {
     pub failures: Vec<String>,
 }
 
+/// What [`fit_file_into`] did.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FileFit {
+    /// The report was made or completed, and written.
+    Written(FitReport),
+    /// The report was already complete for the same data and settings.
+    Current(FitReport),
+    /// `stop` was set before the fit began.
+    NotStarted,
+}
+
+/// Fits the measured file `p` into the report `out` by content key ([`resume`]): skipped
+/// when `out` is complete for the same data and settings, completed with the models it
+/// lacks, or redone; written atomically.
+pub fn fit_file_into(
+    registry: &Registry,
+    (p, out): (&Path, &Path),
+    opts: &FitOptions,
+    stop: &Stop<'_>,
+    progress: &dyn BatchProgress,
+) -> Result<FileFit, Error> {
+    if stop() {
+        return Ok(FileFit::NotStarted);
+    }
+    let key = file_key(p, opts)?;
+    let existing = existing_report(out);
+    let plan = resume(existing.as_ref(), &key, opts)?;
+    if let (Resume::Done, Some(r)) = (&plan, &existing) {
+        progress.skipped();
+        return Ok(FileFit::Current(r.clone()));
+    }
+    let name = stem(p);
+    progress.reading(&name);
+    let data = Dataset::read(p, opts.resolution)?;
+    let specs = builtin_specs();
+    let count = match &plan {
+        Resume::Add(missing) => Some(missing.len()),
+        _ => choose(&specs, opts.models.as_deref(), data.anisotropic)
+            .ok()
+            .map(|c| c.len()),
+    };
+    if let Some(k) = count {
+        progress.fitting(&name, k);
+    }
+    let source = p.display().to_string();
+    let on_model = |r: &FitResult| progress.fitted(&name, r);
+    let measured = data_material(registry, p, opts)?;
+    let r = complete_report(
+        registry,
+        (existing, plan, key),
+        (&name, &source),
+        (&data, measured.as_deref()),
+        opts,
+        stop,
+        &on_model,
+    )?;
+    progress.finished(&name, &r);
+    report::write(out, &r)?;
+    Ok(FileFit::Written(r))
+}
+
 /// Fits the jobs (materials in parallel; each fit is parallel over its bins too) and writes
 /// each report atomically. A job whose report has the same key and every model asked for is
 /// skipped, one of the same key lacking models gets them added ([`resume`]), any other is
@@ -422,45 +483,11 @@ pub fn fit_batch(
     use rayon::prelude::*;
     let (done, skipped) = (AtomicUsize::new(0), AtomicUsize::new(0));
     let fit_one = |p: &Path, out: &Path| -> Result<(), Error> {
-        if stop() {
-            return Ok(());
-        }
-        let key = file_key(p, opts)?;
-        let existing = existing_report(out);
-        let plan = resume(existing.as_ref(), &key, opts)?;
-        if plan == Resume::Done {
-            skipped.fetch_add(1, Ordering::Relaxed);
-            progress.skipped();
-            return Ok(());
-        }
-        let name = stem(p);
-        progress.reading(&name);
-        let data = Dataset::read(p, opts.resolution)?;
-        let specs = builtin_specs();
-        let count = match &plan {
-            Resume::Add(missing) => Some(missing.len()),
-            _ => choose(&specs, opts.models.as_deref(), data.anisotropic)
-                .ok()
-                .map(|c| c.len()),
+        match fit_file_into(registry, (p, out), opts, stop, progress)? {
+            FileFit::Written(_) => done.fetch_add(1, Ordering::Relaxed),
+            FileFit::Current(_) => skipped.fetch_add(1, Ordering::Relaxed),
+            FileFit::NotStarted => 0,
         };
-        if let Some(k) = count {
-            progress.fitting(&name, k);
-        }
-        let source = p.display().to_string();
-        let on_model = |r: &FitResult| progress.fitted(&name, r);
-        let measured = data_material(registry, p, opts)?;
-        let r = complete_report(
-            registry,
-            (existing, plan, key),
-            (&name, &source),
-            (&data, measured.as_deref()),
-            opts,
-            stop,
-            &on_model,
-        )?;
-        progress.finished(&name, &r);
-        report::write(out, &r)?;
-        done.fetch_add(1, Ordering::Relaxed);
         Ok(())
     };
     let mut failures: Vec<String> = jobs

@@ -7,7 +7,10 @@
 
 use crate::material::Material;
 use crate::{file_err, guarded, interrupt, to_py};
-use lobe_analysis::fitting::{FitOptions, data_material, file_key, fit_material_with, stem};
+use lobe_analysis::fitting::{
+    BatchProgress, FileFit, FitOptions, data_material, file_key, fit_file_into, fit_material_with,
+    stem,
+};
 use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
@@ -115,6 +118,53 @@ fn fit(
     })
 }
 
+/// Fits the measured file `data` into the report file `out` by content key, as a batch of
+/// `lobe fit` does for each file: kept when complete for the same data and settings,
+/// completed with the models it lacks, else redone; written atomically. Returns
+/// (the report's JSON text, whether it was written). Ctrl-C stops it and is raised.
+#[pyfunction]
+#[pyo3(signature = (data, out, models, resolution, max_evals, select, metric="eq1", envs=Vec::new()))]
+#[allow(clippy::too_many_arguments)]
+fn fit_into(
+    py: Python<'_>,
+    data: PathBuf,
+    out: PathBuf,
+    models: Option<String>,
+    resolution: f64,
+    max_evals: usize,
+    select: Option<f64>,
+    metric: &str,
+    envs: Vec<String>,
+) -> PyResult<(String, bool)> {
+    guarded(|| {
+        let metric = Metric::parse(metric)
+            .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("metric: {e}")))?;
+        let opts = FitOptions {
+            models,
+            resolution,
+            max_evals,
+            select,
+            metric,
+            envs,
+            ..Default::default()
+        };
+        struct Quiet;
+        impl BatchProgress for Quiet {}
+        let work = |events: &interrupt::Events<()>| {
+            let stop = || events.cancel.load(Ordering::Relaxed);
+            let registry = Registry::builtin();
+            fit_file_into(&registry, (&data, &out), &opts, &stop, &Quiet)
+        };
+        match interrupt::run(py, work, |_, _| Ok(()))?.map_err(to_py)? {
+            FileFit::Written(r) => Ok((r.to_json().to_string(), true)),
+            FileFit::Current(r) => Ok((r.to_json().to_string(), false)),
+            FileFit::NotStarted => Err(pyo3::exceptions::PyKeyboardInterrupt::new_err(
+                "interrupted before the fit began",
+            )),
+        }
+    })
+}
+
 /// The labels `models=` accepts (`lobe fit --list`).
 #[pyfunction]
 fn fit_models() -> Vec<String> {
@@ -149,6 +199,7 @@ fn write_fit_report(path: PathBuf, text: &str) -> PyResult<()> {
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(fit_models, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_into, m)?)?;
     m.add_function(wrap_pyfunction!(read_fit_report, m)?)?;
     m.add_function(wrap_pyfunction!(write_fit_report, m)?)?;
     Ok(())

@@ -11,12 +11,15 @@ use lobe_renderer::Error;
 use lobe_renderer::compare::{check_finite, metrics, z_test};
 use lobe_renderer::film::Image;
 use lobe_renderer::image_io::{read_exr, write_exr};
-use lobe_renderer::render::{Progress, RenderOptions, render as render_scene};
+use lobe_renderer::partial::PartialRender;
+use lobe_renderer::render::{
+    Progress, RenderOptions, render as render_scene, render_samples as render_samples_of,
+};
 use lobe_renderer::scene::{self, LoadOptions};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBytes, PyDict};
 use std::path::PathBuf;
 
 fn to_array<'py>(py: Python<'py>, img: &Image, px: &[Rgb]) -> PyResult<Bound<'py, PyAny>> {
@@ -72,19 +75,7 @@ fn render<'py>(
             return Err(PyValueError::new_err(what));
         }
         let work = |events: &interrupt::Events<(u64, u64)>| {
-            let opts = LoadOptions::with_builtins();
-            let mut sc = match (&path, &text) {
-                (Some(p), _) => scene::load_with(p, &opts)?,
-                (None, Some(t)) => {
-                    let v = lobe_materials::json::parse(t, "<scene dict>")?;
-                    scene::from_value(&v, "<scene dict>", &base, &opts)?
-                }
-                (None, None) => {
-                    return Err(Error::Other("scene: expected a file or a dict".into()));
-                }
-            };
-            sc.spp = spp.unwrap_or(sc.spp);
-            sc.seed = seed.unwrap_or(sc.seed);
+            let sc = load_scene((&path, &text, &base), spp, seed)?;
             let (cancel, events) = (events.cancel.clone(), events.clone());
             let ro = RenderOptions {
                 threads,
@@ -104,6 +95,90 @@ fn render<'py>(
             to_array(py, &img, &img.pixels)?,
             to_array(py, &img, &img.variance)?,
             stats.to_json().to_string(),
+        );
+        Ok(out.into_pyobject(py)?.into_any())
+    })
+}
+
+/// The scene of a file, or of JSON text whose paths resolve against `base`, with its
+/// samples per pixel and seed overridden when given.
+fn load_scene(
+    (path, text, base): (&Option<PathBuf>, &Option<String>, &PathBuf),
+    spp: Option<u32>,
+    seed: Option<u64>,
+) -> Result<scene::Scene, Error> {
+    let opts = LoadOptions::with_builtins();
+    let mut sc = match (path, text) {
+        (Some(p), _) => scene::load_with(p, &opts)?,
+        (None, Some(t)) => {
+            let v = lobe_materials::json::parse(t, "<scene dict>")?;
+            scene::from_value(&v, "<scene dict>", base, &opts)?
+        }
+        (None, None) => {
+            return Err(Error::Other("scene: expected a file or a dict".into()));
+        }
+    };
+    sc.spp = spp.unwrap_or(sc.spp);
+    sc.seed = seed.unwrap_or(sc.seed);
+    Ok(sc)
+}
+
+/// Renders the samples `first..last` of every pixel and returns the partial render's bytes
+/// (the `.lobepart` format, `lobe_renderer::partial`), which `merge_renders` joins. Ctrl-C
+/// stops it and is raised.
+#[pyfunction]
+#[pyo3(signature = (path, text, base, spp, seed, first, last, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn render_samples<'py>(
+    py: Python<'py>,
+    path: Option<PathBuf>,
+    text: Option<String>,
+    base: PathBuf,
+    spp: Option<u32>,
+    seed: Option<u64>,
+    first: u32,
+    last: u32,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    guarded(|| {
+        if spp == Some(0) || threads == Some(0) {
+            return Err(PyValueError::new_err(
+                "spp and threads: expected positive numbers, found 0",
+            ));
+        }
+        let work = |events: &interrupt::Events<()>| {
+            let sc = load_scene((&path, &text, &base), spp, seed)?;
+            let ro = RenderOptions {
+                threads,
+                progress: None,
+                cancel: Some(events.cancel.clone()),
+            };
+            render_samples_of(&sc, (first, last), &ro)
+        };
+        let (part, _) = interrupt::run(py, work, |_, _| Ok(()))?.map_err(to_py)?;
+        Ok(PyBytes::new(py, &part.to_bytes()))
+    })
+}
+
+/// Joins partial renders (their bytes, in any order) whose ranges cover every sample:
+/// returns (image, variance of each pixel's mean, header JSON: size, spp, key, dropped).
+#[pyfunction]
+fn merge_renders<'py>(py: Python<'py>, parts: Vec<Vec<u8>>) -> PyResult<Bound<'py, PyAny>> {
+    guarded(|| {
+        let parts = parts
+            .iter()
+            .enumerate()
+            .map(|(k, b)| PartialRender::from_bytes(b, &format!("part {k}")))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(to_py)?;
+        let merged = PartialRender::merge(parts).map_err(to_py)?;
+        let img = merged.image().map_err(to_py)?;
+        let header = serde_json::json!({"width": merged.width, "height": merged.height,
+            "spp": merged.spp, "key": merged.key, "nonfinite_dropped": merged.dropped});
+        let out = (
+            to_array(py, &img, &img.pixels)?,
+            to_array(py, &img, &img.variance)?,
+            header.to_string(),
         );
         Ok(out.into_pyobject(py)?.into_any())
     })
@@ -187,6 +262,8 @@ fn write_image(path: PathBuf, image: PyReadonlyArray3<'_, f32>) -> PyResult<()> 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
+    m.add_function(wrap_pyfunction!(render_samples, m)?)?;
+    m.add_function(wrap_pyfunction!(merge_renders, m)?)?;
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     Ok(())

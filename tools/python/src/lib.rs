@@ -5,7 +5,8 @@
 //! lobe-materials' registry from the same JSON as scene files, fit reports and Ngan fits
 //! ([`material`]); measured files are read and written by lobe-materials' readers
 //! ([`data`]); fits go through lobe-analysis ([`fit`]); renders and image metrics through
-//! lobe-renderer ([`images`]). Every entry point runs under [`guarded`]: lobe's errors
+//! lobe-renderer ([`images`]); the study through lobe-analysis, whole or step by step
+//! ([`study`]). Every entry point runs under [`guarded`]: lobe's errors
 //! become `ValueError` or `FileNotFoundError` carrying the CLI's one-line message, and a
 //! panic becomes a `RuntimeError` instead of reaching Python. Array work releases the GIL
 //! and runs on rayon's pool in fixed chunks, so results do not depend on the thread count.
@@ -17,6 +18,7 @@ mod fit;
 mod images;
 mod interrupt;
 mod material;
+mod study;
 
 use pyo3::exceptions::{PyFileNotFoundError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -70,5 +72,6 @@ fn _lobe(m: &Bound<'_, PyModule>) -> PyResult<()> {
     data::register(m)?;
     fit::register(m)?;
     images::register(m)?;
+    study::register(m)?;
     Ok(())
 }

@@ -490,6 +490,116 @@ pub fn run(
     run_materials(registry, config, &mats, stop, progress)
 }
 
+/// A study folder set up for its materials: paths checked, maps resolved and digested,
+/// settings recorded in DIR/study.json. Its steps run in any process that prepares the
+/// same configuration ([`Prepared::run_step`]), which is how `lobe.distributed.study` runs
+/// them as Dask tasks.
+pub struct Prepared {
+    pub config: StudyConfig,
+    pub mats: Vec<StudyMaterial>,
+    pub settings: Settings,
+    pub envs: Vec<Env>,
+    pub layout: steps::Layout,
+}
+
+/// What [`Prepared::run_step`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepOutcome {
+    Computed,
+    AlreadyDone,
+}
+
+impl Prepared {
+    pub fn new(config: &StudyConfig, mats: Vec<StudyMaterial>) -> Result<Self, Error> {
+        let settings = Settings::of(config);
+        check_paths(config, &mats, &[])?;
+        let envs = environments(config)?;
+        check_paths(config, &mats, &envs)?;
+        settings.record(&config.out, &envs)?;
+        Ok(Self {
+            layout: steps::Layout::new(&config.out),
+            config: config.clone(),
+            mats,
+            settings,
+            envs,
+        })
+    }
+
+    /// The context the steps run in.
+    pub fn context<'a>(&'a self, registry: &'a Registry, stop: &'a Stop<'a>) -> steps::Context<'a> {
+        steps::Context {
+            registry,
+            settings: &self.settings,
+            layout: &self.layout,
+            envs: &self.envs,
+            stop,
+            digests: Default::default(),
+        }
+    }
+
+    /// This shard's steps, material by material in name order, each material's in order.
+    pub fn plan(&self) -> Vec<(&StudyMaterial, steps::Step)> {
+        let (i, n) = self.config.shard;
+        self.mats
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| k % n == i)
+            .flat_map(|(_, m)| {
+                steps::Step::all(self.envs.len())
+                    .into_iter()
+                    .map(move |s| (m, s))
+            })
+            .collect()
+    }
+
+    /// The material named `name`.
+    pub fn material(&self, name: &str) -> Result<&StudyMaterial, Error> {
+        self.mats
+            .iter()
+            .find(|m| m.name == name)
+            .ok_or_else(|| Error::Other(format!("the study has no material named \"{name}\"")))
+    }
+
+    /// Runs one step unless it is done.
+    pub fn run_step(
+        &self,
+        ctx: &steps::Context<'_>,
+        m: &StudyMaterial,
+        step: steps::Step,
+    ) -> Result<StepOutcome, Error> {
+        if step.done(ctx, m) {
+            return Ok(StepOutcome::AlreadyDone);
+        }
+        step.run(ctx, m)?;
+        Ok(StepOutcome::Computed)
+    }
+
+    /// Builds the report when every material that did not fail is complete; returns the
+    /// materials still pending and the index page, if built.
+    pub fn finish(
+        &self,
+        ctx: &steps::Context<'_>,
+        failures: &[(String, String)],
+    ) -> Result<(usize, Option<PathBuf>), Error> {
+        let complete: Vec<StudyMaterial> = self
+            .mats
+            .iter()
+            .filter(|m| !failures.iter().any(|(n, _)| *n == m.name))
+            .cloned()
+            .collect();
+        let all = steps::Step::all(self.envs.len());
+        let pending = complete
+            .iter()
+            .filter(|m| !all.iter().all(|s| s.done(ctx, m)))
+            .count();
+        let index = match pending == 0 && !complete.is_empty() {
+            true => Some(site::build(ctx, &complete, failures)?),
+            false => None,
+        };
+        Ok((pending, index))
+    }
+}
+
 /// [`run`] on the given materials.
 pub fn run_materials(
     registry: &Registry,
@@ -498,42 +608,17 @@ pub fn run_materials(
     stop: &Stop<'_>,
     progress: &dyn StudyProgress,
 ) -> Result<StudySummary, Error> {
-    let (i, n) = config.shard;
-    let settings = Settings::of(config);
-    check_paths(config, mats, &[])?;
-    let envs = environments(config)?;
-    check_paths(config, mats, &envs)?;
-    settings.record(&config.out, &envs)?;
-    let layout = steps::Layout::new(&config.out);
-    let mine: Vec<&StudyMaterial> = mats
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| k % n == i)
-        .map(|(_, m)| m)
-        .collect();
-    let ctx = steps::Context {
-        registry,
-        settings: &settings,
-        layout: &layout,
-        envs: &envs,
-        stop,
-        digests: Default::default(),
-    };
-    let plan: Vec<(&StudyMaterial, steps::Step)> = mine
-        .iter()
-        .flat_map(|m| {
-            steps::Step::all(envs.len())
-                .into_iter()
-                .map(move |s| (*m, s))
-        })
-        .collect();
+    let study = Prepared::new(config, mats.to_vec())?;
+    let envs = &study.envs;
+    let ctx = study.context(registry, stop);
+    let plan = study.plan();
     progress.planned(plan.len());
     let mut summary = StudySummary {
         materials: mats.len(),
         ..Default::default()
     };
     for (m, step) in plan {
-        let what = format!("{}: {}", m.name, step.describe(&envs));
+        let what = format!("{}: {}", m.name, step.describe(envs));
         if step.done(&ctx, m) {
             summary.skipped += 1;
             progress.finished(&what);
@@ -557,17 +642,6 @@ pub fn run_materials(
         }
         progress.finished(&what);
     }
-    let complete: Vec<StudyMaterial> = mats
-        .iter()
-        .filter(|m| !summary.failed(&m.name))
-        .cloned()
-        .collect();
-    summary.pending = complete
-        .iter()
-        .filter(|m| !steps::Step::all(envs.len()).iter().all(|s| s.done(&ctx, m)))
-        .count();
-    if summary.pending == 0 && !complete.is_empty() {
-        summary.index = Some(site::build(&ctx, &complete, &summary.failures)?);
-    }
+    (summary.pending, summary.index) = study.finish(&ctx, &summary.failures)?;
     Ok(summary)
 }

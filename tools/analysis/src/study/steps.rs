@@ -164,6 +164,37 @@ impl Step {
         v
     }
 
+    /// The step's name: `fit`, `microfacet`, `renders/K` (K the map's index) or `plots`.
+    pub fn name(&self) -> String {
+        match self {
+            Step::Fit => "fit".into(),
+            Step::Microfacet => "microfacet".into(),
+            Step::Renders(k) => format!("renders/{k}"),
+            Step::Plots => "plots".into(),
+        }
+    }
+
+    /// The step named `name` ([`Step::name`]) of a study of `envs` maps.
+    pub fn parse(name: &str, envs: usize) -> Result<Step, Error> {
+        Step::all(envs)
+            .into_iter()
+            .find(|s| s.name() == name)
+            .ok_or_else(|| {
+                Error::Other(format!(
+                    "step \"{name}\": expected fit, microfacet, renders/K (K below {envs}) or plots"
+                ))
+            })
+    }
+
+    /// The steps whose outputs this one reads.
+    pub fn after(&self) -> Vec<Step> {
+        match self {
+            Step::Fit | Step::Microfacet => Vec::new(),
+            Step::Renders(_) => vec![Step::Fit, Step::Microfacet],
+            Step::Plots => vec![Step::Fit],
+        }
+    }
+
     pub fn describe(&self, envs: &[Env]) -> String {
         match self {
             Step::Fit => "fits".into(),

@@ -14,7 +14,8 @@ bug).
     wo = lobe.directions([30.0], [180.0]); wi = lobe.directions([30.0], [0.0])
     f, pdf = m.eval(wo, wi), m.pdf(wo, wi)
 
-``lobe.mitsuba`` registers lobe's models as Mitsuba 3 plugins (``{"type": "lobe",
+``lobe.distributed`` runs renders, batch fits and the study as Dask tasks
+(docs/distributed.md). ``lobe.mitsuba`` registers lobe's models as Mitsuba 3 plugins (``{"type": "lobe",
 "model": "ward", ...}``).
 """
 
@@ -23,6 +24,7 @@ from ._data import Binned, read_binned, read_merl, read_rgl, write_binned, write
 from ._fit import BoundHit, FitReport, ModelCost, ModelFit, Selection, StartedFrom, fit, fit_models, read_fit_report
 from ._images import compare, read_image, render, write_image
 from ._material import Material, directions
+from ._study import study
 
 __all__ = [
     "__version__",
@@ -44,6 +46,7 @@ __all__ = [
     "read_merl",
     "read_rgl",
     "render",
+    "study",
     "write_binned",
     "write_image",
     "write_merl",

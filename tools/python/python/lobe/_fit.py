@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, Iterable, List, Optional, Union
+from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple, Union
 
 from . import _lobe
 from ._material import Material
@@ -142,6 +142,13 @@ class FitReport:
         d.update(self.extra)
         return d
 
+    @property
+    def key(self) -> Optional[Dict[str, str]]:
+        """The report's content key (``{"data", "settings"}``: the digests of the data's
+        bytes and of the settings that shape each fit), or None for data given as a
+        material and reports written before keys."""
+        return self.extra.get("key")
+
     def material_of(self, model: str) -> Material:
         """The fitted model ``model`` as a ``lobe.Material``."""
         if model not in self.models:
@@ -161,6 +168,29 @@ def read_fit_report(path: PathLike) -> FitReport:
 def fit_models() -> List[str]:
     """The model labels ``fit(models=...)`` accepts (``lobe fit --list``)."""
     return list(_lobe.fit_models())
+
+
+def fit_options(
+    models: Union[str, Iterable[str], None],
+    metric: str,
+    resolution: float,
+    select: Optional[float],
+    envs: Iterable[PathLike],
+) -> Tuple[Optional[str], List[str]]:
+    """Checks ``fit``'s options as ``lobe fit`` does; returns the models as one
+    comma-separated string (or None) and the maps as strings."""
+    if metric not in METRICS:
+        raise ValueError(f"metric: expected one of {', '.join(METRICS)}, found {metric!r}")
+    env_list = [os.fspath(e) for e in envs]
+    if env_list and metric != "image":
+        raise ValueError(f"envs: only for metric='image'; found metric={metric!r}")
+    if not (0.25 <= resolution <= 20.0):
+        raise ValueError(f"resolution: expected a bin size in [0.25, 20] degrees, found {resolution}")
+    if select is not None and not (select >= 0.0):
+        raise ValueError(f"select: expected a non-negative relative tolerance, found {select}")
+    if models is not None and not isinstance(models, str):
+        models = ",".join(models)
+    return models, env_list
 
 
 def fit(
@@ -193,17 +223,7 @@ def fit(
     raises ``KeyboardInterrupt``; an exception from the callable stops it and is raised.
 
     The result equals ``lobe fit DATA --models ... -o r.fit.json`` (timings aside)."""
-    if metric not in METRICS:
-        raise ValueError(f"metric: expected one of {', '.join(METRICS)}, found {metric!r}")
-    env_list = [os.fspath(e) for e in envs]
-    if env_list and metric != "image":
-        raise ValueError(f"envs: only for metric='image'; found metric={metric!r}")
-    if not (0.25 <= resolution <= 20.0):
-        raise ValueError(f"resolution: expected a bin size in [0.25, 20] degrees, found {resolution}")
-    if select is not None and not (select >= 0.0):
-        raise ValueError(f"select: expected a non-negative relative tolerance, found {select}")
-    if models is not None and not isinstance(models, str):
-        models = ",".join(models)
+    models, env_list = fit_options(models, metric, resolution, select, envs)
     if isinstance(data, Material):
         target: Any = data._m
         name = "synthetic"
