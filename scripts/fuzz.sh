@@ -15,7 +15,7 @@ secs="${1:-60}"
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  targets=(scene_json merl binned rgl fit_json obj gltf envmap_exr envmap_hdr)
+  targets=(scene_json merl binned rgl fit_json obj gltf envmap_exr envmap_hdr partial_render)
 fi
 # fuzz/Cargo.lock is tracked: the run must not rewrite it. A stale one (a dependency of the
 # workspace changed) is refused here, before cargo-fuzz would silently update it.

@@ -24,6 +24,7 @@ pub const TARGETS: &[&str] = &[
     "gltf",
     "envmap_exr",
     "envmap_hdr",
+    "partial_render",
 ];
 
 /// Runs target `name` on `data`. A panic that [`lobe_materials::guard`] caught inside a
@@ -50,6 +51,7 @@ fn run_target(name: &str, data: &[u8], scratch: &Path) {
         "gltf" => mesh(data, scratch, "m.gltf", "gltf"),
         "envmap_exr" => envmap(data, scratch, "e.exr"),
         "envmap_hdr" => envmap(data, scratch, "e.hdr"),
+        "partial_render" => partial_render(data),
         _ => panic!("unknown fuzz target {name}"),
     }
 }
@@ -108,6 +110,19 @@ pub fn binned(data: &[u8]) {
             assert!(t.lookup(wi, wo).is_finite());
         }
     }
+}
+
+/// A partial render (`.lobepart`): read, merged with itself shifted to the next range
+/// when it is short, and turned into an image when complete; no pixel may be non-finite.
+pub fn partial_render(data: &[u8]) {
+    use lobe_renderer::partial::PartialRender;
+    let Ok(p) = PartialRender::from_bytes(data, "fuzz.lobepart") else {
+        return;
+    };
+    if let Ok(img) = p.image() {
+        assert!(img.pixels.iter().chain(&img.variance).all(|c| c.is_finite()));
+    }
+    let _ = PartialRender::merge(vec![p.clone(), p]);
 }
 
 fn write(scratch: &Path, name: &str, data: &[u8]) -> std::path::PathBuf {
@@ -306,6 +321,19 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
                 v.extend_from_slice(&[128 + k, 100, 50, 129]);
             }
             vec![v]
+        }
+        "partial_render" => {
+            let scene = from_value(&scene, "seed.json", Path::new("."), &LoadOptions::with_builtins())
+                .expect("the seed scene loads");
+            let opts = RenderOptions::default();
+            [(0, 1), (0, 2)]
+                .iter()
+                .map(|&r| {
+                    let (p, _) = lobe_renderer::render::render_samples(&scene, r, &opts)
+                        .expect("renders");
+                    p.to_bytes()
+                })
+                .collect()
         }
         _ => panic!("unknown fuzz target {name}"),
     }

@@ -3,6 +3,13 @@
 //! problem in at most three unknowns (diffuse and one or two specular colours). With so few
 //! unknowns the exact solution is found by solving the normal equations on every subset of
 //! active variables and keeping the best feasible one (the Karush-Kuhn-Tucker point).
+//! A colour above [`MAX_COLOUR`] is not feasible either: it is a lobe whose peak no bin
+//! samples, scaled up until its far tail reaches the data (seen: a Lafortune lobe of
+//! colour 1e34 on 4-degree bins), which no renderer or report should get.
+
+/// The largest colour the solve returns (normalized lobes' colours are their albedo, below
+/// a few units; lobe refuses a material colour above 1e12).
+pub const MAX_COLOUR: f64 = 1e6;
 
 /// Normal equations of one channel: A x = b with the constant c = sum w R^2 cos^2.
 #[derive(Clone, Copy, Debug, Default)]
@@ -85,7 +92,7 @@ impl Gram {
             for (r, &j) in idx.iter().enumerate() {
                 x[j] = mat[r][m] / mat[r][r];
             }
-            if idx.iter().any(|&j| !(x[j] >= 0.0) || !x[j].is_finite()) {
+            if idx.iter().any(|&j| !(x[j] >= 0.0 && x[j] <= MAX_COLOUR)) {
                 continue;
             }
             // Residual at the subset optimum: c - b.x.
@@ -120,5 +127,14 @@ mod tests {
         }
         let (x, _) = g.solve_nonnegative();
         assert!(x[1] == 0.0 && x[0] > 0.0);
+        // A basis function that only reaches the target when scaled beyond MAX_COLOUR
+        // (a lobe whose peak no sample sees) is left out.
+        let mut g = Gram::new(2);
+        for k in 0..50 {
+            let f = [1.0, 1e-30 * (k as f64 + 1.0)];
+            g.add(&f, 1.0 + 0.02 * (k as f64 + 1.0), 1.0);
+        }
+        let (x, res) = g.solve_nonnegative();
+        assert!(x[1] == 0.0 && x[0] > 1.0 && res > 0.0, "{x:?}");
     }
 }

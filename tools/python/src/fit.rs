@@ -6,7 +6,7 @@
 //! ([`interrupt`]).
 
 use crate::material::Material;
-use crate::{file_err, guarded, interrupt, to_py};
+use crate::{file_err, guarded, interrupt, on_threads, to_py};
 use lobe_analysis::fitting::{
     BatchProgress, FileFit, FitOptions, data_material, file_key, fit_file_into, fit_material_with,
     stem,
@@ -40,7 +40,7 @@ enum Source {
 /// a name `lobe fit --metric` takes, `envs` the image metric's environment maps (empty:
 /// the defaults).
 #[pyfunction]
-#[pyo3(signature = (data, models, resolution, max_evals, select, progress, metric="eq1", envs=Vec::new()))]
+#[pyo3(signature = (data, models, resolution, max_evals, select, progress, metric="eq1", envs=Vec::new(), threads=None))]
 #[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
@@ -52,6 +52,7 @@ fn fit(
     progress: Option<Py<PyAny>>,
     metric: &str,
     envs: Vec<String>,
+    threads: Option<usize>,
 ) -> PyResult<String> {
     guarded(|| {
         let metric = Metric::parse(metric)
@@ -74,7 +75,7 @@ fn fit(
         let work = |events: &interrupt::Events<FitResult>| {
             let stop = || events.cancel.load(Ordering::Relaxed);
             let on_model = |r: &FitResult| events.post(r.clone());
-            match &data {
+            on_threads(threads, || match &data {
                 Source::File(p) => {
                     let d = Dataset::read(p, resolution)?;
                     let measured = data_material(&registry, p, &opts)?;
@@ -104,7 +105,7 @@ fn fit(
                         &on_model,
                     )
                 }
-            }
+            })
         };
         let show = |py: Python<'_>, batch: Vec<FitResult>| match &progress {
             Some(cb) => batch.iter().try_for_each(|r| {
@@ -123,7 +124,7 @@ fn fit(
 /// completed with the models it lacks, else redone; written atomically. Returns
 /// (the report's JSON text, whether it was written). Ctrl-C stops it and is raised.
 #[pyfunction]
-#[pyo3(signature = (data, out, models, resolution, max_evals, select, metric="eq1", envs=Vec::new()))]
+#[pyo3(signature = (data, out, models, resolution, max_evals, select, metric="eq1", envs=Vec::new(), threads=None))]
 #[allow(clippy::too_many_arguments)]
 fn fit_into(
     py: Python<'_>,
@@ -135,6 +136,7 @@ fn fit_into(
     select: Option<f64>,
     metric: &str,
     envs: Vec<String>,
+    threads: Option<usize>,
 ) -> PyResult<(String, bool)> {
     guarded(|| {
         let metric = Metric::parse(metric)
@@ -153,7 +155,9 @@ fn fit_into(
         let work = |events: &interrupt::Events<()>| {
             let stop = || events.cancel.load(Ordering::Relaxed);
             let registry = Registry::builtin();
-            fit_file_into(&registry, (&data, &out), &opts, &stop, &Quiet)
+            on_threads(threads, || {
+                fit_file_into(&registry, (&data, &out), &opts, &stop, &Quiet)
+            })
         };
         match interrupt::run(py, work, |_, _| Ok(()))?.map_err(to_py)? {
             FileFit::Written(r) => Ok((r.to_json().to_string(), true)),

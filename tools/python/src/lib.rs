@@ -15,6 +15,14 @@
 
 mod data;
 mod fit;
+
+/// Rust allocations of the extension go to mimalloc rather than the host's malloc, whose
+/// tuning is the host's: Dask's workers set `MALLOC_TRIM_THRESHOLD_=65536`, with which
+/// glibc returned and refaulted a fit's buffers on every objective evaluation (twice the
+/// time, most of it in the kernel; docs/distributed.md).
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 mod images;
 mod interrupt;
 mod material;
@@ -49,6 +57,22 @@ pub(crate) fn to_py(e: lobe_renderer::Error) -> PyErr {
 /// `From` for the materials crate's file errors, through the renderer's error type.
 pub(crate) fn file_err(e: lobe_materials::FileError) -> PyErr {
     to_py(e.into())
+}
+
+/// Runs `work` on a pool of `threads` threads (a Dask worker's share of the cores), or on
+/// rayon's global pool (all cores) for None.
+pub(crate) fn on_threads<T: Send>(
+    threads: Option<usize>,
+    work: impl FnOnce() -> Result<T, lobe_renderer::Error> + Send,
+) -> Result<T, lobe_renderer::Error> {
+    match threads {
+        None => work(),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n.clamp(1, lobe_renderer::limits::MAX_THREADS))
+            .build()
+            .map_err(|e| lobe_renderer::Error::Other(format!("cannot start {n} threads: {e}")))?
+            .install(work),
+    }
 }
 
 /// Runs `f`, turning a panic into a `RuntimeError` (a bug in lobe, said as such).

@@ -5,7 +5,7 @@
 //! configuration crosses as JSON: `{"inputs": [...], "out": DIR, "quick": bool, "envs":
 //! [...], "shard": [i, n]}`.
 
-use crate::{guarded, interrupt, to_py};
+use crate::{guarded, interrupt, on_threads, to_py};
 use lobe_analysis::study::steps::Step;
 use lobe_analysis::study::{self, Prepared, StepOutcome, StudyConfig, StudyProgress};
 use lobe_materials::registry::Registry;
@@ -78,7 +78,14 @@ fn study_plan(py: Python<'_>, config: &str) -> PyResult<String> {
 /// Runs one step of one material unless it is done: returns "computed" or "done".
 /// Ctrl-C stops it and is raised; its failure is a `ValueError` with the step's message.
 #[pyfunction]
-fn study_step(py: Python<'_>, config: &str, material: &str, step: &str) -> PyResult<String> {
+#[pyo3(signature = (config, material, step, threads=None))]
+fn study_step(
+    py: Python<'_>,
+    config: &str,
+    material: &str,
+    step: &str,
+    threads: Option<usize>,
+) -> PyResult<String> {
     guarded(|| {
         let work = |events: &interrupt::Events<()>| {
             let s = prepare(config)?;
@@ -87,7 +94,7 @@ fn study_step(py: Python<'_>, config: &str, material: &str, step: &str) -> PyRes
             let ctx = s.context(&registry, &stop);
             let m = s.material(material)?;
             let step = Step::parse(step, s.envs.len())?;
-            s.run_step(&ctx, m, step)
+            on_threads(threads, || s.run_step(&ctx, m, step))
         };
         let outcome = interrupt::run(py, work, |_, _| Ok(()))?.map_err(to_py)?;
         Ok(match outcome {

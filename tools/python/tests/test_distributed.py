@@ -184,3 +184,25 @@ def test_the_study_as_dask_tasks_writes_the_one_machine_report(client, data, tmp
     # A rerun finds every step done.
     again = ld.study(inputs, many, client, quick=True, envs=["builtin:studio"], progress=False)
     assert (again["computed"], again["skipped"]) == (0, 4)
+
+
+def test_ctrl_c_on_the_client_cancels_the_futures(client, data, monkeypatch):
+    """A KeyboardInterrupt while waiting (raised here from the first progress event, as
+    Ctrl-C would arrive) cancels every submitted task and is raised."""
+    import lobe._progress as progress
+
+    def interrupt(self, n, note=None):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(progress.Progress, "update_to", interrupt)
+    files = [str(data / f"m{k}.bin") for k in range(3)] * 4
+    with pytest.raises(KeyboardInterrupt):
+        ld.fit(files, client, models="ward,cook-torrance-2", resolution=2.0, progress=True)
+
+    def tasks(dask_scheduler):
+        return len(dask_scheduler.tasks)
+
+    deadline = time.time() + 30
+    while client.run_on_scheduler(tasks) and time.time() < deadline:
+        time.sleep(0.1)
+    assert client.run_on_scheduler(tasks) == 0

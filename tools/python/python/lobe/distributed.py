@@ -5,7 +5,9 @@ Each function takes a ``dask.distributed.Client`` (a ``LocalCluster`` on a lapto
 ``dask_jobqueue.SLURMCluster`` on a university cluster) and submits module-level task
 functions whose arguments are paths, JSON text and numbers and whose results are bytes
 or JSON text: nothing bound to one process crosses, and workers keep no state between
-tasks. Every process must see the same files at the same paths (a shared filesystem, as
+tasks; each task's parallel work runs on as many threads as its worker has
+(``nthreads``), so that workers sharing a machine do not oversubscribe it. Every process
+must see the same files at the same paths (a shared filesystem, as
 on any HPC cluster); paths are made absolute on the client.
 
 - ``render``: the sample range of every pixel is cut into ``chunks`` tasks, each a
@@ -61,7 +63,9 @@ def _gather(client: Any, futures: Sequence[Any], what: str, unit: str, progress:
     distributed = _dask()
     bar = Progress(what, len(futures), unit) if progress else None
     try:
-        for k, _ in enumerate(distributed.as_completed(futures), 1):
+        for k, f in enumerate(distributed.as_completed(futures), 1):
+            if f.status == "error":
+                f.result()  # raises the task's exception
             if bar is not None:
                 bar.update_to(k)
         return client.gather(list(futures))
@@ -73,12 +77,23 @@ def _gather(client: Any, futures: Sequence[Any], what: str, unit: str, progress:
             bar.close()
 
 
+def _worker_threads() -> Optional[int]:
+    """The threads of the worker running this task (its share of the machine's cores),
+    which lobe's parallel work is held to; None outside a worker (all cores)."""
+    try:
+        from distributed import get_worker
+
+        return int(get_worker().nthreads)
+    except (ImportError, ValueError, AttributeError):
+        return None
+
+
 # --- render ---------------------------------------------------------------------------
 
 
 def _render_task(path: Optional[str], text: Optional[str], base: str, spp: int, seed: Optional[int], first: int, last: int) -> bytes:
     """Task: the partial render of samples first..last (its .lobepart bytes)."""
-    return _lobe.render_samples(path, text, base, spp, seed, first, last)
+    return _lobe.render_samples(path, text, base, spp, seed, first, last, _worker_threads())
 
 
 def sample_ranges(spp: int, chunks: int) -> List[Tuple[int, int]]:
@@ -131,9 +146,10 @@ def render(
 def _fit_task(path: str, out: Optional[str], models: Optional[str], resolution: float, max_evals: int, select: Optional[float], metric: str, envs: List[str]) -> str:
     """Task: the fit report of one file as JSON text (written by content key to ``out``
     when given)."""
+    threads = _worker_threads()
     if out is None:
-        return _lobe.fit(path, models, resolution, max_evals, select, None, metric, envs)
-    text, _written = _lobe.fit_into(path, out, models, resolution, max_evals, select, metric, envs)
+        return _lobe.fit(path, models, resolution, max_evals, select, None, metric, envs, threads)
+    text, _written = _lobe.fit_into(path, out, models, resolution, max_evals, select, metric, envs, threads)
     return text
 
 
@@ -188,7 +204,7 @@ def _study_step_task(config: str, material: str, step: str, *after: Dict[str, st
     if failed:
         return {"status": "skipped", "error": failed[0]["error"]}
     try:
-        return {"status": _lobe.study_step(config, material, step), "error": ""}
+        return {"status": _lobe.study_step(config, material, step, _worker_threads()), "error": ""}
     except (ValueError, FileNotFoundError) as e:
         return {"status": "failed", "error": str(e)}
 
