@@ -80,7 +80,10 @@ mod tests {
     fn fields_are_separated_and_ordered() {
         let a = KeyBuilder::new("k").text("a", "bc").finish();
         let b = KeyBuilder::new("k").text("ab", "c").finish();
-        let c = KeyBuilder::new("k").text("a", "bc").number("x", 1.0).finish();
+        let c = KeyBuilder::new("k")
+            .text("a", "bc")
+            .number("x", 1.0)
+            .finish();
         let d = KeyBuilder::new("j").text("a", "bc").finish();
         assert_ne!(a, b);
         assert_ne!(a, c);
@@ -99,6 +102,9 @@ mod tests {
         assert_ne!(one, file_digest(&p, "data").unwrap());
         let e = file_digest(dir.path(), "data").unwrap_err().to_string();
         assert!(e.contains("is a directory"), "{e}");
-        assert_eq!(input_digest("builtin:studio", "map").unwrap(), "builtin:studio");
+        assert_eq!(
+            input_digest("builtin:studio", "map").unwrap(),
+            "builtin:studio"
+        );
     }
 }

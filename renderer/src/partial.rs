@@ -61,7 +61,11 @@ impl PartialRender {
         let mut sum = Vec::new();
         let mut sum2 = Vec::new();
         let mut count = Vec::new();
-        let oom = |_| Error::Other(format!("cannot allocate the sums of a {width}x{height} film"));
+        let oom = |_| {
+            Error::Other(format!(
+                "cannot allocate the sums of a {width}x{height} film"
+            ))
+        };
         sum.try_reserve_exact(n).map_err(oom)?;
         sum2.try_reserve_exact(n).map_err(oom)?;
         count.try_reserve_exact(n).map_err(oom)?;
@@ -185,7 +189,10 @@ impl PartialRender {
             .ok_or_else(|| bad("header: expected a line of JSON".into()))?;
         let head: Value = serde_json::from_slice(&rest[..end])
             .map_err(|e| bad(format!("header: expected JSON: {e}")))?;
-        let field = |k: &str| head.get(k).ok_or_else(|| bad(format!("header: expected the field {k}")));
+        let field = |k: &str| {
+            head.get(k)
+                .ok_or_else(|| bad(format!("header: expected the field {k}")))
+        };
         let int = |k: &str, max: u64| -> Result<u64> {
             field(k)?
                 .as_u64()
@@ -197,10 +204,15 @@ impl PartialRender {
         let ranges: Vec<(u32, u32)> = serde_json::from_value(field("ranges")?.clone())
             .ok()
             .filter(|r: &Vec<(u32, u32)>| {
-                !r.is_empty() && r.iter().all(|&(a, b)| a < b && b <= spp)
+                !r.is_empty()
+                    && r.iter().all(|&(a, b)| a < b && b <= spp)
                     && r.windows(2).all(|w| w[0].1 < w[1].0)
             })
-            .ok_or_else(|| bad(format!("ranges: expected increasing disjoint sample ranges within 0..{spp}")))?;
+            .ok_or_else(|| {
+                bad(format!(
+                    "ranges: expected increasing disjoint sample ranges within 0..{spp}"
+                ))
+            })?;
         let key = field("key")?
             .as_str()
             .ok_or_else(|| bad("key: expected a string".into()))?
@@ -218,7 +230,8 @@ impl PartialRender {
         p.ranges = ranges;
         p.dropped = int("dropped", u64::MAX)?;
         for (k, px) in body.chunks_exact(PIXEL_BYTES).enumerate() {
-            let f = |i: usize| f64::from_le_bytes(px[8 * i..8 * i + 8].try_into().expect("8 bytes"));
+            let f =
+                |i: usize| f64::from_le_bytes(px[8 * i..8 * i + 8].try_into().expect("8 bytes"));
             p.sum[k] = [f(0), f(1), f(2)];
             p.sum2[k] = [f(3), f(4), f(5)];
             p.count[k] = u32::from_le_bytes(px[48..52].try_into().expect("4 bytes"));
@@ -262,7 +275,13 @@ mod tests {
             "shapes": [{"type": "sphere", "material": {"type": "ward", "diffuse": 0.3, "specular": 0.2, "alpha": 0.1}}],
             "lights": [{"type": "envmap", "file": "builtin:studio"}]
         });
-        from_value(&v, "s.json", std::path::Path::new("."), &LoadOptions::with_builtins()).unwrap()
+        from_value(
+            &v,
+            "s.json",
+            std::path::Path::new("."),
+            &LoadOptions::with_builtins(),
+        )
+        .unwrap()
     }
 
     /// Parts of disjoint ranges, merged in any order and through their bytes, give the
@@ -295,7 +314,10 @@ mod tests {
         }
         assert!(equal * 10 >= 9 * 3 * img.pixels.len(), "{equal}");
         // Incomplete, overlapping, or of another scene: refused.
-        let e = PartialRender::merge(parts[..2].to_vec()).unwrap().image().unwrap_err();
+        let e = PartialRender::merge(parts[..2].to_vec())
+            .unwrap()
+            .image()
+            .unwrap_err();
         assert!(e.to_string().contains("expected every sample"), "{e}");
         let e = PartialRender::merge(vec![parts[1].clone(), parts[1].clone()]).unwrap_err();
         assert!(e.to_string().contains("overlap"), "{e}");
@@ -304,7 +326,8 @@ mod tests {
         assert!(e.to_string().contains("key"), "{e}");
         assert!(render_samples(&s, (5, 5), &opts).is_err());
         assert!(render_samples(&s, (0, 38), &opts).is_err());
-        let e = PartialRender::from_bytes(b"lobe-partial-render 1\n{}\n", "p.lobepart").unwrap_err();
+        let e =
+            PartialRender::from_bytes(b"lobe-partial-render 1\n{}\n", "p.lobepart").unwrap_err();
         assert!(e.to_string().starts_with("p.lobepart"), "{e}");
     }
 }

@@ -8,15 +8,15 @@
 use crate::Rgb;
 use crate::error::{Error, Result};
 use crate::film::Image;
-use crate::partial::PartialRender;
 use crate::integrators::wavefront::{CameraQueue, Wavefront};
 use crate::limits::MAX_THREADS;
+use crate::partial::PartialRender;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::Vec2;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::ops::Range;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use wide::f64x4;
@@ -401,8 +401,7 @@ fn run_tiles(
                 cancelled.store(true, Ordering::Relaxed);
                 return;
             }
-            let Some(t) = render_tile(scene, tile, samples.clone(), opts.cancel.as_deref())
-            else {
+            let Some(t) = render_tile(scene, tile, samples.clone(), opts.cancel.as_deref()) else {
                 cancelled.store(true, Ordering::Relaxed);
                 return;
             };

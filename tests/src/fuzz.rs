@@ -120,7 +120,12 @@ pub fn partial_render(data: &[u8]) {
         return;
     };
     if let Ok(img) = p.image() {
-        assert!(img.pixels.iter().chain(&img.variance).all(|c| c.is_finite()));
+        assert!(
+            img.pixels
+                .iter()
+                .chain(&img.variance)
+                .all(|c| c.is_finite())
+        );
     }
     let _ = PartialRender::merge(vec![p.clone(), p]);
 }

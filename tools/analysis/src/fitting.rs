@@ -12,10 +12,10 @@ use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::image::ImageSettings;
 use lobe_materials::fit::report::{self, FitKey, FitReport};
-use lobe_materials::key::{KeyBuilder, file_digest, input_digest};
 use lobe_materials::fit::{
     FitError, FitResult, Metric, ModelSpec, Objective, Stop, builtin_specs, fit_with,
 };
+use lobe_materials::key::{KeyBuilder, file_digest, input_digest};
 use lobe_materials::measured::format;
 use lobe_materials::registry::Registry;
 use lobe_renderer::Error;
@@ -118,7 +118,11 @@ pub enum Resume {
 }
 
 /// What a rerun does with `existing` (a report of key `key` or not) for `opts`.
-pub fn resume(existing: Option<&FitReport>, key: &FitKey, opts: &FitOptions) -> Result<Resume, Error> {
+pub fn resume(
+    existing: Option<&FitReport>,
+    key: &FitKey,
+    opts: &FitOptions,
+) -> Result<Resume, Error> {
     let Some(r) = existing.filter(|r| r.key.as_ref() == Some(key)) else {
         return Ok(Resume::Fresh);
     };
@@ -157,7 +161,14 @@ pub fn complete_report(
     on_model: &dyn Fn(&FitResult),
 ) -> Result<FitReport, Error> {
     let fit = |o: &FitOptions| {
-        fit_material_with(registry, (name, source), (data, measured), o, stop, on_model)
+        fit_material_with(
+            registry,
+            (name, source),
+            (data, measured),
+            o,
+            stop,
+            on_model,
+        )
     };
     let mut report = match (existing, plan) {
         (Some(mut r), Resume::Add(missing)) => {
@@ -472,7 +483,8 @@ pub fn fit_file_into(
 /// each report atomically. A job whose report has the same key and every model asked for is
 /// skipped, one of the same key lacking models gets them added ([`resume`]), any other is
 /// redone; so an interrupted batch resumes where it stopped and a rerun with other models,
-/// metric, bins or data computes exactly what they change. Once `stop` returns true no job starts and running fits end.
+/// metric, bins or data computes exactly what they change ([`fit_file_into`] per job).
+/// Once `stop` returns true no job starts and running fits end.
 pub fn fit_batch(
     registry: &Registry,
     jobs: &[BatchJob],

@@ -63,7 +63,9 @@ pub fn join_keyed(reports: Vec<(String, FitReport)>) -> Result<Vec<FitReport>, E
         };
         let same_name = out.iter().find(|(_, o)| {
             o.material == r.material
-                && o.key.as_ref().is_some_and(|k| k.settings == key.settings && k.data != key.data)
+                && o.key
+                    .as_ref()
+                    .is_some_and(|k| k.settings == key.settings && k.data != key.data)
         });
         if let Some((other, _)) = same_name {
             return Err(Error::Other(format!(

@@ -9,10 +9,10 @@
 use crate::cost::{Cost, measure, reference_cost};
 use lobe_materials::fit::FitResult;
 use lobe_materials::fit::report::{ModelCost, ModelFit, Selection};
-use serde_json::Value;
-use std::collections::BTreeMap;
 use lobe_materials::registry::Registry;
 use lobe_renderer::Error;
+use serde_json::Value;
+use std::collections::BTreeMap;
 
 /// The cheapest of `candidates` (label, Eq. (1) error, cost) whose error is at most the best
 /// error x (1 + `tolerance`); of equally cheap ones, the first. Returns the label ("" when
@@ -37,7 +37,9 @@ pub fn select(
     results: &[FitResult],
     tolerance: f64,
 ) -> Result<Selection, Error> {
-    let fits = results.iter().map(|r| (r.label.as_str(), &r.material, r.error));
+    let fits = results
+        .iter()
+        .map(|r| (r.label.as_str(), &r.material, r.error));
     select_among(registry, fits, tolerance)
 }
 

@@ -2152,18 +2152,46 @@ fn partial_renders_merge_into_the_whole_render() {
     std::fs::write(d.join("s.json"), SCENE.replace("\"spp\": 4", "\"spp\": 8")).unwrap();
     let run = |args: &[&str]| {
         let o = lobe_in(d, args);
-        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
     };
     run(&["render", "s.json", "-o", "whole.exr", "-q"]);
-    run(&["render", "s.json", "--samples", "3:8", "-o", "b.lobepart", "-q"]);
-    run(&["render", "s.json", "--samples", "0:3", "-o", "a.lobepart", "-q"]);
+    run(&[
+        "render",
+        "s.json",
+        "--samples",
+        "3:8",
+        "-o",
+        "b.lobepart",
+        "-q",
+    ]);
+    run(&[
+        "render",
+        "s.json",
+        "--samples",
+        "0:3",
+        "-o",
+        "a.lobepart",
+        "-q",
+    ]);
     refused_in(
         d,
         &["render", "merge", "b.lobepart", "-o", "m.exr"],
         &["expected every sample"],
     );
     assert!(!d.join("m.exr").exists());
-    run(&["render", "merge", "b.lobepart", "a.lobepart", "-o", "m.exr", "-q"]);
+    run(&[
+        "render",
+        "merge",
+        "b.lobepart",
+        "a.lobepart",
+        "-o",
+        "m.exr",
+        "-q",
+    ]);
     let read = |f: &str| lobe_renderer::image_io::read_exr(&d.join(f)).unwrap();
     let (w, m) = (read("whole.exr"), read("m.exr"));
     for (a, b) in w.pixels.iter().zip(&m.pixels) {

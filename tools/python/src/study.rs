@@ -127,7 +127,11 @@ fn study_finish(py: Python<'_>, config: &str, failures: &str) -> PyResult<String
 }
 
 /// Counts the steps as they finish, for the progress callback.
-struct Steps<'a>(&'a interrupt::Events<(usize, usize)>, std::sync::atomic::AtomicUsize, std::sync::atomic::AtomicUsize);
+struct Steps<'a>(
+    &'a interrupt::Events<(usize, usize)>,
+    std::sync::atomic::AtomicUsize,
+    std::sync::atomic::AtomicUsize,
+);
 
 impl StudyProgress for Steps<'_> {
     fn planned(&self, total: usize) {

@@ -15,8 +15,8 @@ use crate::fitting::{FitOptions, Resume, complete_report};
 use crate::sphere_errors::{self, RepError, Stage};
 use lobe_materials::Bsdf;
 use lobe_materials::fit::report::{self, FitKey, FitReport};
-use lobe_materials::key::KeyBuilder;
 use lobe_materials::fit::{ANISOTROPIC_DEFAULT, Stop, builtin_specs};
+use lobe_materials::key::KeyBuilder;
 use lobe_materials::microfacet_gen::estimate;
 use lobe_materials::registry::{BuildContext, Registry};
 use lobe_renderer::Error;
@@ -508,7 +508,12 @@ fn plots(ctx: &Context<'_>, m: &StudyMaterial, key: &str) -> Result<(), Error> {
         .settings
         .angles
         .iter()
-        .flat_map(|&a| [Layout::polar_name(&m.name, a), Layout::lobes_name(&m.name, a)])
+        .flat_map(|&a| {
+            [
+                Layout::polar_name(&m.name, a),
+                Layout::lobes_name(&m.name, a),
+            ]
+        })
         .collect();
     write_json(
         &ctx.layout.plots_record(&m.name),

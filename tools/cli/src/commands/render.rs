@@ -208,9 +208,16 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
 
 /// The range of `--samples FIRST:LAST`.
 fn parse_range(s: &str) -> Result<(u32, u32), Error> {
-    let bad = || Error::Other(format!("--samples: expected FIRST:LAST (sample indices, FIRST < LAST), found \"{s}\""));
+    let bad = || {
+        Error::Other(format!(
+            "--samples: expected FIRST:LAST (sample indices, FIRST < LAST), found \"{s}\""
+        ))
+    };
     let (a, b) = s.split_once(':').ok_or_else(bad)?;
-    let (a, b) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+    let (a, b) = (
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    );
     if a >= b {
         return Err(bad());
     }
@@ -241,19 +248,32 @@ fn render_part(
     let ack = "interrupted: stopping the render, nothing is written; Ctrl-C again to abort";
     let (part, stats) = render_samples(&scene, range, &opts(ack, None))?;
     if args::cancelled() {
-        return Err(Error::Other("interrupted after the render: nothing is written".into()));
+        return Err(Error::Other(
+            "interrupted after the render: nothing is written".into(),
+        ));
     }
     let bytes = part.to_bytes();
     film::atomic_write(&output, |w| std::io::Write::write_all(w, &bytes))?;
     if !quiet {
-        eprintln!("samples {}:{} of {}: {}", range.0, range.1, scene.spp, stats.summary());
+        eprintln!(
+            "samples {}:{} of {}: {}",
+            range.0,
+            range.1,
+            scene.spp,
+            stats.summary()
+        );
         eprintln!("wrote {}", output.display());
     }
     stats.check_dropped(&scene.file)
 }
 
 /// `lobe render merge`: joins partial renders into the image files.
-fn merge_parts(inputs: &[PathBuf], files: &RenderFiles, exposure: f32, quiet: bool) -> Result<(), Error> {
+fn merge_parts(
+    inputs: &[PathBuf],
+    files: &RenderFiles,
+    exposure: f32,
+    quiet: bool,
+) -> Result<(), Error> {
     let mut plan = FilePlan::new();
     for p in inputs {
         plan.input(p, "a partial render");
@@ -273,7 +293,9 @@ fn merge_parts(inputs: &[PathBuf], files: &RenderFiles, exposure: f32, quiet: bo
     let img = merged.image()?;
     let mut set = OutputSet::new();
     let (w, h) = (img.width, img.height);
-    set.stage(&files.exr, |out| image_io::encode_exr(out, w, h, &img.pixels))?;
+    set.stage(&files.exr, |out| {
+        image_io::encode_exr(out, w, h, &img.pixels)
+    })?;
     if let Some(v) = &files.variance {
         set.stage(v, |out| image_io::encode_exr(out, w, h, &img.variance))?;
     }
@@ -290,7 +312,12 @@ fn merge_parts(inputs: &[PathBuf], files: &RenderFiles, exposure: f32, quiet: bo
     set.stage(&files.stats, |out| film::encode_json(out, &stats))?;
     set.commit()?;
     if !quiet {
-        eprintln!("merged {} partial renders ({w}x{h} at {} spp) into {}", inputs.len(), merged.spp, files.exr.display());
+        eprintln!(
+            "merged {} partial renders ({w}x{h} at {} spp) into {}",
+            inputs.len(),
+            merged.spp,
+            files.exr.display()
+        );
     }
     Ok(())
 }
