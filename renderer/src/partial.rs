@@ -235,8 +235,17 @@ impl PartialRender {
             p.sum[k] = [f(0), f(1), f(2)];
             p.sum2[k] = [f(3), f(4), f(5)];
             p.count[k] = u32::from_le_bytes(px[48..52].try_into().expect("4 bytes"));
-            if !(0..6).all(|i| f(i).is_finite()) {
-                return Err(bad(format!("pixel {k}: expected finite sums")));
+            let samples: u32 = p.ranges.iter().map(|r| r.1 - r.0).sum();
+            let (m, v) = mean_and_variance(p.sum[k], p.sum2[k], p.count[k]);
+            let sane = (0..6).all(|i| f(i).is_finite())
+                && p.sum2[k].iter().all(|&x| x >= 0.0)
+                && p.count[k] <= samples
+                && m.is_finite()
+                && v.is_finite();
+            if !sane {
+                return Err(bad(format!(
+                    "pixel {k}: expected finite sums of at most {samples} samples whose mean and variance are finite"
+                )));
             }
         }
         Ok(p)
