@@ -150,7 +150,6 @@ pub fn existing_report(out: &Path) -> Option<FitReport> {
 /// The report for `key`: a fresh fit ([`fit_material_with`]), or `existing` completed
 /// with the models `plan` names and, when models were added or the tolerance changed,
 /// selected again (at `opts.select`, else at the report's own tolerance).
-#[allow(clippy::too_many_arguments)]
 pub fn complete_report(
     registry: &Registry,
     (existing, plan, key): (Option<FitReport>, Resume, FitKey),

@@ -34,6 +34,28 @@ enum Source {
     Values(Arc<dyn Bsdf>),
 }
 
+/// The options of a fit from Python's arguments (`metric` a name `lobe fit --metric`
+/// takes).
+fn fit_options(
+    models: Option<String>,
+    (resolution, max_evals): (f64, usize),
+    select: Option<f64>,
+    metric: &str,
+    envs: Vec<String>,
+) -> PyResult<FitOptions> {
+    let metric = Metric::parse(metric)
+        .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("metric: {e}")))?;
+    Ok(FitOptions {
+        models,
+        resolution,
+        max_evals,
+        select,
+        metric,
+        envs,
+        ..Default::default()
+    })
+}
+
 /// Fits and returns the report's JSON text; `progress(label, error_normalized, seconds)`
 /// is called on the calling thread after each model. Ctrl-C or an exception from
 /// `progress` stops the fit (at the next objective evaluation) and is raised. `metric` is
@@ -55,17 +77,7 @@ fn fit(
     threads: Option<usize>,
 ) -> PyResult<String> {
     guarded(|| {
-        let metric = Metric::parse(metric)
-            .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("metric: {e}")))?;
-        let opts = FitOptions {
-            models,
-            resolution,
-            max_evals,
-            select,
-            metric,
-            envs,
-            ..Default::default()
-        };
+        let opts = fit_options(models, (resolution, max_evals), select, metric, envs)?;
         let registry = Registry::builtin();
         // What the fit's thread needs of `data` (a `PyRef` stays on this thread).
         let data = match data {
@@ -139,17 +151,7 @@ fn fit_into(
     threads: Option<usize>,
 ) -> PyResult<(String, bool)> {
     guarded(|| {
-        let metric = Metric::parse(metric)
-            .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("metric: {e}")))?;
-        let opts = FitOptions {
-            models,
-            resolution,
-            max_evals,
-            select,
-            metric,
-            envs,
-            ..Default::default()
-        };
+        let opts = fit_options(models, (resolution, max_evals), select, metric, envs)?;
         struct Quiet;
         impl BatchProgress for Quiet {}
         let work = |events: &interrupt::Events<()>| {

@@ -66,14 +66,7 @@ fn render<'py>(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     guarded(|| {
-        if spp == Some(0) || threads == Some(0) {
-            let what = if spp == Some(0) {
-                "spp: expected a positive number of samples per pixel, found 0"
-            } else {
-                "threads: expected at least 1 thread, found 0"
-            };
-            return Err(PyValueError::new_err(what));
-        }
+        check_counts(spp, threads)?;
         let work = |events: &interrupt::Events<(u64, u64)>| {
             let sc = load_scene((&path, &text, &base), spp, seed)?;
             let (cancel, events) = (events.cancel.clone(), events.clone());
@@ -98,6 +91,21 @@ fn render<'py>(
         );
         Ok(out.into_pyobject(py)?.into_any())
     })
+}
+
+/// Refuses a sample count or a thread count of 0.
+fn check_counts(spp: Option<u32>, threads: Option<usize>) -> PyResult<()> {
+    if spp == Some(0) {
+        return Err(PyValueError::new_err(
+            "spp: expected a positive number of samples per pixel, found 0",
+        ));
+    }
+    if threads == Some(0) {
+        return Err(PyValueError::new_err(
+            "threads: expected at least 1 thread, found 0",
+        ));
+    }
+    Ok(())
 }
 
 /// The scene of a file, or of JSON text whose paths resolve against `base`, with its
@@ -141,11 +149,7 @@ fn render_samples<'py>(
     threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyBytes>> {
     guarded(|| {
-        if spp == Some(0) || threads == Some(0) {
-            return Err(PyValueError::new_err(
-                "spp and threads: expected positive numbers, found 0",
-            ));
-        }
+        check_counts(spp, threads)?;
         let work = |events: &interrupt::Events<()>| {
             let sc = load_scene((&path, &text, &base), spp, seed)?;
             let ro = RenderOptions {

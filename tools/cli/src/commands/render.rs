@@ -293,16 +293,7 @@ fn merge_parts(
     let img = merged.image()?;
     let mut set = OutputSet::new();
     let (w, h) = (img.width, img.height);
-    set.stage(&files.exr, |out| {
-        image_io::encode_exr(out, w, h, &img.pixels)
-    })?;
-    if let Some(v) = &files.variance {
-        set.stage(v, |out| image_io::encode_exr(out, w, h, &img.variance))?;
-    }
-    if let Some(png) = &files.png {
-        let rgb = film::tonemap(&img.pixels, exposure);
-        set.stage(png, |out| image_io::encode_png_rgb8(out, w, h, &rgb))?;
-    }
+    stage_images(&mut set, files, &img, (exposure, &[]))?;
     let stats = serde_json::json!({
         "width": w, "height": h, "spp": merged.spp, "key": merged.key,
         "nonfinite_dropped": merged.dropped,
@@ -335,6 +326,29 @@ fn progress_bar() -> indicatif::ProgressBar {
     pb
 }
 
+/// Stages a render's images: the EXR, the variance EXR and the PNG at `exposure` stops
+/// with `labels` drawn on it, as `files` asks.
+fn stage_images(
+    set: &mut OutputSet,
+    files: &RenderFiles,
+    img: &Image,
+    (exposure, labels): (f32, &[(String, glam::Vec2)]),
+) -> Result<(), Error> {
+    let (w, h) = (img.width, img.height);
+    set.stage(&files.exr, |out| {
+        image_io::encode_exr(out, w, h, &img.pixels)
+    })?;
+    if let Some(v) = &files.variance {
+        set.stage(v, |out| image_io::encode_exr(out, w, h, &img.variance))?;
+    }
+    if let Some(png) = &files.png {
+        let mut rgb = film::tonemap(&img.pixels, exposure);
+        draw_labels(&mut rgb, (w, h), labels)?;
+        set.stage(png, |out| image_io::encode_png_rgb8(out, w, h, &rgb))?;
+    }
+    Ok(())
+}
+
 /// Writes every file of a render; the PNG carries `labels` (text at pixel positions).
 fn write_render(
     files: &RenderFiles,
@@ -345,18 +359,7 @@ fn write_render(
 ) -> Result<(), Error> {
     // All or none: each file is staged, then the set is moved into place together.
     let mut set = OutputSet::new();
-    let (w, h) = (img.width, img.height);
-    set.stage(&files.exr, |out| {
-        image_io::encode_exr(out, w, h, &img.pixels)
-    })?;
-    if let Some(v) = &files.variance {
-        set.stage(v, |out| image_io::encode_exr(out, w, h, &img.variance))?;
-    }
-    if let Some(png) = &files.png {
-        let mut rgb = film::tonemap(&img.pixels, scene.exposure);
-        draw_labels(&mut rgb, (w, h), labels)?;
-        set.stage(png, |out| image_io::encode_png_rgb8(out, w, h, &rgb))?;
-    }
+    stage_images(&mut set, files, img, (scene.exposure, labels))?;
     let stats = stats_json(scene, stats, files);
     set.stage(&files.stats, |out| film::encode_json(out, &stats))?;
     Ok(set.commit()?)

@@ -182,6 +182,9 @@ def fit(
         if len(set(stems)) != len(stems):
             raise ValueError("files: two files of one name would share a report; expected distinct file names")
         reports = [os.path.join(folder, f"{s}.fit.json") for s in stems]
+        clash = set(map(os.path.realpath, reports)) & set(map(os.path.realpath, paths))
+        if clash:
+            raise ValueError(f"out: the report {sorted(clash)[0]} would overwrite an input; expected a folder of reports apart from the data")
     futures = [
         client.submit(_fit_task, p, r, models, float(resolution), int(max_evals), select, metric, env_list, pure=False)
         for p, r in zip(paths, reports)
