@@ -4,6 +4,7 @@ showing progress changes no pixel, an exception from the callable and a Ctrl-C
 (SIGINT) stop the work and are raised as Python exceptions, without a panic."""
 
 import os
+import resource
 import signal
 import sys
 import threading
@@ -59,32 +60,51 @@ def test_an_exception_in_the_render_callback_stops_the_render_and_is_raised():
     assert len(seen) == 1 and seen[0] < 96 * 96
 
 
-def interrupt_after(seconds):
-    """Sends this process SIGINT (what Ctrl-C and a notebook's interrupt do) later."""
-    t = threading.Timer(seconds, os.kill, (os.getpid(), signal.SIGINT))
-    t.start()
-    return t
+def cpu_seconds():
+    """This process's CPU time: a count of the work done, which a loaded machine does not
+    inflate as it does wall time."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
 
 
-# A render and a fit that take more than ten seconds each on two idle cores; Ctrl-C must
-# stop them in a fraction of that (before, the work ran to its end, and only then was the
-# KeyboardInterrupt raised).
-def test_ctrl_c_stops_a_render():
-    start = time.perf_counter()
-    timer = interrupt_after(0.3)
+def interrupt_on_first(cpu):
+    """A progress callable that, at its first report, has another thread send this process
+    SIGINT (what Ctrl-C and a notebook's interrupt do), and notes the CPU time spent then in
+    `cpu`. The interrupt is driven by the work's own progress, not by a clock."""
+    def on_progress(*report):
+        if not cpu:
+            cpu.append(cpu_seconds())
+            threading.Thread(target=os.kill, args=(os.getpid(), signal.SIGINT)).start()
+    return on_progress
+
+
+def work_after_interrupt(call):
+    """Runs `call(progress)`, which must raise KeyboardInterrupt; returns the CPU time spent
+    after the interrupt relative to the time spent before it (setup and the first unit of
+    work)."""
+    cpu = [cpu_seconds()]
+    progress = interrupt_on_first(cpu_after := [])
     with pytest.raises(KeyboardInterrupt):
-        lobe.render(scene(32, 32), spp=1 << 18, progress=False)  # 268 M samples: > 10 s
-    timer.join()
-    assert time.perf_counter() - start < 3.0
+        call(progress)
+    assert cpu_after, "no progress was reported"
+    return (cpu_seconds() - cpu_after[0]) / (cpu_after[0] - cpu[0])
+
+
+# A render of 256 tiles and a fit of seven models, each more than ten seconds of work on two
+# idle cores, that report their first progress after a small share of it. Ctrl-C must stop
+# them within a few units of work (before, the work ran to its end, and only then was the
+# KeyboardInterrupt raised: a ratio of about 100 for the render and 30 for the fit).
+def test_ctrl_c_stops_a_render():
+    ratio = work_after_interrupt(
+        lambda progress: lobe.render(scene(256, 256), spp=1 << 12, threads=2, progress=progress))
+    assert ratio < 8, ratio
 
 
 def test_ctrl_c_stops_a_fit():
-    start = time.perf_counter()
-    timer = interrupt_after(1.0)  # after binning the data (0.3 s), in the second model
-    with pytest.raises(KeyboardInterrupt):
-        lobe.fit(lobe.Material(MODELS["cook-torrance"]), resolution=1.0, progress=False)  # 14 s
-    timer.join()
-    assert time.perf_counter() - start < 4.0
+    ratio = work_after_interrupt(
+        lambda progress: lobe.fit(lobe.Material(MODELS["cook-torrance"]), resolution=1.0,
+                                  progress=progress))
+    assert ratio < 4, ratio
 
 
 def test_fit_progress_reports_each_model_and_callback_errors_are_raised(capsys):
@@ -115,13 +135,22 @@ def test_progress_and_interrupt_in_a_jupyter_kernel():
 
     km, kc = manager.start_new_kernel(kernel_name="python3")
 
-    def run(code, interrupt_after=None):
-        msg_id, start, interrupted = kc.execute(code), time.perf_counter(), False
-        seen = {"widgets": 0, "updates": 0, "text": "", "error": None}
+    pid = None
+
+    def kernel_cpu():
+        """The kernel process's CPU seconds (Linux's /proc; 0 before its pid is known)."""
+        if pid is None:
+            return 0.0
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+    def run(code, interrupt=False):
+        """Runs `code` in the kernel; with `interrupt`, interrupts it when the progress bar
+        first moves and measures the kernel's CPU time before and after the interrupt."""
+        msg_id, start = kc.execute(code), time.perf_counter()
+        seen = {"widgets": 0, "updates": 0, "text": "", "error": None, "cpu": [kernel_cpu()]}
         while True:
-            if interrupt_after is not None and not interrupted and time.perf_counter() - start > interrupt_after:
-                km.interrupt_kernel()
-                interrupted = True
             try:
                 m = kc.get_iopub_msg(timeout=0.2)
             except queue.Empty:
@@ -134,26 +163,46 @@ def test_progress_and_interrupt_in_a_jupyter_kernel():
                 seen["widgets"] += 1
             elif kind == "comm_msg":
                 seen["updates"] += 1
+                value = c["data"].get("state", {}).get("value")  # the bar's (not a label's)
+                moved = isinstance(value, (int, float)) and value > 0
+                if interrupt and moved and len(seen["cpu"]) == 1:
+                    seen["cpu"].append(kernel_cpu())
+                    km.interrupt_kernel()
             elif kind == "stream":
                 seen["text"] += c["text"]
             elif kind == "error":
                 seen["error"] = c["ename"]
             elif kind == "status" and c["execution_state"] == "idle":
-                seen["seconds"] = time.perf_counter() - start
+                seen["cpu"].append(kernel_cpu())
                 return seen
+
+    def work_after_interrupt(seen, unit):
+        """The kernel's CPU time after the interrupt, relative to that of `unit`, which
+        measures the CPU time of a known share of the work in the kernel and prints it."""
+        _, at, end = seen["cpu"]
+        return (end - at) / float(run(unit)["text"])
 
     try:
         tests = os.path.dirname(os.path.abspath(__file__))
+        pid = int(run("import os; print(os.getpid())")["text"])
         assert run(f"import sys, lobe; sys.path.insert(0, {tests!r}); from test_progress import scene; from conftest import MODELS")["error"] is None
         r = run("print(lobe.render(scene(64, 64), spp=64).shape)")
         assert r["error"] is None and r["widgets"] == 1 and r["updates"] >= 2 and "(64, 64, 3)" in r["text"], r
         r = run('print(list(lobe.fit(lobe.Material(MODELS["blinn-phong"]), models="blinn-phong,ward", resolution=5, max_evals=40).models))')
         assert r["error"] is None and r["widgets"] == 1 and r["updates"] >= 2 and "['blinn-phong', 'ward']" in r["text"], r
-        # Both would run for more than ten seconds (see the Ctrl-C tests above).
-        r = run("lobe.render(scene(32, 32), spp=1 << 18)", interrupt_after=1.0)
-        assert r["error"] == "KeyboardInterrupt" and r["seconds"] < 4.0, r
-        r = run('lobe.fit(lobe.Material(MODELS["cook-torrance"]), resolution=1.0)', interrupt_after=1.0)
-        assert r["error"] == "KeyboardInterrupt" and r["seconds"] < 4.0, r
+        # Both would run for more than ten seconds (see the Ctrl-C tests above); interrupted at
+        # the bar's first move, they stop within a small share of their work: the render
+        # within 16/64 of it (the unit renders 1/64), the fit within 4 of its seven models.
+        measure = "import resource; c = resource.getrusage(resource.RUSAGE_SELF); {}; " \
+            "d = resource.getrusage(resource.RUSAGE_SELF); " \
+            "print(d.ru_utime + d.ru_stime - c.ru_utime - c.ru_stime)"
+        r = run("lobe.render(scene(256, 256), spp=1 << 12)", interrupt=True)
+        unit = measure.format("lobe.render(scene(256, 256), spp=1 << 6, progress=False)")
+        assert r["error"] == "KeyboardInterrupt" and work_after_interrupt(r, unit) < 16, r
+        r = run('lobe.fit(lobe.Material(MODELS["cook-torrance"]), resolution=1.0)', interrupt=True)
+        unit = measure.format('lobe.fit(lobe.Material(MODELS["cook-torrance"]), models="ward", '
+                              'resolution=1.0, progress=False)')
+        assert r["error"] == "KeyboardInterrupt" and work_after_interrupt(r, unit) < 4, r
         assert run("print(1 + 1)")["text"] == "2\n"
     finally:
         kc.stop_channels()
