@@ -1,11 +1,40 @@
-//! The procedural images scene files can name as `"file": "builtin:<name>"` (see
+//! The images scene files can name as `"file": "builtin:<name>"` (see
 //! [`super::LoadOptions::with_builtins`]): `studio`, an HDR "studio" environment built in
 //! code (a soft key light, a fill, a rim strip over a graded backdrop) that lights the
-//! built-in showcase and benchmark scenes with no data on disk.
+//! built-in showcase and benchmark scenes with no data on disk, and `sunset`, the outdoor
+//! map of scenes/envmaps embedded in the program.
 
 use crate::Rgb;
 use crate::image_io::RgbImage;
 use std::f32::consts::{PI, TAU};
+
+/// The sunset map of scenes/envmaps (512 x 256, CC0, Greg Zaal / HDRI Haven), embedded so
+/// that scenes, fits and the built-in study have an outdoor lighting without any file.
+pub const SUNSET_EXR: &[u8] = include_bytes!("../../../scenes/envmaps/sunset-512.exr");
+
+/// The pixels of [`SUNSET_EXR`].
+pub fn sunset_environment() -> RgbImage {
+    use exr::prelude::*;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |res, _| RgbImage {
+                width: res.width(),
+                height: res.height(),
+                pixels: vec![Rgb::ZERO; res.width() * res.height()],
+            },
+            |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                img.pixels[pos.y() * img.width + pos.x()] = Rgb::new(r, g, b);
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(SUNSET_EXR))
+        // The file is part of the program and decoded by a test (`sunset_is_embedded`).
+        .expect("the embedded sunset map decodes");
+    image.layer_data.channel_data.pixels
+}
 
 /// A smooth box window: 1 inside [lo, hi], falling to 0 over `soft` on each side.
 fn window(x: f32, lo: f32, hi: f32, soft: f32) -> f32 {
@@ -54,5 +83,20 @@ pub fn studio_environment(width: usize, height: usize) -> RgbImage {
         width,
         height,
         pixels,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn sunset_is_embedded() {
+        let img = super::sunset_environment();
+        assert_eq!((img.width, img.height), (512, 256));
+        let lum = |p: &crate::Rgb| p.r + p.g + p.b;
+        assert!(img.pixels.iter().all(|p| lum(p).is_finite() && lum(p) >= 0.0));
+        // A sun: the brightest pixel is far above the mean.
+        let mean = img.pixels.iter().map(lum).sum::<f32>() / img.pixels.len() as f32;
+        let max = img.pixels.iter().map(lum).fold(0.0, f32::max);
+        assert!(max > 50.0 * mean, "{max} {mean}");
     }
 }

@@ -99,12 +99,13 @@ pub struct LoadOptions {
 }
 
 impl LoadOptions {
-    /// The built-in procedural images (`builtin:studio`).
+    /// The built-in images (`builtin:studio`, `builtin:sunset`).
     pub fn with_builtins() -> Self {
         let mut b: BTreeMap<String, ImageMaker> = BTreeMap::new();
         b.insert("studio".to_string(), || {
             builtin_images::studio_environment(512, 256)
         });
+        b.insert("sunset".to_string(), builtin_images::sunset_environment);
         Self {
             builtin_images: b,
             registry: Arc::new(Registry::builtin()),

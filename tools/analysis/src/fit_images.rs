@@ -8,12 +8,8 @@ use lobe_materials::fit::image::{Environment, ImageSettings, SphereImages};
 use lobe_renderer::Error;
 use lobe_renderer::image_io::RgbImage;
 use lobe_renderer::lights::envmap::{EnvMap, load_rgb_image};
-use lobe_renderer::scene::builtin_images::studio_environment;
+use lobe_renderer::scene::builtin_images::{studio_environment, sunset_environment};
 use std::path::Path;
-
-/// The sunset map of scenes/envmaps (512 x 256, CC0, Greg Zaal / HDRI Haven), embedded so
-/// that fits and the built-in study have an outdoor lighting without any file.
-pub const SUNSET: &[u8] = include_bytes!("../../../scenes/envmaps/sunset-512.exr");
 
 /// The maps the image metric fits under by default: the built-in studio and the embedded
 /// sunset.
@@ -24,14 +20,7 @@ pub const DEFAULT_FIT_ENVS: [&str; 2] = ["builtin:studio", "builtin:sunset"];
 pub fn environment_image(spec: &str) -> Result<RgbImage, Error> {
     match spec {
         "builtin:studio" => Ok(studio_environment(512, 256)),
-        "builtin:sunset" => {
-            let dir = tempfile::tempdir()
-                .map_err(|e| Error::Other(format!("cannot create a temporary folder: {e}")))?;
-            let p = dir.path().join("sunset-512.exr");
-            std::fs::write(&p, SUNSET)
-                .map_err(|e| Error::file(p.display(), format!("cannot write: {e}")))?;
-            load_rgb_image(&p)
-        }
+        "builtin:sunset" => Ok(sunset_environment()),
         other if other.starts_with("builtin:") => Err(Error::Other(format!(
             "--env: unknown built-in map \"{other}\"; expected builtin:studio, builtin:sunset or an image file"
         ))),

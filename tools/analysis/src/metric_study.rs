@@ -58,10 +58,11 @@ fn check(config: &MetricStudyConfig) -> Result<(), Error> {
     } else {
         config.fit.envs.iter().map(|e| stem_of(e)).collect()
     };
+    let image_metric = config.metrics.contains(&Metric::Image);
     if let Some(e) = config
         .test_envs
         .iter()
-        .find(|e| fitted.contains(&stem_of(e)))
+        .find(|e| image_metric && fitted.contains(&stem_of(e)))
     {
         return Err(Error::Other(format!(
             "--test-env {e}: is also a map the image metric fits under; expected held-out maps"

@@ -61,6 +61,24 @@ pub struct Counts {
     pub example: Option<String>,
     /// The first reciprocity violation.
     pub reciprocity_example: Option<String>,
+    /// The first directional albedo above 1.
+    pub energy_example: Option<String>,
+    /// The first f32/f64 disagreement.
+    pub precision_example: Option<String>,
+}
+
+impl Counts {
+    /// The first case of each kind found (failures first), for `--verbose`.
+    pub fn examples(&self) -> impl Iterator<Item = &String> {
+        [
+            &self.example,
+            &self.reciprocity_example,
+            &self.energy_example,
+            &self.precision_example,
+        ]
+        .into_iter()
+        .flatten()
+    }
 }
 
 fn dir(theta_deg: f64, phi_deg: f64) -> glam::Vec3 {
@@ -248,20 +266,29 @@ fn sweep_lobe_model(
                     .get_or_insert_with(|| format!("{what}: f64 non-finite at wo {wo}, wi {wi}"));
             } else if b64.iter().any(|v| *v < 0.0) {
                 c.negative += 1;
+                c.example.get_or_insert_with(|| {
+                    format!("{what}: f64 negative at wo {wo}, wi {wi}: {b64:?}")
+                });
             }
             if (0..3).any(|i| {
                 let (x, y) = (a[i] as f64, b64[i]);
                 (x - y).abs() > 1e-3 * y.abs().max(1e-3)
             }) {
                 c.precision += 1;
+                c.precision_example.get_or_insert_with(|| {
+                    format!("{what}: f32 {a:?} against f64 {b64:?} at wo {wo}, wi {wi}")
+                });
             }
         }
         if lobe.flags().contains(Flags::ENERGY_BOUNDED) {
             for t in [0.0, 45.0, 80.0, 89.0] {
-                if directional_albedo(lobe.as_ref(), dir(t, 10.0), if quick { 16 } else { 32 })
-                    > 1.02
-                {
+                let albedo =
+                    directional_albedo(lobe.as_ref(), dir(t, 10.0), if quick { 16 } else { 32 });
+                if albedo > 1.02 {
                     c.energy += 1;
+                    c.energy_example.get_or_insert_with(|| {
+                        format!("{what}: directional albedo {albedo:.4} at theta_o {t} degrees")
+                    });
                 }
             }
         }
@@ -480,6 +507,12 @@ fn rgl_files(folder: &Path) -> Result<Vec<Value>, Error> {
         .map(|p| std::fs::canonicalize(&p).unwrap_or(p))
         .collect();
     files.sort();
+    if files.is_empty() {
+        return Err(Error::file(
+            folder.display(),
+            "no .bsdf file; expected a folder of RGL measured BRDFs (--rgl)",
+        ));
+    }
     Ok(files
         .iter()
         .map(|p| json!({"type": "rgl", "file": p.display().to_string()}))
@@ -505,7 +538,6 @@ impl StabilityReport {
         )
     }
 
-    /// The models with non-finite or negative values, each with its first example.
     /// The sweep's verdict as one line: PASS or FAIL (a non-finite or negative value is a
     /// failure), saying which columns are failures and which are findings.
     pub fn verdict(&self) -> String {
@@ -522,7 +554,7 @@ impl StabilityReport {
                 self.rows.len()
             ),
             false => format!(
-                "FAIL: non-finite or negative values in {} of {} models",
+                "FAIL: non-finite or negative values, or nothing swept, in {} of {} models",
                 failed.len(),
                 self.rows.len()
             ),
@@ -532,11 +564,26 @@ impl StabilityReport {
         )
     }
 
+    /// The models with non-finite or negative values, each with its first example, and
+    /// those of which nothing was swept (every description refused).
     pub fn failures(&self) -> Vec<String> {
         self.rows
             .iter()
-            .filter(|(_, c)| c.nonfinite + c.negative > 0)
-            .map(|(name, c)| format!("{name} ({})", c.example.clone().unwrap_or_default()))
+            .filter_map(|(name, c)| {
+                if c.nonfinite + c.negative > 0 {
+                    Some(format!(
+                        "{name} ({})",
+                        c.example.clone().unwrap_or_default()
+                    ))
+                } else if c.evals == 0 {
+                    Some(format!(
+                        "{name} (nothing swept: {} descriptions refused)",
+                        c.rejected
+                    ))
+                } else {
+                    None
+                }
+            })
             .collect()
     }
 }

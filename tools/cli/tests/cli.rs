@@ -793,12 +793,21 @@ fn microfacet_synth_and_estimate_write_tables_plots_and_materials() {
             "8",
             "--f0",
             "1",
-            "-q",
+            "--filled",
+            "0.1",
+            "--iterations",
+            "2",
         ])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The options reach the estimate: a tenth of the bins filled, two alternations (one
+    // change between them).
     let table = String::from_utf8_lossy(&o.stdout).to_string();
+    let summary = table.lines().find(|l| l.starts_with("velvet: ")).unwrap();
+    assert!(summary.contains("10 % filled"), "{summary}");
+    let changes = summary.split("p change per iteration").nth(1).unwrap();
+    assert_eq!(changes.matches("e-").count() + changes.matches("e+").count(), 1, "{summary}");
     assert_eq!(
         table.lines().filter(|l| l.starts_with("| ")).count(),
         5,
@@ -1052,6 +1061,164 @@ fn stability_sweep_finds_no_nonfinite_or_negative_values() {
             "{row}"
         );
     }
+}
+
+/// `--verbose` shows the first case of each kind found; `--rgl` sweeps the files of a folder
+/// and refuses one without any, rather than passing on nothing.
+#[test]
+fn stability_shows_its_cases_and_sweeps_the_rgl_folder_given() {
+    // Ashikhmin-Shirley's f32 and f64 evaluations disagree at grazing angles (a finding).
+    let o = lobe()
+        .args(["stability", "--quick", "--models", "ashikhmin-shirley", "--verbose"])
+        .output()
+        .unwrap();
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert!(o.status.success(), "{out}{err}");
+    let findings: usize = out
+        .lines()
+        .find(|l| l.starts_with("| ashikhmin-shirley |"))
+        .map(|row| row.split('|').nth(9).unwrap().trim().parse().unwrap())
+        .unwrap();
+    assert!(findings > 0, "{out}");
+    assert!(err.contains("\"ashikhmin-shirley\"") && err.contains(": f32 ["), "{err}");
+    let quiet = lobe()
+        .args(["stability", "--quick", "--models", "ashikhmin-shirley"])
+        .output()
+        .unwrap();
+    assert!(!String::from_utf8_lossy(&quiet.stderr).contains(": f32 ["));
+    // A folder without .bsdf files is an error, not a pass over nothing.
+    let dir = tempfile::tempdir().unwrap();
+    fails(
+        &[
+            "stability",
+            "--quick",
+            "--models",
+            "rgl",
+            "--rgl",
+            dir.path().to_str().unwrap(),
+        ],
+        "no .bsdf file",
+    );
+    let Some(data) = lobe_tests::shared_data_or_skip("stability --rgl over the shared RGL files")
+    else {
+        return;
+    };
+    let rgl = data.join("rgl");
+    let count = std::fs::read_dir(&rgl)
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "bsdf"))
+        .count();
+    let o = lobe()
+        .args(["stability", "--quick", "--models", "rgl", "--rgl"])
+        .arg(&rgl)
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{out}");
+    let row = out.lines().find(|l| l.starts_with("| rgl |")).unwrap();
+    let cols: Vec<&str> = row.split('|').map(str::trim).collect();
+    assert_eq!(cols[2], count.to_string(), "{row}");
+    assert!(cols[4].parse::<usize>().unwrap() > 0, "{row}");
+}
+
+/// `lobe fit compare-metrics`: every metric's fit of every model, rendered under the
+/// held-out map against the data's own render; a model fits its own data best; the fits
+/// are kept and reused when rerun; bad options are one-line errors.
+#[test]
+fn fit_compare_metrics_renders_each_metrics_fits_against_the_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let ward = dir.path().join("w.bin");
+    let blinn = dir.path().join("b.bin");
+    write_binned(
+        serde_json::json!({"type": "ward", "diffuse": 0.1, "specular": 0.3, "alpha": 0.15}),
+        (20, 45),
+        &ward,
+    );
+    write_binned(
+        serde_json::json!({"type": "blinn-phong", "diffuse": 0.2, "specular": 0.2, "n": 30}),
+        (20, 45),
+        &blinn,
+    );
+    let out = dir.path().join("out");
+    let args = |metrics: &str, test_env: &str| -> Vec<String> {
+        [
+            "fit",
+            "compare-metrics",
+            ward.to_str().unwrap(),
+            blinn.to_str().unwrap(),
+            "--models",
+            "ward,blinn-phong",
+            "--metrics",
+            metrics,
+            "--test-env",
+            test_env,
+            "--resolution",
+            "6",
+            "--size",
+            "24",
+            "--spp",
+            "8",
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let o = lobe().args(args("eq1,log", "builtin:sunset")).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    // 2 materials x 2 metrics x 2 models under 1 map.
+    assert_eq!(rows.len(), 8, "{csv}");
+    let value = |material: &str, model: &str, metric: &str, col: usize| -> f64 {
+        let r = rows
+            .iter()
+            .find(|r| r[0] == material && r[1] == model && r[2] == metric && r[3] == "sunset")
+            .unwrap_or_else(|| panic!("{material} {model} {metric} missing: {csv}"));
+        r[col].parse().unwrap()
+    };
+    for metric in ["eq1", "log"] {
+        for (material, own, other) in [("w", "ward", "blinn-phong"), ("b", "blinn-phong", "ward")] {
+            // Eq. (1) error (column 4) near zero for the data's own model; its render
+            // closer to the data's (RMSE, column 5) than the other model's.
+            assert!(value(material, own, metric, 4) < 1e-3, "{csv}");
+            assert!(value(material, other, metric, 4) > 1e-2, "{csv}");
+            assert!(
+                value(material, own, metric, 5) < value(material, other, metric, 5),
+                "{csv}"
+            );
+        }
+    }
+    let md = std::fs::read_to_string(out.join("metrics.md")).unwrap();
+    assert!(md.contains("| eq1 | 1.000 |") && md.contains("| log |"), "{md}");
+    // A rerun reuses the fits: each report untouched (same inode, same bytes).
+    let identity = |p: &Path| {
+        use std::os::unix::fs::MetadataExt;
+        let m = std::fs::metadata(p).unwrap();
+        (m.ino(), std::fs::read(p).unwrap())
+    };
+    let fits = out.join("fits");
+    let reports = listing(&fits);
+    assert_eq!(reports.len(), 4, "{reports:?}");
+    let before: Vec<_> = reports.iter().map(|f| identity(&fits.join(f))).collect();
+    let o = lobe().args(args("eq1,log", "builtin:sunset")).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let after: Vec<_> = reports.iter().map(|f| identity(&fits.join(f))).collect();
+    assert!(before == after, "a rerun fitted again");
+    assert_eq!(std::fs::read_to_string(out.join("metrics.csv")).unwrap(), csv);
+    // Bad options.
+    let bad = |metrics: &str, env: &str, needle: &str| {
+        let a = args(metrics, env);
+        fails(&a.iter().map(String::as_str).collect::<Vec<_>>(), needle);
+    };
+    bad("eq1,nope", "builtin:sunset", "--metrics");
+    // The image metric fits under studio and sunset by default: neither is held out.
+    bad("eq1,image", "builtin:sunset", "--test-env builtin:sunset");
+    bad("eq1", dir.path().join("no.exr").to_str().unwrap(), "no.exr");
 }
 
 #[test]
@@ -2051,6 +2218,23 @@ fn study_refuses_bad_inputs_in_one_line() {
 /// Output piped into a reader that has gone (`lobe models | head -1`) ends the process
 /// quietly, as Unix tools end (by SIGPIPE), instead of with a panic in `println!`.
 #[cfg(unix)]
+/// `lobe models` prints the registry's reference (the text docs/models.md holds, checked
+/// in tests/scene_files.rs) and `--names` one name per line, every model once.
+#[test]
+fn models_prints_the_reference_and_the_names() {
+    let reg = lobe_materials::registry::Registry::builtin();
+    let o = lobe().arg("models").output().unwrap();
+    assert!(o.status.success());
+    assert_eq!(String::from_utf8(o.stdout).unwrap(), reg.reference_markdown());
+    let o = lobe().args(["models", "--names"]).output().unwrap();
+    let out = String::from_utf8(o.stdout).unwrap();
+    let names: Vec<&str> = out.lines().collect();
+    assert_eq!(names, reg.names().collect::<Vec<_>>());
+    for m in ["lambert", "ward", "he", "sampled-microfacet", "merl", "rgl", "composite"] {
+        assert_eq!(names.iter().filter(|n| **n == m).count(), 1, "{m}: {names:?}");
+    }
+}
+
 #[test]
 fn a_closed_stdout_ends_the_process_without_a_panic() {
     use std::os::fd::{FromRawFd, OwnedFd};

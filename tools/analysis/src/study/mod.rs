@@ -20,7 +20,7 @@
 pub mod site;
 pub mod steps;
 
-use crate::fit_images::SUNSET;
+use lobe_renderer::scene::builtin_images::SUNSET_EXR;
 use lobe_materials::fit::Stop;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::registry::Registry;
@@ -359,7 +359,7 @@ pub fn environments(config: &StudyConfig) -> Result<Vec<Env>, Error> {
         if !sunset.exists() {
             std::fs::create_dir_all(config.out.join("assets"))
                 .map_err(|e| Error::file(config.out.display(), format!("cannot create: {e}")))?;
-            lobe_renderer::film::atomic_write(&sunset, |w| std::io::Write::write_all(w, SUNSET))?;
+            lobe_renderer::film::atomic_write(&sunset, |w| std::io::Write::write_all(w, SUNSET_EXR))?;
         }
         let abs = std::fs::canonicalize(&sunset).unwrap_or(sunset);
         return Ok(vec![

@@ -15,7 +15,8 @@ pub struct StabilityArgs {
     /// Fewer parameter values and directions (for CI).
     #[arg(long)]
     quick: bool,
-    /// Print the first offending case of each kind per model.
+    /// Print the first case of each kind (non-finite or negative, reciprocity, energy,
+    /// f32/f64) per model, on stderr.
     #[arg(long)]
     verbose: bool,
     /// Folder of RGL .bsdf files to sweep (default: ../shared/data/rgl or $LOBE_DATA/rgl).
@@ -40,7 +41,7 @@ pub fn cmd_stability(args: StabilityArgs, quiet: bool) -> Result<(), Error> {
     for (name, c) in &report.rows {
         println!("{}", StabilityReport::row(name, c));
         if args.verbose {
-            for e in [&c.example, &c.reciprocity_example].into_iter().flatten() {
+            for e in c.examples() {
                 eprintln!("  {e}");
             }
         }
@@ -51,7 +52,7 @@ pub fn cmd_stability(args: StabilityArgs, quiet: bool) -> Result<(), Error> {
         Ok(())
     } else {
         Err(Error::Other(format!(
-            "non-finite or negative values in: {}",
+            "non-finite or negative values, or nothing swept, in: {}",
             failed.join("; ")
         )))
     }
