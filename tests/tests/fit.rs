@@ -17,6 +17,7 @@ use lobe_materials::fit::dataset::{CUTOFF_DEG, Dataset, Sample};
 use lobe_materials::fit::report::BoundSide;
 use lobe_materials::fit::{
     FitError, FitResult, ISOTROPIC_DEFAULT, ModelSpec, builtin_specs, eq1_error, fit, fit_until,
+    linear_colours,
 };
 use lobe_materials::measured::binned::{Axis, Binned};
 use lobe_materials::measured::tabulate::{Acquisition, merl_from};
@@ -311,11 +312,18 @@ fn real_rgl_measurements_fit_with_every_model_and_render_close() {
             data.max_albedo
         );
         let mut ct = None;
+        // Every model contains the Lambertian (a specular colour of zero), so no optimum may
+        // be worse than the best Lambertian; real glossy data leave it well behind.
+        let (lambert_error, lambert_colours) = linear_colours(&data, &[]);
         for label in ISOTROPIC_DEFAULT {
             let r = fit(&REGISTRY, &data, &spec(label), 200).unwrap();
             show(&r);
             assert!(r.error.is_finite() && r.error > 0.0, "{label}: {}", r.error);
-            assert!(r.error_normalized < 1.0, "{label}: {}", r.error_normalized);
+            assert!(
+                r.error < lambert_error,
+                "{label}: {} against the Lambertian fit's {lambert_error}",
+                r.error
+            );
             material(&r.material);
             if *label == "cook-torrance" {
                 ct = Some(r.material);
@@ -361,36 +369,24 @@ fn real_rgl_measurements_fit_with_every_model_and_render_close() {
         };
         let floor = rmse(&img(measured_desc, 2));
         let fit_rmse = rmse(&img(ct.unwrap(), 1));
-        let lambert = rmse(&img(
-            json!({"type": "lambert", "reflectance": data.max_albedo}),
-            1,
-        ));
+        let diffuse = lambert_colours[0];
+        let lambert = rmse(&img(json!({"type": "lambert", "reflectance": diffuse}), 1));
         eprintln!(
             "  Cook-Torrance fit vs measured render: relative RMSE {fit_rmse:.4} (noise floor \
-             {floor:.4}; a Lambertian of the same albedo {lambert:.4})"
+             {floor:.4}; the Lambertian fit {lambert:.4})"
         );
-        // Measured 2026-11-22 (relative RMSE of 8x8 block means): cc_ibiza_sunset 0.50,
-        // colodur_napoli_4f 0.077, paper_white 0.021, vch_golden_yellow 0.34; noise floors
-        // 0.01-0.03; a Lambertian of the data's albedo 0.1-1.7. The two glossy paints carry
-        // a clear-coat peak no single Cook-Torrance lobe follows (normalized Eq. 1 errors near
-        // 0.26 at 1 and 4 degrees alike), hence their looser bounds.
+        // The Cook-Torrance fit renders closer to the data than the Lambertian it contains,
+        // by a wide margin (measured: 0.25 to 0.39 of its error), and that error is not
+        // noise: it is above twice the floor of two renders of the data (measured: 5 to 23
+        // times the floor).
         let name = f.file_name().unwrap().to_string_lossy().to_string();
-        let bound = [
-            ("cc_ibiza_sunset", 0.6),
-            ("colodur_napoli_4f", 0.12),
-            ("paper_white", 0.05),
-            ("vch_golden_yellow", 0.45),
-        ]
-        .iter()
-        .find(|(k, _)| name.starts_with(k))
-        .map_or(0.6, |b| b.1);
-        assert!(
-            fit_rmse < bound,
-            "{name}: relative image RMSE {fit_rmse} >= {bound}"
-        );
         assert!(
             fit_rmse < 0.5 * lambert,
-            "{name}: {fit_rmse} vs Lambertian {lambert}"
+            "{name}: {fit_rmse} vs the Lambertian fit's {lambert}"
+        );
+        assert!(
+            fit_rmse > 2.0 * floor,
+            "{name}: {fit_rmse} is noise (floor {floor})"
         );
         assert!(floor < 0.05, "{name}: noise floor {floor}");
     }

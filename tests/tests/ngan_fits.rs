@@ -1,8 +1,8 @@
 //! The published Ngan et al. 2005 fits (../shared/data/ngan-fits) load for every material
 //! and model, evaluate finite and non-negative, and agree with each other: under the
-//! conventions lobe uses, the specular albedos of a material's Ward, Ward-Duer,
-//! Blinn-Phong, Cook-Torrance and Ashikhmin-Shirley fits are close (they were fitted to the
-//! same data), which a wrong normalization would break by large factors.
+//! conventions lobe uses, the directional albedos of a material's Ward, Ward-Duer,
+//! Blinn-Phong, Ashikhmin-Shirley, He and Cook-Torrance fits are close (they were fitted to
+//! the same data), which a wrong normalization would break.
 
 use lobe_materials::ngan_fit::{MODELS, read_fits};
 use lobe_materials::registry::Registry;
@@ -44,9 +44,15 @@ fn every_published_fit_loads_and_is_finite() {
 
 #[test]
 fn fits_of_one_material_agree_across_models() {
-    // Specular albedo at 20 degrees incidence of each model's fit, relative to the same
-    // material's Cook-Torrance fit; the median over materials must be near one. (Single
-    // materials differ: the models' angular behaviours differ, which is the study's point.)
+    // Directional albedo at 20 degrees incidence of each model's fit, relative to the same
+    // material's Cook-Torrance fit; the median over materials must be within 6 % of one
+    // (measured: 0.990 to 1.044). The total, not the specular part: how a fit splits the
+    // data between its diffuse and specular terms depends on the model's shape (the
+    // specular parts' medians range from 0.90 to 1.36, and were held to 0.5 to 2 only),
+    // while the reflectance both fits reproduce is the data's. Single materials differ
+    // more: the models' angular behaviours differ, which is the study's point. A model 5 %
+    // off in value moves its median by 5 % of its specular share only: the x1.05 controls
+    // of tools/python/tests/test_independent_references.py are the check for that.
     let Some(dir) = fits_dir() else { return };
     let reg = Registry::builtin();
     let models = [
@@ -62,22 +68,22 @@ fn fits_of_one_material_agree_across_models() {
         .map(|m| read_fits(&dir.join(MODELS.iter().find(|(n, _, _)| n == m).unwrap().1)).unwrap())
         .collect();
     let wo = dir_deg(20.0, 0.0);
-    let spec_albedo = |model: &str, fit: &lobe_materials::ngan_fit::Fit| {
+    let total_albedo = |model: &str, fit: &lobe_materials::ngan_fit::Fit| {
         let desc = json!({"type": "ngan-fit", "material": fit.material, "model": model, "fits": dir.to_str().unwrap(), "channel_scale": "none"});
         let m = reg.create(&desc, "m").unwrap();
-        albedo(m.as_ref(), wo, 256) - fit.diffuse.iter().fold(0.0f64, |a, &b| a.max(b))
+        albedo(m.as_ref(), wo, 256)
     };
     // Joined on the material's name (the files need not list materials in one order).
     let ct: std::collections::HashMap<&str, f64> = table[5]
         .iter()
-        .map(|f| (f.material.as_str(), spec_albedo("cook-torrance", f)))
+        .map(|f| (f.material.as_str(), total_albedo("cook-torrance", f)))
         .collect();
     for (k, model) in models[..5].iter().enumerate() {
         let mut ratios: Vec<f64> = table[k]
             .iter()
             .filter_map(|f| ct.get(f.material.as_str()).map(|c| (f, *c)))
             .filter(|(f, c)| *c > 1e-4 && f.param("eta") != Some(1.0))
-            .map(|(f, c)| spec_albedo(model, f) / c)
+            .map(|(f, c)| total_albedo(model, f) / c)
             .collect();
         assert!(
             ratios.len() >= 50,
@@ -87,12 +93,54 @@ fn fits_of_one_material_agree_across_models() {
         ratios.sort_by(f64::total_cmp);
         let median = ratios[ratios.len() / 2];
         eprintln!(
-            "{model}: median specular albedo relative to Cook-Torrance {median:.2} over {} materials",
+            "{model}: median albedo relative to Cook-Torrance {median:.3} over {} materials",
             ratios.len()
         );
         assert!(
-            (0.5..2.0).contains(&median),
-            "{model}: median ratio {median:.2} to Cook-Torrance: a normalization is off"
+            (0.94..1.06).contains(&median),
+            "{model}: median ratio {median:.3} to Cook-Torrance: a normalization is off"
         );
     }
+}
+
+/// The fit ranges hold Ngan et al.'s published optima: fitting the data they were fitted
+/// to can reach them (the ranges were widened where they did not: Lafortune's cz, He's
+/// sigma0 and tau, Ashikhmin-Shirley's exponents below 1). This replaces a hand-written
+/// copy of the ranges: what matters of a range is what it must hold.
+#[test]
+fn fit_ranges_hold_the_published_optima() {
+    let Some(dir) = fits_dir() else { return };
+    let specs = lobe_materials::fit::builtin_specs();
+    let (mut checked, mut outside) = (0, Vec::new());
+    for model in lobe_materials::analytic::MODELS {
+        let Some(published) = model.published else {
+            continue;
+        };
+        let spec = specs
+            .iter()
+            .find(|s| s.model == model.schema.name && s.lobes == 1 && s.label == s.model)
+            .unwrap_or_else(|| panic!("{}: no fit variant", model.schema.name));
+        for fit in read_fits(&dir.join(published.file)).unwrap() {
+            for (param, key) in published.keys {
+                let Some(range) = spec.params.iter().find(|p| p.name == *param) else {
+                    continue;
+                };
+                let Some(v) = fit.param(key) else { continue };
+                // eta = 1 (4 of He's fits): no Fresnel reflection, a lobe that vanished; the
+                // fitter reaches the same material with a specular colour of zero.
+                if *param == "eta" && v == 1.0 {
+                    continue;
+                }
+                if !(range.lo * (1.0 - 1e-9) <= v && v <= range.hi * (1.0 + 1e-9)) {
+                    outside.push(format!(
+                        "{} {}: {param} = {v} outside [{}, {}]",
+                        fit.material, spec.label, range.lo, range.hi
+                    ));
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert!(outside.is_empty(), "{}", outside.join("\n"));
+    assert!(checked > 700, "{checked} published values checked");
 }

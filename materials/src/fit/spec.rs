@@ -162,229 +162,135 @@ pub const ANISOTROPIC_DEFAULT: &[&str] = &labels_in::<ANISOTROPIC_COUNT>(FitGrou
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::registry::Registry;
 
-    /// The fit ranges and starting points the fit reports of lobe are made with: the
-    /// specs derived from the models' declarations must equal them exactly, in order
-    /// (widened where Ngan's published fits lie outside: Lafortune's cz down to 1e-12 in
-    /// log space, He's sigma0 and tau, Ashikhmin-Shirley's exponents below 1).
-    #[test]
-    fn derived_specs_equal_the_hand_written_table() {
-        const fn p(
-            name: &'static str,
-            lo: f64,
-            hi: f64,
-            log: bool,
-            starts: &'static [f64],
-        ) -> FitParam {
-            FitParam {
-                name,
-                lo,
-                hi,
-                log,
-                starts,
-                tied: &[],
+    /// The material of `spec` with its free parameters at `values` (tied ones copied), a
+    /// diffuse and a specular colour.
+    fn material(spec: &ModelSpec, values: &[f64]) -> Value {
+        let mut d = spec.settings.clone();
+        d["type"] = json!(spec.model);
+        d["diffuse"] = json!(0.1);
+        d["specular"] = json!(0.5);
+        for (p, v) in spec.params.iter().zip(values) {
+            d[p.name] = json!(v);
+            for t in p.tied {
+                d[*t] = json!(v);
             }
         }
+        d
+    }
 
-        fn lafortune_params() -> Vec<FitParam> {
-            vec![
-                FitParam {
-                    name: "cx",
-                    lo: -1.0,
-                    hi: 1.0,
-                    log: false,
-                    starts: &[-0.6],
-                    tied: &["cy"],
-                },
-                p("cz", 1e-12, 1.0, true, &[0.6]),
-                p("n", 1.0, 1e5, true, &[10.0, 100.0, 1000.0]),
-            ]
-        }
-
-        /// `builtin_specs` as it was written out by hand before the models declared their fits.
-        fn hand_written_specs() -> Vec<ModelSpec> {
-            let ct = |label, dist: &str, fresnel: &str, lobes| {
-                let mut params = vec![p("m", 1e-3, 1.0, true, &[0.03, 0.1, 0.3])];
-                match fresnel {
-                    "schlick" => params.push(p("f0", 0.0, 1.0, false, &[0.05, 0.5])),
-                    "dielectric" => params.push(p("eta", 1.001, 20.0, true, &[1.5, 4.0])),
-                    _ => {}
+    /// Every fit variant's box is one the optimizer can search and the model accepts: lo <
+    /// hi (lo > 0 where searched in log space), the starting points inside, every corner
+    /// and every start building a material that is finite and non-negative.
+    #[test]
+    fn fit_boxes_are_searchable_and_accepted_by_their_models() {
+        let reg = Registry::builtin();
+        let specs = builtin_specs();
+        let dirs = [(0.0f32, 0.0f32), (30.0, 0.0), (60.0, 180.0), (85.0, 90.0)].map(|(t, p)| {
+            let (t, p) = (t.to_radians(), p.to_radians());
+            glam::Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+        });
+        let mut built = 0;
+        for spec in &specs {
+            assert!(!spec.params.is_empty(), "{}: nothing to fit", spec.label);
+            for p in &spec.params {
+                assert!(p.lo.is_finite() && p.hi.is_finite() && p.lo < p.hi, "{p:?}");
+                assert!(!p.log || p.lo > 0.0, "{}: log range from {}", p.name, p.lo);
+                assert!(!p.starts.is_empty(), "{}: no start", p.name);
+                for s in p.starts {
+                    assert!((p.lo..=p.hi).contains(s), "{}: start {s} outside", p.name);
                 }
-                ModelSpec {
-                    label,
-                    model: "cook-torrance",
-                    settings: json!({"distribution": dist, "fresnel": fresnel}),
-                    params,
-                    lobes,
-                    group: if lobes == 2 {
-                        FitGroup::TwoLobes
-                    } else if label == "cook-torrance" {
-                        FitGroup::Isotropic
-                    } else {
-                        FitGroup::Variant
-                    },
-                    contains: None,
+            }
+            // Corners (lo or hi for each parameter) and the start grid's diagonal.
+            let n = spec.params.len();
+            let corners = (0..1usize << n).map(|bits| {
+                (0..n)
+                    .map(|i| {
+                        let p = &spec.params[i];
+                        if bits >> i & 1 == 1 { p.hi } else { p.lo }
+                    })
+                    .collect::<Vec<_>>()
+            });
+            let starts = (0..3).map(|k| {
+                spec.params
+                    .iter()
+                    .map(|p| p.starts[k.min(p.starts.len() - 1)])
+                    .collect::<Vec<_>>()
+            });
+            for values in corners.chain(starts) {
+                let desc = material(spec, &values);
+                let m = reg
+                    .create(&desc, "spec")
+                    .unwrap_or_else(|e| panic!("{}: {desc} refused: {e}", spec.label));
+                for wo in dirs {
+                    for wi in dirs {
+                        let f = m.eval(wo, wi);
+                        assert!(f.is_finite() && f.min_component() >= 0.0, "{desc}: {f:?}");
+                    }
                 }
-            };
-            vec![
-                ModelSpec {
-                    label: "ward",
-                    model: "ward",
-                    settings: json!({}),
-                    params: vec![p("alpha", 1e-3, 1.0, true, &[0.03, 0.1, 0.3])],
-                    lobes: 1,
-                    group: FitGroup::Isotropic,
-                    contains: None,
-                },
-                ModelSpec {
-                    label: "ward-duer",
-                    model: "ward-duer",
-                    settings: json!({}),
-                    params: vec![p("alpha", 1e-3, 1.0, true, &[0.03, 0.1, 0.3])],
-                    lobes: 1,
-                    group: FitGroup::Isotropic,
-                    contains: None,
-                },
-                ModelSpec {
-                    label: "blinn-phong",
-                    model: "blinn-phong",
-                    settings: json!({}),
-                    params: vec![p("n", 1.0, 1e6, true, &[10.0, 100.0, 1000.0])],
-                    lobes: 1,
-                    group: FitGroup::Isotropic,
-                    contains: None,
-                },
-                ct("cook-torrance", "beckmann", "schlick", 1),
-                ModelSpec {
-                    label: "lafortune",
-                    model: "lafortune",
-                    settings: json!({"normalization": "ngan"}),
-                    params: lafortune_params(),
-                    lobes: 1,
-                    group: FitGroup::Isotropic,
-                    contains: None,
-                },
-                ModelSpec {
-                    label: "ashikhmin-shirley",
-                    model: "ashikhmin-shirley",
-                    settings: json!({}),
-                    params: vec![
-                        p("n", 0.1, 1e6, true, &[10.0, 100.0, 1000.0]),
-                        p("f0", 0.0, 1.0, false, &[0.05, 0.5]),
-                    ],
-                    lobes: 1,
-                    group: FitGroup::Isotropic,
-                    contains: None,
-                },
-                ModelSpec {
-                    label: "he",
-                    model: "he",
-                    settings: json!({}),
-                    params: vec![
-                        p("sigma0", 1e-3, 10.0, true, &[0.1, 1.0]),
-                        p("tau", 0.03, 200.0, true, &[3.0, 30.0]),
-                        p("eta", 1.001, 20.0, true, &[1.5]),
-                    ],
-                    lobes: 1,
-                    group: FitGroup::Isotropic,
-                    contains: None,
-                },
-                ct("cook-torrance-gaussian", "gaussian", "schlick", 1),
-                ct("cook-torrance-cosine-power", "cosine-power", "schlick", 1),
-                ct("cook-torrance-no-fresnel", "beckmann", "none", 1),
-                ct("cook-torrance-dielectric", "beckmann", "dielectric", 1),
-                ModelSpec {
-                    contains: Some(Contains {
-                        label: "cook-torrance",
-                        params: &[("m", "m"), ("f0", "f0")],
-                    }),
-                    ..ct("cook-torrance-2", "beckmann", "schlick", 2)
-                },
-                ModelSpec {
-                    label: "lafortune-2",
-                    model: "lafortune",
-                    settings: json!({"normalization": "ngan"}),
-                    params: lafortune_params(),
-                    lobes: 2,
-                    group: FitGroup::TwoLobes,
-                    contains: Some(Contains {
-                        label: "lafortune",
-                        params: &[("cx", "cx"), ("cz", "cz"), ("n", "n")],
-                    }),
-                },
-                // Section 5: anisotropic models, for 4D (binned) data.
-                ModelSpec {
-                    label: "ward-anisotropic",
-                    model: "ward-anisotropic",
-                    settings: json!({}),
-                    params: vec![
-                        p("alpha_x", 1e-3, 1.0, true, &[0.03, 0.2]),
-                        p("alpha_y", 1e-3, 1.0, true, &[0.03, 0.2]),
-                    ],
-                    lobes: 1,
-                    group: FitGroup::Anisotropic,
-                    contains: Some(Contains {
-                        label: "ward",
-                        params: &[("alpha_x", "alpha"), ("alpha_y", "alpha")],
-                    }),
-                },
-                ModelSpec {
-                    label: "ashikhmin-shirley-anisotropic",
-                    model: "ashikhmin-shirley-anisotropic",
-                    settings: json!({}),
-                    params: vec![
-                        p("nu", 0.1, 1e6, true, &[10.0, 1000.0]),
-                        p("nv", 0.1, 1e6, true, &[10.0, 1000.0]),
-                        p("f0", 0.0, 1.0, false, &[0.1]),
-                    ],
-                    lobes: 1,
-                    group: FitGroup::Anisotropic,
-                    contains: Some(Contains {
-                        label: "ashikhmin-shirley",
-                        params: &[("nu", "n"), ("nv", "n"), ("f0", "f0")],
-                    }),
-                },
-                ModelSpec {
-                    label: "poulin-fournier",
-                    model: "poulin-fournier",
-                    settings: json!({}),
-                    params: vec![
-                        p("n", 1.0, 1e5, true, &[30.0, 1000.0]),
-                        p("d", 0.0, 5.0, false, &[0.2, 1.0]),
-                        p("h", 0.0, 1.0, false, &[0.5]),
-                    ],
-                    lobes: 1,
-                    group: FitGroup::Anisotropic,
-                    contains: None,
-                },
-            ]
+                built += 1;
+            }
         }
+        assert!(built > 100, "{built} materials built");
+    }
 
-        let derived = builtin_specs();
-        let expected = hand_written_specs();
-        assert_eq!(derived.len(), expected.len());
-        for (d, e) in derived.iter().zip(&expected) {
-            assert_eq!(d, e);
+    /// The variants' labels are unique; a variant that contains a simpler one names an
+    /// existing variant and parameters of both; the study's defaults are its seven
+    /// isotropic models (section 4) and three anisotropic ones (section 5).
+    #[test]
+    fn variants_name_what_they_contain_and_the_defaults_are_the_studys() {
+        let specs = builtin_specs();
+        let find = |label: &str| specs.iter().find(|s| s.label == label);
+        for (k, s) in specs.iter().enumerate() {
+            assert!(
+                specs[..k].iter().all(|o| o.label != s.label),
+                "{} twice",
+                s.label
+            );
+            if let Some(c) = &s.contains {
+                let inner = find(c.label).unwrap_or_else(|| panic!("{}: {}", s.label, c.label));
+                for (mine, theirs) in c.params {
+                    assert!(
+                        s.params.iter().any(|p| p.name == *mine),
+                        "{}: {mine}",
+                        s.label
+                    );
+                    assert!(
+                        inner.params.iter().any(|p| p.name == *theirs),
+                        "{}",
+                        c.label
+                    );
+                }
+            }
         }
+        let mut iso = ISOTROPIC_DEFAULT.to_vec();
+        iso.sort_unstable();
         assert_eq!(
-            ISOTROPIC_DEFAULT,
+            iso,
             [
-                "ward",
-                "ward-duer",
+                "ashikhmin-shirley",
                 "blinn-phong",
                 "cook-torrance",
-                "lafortune",
-                "ashikhmin-shirley",
                 "he",
+                "lafortune",
+                "ward",
+                "ward-duer"
             ]
         );
+        let mut aniso = ANISOTROPIC_DEFAULT.to_vec();
+        aniso.sort_unstable();
         assert_eq!(
-            ANISOTROPIC_DEFAULT,
+            aniso,
             [
-                "ward-anisotropic",
                 "ashikhmin-shirley-anisotropic",
                 "poulin-fournier",
+                "ward-anisotropic"
             ]
         );
+        for label in ISOTROPIC_DEFAULT.iter().chain(ANISOTROPIC_DEFAULT) {
+            let s = find(label).unwrap();
+            assert_eq!(s.lobes, 1, "{label}");
+        }
     }
 }

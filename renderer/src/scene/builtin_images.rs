@@ -93,7 +93,11 @@ mod tests {
         let img = super::sunset_environment();
         assert_eq!((img.width, img.height), (512, 256));
         let lum = |p: &crate::Rgb| p.r + p.g + p.b;
-        assert!(img.pixels.iter().all(|p| lum(p).is_finite() && lum(p) >= 0.0));
+        assert!(
+            img.pixels
+                .iter()
+                .all(|p| lum(p).is_finite() && lum(p) >= 0.0)
+        );
         // A sun: the brightest pixel is far above the mean.
         let mean = img.pixels.iter().map(lum).sum::<f32>() / img.pixels.len() as f32;
         let max = img.pixels.iter().map(lum).fold(0.0, f32::max);

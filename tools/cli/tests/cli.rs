@@ -807,7 +807,11 @@ fn microfacet_synth_and_estimate_write_tables_plots_and_materials() {
     let summary = table.lines().find(|l| l.starts_with("velvet: ")).unwrap();
     assert!(summary.contains("10 % filled"), "{summary}");
     let changes = summary.split("p change per iteration").nth(1).unwrap();
-    assert_eq!(changes.matches("e-").count() + changes.matches("e+").count(), 1, "{summary}");
+    assert_eq!(
+        changes.matches("e-").count() + changes.matches("e+").count(),
+        1,
+        "{summary}"
+    );
     assert_eq!(
         table.lines().filter(|l| l.starts_with("| ")).count(),
         5,
@@ -1069,7 +1073,13 @@ fn stability_sweep_finds_no_nonfinite_or_negative_values() {
 fn stability_shows_its_cases_and_sweeps_the_rgl_folder_given() {
     // Ashikhmin-Shirley's f32 and f64 evaluations disagree at grazing angles (a finding).
     let o = lobe()
-        .args(["stability", "--quick", "--models", "ashikhmin-shirley", "--verbose"])
+        .args([
+            "stability",
+            "--quick",
+            "--models",
+            "ashikhmin-shirley",
+            "--verbose",
+        ])
         .output()
         .unwrap();
     let (out, err) = (
@@ -1083,7 +1093,10 @@ fn stability_shows_its_cases_and_sweeps_the_rgl_folder_given() {
         .map(|row| row.split('|').nth(9).unwrap().trim().parse().unwrap())
         .unwrap();
     assert!(findings > 0, "{out}");
-    assert!(err.contains("\"ashikhmin-shirley\"") && err.contains(": f32 ["), "{err}");
+    assert!(
+        err.contains("\"ashikhmin-shirley\"") && err.contains(": f32 ["),
+        "{err}"
+    );
     let quiet = lobe()
         .args(["stability", "--quick", "--models", "ashikhmin-shirley"])
         .output()
@@ -1109,7 +1122,13 @@ fn stability_shows_its_cases_and_sweeps_the_rgl_folder_given() {
     let rgl = data.join("rgl");
     let count = std::fs::read_dir(&rgl)
         .unwrap()
-        .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "bsdf"))
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .extension()
+                .is_some_and(|x| x == "bsdf")
+        })
         .count();
     let o = lobe()
         .args(["stability", "--quick", "--models", "rgl", "--rgl"])
@@ -1168,10 +1187,17 @@ fn fit_compare_metrics_renders_each_metrics_fits_against_the_data() {
         .map(String::from)
         .to_vec()
     };
-    let o = lobe().args(args("eq1,log", "builtin:sunset")).output().unwrap();
+    let o = lobe()
+        .args(args("eq1,log", "builtin:sunset"))
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
-    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
     // 2 materials x 2 metrics x 2 models under 1 map.
     assert_eq!(rows.len(), 8, "{csv}");
     let value = |material: &str, model: &str, metric: &str, col: usize| -> f64 {
@@ -1194,7 +1220,10 @@ fn fit_compare_metrics_renders_each_metrics_fits_against_the_data() {
         }
     }
     let md = std::fs::read_to_string(out.join("metrics.md")).unwrap();
-    assert!(md.contains("| eq1 | 1.000 |") && md.contains("| log |"), "{md}");
+    assert!(
+        md.contains("| eq1 | 1.000 |") && md.contains("| log |"),
+        "{md}"
+    );
     // A rerun reuses the fits: each report untouched (same inode, same bytes).
     let identity = |p: &Path| {
         use std::os::unix::fs::MetadataExt;
@@ -1205,11 +1234,17 @@ fn fit_compare_metrics_renders_each_metrics_fits_against_the_data() {
     let reports = listing(&fits);
     assert_eq!(reports.len(), 4, "{reports:?}");
     let before: Vec<_> = reports.iter().map(|f| identity(&fits.join(f))).collect();
-    let o = lobe().args(args("eq1,log", "builtin:sunset")).output().unwrap();
+    let o = lobe()
+        .args(args("eq1,log", "builtin:sunset"))
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let after: Vec<_> = reports.iter().map(|f| identity(&fits.join(f))).collect();
     assert!(before == after, "a rerun fitted again");
-    assert_eq!(std::fs::read_to_string(out.join("metrics.csv")).unwrap(), csv);
+    assert_eq!(
+        std::fs::read_to_string(out.join("metrics.csv")).unwrap(),
+        csv
+    );
     // Bad options.
     let bad = |metrics: &str, env: &str, needle: &str| {
         let a = args(metrics, env);
@@ -2225,13 +2260,28 @@ fn models_prints_the_reference_and_the_names() {
     let reg = lobe_materials::registry::Registry::builtin();
     let o = lobe().arg("models").output().unwrap();
     assert!(o.status.success());
-    assert_eq!(String::from_utf8(o.stdout).unwrap(), reg.reference_markdown());
+    assert_eq!(
+        String::from_utf8(o.stdout).unwrap(),
+        reg.reference_markdown()
+    );
     let o = lobe().args(["models", "--names"]).output().unwrap();
     let out = String::from_utf8(o.stdout).unwrap();
     let names: Vec<&str> = out.lines().collect();
     assert_eq!(names, reg.names().collect::<Vec<_>>());
-    for m in ["lambert", "ward", "he", "sampled-microfacet", "merl", "rgl", "composite"] {
-        assert_eq!(names.iter().filter(|n| **n == m).count(), 1, "{m}: {names:?}");
+    for m in [
+        "lambert",
+        "ward",
+        "he",
+        "sampled-microfacet",
+        "merl",
+        "rgl",
+        "composite",
+    ] {
+        assert_eq!(
+            names.iter().filter(|n| **n == m).count(),
+            1,
+            "{m}: {names:?}"
+        );
     }
 }
 

@@ -20,11 +20,11 @@
 pub mod site;
 pub mod steps;
 
-use lobe_renderer::scene::builtin_images::SUNSET_EXR;
 use lobe_materials::fit::Stop;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::registry::Registry;
 use lobe_renderer::Error;
+use lobe_renderer::scene::builtin_images::SUNSET_EXR;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -359,7 +359,9 @@ pub fn environments(config: &StudyConfig) -> Result<Vec<Env>, Error> {
         if !sunset.exists() {
             std::fs::create_dir_all(config.out.join("assets"))
                 .map_err(|e| Error::file(config.out.display(), format!("cannot create: {e}")))?;
-            lobe_renderer::film::atomic_write(&sunset, |w| std::io::Write::write_all(w, SUNSET_EXR))?;
+            lobe_renderer::film::atomic_write(&sunset, |w| {
+                std::io::Write::write_all(w, SUNSET_EXR)
+            })?;
         }
         let abs = std::fs::canonicalize(&sunset).unwrap_or(sunset);
         return Ok(vec![
