@@ -1,4 +1,4 @@
-//! The last line of defence around third-party readers (gltf, tobj, exr, image): a panic
+//! The last line of defence around third-party readers (gltf, exr, image): a panic
 //! inside one becomes the usual one-line error naming the file instead of a crash.
 //!
 //! lobe validates what it can before handing bytes to a reader (glTF cross-references,

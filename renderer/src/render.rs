@@ -71,12 +71,13 @@ pub struct RenderStats {
     /// Samples whose radiance was NaN or infinite, dropped from the image.
     pub nonfinite_dropped: u64,
     pub threads: usize,
-    /// The scene's geometry: primitives, seconds to build the BVH (part of loading, not
-    /// of `seconds`), and bytes of the BVH and of the primitives and mesh data.
+    /// The scene's geometry: primitives, and bytes of the BVH and of the primitives and
+    /// mesh data.
     pub primitives: usize,
-    pub bvh_build_seconds: f64,
     pub bvh_bytes: usize,
     pub primitive_bytes: usize,
+    /// Where the scene's loading time went (reading meshes, building the BVH).
+    pub load: crate::scene::LoadTimes,
 }
 
 /// The share of a render's samples that may be non-finite (and dropped) before its image
@@ -120,6 +121,19 @@ impl RenderStats {
         )
     }
 
+    /// Where the scene's loading time went, in one line.
+    pub fn load_summary(&self) -> String {
+        format!(
+            "scene loaded in {:.2} s: meshes read in {:.2} s, BVH of {} primitives built in {:.2} s ({:.1} MB, primitives and meshes {:.1} MB)",
+            self.load.total_seconds,
+            self.load.mesh_read_seconds,
+            self.primitives,
+            self.load.bvh_build_seconds,
+            self.bvh_bytes as f64 / 1e6,
+            self.primitive_bytes as f64 / 1e6
+        )
+    }
+
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::json!({
             "width": self.width,
@@ -133,10 +147,12 @@ impl RenderStats {
             "simd_lanes": lobe_materials::simd::LANES,
             "geometry": {
                 "primitives": self.primitives,
-                "bvh_build_seconds": self.bvh_build_seconds,
                 "bvh_bytes": self.bvh_bytes,
                 "primitive_bytes": self.primitive_bytes,
+                "bvh_build_seconds": self.load.bvh_build_seconds,
+                "mesh_read_seconds": self.load.mesh_read_seconds,
             },
+            "load_seconds": self.load.total_seconds,
         })
     }
 }
@@ -349,9 +365,9 @@ impl TileRun {
             nonfinite_dropped: self.dropped,
             threads: self.threads,
             primitives: scene.geometry.prims.len(),
-            bvh_build_seconds: scene.geometry.build_seconds,
             bvh_bytes: scene.geometry.bvh_memory_bytes(),
             primitive_bytes: scene.geometry.primitive_memory_bytes(),
+            load: scene.load_times,
         }
     }
 }

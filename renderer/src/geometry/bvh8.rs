@@ -277,6 +277,17 @@ impl Bvh8 {
                 if node.is_leaf() {
                     let first = node.first_index as usize;
                     let ids = &bvh2.primitive_indices[first..first + node.prim_count as usize];
+                    let kinds = Self::kinds(prims, ids);
+                    if kinds.count_ones() == 1 {
+                        // One kind (every leaf of a mesh): no grouping.
+                        let kind =
+                            [TRIANGLES, SPHERES, RECTANGLES][kinds.trailing_zeros() as usize];
+                        let (lo, hi) = Self::bounds(prims, ids);
+                        let r = self.leaf_block(kind, prims, ids);
+                        self.set_child(n8, slot, r, lo, hi);
+                        slot += 1;
+                        continue;
+                    }
                     for (kind, group) in Self::by_kind(prims, ids) {
                         let (lo, hi) = Self::bounds(prims, &group);
                         let r = self.leaf_block(kind, prims, &group);
@@ -310,7 +321,7 @@ impl Bvh8 {
             if node.is_leaf() {
                 let first = node.first_index as usize;
                 let ids = &bvh2.primitive_indices[first..first + node.prim_count as usize];
-                Self::by_kind(prims, ids).len()
+                Self::kinds(prims, ids).count_ones() as usize
             } else {
                 1
             }
@@ -339,6 +350,18 @@ impl Bvh8 {
             children.push(l + 1);
         }
         children
+    }
+
+    /// The kinds among the primitives `ids`, one bit per kind (triangles 1, spheres 2,
+    /// rectangles 4).
+    fn kinds(prims: &[Primitive], ids: &[u32]) -> u32 {
+        ids.iter().fold(0, |k, &id| {
+            k | match prims[id as usize].kind {
+                PrimKind::Triangle(_) => 1,
+                PrimKind::Sphere(_) => 2,
+                PrimKind::Rectangle(_) => 4,
+            }
+        })
     }
 
     /// The primitives `ids` grouped by kind (triangles, spheres, rectangles; empty groups

@@ -1,4 +1,4 @@
-//! Triangle-mesh loading: Wavefront OBJ (tobj) and glTF 2.0 (gltf: meshes of the default
+//! Triangle-mesh loading: Wavefront OBJ ([`super::obj`]) and glTF 2.0 (gltf: meshes of the default
 //! scene with their node transforms, and the first camera found in depth-first order).
 //! Every index and position is validated, so a broken file gives an error, never a panic.
 
@@ -6,7 +6,7 @@ use crate::camera::{Camera, look_at};
 use crate::error::{Error, Result};
 use crate::geometry::Mesh;
 use crate::limits::{MAX_COORDINATE, MAX_TRIANGLES};
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec3};
 use std::path::Path;
 
 fn check_mesh(mesh: &Mesh, shown: &str) -> Result<()> {
@@ -53,64 +53,16 @@ pub fn check_positions(mesh: &Mesh, shown: &str) -> Result<()> {
     Ok(())
 }
 
-/// Loads an OBJ file as one mesh (all its objects and groups).
+/// Loads an OBJ file as one mesh (all its objects and groups; [`super::obj`]), with
+/// angle-weighted vertex normals where the file gives none for some vertex.
 pub fn load_obj(path: &Path) -> Result<Mesh> {
-    use std::io::Read;
     let shown = path.display().to_string();
-    let limit = lobe_materials::io::MAX_DATA_BYTES;
-    let (file, _) = lobe_materials::io::open_regular(path, limit, "an OBJ file")?;
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    // Streamed, at most the limit; `mtllib` files are neither opened nor used (lobe's
-    // materials come from the scene).
-    let mut reader = std::io::BufReader::with_capacity(1 << 20, file.take(limit));
-    let (models, _materials) = lobe_materials::guard::third_party("OBJ", || {
-        tobj::load_obj_buf(&mut reader, &opts, |_| Ok(Default::default()))
-    })
-    .map_err(|m| Error::file(&shown, m))?
-    .map_err(|e| Error::file(&shown, format!("cannot read OBJ: {e}")))?;
-    let mut mesh = Mesh::default();
-    let mut all_have_normals = true;
-    for m in &models {
-        let mm = &m.mesh;
-        let base = mesh.positions.len() as u32;
-        if mm.positions.len() % 3 != 0 || mm.indices.len() % 3 != 0 {
-            return Err(Error::file(
-                &shown,
-                format!("object \"{}\" has malformed vertex or face data", m.name),
-            ));
-        }
-        let nv = mm.positions.len() / 3;
-        mesh.positions
-            .extend(mm.positions.chunks(3).map(|c| Vec3::new(c[0], c[1], c[2])));
-        if mm.normals.len() == mm.positions.len() {
-            mesh.normals.extend(
-                mm.normals
-                    .chunks(3)
-                    .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()),
-            );
-        } else {
-            all_have_normals = false;
-        }
-        if mm.texcoords.len() == 2 * nv {
-            mesh.texcoords
-                .extend(mm.texcoords.chunks(2).map(|c| Vec2::new(c[0], c[1])));
-        }
-        mesh.indices.extend(
-            mm.indices
-                .chunks(3)
-                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
-        );
-    }
-    if mesh.texcoords.len() != mesh.positions.len() {
-        mesh.texcoords.clear();
-    }
+    let bytes =
+        lobe_materials::io::read_regular(path, lobe_materials::io::MAX_DATA_BYTES, "an OBJ file")?;
+    let mut mesh = super::obj::parse(&bytes, &shown)?;
+    drop(bytes);
     check_mesh(&mesh, &shown)?;
-    if !all_have_normals || mesh.normals.contains(&Vec3::ZERO) {
+    if mesh.normals.len() != mesh.positions.len() || mesh.normals.contains(&Vec3::ZERO) {
         mesh.compute_vertex_normals();
     }
     Ok(mesh)

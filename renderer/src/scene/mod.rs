@@ -15,6 +15,7 @@ pub mod inputs;
 pub mod json;
 mod lights;
 pub mod mesh_io;
+pub mod obj;
 mod shapes;
 pub mod transform;
 
@@ -68,6 +69,18 @@ pub struct Scene {
     /// The digest of the scene description and the folder its paths resolve against
     /// ([`lobe_materials::key`]; the files it names are not read into it).
     pub description_digest: String,
+    /// Where the time of loading went.
+    pub load_times: LoadTimes,
+}
+
+/// Seconds spent loading a scene: reading its mesh files (parsing, checking, vertex
+/// normals) and building its BVH are parts of the whole (which also counts materials,
+/// images and environment maps).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LoadTimes {
+    pub total_seconds: f64,
+    pub mesh_read_seconds: f64,
+    pub bvh_build_seconds: f64,
 }
 
 impl Scene {
@@ -276,6 +289,7 @@ fn non_negative(x: f64) -> bool {
 /// Builds a scene from a parsed JSON description. `file` names it in errors; relative
 /// paths resolve against `base`.
 pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Result<Scene> {
+    let start = std::time::Instant::now();
     let top = Obj::new(file, "", v, TOP_KEYS)?;
     let mut ld = Loader {
         file,
@@ -303,8 +317,14 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
     let camera = camera::scene_camera(file, top.get("camera"), shapes.gltf_camera, width, height)?;
     let eye = camera.ray(glam::Vec2::splat(0.5)).o;
     shapes::check_sphere_precision(file, eye, &shapes.prims)?;
+    let mesh_read_seconds = shapes.mesh_read_seconds;
     let geometry = Geometry::build(shapes.prims, shapes.meshes, shapes.shape_geom)
         .map_err(|e| Error::scene(file, "shapes", e))?;
+    let load_times = LoadTimes {
+        total_seconds: start.elapsed().as_secs_f64(),
+        mesh_read_seconds,
+        bvh_build_seconds: geometry.build_seconds,
+    };
     Ok(Scene {
         file: file.to_string(),
         camera,
@@ -323,6 +343,7 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
             .json("scene", v)
             .text("base", &base.display().to_string())
             .finish(),
+        load_times,
     })
 }
 

@@ -24,6 +24,8 @@ pub(super) struct Shapes {
     pub shapes: Vec<ShapeInfo>,
     pub lights: Vec<Light>,
     pub gltf_camera: Option<GltfCamera>,
+    /// Seconds spent reading mesh files.
+    pub mesh_read_seconds: f64,
     /// Each distinct material's number ([`ShapeInfo::material_group`]), by its address.
     material_groups: std::collections::HashMap<*const (), u32>,
 }
@@ -181,6 +183,7 @@ impl Shapes {
         if !fpath.exists() {
             return Err(o.err("file", format!("file {} does not exist", fpath.display())));
         }
+        let start = std::time::Instant::now();
         let mut mesh = if kind == "obj" {
             mesh_io::load_obj(&fpath)?
         } else {
@@ -190,6 +193,7 @@ impl Shapes {
             }
             g.mesh
         };
+        self.mesh_read_seconds += start.elapsed().as_secs_f64();
         if self.prims.len() + mesh.indices.len() > crate::limits::MAX_TRIANGLES {
             return Err(o.err(
                 "file",

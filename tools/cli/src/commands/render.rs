@@ -46,8 +46,8 @@ pub struct RenderArgs {
     /// --z-test` and noise-aware comparisons).
     #[arg(long)]
     variance: bool,
-    /// Benchmark: render several times without writing anything and report Msamples/s.
-    /// Without a scene, renders the built-in benchmark (one diffuse sphere under a
+    /// Benchmark: render several times without writing anything and report Msamples/s and
+    /// where the scene's loading went (mesh reading, BVH build). Without a scene, renders the built-in benchmark (one diffuse sphere under a
     /// 512x256 environment map, 256x256 pixels, path tracer of depth 8).
     #[arg(long)]
     bench: bool,
@@ -192,6 +192,7 @@ pub fn cmd_render(args: RenderArgs, quiet: bool) -> Result<(), Error> {
     write_render(&files, &img, &scene, &stats, &labels)?;
     if !quiet {
         eprintln!("{}", stats.summary());
+        eprintln!("{}", stats.load_summary());
         if !labels.is_empty() {
             let names: Vec<&str> = labels.iter().map(|l| l.0.as_str()).collect();
             eprintln!("showcase spheres, left to right: {}", names.join(", "));
@@ -385,24 +386,30 @@ fn bench(scene: &Scene, opts: &RenderOptions, runs: u32, quiet: bool) -> Result<
     // One untimed warm-up run (page faults, thread pool start-up).
     let _ = render(scene, opts)?;
     let mut rates = Vec::new();
+    let mut last = None;
     for i in 0..runs {
         let (_, stats) = render(scene, opts)?;
         if !quiet {
             eprintln!("run {}: {}", i + 1, stats.summary());
         }
-        rates.push(stats.msamples_per_second());
+        rates.push((stats.msamples_per_second(), stats.seconds));
+        last = Some(stats);
     }
-    rates.sort_by(f64::total_cmp);
-    let median = rates[rates.len() / 2];
+    rates.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (median, seconds) = rates[rates.len() / 2];
     println!(
-        "bench {}: {}x{} at {} spp, {}: median {:.2} Msamples/s over {} runs",
+        "bench {}: {}x{} at {} spp, {}: median {:.2} Msamples/s ({:.2} s) over {} runs",
         scene.file,
         scene.width,
         scene.height,
         scene.spp,
         scene.integrator.describe(),
         median,
+        seconds,
         runs
     );
+    if let Some(stats) = last {
+        println!("{}", stats.load_summary());
+    }
     Ok(())
 }
