@@ -4,7 +4,7 @@
 # Needs a nightly toolchain and cargo-fuzz; installs both when missing. Seeds come from
 # lobe_tests::fuzz::seeds (written to fuzz/corpus/<target>/): a valid file of every format
 # the targets read, generated (MERL, binned, fit JSON, scene JSON, OBJ, glTF and GLB, EXR,
-# HDR) or collected (the repository's scenes, bunny OBJ, glTF stage as GLB and studio EXR;
+# HDR, binary and ASCII PLY) or collected (the repository's scenes, bunny OBJ, glTF stage as GLB and studio EXR;
 # every RGL file of ../shared/data/rgl or $LOBE_DATA/rgl, never committed). A crash is saved by libFuzzer
 # in fuzz/artifacts/<target>/; after fixing it, copy the input to
 # tests/fuzz-regressions/<target>/ so that the stable test (CI) replays it forever.
@@ -15,7 +15,7 @@ secs="${1:-60}"
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  targets=(scene_json merl binned rgl fit_json obj gltf envmap_exr envmap_hdr partial_render)
+  targets=(scene_json merl binned rgl fit_json obj ply gltf envmap_exr envmap_hdr partial_render)
 fi
 # fuzz/Cargo.lock is tracked: the run must not rewrite it. A stale one (a dependency of the
 # workspace changed) is refused here, before cargo-fuzz would silently update it.

@@ -21,6 +21,7 @@ pub const TARGETS: &[&str] = &[
     "rgl",
     "fit_json",
     "obj",
+    "ply",
     "gltf",
     "envmap_exr",
     "envmap_hdr",
@@ -48,6 +49,7 @@ fn run_target(name: &str, data: &[u8], scratch: &Path) {
         "rgl" => rgl(data, scratch),
         "fit_json" => fit_json(data, scratch),
         "obj" => mesh(data, scratch, "m.obj", "obj"),
+        "ply" => mesh(data, scratch, "m.ply", "ply"),
         "gltf" => mesh(data, scratch, "m.gltf", "gltf"),
         "envmap_exr" => envmap(data, scratch, "e.exr"),
         "envmap_hdr" => envmap(data, scratch, "e.hdr"),
@@ -190,6 +192,57 @@ pub fn envmap(data: &[u8], scratch: &Path, file: &str) {
     load_and_render(&v, scratch);
 }
 
+/// A tetrahedron as a PLY file in `format`: float positions and normals, a colour,
+/// triangles and a quad as `uchar int` lists.
+fn ply_tetrahedron(format: &str) -> Vec<u8> {
+    let mut out = format!(
+        "ply\nformat {format} 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\nproperty uchar red\n\
+         element face 3\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    .into_bytes();
+    let v = [
+        [0.0f32, 0.0, 1.0],
+        [1.0, 0.0, -0.5],
+        [-1.0, 0.5, -0.5],
+        [0.0, -1.0, -0.5],
+    ];
+    let faces: [&[i32]; 3] = [&[0, 1, 2], &[0, 2, 3], &[0, 3, 1, 2]];
+    let big = format == "binary_big_endian";
+    for p in v {
+        let vals = [p[0], p[1], p[2], p[0], p[1], p[2]];
+        if format == "ascii" {
+            let line: Vec<String> = vals.iter().map(f32::to_string).collect();
+            out.extend(format!("{} 200\n", line.join(" ")).bytes());
+        } else {
+            for x in vals {
+                out.extend(if big {
+                    x.to_be_bytes()
+                } else {
+                    x.to_le_bytes()
+                });
+            }
+            out.push(200);
+        }
+    }
+    for f in faces {
+        if format == "ascii" {
+            let line: Vec<String> = f.iter().map(i32::to_string).collect();
+            out.extend(format!("{} {}\n", f.len(), line.join(" ")).bytes());
+        } else {
+            out.push(f.len() as u8);
+            for &i in f {
+                out.extend(if big {
+                    i.to_be_bytes()
+                } else {
+                    i.to_le_bytes()
+                });
+            }
+        }
+    }
+    out
+}
+
 /// A valid seed corpus for each target.
 pub fn seeds(name: &str) -> Vec<Vec<u8>> {
     let scene = json!({
@@ -283,6 +336,9 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
             v.extend(std::fs::read(crate::workspace().join("scenes/meshes/bunny.obj")));
             v
         }
+        "ply" => ["ascii", "binary_little_endian", "binary_big_endian"]
+            .map(ply_tetrahedron)
+            .to_vec(),
         "gltf" => {
             // One triangle with an embedded base64 buffer (3 VEC3 floats + 3 u16 indices),
             // the same as a GLB with a BIN chunk, and the repository's glTF stage as a GLB.

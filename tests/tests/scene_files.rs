@@ -306,6 +306,12 @@ fn bad_files_give_clear_errors() {
     };
     let e = msg(&scene(json!({"type": "obj", "file": "broken.obj"})));
     assert!(e.contains("broken.obj"), "{e}");
+    p(
+        "broken.ply",
+        b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n",
+    );
+    let e = msg(&scene(json!({"type": "ply", "file": "broken.ply"})));
+    assert!(e.contains("broken.ply") && e.contains("vertex 0"), "{e}");
     let e = msg(&scene(json!({"type": "gltf", "file": "garbage.gltf"})));
     assert!(e.contains("garbage.gltf") && e.contains("glTF"), "{e}");
     let mut v = base();
@@ -481,6 +487,76 @@ fn every_file_a_material_reads_is_among_its_inputs() {
     ] {
         assert!(reading.contains(&name), "{name} read no file: {reading:?}");
     }
+}
+
+/// The same mesh as OBJ, binary PLY (both byte orders) and ASCII PLY renders the same
+/// image, bit for bit.
+#[test]
+fn a_mesh_renders_the_same_from_obj_and_ply() {
+    let tmp = tempfile::tempdir().unwrap();
+    let obj = lobe_tests::workspace().join("scenes/meshes/bunny.obj");
+    let mesh = lobe_renderer::scene::mesh_io::load_obj(&obj).unwrap();
+    let render = |shape: Value| {
+        let mut v = base();
+        v["shapes"] = json!([shape]);
+        let path = tmp.path().join("s.json");
+        std::fs::write(&path, v.to_string()).unwrap();
+        let scene = load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let (img, _) =
+            lobe_renderer::render::render(&scene, &lobe_renderer::render::RenderOptions::default())
+                .unwrap();
+        img.pixels
+    };
+    let reference = render(json!({"type": "obj", "file": obj.to_str().unwrap()}));
+    for format in ["binary_little_endian", "binary_big_endian", "ascii"] {
+        let path = tmp.path().join(format!("{format}.ply"));
+        std::fs::write(&path, ply_bytes(&mesh, format)).unwrap();
+        let img = render(json!({"type": "ply", "file": path.to_str().unwrap()}));
+        assert!(img == reference, "{format}");
+    }
+}
+
+/// `mesh` as a PLY file (positions, and triangles as `uchar uint` lists).
+fn ply_bytes(mesh: &lobe_renderer::geometry::Mesh, format: &str) -> Vec<u8> {
+    let mut out = format!(
+        "ply\nformat {format} 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+        mesh.positions.len(),
+        mesh.indices.len()
+    )
+    .into_bytes();
+    let big = format == "binary_big_endian";
+    for p in &mesh.positions {
+        match format {
+            // Shortest round-trip decimal: the same f32 back.
+            "ascii" => out.extend(format!("{} {} {}\n", p.x, p.y, p.z).bytes()),
+            _ => {
+                for c in p.to_array() {
+                    out.extend(if big {
+                        c.to_be_bytes()
+                    } else {
+                        c.to_le_bytes()
+                    });
+                }
+            }
+        }
+    }
+    for t in &mesh.indices {
+        match format {
+            "ascii" => out.extend(format!("3 {} {} {}\n", t[0], t[1], t[2]).bytes()),
+            _ => {
+                out.push(3);
+                for i in t {
+                    out.extend(if big {
+                        i.to_be_bytes()
+                    } else {
+                        i.to_le_bytes()
+                    });
+                }
+            }
+        }
+    }
+    out
 }
 
 #[test]

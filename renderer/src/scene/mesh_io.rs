@@ -1,4 +1,5 @@
-//! Triangle-mesh loading: Wavefront OBJ ([`super::obj`]) and glTF 2.0 (gltf: meshes of the default
+//! Triangle-mesh loading: Wavefront OBJ ([`super::obj`]), Stanford PLY ([`super::ply`])
+//! and glTF 2.0 (gltf: meshes of the default
 //! scene with their node transforms, and the first camera found in depth-first order).
 //! Every index and position is validated, so a broken file gives an error, never a panic.
 
@@ -60,6 +61,21 @@ pub fn load_obj(path: &Path) -> Result<Mesh> {
     let bytes =
         lobe_materials::io::read_regular(path, lobe_materials::io::MAX_DATA_BYTES, "an OBJ file")?;
     let mut mesh = super::obj::parse(&bytes, &shown)?;
+    drop(bytes);
+    check_mesh(&mesh, &shown)?;
+    if mesh.normals.len() != mesh.positions.len() || mesh.normals.contains(&Vec3::ZERO) {
+        mesh.compute_vertex_normals();
+    }
+    Ok(mesh)
+}
+
+/// Loads a PLY file as one mesh ([`super::ply`]), with angle-weighted vertex normals where
+/// the file gives none.
+pub fn load_ply(path: &Path) -> Result<Mesh> {
+    let shown = path.display().to_string();
+    let bytes =
+        lobe_materials::io::read_regular(path, lobe_materials::io::MAX_DATA_BYTES, "a PLY file")?;
+    let mut mesh = super::ply::parse(&bytes, &shown)?;
     drop(bytes);
     check_mesh(&mesh, &shown)?;
     if mesh.normals.len() != mesh.positions.len() || mesh.normals.contains(&Vec3::ZERO) {

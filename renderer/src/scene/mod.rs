@@ -16,6 +16,7 @@ pub mod json;
 mod lights;
 pub mod mesh_io;
 pub mod obj;
+pub mod ply;
 mod shapes;
 pub mod transform;
 

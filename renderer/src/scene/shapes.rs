@@ -1,5 +1,5 @@
 //! The `shapes` of a scene file (docs/scene-format.md, "Shapes"; Mitsuba 3's `sphere`,
-//! `rectangle`, `obj` and `gltf` shapes, same parameters and meanings): each becomes
+//! `rectangle`, `obj`, `ply` and `gltf` shapes, same parameters and meanings): each becomes
 //! primitives for the BVH, its material (from the registry, see [`super::Loader`]) and, when
 //! it has an `emitter`, a one-sided diffuse area light on its surface.
 
@@ -70,7 +70,7 @@ fn allowed_keys(file: &str, path: &str, sv: &Value, kind: &str) -> Result<&'stat
             "flip_normals",
         ],
         "rectangle" => &["type", "to_world", "material", "emitter", "flip_normals"],
-        "obj" | "gltf" => &[
+        "obj" | "ply" | "gltf" => &[
             "type",
             "file",
             "to_world",
@@ -88,7 +88,7 @@ fn allowed_keys(file: &str, path: &str, sv: &Value, kind: &str) -> Result<&'stat
                 file,
                 format!("{path}.type"),
                 format!(
-                    "expected one of \"sphere\", \"rectangle\", \"obj\", \"gltf\", found {found}"
+                    "expected one of \"sphere\", \"rectangle\", \"obj\", \"ply\", \"gltf\", found {found}"
                 ),
             ));
         }
@@ -175,7 +175,7 @@ impl Shapes {
         }))
     }
 
-    /// An OBJ or glTF mesh: its non-degenerate triangles, and their outward normals when
+    /// An OBJ, PLY or glTF mesh: its non-degenerate triangles, and their outward normals when
     /// the shape emits.
     fn mesh(&mut self, ld: &Loader, o: &Obj, kind: &str, c: &Common) -> Result<Option<AreaShape>> {
         let fname = o.str_req("file", "a mesh file path")?;
@@ -186,6 +186,8 @@ impl Shapes {
         let start = std::time::Instant::now();
         let mut mesh = if kind == "obj" {
             mesh_io::load_obj(&fpath)?
+        } else if kind == "ply" {
+            mesh_io::load_ply(&fpath)?
         } else {
             let g = mesh_io::load_gltf(&fpath)?;
             if self.gltf_camera.is_none() {
