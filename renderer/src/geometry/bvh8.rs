@@ -45,6 +45,13 @@ const RECTANGLES: u32 = 3;
 const KIND_SHIFT: u32 = 30;
 const INDEX_MASK: u32 = (1 << KIND_SHIFT) - 1;
 
+/// The cost of a traversal step relative to one primitive test in obvhs's leaf collapse
+/// (its default 3 is for scalar leaves). A leaf block tests its eight primitives in one
+/// SIMD step, so fuller leaves cost nothing: at 12 the collapse fills them (measured on the
+/// million-triangle bench: leaf blocks and nodes 93 -> 70 MB, incoherent closest-hit
+/// queries 20 % and occlusion queries 10 % faster, the same images bit for bit).
+const COLLAPSE_TRAVERSAL_COST: f32 = 12.0;
+
 /// 1 + 2 gamma(3), pbrt-v4's factor making the far slab distance conservative.
 const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
@@ -219,6 +226,7 @@ impl Bvh8 {
     pub fn build(prims: &[Primitive]) -> Result<Self, String> {
         let params = BvhBuildParams {
             max_prims_per_leaf: LANES as u32,
+            collapse_traversal_cost: COLLAPSE_TRAVERSAL_COST,
             ..BvhBuildParams::medium_build()
         };
         let bvh2 = obvhs::bvh2::builder::build_bvh2(prims, params, &mut Duration::default());
