@@ -6,8 +6,8 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-use lobe_renderer::geometry::bvh::{PrimKind, Primitive, ShapeGeom};
-use lobe_renderer::geometry::{Geometry, Mesh, Ray, Triangle};
+use lobe_renderer::geometry::bvh::{PrimKind, PrimShape, Primitive, ShapeGeom};
+use lobe_renderer::geometry::{Geometry, Mesh, Ray};
 use std::hint::black_box;
 
 /// The displaced sphere of bench_assets.py: `rings` latitude rings of `segments`
@@ -51,7 +51,7 @@ fn displaced_sphere(rings: u32, segments: u32) -> Mesh {
 fn prims(mesh: &Mesh) -> Vec<Primitive> {
     (0..mesh.indices.len() as u32)
         .map(|t| Primitive {
-            kind: PrimKind::Triangle(Triangle::new(0, mesh, t)),
+            kind: PrimKind::Triangle { mesh: 0, index: t },
             shape: 0,
         })
         .collect()
@@ -64,13 +64,18 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("displaced sphere, 1046528 triangles", |b| {
         b.iter(|| {
-            Geometry::build(tris.clone(), vec![], vec![ShapeGeom::default()])
-                .expect("BVH")
-                .bvh_memory_bytes()
+            Geometry::build(
+                tris.clone(),
+                vec![mesh.clone()],
+                vec![],
+                vec![ShapeGeom::default()],
+            )
+            .expect("BVH")
+            .bvh_memory_bytes()
         })
     });
     g.finish();
-    let geo = Geometry::build(tris, vec![mesh], vec![ShapeGeom::default()]).expect("BVH");
+    let geo = Geometry::build(tris, vec![mesh], vec![], vec![ShapeGeom::default()]).expect("BVH");
     println!(
         "BVH of {} triangles: {:.1} MB of nodes and leaf blocks, {:.1} MB of primitives and mesh data",
         geo.prims.len(),
@@ -92,7 +97,7 @@ fn bench(c: &mut Criterion) {
     let rays: Vec<Ray> = (0..1 << 16)
         .map(|_| {
             let k = ((rnd() * 0.5 + 0.5) * geo.prims.len() as f32) as usize;
-            let PrimKind::Triangle(t) = geo.prims[k.min(geo.prims.len() - 1)].kind else {
+            let PrimShape::Triangle(t) = geo.shape_of(k.min(geo.prims.len() - 1) as u32) else {
                 unreachable!("triangles only")
             };
             let o = t.point(glam::Vec2::splat(1.0 / 3.0)) + t.normal() * 1e-4;

@@ -3,7 +3,7 @@
 //! agree with closest hits.
 
 use glam::{Mat4, Vec3};
-use lobe_renderer::geometry::bvh::{PrimKind, Primitive, ShapeGeom};
+use lobe_renderer::geometry::bvh::{PrimKind, PrimShape, Primitive, ShapeGeom};
 use lobe_renderer::geometry::{Geometry, Mesh, Ray, Rectangle, Sphere, Triangle};
 
 struct Lcg(u64);
@@ -37,30 +37,27 @@ fn scene() -> Geometry {
     }
     let mut prims = Vec::new();
     for t in 0..mesh.indices.len() as u32 {
-        prims.push(Primitive {
-            kind: PrimKind::Triangle(Triangle::new(0, &mesh, t)),
-            shape: 0,
-        });
+        prims.push((PrimShape::Triangle(Triangle::new(0, &mesh, t)), 0));
     }
     for _ in 0..20 {
-        prims.push(Primitive {
-            kind: PrimKind::Sphere(Sphere {
+        prims.push((
+            PrimShape::Sphere(Sphere {
                 center: r.v(4.0),
                 radius: 0.1 + r.f(),
             }),
-            shape: 1,
-        });
+            1,
+        ));
     }
     for k in 0..5 {
         let m = Mat4::from_translation(r.v(3.0))
             * Mat4::from_axis_angle(r.v(1.0).normalize(), k as f32)
             * Mat4::from_scale(Vec3::splat(0.8));
-        prims.push(Primitive {
-            kind: PrimKind::Rectangle(Rectangle::from_transform(&m).unwrap()),
-            shape: 2,
-        });
+        prims.push((
+            PrimShape::Rectangle(Rectangle::from_transform(&m).unwrap()),
+            2,
+        ));
     }
-    Geometry::build(prims, vec![mesh], vec![ShapeGeom::default(); 3]).expect("BVH")
+    Geometry::from_shapes(prims, vec![mesh], vec![ShapeGeom::default(); 3]).expect("BVH")
 }
 
 #[test]
@@ -84,7 +81,7 @@ fn closest_hits_equal_brute_force() {
                     "distance differs: BVH prim {ia}, brute force prim {ib}"
                 );
                 // Ties between primitives at the same distance may resolve either way.
-                assert_eq!(g.prims[ia as usize].intersect(&ray), ta);
+                assert_eq!(g.shape_of(ia).intersect(&ray), ta);
                 // Nothing blocks the ray before its closest hit, something blocks it after.
                 let before = Ray {
                     tmax: ta * 0.999,
@@ -116,16 +113,10 @@ fn spawned_rays_do_not_self_intersect_at_grazing_angles() {
             * Mat4::from_scale(Vec3::splat(500.0))),
     )
     .unwrap();
-    let g = Geometry::build(
+    let g = Geometry::from_shapes(
         vec![
-            Primitive {
-                kind: PrimKind::Sphere(sphere),
-                shape: 0,
-            },
-            Primitive {
-                kind: PrimKind::Rectangle(rect),
-                shape: 1,
-            },
+            (PrimShape::Sphere(sphere), 0),
+            (PrimShape::Rectangle(rect), 1),
         ],
         vec![],
         vec![ShapeGeom::default(); 2],
@@ -262,7 +253,7 @@ fn batched_closest_hits_equal_single_ones() {
                     shape: 0,
                 })
                 .collect();
-            Geometry::build(prims, vec![], vec![ShapeGeom::default()]).expect("spheres")
+            Geometry::build(prims, vec![], vec![], vec![ShapeGeom::default()]).expect("spheres")
         })
         .collect();
     // Inward normals (flip_normals) on a scene of spheres too.
@@ -275,6 +266,7 @@ fn batched_closest_hits_equal_single_ones() {
                     shape: 0,
                 })
                 .collect(),
+            vec![],
             vec![],
             vec![ShapeGeom {
                 flip_normals: true,
@@ -295,15 +287,21 @@ fn batched_closest_hits_equal_single_ones() {
     for kind in ["triangle", "sphere", "rectangle"] {
         assert!(
             small.iter().any(|p| match p.kind {
-                PrimKind::Triangle(_) => kind == "triangle",
+                PrimKind::Triangle { .. } => kind == "triangle",
                 PrimKind::Sphere(_) => kind == "sphere",
                 PrimKind::Rectangle(_) => kind == "rectangle",
             }),
             "the small scene lacks a {kind}"
         );
     }
-    let small = Geometry::build(small, scene().meshes.clone(), vec![ShapeGeom::default(); 3])
-        .expect("small scene");
+    let whole = scene();
+    let small = Geometry::build(
+        small,
+        whole.meshes.clone(),
+        whole.rects.clone(),
+        vec![ShapeGeom::default(); 3],
+    )
+    .expect("small scene");
     assert!(!small.has_bvh());
     geometries.push(small);
     geometries.push(scene());

@@ -8,15 +8,16 @@ use super::{Interaction, Mesh, Ray, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3, Vec3A};
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, f32xn, u32xn};
-use obvhs::Boundable;
 use obvhs::aabb::Aabb;
 
-/// The shape of one primitive.
+/// One primitive as the geometry stores it (24 bytes): a sphere by value, a mesh triangle
+/// by its mesh and index (its vertices live in the mesh), a rectangle by its index into
+/// [`Geometry::rects`]. [`PrimShape`] is the primitive with its data, for intersection.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PrimKind {
     Sphere(Sphere),
-    Triangle(Triangle),
-    Rectangle(Rectangle),
+    Triangle { mesh: u32, index: u32 },
+    Rectangle(u32),
 }
 
 /// A BVH primitive and the scene shape it belongs to.
@@ -26,26 +27,34 @@ pub struct Primitive {
     pub shape: u32,
 }
 
-impl Primitive {
-    #[inline]
-    pub fn intersect(&self, ray: &Ray) -> f32 {
-        match &self.kind {
-            PrimKind::Sphere(s) => s.intersect(ray),
-            PrimKind::Triangle(t) => t.intersect(ray),
-            PrimKind::Rectangle(r) => r.intersect(ray),
-        }
-    }
+/// A primitive with its geometric data ([`Geometry::shape_of`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PrimShape {
+    Sphere(Sphere),
+    Triangle(Triangle),
+    Rectangle(Rectangle),
 }
 
-impl Primitive {
-    /// [`Primitive::intersect`] of rays in SIMD lanes, bit for bit the same.
+impl PrimShape {
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> f32 {
+        match self {
+            PrimShape::Sphere(s) => s.intersect(ray),
+            PrimShape::Triangle(t) => t.intersect(ray),
+            PrimShape::Rectangle(r) => r.intersect(ray),
+        }
+    }
+
+    /// [`PrimShape::intersect`] of rays in SIMD lanes, bit for bit the same.
     #[inline(always)]
     pub fn intersect_lanes(&self, r: &RayLanes<f32xn>) -> f32xn {
         use kernels::splat3;
-        match &self.kind {
-            PrimKind::Sphere(s) => kernels::sphere(r, splat3(s.center), f32xn::splat(s.radius)),
-            PrimKind::Triangle(t) => kernels::triangle(r, splat3(t.p0), splat3(t.e1), splat3(t.e2)),
-            PrimKind::Rectangle(q) => kernels::rectangle(
+        match self {
+            PrimShape::Sphere(s) => kernels::sphere(r, splat3(s.center), f32xn::splat(s.radius)),
+            PrimShape::Triangle(t) => {
+                kernels::triangle(r, splat3(t.p0), splat3(t.e1), splat3(t.e2))
+            }
+            PrimShape::Rectangle(q) => kernels::rectangle(
                 r,
                 splat3(q.corner),
                 splat3(q.n),
@@ -54,20 +63,20 @@ impl Primitive {
             ),
         }
     }
-}
 
-impl Boundable for Primitive {
-    fn aabb(&self) -> Aabb {
-        let (lo, hi) = match &self.kind {
-            PrimKind::Sphere(s) => (
+    /// The primitive's bounding box, padded a little so that axis-aligned rectangles and
+    /// triangles have volume.
+    pub fn aabb(&self) -> Aabb {
+        let (lo, hi) = match self {
+            PrimShape::Sphere(s) => (
                 s.center - Vec3::splat(s.radius),
                 s.center + Vec3::splat(s.radius),
             ),
-            PrimKind::Triangle(t) => {
+            PrimShape::Triangle(t) => {
                 let (a, b, c) = (t.p0, t.p0 + t.e1, t.p0 + t.e2);
                 (a.min(b).min(c), a.max(b).max(c))
             }
-            PrimKind::Rectangle(r) => {
+            PrimShape::Rectangle(r) => {
                 let pts = [
                     r.corner,
                     r.corner + r.eu,
@@ -79,12 +88,34 @@ impl Boundable for Primitive {
                 (lo, hi)
             }
         };
-        // Pad flat boxes a little so axis-aligned rectangles and triangles have volume.
         let pad = (hi - lo).max_element().max(1e-3) * 1e-5;
         Aabb::new(
             Vec3A::from(lo - Vec3::splat(pad)),
             Vec3A::from(hi + Vec3::splat(pad)),
         )
+    }
+}
+
+/// The data a primitive index stands for: the primitives and what their indices point into.
+#[derive(Clone, Copy)]
+pub struct PrimSource<'a> {
+    pub prims: &'a [Primitive],
+    pub meshes: &'a [Mesh],
+    pub rects: &'a [Rectangle],
+}
+
+impl PrimSource<'_> {
+    /// Primitive `i` with its data (a triangle's vertex and edges computed from its mesh,
+    /// bit for bit those of [`Triangle::new`]).
+    #[inline(always)]
+    pub fn shape_of(&self, i: u32) -> PrimShape {
+        match self.prims[i as usize].kind {
+            PrimKind::Sphere(s) => PrimShape::Sphere(s),
+            PrimKind::Triangle { mesh, index } => {
+                PrimShape::Triangle(Triangle::new(mesh, &self.meshes[mesh as usize], index))
+            }
+            PrimKind::Rectangle(r) => PrimShape::Rectangle(self.rects[r as usize]),
+        }
     }
 }
 
@@ -104,6 +135,8 @@ pub struct ShapeGeom {
 pub struct Geometry {
     pub prims: Vec<Primitive>,
     pub meshes: Vec<Mesh>,
+    /// The rectangles [`PrimKind::Rectangle`] points into.
+    pub rects: Vec<Rectangle>,
     pub shapes: Vec<ShapeGeom>,
     bvh: Option<Bvh8>,
     /// Seconds spent building the BVH.
@@ -118,21 +151,72 @@ impl Geometry {
     pub fn build(
         prims: Vec<Primitive>,
         meshes: Vec<Mesh>,
+        rects: Vec<Rectangle>,
         shapes: Vec<ShapeGeom>,
     ) -> Result<Self, String> {
         let start = std::time::Instant::now();
+        let source = PrimSource {
+            prims: &prims,
+            meshes: &meshes,
+            rects: &rects,
+        };
         let bvh = if prims.len() <= SMALL_SCENE {
             None
         } else {
-            Some(Bvh8::build(&prims)?)
+            Some(Bvh8::build(source)?)
         };
         Ok(Self {
             prims,
             meshes,
+            rects,
             shapes,
             bvh,
             build_seconds: start.elapsed().as_secs_f64(),
         })
+    }
+
+    /// [`Geometry::build`] from primitives given with their data (triangles name their
+    /// mesh and index; rectangles are stored in [`Geometry::rects`]): for tests and
+    /// benchmarks.
+    pub fn from_shapes(
+        prims: Vec<(PrimShape, u32)>,
+        meshes: Vec<Mesh>,
+        shapes: Vec<ShapeGeom>,
+    ) -> Result<Self, String> {
+        let mut rects = Vec::new();
+        let prims = prims
+            .into_iter()
+            .map(|(p, shape)| {
+                let kind = match p {
+                    PrimShape::Sphere(s) => PrimKind::Sphere(s),
+                    PrimShape::Triangle(t) => PrimKind::Triangle {
+                        mesh: t.mesh,
+                        index: t.index,
+                    },
+                    PrimShape::Rectangle(r) => {
+                        rects.push(r);
+                        PrimKind::Rectangle(rects.len() as u32 - 1)
+                    }
+                };
+                Primitive { kind, shape }
+            })
+            .collect();
+        Self::build(prims, meshes, rects, shapes)
+    }
+
+    /// What the primitive indices of this geometry point into.
+    pub fn source(&self) -> PrimSource<'_> {
+        PrimSource {
+            prims: &self.prims,
+            meshes: &self.meshes,
+            rects: &self.rects,
+        }
+    }
+
+    /// Primitive `i` with its data.
+    #[inline(always)]
+    pub fn shape_of(&self, i: u32) -> PrimShape {
+        self.source().shape_of(i)
     }
 
     /// Bytes of the BVH (nodes and leaf blocks), 0 without one.
@@ -144,6 +228,7 @@ impl Geometry {
     pub fn primitive_memory_bytes(&self) -> usize {
         use std::mem::size_of;
         self.prims.len() * size_of::<Primitive>()
+            + self.rects.len() * size_of::<Rectangle>()
             + self
                 .meshes
                 .iter()
@@ -178,8 +263,8 @@ impl Geometry {
             let n = ic.len();
             let (mut lanes, skip) = Self::ray_lanes(|k| &rays[ic[k.min(n - 1)] as usize]);
             let mut best = u32xn::splat(u32::MAX);
-            for (j, p) in self.prims.iter().enumerate() {
-                let t = p.intersect_lanes(&lanes);
+            for j in 0..self.prims.len() {
+                let t = self.shape_of(j as u32).intersect_lanes(&lanes);
                 // A lane's skipped primitive counts as a miss, as in `closest_brute_force`.
                 let not_skipped = f32xn::from_bits(!skip.simd_eq(u32xn::splat(j as u32)));
                 let closer = t.simd_lt(lanes.tmax) & not_skipped;
@@ -203,8 +288,8 @@ impl Geometry {
             let n = rc.len();
             let (lanes, skip) = Self::ray_lanes(|k| &rc[k.min(n - 1)]);
             let mut hit = f32xn::splat(0.0);
-            for (j, p) in self.prims.iter().enumerate() {
-                let t = p.intersect_lanes(&lanes);
+            for j in 0..self.prims.len() {
+                let t = self.shape_of(j as u32).intersect_lanes(&lanes);
                 let not_skipped = f32xn::from_bits(!skip.simd_eq(u32xn::splat(j as u32)));
                 hit |= t.simd_lt(lanes.tmax) & not_skipped;
                 if hit.all() {
@@ -331,11 +416,8 @@ impl Geometry {
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         match &self.bvh {
-            None => self
-                .prims
-                .iter()
-                .enumerate()
-                .any(|(i, p)| i as u32 != ray.skip && p.intersect(ray) < ray.tmax),
+            None => (0..self.prims.len() as u32)
+                .any(|i| i != ray.skip && self.shape_of(i).intersect(ray) < ray.tmax),
             Some(bvh) => bvh.occluded(ray),
         }
     }
@@ -345,11 +427,11 @@ impl Geometry {
     pub fn closest_brute_force(&self, ray: &Ray) -> Option<(f32, u32)> {
         let mut best: Option<(f32, u32)> = None;
         let mut r = *ray;
-        for (i, p) in self.prims.iter().enumerate() {
+        for i in 0..self.prims.len() {
             if i as u32 == ray.skip {
                 continue;
             }
-            let t = p.intersect(&r);
+            let t = self.shape_of(i as u32).intersect(&r);
             if t < r.tmax {
                 r.tmax = t;
                 best = Some((t, i as u32));
@@ -372,14 +454,14 @@ impl Geometry {
     /// line).
     #[inline(always)]
     pub fn interaction_into(&self, ray: &Ray, t: f32, prim: u32, it: &mut Interaction) {
-        let p = &self.prims[prim as usize];
-        let sg = self.shapes[p.shape as usize];
+        let shape = self.prims[prim as usize].shape;
+        let sg = self.shapes[shape as usize];
         let orient = |n: Vec3| if sg.flip_normals { -n } else { n };
         it.t = t;
-        it.shape = p.shape;
+        it.shape = shape;
         it.prim = prim;
-        match &p.kind {
-            PrimKind::Sphere(s) => {
+        match &self.shape_of(prim) {
+            PrimShape::Sphere(s) => {
                 let (pos, n, dpdu) = s.surface(ray.at(t));
                 it.p = pos;
                 it.ng = orient(n);
@@ -388,7 +470,7 @@ impl Geometry {
                 it.uv = Vec2::ZERO;
                 it.exit = n;
             }
-            PrimKind::Rectangle(r) => {
+            PrimShape::Rectangle(r) => {
                 let uv = r.uv(ray.at(t));
                 it.p = r.point(uv);
                 it.ng = orient(r.n);
@@ -397,7 +479,7 @@ impl Geometry {
                 it.uv = uv;
                 it.exit = Vec3::ZERO;
             }
-            PrimKind::Triangle(tri) => {
+            PrimShape::Triangle(tri) => {
                 let (pos, ng, ns, dpdu, uv) = self.triangle_geometry(ray, tri, sg);
                 it.p = pos;
                 it.ng = orient(ng);

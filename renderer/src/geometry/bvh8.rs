@@ -18,13 +18,13 @@
 //! bytes per leaf block, reported by [`Bvh8::memory_bytes`].
 
 use super::Ray;
-use super::bvh::{PrimKind, Primitive};
+use super::bvh::{PrimKind, PrimShape, PrimSource, Primitive};
 use super::kernels::{self, RayLanes};
 #[cfg(doc)]
 use super::{Rectangle, Sphere, Triangle};
 use lobe_materials::simd::sel;
+use obvhs::BvhBuildParams;
 use obvhs::bvh2::Bvh2;
-use obvhs::{Boundable, BvhBuildParams};
 use std::mem::MaybeUninit;
 use std::time::Duration;
 use wide::{f32x8, u32x8};
@@ -223,13 +223,20 @@ impl Bvh8 {
     /// Builds the tree over `prims` (at least one). Errors when the tree would be deeper
     /// than the traversal stack allows (not seen on any real scene: an SAH tree of a
     /// billion primitives is about 12 levels deep).
-    pub fn build(prims: &[Primitive]) -> Result<Self, String> {
+    pub fn build(source: PrimSource) -> Result<Self, String> {
         let params = BvhBuildParams {
             max_prims_per_leaf: LANES as u32,
             collapse_traversal_cost: COLLAPSE_TRAVERSAL_COST,
             ..BvhBuildParams::medium_build()
         };
-        let bvh2 = obvhs::bvh2::builder::build_bvh2(prims, params, &mut Duration::default());
+        let bvh2 = {
+            use rayon::prelude::*;
+            let boxes: Vec<obvhs::aabb::Aabb> = (0..source.prims.len() as u32)
+                .into_par_iter()
+                .map(|i| source.shape_of(i).aabb())
+                .collect();
+            obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default())
+        };
         let mut out = Self {
             nodes: Vec::with_capacity(bvh2.nodes.len() / 6 + 1),
             tris: Vec::new(),
@@ -237,7 +244,7 @@ impl Bvh8 {
             rects: Vec::new(),
             depth: 0,
         };
-        out.collapse(&bvh2, prims)?;
+        out.collapse(&bvh2, source)?;
         Ok(out)
     }
 
@@ -267,7 +274,7 @@ impl Bvh8 {
 
     /// Top-down collapse of the binary tree into eight-wide nodes (explicit work list, so
     /// no recursion depth limit while building).
-    fn collapse(&mut self, bvh2: &Bvh2, prims: &[Primitive]) -> Result<(), String> {
+    fn collapse(&mut self, bvh2: &Bvh2, source: PrimSource) -> Result<(), String> {
         self.nodes.push(Self::empty_node());
         // (BVH2 node, BVH8 node to fill, depth of that node)
         let mut work = vec![(0usize, 0usize, 1usize)];
@@ -278,27 +285,27 @@ impl Bvh8 {
                     "the BVH would be {depth} levels deep; at most {MAX_DEPTH} are supported"
                 ));
             }
-            let children = Self::open(bvh2, prims, n2);
+            let children = Self::open(bvh2, source.prims, n2);
             let mut slot = 0;
             for c in children {
                 let node = &bvh2.nodes[c];
                 if node.is_leaf() {
                     let first = node.first_index as usize;
                     let ids = &bvh2.primitive_indices[first..first + node.prim_count as usize];
-                    let kinds = Self::kinds(prims, ids);
+                    let kinds = Self::kinds(source.prims, ids);
                     if kinds.count_ones() == 1 {
                         // One kind (every leaf of a mesh): no grouping.
                         let kind =
                             [TRIANGLES, SPHERES, RECTANGLES][kinds.trailing_zeros() as usize];
-                        let (lo, hi) = Self::bounds(prims, ids);
-                        let r = self.leaf_block(kind, prims, ids);
+                        let (lo, hi) = Self::bounds(source, ids);
+                        let r = self.leaf_block(kind, source, ids);
                         self.set_child(n8, slot, r, lo, hi);
                         slot += 1;
                         continue;
                     }
-                    for (kind, group) in Self::by_kind(prims, ids) {
-                        let (lo, hi) = Self::bounds(prims, &group);
-                        let r = self.leaf_block(kind, prims, &group);
+                    for (kind, group) in Self::by_kind(source.prims, ids) {
+                        let (lo, hi) = Self::bounds(source, &group);
+                        let r = self.leaf_block(kind, source, &group);
                         self.set_child(n8, slot, r, lo, hi);
                         slot += 1;
                     }
@@ -365,7 +372,7 @@ impl Bvh8 {
     fn kinds(prims: &[Primitive], ids: &[u32]) -> u32 {
         ids.iter().fold(0, |k, &id| {
             k | match prims[id as usize].kind {
-                PrimKind::Triangle(_) => 1,
+                PrimKind::Triangle { .. } => 1,
                 PrimKind::Sphere(_) => 2,
                 PrimKind::Rectangle(_) => 4,
             }
@@ -379,7 +386,7 @@ impl Bvh8 {
             [(TRIANGLES, vec![]), (SPHERES, vec![]), (RECTANGLES, vec![])];
         for &id in ids {
             let g = match prims[id as usize].kind {
-                PrimKind::Triangle(_) => 0,
+                PrimKind::Triangle { .. } => 0,
                 PrimKind::Sphere(_) => 1,
                 PrimKind::Rectangle(_) => 2,
             };
@@ -388,11 +395,11 @@ impl Bvh8 {
         groups.into_iter().filter(|g| !g.1.is_empty()).collect()
     }
 
-    fn bounds(prims: &[Primitive], ids: &[u32]) -> ([f32; 3], [f32; 3]) {
+    fn bounds(source: PrimSource, ids: &[u32]) -> ([f32; 3], [f32; 3]) {
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         for &id in ids {
-            let b = prims[id as usize].aabb();
+            let b = source.shape_of(id).aabb();
             for a in 0..3 {
                 lo[a] = lo[a].min(b.min[a]);
                 hi[a] = hi[a].max(b.max[a]);
@@ -422,7 +429,7 @@ impl Bvh8 {
 
     /// Stores one leaf block of primitives of one kind (at most eight; unused lanes repeat
     /// the last primitive) and returns its reference.
-    fn leaf_block(&mut self, kind: u32, prims: &[Primitive], ids: &[u32]) -> u32 {
+    fn leaf_block(&mut self, kind: u32, source: PrimSource, ids: &[u32]) -> u32 {
         debug_assert!(!ids.is_empty() && ids.len() <= LANES);
         let lane = |k: usize| ids[k.min(ids.len() - 1)];
         let id = u32x8::new(std::array::from_fn(lane));
@@ -432,8 +439,8 @@ impl Bvh8 {
         };
         let index = match kind {
             TRIANGLES => {
-                let tri = |i: u32| match &prims[i as usize].kind {
-                    PrimKind::Triangle(t) => *t,
+                let tri = |i: u32| match source.shape_of(i) {
+                    PrimShape::Triangle(t) => t,
                     _ => unreachable!("grouped by kind"),
                 };
                 self.tris.push(TriBlock {
@@ -445,8 +452,8 @@ impl Bvh8 {
                 self.tris.len() - 1
             }
             SPHERES => {
-                let sph = |i: u32| match &prims[i as usize].kind {
-                    PrimKind::Sphere(s) => *s,
+                let sph = |i: u32| match source.shape_of(i) {
+                    PrimShape::Sphere(s) => s,
                     _ => unreachable!("grouped by kind"),
                 };
                 self.spheres.push(SphereBlock {
@@ -457,8 +464,8 @@ impl Bvh8 {
                 self.spheres.len() - 1
             }
             _ => {
-                let rect = |i: u32| match &prims[i as usize].kind {
-                    PrimKind::Rectangle(r) => *r,
+                let rect = |i: u32| match source.shape_of(i) {
+                    PrimShape::Rectangle(r) => r,
                     _ => unreachable!("grouped by kind"),
                 };
                 self.rects.push(RectBlock {
@@ -598,7 +605,7 @@ impl Bvh8 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Rectangle, Sphere, Triangle};
+    use super::super::{Rectangle, Sphere};
     use super::*;
     use glam::Vec3;
 
@@ -614,19 +621,18 @@ mod tests {
             ((seed >> 40) as f32) / (1u64 << 24) as f32 * 2.0 - 1.0
         };
         let mut v = |s: f32| Vec3::new(f(), f(), f()) * s;
-        let mesh = super::super::Mesh {
+        let mut mesh = super::super::Mesh {
             positions: (0..24).map(|_| v(1.0)).collect(),
             indices: (0..8).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect(),
             ..Default::default()
         };
+        // Triangle 5 degenerate (its third vertex on the line of its first edge).
+        let p = &mut mesh.positions;
+        p[17] = p[15] + (p[16] - p[15]) * 2.0;
         let mut prims = vec![];
         for k in 0..8 {
-            let mut t = Triangle::new(0, &mesh, k);
-            if k == 5 {
-                t.e2 = t.e1 * 2.0; // degenerate: det = 0
-            }
             prims.push(Primitive {
-                kind: PrimKind::Triangle(t),
+                kind: PrimKind::Triangle { mesh: 0, index: k },
                 shape: 0,
             });
         }
@@ -639,14 +645,22 @@ mod tests {
                 shape: 0,
             });
         }
+        let mut rects = vec![];
         for k in 0..8 {
             let m = glam::Mat4::from_translation(v(1.0))
                 * glam::Mat4::from_axis_angle(v(1.0).normalize(), k as f32);
+            rects.push(Rectangle::from_transform(&m).unwrap());
             prims.push(Primitive {
-                kind: PrimKind::Rectangle(Rectangle::from_transform(&m).unwrap()),
+                kind: PrimKind::Rectangle(k),
                 shape: 0,
             });
         }
+        let meshes = [mesh];
+        let source = PrimSource {
+            prims: &prims,
+            meshes: &meshes,
+            rects: &rects,
+        };
         let mut bvh = Bvh8 {
             nodes: vec![],
             tris: vec![],
@@ -656,9 +670,9 @@ mod tests {
         };
         let ids: Vec<u32> = (0..24).collect();
         let blocks = [
-            bvh.leaf_block(TRIANGLES, &prims, &ids[0..8]),
-            bvh.leaf_block(SPHERES, &prims, &ids[8..16]),
-            bvh.leaf_block(RECTANGLES, &prims, &ids[16..24]),
+            bvh.leaf_block(TRIANGLES, source, &ids[0..8]),
+            bvh.leaf_block(SPHERES, source, &ids[8..16]),
+            bvh.leaf_block(RECTANGLES, source, &ids[16..24]),
         ];
         let mut hits = 0;
         for i in 0..4000 {
@@ -677,7 +691,7 @@ mod tests {
             for &b in &blocks {
                 let (t, id) = bvh.leaf(b, &lanes, f32x8::splat(ray.tmax));
                 for (k, (&t, &id)) in t.to_array().iter().zip(&id.to_array()).enumerate() {
-                    let want = prims[id as usize].intersect(&ray);
+                    let want = source.shape_of(id).intersect(&ray);
                     assert_eq!(t.to_bits(), want.to_bits(), "lane {k} of {b:#x}, {ray:?}");
                     hits += usize::from(t.is_finite());
                 }

@@ -20,6 +20,8 @@ use serde_json::Value;
 pub(super) struct Shapes {
     pub prims: Vec<Primitive>,
     pub meshes: Vec<Mesh>,
+    /// The rectangles [`PrimKind::Rectangle`] points into.
+    pub rects: Vec<Rectangle>,
     pub shape_geom: Vec<ShapeGeom>,
     pub shapes: Vec<ShapeInfo>,
     pub lights: Vec<Light>,
@@ -165,8 +167,9 @@ impl Shapes {
                 "maps the rectangle to a degenerate (zero-area) shape",
             )
         })?;
+        self.rects.push(r);
         self.prims.push(Primitive {
-            kind: PrimKind::Rectangle(r),
+            kind: PrimKind::Rectangle(self.rects.len() as u32 - 1),
             shape: c.id,
         });
         Ok(Some(AreaShape::Rectangle {
@@ -216,7 +219,10 @@ impl Shapes {
                 continue; // degenerate triangles can never be hit
             }
             self.prims.push(Primitive {
-                kind: PrimKind::Triangle(tri),
+                kind: PrimKind::Triangle {
+                    mesh: mesh_id,
+                    index: t,
+                },
                 shape: c.id,
             });
             if o.has("emitter") {
