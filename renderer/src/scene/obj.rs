@@ -16,6 +16,7 @@ use crate::geometry::Mesh;
 use crate::limits::MAX_TRIANGLES;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// A corner's index that the file did not give (`v` or `v//vn` has no texture index).
 const ABSENT: u32 = u32::MAX;
@@ -42,14 +43,20 @@ struct Chunk {
     error: Option<(usize, String)>,
     /// The corners of the face being read.
     scratch: Vec<[Index; 3]>,
+    /// The file's triangles passed [`MAX_TRIANGLES`] while this chunk was read.
+    too_many: bool,
 }
 
 /// Reads an OBJ file's bytes as one mesh; `shown` names the file in errors.
 pub fn parse(bytes: &[u8], shown: &str) -> Result<Mesh> {
+    let triangles = AtomicUsize::new(0);
     let chunks: Vec<Chunk> = split(bytes, rayon::current_num_threads() * 4)
         .into_par_iter()
-        .map(parse_chunk)
+        .map(|text| parse_chunk(text, &triangles))
         .collect();
+    if chunks.iter().any(|c| c.too_many) {
+        return Err(Error::file(shown, too_many_triangles()));
+    }
     let mut lines_before = 0;
     for c in &chunks {
         if let Some((line, message)) = &c.error {
@@ -82,13 +89,32 @@ fn split(bytes: &[u8], n: usize) -> Vec<&[u8]> {
     out
 }
 
-fn parse_chunk(text: &[u8]) -> Chunk {
+/// The error of a file beyond [`MAX_TRIANGLES`].
+fn too_many_triangles() -> String {
+    format!(
+        "has more than {MAX_TRIANGLES} triangles (after splitting polygons); expected at most that"
+    )
+}
+
+/// Parses one chunk, adding its triangles to the file's count `triangles` as it goes, so
+/// that every chunk stops once the file is past [`MAX_TRIANGLES`] (a polygon's fan makes
+/// six times as many bytes of corners as the file spends on it).
+fn parse_chunk(text: &[u8], triangles: &AtomicUsize) -> Chunk {
     let mut c = Chunk::default();
+    let mut counted = 0;
     for (k, line) in text.split(|&b| b == b'\n').enumerate() {
         c.lines = k + 1;
         if let Err(m) = c.statement(line) {
             c.error = Some((k, m));
             return c;
+        }
+        let added = c.pos.len() / 3 - counted;
+        if added >= 1 << 12 {
+            counted += added;
+            if triangles.fetch_add(added, Ordering::Relaxed) + added > MAX_TRIANGLES {
+                c.too_many = true;
+                return c;
+            }
         }
     }
     // A final line end makes an empty last piece, which is not a line of its own.
@@ -284,9 +310,7 @@ impl Chunk {
 fn join(chunks: Vec<Chunk>) -> std::result::Result<Mesh, String> {
     let tris: usize = chunks.iter().map(|c| c.pos.len() / 3).sum();
     if tris > MAX_TRIANGLES {
-        return Err(format!(
-            "has {tris} triangles (after splitting polygons); expected at most {MAX_TRIANGLES}"
-        ));
+        return Err(too_many_triangles());
     }
     let with_attributes = chunks
         .iter()
