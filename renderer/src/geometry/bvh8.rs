@@ -52,6 +52,10 @@ const INDEX_MASK: u32 = (1 << KIND_SHIFT) - 1;
 /// queries 20 % and occlusion queries 10 % faster, the same images bit for bit).
 const COLLAPSE_TRAVERSAL_COST: f32 = 12.0;
 
+/// Subtrees the collapse hands to the thread pool (its top levels are done first, one at a
+/// time): enough for every core to stay busy as subtree sizes vary.
+const PARALLEL_SUBTREES: usize = 64;
+
 /// 1 + 2 gamma(3), pbrt-v4's factor making the far slab distance conservative.
 const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
@@ -272,54 +276,129 @@ impl Bvh8 {
         )
     }
 
-    /// Top-down collapse of the binary tree into eight-wide nodes (explicit work list, so
-    /// no recursion depth limit while building).
+    /// Top-down collapse of the binary tree into eight-wide nodes: the top levels in
+    /// breadth-first order until there are [`PARALLEL_SUBTREES`] subtrees to do, then
+    /// those subtrees on all cores, each into a part of its own ([`Bvh8::subtree`]),
+    /// appended in order. The tree is the same whatever the thread count.
     fn collapse(&mut self, bvh2: &Bvh2, source: PrimSource) -> Result<(), String> {
+        use rayon::prelude::*;
         self.nodes.push(Self::empty_node());
         // (BVH2 node, BVH8 node to fill, depth of that node)
-        let mut work = vec![(0usize, 0usize, 1usize)];
-        while let Some((n2, n8, depth)) = work.pop() {
-            self.depth = self.depth.max(depth);
-            if depth > MAX_DEPTH {
-                return Err(format!(
-                    "the BVH would be {depth} levels deep; at most {MAX_DEPTH} are supported"
-                ));
-            }
-            let children = Self::open(bvh2, source.prims, n2);
-            let mut slot = 0;
-            for c in children {
-                let node = &bvh2.nodes[c];
-                if node.is_leaf() {
-                    let first = node.first_index as usize;
-                    let ids = &bvh2.primitive_indices[first..first + node.prim_count as usize];
-                    let kinds = Self::kinds(source.prims, ids);
-                    if kinds.count_ones() == 1 {
-                        // One kind (every leaf of a mesh): no grouping.
-                        let kind =
-                            [TRIANGLES, SPHERES, RECTANGLES][kinds.trailing_zeros() as usize];
-                        let (lo, hi) = Self::bounds(source, ids);
-                        let r = self.leaf_block(kind, source, ids);
-                        self.set_child(n8, slot, r, lo, hi);
-                        slot += 1;
-                        continue;
-                    }
-                    for (kind, group) in Self::by_kind(source.prims, ids) {
-                        let (lo, hi) = Self::bounds(source, &group);
-                        let r = self.leaf_block(kind, source, &group);
-                        self.set_child(n8, slot, r, lo, hi);
-                        slot += 1;
-                    }
-                } else {
-                    let idx = self.nodes.len();
-                    self.nodes.push(Self::empty_node());
-                    let a = node.aabb();
-                    self.set_child(n8, slot, idx as u32, a.min.into(), a.max.into());
-                    slot += 1;
-                    work.push((c, idx, depth + 1));
-                }
+        let mut frontier = std::collections::VecDeque::from([(0usize, 0usize, 1usize)]);
+        while let Some(item) = frontier.pop_front() {
+            frontier.extend(self.fill(bvh2, source, item)?);
+            if frontier.len() >= PARALLEL_SUBTREES {
+                break;
             }
         }
+        let frontier: Vec<_> = frontier.into();
+        let parts = frontier
+            .par_iter()
+            .map(|&(n2, _, depth)| Self::subtree(bvh2, source, n2, depth))
+            .collect::<Result<Vec<_>, String>>()?;
+        for (part, &(_, n8, _)) in parts.into_iter().zip(&frontier) {
+            self.append(part, n8);
+        }
         Ok(())
+    }
+
+    /// The BVH8 of the binary subtree at `n2`, whose root is at `depth`: its root is its
+    /// node 0.
+    fn subtree(bvh2: &Bvh2, source: PrimSource, n2: usize, depth: usize) -> Result<Self, String> {
+        let mut part = Self {
+            nodes: vec![Self::empty_node()],
+            tris: Vec::new(),
+            spheres: Vec::new(),
+            rects: Vec::new(),
+            depth: 0,
+        };
+        let mut work = vec![(n2, 0usize, depth)];
+        while let Some(item) = work.pop() {
+            work.extend(part.fill(bvh2, source, item)?);
+        }
+        Ok(part)
+    }
+
+    /// Appends `part` (from [`Bvh8::subtree`]), its root replacing node `at`, its other
+    /// nodes and its leaf blocks after those already here, with its references moved.
+    fn append(&mut self, part: Self, at: usize) {
+        let offsets = [
+            self.nodes.len() as u32,
+            self.tris.len() as u32,
+            self.spheres.len() as u32,
+            self.rects.len() as u32,
+        ];
+        let moved = |r: u32| {
+            let (kind, index) = (r >> KIND_SHIFT, r & INDEX_MASK);
+            let index = match kind {
+                // Node 0 is the root, stored at `at`; node j > 0 at offset + j - 1.
+                INNER => offsets[0] + index - 1,
+                _ => offsets[kind as usize] + index,
+            };
+            (kind << KIND_SHIFT) | index
+        };
+        let mut nodes = part.nodes.into_iter().map(|mut n| {
+            n.child = n.child.map(|c| {
+                // Empty slots keep their 0 (never visited: their boxes are empty).
+                if c == 0 { 0 } else { moved(c) }
+            });
+            n
+        });
+        self.nodes[at] = nodes.next().expect("a part has its root");
+        self.nodes.extend(nodes);
+        self.tris.extend(part.tris);
+        self.spheres.extend(part.spheres);
+        self.rects.extend(part.rects);
+        self.depth = self.depth.max(part.depth);
+    }
+
+    /// Fills BVH8 node `n8` with the children of BVH2 node `n2` (at `depth`): leaf blocks
+    /// for its leaves, new empty nodes for its inner children, returned as work to do.
+    fn fill(
+        &mut self,
+        bvh2: &Bvh2,
+        source: PrimSource,
+        (n2, n8, depth): (usize, usize, usize),
+    ) -> Result<Vec<(usize, usize, usize)>, String> {
+        self.depth = self.depth.max(depth);
+        if depth > MAX_DEPTH {
+            return Err(format!(
+                "the BVH would be {depth} levels deep; at most {MAX_DEPTH} are supported"
+            ));
+        }
+        let mut work = Vec::new();
+        let mut slot = 0;
+        for c in Self::open(bvh2, source.prims, n2) {
+            let node = &bvh2.nodes[c];
+            if node.is_leaf() {
+                let first = node.first_index as usize;
+                let ids = &bvh2.primitive_indices[first..first + node.prim_count as usize];
+                let kinds = Self::kinds(source.prims, ids);
+                if kinds.count_ones() == 1 {
+                    // One kind (every leaf of a mesh): no grouping.
+                    let kind = [TRIANGLES, SPHERES, RECTANGLES][kinds.trailing_zeros() as usize];
+                    let (lo, hi) = Self::bounds(source, ids);
+                    let r = self.leaf_block(kind, source, ids);
+                    self.set_child(n8, slot, r, lo, hi);
+                    slot += 1;
+                    continue;
+                }
+                for (kind, group) in Self::by_kind(source.prims, ids) {
+                    let (lo, hi) = Self::bounds(source, &group);
+                    let r = self.leaf_block(kind, source, &group);
+                    self.set_child(n8, slot, r, lo, hi);
+                    slot += 1;
+                }
+            } else {
+                let idx = self.nodes.len();
+                self.nodes.push(Self::empty_node());
+                let a = node.aabb();
+                self.set_child(n8, slot, idx as u32, a.min.into(), a.max.into());
+                slot += 1;
+                work.push((c, idx, depth + 1));
+            }
+        }
+        Ok(work)
     }
 
     /// The BVH2 nodes that become the children of BVH2 node `n`: its two children, then
@@ -433,46 +512,48 @@ impl Bvh8 {
         debug_assert!(!ids.is_empty() && ids.len() <= LANES);
         let lane = |k: usize| ids[k.min(ids.len() - 1)];
         let id = u32x8::new(std::array::from_fn(lane));
-        let v3 = |f: &dyn Fn(u32) -> glam::Vec3| -> [f32x8; 3] {
-            let vs: [glam::Vec3; LANES] = std::array::from_fn(|k| f(lane(k)));
+        // Each primitive's data once (a triangle's from its mesh).
+        let shapes: [PrimShape; LANES] = std::array::from_fn(|k| source.shape_of(lane(k)));
+        let v3 = |f: &dyn Fn(&PrimShape) -> glam::Vec3| -> [f32x8; 3] {
+            let vs: [glam::Vec3; LANES] = std::array::from_fn(|k| f(&shapes[k]));
             [0, 1, 2].map(|a| f32x8::new(vs.map(|v| v[a])))
         };
         let index = match kind {
             TRIANGLES => {
-                let tri = |i: u32| match source.shape_of(i) {
-                    PrimShape::Triangle(t) => t,
+                let tri = |p: &PrimShape| match p {
+                    PrimShape::Triangle(t) => *t,
                     _ => unreachable!("grouped by kind"),
                 };
                 self.tris.push(TriBlock {
-                    p0: v3(&|i| tri(i).p0),
-                    e1: v3(&|i| tri(i).e1),
-                    e2: v3(&|i| tri(i).e2),
+                    p0: v3(&|p| tri(p).p0),
+                    e1: v3(&|p| tri(p).e1),
+                    e2: v3(&|p| tri(p).e2),
                     id,
                 });
                 self.tris.len() - 1
             }
             SPHERES => {
-                let sph = |i: u32| match source.shape_of(i) {
-                    PrimShape::Sphere(s) => s,
+                let sph = |p: &PrimShape| match p {
+                    PrimShape::Sphere(s) => *s,
                     _ => unreachable!("grouped by kind"),
                 };
                 self.spheres.push(SphereBlock {
-                    center: v3(&|i| sph(i).center),
-                    radius: f32x8::new(std::array::from_fn(|k| sph(lane(k)).radius)),
+                    center: v3(&|p| sph(p).center),
+                    radius: f32x8::new(std::array::from_fn(|k| sph(&shapes[k]).radius)),
                     id,
                 });
                 self.spheres.len() - 1
             }
             _ => {
-                let rect = |i: u32| match source.shape_of(i) {
-                    PrimShape::Rectangle(r) => r,
+                let rect = |p: &PrimShape| match p {
+                    PrimShape::Rectangle(r) => *r,
                     _ => unreachable!("grouped by kind"),
                 };
                 self.rects.push(RectBlock {
-                    corner: v3(&|i| rect(i).corner),
-                    n: v3(&|i| rect(i).n),
-                    du: v3(&|i| rect(i).du()),
-                    dv: v3(&|i| rect(i).dv()),
+                    corner: v3(&|p| rect(p).corner),
+                    n: v3(&|p| rect(p).n),
+                    du: v3(&|p| rect(p).du()),
+                    dv: v3(&|p| rect(p).dv()),
                     id,
                 });
                 self.rects.len() - 1
