@@ -78,6 +78,24 @@ impl ImageWindows {
     }
 }
 
+/// An empty image of `res` pixels for the `exr` crate's RGBA reader to fill.
+pub(crate) fn exr_canvas(res: exr::math::Vec2<usize>) -> RgbImage {
+    RgbImage {
+        width: res.width(),
+        height: res.height(),
+        pixels: vec![Rgb::ZERO; res.width() * res.height()],
+    }
+}
+
+/// Stores one pixel the `exr` crate's RGBA reader decoded (alpha dropped).
+pub(crate) fn exr_set_pixel(
+    img: &mut RgbImage,
+    pos: exr::math::Vec2<usize>,
+    (r, g, b, _a): (f32, f32, f32, f32),
+) {
+    img.pixels[pos.y() * img.width + pos.x()] = Rgb::new(r, g, b);
+}
+
 /// Reads an HDR image: OpenEXR (`.exr`, first layer, RGB) or Radiance (`.hdr`, `.pic`).
 /// The pixels are those of the data window, whatever its origin: see
 /// [`read_rgb_image_windows`] for where they lie.
@@ -103,17 +121,7 @@ pub fn read_rgb_image_windows(path: &Path) -> Result<(RgbImage, ImageWindows)> {
             use exr::prelude::*;
             lobe_materials::io::check_exr_size(path).map_err(|m| crate::Error::file(&shown, m))?;
             let image = lobe_materials::guard::third_party("OpenEXR", || {
-                read_first_rgba_layer_from_file(
-                    path,
-                    |res, _| RgbImage {
-                        width: res.width(),
-                        height: res.height(),
-                        pixels: vec![Rgb::ZERO; res.width() * res.height()],
-                    },
-                    |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                        img.pixels[pos.y() * img.width + pos.x()] = Rgb::new(r, g, b);
-                    },
-                )
+                read_first_rgba_layer_from_file(path, |res, _| exr_canvas(res), exr_set_pixel)
             })
             .map_err(|m| crate::Error::file(&shown, m))?
             .map_err(|e| crate::Error::file(&shown, format!("cannot read OpenEXR image: {e}")))?;

@@ -19,14 +19,8 @@ pub fn sunset_environment() -> RgbImage {
         .no_deep_data()
         .largest_resolution_level()
         .rgba_channels(
-            |res, _| RgbImage {
-                width: res.width(),
-                height: res.height(),
-                pixels: vec![Rgb::ZERO; res.width() * res.height()],
-            },
-            |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                img.pixels[pos.y() * img.width + pos.x()] = Rgb::new(r, g, b);
-            },
+            |res, _| crate::image_io::exr_canvas(res),
+            crate::image_io::exr_set_pixel,
         )
         .first_valid_layer()
         .all_attributes()

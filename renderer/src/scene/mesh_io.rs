@@ -57,25 +57,21 @@ pub fn check_positions(mesh: &Mesh, shown: &str) -> Result<()> {
 /// Loads an OBJ file as one mesh (all its objects and groups; [`super::obj`]), with
 /// angle-weighted vertex normals where the file gives none for some vertex.
 pub fn load_obj(path: &Path) -> Result<Mesh> {
-    let shown = path.display().to_string();
-    let bytes =
-        lobe_materials::io::read_regular(path, lobe_materials::io::MAX_DATA_BYTES, "an OBJ file")?;
-    let mut mesh = super::obj::parse(&bytes, &shown)?;
-    drop(bytes);
-    check_mesh(&mesh, &shown)?;
-    if mesh.normals.len() != mesh.positions.len() || mesh.normals.contains(&Vec3::ZERO) {
-        mesh.compute_vertex_normals();
-    }
-    Ok(mesh)
+    load_mesh_file(path, "an OBJ file", super::obj::parse)
 }
 
 /// Loads a PLY file as one mesh ([`super::ply`]), with angle-weighted vertex normals where
 /// the file gives none.
 pub fn load_ply(path: &Path) -> Result<Mesh> {
+    load_mesh_file(path, "a PLY file", super::ply::parse)
+}
+
+/// Reads `path` (`what` it should be) whole, parses it with `parse`, checks the mesh and
+/// computes vertex normals where some are missing.
+fn load_mesh_file(path: &Path, what: &str, parse: fn(&[u8], &str) -> Result<Mesh>) -> Result<Mesh> {
     let shown = path.display().to_string();
-    let bytes =
-        lobe_materials::io::read_regular(path, lobe_materials::io::MAX_DATA_BYTES, "a PLY file")?;
-    let mut mesh = super::ply::parse(&bytes, &shown)?;
+    let bytes = lobe_materials::io::read_regular(path, lobe_materials::io::MAX_DATA_BYTES, what)?;
+    let mut mesh = parse(&bytes, &shown)?;
     drop(bytes);
     check_mesh(&mesh, &shown)?;
     if mesh.normals.len() != mesh.positions.len() || mesh.normals.contains(&Vec3::ZERO) {

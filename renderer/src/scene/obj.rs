@@ -143,6 +143,18 @@ fn number(word: Option<&[u8]>, what: &str) -> std::result::Result<f32, String> {
     }
 }
 
+/// Three numbers of a line.
+fn vec3<'a>(
+    words: &mut impl Iterator<Item = &'a [u8]>,
+    what: &str,
+) -> std::result::Result<Vec3, String> {
+    Ok(Vec3::new(
+        number(words.next(), what)?,
+        number(words.next(), what)?,
+        number(words.next(), what)?,
+    ))
+}
+
 /// A face index: a non-zero integer (1-based, or negative: counted back from the last
 /// element read so far).
 fn index(w: &[u8]) -> std::result::Result<i64, String> {
@@ -187,24 +199,12 @@ impl Chunk {
             return Err("line continuations (a final \\) are not supported".into());
         }
         match head {
-            Some(b"v") => {
-                let what = "three coordinates after v";
-                let (x, y, z) = (
-                    number(w.next(), what)?,
-                    number(w.next(), what)?,
-                    number(w.next(), what)?,
-                );
-                self.positions.push(Vec3::new(x, y, z));
-            }
-            Some(b"vn") => {
-                let what = "three components after vn";
-                let (x, y, z) = (
-                    number(w.next(), what)?,
-                    number(w.next(), what)?,
-                    number(w.next(), what)?,
-                );
-                self.normals.push(Vec3::new(x, y, z));
-            }
+            Some(b"v") => self
+                .positions
+                .push(vec3(&mut w, "three coordinates after v")?),
+            Some(b"vn") => self
+                .normals
+                .push(vec3(&mut w, "three components after vn")?),
             Some(b"vt") => {
                 let u = number(w.next(), "a texture coordinate after vt")?;
                 let v = match w.next() {
