@@ -209,3 +209,49 @@ fn tables_round_trip_and_bad_tables_are_errors() {
 fn dir_f32(theta: f64, phi: f64) -> glam::Vec3 {
     dir(theta, phi).as_vec3()
 }
+
+#[test]
+fn isotropic_data_give_a_distribution_symmetric_about_the_normal() {
+    // Isotropic data hold one azimuth per configuration; the estimate must be the same at
+    // every azimuth (a table built from a few rotations of the data is a polygon), and it
+    // must recover the generating Beckmann distribution.
+    let n = 33;
+    let shape = Shape::Beckmann {
+        alpha_x: 0.2,
+        alpha_y: 0.2,
+    };
+    let truth = Arc::new(Table::from_fn(n, |h| shape.density(h)).unwrap());
+    let t = truth.clone();
+    let data = lobe_materials::fit::dataset::Dataset::isotropic(
+        &|wi, wo| {
+            let r = t.rho(wo.as_dvec3(), wi.as_dvec3(), 1.0) as f32;
+            Some(lobe_materials::Rgb::new(0.6 * r, 0.5 * r, 0.4 * r))
+        },
+        2.0,
+    );
+    let est = estimate(&data, n, Some(1.0), 5).unwrap();
+    let corr = correlation(&est.table, &truth);
+    assert!(corr > 0.99, "correlation with the truth {corr}");
+    // Nodes at one distance from the centre hold one value, also where no symmetry of the
+    // grid maps one onto the other (as (5, 0) and (3, 4)).
+    let c = (n / 2) as i64;
+    let nodes = est.table.nodes();
+    let peak = nodes.iter().cloned().fold(0.0f32, f32::max) as f64;
+    let mut rings: std::collections::BTreeMap<i64, Vec<f64>> = Default::default();
+    for (k, &v) in nodes.iter().enumerate() {
+        let (x, y) = ((k % n) as i64 - c, (k / n) as i64 - c);
+        rings.entry(x * x + y * y).or_default().push(v as f64);
+    }
+    let mut checked = 0;
+    for (r2, ring) in rings.iter().filter(|(r2, _)| **r2 < c * c && **r2 > 0) {
+        let (lo, hi) = ring
+            .iter()
+            .fold((f64::MAX, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
+        assert!(
+            hi - lo <= 1e-5 * hi + 1e-9 * peak,
+            "nodes at squared distance {r2}: p from {lo} to {hi} (peak {peak})"
+        );
+        checked += 1;
+    }
+    assert!(checked > 40, "{checked} rings");
+}

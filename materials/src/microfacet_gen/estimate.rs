@@ -39,7 +39,90 @@ impl Estimate {
     }
 }
 
+/// The Eq. (4) value of one measurement (diffuse removed) with the given g and the half
+/// vector it estimates, or `None` below the horizon.
+fn eq4_sample(
+    smp: &crate::fit::dataset::Sample,
+    (k1, k2): (DVec3, DVec3),
+    g: &(dyn Fn(DVec3) -> f64 + Sync),
+    f0: f64,
+    diffuse_lum: f64,
+) -> Option<(DVec3, f64)> {
+    let h = (k1 + k2).normalize_or_zero();
+    if h.z <= 0.0 {
+        return None;
+    }
+    let c = k1.dot(h).clamp(0.0, 1.0);
+    let fresnel = f0 + (1.0 - f0) * (1.0 - c).powi(5);
+    let rho = (smp.value.iter().sum::<f64>() / 3.0 - diffuse_lum / PI).max(0.0);
+    Some((h, rho * 4.0 * g(k1) * g(k2) / fresnel.max(1e-6)))
+}
+
+/// Weighted sums of values splatted linearly onto `bins` slots: (sum of w v, sum of w).
+type Splats = (Vec<f64>, Vec<f64>);
+
+/// Sums the splats of `splat` (called per measurement with the slot accumulator) over the
+/// data in parallel, in a fixed chunking (the same sums for any thread count).
+fn splat_all(
+    data: &Dataset,
+    bins: usize,
+    splat: &(dyn Fn(&crate::fit::dataset::Sample, &mut Splats) + Sync),
+) -> Splats {
+    use rayon::prelude::*;
+    let parts: Vec<Splats> = data
+        .samples
+        .par_chunks(8192)
+        .map(|chunk| {
+            let mut acc = (vec![0.0f64; bins], vec![0.0f64; bins]);
+            for smp in chunk {
+                splat(smp, &mut acc);
+            }
+            acc
+        })
+        .collect();
+    parts
+        .into_iter()
+        .fold((vec![0.0; bins], vec![0.0; bins]), |mut a, b| {
+            for k in 0..bins {
+                a.0[k] += b.0[k];
+                a.1[k] += b.1[k];
+            }
+            a
+        })
+}
+
+/// Fills the `None` entries of `p` that `inside` admits from their filled neighbours
+/// (`neighbours` of an index), ring by ring.
+fn fill_from_neighbours(
+    p: &mut [Option<f64>],
+    inside: &dyn Fn(usize) -> bool,
+    neighbours: &dyn Fn(usize) -> Vec<usize>,
+) {
+    for _ in 0..2 * p.len().max(1) {
+        let fills: Vec<(usize, f64)> = (0..p.len())
+            .filter(|&k| inside(k) && p[k].is_none())
+            .filter_map(|k| {
+                let near: Vec<f64> = neighbours(k).into_iter().filter_map(|j| p[j]).collect();
+                (!near.is_empty()).then(|| (k, near.iter().sum::<f64>() / near.len() as f64))
+            })
+            .collect();
+        if fills.is_empty() {
+            return;
+        }
+        for (k, v) in fills {
+            p[k] = Some(v);
+        }
+    }
+}
+
 /// One estimate of p from the data (diffuse removed), with the given g, by Eq. (4).
+///
+/// Anisotropic data splat each measurement's value bilinearly onto the nodes around its
+/// half vector. Isotropic data hold one azimuth of each configuration, and their p is
+/// symmetric about the normal: their values are splatted onto a radial profile (linear in
+/// the projected radius |h_xy|, `n` slots from 0 to 1), which every node then reads at its
+/// radius. (Spreading the measurements over a few rotations instead leaves a polygon of
+/// their count in the table.)
 fn estimate_p(
     data: &Dataset,
     n: usize,
@@ -47,112 +130,81 @@ fn estimate_p(
     f0: f64,
     diffuse_lum: f64,
 ) -> Vec<f64> {
-    use rayon::prelude::*;
     let s = (n - 1) as f64 / 2.0;
-    // Isotropic data hold one azimuth of each configuration (wi at phi = 0, wo at phi_d in
-    // [0, 180]): spread every pair over 8 rotations and their mirror images so that p is
-    // estimated over the whole disk.
-    type Rot = Box<dyn Fn(DVec3) -> DVec3 + Sync>;
-    let rotations: Vec<Rot> = if data.anisotropic {
-        vec![Box::new(|k| k)]
-    } else {
-        (0..8)
-            .flat_map(|j| {
-                let (sn, cs) = (j as f64 * PI / 4.0).sin_cos();
-                [false, true].map(move |mirror| -> Rot {
-                    Box::new(move |k: DVec3| {
-                        let y = if mirror { -k.y } else { k.y };
-                        DVec3::new(cs * k.x - sn * y, sn * k.x + cs * y, k.z)
-                    })
-                })
-            })
-            .collect()
+    let node_xy = |k: usize| (-1.0 + (k % n) as f64 / s, -1.0 + (k / n) as f64 / s);
+    let inside = |k: usize| node_dir(n, k % n, k / n).is_some();
+    let value = |smp: &crate::fit::dataset::Sample| {
+        let pair = (smp.wi.as_dvec3(), smp.wo.as_dvec3());
+        eq4_sample(smp, pair, g, f0, diffuse_lum)
     };
-    let (acc, wsum) = data
-        .samples
-        .par_chunks(8192)
-        .map(|chunk| {
-            let mut acc = vec![0.0f64; n * n];
-            let mut wsum = vec![0.0f64; n * n];
-            for (smp, rot) in chunk
-                .iter()
-                .flat_map(|s| rotations.iter().map(move |r| (s, r)))
-            {
-                let (k1, k2) = (rot(smp.wi.as_dvec3()), rot(smp.wo.as_dvec3()));
-                let h = (k1 + k2).normalize_or_zero();
-                if h.z <= 0.0 {
-                    continue;
-                }
-                let c = k1.dot(h).clamp(0.0, 1.0);
-                let fresnel = f0 + (1.0 - f0) * (1.0 - c).powi(5);
-                let rho = (smp.value.iter().sum::<f64>() / 3.0 - diffuse_lum / PI).max(0.0);
-                let v = rho * 4.0 * g(k1) * g(k2) / fresnel.max(1e-6);
-                let (px, py) = ((h.x + 1.0) * s, (h.y + 1.0) * s);
-                let (ix, iy) = ((px as usize).min(n - 2), (py as usize).min(n - 2));
-                let (fx, fy) = (px - ix as f64, py - iy as f64);
-                for (dx, dy, w) in [
-                    (0, 0, (1.0 - fx) * (1.0 - fy)),
-                    (1, 0, fx * (1.0 - fy)),
-                    (0, 1, (1.0 - fx) * fy),
-                    (1, 1, fx * fy),
-                ] {
-                    let k = (iy + dy) * n + ix + dx;
+    if !data.anisotropic {
+        let last = (n - 1) as f64;
+        let (acc, wsum) = splat_all(data, n, &|smp, (acc, wsum)| {
+            if let Some((h, v)) = value(smp) {
+                let t = (h.x.hypot(h.y) * last).min(last);
+                let i = (t as usize).min(n - 2);
+                let f = t - i as f64;
+                for (k, w) in [(i, 1.0 - f), (i + 1, f)] {
                     acc[k] += w * v;
                     wsum[k] += w;
                 }
             }
-            (acc, wsum)
-        })
-        .reduce(
-            || (vec![0.0; n * n], vec![0.0; n * n]),
-            |mut a, b| {
-                for k in 0..n * n {
-                    a.0[k] += b.0[k];
-                    a.1[k] += b.1[k];
+        });
+        let mut radial: Vec<Option<f64>> = (0..n)
+            .map(|k| (wsum[k] > 1e-9).then(|| acc[k] / wsum[k]))
+            .collect();
+        let near = |k: usize| {
+            [k.wrapping_sub(1), k + 1]
+                .into_iter()
+                .filter(|&j| j < n)
+                .collect()
+        };
+        fill_from_neighbours(&mut radial, &|_| true, &near);
+        let radial: Vec<f64> = radial.into_iter().map(|v| v.unwrap_or(0.0)).collect();
+        return (0..n * n)
+            .map(|k| {
+                let (x, y) = node_xy(k);
+                let t = (x.hypot(y) * last).min(last);
+                let i = (t as usize).min(n - 2);
+                let f = t - i as f64;
+                if inside(k) {
+                    radial[i] * (1.0 - f) + radial[i + 1] * f
+                } else {
+                    0.0
                 }
-                a
-            },
-        );
-    let inside = |k: usize| node_dir(n, k % n, k / n).is_some();
+            })
+            .collect();
+    }
+    let (acc, wsum) = splat_all(data, n * n, &|smp, (acc, wsum)| {
+        if let Some((h, v)) = value(smp) {
+            let (px, py) = ((h.x + 1.0) * s, (h.y + 1.0) * s);
+            let (ix, iy) = ((px as usize).min(n - 2), (py as usize).min(n - 2));
+            let (fx, fy) = (px - ix as f64, py - iy as f64);
+            for (dx, dy, w) in [
+                (0, 0, (1.0 - fx) * (1.0 - fy)),
+                (1, 0, fx * (1.0 - fy)),
+                (0, 1, (1.0 - fx) * fy),
+                (1, 1, fx * fy),
+            ] {
+                let k = (iy + dy) * n + ix + dx;
+                acc[k] += w * v;
+                wsum[k] += w;
+            }
+        }
+    });
     let mut p: Vec<Option<f64>> = (0..n * n)
         .map(|k| (inside(k) && wsum[k] > 1e-9).then(|| acc[k] / wsum[k]))
         .collect();
-    // Fill empty nodes inside the disk from their filled neighbours, ring by ring.
-    for _ in 0..2 * n {
-        let missing: Vec<usize> = (0..n * n)
-            .filter(|&k| inside(k) && p[k].is_none())
-            .collect();
-        if missing.is_empty() {
-            break;
-        }
-        let fills: Vec<(usize, f64)> = missing
-            .iter()
-            .filter_map(|&k| {
-                let (x, y) = ((k % n) as i64, (k / n) as i64);
-                let mut sum = 0.0;
-                let mut cnt = 0;
-                for (dx, dy) in [(-1, 0), (1, 0), (0, -1), (0, 1)] {
-                    let (a, b) = (x + dx, y + dy);
-                    if a >= 0
-                        && b >= 0
-                        && a < n as i64
-                        && b < n as i64
-                        && let Some(v) = p[(b as usize) * n + a as usize]
-                    {
-                        sum += v;
-                        cnt += 1;
-                    }
-                }
-                (cnt > 0).then(|| (k, sum / cnt as f64))
-            })
-            .collect();
-        if fills.is_empty() {
-            break;
-        }
-        for (k, v) in fills {
-            p[k] = Some(v);
-        }
-    }
+    let near = |k: usize| {
+        let (x, y) = ((k % n) as i64, (k / n) as i64);
+        [(-1, 0), (1, 0), (0, -1), (0, 1)]
+            .into_iter()
+            .map(|(dx, dy)| (x + dx, y + dy))
+            .filter(|&(a, b)| a >= 0 && b >= 0 && a < n as i64 && b < n as i64)
+            .map(|(a, b)| b as usize * n + a as usize)
+            .collect()
+    };
+    fill_from_neighbours(&mut p, &inside, &near);
     p.into_iter().map(|v| v.unwrap_or(0.0)).collect()
 }
 
