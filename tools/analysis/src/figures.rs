@@ -16,8 +16,8 @@
 
 use crate::NamedMaterial;
 use crate::plot::{
-    Figure, H, LEGEND_W, MEASURED, Style, W, axis_name, draw_axis_names, draw_legend, draw_marker,
-    equal_chart, plot_err, register_font, style,
+    Figure, H, LEGEND_W, MEASURED, Style, W, axis_name, draw_axis_names, draw_legend, draw_line,
+    draw_marker, equal_chart, plot_err, register_font, style,
 };
 use crate::reports::model_labels;
 use crate::vector_figure;
@@ -279,9 +279,7 @@ impl ErrorChart<'_> {
                 *k += 1;
             }
             let pts: Vec<(f64, f64)> = pts.into_iter().map(|p| (p.0, p.1)).collect();
-            chart
-                .draw_series(LineSeries::new(pts.clone(), st.color.stroke_width(2)))
-                .map_err(plot_err)?;
+            draw_line(&mut chart, pts.clone(), st, 2)?;
             for p in pts {
                 let (px, py) = chart.backend_coord(&p);
                 draw_marker(&area, (px - x0, py - y0), 4, st)?;
@@ -335,33 +333,39 @@ pub fn polar(
     for (name, m) in fits {
         curves.push((name.clone(), curve(m.as_ref())));
     }
-    let r = curves
-        .iter()
-        .flat_map(|(_, c)| c.iter().map(|(x, y)| x.hypot(*y)))
-        .fold(1e-6f64, f64::max)
-        * 1.05;
+    // The curves' bounding box (with the normal, x = 0), padded: the plot spends its area
+    // on the lobes, not on an empty half disk; its height follows the box's shape.
+    let (mut x0, mut x1, mut y1) = (0.0f64, 0.0f64, 1e-6f64);
+    for (x, y) in curves.iter().flat_map(|(_, c)| c.iter()) {
+        (x0, x1, y1) = (x0.min(*x), x1.max(*x), y1.max(*y));
+    }
+    let pad = 0.06 * (x1 - x0).max(y1);
+    let bounds = (x0 - pad..x1 + pad, 0.0..y1 + pad);
     let title = format!(
         "{material}: incidence plane, \u{3b8}i = {theta_i}\u{b0}, {} channel, cube root of f_r",
         channel_name(channel)
     );
     let legend: Vec<(String, Style)> = curves.iter().map(|(n, _)| (n.clone(), style(n))).collect();
     let plot_w = W - LEGEND_W + 60;
-    Ok(vector_figure!((plot_w + LEGEND_W, 520), |root| {
+    let data_w = (plot_w - 80) as f64;
+    let aspect = (bounds.1.end - bounds.1.start) / (bounds.0.end - bounds.0.start);
+    let plot_h = (data_w * aspect).clamp(280.0, 760.0) as u32 + 120;
+    Ok(vector_figure!((plot_w + LEGEND_W, plot_h), |root| {
         let (plot, side) = root.split_horizontally(plot_w);
-        draw_polar(&plot, &title, &curves, (r, ti))?;
+        draw_polar(&plot, &title, &curves, (bounds.clone(), ti))?;
         draw_legend(&side, "series", &legend)?
     }))
 }
 
-/// The polar plot's axes, incident direction and curves (see [`polar`]).
+/// The polar plot's axes, incident direction and curves (see [`polar`]) over `bounds`.
 fn draw_polar<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     title: &str,
     curves: &[(String, Vec<(f64, f64)>)],
-    (r, ti): (f64, f64),
+    (bounds, ti): ((std::ops::Range<f64>, std::ops::Range<f64>), f64),
 ) -> Result<(), Error> {
     let area = area.titled(title, ("sans-serif", 18)).map_err(plot_err)?;
-    let mut chart = equal_chart(&area, (45, 65), (-r..r, 0.0..r), true)?;
+    let mut chart = equal_chart(&area, (45, 65), bounds.clone(), true)?;
     chart
         .configure_mesh()
         .disable_mesh()
@@ -371,10 +375,19 @@ fn draw_polar<DB: DrawingBackend>(
         .y_desc("f_r^(1/3) cos \u{3b8}o  (sr^-1/3)")
         .draw()
         .map_err(plot_err)?;
-    // Incident direction.
+    // The incident direction, to the edge of the plotted box.
+    let (dx, dy) = (-ti.sin(), ti.cos());
+    let reach = [
+        (dx < 0.0).then(|| bounds.0.start / dx),
+        (dx > 0.0).then(|| bounds.0.end / dx),
+        (dy > 0.0).then(|| bounds.1.end / dy),
+    ]
+    .into_iter()
+    .flatten()
+    .fold(f64::MAX, f64::min);
     chart
         .draw_series(LineSeries::new(
-            vec![(0.0, 0.0), (-r * ti.sin(), r * ti.cos())],
+            vec![(0.0, 0.0), (reach * dx, reach * dy)],
             BLACK.mix(0.5).stroke_width(1),
         ))
         .map_err(plot_err)?;
@@ -386,9 +399,7 @@ fn draw_polar<DB: DrawingBackend>(
         } else {
             2
         };
-        chart
-            .draw_series(LineSeries::new(c.clone(), st.color.stroke_width(width)))
-            .map_err(plot_err)?;
+        draw_line(&mut chart, c.clone(), st, width)?;
         for p in c.iter().step_by(40) {
             let (px, py) = chart.backend_coord(p);
             draw_marker(&area, (px - x0, py - y0), 4, st)?;
@@ -543,44 +554,78 @@ fn contour(v: &[f64], n: usize, level: f64) -> Vec<[(f64, f64); 2]> {
 /// Pixels per lobe-plot panel (width) and of the figure's height.
 const PANEL: (u32, u32) = (430, 500);
 
-/// Lobe plots: one panel per named field, each with iso-contours at 10 % to 90 % of its
-/// own peak over the projected hemisphere (equal axis scales: the disk is a circle), the
-/// mirror direction `mirror` marked, the levels' legend beside the panels.
+/// What the contour levels of a lobe plot are fractions of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Levels {
+    /// Each panel's own peak: shapes compare, magnitudes do not.
+    OwnPeak,
+    /// The first panel's peak (the measured data) in every panel: a fit too bright or too
+    /// dark shows as contours too many or too few, and each panel names its peak.
+    FirstPanel,
+}
+
+/// Lobe plots: one panel per named field, each with iso-contours at 10 % to 90 % of a
+/// peak ([`Levels`]) over the projected hemisphere (equal axis scales: the disk is a
+/// circle, its rim the horizon), the mirror direction `mirror` marked, the levels' legend
+/// beside the panels.
 fn contour_figure(
     title: &str,
     panels: &[(String, Field<'_>)],
     mirror: (f64, f64),
+    levels: Levels,
 ) -> Result<Figure, Error> {
     let grids: Vec<(String, Vec<f64>)> = panels
         .iter()
         .map(|(name, f)| (name.clone(), sample_grid(*f, GRID)))
         .collect();
+    let peak_of = |g: &[f64]| g.iter().cloned().fold(0.0f64, f64::max);
+    let first = grids.first().map_or(0.0, |g| peak_of(&g.1));
     let k = grids.len().max(1) as u32;
+    let of = match levels {
+        Levels::OwnPeak => "the panel's peak",
+        Levels::FirstPanel => "the first panel's peak",
+    };
     let legend: Vec<(String, Style)> = LEVELS
         .iter()
         .map(|(l, c)| {
             let st = Style {
                 color: *c,
                 marker: crate::plot::Marker::Circle,
+                dashed: false,
             };
-            (format!("{:.0} % of the panel's peak", l * 100.0), st)
+            (format!("{:.0} % of {of}", l * 100.0), st)
         })
         .collect();
     Ok(vector_figure!((k * PANEL.0 + LEGEND_W, PANEL.1), |root| {
         let root = root.titled(title, ("sans-serif", 18)).map_err(plot_err)?;
         let (left, side) = root.split_horizontally(k * PANEL.0);
-        for (area, (name, grid)) in left.split_evenly((1, k as usize)).iter().zip(&grids) {
-            draw_contour_panel(area, name, grid, mirror)?;
+        for (i, (area, (name, grid))) in left
+            .split_evenly((1, k as usize))
+            .iter()
+            .zip(&grids)
+            .enumerate()
+        {
+            let peak = peak_of(grid);
+            let (reference, caption) = match levels {
+                Levels::OwnPeak => (peak, name.clone()),
+                Levels::FirstPanel if i == 0 => (first, format!("{name} (peak {peak:.3})")),
+                Levels::FirstPanel => (
+                    first,
+                    format!("{name} (peak {:.2} x the first)", peak / first.max(1e-300)),
+                ),
+            };
+            draw_contour_panel(area, &caption, grid, reference, mirror)?;
         }
         draw_legend(&side, "contour level", &legend)?
     }))
 }
 
-/// One panel of [`contour_figure`].
+/// One panel of [`contour_figure`]: contours at the [`LEVELS`] of `reference`.
 fn draw_contour_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     name: &str,
     grid: &[f64],
+    reference: f64,
     mirror: (f64, f64),
 ) -> Result<(), Error> {
     let area = area.titled(name, ("sans-serif", 16)).map_err(plot_err)?;
@@ -594,10 +639,9 @@ fn draw_contour_panel<DB: DrawingBackend>(
         .y_desc("sin \u{3b8}o sin \u{3c6}o")
         .draw()
         .map_err(plot_err)?;
-    let peak = grid.iter().cloned().fold(0.0f64, f64::max);
-    if peak > 0.0 {
+    if reference > 0.0 {
         for (level, c) in LEVELS {
-            let segs = contour(grid, GRID, level * peak);
+            let segs = contour(grid, GRID, level * reference);
             chart
                 .draw_series(
                     segs.into_iter()
@@ -606,7 +650,7 @@ fn draw_contour_panel<DB: DrawingBackend>(
                 .map_err(plot_err)?;
         }
     }
-    // The rim and the mirror direction over the contours.
+    // The horizon and the mirror direction over the contours.
     let circle: Vec<(f64, f64)> = (0..=360)
         .map(|k| {
             let a = (k as f64).to_radians();
@@ -659,12 +703,14 @@ pub fn lobes(theta_i: f64, n: f64) -> Result<Figure, Error> {
             ("V.R lobe: cos^n(v\u{b7}r)".to_string(), &vr),
         ],
         (r.x, r.y),
+        Levels::OwnPeak,
     )
 }
 
 /// Lobe plots of measured data: iso-contours of f_r (colour `channel`) over the outgoing
 /// hemisphere at incidence `theta_i` degrees, one panel per item (the measured material
-/// and its fits), each at 10 % to 90 % of its own peak.
+/// first, then its fits), all at 10 % to 90 % of the first item's peak, so that a fit's
+/// magnitude error shows as well as its shape's.
 pub fn lobe_contours(
     material: &str,
     items: &[NamedMaterial],
@@ -702,55 +748,121 @@ pub fn lobe_contours(
         ),
         &panels,
         (r.x, r.y),
+        Levels::FirstPanel,
     )
 }
 
-/// log10 p over the projected hemisphere (a disk; white outside), 320 x 320 pixels, on a
-/// blue-to-yellow ramp over four decades below the maximum.
-/// Figures 11 to 13: the APS2000 distribution `table` as log10 p over the projected
-/// hemisphere.
-pub fn distribution(table: &Table) -> Figure {
-    let size = 320usize;
-    let max = table
-        .nodes()
+/// The decades below the top of a map of p that [`distribution`] colours.
+pub const DISTRIBUTION_DECADES: f64 = 4.0;
+
+/// The top of a shared colour range for maps of p: the largest node of any of `tables`
+/// (so that a truth and its estimate drawn with it compare colour for colour).
+pub fn distribution_top(tables: &[&Table]) -> f64 {
+    tables
         .iter()
-        .cloned()
-        .fold(0.0f32, f32::max)
-        .max(1e-30) as f64;
-    let mut rgb = vec![255u8; size * size * 3];
-    for y in 0..size {
-        for x in 0..size {
-            let hx = (x as f64 + 0.5) / size as f64 * 2.0 - 1.0;
-            // Image rows go down; h_y goes up.
-            let hy = 1.0 - (y as f64 + 0.5) / size as f64 * 2.0;
-            if hx * hx + hy * hy >= 1.0 {
-                continue;
-            }
-            let v = table.p(hx, hy);
-            let t = ((v.max(1e-300) / max).log10() / 4.0 + 1.0).clamp(0.0, 1.0);
-            // A perceptually ordered ramp: dark blue, teal, green, yellow.
-            let stops = [
-                [0.07, 0.04, 0.33],
-                [0.13, 0.45, 0.55],
-                [0.35, 0.75, 0.35],
-                [0.99, 0.91, 0.15],
-            ];
-            let s = t * 3.0;
-            let i = (s as usize).min(2);
-            let f = s - i as f64;
-            let k = (y * size + x) * 3;
-            for c in 0..3 {
-                rgb[k + c] =
-                    ((stops[i][c] * (1.0 - f) + stops[i + 1][c] * f) * 255.0).round() as u8;
+        .flat_map(|t| t.nodes().iter())
+        .fold(0.0f32, |a, &b| a.max(b))
+        .max(1e-30) as f64
+}
+
+/// A perceptually ordered ramp (dark blue, teal, green, yellow) at `t` in [0, 1].
+fn ramp(t: f64) -> RGBColor {
+    let stops = [
+        [0.07, 0.04, 0.33],
+        [0.13, 0.45, 0.55],
+        [0.35, 0.75, 0.35],
+        [0.99, 0.91, 0.15],
+    ];
+    let s = t.clamp(0.0, 1.0) * 3.0;
+    let i = (s as usize).min(2);
+    let f = s - i as f64;
+    let c = |k: usize| ((stops[i][k] * (1.0 - f) + stops[i + 1][k] * f) * 255.0).round() as u8;
+    RGBColor(c(0), c(1), c(2))
+}
+
+/// Figures 11 to 13: the APS2000 distribution `table` as log10 p over the projected
+/// hemisphere (h_x, h_y) on axes, titled `title`, with a colour bar: the ramp spans
+/// [`DISTRIBUTION_DECADES`] decades below `top` (p per unit projected area; give a truth
+/// and its estimate the same [`distribution_top`]), lower values take its darkest colour.
+pub fn distribution(title: &str, table: &Table, top: f64) -> Result<Figure, Error> {
+    const SIZE: (u32, u32) = (470, 420);
+    crate::plot::register_font();
+    let top = top.max(1e-30);
+    let mut fig = Figure::white(SIZE.0, SIZE.1);
+    {
+        let root = BitMapBackend::with_buffer(&mut fig.rgb, SIZE).into_drawing_area();
+        let root = root.titled(title, ("sans-serif", 16)).map_err(plot_err)?;
+        let (plot, bar) = root.split_horizontally(SIZE.0 - 90);
+        let mut chart = equal_chart(&plot, (40, 50), (-1.0..1.0, -1.0..1.0), false)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .x_desc("h_x (tangent)")
+            .y_desc("h_y (bitangent)")
+            .draw()
+            .map_err(plot_err)?;
+        let colour = |hx: f64, hy: f64| {
+            let v = table.p(hx, hy).max(1e-300) / top;
+            ramp(v.log10() / DISTRIBUTION_DECADES + 1.0)
+        };
+        let (a, b) = (
+            chart.backend_coord(&(-1.0, 1.0)),
+            chart.backend_coord(&(1.0, -1.0)),
+        );
+        let (x0, y0) = plot.get_base_pixel();
+        for py in a.1..=b.1 {
+            for px in a.0..=b.0 {
+                let hx = -1.0 + 2.0 * (px - a.0) as f64 / (b.0 - a.0).max(1) as f64;
+                let hy = 1.0 - 2.0 * (py - a.1) as f64 / (b.1 - a.1).max(1) as f64;
+                if hx * hx + hy * hy < 1.0 {
+                    plot.draw_pixel((px - x0, py - y0), &colour(hx, hy))
+                        .map_err(plot_err)?;
+                }
             }
         }
+        let rim: Vec<(f64, f64)> = (0..=360)
+            .map(|k| (k as f64).to_radians())
+            .map(|a| (a.cos(), a.sin()))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(rim, BLACK.mix(0.6).stroke_width(1)))
+            .map_err(plot_err)?;
+        draw_decade_bar(&bar, top.log10(), (a.1 - y0, b.1 - y0))?;
+        root.present().map_err(plot_err)?;
     }
-    Figure {
-        width: size as u32,
-        height: size as u32,
-        rgb,
-        svg: None,
+    Ok(fig)
+}
+
+/// The colour bar of [`distribution`]: the ramp from `log_top` - decades (bottom) to
+/// `log_top` (top) between pixel rows `rows`, a tick and label per whole decade.
+fn draw_decade_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    log_top: f64,
+    rows: (i32, i32),
+) -> Result<(), Error> {
+    let (x0, x1) = (8i32, 26i32);
+    let (top, bottom) = rows;
+    let span = (bottom - top).max(1) as f64;
+    for y in top..=bottom {
+        let t = 1.0 - (y - top) as f64 / span;
+        area.draw(&Rectangle::new([(x0, y), (x1, y + 1)], ramp(t).filled()))
+            .map_err(plot_err)?;
     }
+    let font = ("sans-serif", 12).into_font().color(&BLACK);
+    let lo = log_top - DISTRIBUTION_DECADES;
+    for d in (lo.ceil() as i64)..=(log_top.floor() as i64) {
+        let y = top + ((log_top - d as f64) / DISTRIBUTION_DECADES * span).round() as i32;
+        area.draw(&PathElement::new([(x1 - 6, y), (x1, y)], WHITE))
+            .map_err(plot_err)?;
+        let style = font.clone().pos(Pos::new(HPos::Left, VPos::Center));
+        area.draw(&Text::new(format!("1e{d}"), (x1 + 4, y), style))
+            .map_err(plot_err)?;
+    }
+    let style = font.pos(Pos::new(HPos::Left, VPos::Bottom));
+    area.draw(&Text::new("p (log)", (x0 - 4, top - 6), style))
+        .map_err(plot_err)
 }
 
 /// A FLIP error map (`rgb`, `width` x `height`, as [`lobe_renderer::compare::flip_heatmap`]

@@ -62,53 +62,150 @@ const MARKERS: [Marker; 5] = [
     Marker::Cross,
 ];
 
-/// How a series is drawn: its colour and marker.
+/// How a series is drawn: its colour, marker, and a dashed line for a model's two-lobe
+/// form (solid for everything else).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Style {
     pub color: RGBColor,
     pub marker: Marker,
+    pub dashed: bool,
 }
 
 /// The labels of the measured data itself (drawn black, thicker).
 pub const MEASURED: [&str; 2] = ["measured", "data"];
 
-/// Every label with a reserved style, in palette order: the fitter's models (in the order
-/// of [`lobe_materials::fit::builtin_specs`]) and the estimated microfacet distribution.
-pub fn known_labels() -> &'static [String] {
-    static LABELS: std::sync::LazyLock<Vec<String>> = std::sync::LazyLock::new(|| {
-        let mut v: Vec<String> = lobe_materials::fit::builtin_specs()
+/// The label of the estimated microfacet distribution (section 5), a family of its own.
+pub const SAMPLED_MICROFACET: &str = "sampled-microfacet";
+
+/// One hue per model family, in the order families first appear in
+/// [`lobe_materials::fit::builtin_specs`] (then the sampled microfacet distribution):
+/// Ward, Blinn-Phong, Cook-Torrance, Lafortune, Ashikhmin-Shirley, He, Poulin-Fournier,
+/// sampled microfacet. A family's variants are shades of its hue ([`shade`]).
+pub const FAMILY_HUES: [RGBColor; 8] = [
+    RGBColor(31, 100, 200),
+    RGBColor(130, 50, 180),
+    RGBColor(215, 25, 28),
+    RGBColor(240, 130, 0),
+    RGBColor(30, 150, 60),
+    RGBColor(140, 86, 30),
+    RGBColor(0, 150, 150),
+    RGBColor(220, 40, 200),
+];
+
+/// The `k`-th shade of a family's hue: the hue itself, then darker and lighter in turn,
+/// all dark enough to read on white.
+pub fn shade(hue: RGBColor, k: usize) -> RGBColor {
+    // (factor towards black, fraction of white mixed in)
+    const SHADES: [(f64, f64); 6] = [
+        (1.0, 0.0),
+        (0.6, 0.0),
+        (1.0, 0.4),
+        (0.38, 0.0),
+        (0.8, 0.25),
+        (1.0, 0.55),
+    ];
+    let (f, w) = SHADES[k % SHADES.len()];
+    let c = |v: u8| ((v as f64 * f) * (1.0 - w) + 255.0 * w).round() as u8;
+    RGBColor(c(hue.0), c(hue.1), c(hue.2))
+}
+
+/// The family of a fit variant: its model, with the anisotropic forms and Duer's
+/// normalization folded into the model they vary (`ward-anisotropic` and `ward-duer` are
+/// Wards).
+fn family_of(model: &str) -> &str {
+    ["-anisotropic", "-duer"]
+        .iter()
+        .find_map(|s| model.strip_suffix(s))
+        .unwrap_or(model)
+}
+
+/// The reserved styles: every fit variant of [`lobe_materials::fit::builtin_specs`] and
+/// the sampled microfacet distribution, by label. A family shares a hue; its one-lobe
+/// variants take shades and markers in turn; a two-lobe form takes the colour of the
+/// one-lobe model it contains, dashed.
+fn reserved_styles() -> &'static [(String, Style)] {
+    static STYLES: std::sync::LazyLock<Vec<(String, Style)>> = std::sync::LazyLock::new(|| {
+        let specs = lobe_materials::fit::builtin_specs();
+        let entries = specs
             .iter()
-            .map(|s| s.label.to_string())
-            .collect();
-        v.push("sampled-microfacet".into());
-        v
+            .map(|s| {
+                let two_lobe_of = s.contains.filter(|_| s.lobes > 1).map(|c| c.label);
+                (s.label, family_of(s.model), two_lobe_of)
+            })
+            .chain(std::iter::once((
+                SAMPLED_MICROFACET,
+                SAMPLED_MICROFACET,
+                None,
+            )));
+        // Per family: its index, how many variants and how many shades it has used.
+        let mut families: Vec<(&str, usize, usize)> = Vec::new();
+        let mut out: Vec<(String, Style)> = Vec::new();
+        for (label, family, two_lobe_of) in entries {
+            let f = match families.iter().position(|x| x.0 == family) {
+                Some(f) => f,
+                None => {
+                    families.push((family, 0, 0));
+                    families.len() - 1
+                }
+            };
+            let marker = MARKERS[families[f].1 % MARKERS.len()];
+            families[f].1 += 1;
+            let contained =
+                two_lobe_of.and_then(|c| out.iter().find(|(l, _)| l == c).map(|(_, st)| st.color));
+            let (color, dashed) = match contained {
+                Some(color) => (color, true),
+                None => {
+                    families[f].2 += 1;
+                    let hue = FAMILY_HUES[f % FAMILY_HUES.len()];
+                    (shade(hue, families[f].2 - 1), false)
+                }
+            };
+            out.push((
+                label.to_string(),
+                Style {
+                    color,
+                    marker,
+                    dashed,
+                },
+            ));
+        }
+        out
     });
+    &STYLES
+}
+
+/// Every label with a reserved style ([`style`]): the fitter's models in the order of
+/// [`lobe_materials::fit::builtin_specs`], and the estimated microfacet distribution.
+pub fn known_labels() -> &'static [String] {
+    static LABELS: std::sync::LazyLock<Vec<String>> =
+        std::sync::LazyLock::new(|| reserved_styles().iter().map(|(l, _)| l.clone()).collect());
     &LABELS
 }
 
 /// The style of a series label, the same in every figure: black circles for the measured
-/// data, a reserved palette entry for every known model, and for any other label an
-/// entry chosen from a hash of its name (stable from run to run).
+/// data, the reserved style of every known model (one hue per family, see
+/// [`reserved_styles`]), and for any other label an entry chosen from a hash of its name
+/// (stable from run to run).
 pub fn style(label: &str) -> Style {
     if MEASURED.contains(&label) {
         return Style {
             color: BLACK,
             marker: Marker::Circle,
+            dashed: false,
         };
     }
-    let k = known_labels()
-        .iter()
-        .position(|l| l == label)
-        .unwrap_or_else(|| {
-            // FNV-1a: a fixed hash, so an unknown label keeps its style between runs.
-            let h = label.bytes().fold(0xcbf29ce484222325u64, |h, b| {
-                (h ^ b as u64).wrapping_mul(0x100000001b3)
-            });
-            (h % (PALETTE.len() * MARKERS.len()) as u64) as usize
-        });
+    if let Some((_, st)) = reserved_styles().iter().find(|(l, _)| l == label) {
+        return *st;
+    }
+    // FNV-1a: a fixed hash, so an unknown label keeps its style between runs.
+    let h = label.bytes().fold(0xcbf29ce484222325u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100000001b3)
+    });
+    let k = (h % (PALETTE.len() * MARKERS.len()) as u64) as usize;
     Style {
         color: PALETTE[k % PALETTE.len()],
         marker: MARKERS[(k + k / PALETTE.len()) % MARKERS.len()],
+        dashed: false,
     }
 }
 
@@ -146,6 +243,32 @@ pub fn draw_marker<DB: DrawingBackend>(
     .map_err(plot_err)
 }
 
+/// The cartesian chart of f64 ranges every line figure draws on.
+pub type Chart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// Draws the line through `pts` in `style`'s colour, `width` pixels wide: solid, or
+/// dashed (8 on, 5 off) for a two-lobe form.
+pub fn draw_line<DB: DrawingBackend>(
+    chart: &mut Chart<'_, DB>,
+    pts: Vec<(f64, f64)>,
+    style: Style,
+    width: u32,
+) -> Result<(), Error> {
+    let shape = style.color.stroke_width(width);
+    if style.dashed {
+        chart
+            .draw_series(DashedLineSeries::new(pts, 8, 5, shape))
+            .map(|_| ())
+    } else {
+        chart.draw_series(LineSeries::new(pts, shape)).map(|_| ())
+    }
+    .map_err(plot_err)
+}
+
 /// Draws a legend in its own area (beside the plot, so it hides no data): one row per
 /// entry with a line and the marker of its style, then the label; `title` above.
 pub fn draw_legend<DB: DrawingBackend>(
@@ -163,10 +286,16 @@ pub fn draw_legend<DB: DrawingBackend>(
         } else {
             2
         };
-        area.draw(&PathElement::new(
-            vec![(8, y), (38, y)],
-            st.color.stroke_width(width),
-        ))
+        let line = st.color.stroke_width(width);
+        match st.dashed {
+            true => area.draw(&plotters::element::DashedPathElement::new(
+                vec![(8, y), (38, y)],
+                6,
+                4,
+                line,
+            )),
+            false => area.draw(&PathElement::new(vec![(8, y), (38, y)], line)),
+        }
         .map_err(plot_err)?;
         draw_marker(area, (23, y), 4, *st)?;
         area.draw(&Text::new(
@@ -384,14 +513,7 @@ pub fn equal_chart<'a, DB: DrawingBackend>(
     labels: (u32, u32),
     (x, y): (Range<f64>, Range<f64>),
     y_floor: bool,
-) -> Result<
-    ChartContext<
-        'a,
-        DB,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
-    Error,
-> {
+) -> Result<Chart<'a, DB>, Error> {
     let mut b = ChartBuilder::on(area);
     b.margin(15)
         .x_label_area_size(labels.0)

@@ -463,19 +463,64 @@ fn a_synthetic_material_fitted_exactly_does_not_squeeze_the_measured_ones() {
 
 #[test]
 fn every_model_has_one_distinct_style_in_every_figure() {
-    // The palette tells the study's models apart: at least 13 entries, all different.
+    // Every reserved style differs from every other in colour or in line (a two-lobe form
+    // is dashed in the colour of the one lobe it contains).
     let labels = plot::known_labels();
     let styles: Vec<plot::Style> = labels.iter().map(|l| plot::style(l)).collect();
-    assert!(plot::PALETTE.len() >= 13);
+    assert!(labels.len() >= 17);
     for (i, a) in styles.iter().enumerate() {
         for (j, b) in styles.iter().enumerate().skip(i + 1) {
-            assert_ne!(
-                a.color, b.color,
-                "{} and {} share a colour",
-                labels[i], labels[j]
+            assert!(
+                (a.color, a.dashed) != (b.color, b.dashed),
+                "{} and {} share a colour and a line",
+                labels[i],
+                labels[j]
             );
         }
     }
+    for (two, one) in [
+        ("cook-torrance-2", "cook-torrance"),
+        ("lafortune-2", "lafortune"),
+    ] {
+        let (a, b) = (plot::style(two), plot::style(one));
+        assert!(
+            a.dashed && !b.dashed && a.color == b.color,
+            "{two}: {a:?}, {one}: {b:?}"
+        );
+    }
+    // A family is one hue: the Cook-Torrance variants' hues are within 12 degrees of each
+    // other, and another family's hue is farther.
+    let hue = |c: plot::RGBColor| {
+        let (r, g, b) = (c.0 as f64, c.1 as f64, c.2 as f64);
+        let (mx, mn) = (r.max(g).max(b), r.min(g).min(b));
+        let d = (mx - mn).max(1e-9);
+        let h = if mx == r {
+            ((g - b) / d).rem_euclid(6.0)
+        } else if mx == g {
+            (b - r) / d + 2.0
+        } else {
+            (r - g) / d + 4.0
+        };
+        60.0 * h
+    };
+    let apart = |a: f64, b: f64| (a - b).abs().min(360.0 - (a - b).abs());
+    let ct = hue(plot::style("cook-torrance").color);
+    for l in labels.iter().filter(|l| l.starts_with("cook-torrance")) {
+        assert!(apart(hue(plot::style(l).color), ct) < 12.0, "{l}");
+    }
+    for other in [
+        "ward",
+        "lafortune",
+        "blinn-phong",
+        "he",
+        "ashikhmin-shirley",
+    ] {
+        assert!(apart(hue(plot::style(other).color), ct) > 20.0, "{other}");
+    }
+    assert_eq!(
+        hue(plot::style("ward-anisotropic").color).round(),
+        hue(plot::style("ward").color).round()
+    );
     // Each model is drawn in its colour in the error chart, the multi-lobe chart and a
     // polar plot, whatever the other series of the figure.
     let rs = four_model_reports();
@@ -538,9 +583,27 @@ fn polar_and_lobe_plots_have_equal_axis_scales() {
         (-(h.x * h.x + 4.0 * h.y * h.y) / 0.05).exp()
     })
     .unwrap();
-    let d = figures::distribution(&table);
-    assert_eq!((d.width, d.height), (320, 320));
+    let top = figures::distribution_top(&[&table]);
+    let d = figures::distribution("test", &table, top).unwrap();
+    assert_eq!((d.width, d.height), (470, 420));
     assert!(colours(&d) > 5);
+    // On a shared range a hundred times as high, the map is darker: its brightest colour
+    // is not the ramp's top.
+    let dim = figures::distribution("test", &table, 100.0 * top).unwrap();
+    // (Left of the colour bar.)
+    let yellow = |f: &lobe_analysis::plot::Figure| {
+        f.rgb
+            .chunks(3)
+            .enumerate()
+            .filter(|(k, c)| k % (f.width as usize) < 360 && c[0] > 200 && c[1] > 200 && c[2] < 100)
+            .count()
+    };
+    assert!(
+        yellow(&d) > 10 && yellow(&dim) == 0,
+        "{} {}",
+        yellow(&d),
+        yellow(&dim)
+    );
 }
 
 #[test]

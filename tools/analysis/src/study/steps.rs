@@ -355,7 +355,9 @@ fn microfacet(ctx: &Context<'_>, m: &StudyMaterial, key: &str) -> Result<(), Err
     ctx.interrupted()?;
     let l = ctx.layout;
     est.table.write_exr(&l.microfacet(&m.name, "exr"))?;
-    figures::distribution(&est.table).save(&l.microfacet(&m.name, "png"))?;
+    let title = format!("{}: estimated distribution of normals", m.name);
+    let top = figures::distribution_top(&[&est.table]);
+    figures::distribution(&title, &est.table, top)?.save(&l.microfacet(&m.name, "png"))?;
     let desc = est.material(&format!("microfacet/{}.exr", m.name));
     let measured = ctx.build(&m.desc()?, &m.name)?;
     let micro = ctx.build(&desc, "sampled-microfacet")?;

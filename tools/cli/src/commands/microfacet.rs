@@ -92,10 +92,17 @@ fn table_files(stem: &Path) -> (PathBuf, PathBuf) {
     (stem.with_extension("exr"), stem.with_extension("png"))
 }
 
-fn write_table(table: &Table, stem: &Path) -> Result<(PathBuf, PathBuf), Error> {
+/// Writes `table` as EXR and its map (titled `title`, colours up to `top`: see
+/// [`lobe_analysis::figures::distribution`]) as PNG.
+fn write_table(
+    table: &Table,
+    stem: &Path,
+    title: &str,
+    top: f64,
+) -> Result<(PathBuf, PathBuf), Error> {
     let (exr, png) = table_files(stem);
     table.write_exr(&exr)?;
-    lobe_analysis::figures::distribution(table).save(&png)?;
+    lobe_analysis::figures::distribution(title, table, top)?.save(&png)?;
     Ok((exr, png))
 }
 
@@ -133,7 +140,10 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
             let d = Dataset::read(&data, resolution)?;
             let source = data.display().to_string();
             let est = run_estimate(&d, &source, &opts)?;
-            let (exr, png) = write_table(&est.table, &output)?;
+            let name = data.file_stem().unwrap_or_default().to_string_lossy();
+            let top = lobe_analysis::figures::distribution_top(&[&est.table]);
+            let title = format!("{name}: estimated distribution of normals");
+            let (exr, png) = write_table(&est.table, &output, &title, top)?;
             let file = exr
                 .file_name()
                 .map(|f| f.to_string_lossy().to_string())
@@ -205,8 +215,15 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
                 &structure,
                 &config,
             )?;
-            write_table(&truth, &stems[0])?;
-            write_table(&est.table, &stems[1])?;
+            // Truth and estimate on one colour range, so that they compare colour for colour.
+            let top = lobe_analysis::figures::distribution_top(&[&truth, &est.table]);
+            write_table(&truth, &stems[0], &format!("{structure}: true p(h)"), top)?;
+            write_table(
+                &est.table,
+                &stems[1],
+                &format!("{structure}: p(h) estimated from the data"),
+                top,
+            )?;
             let mut text = format!(
                 "{structure}: {} bins ({resolution} degree 4D bins, {:.0} % filled), table {} x {}, correlation of p with the truth {:.4}, p change per iteration {:?}\n",
                 data.samples.len(),
