@@ -531,3 +531,97 @@ pub fn equal_chart<'a, DB: DrawingBackend>(
     let (x, y) = equal_scale(span, x, y, y_floor);
     b.build_cartesian_2d(x, y).map_err(plot_err)
 }
+
+/// A pixel box (left, top, right, bottom), right and bottom exclusive.
+pub type PixelBox = (i32, i32, i32, i32);
+
+fn overlaps(a: PixelBox, b: PixelBox) -> bool {
+    a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+}
+
+/// Places text labels of `sizes` (width, height in pixels) beside their `points` inside
+/// `bounds` so that no label overlaps another label, any point's marker (a square of
+/// half-size `marker`) or any of `obstacles` (lines drawn on the plot): each label, in order, takes the first free spot of a ring of
+/// candidates around its point (right, left, above, below, the diagonals), at growing
+/// distances. Returns each label's box; a label with no free spot within reach takes its
+/// least-covered spot (the caller draws a leader line to any label away from its point).
+pub fn place_labels(
+    points: &[(i32, i32)],
+    sizes: &[(u32, u32)],
+    marker: i32,
+    bounds: PixelBox,
+    obstacles: &[PixelBox],
+) -> Vec<PixelBox> {
+    let markers: Vec<PixelBox> = points
+        .iter()
+        .map(|&(x, y)| (x - marker, y - marker, x + marker + 1, y + marker + 1))
+        .chain(obstacles.iter().copied())
+        .collect();
+    let mut placed: Vec<PixelBox> = Vec::with_capacity(points.len());
+    for (&(x, y), &(w, h)) in points.iter().zip(sizes) {
+        let (w, h) = (w as i32, h as i32);
+        let gap = marker + 3;
+        let mut best: Option<(usize, PixelBox)> = None;
+        'search: for step in 0..12 {
+            let d = gap + step * (h / 2 + 2);
+            let candidates = [
+                (x + d, y - h / 2),
+                (x - d - w, y - h / 2),
+                (x - w / 2, y - d - h),
+                (x - w / 2, y + d),
+                (x + d, y - d - h + h / 2),
+                (x - d - w, y - d - h + h / 2),
+                (x + d, y + d - h / 2),
+                (x - d - w, y + d - h / 2),
+            ];
+            for (l, t) in candidates {
+                let b = (l, t, l + w, t + h);
+                if b.0 < bounds.0 || b.1 < bounds.1 || b.2 > bounds.2 || b.3 > bounds.3 {
+                    continue;
+                }
+                let hits = placed
+                    .iter()
+                    .chain(&markers)
+                    .filter(|o| overlaps(b, **o))
+                    .count();
+                if hits == 0 {
+                    best = Some((0, b));
+                    break 'search;
+                }
+                if best.is_none_or(|(n, _)| hits < n) {
+                    best = Some((hits, b));
+                }
+            }
+        }
+        let b = best.map_or((x + gap, y - h / 2, x + gap + w, y - h / 2 + h), |(_, b)| b);
+        placed.push(b);
+    }
+    placed
+}
+
+#[cfg(test)]
+mod label_tests {
+    use super::*;
+
+    #[test]
+    fn crowded_labels_do_not_overlap() {
+        // Twelve points in a tight cluster, as close models land on a trade-off plot.
+        let points: Vec<(i32, i32)> = (0..12)
+            .map(|k| (400 + 6 * (k % 4), 300 + 5 * (k / 4)))
+            .collect();
+        let sizes = vec![(110, 14); 12];
+        let line = (380, 310, 440, 313);
+        let boxes = place_labels(&points, &sizes, 6, (0, 0, 1000, 600), &[line]);
+        for (i, a) in boxes.iter().enumerate() {
+            for b in boxes.iter().skip(i + 1) {
+                assert!(!overlaps(*a, *b), "{a:?} and {b:?} overlap");
+            }
+            for &(x, y) in &points {
+                assert!(
+                    !overlaps(*a, (x - 6, y - 6, x + 7, y + 7)),
+                    "{a:?} covers a marker"
+                );
+            }
+        }
+    }
+}

@@ -133,12 +133,13 @@ fn at_time(curve: &[(f64, f64)], t: f64) -> f64 {
 }
 
 /// The output files of a stem.
-fn output_files(stem: &Path) -> [(PathBuf, &'static str); 4] {
+fn output_files(stem: &Path) -> [(PathBuf, &'static str); 5] {
     let at = |suffix: &str| PathBuf::from(format!("{}{suffix}", stem.display()));
     [
         (at(".md"), "Markdown table"),
         (at(".csv"), "CSV table"),
         (at(".png"), "Pareto plot"),
+        (at(".svg"), "Pareto plot (SVG)"),
         (at("-microfacet.exr"), "estimated distribution"),
     ]
 }
@@ -453,10 +454,10 @@ pub fn csv(study: &Study) -> String {
     csv
 }
 
-/// Writes STEM.md, STEM.csv and the Pareto plot STEM.png of a study (STEM from
+/// Writes STEM.md, STEM.csv and the Pareto plot STEM.png (and .svg) of a study (STEM from
 /// [`TradeoffConfig::output`]).
 pub fn write(study: &Study, stem: &Path) -> Result<(), Error> {
-    let [(md_path, _), (csv_path, _), (png_path, _), _] = output_files(stem);
+    let [(md_path, _), (csv_path, _), (png_path, _), _, _] = output_files(stem);
     let write = |p: &Path, text: &str| {
         lobe_renderer::film::atomic_write(p, |w| std::io::Write::write_all(w, text.as_bytes()))
     };
@@ -465,47 +466,116 @@ pub fn write(study: &Study, stem: &Path) -> Result<(), Error> {
     pareto(&study.rows)?.save(&png_path)
 }
 
-/// Render time against image RMSE (log-log), one labelled point per representation.
+/// The Pareto front of (time, error) points: the indices of the points no other point
+/// beats in both (none faster and at most as wrong, or as fast and less wrong), by time.
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by(|&a, &b| {
+        points[a]
+            .0
+            .total_cmp(&points[b].0)
+            .then(points[a].1.total_cmp(&points[b].1))
+    });
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for k in order {
+        if points[k].1 < best {
+            best = points[k].1;
+            front.push(k);
+        }
+    }
+    front
+}
+
+/// Render time against image RMSE (log-log): one point per representation in its
+/// model's style, labels placed so that none overprints another or a point
+/// ([`crate::plot::place_labels`]), and the Pareto front drawn as a staircase.
 pub fn pareto(rows: &[Row]) -> Result<Figure, Error> {
     register_font();
-    let xs = rows.iter().map(|r| r.seconds.max(1e-4).log10());
-    let ys = rows.iter().map(|r| r.robust_rmse.max(1e-9).log10());
-    let (x0, x1) = xs.fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)));
-    let (y0, y1) = ys.fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
-    let mut fig = Figure::chart();
-    {
-        let root = BitMapBackend::with_buffer(&mut fig.rgb, (W, H)).into_drawing_area();
-        root.fill(&WHITE).map_err(plot_err)?;
+    let pts: Vec<(f64, f64)> = rows
+        .iter()
+        .map(|r| (r.seconds.max(1e-4).log10(), r.robust_rmse.max(1e-9).log10()))
+        .collect();
+    let (x0, x1) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (y0, y1) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let front = pareto_front(&pts);
+    // Margins of a tenth of the spans (at least a twentieth of a decade): the points fill
+    // the plot, with room for labels.
+    let (px, py) = ((0.1 * (x1 - x0)).max(0.05), (0.1 * (y1 - y0)).max(0.05));
+    let font = ("sans-serif", 14).into_font();
+    let sizes: Vec<(u32, u32)> = rows
+        .iter()
+        .map(|r| {
+            font.box_size(&r.name)
+                .unwrap_or((8 * r.name.len() as u32, 14))
+        })
+        .collect();
+    Ok(crate::vector_figure!((W, H), |root| {
         let mut chart = ChartBuilder::on(&root)
             .caption(
-                "render time against image error (lower left is better)",
+                "render time against image error (lower left is better; dashed: the Pareto front)",
                 ("sans-serif", 20),
             )
             .margin(20)
             .x_label_area_size(40)
             .y_label_area_size(60)
-            .build_cartesian_2d(x0 - 0.2..x1 + 0.3, y0 - 0.2..y1 + 0.2)
+            .build_cartesian_2d(x0 - px..x1 + 2.0 * px, y0 - py..y1 + py)
             .map_err(plot_err)?;
         chart
             .configure_mesh()
+            .max_light_lines(4)
             .x_desc("log10 render seconds at fixed spp")
             .y_desc("log10 median-of-means image RMSE")
             .draw()
             .map_err(plot_err)?;
-        for r in rows {
-            let p = (r.seconds.max(1e-4).log10(), r.robust_rmse.max(1e-9).log10());
-            draw_marker(&root, chart.backend_coord(&p), 6, style(&r.name))?;
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    r.name.clone(),
-                    (p.0 + 0.02, p.1 + 0.02),
-                    ("sans-serif", 14),
-                )))
+        // The front: from each front point right to the next one's time, then down.
+        let mut stairs = Vec::new();
+        for (i, &k) in front.iter().enumerate() {
+            stairs.push(pts[k]);
+            let next = front.get(i + 1).map_or(x1 + 2.0 * px, |&n| pts[n].0);
+            stairs.push((next, pts[k].1));
+        }
+        // The staircase's segments, as boxes that labels keep off.
+        let lines: Vec<crate::plot::PixelBox> = stairs
+            .windows(2)
+            .map(|w| {
+                let (a, b) = (chart.backend_coord(&w[0]), chart.backend_coord(&w[1]));
+                (
+                    a.0.min(b.0) - 2,
+                    a.1.min(b.1) - 2,
+                    a.0.max(b.0) + 3,
+                    a.1.max(b.1) + 3,
+                )
+            })
+            .collect();
+        chart
+            .draw_series(DashedLineSeries::new(
+                stairs,
+                6,
+                4,
+                RGBColor(90, 90, 90).stroke_width(2),
+            ))
+            .map_err(plot_err)?;
+        let (xr, yr) = chart.plotting_area().get_pixel_range();
+        let at: Vec<(i32, i32)> = pts.iter().map(|p| chart.backend_coord(p)).collect();
+        let bounds = (xr.start, yr.start, xr.end, yr.end);
+        let boxes = crate::plot::place_labels(&at, &sizes, 7, bounds, &lines);
+        for ((r, &p), b) in rows.iter().zip(&at).zip(&boxes) {
+            // A leader line to a label pushed away from its point.
+            let end = (p.0.clamp(b.0, b.2 - 1), p.1.clamp(b.1, b.3 - 1));
+            if (end.0 - p.0).abs().max((end.1 - p.1).abs()) > 14 {
+                root.draw(&PathElement::new(vec![p, end], RGBColor(150, 150, 150)))
+                    .map_err(plot_err)?;
+            }
+            draw_marker(&root, p, 6, style(&r.name))?;
+            root.draw(&Text::new(r.name.clone(), (b.0, b.1), font.clone()))
                 .map_err(plot_err)?;
         }
-        root.present().map_err(plot_err)?;
-    }
-    Ok(fig)
+    }))
 }
 
 #[cfg(test)]
@@ -527,5 +597,19 @@ mod header_tests {
         assert!(md.contains("Renders at 64 spp"), "{md}");
         assert!(md.contains("render time (0.26 s)"), "{md}");
         assert!(md.contains("(4, 16, 64 spp and that one)"), "{md}");
+    }
+
+    #[test]
+    fn the_pareto_front_keeps_what_nothing_beats() {
+        let pts = [
+            (1.0, 5.0),
+            (2.0, 3.0),
+            (2.0, 4.0),
+            (3.0, 3.0),
+            (0.5, 9.0),
+            (4.0, 1.0),
+        ];
+        assert_eq!(pareto_front(&pts), vec![4, 0, 1, 5]);
+        assert!(pareto_front(&[]).is_empty());
     }
 }

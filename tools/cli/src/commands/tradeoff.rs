@@ -33,7 +33,7 @@ pub struct TradeoffArgs {
     /// ones for anisotropic data).
     #[arg(long)]
     models: Option<String>,
-    /// Output stem: STEM.md, STEM.csv, STEM.png, STEM-microfacet.exr.
+    /// Output stem: STEM.md, STEM.csv, STEM.png and .svg, STEM-microfacet.exr.
     #[arg(long, short)]
     output: PathBuf,
 }
