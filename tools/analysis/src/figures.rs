@@ -431,9 +431,15 @@ pub fn sphere_scene(env: &str, size: u32, spp: u32) -> Result<lobe_renderer::sce
     )
 }
 
-/// Figures 3 and 6: renders each material on a sphere under `env` (an environment map file
-/// or builtin:studio) at `spp` samples per pixel, `tile` pixels square, and tiles the
-/// images (at most 4 per row) with a label under each.
+/// Figures 3 and 6 with their errors: the unit sphere of [`crate::sphere_errors::Stage`]
+/// under the map `env` (a file or builtin:studio), one column per item (`items[0]` the
+/// measured data): its name centred, its picture (`tile` pixels, the exposure at which
+/// under 1 % of the data's pixels clip, plus `exposure` stops), and under it the FLIP map
+/// against the data's image with the RMSE, its 95 % interval and the mean FLIP. The data's
+/// column shows the FLIP between the halves of its samples and its own noise instead. The
+/// images come from [`crate::sphere_errors::estimate`] (common random numbers, noise bias
+/// removed) with at most `spp` samples per pixel; the caption gives the noise floor and a
+/// FLIP colour bar.
 pub fn spheres(
     items: &[NamedMaterial],
     env: &str,
@@ -441,56 +447,126 @@ pub fn spheres(
     tile: u32,
     exposure: f32,
 ) -> Result<Figure, Error> {
+    use crate::sphere_errors::{ErrorSettings, Stage, estimate};
     register_font();
-    if !(32..=1024).contains(&tile) || spp == 0 {
+    if !(32..=1024).contains(&tile) || spp == 0 || items.is_empty() {
         return Err(Error::Other(format!(
-            "--tile {tile} / --spp {spp}: expected 32 to 1024 pixels and at least one sample"
+            "--tile {tile} / --spp {spp}: expected 32 to 1024 pixels, at least one sample and one material"
         )));
     }
-    let cols = items.len().clamp(1, 4) as u32;
-    let rows = (items.len() as u32).div_ceil(cols);
-    let label_h = 30u32;
-    let (w, h) = (cols * tile, rows * (tile + label_h));
+    let map = crate::fit_images::FitEnvironment::load(env)?;
+    let stage = Stage::sphere(&map.0, tile);
+    let reps: Vec<&dyn Bsdf> = items.iter().map(|(_, m)| m.as_ref()).collect();
+    let settings = ErrorSettings {
+        pilot_spp: (spp as usize).min(64),
+        max_spp: spp as usize,
+        ..ErrorSettings::default()
+    };
+    let est = estimate(&stage, &reps, &settings)?;
+    let (cols, rows, cell) = sphere_grid(items.len(), tile);
+    let (w, h) = sphere_grid_size(items.len(), tile);
+    let name_h = SPHERE_NAME_H;
     let mut fig = Figure::white(w, h);
-    let buf = &mut fig.rgb;
-    // One scene (camera, environment map and its sampling tables); only the sphere's
-    // material changes between tiles.
-    let mut scene = sphere_scene(env, tile, spp)?;
-    for (k, (_, m)) in items.iter().enumerate() {
-        scene.shapes[0].material = m.clone();
-        let (img, _) = lobe_renderer::render::render(
-            &scene,
-            &lobe_renderer::render::RenderOptions::default(),
-        )?;
-        let rgb = lobe_renderer::film::tonemap(&img.pixels, exposure);
-        let (cx, cy) = (
-            (k as u32 % cols) * tile,
-            (k as u32 / cols) * (tile + label_h),
-        );
-        for y in 0..tile {
-            let src = (y * tile * 3) as usize;
-            let dst = (((cy + y) * w + cx) * 3) as usize;
-            buf[dst..dst + (tile * 3) as usize]
-                .copy_from_slice(&rgb[src..src + (tile * 3) as usize]);
-        }
+    let origin = |k: usize| ((k as u32 % cols) * cell.0 + 6, (k as u32 / cols) * cell.1);
+    for k in 0..items.len() {
+        let (x, y) = origin(k);
+        let picture = lobe_renderer::film::tonemap(&est.images[k].pixels, est.exposure + exposure);
+        paste(&mut fig, &picture, tile, (x, y + name_h));
+        let heat = lobe_renderer::compare::flip_heatmap(&est.flip_maps[k], tile, tile);
+        paste(&mut fig, &heat, tile, (x, y + name_h + tile + 4));
     }
     {
-        let root = BitMapBackend::with_buffer(buf, (w, h)).into_drawing_area();
+        let root = BitMapBackend::with_buffer(&mut fig.rgb, (w, h)).into_drawing_area();
+        let centred = |size: f64| {
+            TextStyle::from(("sans-serif", size).into_font()).pos(Pos::new(HPos::Center, VPos::Top))
+        };
         for (k, (name, _)) in items.iter().enumerate() {
-            let (cx, cy) = (
-                (k as u32 % cols) * tile,
-                (k as u32 / cols) * (tile + label_h),
-            );
-            root.draw(&Text::new(
-                name.clone(),
-                (cx as i32 + 6, (cy + tile + 6) as i32),
-                ("sans-serif", 16),
+            let (x, y) = origin(k);
+            let mid = (x + tile / 2) as i32;
+            root.draw(&Text::new(name.clone(), (mid, y as i32 + 5), centred(16.0)))
+                .map_err(plot_err)?;
+            let e = &est.errors[k];
+            let lines = match k {
+                0 => [
+                    format!("noise {:.2e} (reference)", e.rmse),
+                    format!("FLIP of its halves {:.3}", e.flip),
+                ],
+                _ => [
+                    format!("RMSE {:.2e} [{:.2e}, {:.2e}]", e.rmse, e.ci95[0], e.ci95[1]),
+                    format!("FLIP {:.3}", e.flip),
+                ],
+            };
+            let ty = (y + name_h + 2 * tile + 8) as i32;
+            for (i, line) in lines.iter().enumerate() {
+                root.draw(&Text::new(
+                    line.clone(),
+                    (mid, ty + 17 * i as i32),
+                    centred(12.5),
+                ))
+                .map_err(plot_err)?;
+            }
+        }
+        let foot = (rows * cell.1) as i32;
+        let scale = lobe_renderer::compare::flip_colour_scale(200);
+        for (i, c) in scale.iter().enumerate() {
+            let x = 10 + i as i32;
+            root.draw(&Rectangle::new(
+                [(x, foot + 6), (x + 1, foot + 18)],
+                RGBColor(c[0], c[1], c[2]).filled(),
             ))
             .map_err(plot_err)?;
         }
+        let small = ("sans-serif", 12).into_font().color(&BLACK);
+        for (t, label) in [(0, "FLIP 0"), (199, "1")] {
+            root.draw(&Text::new(label, (10 + t, foot + 22), small.clone()))
+                .map_err(plot_err)?;
+        }
+        root.draw(&Text::new(
+            format!(
+                "{} spp in {} batches; noise floor {:.2e} (RMSE that noise alone adds to a difference image)",
+                est.spp, est.batches, est.noise_floor
+            ),
+            (10, foot + 40),
+            small,
+        ))
+        .map_err(plot_err)?;
         root.present().map_err(plot_err)?;
     }
     Ok(fig)
+}
+
+/// Pixels of a sphere cell's name row, of its two text lines and of the figure's caption.
+const SPHERE_NAME_H: u32 = 26;
+const SPHERE_TEXT_H: u32 = 40;
+const SPHERE_FOOT_H: u32 = 60;
+
+/// The grid of [`spheres`] for `n` items: (columns, rows, cell size): at most 4 columns,
+/// a cell the name, the picture, the FLIP map and two lines of numbers.
+fn sphere_grid(n: usize, tile: u32) -> (u32, u32, (u32, u32)) {
+    let cols = n.clamp(1, 4) as u32;
+    let rows = (n.max(1) as u32).div_ceil(cols);
+    let cell = (tile + 12, SPHERE_NAME_H + 2 * tile + 4 + SPHERE_TEXT_H);
+    (cols, rows, cell)
+}
+
+/// The pixel size of [`spheres`]' figure of `n` items in `tile`-pixel pictures.
+pub fn sphere_grid_size(n: usize, tile: u32) -> (u32, u32) {
+    let (cols, rows, cell) = sphere_grid(n, tile);
+    ((cols * cell.0).max(360), rows * cell.1 + SPHERE_FOOT_H)
+}
+
+/// Copies a `size` x `size` RGB picture into `fig` with its top-left corner at `at`.
+fn paste(fig: &mut Figure, rgb: &[u8], size: u32, at: (u32, u32)) {
+    let row = (size * 3) as usize;
+    for y in 0..size {
+        let (src, dst) = (
+            (y as usize) * row,
+            (((at.1 + y) * fig.width + at.0) * 3) as usize,
+        );
+        if dst + row <= fig.rgb.len() {
+            fig.rgb[dst..dst + row].copy_from_slice(&rgb[src..src + row]);
+        }
+    }
 }
 
 /// The colour of the hemisphere's rim in lobe plots.

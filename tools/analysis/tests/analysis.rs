@@ -612,9 +612,12 @@ fn sphere_grids_have_one_tile_per_material() {
         .iter()
         .map(|n| (n.to_string(), material(ward())))
         .collect();
-    let f = figures::spheres(&items, "builtin:studio", 2, 32, 0.0).unwrap();
-    // Four per row, two rows, a 30-pixel label under each.
-    assert_eq!((f.width, f.height), (4 * 32, 2 * (32 + 30)), "spheres");
+    let f = figures::spheres(&items, "builtin:studio", 8, 32, 0.0).unwrap();
+    // Four per row, two rows: each cell a picture and a FLIP map under it.
+    let (w, h) = figures::sphere_grid_size(5, 32);
+    assert_eq!((f.width, f.height), (w, h), "spheres");
+    let (_, h4) = figures::sphere_grid_size(4, 32);
+    assert!(h - h4 >= 2 * 32 && w >= 4 * 32, "{w} x {h}, {h4}");
     assert!(colours(&f) > 5);
     assert!(figures::spheres(&items, "builtin:studio", 2, 16, 0.0).is_err());
 }
