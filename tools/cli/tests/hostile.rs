@@ -333,6 +333,33 @@ fn a_study_goes_on_past_a_corrupt_file_and_lists_it() {
     );
     assert!(d.join("s/materials/good.html").exists());
     assert!(!d.join("s/materials/broken.html").exists());
+    assert!(
+        err.lines()
+            .any(|l| l.starts_with("FAIL: 1 of 2 materials failed")),
+        "no verdict: {err}"
+    );
+    // Without the broken file the study ends with a PASS line naming the targets of its
+    // one material-map.
+    std::fs::remove_file(d.join("data/broken.bsdf")).unwrap();
+    let o = run_in(
+        d,
+        &[
+            "study",
+            "data",
+            "--quick",
+            "-o",
+            "s",
+            "--env",
+            "builtin:studio",
+        ],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let last = err.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("PASS: 1 material done; of 1 material-map, "),
+        "{err}"
+    );
 }
 
 #[cfg(unix)]

@@ -428,6 +428,50 @@ impl StudySummary {
     fn failed(&self, name: &str) -> bool {
         self.failures.iter().any(|(n, _)| n == name)
     }
+
+    /// The study's last line, for a script and a person: `FAIL` when a material failed,
+    /// else `PASS`, with how many material-maps of DIR/results.json (when the report was
+    /// built) meet the interval and noise targets; those are findings about the sample
+    /// count, not failures.
+    pub fn verdict(&self) -> String {
+        if !self.failures.is_empty() {
+            return format!(
+                "FAIL: {} of {} materials failed (listed above); the others are done",
+                self.failures.len(),
+                self.materials
+            );
+        }
+        let Some(index) = &self.index else {
+            return format!(
+                "PASS: this run's steps are done; the report waits for {} materials of other shards",
+                self.pending
+            );
+        };
+        let results = index
+            .parent()
+            .map(|d| d.join("results.json"))
+            .and_then(|p| lobe_materials::json::read(&p).ok());
+        let maps: Vec<&Value> = results
+            .as_ref()
+            .and_then(|r| r["materials"].as_object())
+            .into_iter()
+            .flat_map(|m| m.values())
+            .filter_map(|m| m["maps"].as_object())
+            .flat_map(|m| m.values())
+            .collect();
+        let met = |key: &str| maps.iter().filter(|m| m[key] == true).count();
+        let count = |n: usize, what: &str| match n {
+            1 => format!("1 {what}"),
+            n => format!("{n} {what}s"),
+        };
+        format!(
+            "PASS: {} done; of {}, {} have every interval under 20 % of its error and {} a noise floor under 10 % of the smallest fit error (sample-count targets, findings rather than failures: results.json)",
+            count(self.materials, "material"),
+            count(maps.len(), "material-map"),
+            met("interval_target_met"),
+            met("noise_target_met")
+        )
+    }
 }
 
 /// Refuses an input inside the study folder (its outputs could overwrite it) and an

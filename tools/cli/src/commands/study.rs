@@ -146,6 +146,7 @@ pub fn cmd_study(args: StudyArgs, quiet: bool) -> Result<(), Error> {
         for (name, error) in &summary.failures {
             eprintln!("lobe: {name} failed: {error}");
         }
+        eprintln!("{}", summary.verdict());
         return Err(Error::Other(format!(
             "{} of {} materials failed (listed above{}); the others are done",
             summary.failures.len(),
@@ -156,6 +157,9 @@ pub fn cmd_study(args: StudyArgs, quiet: bool) -> Result<(), Error> {
                 ""
             }
         )));
+    }
+    if !quiet {
+        eprintln!("{}", summary.verdict());
     }
     Ok(())
 }
