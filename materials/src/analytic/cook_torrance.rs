@@ -9,8 +9,10 @@
 //! The division by pi (rather than 4) is the convention of Ngan's published fits
 //! (bbm `ngan.h`, `microfacet_n::Cook`); docs/models.md states it.
 //!
-//! Sampling: half vectors from D(h) cos(theta_h) (Beckmann proposal for the Gaussian),
-//! reflected about h (Walter et al. 2007, eq. 14).
+//! Sampling: half vectors visible from `wo` (Beckmann's distribution of visible normals,
+//! Heitz and d'Eon 2014, [`super::microfacet::visible`]; a Beckmann proposal of the same
+//! m for the Gaussian), or from D(h) cos(theta_h) for cosine power, reflected about h
+//! (Walter et al. 2007, eq. 14).
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
 use super::microfacet::fresnel::{FRESNELS, Fresnel};
@@ -71,7 +73,10 @@ impl Lobe for CookTorrance {
     crate::impl_lobe_eval!();
 
     fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
-        sample_via_half(wo, self.distribution.sample_h(u))
+        if wo.z <= 0.0 {
+            return None;
+        }
+        sample_via_half(wo, self.distribution.sample_visible(wo, u))
     }
 
     fn sample_xn(
@@ -81,8 +86,9 @@ impl Lobe for CookTorrance {
         _uc: &[f32; LANES],
     ) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
-        let h = self.distribution.sample_h_xn(ux, uy);
-        lobe::xn::sample_via_half(Vec3xN::from_array(wo), h)
+        let wo = Vec3xN::from_array(wo);
+        let h = self.distribution.sample_visible_xn(wo, ux, uy);
+        lobe::xn::sample_via_half(wo, h)
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -92,7 +98,8 @@ impl Lobe for CookTorrance {
         let Some(h) = half::<f32>(wo.into(), wi.into()) else {
             return 0.0;
         };
-        half_to_incident_pdf(self.distribution.pdf_h(h.z), wo.dot(h.into()))
+        let h = Vec3::from(h);
+        half_to_incident_pdf(self.distribution.pdf_visible(wo, h), wo.dot(h))
     }
 
     /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
@@ -106,7 +113,7 @@ impl Lobe for CookTorrance {
         let f = self.fresnel.eval_xn(wi.dot(h));
         let v = d * g * f / (f32xn::splat(std::f32::consts::PI) * ci * co);
         let v = sel(ok & !d.simd_eq(zero) & v.is_finite(), v.max(zero), zero);
-        let p = lobe::xn::half_to_incident_pdf(self.distribution.pdf_h_xn(ch), oh);
+        let p = lobe::xn::half_to_incident_pdf(self.distribution.pdf_visible_xn(wo, h), oh);
         (RgbxN::new(v, v, v), sel(ok, p, zero))
     }
 

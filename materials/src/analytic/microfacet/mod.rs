@@ -11,6 +11,7 @@
 //!   whose lobe matches Beckmann's near the peak (Walter et al. 2007, sec. 5.2).
 
 pub mod fresnel;
+pub mod visible;
 
 use crate::fastmath::{self, xn};
 use crate::lobe::{self, half_from};
@@ -112,6 +113,56 @@ impl Distribution {
             Distribution::CosinePower { n } => xn::powf(uy, f32xn::splat(1.0 / (n as f32 + 2.0))),
         };
         lobe::xn::half_from(cos_t, ux)
+    }
+
+    /// The roughness of the Beckmann distribution whose visible normals
+    /// ([`visible`]) sample this one: its own for Beckmann, the same `m` for the Gaussian
+    /// (a proposal); None for cosine power, sampled by D(h) cos(theta_h).
+    fn visible_m(&self) -> Option<f32> {
+        match *self {
+            Distribution::Beckmann { m } | Distribution::Gaussian { m, .. } => Some(m as f32),
+            Distribution::CosinePower { .. } => None,
+        }
+    }
+
+    /// Samples a half vector seen from `wo` (local frame, wo.z > 0): Beckmann's visible
+    /// normals for Beckmann and the Gaussian ([`visible`]), [`Distribution::sample_h`]
+    /// for cosine power. Lane 0 of [`Distribution::sample_visible_xn`].
+    #[inline]
+    pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Vec3 {
+        match self.visible_m() {
+            Some(m) => visible::sample_one(m, wo, u),
+            None => self.sample_h(u),
+        }
+    }
+
+    /// [`Distribution::sample_visible`] per lane.
+    #[inline(always)]
+    pub fn sample_visible_xn(&self, wo: Vec3xN, ux: f32xn, uy: f32xn) -> Vec3xN {
+        match self.visible_m() {
+            Some(m) => visible::sample(f32xn::splat(m), wo, ux, uy),
+            None => self.sample_h_xn(ux, uy),
+        }
+    }
+
+    /// Density of [`Distribution::sample_visible`] (solid angle of h). Lane 0 of
+    /// [`Distribution::pdf_visible_xn`].
+    #[inline]
+    pub fn pdf_visible(&self, wo: Vec3, h: Vec3) -> f32 {
+        self.pdf_visible_xn(Vec3xN::splat(wo), Vec3xN::splat(h))
+            .to_array()[0]
+    }
+
+    /// [`Distribution::pdf_visible`] per lane.
+    #[inline(always)]
+    pub fn pdf_visible_xn(&self, wo: Vec3xN, h: Vec3xN) -> f32xn {
+        match self.visible_m() {
+            Some(m) => {
+                let d = Distribution::Beckmann { m: m as f64 }.d_xn(h.z);
+                visible::pdf(f32xn::splat(m), wo, h, d)
+            }
+            None => self.pdf_h_xn(h.z),
+        }
     }
 
     /// [`Distribution::d`] per lane (f32).
