@@ -29,6 +29,12 @@ XOR-scrambled (0,2)-sequences per dimension pair): that column is the like-for-l
 equal-error comparison. Materials Mitsuba cannot load
 (MERL tables, binned data) are compared with Mitsuba's render of the suite's `mitsuba_peer`
 scene (the same RGL measurement that the tables tabulate), each against its own reference.
+A suite entry's `mitsuba_native` (lobe material type -> Mitsuba BSDF dict) makes Mitsuba
+render those materials with its own plugins (`roughconductor`, `roughplastic`), so that its
+sampling is its own and not lobe's Dr.Jit twin. The models then differ (lobe's
+Cook-Torrance has Ngan's normalization and V-groove G, Mitsuba's Smith G), so each
+renderer's error is its relative MSE, mean((img - ref)^2 / (ref^2 + 0.01)), against its
+own reference at the reference spp.
 Prints a Markdown table (with the machine) and writes it to --out if given; the per-renderer
 details go to stderr as each scene finishes and follow the table.
 
@@ -98,7 +104,7 @@ class MitsubaScene:
     """A scene converted and loaded for one Mitsuba variant and sampler, its LLVM kernel
     compiled by an untimed render; `render` times one more render."""
 
-    def __init__(self, variant, scene, spp, sampler="independent"):
+    def __init__(self, variant, scene, spp, sampler="independent", native=None):
         mi.set_variant(variant)
         # Mitsuba warns once per negative sample of measured data (RGL tables hold small
         # negative values); thousands of lines per render would drown the table.
@@ -107,7 +113,14 @@ class MitsubaScene:
         from lobe.mitsuba.convert import Converter
         lobe.mitsuba.register()  # the plugin class of this variant
         self.variant, self.spp = variant, spp
-        d = Converter(scene).convert(spp, sampler)
+        conv = Converter(scene)
+        if native:
+            # Materials of these lobe types become the given native Mitsuba BSDFs, so that
+            # the peer samples with its own plugin (not lobe's Dr.Jit twin).
+            own = conv.material
+            conv.material = lambda m: (native[m["type"]] if isinstance(m, dict) and m.get("type") in native
+                                       else own(m))
+        d = conv.convert(spp, sampler)
         if not variant.startswith("llvm") and uses_python_plugin(d):
             # Under scalar_rgb Mitsuba calls a Python BSDF once per query: the timing
             # would measure the interpreter, and a 64 spp render takes hours.
@@ -175,8 +188,15 @@ def suite_scenes(path):
     for e in m["scenes"]:
         peer = e.get("mitsuba_peer")
         out.append((os.path.normpath(os.path.join(base, e["scene"])),
-                    os.path.normpath(os.path.join(base, peer)) if peer else None))
+                    os.path.normpath(os.path.join(base, peer)) if peer else None,
+                    e.get("mitsuba_native")))
     return out
+
+
+def rel_mse(img, ref):
+    """Relative MSE, mean((img - ref)^2 / (ref^2 + 1e-2)): the brightness taken out, for a
+    renderer compared with its own reference."""
+    return float(np.mean((img - ref) ** 2 / (ref * ref + 1e-2)))
 
 
 class Measure:
@@ -188,6 +208,7 @@ class Measure:
         self.lobe_times, self.lobe_errors = [], []  # per lobe render: time, squared error
         self.rows = {}  # config -> (pairs [(t_lobe, t_mitsuba)], RMSE over its renders)
         self.peer = None  # name of the scene Mitsuba rendered instead, if any
+        self.native = False  # Mitsuba's own plugins: errors are relative MSEs
 
     def ratios(self, config):
         """(Mitsuba time, speed of lobe over Mitsuba, equal-error time Mitsuba over lobe)."""
@@ -200,14 +221,19 @@ class Measure:
         return rmse_of(self.lobe_errors)
 
 
-def measure(exe, scene, a, peer=None):
+def measure(exe, scene, a, peer=None, native=None):
     """Renders `scene` with lobe and, in paired rounds, with Mitsuba (the scene itself, or
-    `peer` when Mitsuba cannot load this one's material)."""
+    `peer` when Mitsuba cannot load this one's material). With `native` (lobe material type
+    -> Mitsuba BSDF dict), Mitsuba renders its own plugins, whose images differ from lobe's
+    (another model): each renderer's error is then its relative MSE against its own
+    reference at the reference spp."""
     name = os.path.splitext(os.path.basename(scene))[0]
     tmp = tempfile.mkdtemp(prefix="lobe-bench-")
     ref, _ = lobe_render(exe, scene, a.reference_spp, 1000, os.path.join(tmp, "ref.exr"))
     h, w = ref.shape[:2]
     m = Measure(name, w * h * a.spp)
+    err = rel_mse if native else mse
+    m.native = bool(native)
     mts = scene
     peer_ref = ref
     if peer is not None:
@@ -216,7 +242,11 @@ def measure(exe, scene, a, peer=None):
         peer_ref, _ = lobe_render(exe, peer, a.reference_spp, 1000, os.path.join(tmp, "peer-ref.exr"))
     for smp in ("independent", "ldsampler"):
         try:
-            ms = MitsubaScene("llvm_ad_rgb", mts, a.spp, smp)
+            ms = MitsubaScene("llvm_ad_rgb", mts, a.spp, smp, native)
+            if native:
+                refs = MitsubaScene("llvm_ad_rgb", mts, a.reference_spp, "independent", native)
+                peer_ref, _ = refs.render(1000)
+                del refs
         except Exception as e:  # noqa: BLE001 - a missing variant or plugin is reported, not fatal
             print(f"{name}: Mitsuba llvm_ad_rgb ({smp}) unavailable: {e}", file=sys.stderr)
             break
@@ -225,9 +255,9 @@ def measure(exe, scene, a, peer=None):
             lobe_img, tl = lobe_render(exe, scene, a.spp, k, os.path.join(tmp, f"lobe{k}.exr"))
             img, tm = ms.render(k)
             m.lobe_times.append(tl)
-            m.lobe_errors.append(mse(lobe_img, ref))
+            m.lobe_errors.append(err(lobe_img, ref))
             pairs.append((tl, tm))
-            errors.append(mse(img, peer_ref))
+            errors.append(err(img, peer_ref))
         m.rows[f"llvm_ad_rgb ({smp})"] = (pairs, rmse_of(errors))
         del ms
         gc.collect()
@@ -235,8 +265,8 @@ def measure(exe, scene, a, peer=None):
         for k in range(a.runs):
             lobe_img, tl = lobe_render(exe, scene, a.spp, k, os.path.join(tmp, f"lobe{k}.exr"))
             m.lobe_times.append(tl)
-            m.lobe_errors.append(mse(lobe_img, ref))
-    if a.scalar_runs > 0:
+            m.lobe_errors.append(err(lobe_img, ref))
+    if a.scalar_runs > 0 and not native:
         try:
             ms = MitsubaScene("scalar_rgb", mts, a.spp)
             ts, errors = [], []
@@ -261,7 +291,7 @@ def detail_lines(m):
     for c in CONFIGS:
         if c in m.rows:
             t, speed, eq = m.ratios(c)
-            who = f"Mitsuba {c}" + (f" on {m.peer}" if m.peer else "")
+            who = f"Mitsuba {c}" + (f" on {m.peer}" if m.peer else "") + (" (native BSDF)" if m.native else "")
             lines.append(f"| {m.name} | {who} | {t:.3f} | {m.samples / t / 1e6:.2f} | "
                          f"{m.rows[c][1]:.4e} | {speed:.2f} | {eq:.2f} |")
     return lines
@@ -276,7 +306,8 @@ def summary_line(m):
             cells.append(f"{speed:.2f} / {eq:.2f}")
         else:
             cells.append("n/a")
-    name = m.name + (f" (Mitsuba: {m.peer})" if m.peer else "")
+    name = m.name + (f" (Mitsuba: {m.peer})" if m.peer else "") + (
+        " (Mitsuba's native BSDF; relative MSE, each against its own reference)" if m.native else "")
     return f"| {name} | {m.samples / tl / 1e6:.2f} | " + " | ".join(cells) + " |"
 
 
@@ -303,7 +334,7 @@ def main():
         subprocess.run([sys.executable, os.path.join(here, "bench_assets.py"), "--lobe", exe], check=True)
         scenes = suite_scenes(a.suite)
     else:
-        scenes = [(s, None) for s in (a.scenes or [os.path.join(root, "scenes", "sphere-envmap.json"),
+        scenes = [(s, None, None) for s in (a.scenes or [os.path.join(root, "scenes", "sphere-envmap.json"),
                                                     os.path.join(root, "scenes", "spheres-envmap.json")])]
     cpu = "unknown CPU"
     try:
@@ -320,8 +351,8 @@ def main():
         sys.exit("bench.py: --mitsuba-vector-width: this Dr.Jit does not expose jit_llvm_set_target")
     target_text = f"Dr.Jit LLVM target {target[0]}, {target[1]} lanes" if target else "Dr.Jit LLVM target unknown"
     results = []
-    for scene, peer in scenes:
-        results.append(measure(exe, scene, a, peer))
+    for scene, peer, native in scenes:
+        results.append(measure(exe, scene, a, peer, native))
         print("\n".join(detail_lines(results[-1])), file=sys.stderr)
     lines = [f"Machine: {cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
              f"lobe {LOBE_BUILD.get('simd_lanes', 'unknown')} SIMD lanes; "
