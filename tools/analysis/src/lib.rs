@@ -33,6 +33,7 @@ pub mod microfacet;
 pub mod models;
 pub mod plot;
 pub mod reports;
+pub mod sampling_variance;
 pub mod selection;
 pub mod sphere_errors;
 pub mod stability;

@@ -299,6 +299,17 @@ fn ward_data(wi: glam::Vec3, wo: glam::Vec3) -> [f32; 3] {
     ward.eval(wo, wi).to_array()
 }
 
+/// A quick study of `data` into `s` under the studio map.
+const STUDY: &[&str] = &[
+    "study",
+    "data",
+    "--quick",
+    "-o",
+    "s",
+    "--env",
+    "builtin:studio",
+];
+
 #[test]
 fn a_study_goes_on_past_a_corrupt_file_and_lists_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -306,18 +317,7 @@ fn a_study_goes_on_past_a_corrupt_file_and_lists_it() {
     std::fs::create_dir(d.join("data")).unwrap();
     write_binned(&d.join("data/good.bin"), ward_data);
     std::fs::write(d.join("data/broken.bsdf"), b"tensor_file\0garbage").unwrap();
-    let o = run_in(
-        d,
-        &[
-            "study",
-            "data",
-            "--quick",
-            "-o",
-            "s",
-            "--env",
-            "builtin:studio",
-        ],
-    );
+    let o = run_in(d, STUDY);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
@@ -341,18 +341,7 @@ fn a_study_goes_on_past_a_corrupt_file_and_lists_it() {
     // Without the broken file the study ends with a PASS line naming the targets of its
     // one material-map.
     std::fs::remove_file(d.join("data/broken.bsdf")).unwrap();
-    let o = run_in(
-        d,
-        &[
-            "study",
-            "data",
-            "--quick",
-            "-o",
-            "s",
-            "--env",
-            "builtin:studio",
-        ],
-    );
+    let o = run_in(d, STUDY);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     let last = err.lines().last().unwrap_or_default();
