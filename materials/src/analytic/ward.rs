@@ -9,16 +9,17 @@
 //! alpha itself; bbm `ward.h`). The same code gives Ward-Duer ([`super::ward_duer`]) with
 //! the denominator cos(theta_i) cos(theta_o) instead of its square root.
 //!
-//! Sampling: Walter's half-vector sampling of the Ward lobe ("Notes on the Ward BRDF",
-//! 2005): tan^2(theta_h) = -ln(u) / (cos^2 phi / ax^2 + sin^2 phi / ay^2) with
-//! tan(phi_h) = (ay / ax) tan(2 pi u'), density
-//! p(h) = exp(-tan^2(theta_h)(...)) / (pi ax ay cos^3(theta_h)).
+//! Sampling: Ward's exp(-tan^2(theta_h)(...)) / (pi ax ay cos^4(theta_h)) is the
+//! anisotropic Beckmann distribution D of roughness (ax, ay) (Walter, "Notes on the Ward
+//! BRDF", 2005, samples D(h) cos(theta_h)); half vectors are drawn from its visible
+//! normals ([`super::microfacet::visible`]), which at grazing `wo` waste no samples on
+//! facets `wo` cannot see, and reflected.
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
-use super::microfacet::MIN_ROUGHNESS;
-use crate::fastmath::{self, xn};
-use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
-use crate::math::{Real, V3, half};
+use super::microfacet::{MIN_ROUGHNESS, visible};
+use crate::fastmath::xn;
+use crate::lobe::{self, Lobe, above, sample_via_half};
+use crate::math::{Real, V3};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
@@ -86,55 +87,37 @@ impl Ward {
         if v.is_finite() { v } else { T::zero() }
     }
 
-    fn sample_h(&self, u: Vec2) -> Vec3 {
-        let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);
-        let (s, c) = fastmath::sin_cos_moderate(2.0 * PI * u.x);
-        // (cos, sin) of the half vector's azimuth: (ax c, ay s) normalized (as glam's
-        // `normalize_or`, +x where it has no direction).
-        let (vx, vy) = (ax * c, ay * s);
-        let rcp = 1.0 / (vx * vx + vy * vy).sqrt();
-        let (cp, sp) = if rcp.is_finite() && rcp > 0.0 {
-            (vx * rcp, vy * rcp)
-        } else {
-            (1.0, 0.0)
-        };
-        let k = cp * cp / (ax * ax) + sp * sp / (ay * ay);
-        let tan2 = -fastmath::ln((1.0 - u.y).max(f32::MIN_POSITIVE)) / k;
-        let cos_t = 1.0 / (1.0 + tan2).sqrt();
-        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        Vec3::new(sin_t * cp, sin_t * sp, cos_t)
-    }
-
-    /// [`Ward::sample_h`] of `LANES` points (x, y) in lanes, bit for bit the same.
-    #[inline(always)]
-    fn sample_h_xn(&self, ux: f32xn, uy: f32xn) -> Vec3xN {
-        let s8 = f32xn::splat;
-        let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);
-        let (s, c) = xn::sin_cos_moderate(s8(2.0 * PI) * ux);
-        let (vx, vy) = (s8(ax) * c, s8(ay) * s);
-        let rcp = s8(1.0) / (vx * vx + vy * vy).sqrt();
-        let ok = rcp.is_finite() & rcp.simd_gt(s8(0.0));
-        let (cp, sp) = (sel(ok, vx * rcp, s8(1.0)), sel(ok, vy * rcp, s8(0.0)));
-        let k = cp * cp / s8(ax * ax) + sp * sp / s8(ay * ay);
-        let tan2 = -xn::ln((s8(1.0) - uy).max(s8(f32::MIN_POSITIVE))) / k;
-        let cos_t = s8(1.0) / (s8(1.0) + tan2).sqrt();
-        let sin_t = (s8(1.0) - cos_t * cos_t).max(s8(0.0)).sqrt();
-        Vec3xN::new(sin_t * cp, sin_t * sp, cos_t)
-    }
-
-    fn pdf_h(&self, h: Vec3) -> f32 {
-        if h.z <= 0.0 {
-            return 0.0;
-        }
-        let e = fastmath::exp(-self.exponent::<f32>(V3::new(h.x, h.y, h.z)));
-        e / (PI * (self.alpha_x * self.alpha_y) as f32 * h.z * h.z * h.z)
-    }
-
     /// [`Ward::exponent`] of `LANES` half vectors (unnormalized).
     #[inline(always)]
     fn exponent_xn(&self, h: Vec3xN) -> f32xn {
         let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);
         (h.x * h.x / f32xn::splat(ax * ax) + h.y * h.y / f32xn::splat(ay * ay)) / (h.z * h.z)
+    }
+
+    /// The roughness of the visible-normal proposal, per lane.
+    fn roughness_xn(&self) -> (f32xn, f32xn) {
+        (
+            f32xn::splat(self.alpha_x as f32),
+            f32xn::splat(self.alpha_y as f32),
+        )
+    }
+
+    /// The density of [`Lobe::sample`]'s `wi` per lane: the visible-normal density of
+    /// the half vector (Ward's exp(-tan^2 ...) / (pi ax ay cos^4) is Beckmann's D) over
+    /// 4 wo.h.
+    #[inline(always)]
+    fn pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
+        let s = f32xn::splat;
+        let zero = s(0.0);
+        let (hn, has_half) = lobe::xn::half(wo, wi);
+        let d = xn::exp(-self.exponent_xn(hn))
+            / (s(PI * (self.alpha_x * self.alpha_y) as f32) * (hn.z * hn.z) * (hn.z * hn.z));
+        let d = sel(hn.z.simd_le(zero), zero, d);
+        let (mx, my) = self.roughness_xn();
+        let ph = visible::pdf(mx, my, wo, hn, d);
+        let p = lobe::xn::half_to_incident_pdf(ph, wo.dot(hn));
+        let valid = lobe::xn::above(wo, wi) & has_half & p.is_finite();
+        sel(valid, p, zero)
     }
 }
 
@@ -145,7 +128,11 @@ impl Lobe for Ward {
     crate::impl_lobe_eval!();
 
     fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
-        sample_via_half(wo, self.sample_h(u))
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);
+        sample_via_half(wo, visible::sample_one(ax, ay, wo, u))
     }
 
     fn sample_xn(
@@ -155,19 +142,14 @@ impl Lobe for Ward {
         _uc: &[f32; LANES],
     ) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
-        lobe::xn::sample_via_half(Vec3xN::from_array(wo), self.sample_h_xn(ux, uy))
+        let wo = Vec3xN::from_array(wo);
+        let (mx, my) = self.roughness_xn();
+        lobe::xn::sample_via_half(wo, visible::sample(mx, my, wo, ux, uy))
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let Some(h) = half::<f32>(wo.into(), wi.into()) else {
-            return 0.0;
-        };
-        let h = Vec3::new(h.x, h.y, h.z);
-        let p = half_to_incident_pdf(self.pdf_h(h), wo.dot(h));
-        if p.is_finite() { p } else { 0.0 }
+        // One lane of the lane form, so that both agree bit for bit.
+        self.pdf_xn(Vec3xN::splat(wo), Vec3xN::splat(wi)).to_array()[0]
     }
 
     /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
@@ -188,14 +170,7 @@ impl Lobe for Ward {
         let v = e / (s(norm) * cos);
         let ok = above & h.z.simd_gt(zero) & !e.simd_eq(zero) & v.is_finite();
         let v = sel(ok, v, zero);
-        // pdf: the unit half vector, pdf_h, half_to_incident_pdf.
-        let (hn, has_half) = lobe::xn::half(wo, wi);
-        let ph = xn::exp(-self.exponent_xn(hn))
-            / (s(PI * (self.alpha_x * self.alpha_y) as f32) * hn.z * hn.z * hn.z);
-        let ph = sel(hn.z.simd_le(zero), zero, ph);
-        let p = lobe::xn::half_to_incident_pdf(ph, wo.dot(hn));
-        let valid = above & has_half & p.is_finite();
-        (RgbxN::new(v, v, v), sel(valid, p, zero))
+        (RgbxN::new(v, v, v), self.pdf_xn(wo, wi))
     }
 
     fn flags(&self) -> Flags {

@@ -131,7 +131,7 @@ impl Distribution {
     #[inline]
     pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Vec3 {
         match self.visible_m() {
-            Some(m) => visible::sample_one(m, wo, u),
+            Some(m) => visible::sample_one(m, m, wo, u),
             None => self.sample_h(u),
         }
     }
@@ -140,7 +140,7 @@ impl Distribution {
     #[inline(always)]
     pub fn sample_visible_xn(&self, wo: Vec3xN, ux: f32xn, uy: f32xn) -> Vec3xN {
         match self.visible_m() {
-            Some(m) => visible::sample(f32xn::splat(m), wo, ux, uy),
+            Some(m) => visible::sample(f32xn::splat(m), f32xn::splat(m), wo, ux, uy),
             None => self.sample_h_xn(ux, uy),
         }
     }
@@ -159,7 +159,7 @@ impl Distribution {
         match self.visible_m() {
             Some(m) => {
                 let d = Distribution::Beckmann { m: m as f64 }.d_xn(h.z);
-                visible::pdf(f32xn::splat(m), wo, h, d)
+                visible::pdf(f32xn::splat(m), f32xn::splat(m), wo, h, d)
             }
             None => self.pdf_h_xn(h.z),
         }

@@ -18,8 +18,11 @@
 //!    theta = t; straight down (r = sqrt(-ln(1 - u1))) at normal incidence;
 //! 3. rotate the slope to `wo`'s azimuth, unstretch it and make it a normal.
 //!
+//! Anisotropic roughness (mx, my) stretches and unstretches each axis by its own value.
+//!
 //! G1 is Smith's for Beckmann: 1 / (1 + Lambda), Lambda(a) = (erf(a) - 1) / 2 +
-//! exp(-a^2) / (2 a sqrt(pi)), a = 1 / (m tan(theta_o)).
+//! exp(-a^2) / (2 a sqrt(pi)), a = 1 / (m tan(theta_o)) (with m = |(mx cos phi_o, my sin
+//! phi_o)| when anisotropic).
 //!
 //! One form in lanes serves both paths: the scalar entry points run it on one lane, so
 //! one-at-a-time and batched sampling agree bit for bit. The Newton loop runs a fixed
@@ -95,7 +98,21 @@ const FRAC_1_SQRT_PI: f32 = 0.564_189_6;
 pub fn beckmann_lambda(m: f32xn, cos_t: f32xn) -> f32xn {
     let s = f32xn::splat;
     let sin_t = (s(1.0) - cos_t * cos_t).max(s(0.0)).sqrt();
-    let a = cos_t / (m * sin_t);
+    lambda_of(cos_t / (m * sin_t))
+}
+
+/// Smith's Lambda of the Beckmann distribution of roughness (`mx`, `my`) along the
+/// tangent and bitangent for direction `w` (w.z > 0): Lambda at a = w.z / |(mx w.x, my w.y)|.
+#[inline(always)]
+pub fn beckmann_lambda_dir(mx: f32xn, my: f32xn, w: Vec3xN) -> f32xn {
+    let (sx, sy) = (mx * w.x, my * w.y);
+    lambda_of(w.z / (sx * sx + sy * sy).sqrt())
+}
+
+/// Lambda(a) = (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi)).
+#[inline(always)]
+fn lambda_of(a: f32xn) -> f32xn {
+    let s = f32xn::splat;
     let lambda = (erf(a) - s(1.0)) * s(0.5) + xn::exp(-a * a) / (s(2.0) * a) * s(FRAC_1_SQRT_PI);
     // Straight up (a = inf) and far from grazing, nothing is masked.
     sel(
@@ -142,27 +159,28 @@ fn slope_11(cos_t: f32xn, u1: f32xn, u2: f32xn) -> (f32xn, f32xn) {
     (sel(straight, r * cos_p, x), sel(straight, r * sin_p, y))
 }
 
-/// Half vectors of the Beckmann distribution of roughness `m` visible from `wo` (in the
-/// local frame, wo.z > 0), from uniforms (`u1`, `u2`) per lane.
+/// Half vectors of the Beckmann distribution of roughness (`mx`, `my`) along the tangent
+/// and bitangent (equal for an isotropic one) visible from `wo` (in the local frame,
+/// wo.z > 0), from uniforms (`u1`, `u2`) per lane.
 #[inline(always)]
-pub fn sample(m: f32xn, wo: Vec3xN, u1: f32xn, u2: f32xn) -> Vec3xN {
+pub fn sample(mx: f32xn, my: f32xn, wo: Vec3xN, u1: f32xn, u2: f32xn) -> Vec3xN {
     let s = f32xn::splat;
-    let stretched = Vec3xN::new(m * wo.x, m * wo.y, wo.z).normalize();
+    let stretched = Vec3xN::new(mx * wo.x, my * wo.y, wo.z).normalize();
     let (sx, sy) = slope_11(stretched.z, u1, u2);
     let sin_t = (stretched.x * stretched.x + stretched.y * stretched.y).sqrt();
     let flat = sin_t.simd_le(s(1e-9));
     let cos_p = sel(flat, s(1.0), stretched.x / sin_t);
     let sin_p = sel(flat, s(0.0), stretched.y / sin_t);
     let (rx, ry) = (cos_p * sx - sin_p * sy, sin_p * sx + cos_p * sy);
-    Vec3xN::new(-(m * rx), -(m * ry), s(1.0)).normalize()
+    Vec3xN::new(-(mx * rx), -(my * ry), s(1.0)).normalize()
 }
 
 /// The density of [`sample`]'s half vector `h` (solid angle of h): G1(wo) max(0, wo.h)
-/// D(h) / cos(theta_o), with Beckmann's `d` = D(h) given.
+/// D(h) / cos(theta_o), with the Beckmann distribution's `d` = D(h) given.
 #[inline(always)]
-pub fn pdf(m: f32xn, wo: Vec3xN, h: Vec3xN, d: f32xn) -> f32xn {
+pub fn pdf(mx: f32xn, my: f32xn, wo: Vec3xN, h: Vec3xN, d: f32xn) -> f32xn {
     let s = f32xn::splat;
-    let g1 = s(1.0) / (s(1.0) + beckmann_lambda(m, wo.z));
+    let g1 = s(1.0) / (s(1.0) + beckmann_lambda_dir(mx, my, wo));
     let v = g1 * wo.dot(h).max(s(0.0)) * d / wo.z;
     sel(wo.z.simd_gt(s(0.0)) & v.is_finite(), v, s(0.0))
 }
@@ -170,16 +188,9 @@ pub fn pdf(m: f32xn, wo: Vec3xN, h: Vec3xN, d: f32xn) -> f32xn {
 /// [`sample`] of one direction (lane 0 of the lane form, so it equals the batched result
 /// bit for bit).
 #[inline]
-pub fn sample_one(m: f32, wo: Vec3, u: Vec2) -> Vec3 {
+pub fn sample_one(mx: f32, my: f32, wo: Vec3, u: Vec2) -> Vec3 {
     let s = f32xn::splat;
-    sample(s(m), Vec3xN::splat(wo), s(u.x), s(u.y)).lane(0)
-}
-
-/// [`pdf`] of one half vector (lane 0 of the lane form).
-#[inline]
-pub fn pdf_one(m: f32, wo: Vec3, h: Vec3, d: f32) -> f32 {
-    let s = f32xn::splat;
-    pdf(s(m), Vec3xN::splat(wo), Vec3xN::splat(h), s(d)).to_array()[0]
+    sample(s(mx), s(my), Vec3xN::splat(wo), s(u.x), s(u.y)).lane(0)
 }
 
 #[cfg(test)]
