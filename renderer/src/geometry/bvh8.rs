@@ -7,8 +7,9 @@
 //! [`Rectangle`] (so a hit's distance is bit for bit the scalar one).
 //!
 //! Built from obvhs's binary BVH (PLOC, Meister and Bittner, "Parallel Locally-Ordered
-//! Clustering for Bounding Volume Hierarchy Construction", 2018, with reinsertion and SAH
-//! leaf collapse to at most eight primitives) by collapsing it top-down: each node keeps
+//! Clustering for Bounding Volume Hierarchy Construction", 2018, with obvhs's `fast_build`
+//! settings: a short PLOC search, a light reinsertion pass and SAH leaf collapse to at most
+//! eight primitives) by collapsing it top-down: each node keeps
 //! opening the inner child of largest surface area until it has eight children (Wald et
 //! al. 2008, section 3). Child boxes are tested with pbrt-v4's conservative slab test
 //! (the far distance scaled by 1 + 2 gamma(3), Pharr, Jakob and Humphreys, "Physically
@@ -228,10 +229,13 @@ impl Bvh8 {
     /// than the traversal stack allows (not seen on any real scene: an SAH tree of a
     /// billion primitives is about 12 levels deep).
     pub fn build(source: PrimSource) -> Result<Self, String> {
+        // `fast_build` rather than `medium_build` (a longer PLOC search and two reinsertion
+        // passes): the 4M-triangle build 3.4 -> 1.7 s, and the bench's incoherent queries
+        // were not slower (docs/performance.md).
         let params = BvhBuildParams {
             max_prims_per_leaf: LANES as u32,
             collapse_traversal_cost: COLLAPSE_TRAVERSAL_COST,
-            ..BvhBuildParams::medium_build()
+            ..BvhBuildParams::fast_build()
         };
         let bvh2 = {
             use rayon::prelude::*;
@@ -296,6 +300,16 @@ impl Bvh8 {
             .par_iter()
             .map(|&(n2, _, depth)| Self::subtree(bvh2, source, n2, depth))
             .collect::<Result<Vec<_>, String>>()?;
+        // One allocation per array: growing them part by part would copy them again and
+        // again.
+        self.nodes
+            .reserve_exact(parts.iter().map(|p| p.nodes.len()).sum());
+        self.tris
+            .reserve_exact(parts.iter().map(|p| p.tris.len()).sum());
+        self.spheres
+            .reserve_exact(parts.iter().map(|p| p.spheres.len()).sum());
+        self.rects
+            .reserve_exact(parts.iter().map(|p| p.rects.len()).sum());
         for (part, &(_, n8, _)) in parts.into_iter().zip(&frontier) {
             self.append(part, n8);
         }
@@ -375,11 +389,12 @@ impl Bvh8 {
                 let ids = &bvh2.primitive_indices[first..first + node.prim_count as usize];
                 let kinds = Self::kinds(source.prims, ids);
                 if kinds.count_ones() == 1 {
-                    // One kind (every leaf of a mesh): no grouping.
+                    // One kind (every leaf of a mesh): no grouping, and the binary leaf's
+                    // box (the union of its primitives' boxes) is the block's.
                     let kind = [TRIANGLES, SPHERES, RECTANGLES][kinds.trailing_zeros() as usize];
-                    let (lo, hi) = Self::bounds(source, ids);
                     let r = self.leaf_block(kind, source, ids);
-                    self.set_child(n8, slot, r, lo, hi);
+                    let a = node.aabb();
+                    self.set_child(n8, slot, r, a.min.into(), a.max.into());
                     slot += 1;
                     continue;
                 }
