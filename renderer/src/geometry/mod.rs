@@ -9,6 +9,7 @@
 
 pub mod bvh;
 pub mod bvh8;
+mod bvh8_build;
 pub mod kernels;
 pub mod mesh;
 pub mod rectangle;

@@ -1,0 +1,542 @@
+//! Construction of the renderer's BVH8 ([`Bvh8`]): obvhs's binary BVH (PLOC, Meister and
+//! Bittner, "Parallel Locally-Ordered Clustering for Bounding Volume Hierarchy
+//! Construction", 2018, with obvhs's `fast_build` settings: a short PLOC search, a light
+//! reinsertion pass and SAH leaf collapse to at most eight primitives) collapsed top-down
+//! into eight-wide nodes: each node keeps opening the inner child of largest surface area
+//! until it has eight children (Wald et al. 2008, section 3).
+//!
+//! Big scenes are built in chunks of the Morton order, each chunk's binary tree collapsed
+//! and freed before the next ([`Draft::build_chunked`], after Ganestam et al., "Bonsai",
+//! JCGT 2015), and the tree is first drafted with primitive indices in its leaf blocks:
+//! their vertex data are fetched once, into arrays allocated at their final size
+//! ([`Draft::finish`]). So the build never holds a whole-scene set of obvhs's buffers or
+//! two copies of the leaf blocks. The tree is the same whatever the thread count.
+
+use super::bvh::{PrimKind, PrimShape, PrimSource, Primitive};
+use super::bvh8::{
+    Bvh8, INDEX_MASK, INNER, KIND_SHIFT, LANES, MAX_DEPTH, Node, RECTANGLES, RectBlock, SPHERES,
+    SphereBlock, TRIANGLES, TriBlock,
+};
+use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+use obvhs::ploc::morton::morton_encode_u32;
+use std::time::Duration;
+use wide::{f32x8, u32x8};
+
+/// The cost of a traversal step relative to one primitive test in obvhs's leaf collapse
+/// (its default 3 is for scalar leaves). A leaf block tests its eight primitives in one
+/// SIMD step, so fuller leaves cost nothing: at 12 the collapse fills them (measured on the
+/// million-triangle bench: leaf blocks and nodes 93 -> 70 MB, incoherent closest-hit
+/// queries 20 % and occlusion queries 10 % faster, the same images bit for bit).
+const COLLAPSE_TRAVERSAL_COST: f32 = 12.0;
+
+/// Primitives per chunk of a big scene's build ([`Draft::build_chunked`]): a chunk's build
+/// buffers stay small, and a scene of a few chunks still spreads over all cores.
+const CHUNK: usize = 1 << 16;
+
+/// Subtrees of each chunk's binary tree that the top-level build sees.
+const CUT: usize = 16;
+
+/// Subtrees the collapse hands to the thread pool (its top levels are done first, one at a
+/// time): enough for every core to stay busy as subtree sizes vary.
+const PARALLEL_SUBTREES: usize = 64;
+
+/// The BVH8 over the primitives of `source` (at least one). Scenes of up to [`CHUNK`]
+/// primitives get one binary tree; bigger ones are built in chunks.
+pub fn build(source: PrimSource) -> Result<Bvh8, String> {
+    let draft = if source.prims.len() > CHUNK {
+        Draft::build_chunked(source)?
+    } else {
+        let ids: Vec<u32> = (0..source.prims.len() as u32).collect();
+        let bvh2 = Draft::binary(source, &ids);
+        let mut draft = Draft::empty();
+        draft.collapse(&bvh2, source)?;
+        draft
+    };
+    Ok(draft.finish(source))
+}
+
+/// A BVH8 being built: its nodes, and its leaf blocks as the primitive indices in their
+/// lanes (triangles, spheres, rectangles).
+pub(super) struct Draft {
+    nodes: Vec<Node>,
+    blocks: [Vec<[u32; LANES]>; 3],
+    depth: usize,
+}
+
+impl Draft {
+    /// The finished tree: each leaf block's primitive data fetched (a triangle's from its
+    /// mesh) on all cores, into arrays of their final size.
+    pub(super) fn finish(self, source: PrimSource) -> Bvh8 {
+        use rayon::prelude::*;
+        let [tris, spheres, rects] = self.blocks;
+        let shapes = |ids: &[u32; LANES]| ids.map(|i| source.shape_of(i));
+        let v3 = |vs: [glam::Vec3; LANES]| [0, 1, 2].map(|a| f32x8::new(vs.map(|v| v[a])));
+        let tris = tris
+            .par_iter()
+            .map(|ids| {
+                let t = shapes(ids).map(|p| match p {
+                    PrimShape::Triangle(t) => t,
+                    _ => unreachable!("grouped by kind"),
+                });
+                TriBlock {
+                    p0: v3(t.map(|t| t.p0)),
+                    e1: v3(t.map(|t| t.e1)),
+                    e2: v3(t.map(|t| t.e2)),
+                    id: u32x8::new(*ids),
+                }
+            })
+            .collect();
+        let spheres = spheres
+            .par_iter()
+            .map(|ids| {
+                let s = shapes(ids).map(|p| match p {
+                    PrimShape::Sphere(s) => s,
+                    _ => unreachable!("grouped by kind"),
+                });
+                SphereBlock {
+                    center: v3(s.map(|s| s.center)),
+                    radius: f32x8::new(s.map(|s| s.radius)),
+                    id: u32x8::new(*ids),
+                }
+            })
+            .collect();
+        let rects = rects
+            .par_iter()
+            .map(|ids| {
+                let r = shapes(ids).map(|p| match p {
+                    PrimShape::Rectangle(r) => r,
+                    _ => unreachable!("grouped by kind"),
+                });
+                RectBlock {
+                    corner: v3(r.map(|r| r.corner)),
+                    n: v3(r.map(|r| r.n)),
+                    du: v3(r.map(|r| r.du())),
+                    dv: v3(r.map(|r| r.dv())),
+                    id: u32x8::new(*ids),
+                }
+            })
+            .collect();
+        Bvh8 {
+            nodes: self.nodes,
+            tris,
+            spheres,
+            rects,
+            depth: self.depth,
+        }
+    }
+
+    pub(super) fn empty() -> Self {
+        Self {
+            nodes: Vec::new(),
+            blocks: Default::default(),
+            depth: 0,
+        }
+    }
+
+    /// obvhs's binary tree over the primitives `ids` (its leaves name them by their index
+    /// into `source.prims`).
+    fn binary(source: PrimSource, ids: &[u32]) -> Bvh2 {
+        use rayon::prelude::*;
+        // `fast_build` rather than `medium_build` (a longer PLOC search and two reinsertion
+        // passes): the 4M-triangle build 3.4 -> 1.7 s, and the bench's incoherent queries
+        // were not slower (docs/performance.md).
+        let params = BvhBuildParams {
+            max_prims_per_leaf: LANES as u32,
+            collapse_traversal_cost: COLLAPSE_TRAVERSAL_COST,
+            ..BvhBuildParams::fast_build()
+        };
+        let boxes: Vec<Aabb> = ids.par_iter().map(|&i| source.shape_of(i).aabb()).collect();
+        let mut bvh2 = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
+        for p in &mut bvh2.primitive_indices {
+            *p = ids[*p as usize];
+        }
+        bvh2
+    }
+
+    /// The tree of a big scene, built in chunks so that no step holds more than a chunk's
+    /// build buffers (in the manner of Ganestam et al., "Bonsai: Rapid Bounding Volume
+    /// Hierarchy Generation using Mini Trees", JCGT 2015): the primitives in Morton order
+    /// ([`morton_order`]) are cut into chunks of [`CHUNK`]; each chunk, on its own core,
+    /// gets a binary tree, cut into its [`CUT`] largest subtrees, each collapsed to a BVH8
+    /// part while the chunk's binary tree is freed; a top-level binary tree over the
+    /// parts' boxes is collapsed in turn, and the parts are appended under it. The chunks
+    /// are fixed by the Morton order, so the tree is the same whatever the thread count.
+    fn build_chunked(source: PrimSource) -> Result<Self, String> {
+        use rayon::prelude::*;
+        let order = morton_order(source);
+        let parts: Vec<(Aabb, Self)> = order
+            .par_chunks(CHUNK)
+            .map(|ids| {
+                let bvh2 = Self::binary(source, ids);
+                cut(&bvh2, CUT)
+                    .into_iter()
+                    .map(|n2| {
+                        let mut part = Self::subtree(&bvh2, source, n2, 1)?;
+                        part.shrink_to_fit();
+                        Ok((*bvh2.nodes[n2].aabb(), part))
+                    })
+                    .collect::<Result<Vec<_>, String>>()
+            })
+            .collect::<Result<Vec<_>, String>>()?
+            .into_iter()
+            .flatten()
+            .collect();
+        drop(order);
+        let boxes: Vec<Aabb> = parts.iter().map(|p| p.0).collect();
+        let params = BvhBuildParams {
+            max_prims_per_leaf: 1,
+            ..BvhBuildParams::fast_build()
+        };
+        let top = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
+        let mut out = Self::empty();
+        let joints = out.collapse_top(&top)?;
+        out.reserve_for(parts.iter().map(|p| &p.1));
+        for ((_, part), (at, depth)) in parts.into_iter().zip(joints) {
+            let levels = depth - 1 + part.depth;
+            if levels > MAX_DEPTH {
+                return Err(format!(
+                    "the BVH would be {levels} levels deep; at most {MAX_DEPTH} are supported"
+                ));
+            }
+            let mut part = part;
+            part.depth = levels;
+            out.append(part, at);
+        }
+        Ok(out)
+    }
+
+    /// Collapses the top-level tree of [`Draft::build_chunked`], whose leaves hold one part
+    /// each, into eight-wide nodes; returns, for each part in order, the empty node its
+    /// root will replace and that node's depth.
+    fn collapse_top(&mut self, top: &Bvh2) -> Result<Vec<(usize, usize)>, String> {
+        let mut joints = vec![(0, 0); top.primitive_indices.len()];
+        self.nodes.push(Self::empty_node());
+        let mut work = vec![(0usize, 0usize, 1usize)];
+        while let Some((n2, n8, depth)) = work.pop() {
+            if depth > MAX_DEPTH {
+                return Err(format!(
+                    "the BVH would be {depth} levels deep; at most {MAX_DEPTH} are supported"
+                ));
+            }
+            self.depth = self.depth.max(depth);
+            for (slot, c) in Self::open(top, |_| 1, n2).into_iter().enumerate() {
+                let node = &top.nodes[c];
+                let idx = self.nodes.len();
+                self.nodes.push(Self::empty_node());
+                let a = node.aabb();
+                self.set_child(n8, slot, idx as u32, a.min.into(), a.max.into());
+                if node.is_leaf() {
+                    let part = top.primitive_indices[node.first_index as usize];
+                    joints[part as usize] = (idx, depth + 1);
+                } else {
+                    work.push((c, idx, depth + 1));
+                }
+            }
+        }
+        Ok(joints)
+    }
+
+    fn shrink_to_fit(&mut self) {
+        self.nodes.shrink_to_fit();
+        self.blocks.iter_mut().for_each(Vec::shrink_to_fit);
+    }
+
+    /// Room for the nodes and blocks of `parts`, allocated once: growing the arrays part
+    /// by part would copy them again and again.
+    fn reserve_for<'a>(&mut self, parts: impl Iterator<Item = &'a Draft> + Clone) {
+        self.nodes
+            .reserve_exact(parts.clone().map(|p| p.nodes.len()).sum());
+        for k in 0..3 {
+            self.blocks[k].reserve_exact(parts.clone().map(|p| p.blocks[k].len()).sum());
+        }
+    }
+
+    /// Top-down collapse of the binary tree into eight-wide nodes: the top levels in
+    /// breadth-first order until there are [`PARALLEL_SUBTREES`] subtrees to do, then
+    /// those subtrees on all cores, each into a part of its own ([`Draft::subtree`]),
+    /// appended in order. The tree is the same whatever the thread count.
+    fn collapse(&mut self, bvh2: &Bvh2, source: PrimSource) -> Result<(), String> {
+        use rayon::prelude::*;
+        self.nodes.push(Self::empty_node());
+        // (BVH2 node, BVH8 node to fill, depth of that node)
+        let mut frontier = std::collections::VecDeque::from([(0usize, 0usize, 1usize)]);
+        while let Some(item) = frontier.pop_front() {
+            frontier.extend(self.fill(bvh2, source, item)?);
+            if frontier.len() >= PARALLEL_SUBTREES {
+                break;
+            }
+        }
+        let frontier: Vec<_> = frontier.into();
+        let parts = frontier
+            .par_iter()
+            .map(|&(n2, _, depth)| Self::subtree(bvh2, source, n2, depth))
+            .collect::<Result<Vec<_>, String>>()?;
+        self.reserve_for(parts.iter());
+        for (part, &(_, n8, _)) in parts.into_iter().zip(&frontier) {
+            self.append(part, n8);
+        }
+        Ok(())
+    }
+
+    /// The BVH8 of the binary subtree at `n2`, whose root is at `depth`: its root is its
+    /// node 0.
+    fn subtree(bvh2: &Bvh2, source: PrimSource, n2: usize, depth: usize) -> Result<Self, String> {
+        let mut part = Self::empty();
+        part.nodes.push(Self::empty_node());
+        let mut work = vec![(n2, 0usize, depth)];
+        while let Some(item) = work.pop() {
+            work.extend(part.fill(bvh2, source, item)?);
+        }
+        Ok(part)
+    }
+
+    /// Appends `part` (from [`Draft::subtree`]), its root replacing node `at`, its other
+    /// nodes and its leaf blocks after those already here, with its references moved.
+    fn append(&mut self, part: Self, at: usize) {
+        let offsets = [
+            self.nodes.len() as u32,
+            self.blocks[0].len() as u32,
+            self.blocks[1].len() as u32,
+            self.blocks[2].len() as u32,
+        ];
+        let moved = |r: u32| {
+            let (kind, index) = (r >> KIND_SHIFT, r & INDEX_MASK);
+            let index = match kind {
+                // Node 0 is the root, stored at `at`; node j > 0 at offset + j - 1.
+                INNER => offsets[0] + index - 1,
+                _ => offsets[kind as usize] + index,
+            };
+            (kind << KIND_SHIFT) | index
+        };
+        let mut nodes = part.nodes.into_iter().map(|mut n| {
+            n.child = n.child.map(|c| {
+                // Empty slots keep their 0 (never visited: their boxes are empty).
+                if c == 0 { 0 } else { moved(c) }
+            });
+            n
+        });
+        self.nodes[at] = nodes.next().expect("a part has its root");
+        self.nodes.extend(nodes);
+        for (mine, theirs) in self.blocks.iter_mut().zip(part.blocks) {
+            mine.extend(theirs);
+        }
+        self.depth = self.depth.max(part.depth);
+    }
+
+    /// Fills BVH8 node `n8` with the children of BVH2 node `n2` (at `depth`): leaf blocks
+    /// for its leaves, new empty nodes for its inner children, returned as work to do.
+    fn fill(
+        &mut self,
+        bvh2: &Bvh2,
+        source: PrimSource,
+        (n2, n8, depth): (usize, usize, usize),
+    ) -> Result<Vec<(usize, usize, usize)>, String> {
+        self.depth = self.depth.max(depth);
+        if depth > MAX_DEPTH {
+            return Err(format!(
+                "the BVH would be {depth} levels deep; at most {MAX_DEPTH} are supported"
+            ));
+        }
+        let mut work = Vec::new();
+        let mut slot = 0;
+        for c in Self::open(
+            bvh2,
+            |ids| Self::kinds(source.prims, ids).count_ones() as usize,
+            n2,
+        ) {
+            let node = &bvh2.nodes[c];
+            if node.is_leaf() {
+                let first = node.first_index as usize;
+                let ids = &bvh2.primitive_indices[first..first + node.prim_count as usize];
+                let kinds = Self::kinds(source.prims, ids);
+                if kinds.count_ones() == 1 {
+                    // One kind (every leaf of a mesh): no grouping, and the binary leaf's
+                    // box (the union of its primitives' boxes) is the block's.
+                    let kind = [TRIANGLES, SPHERES, RECTANGLES][kinds.trailing_zeros() as usize];
+                    let r = self.leaf_block(kind, ids);
+                    let a = node.aabb();
+                    self.set_child(n8, slot, r, a.min.into(), a.max.into());
+                    slot += 1;
+                    continue;
+                }
+                for (kind, group) in Self::by_kind(source.prims, ids) {
+                    let (lo, hi) = Self::bounds(source, &group);
+                    let r = self.leaf_block(kind, &group);
+                    self.set_child(n8, slot, r, lo, hi);
+                    slot += 1;
+                }
+            } else {
+                let idx = self.nodes.len();
+                self.nodes.push(Self::empty_node());
+                let a = node.aabb();
+                self.set_child(n8, slot, idx as u32, a.min.into(), a.max.into());
+                slot += 1;
+                work.push((c, idx, depth + 1));
+            }
+        }
+        Ok(work)
+    }
+
+    /// The BVH2 nodes that become the children of BVH2 node `n`: its two children, then
+    /// the inner child of largest surface area opened in turn while the slots (a leaf
+    /// takes one per primitive kind in it) stay within eight. A leaf root is its own
+    /// single child.
+    fn open(bvh2: &Bvh2, leaf_slots: impl Fn(&[u32]) -> usize, n: usize) -> Vec<usize> {
+        let root = &bvh2.nodes[n];
+        if root.is_leaf() {
+            return vec![n];
+        }
+        let slots = |c: usize| -> usize {
+            let node = &bvh2.nodes[c];
+            if node.is_leaf() {
+                let first = node.first_index as usize;
+                leaf_slots(&bvh2.primitive_indices[first..first + node.prim_count as usize])
+            } else {
+                1
+            }
+        };
+        let left = root.first_index as usize;
+        let mut children = vec![left, left + 1];
+        let mut used: usize = children.iter().map(|&c| slots(c)).sum();
+        loop {
+            let pick = children
+                .iter()
+                .enumerate()
+                .filter(|&(_, &c)| !bvh2.nodes[c].is_leaf())
+                .map(|(i, &c)| (i, bvh2.nodes[c].aabb().half_area()))
+                .filter(|&(i, _)| {
+                    let l = bvh2.nodes[children[i]].first_index as usize;
+                    used - 1 + slots(l) + slots(l + 1) <= LANES
+                })
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            let Some((i, _)) = pick else {
+                break;
+            };
+            let c = children.swap_remove(i);
+            let l = bvh2.nodes[c].first_index as usize;
+            used = used - 1 + slots(l) + slots(l + 1);
+            children.push(l);
+            children.push(l + 1);
+        }
+        children
+    }
+
+    /// The kinds among the primitives `ids`, one bit per kind (triangles 1, spheres 2,
+    /// rectangles 4).
+    fn kinds(prims: &[Primitive], ids: &[u32]) -> u32 {
+        ids.iter().fold(0, |k, &id| {
+            k | match prims[id as usize].kind {
+                PrimKind::Triangle { .. } => 1,
+                PrimKind::Sphere(_) => 2,
+                PrimKind::Rectangle(_) => 4,
+            }
+        })
+    }
+
+    /// The primitives `ids` grouped by kind (triangles, spheres, rectangles; empty groups
+    /// left out).
+    fn by_kind(prims: &[Primitive], ids: &[u32]) -> Vec<(u32, Vec<u32>)> {
+        let mut groups: [(u32, Vec<u32>); 3] =
+            [(TRIANGLES, vec![]), (SPHERES, vec![]), (RECTANGLES, vec![])];
+        for &id in ids {
+            let g = match prims[id as usize].kind {
+                PrimKind::Triangle { .. } => 0,
+                PrimKind::Sphere(_) => 1,
+                PrimKind::Rectangle(_) => 2,
+            };
+            groups[g].1.push(id);
+        }
+        groups.into_iter().filter(|g| !g.1.is_empty()).collect()
+    }
+
+    fn bounds(source: PrimSource, ids: &[u32]) -> ([f32; 3], [f32; 3]) {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for &id in ids {
+            let b = source.shape_of(id).aabb();
+            for a in 0..3 {
+                lo[a] = lo[a].min(b.min[a]);
+                hi[a] = hi[a].max(b.max[a]);
+            }
+        }
+        (lo, hi)
+    }
+
+    fn empty_node() -> Node {
+        Node {
+            bounds: [[f32x8::splat(f32::INFINITY), f32x8::splat(f32::NEG_INFINITY)]; 3],
+            child: [0; LANES],
+        }
+    }
+
+    fn set_child(&mut self, node: usize, slot: usize, r: u32, lo: [f32; 3], hi: [f32; 3]) {
+        let n = &mut self.nodes[node];
+        for a in 0..3 {
+            let mut l = n.bounds[a][0].to_array();
+            let mut h = n.bounds[a][1].to_array();
+            l[slot] = lo[a];
+            h[slot] = hi[a];
+            n.bounds[a] = [f32x8::new(l), f32x8::new(h)];
+        }
+        n.child[slot] = r;
+    }
+
+    /// Records one leaf block of primitives of one kind (at most eight; unused lanes repeat
+    /// the last primitive; [`Draft::finish`] fetches their data) and returns its reference.
+    pub(super) fn leaf_block(&mut self, kind: u32, ids: &[u32]) -> u32 {
+        debug_assert!(!ids.is_empty() && ids.len() <= LANES);
+        let blocks = &mut self.blocks[kind as usize - 1];
+        blocks.push(std::array::from_fn(|k| ids[k.min(ids.len() - 1)]));
+        (kind << KIND_SHIFT) | (blocks.len() - 1) as u32
+    }
+}
+
+/// The primitives in the order of a Morton curve through their box centres (10 bits per
+/// axis over the scene's box; ties in primitive order, so the order is unique).
+fn morton_order(source: PrimSource) -> Vec<u32> {
+    use glam::Vec3A;
+    use rayon::prelude::*;
+    let n = source.prims.len() as u32;
+    let bounds = (0..n)
+        .into_par_iter()
+        .map(|i| source.shape_of(i).aabb())
+        .reduce(Aabb::empty, |a, b| a.union(&b));
+    let scale = 1023.0;
+    let extent = (bounds.max - bounds.min).max(Vec3A::splat(f32::MIN_POSITIVE));
+    let mut keys: Vec<u64> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let c = source.shape_of(i).aabb().center();
+            let q = ((c - bounds.min) / extent * scale).clamp(Vec3A::ZERO, Vec3A::splat(scale));
+            let code = morton_encode_u32(q.x as u16, q.y as u16, q.z as u16);
+            ((code as u64) << 32) | i as u64
+        })
+        .collect();
+    keys.par_sort_unstable();
+    keys.into_par_iter().map(|k| k as u32).collect()
+}
+
+/// The `count` subtrees of `bvh2` that a top-down cut ends with: starting from the root,
+/// the inner node of largest surface area is replaced by its two children until there are
+/// `count` or only leaves are left.
+fn cut(bvh2: &Bvh2, count: usize) -> Vec<usize> {
+    let mut nodes = vec![0usize];
+    while nodes.len() < count {
+        let pick = nodes
+            .iter()
+            .enumerate()
+            .filter(|&(_, &n)| !bvh2.nodes[n].is_leaf())
+            .max_by(|a, b| {
+                let area = |n: usize| bvh2.nodes[n].aabb().half_area();
+                area(*a.1).total_cmp(&area(*b.1))
+            })
+            .map(|(i, _)| i);
+        let Some(i) = pick else { break };
+        let left = bvh2.nodes[nodes[i]].first_index as usize;
+        nodes[i] = left;
+        nodes.insert(i + 1, left + 1);
+    }
+    nodes
+}
