@@ -25,9 +25,14 @@ impl Lcg {
 }
 
 fn scene() -> Geometry {
+    scene_of(3000, 20)
+}
+
+/// `triangles` random triangles, `spheres` spheres and five rectangles in a box of side 8.
+fn scene_of(triangles: usize, spheres: usize) -> Geometry {
     let mut r = Lcg(7);
     let mut mesh = Mesh::default();
-    for _ in 0..3000 {
+    for _ in 0..triangles {
         let c = r.v(4.0);
         let base = mesh.positions.len() as u32;
         for _ in 0..3 {
@@ -39,7 +44,7 @@ fn scene() -> Geometry {
     for t in 0..mesh.indices.len() as u32 {
         prims.push((PrimShape::Triangle(Triangle::new(0, &mesh, t)), 0));
     }
-    for _ in 0..20 {
+    for _ in 0..spheres {
         prims.push((
             PrimShape::Sphere(Sphere {
                 center: r.v(4.0),
@@ -98,6 +103,40 @@ fn closest_hits_equal_brute_force() {
         }
     }
     assert!(hits > 5000, "the test must hit things ({hits} hits)");
+}
+
+/// A scene bigger than a build chunk (65536 primitives, of three kinds mixed along the
+/// Morton order): closest hits equal brute force, and the tree built on one thread answers
+/// every query as the one built on two.
+#[test]
+fn chunked_builds_equal_brute_force_and_each_other() {
+    let build = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| scene_of(150_000, 3000))
+    };
+    let (one, two) = (build(1), build(2));
+    assert_eq!(one.bvh_memory_bytes(), two.bvh_memory_bytes());
+    let mut r = Lcg(5);
+    let mut hits = 0;
+    for k in 0..3000 {
+        let o = r.v(8.0);
+        let ray = Ray::new(o, (r.v(3.0) - o).normalize());
+        let a = one.closest(&ray);
+        assert_eq!(a, two.closest(&ray), "ray {k}");
+        if k % 4 == 0 {
+            let b = one.closest_brute_force(&ray);
+            assert_eq!(
+                a.map(|h| h.0),
+                b.map(|h| h.0),
+                "ray {k}: BVH and brute force"
+            );
+        }
+        hits += usize::from(a.is_some());
+    }
+    assert!(hits > 1000, "the test must hit things ({hits} hits)");
 }
 
 #[test]
