@@ -37,43 +37,39 @@ impl Mesh {
         }
     }
 
-    /// Replaces the normals by angle-weighted smooth vertex normals. On all cores: each
-    /// task owns a range of vertices and adds up, in triangle order, the corners that fall
-    /// in it, so every sum is the sequential one bit for bit whatever the thread count.
+    /// Replaces the normals by angle-weighted smooth vertex normals. The corners' weighted
+    /// normals are computed on all cores, a block of triangles at a time, and added up in
+    /// triangle order, so the normals are the sequential ones bit for bit whatever the
+    /// thread count.
     pub fn compute_vertex_normals(&mut self) {
         use rayon::prelude::*;
-        let tasks = 4 * rayon::current_num_threads();
-        let chunk = self.positions.len().div_ceil(tasks).max(1);
-        let mut normals = vec![Vec3::ZERO; self.positions.len()];
-        normals
-            .par_chunks_mut(chunk)
-            .enumerate()
-            .for_each(|(c, acc)| {
-                let lo = (c * chunk) as u32;
-                let len = acc.len() as u32;
-                let owned = |i: u32| i.wrapping_sub(lo) < len;
-                for t in &self.indices {
-                    if !t.iter().any(|&i| owned(i)) {
-                        continue;
-                    }
-                    let p = t.map(|i| self.positions[i as usize]);
-                    let n = (p[1] - p[0]).cross(p[2] - p[0]);
-                    if !(n.length_squared() > 0.0) {
-                        continue;
-                    }
-                    let n = n.normalize();
-                    for k in (0..3).filter(|&k| owned(t[k])) {
-                        let a = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
-                        let b = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
-                        let angle = a.dot(b).clamp(-1.0, 1.0).acos();
-                        acc[(t[k] - lo) as usize] += n * angle;
+        const BLOCK: usize = 1 << 18;
+        let corners = |t: &[u32; 3]| -> Option<[Vec3; 3]> {
+            let p = t.map(|i| self.positions[i as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            if !(n.length_squared() > 0.0) {
+                return None;
+            }
+            let n = n.normalize();
+            Some(std::array::from_fn(|k| {
+                let a = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
+                let b = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+                n * a.dot(b).clamp(-1.0, 1.0).acos()
+            }))
+        };
+        let mut acc = vec![Vec3::ZERO; self.positions.len()];
+        let mut weighted = Vec::with_capacity(BLOCK.min(self.indices.len()));
+        for tris in self.indices.chunks(BLOCK) {
+            tris.par_iter().map(corners).collect_into_vec(&mut weighted);
+            for (t, w) in tris.iter().zip(&weighted) {
+                if let Some(w) = w {
+                    for k in 0..3 {
+                        acc[t[k] as usize] += w[k];
                     }
                 }
-                for v in acc {
-                    *v = v.normalize_or_zero();
-                }
-            });
-        self.normals = normals;
+            }
+        }
+        self.normals = acc.into_par_iter().map(|n| n.normalize_or_zero()).collect();
     }
 
     pub fn triangle_area(&self, i: usize) -> f32 {
