@@ -6,7 +6,7 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-use lobe_renderer::geometry::bvh::{PrimKind, PrimShape, Primitive, ShapeGeom};
+use lobe_renderer::geometry::bvh::{PrimKind, PrimShape, Primitive, Prims, ShapeGeom};
 use lobe_renderer::geometry::{Geometry, Mesh, Ray};
 use std::hint::black_box;
 
@@ -48,7 +48,7 @@ fn displaced_sphere(rings: u32, segments: u32) -> Mesh {
     m
 }
 
-fn prims(mesh: &Mesh) -> Vec<Primitive> {
+fn prims(mesh: &Mesh) -> Prims {
     (0..mesh.indices.len() as u32)
         .map(|t| Primitive {
             kind: PrimKind::Triangle { mesh: 0, index: t },

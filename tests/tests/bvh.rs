@@ -188,13 +188,13 @@ fn spawned_rays_do_not_self_intersect_at_grazing_angles() {
         };
         if let Some((t, p)) = g.closest(&out) {
             assert!(
-                g.prims[p as usize].shape != it.shape || t > 1.0,
+                g.prims.get(p).shape != it.shape || t > 1.0,
                 "self-intersection at t = {t}"
             );
         }
         // The same ray without the offset does hit its own surface: the test can fail.
         if let Some((t, p)) = g.closest(&Ray::new(it.p, d))
-            && g.prims[p as usize].shape == it.shape
+            && g.prims.get(p).shape == it.shape
             && t < 1.0
         {
             naive_self_hits += 1;
@@ -223,7 +223,7 @@ fn spawned_rays_skip_only_what_they_cannot_hit() {
         };
         let d = r.v(1.0).normalize_or(Vec3::Z);
         let spawned = lobe_renderer::geometry::spawn_ray(&it, d);
-        let is_sphere = matches!(g.prims[it.prim as usize].kind, PrimKind::Sphere(_));
+        let is_sphere = matches!(g.prims.get(it.prim).kind, PrimKind::Sphere(_));
         if is_sphere && d.dot(it.exit) < 0.0 {
             // Into the sphere: nothing skipped, and the far side (or something inside) is hit.
             assert_eq!(spawned.skip, Ray::NO_SKIP);
@@ -315,12 +315,12 @@ fn batched_closest_hits_equal_single_ones() {
         .expect("spheres"),
     );
     // A small scene of every kind (tested exhaustively in ray lanes, no BVH).
-    let small: Vec<Primitive> = scene()
-        .prims
+    let all: Vec<Primitive> = scene().prims.iter().collect();
+    let small: Vec<Primitive> = all
         .iter()
         .step_by(600)
+        .chain(all.iter().rev().take(5))
         .copied()
-        .chain(scene().prims.iter().rev().take(5).copied())
         .collect();
     assert!(small.len() <= lobe_renderer::geometry::bvh::SMALL_SCENE);
     for kind in ["triangle", "sphere", "rectangle"] {
@@ -335,7 +335,7 @@ fn batched_closest_hits_equal_single_ones() {
     }
     let whole = scene();
     let small = Geometry::build(
-        small,
+        small.into_iter().collect(),
         whole.meshes.clone(),
         whole.rects.clone(),
         vec![ShapeGeom::default(); 3],
@@ -356,7 +356,7 @@ fn batched_closest_hits_equal_single_ones() {
                     1 => ray.skip = (r.f() * n_prims as f32) as u32 % n_prims,
                     2 => {
                         // On a sphere's surface, leaving it.
-                        if let PrimKind::Sphere(s) = g.prims[0].kind {
+                        if let PrimKind::Sphere(s) = g.prims.get(0).kind {
                             let n = r.v(1.0).normalize();
                             ray = Ray::new(s.center + n * s.radius, n + r.v(0.5));
                             ray.skip = 0;

@@ -10,6 +10,8 @@ use lobe_materials::simd;
 use lobe_materials::simd::{LANES, f32xn, u32xn};
 use obvhs::aabb::Aabb;
 
+pub use super::prims::Prims;
+
 /// One primitive as the geometry stores it (24 bytes): a sphere by value, a mesh triangle
 /// by its mesh and index (its vertices live in the mesh), a rectangle by its index into
 /// [`Geometry::rects`]. [`PrimShape`] is the primitive with its data, for intersection.
@@ -99,7 +101,7 @@ impl PrimShape {
 /// The data a primitive index stands for: the primitives and what their indices point into.
 #[derive(Clone, Copy)]
 pub struct PrimSource<'a> {
-    pub prims: &'a [Primitive],
+    pub prims: &'a Prims,
     pub meshes: &'a [Mesh],
     pub rects: &'a [Rectangle],
 }
@@ -109,7 +111,7 @@ impl PrimSource<'_> {
     /// bit for bit those of [`Triangle::new`]).
     #[inline(always)]
     pub fn shape_of(&self, i: u32) -> PrimShape {
-        match self.prims[i as usize].kind {
+        match self.prims.get(i).kind {
             PrimKind::Sphere(s) => PrimShape::Sphere(s),
             PrimKind::Triangle { mesh, index } => {
                 PrimShape::Triangle(Triangle::new(mesh, &self.meshes[mesh as usize], index))
@@ -133,7 +135,7 @@ pub struct ShapeGeom {
 
 /// Primitives, meshes and the BVH over them.
 pub struct Geometry {
-    pub prims: Vec<Primitive>,
+    pub prims: Prims,
     pub meshes: Vec<Mesh>,
     /// The rectangles [`PrimKind::Rectangle`] points into.
     pub rects: Vec<Rectangle>,
@@ -149,7 +151,7 @@ impl Geometry {
     /// exhaustively: cheaper than any traversal. Errors only for a tree deeper than the
     /// traversal supports ([`Bvh8::build`]).
     pub fn build(
-        prims: Vec<Primitive>,
+        prims: Prims,
         meshes: Vec<Mesh>,
         rects: Vec<Rectangle>,
         shapes: Vec<ShapeGeom>,
@@ -227,7 +229,7 @@ impl Geometry {
     /// Bytes of the primitive list and the meshes' vertex data.
     pub fn primitive_memory_bytes(&self) -> usize {
         use std::mem::size_of;
-        self.prims.len() * size_of::<Primitive>()
+        self.prims.memory_bytes()
             + self.rects.len() * size_of::<Rectangle>()
             + self
                 .meshes
@@ -317,7 +319,7 @@ impl Geometry {
         let mut spheres = [0usize; LANES];
         let mut n = 0;
         for (h, &(i, t, prim)) in hits.iter().enumerate() {
-            if matches!(self.prims[prim as usize].kind, PrimKind::Sphere(_)) {
+            if matches!(self.prims.get(prim).kind, PrimKind::Sphere(_)) {
                 spheres[n] = h;
                 n += 1;
                 if n == LANES {
@@ -347,7 +349,7 @@ impl Geometry {
         let (lanes, _) = Self::ray_lanes(|k| &rays[hit(k).0 as usize]);
         let (o, d) = (lanes.o, lanes.d);
         let t = f32xn::new(simd::lanes(|k| hit(k).1));
-        let cr = simd::rows4(|k| match &self.prims[hit(k).2 as usize].kind {
+        let cr = simd::rows4(|k| match &self.prims.get(hit(k).2).kind {
             PrimKind::Sphere(s) => [s.center.x, s.center.y, s.center.z, s.radius],
             _ => unreachable!("sphere hits only"),
         });
@@ -361,7 +363,7 @@ impl Geometry {
         );
         for (k, &h) in which.iter().enumerate() {
             let (_, t, prim) = hits[h];
-            let shape = self.prims[prim as usize].shape;
+            let shape = self.prims.get(prim).shape;
             let v = |a: &[[f32; LANES]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
             let nk = v(&nrm);
             let oriented = if self.shapes[shape as usize].flip_normals {
@@ -454,7 +456,7 @@ impl Geometry {
     /// line).
     #[inline(always)]
     pub fn interaction_into(&self, ray: &Ray, t: f32, prim: u32, it: &mut Interaction) {
-        let shape = self.prims[prim as usize].shape;
+        let shape = self.prims.get(prim).shape;
         let sg = self.shapes[shape as usize];
         let orient = |n: Vec3| if sg.flip_normals { -n } else { n };
         it.t = t;

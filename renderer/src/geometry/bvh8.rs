@@ -416,6 +416,7 @@ mod tests {
             });
         }
         let meshes = [mesh];
+        let prims: super::super::bvh::Prims = prims.into_iter().collect();
         let source = PrimSource {
             prims: &prims,
             meshes: &meshes,

@@ -12,7 +12,7 @@
 //! ([`Draft::finish`]). So the build never holds a whole-scene set of obvhs's buffers or
 //! two copies of the leaf blocks. The tree is the same whatever the thread count.
 
-use super::bvh::{PrimKind, PrimShape, PrimSource, Primitive};
+use super::bvh::{PrimKind, PrimShape, PrimSource, Prims};
 use super::bvh8::{
     Bvh8, INDEX_MASK, INNER, KIND_SHIFT, LANES, MAX_DEPTH, Node, RECTANGLES, RectBlock, SPHERES,
     SphereBlock, TRIANGLES, TriBlock,
@@ -425,9 +425,9 @@ impl Draft {
 
     /// The kinds among the primitives `ids`, one bit per kind (triangles 1, spheres 2,
     /// rectangles 4).
-    fn kinds(prims: &[Primitive], ids: &[u32]) -> u32 {
+    fn kinds(prims: &Prims, ids: &[u32]) -> u32 {
         ids.iter().fold(0, |k, &id| {
-            k | match prims[id as usize].kind {
+            k | match prims.get(id).kind {
                 PrimKind::Triangle { .. } => 1,
                 PrimKind::Sphere(_) => 2,
                 PrimKind::Rectangle(_) => 4,
@@ -437,11 +437,11 @@ impl Draft {
 
     /// The primitives `ids` grouped by kind (triangles, spheres, rectangles; empty groups
     /// left out).
-    fn by_kind(prims: &[Primitive], ids: &[u32]) -> Vec<(u32, Vec<u32>)> {
+    fn by_kind(prims: &Prims, ids: &[u32]) -> Vec<(u32, Vec<u32>)> {
         let mut groups: [(u32, Vec<u32>); 3] =
             [(TRIANGLES, vec![]), (SPHERES, vec![]), (RECTANGLES, vec![])];
         for &id in ids {
-            let g = match prims[id as usize].kind {
+            let g = match prims.get(id).kind {
                 PrimKind::Triangle { .. } => 0,
                 PrimKind::Sphere(_) => 1,
                 PrimKind::Rectangle(_) => 2,

@@ -7,7 +7,7 @@ use super::json::{Obj, describe};
 use super::mesh_io::{self, GltfCamera};
 use super::{Loader, ShapeInfo, positive, transform};
 use crate::error::{Error, Result};
-use crate::geometry::bvh::{PrimKind, Primitive, ShapeGeom};
+use crate::geometry::bvh::{PrimKind, Primitive, Prims, ShapeGeom};
 use crate::geometry::{Mesh, Rectangle, Sphere, Triangle};
 use crate::lights::{AreaShape, Light};
 use crate::limits::MAX_COORDINATE;
@@ -18,7 +18,7 @@ use serde_json::Value;
 /// flags, materials and lights (area lights, in shape order), and the first glTF camera.
 #[derive(Default)]
 pub(super) struct Shapes {
-    pub prims: Vec<Primitive>,
+    pub prims: Prims,
     pub meshes: Vec<Mesh>,
     /// The rectangles [`PrimKind::Rectangle`] points into.
     pub rects: Vec<Rectangle>,
@@ -273,8 +273,8 @@ impl Shapes {
 /// ray's closest approach to the centre is off by a good part of the radius (a camera
 /// 1e7 from a unit sphere) or the surface lies between representable points (a camera
 /// 4.5 from a sphere of radius 1e8), and the sphere renders black or in pieces.
-pub(super) fn check_sphere_precision(file: &str, eye: Vec3, prims: &[Primitive]) -> Result<()> {
-    for p in prims {
+pub(super) fn check_sphere_precision(file: &str, eye: Vec3, prims: &Prims) -> Result<()> {
+    for p in prims.iter() {
         let PrimKind::Sphere(s) = &p.kind else {
             continue;
         };
