@@ -22,6 +22,7 @@ pub mod image_io;
 pub mod integrators;
 pub mod lights;
 pub mod limits;
+pub mod memory;
 pub mod outputs;
 pub mod partial;
 pub mod render;

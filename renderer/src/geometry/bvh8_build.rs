@@ -54,6 +54,7 @@ pub fn build(source: PrimSource) -> Result<Bvh8, String> {
         draft.collapse(&bvh2, source)?;
         draft
     };
+    crate::memory::release_freed();
     Ok(draft.finish(source))
 }
 

@@ -15,6 +15,7 @@ use crate::limits::MAX_TRIANGLES;
 use glam::{Vec2, Vec3};
 use ply_rs_bw::parser::Parser;
 use ply_rs_bw::ply::{ElementDef, Property, PropertyAccess};
+use smallvec::SmallVec;
 
 /// One vertex as read: position, normal, texture coordinates, and which were given
 /// (bits 1: position x, 2: y, 4: z, 8..32: normal x, y, z, 64, 128: u, v).
@@ -71,10 +72,11 @@ impl PropertyAccess for Vertex {
     }
 }
 
-/// One face as read: its corners' vertex indices (at most [`MAX_CORNERS`]), or why not.
+/// One face as read: its corners' vertex indices (at most [`MAX_CORNERS`]; a triangle's
+/// held in place, 48 bytes a face rather than a vector and its allocation), or why not.
 #[derive(Default)]
 struct Face {
-    corners: Vec<i64>,
+    corners: SmallVec<[i64; 3]>,
     error: Option<&'static str>,
 }
 
@@ -90,7 +92,7 @@ impl PropertyAccess for Face {
         if name != "vertex_indices" && name != "vertex_index" {
             return;
         }
-        let corners: Vec<i64> = match property {
+        let corners: SmallVec<[i64; 3]> = match property {
             Property::ListChar(v) => v.into_iter().map(i64::from).collect(),
             Property::ListUChar(v) => v.into_iter().map(i64::from).collect(),
             Property::ListShort(v) => v.into_iter().map(i64::from).collect(),
