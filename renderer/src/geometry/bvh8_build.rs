@@ -495,26 +495,31 @@ impl Draft {
 }
 
 /// The primitives in the order of a Morton curve through their box centres (10 bits per
-/// axis over the scene's box; ties in primitive order, so the order is unique).
+/// axis over the centres' box; ties in primitive order, so the order is unique).
 fn morton_order(source: PrimSource) -> Vec<u32> {
     use glam::Vec3A;
     use rayon::prelude::*;
     let n = source.prims.len() as u32;
-    let bounds = (0..n)
+    let centres: Vec<Vec3A> = (0..n)
         .into_par_iter()
-        .map(|i| source.shape_of(i).aabb())
+        .map(|i| source.shape_of(i).aabb().center())
+        .collect();
+    let bounds = centres
+        .par_iter()
+        .fold(Aabb::empty, |mut a, &c| *a.extend(c))
         .reduce(Aabb::empty, |a, b| a.union(&b));
     let scale = 1023.0;
     let extent = (bounds.max - bounds.min).max(Vec3A::splat(f32::MIN_POSITIVE));
-    let mut keys: Vec<u64> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let c = source.shape_of(i).aabb().center();
+    let mut keys: Vec<u64> = centres
+        .par_iter()
+        .zip(0..n)
+        .map(|(&c, i)| {
             let q = ((c - bounds.min) / extent * scale).clamp(Vec3A::ZERO, Vec3A::splat(scale));
             let code = morton_encode_u32(q.x as u16, q.y as u16, q.z as u16);
             ((code as u64) << 32) | i as u64
         })
         .collect();
+    drop(centres);
     keys.par_sort_unstable();
     keys.into_par_iter().map(|k| k as u32).collect()
 }
