@@ -12,9 +12,10 @@ use obvhs::aabb::Aabb;
 
 pub use super::prims::Prims;
 
-/// One primitive as the geometry stores it (24 bytes): a sphere by value, a mesh triangle
-/// by its mesh and index (its vertices live in the mesh), a rectangle by its index into
-/// [`Geometry::rects`]. [`PrimShape`] is the primitive with its data, for intersection.
+/// One primitive: a sphere by value, a mesh triangle by its mesh and index (its vertices
+/// live in the mesh), a rectangle by its index into [`Geometry::rects`]. [`Prims`] stores
+/// a mesh's triangles as one run; [`PrimShape`] is the primitive with its data, for
+/// intersection.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PrimKind {
     Sphere(Sphere),
