@@ -1,5 +1,6 @@
-//! Memory the process has freed, handed back to the system at the steps that precede its
-//! peaks (reading meshes, then building the BVH; docs/performance.md, big meshes).
+//! Memory the process has freed, handed back to the system before the steps that make
+//! its peaks: a big scene's BVH build and its leaf blocks ([`crate::geometry::bvh8`];
+//! docs/performance.md, big meshes).
 
 /// Returns the free pages of the allocator to the system. glibc keeps what its worker
 /// threads' arenas freed until asked: about 100 MB after reading a 4M-triangle OBJ on all

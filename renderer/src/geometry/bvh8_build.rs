@@ -46,7 +46,10 @@ const PARALLEL_SUBTREES: usize = 64;
 /// primitives get one binary tree; bigger ones are built in chunks.
 pub fn build(source: PrimSource) -> Result<Bvh8, String> {
     let draft = if source.prims.len() > CHUNK {
-        Draft::build_chunked(source)?
+        let draft = Draft::build_chunked(source)?;
+        // The chunks' freed parts, before the leaf blocks take their final memory.
+        crate::memory::release_freed();
+        draft
     } else {
         let ids: Vec<u32> = (0..source.prims.len() as u32).collect();
         let bvh2 = Draft::binary(source, &ids);
@@ -54,7 +57,6 @@ pub fn build(source: PrimSource) -> Result<Bvh8, String> {
         draft.collapse(&bvh2, source)?;
         draft
     };
-    crate::memory::release_freed();
     Ok(draft.finish(source))
 }
 
@@ -70,14 +72,12 @@ impl Draft {
     /// The finished tree: each leaf block's primitive data fetched (a triangle's from its
     /// mesh) on all cores, into arrays of their final size.
     pub(super) fn finish(self, source: PrimSource) -> Bvh8 {
-        use rayon::prelude::*;
         let [tris, spheres, rects] = self.blocks;
-        let shapes = |ids: &[u32; LANES]| ids.map(|i| source.shape_of(i));
         let v3 = |vs: [glam::Vec3; LANES]| [0, 1, 2].map(|a| f32x8::new(vs.map(|v| v[a])));
-        let tris = tris
-            .par_iter()
-            .map(|ids| {
-                let t = shapes(ids).map(|p| match p {
+        Bvh8 {
+            nodes: self.nodes,
+            tris: fetch(source, &tris, |s, id| {
+                let t = s.map(|p| match p {
                     PrimShape::Triangle(t) => t,
                     _ => unreachable!("grouped by kind"),
                 });
@@ -85,28 +85,22 @@ impl Draft {
                     p0: v3(t.map(|t| t.p0)),
                     e1: v3(t.map(|t| t.e1)),
                     e2: v3(t.map(|t| t.e2)),
-                    id: u32x8::new(*ids),
+                    id,
                 }
-            })
-            .collect();
-        let spheres = spheres
-            .par_iter()
-            .map(|ids| {
-                let s = shapes(ids).map(|p| match p {
+            }),
+            spheres: fetch(source, &spheres, |s, id| {
+                let s = s.map(|p| match p {
                     PrimShape::Sphere(s) => s,
                     _ => unreachable!("grouped by kind"),
                 });
                 SphereBlock {
                     center: v3(s.map(|s| s.center)),
                     radius: f32x8::new(s.map(|s| s.radius)),
-                    id: u32x8::new(*ids),
+                    id,
                 }
-            })
-            .collect();
-        let rects = rects
-            .par_iter()
-            .map(|ids| {
-                let r = shapes(ids).map(|p| match p {
+            }),
+            rects: fetch(source, &rects, |s, id| {
+                let r = s.map(|p| match p {
                     PrimShape::Rectangle(r) => r,
                     _ => unreachable!("grouped by kind"),
                 });
@@ -115,15 +109,9 @@ impl Draft {
                     n: v3(r.map(|r| r.n)),
                     du: v3(r.map(|r| r.du())),
                     dv: v3(r.map(|r| r.dv())),
-                    id: u32x8::new(*ids),
+                    id,
                 }
-            })
-            .collect();
-        Bvh8 {
-            nodes: self.nodes,
-            tris,
-            spheres,
-            rects,
+            }),
             depth: self.depth,
         }
     }
@@ -166,6 +154,8 @@ impl Draft {
     /// are fixed by the Morton order, so the tree is the same whatever the thread count.
     fn build_chunked(source: PrimSource) -> Result<Self, String> {
         use rayon::prelude::*;
+        // What the mesh readers freed, back to the system before the build's peak.
+        crate::memory::release_freed();
         let order = morton_order(source);
         let parts: Vec<(Aabb, Self)> = order
             .par_chunks(CHUNK)
@@ -197,9 +187,7 @@ impl Draft {
         for ((_, part), (at, depth)) in parts.into_iter().zip(joints) {
             let levels = depth - 1 + part.depth;
             if levels > MAX_DEPTH {
-                return Err(format!(
-                    "the BVH would be {levels} levels deep; at most {MAX_DEPTH} are supported"
-                ));
+                return Err(too_deep(levels));
             }
             let mut part = part;
             part.depth = levels;
@@ -217,9 +205,7 @@ impl Draft {
         let mut work = vec![(0usize, 0usize, 1usize)];
         while let Some((n2, n8, depth)) = work.pop() {
             if depth > MAX_DEPTH {
-                return Err(format!(
-                    "the BVH would be {depth} levels deep; at most {MAX_DEPTH} are supported"
-                ));
+                return Err(too_deep(depth));
             }
             self.depth = self.depth.max(depth);
             for (slot, c) in Self::open(top, |_| 1, n2).into_iter().enumerate() {
@@ -336,9 +322,7 @@ impl Draft {
     ) -> Result<Vec<(usize, usize, usize)>, String> {
         self.depth = self.depth.max(depth);
         if depth > MAX_DEPTH {
-            return Err(format!(
-                "the BVH would be {depth} levels deep; at most {MAX_DEPTH} are supported"
-            ));
+            return Err(too_deep(depth));
         }
         let mut work = Vec::new();
         let mut slot = 0;
@@ -492,6 +476,25 @@ impl Draft {
         blocks.push(std::array::from_fn(|k| ids[k.min(ids.len() - 1)]));
         (kind << KIND_SHIFT) | (blocks.len() - 1) as u32
     }
+}
+
+/// The leaf blocks of the drafted `blocks` (their primitives' ids), each made by `make`
+/// from its primitives' data and ids, on all cores into an array of its final size.
+fn fetch<B: Send>(
+    source: PrimSource,
+    blocks: &[[u32; LANES]],
+    make: impl Fn([PrimShape; LANES], u32x8) -> B + Sync,
+) -> Vec<B> {
+    use rayon::prelude::*;
+    blocks
+        .par_iter()
+        .map(|ids| make(ids.map(|i| source.shape_of(i)), u32x8::new(*ids)))
+        .collect()
+}
+
+/// The error of a tree deeper than the traversal stack allows.
+fn too_deep(levels: usize) -> String {
+    format!("the BVH would be {levels} levels deep; at most {MAX_DEPTH} are supported")
 }
 
 /// The primitives in the order of a Morton curve through their box centres (10 bits per

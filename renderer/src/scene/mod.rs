@@ -319,7 +319,6 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
     let eye = camera.ray(glam::Vec2::splat(0.5)).o;
     shapes::check_sphere_precision(file, eye, &shapes.prims)?;
     let mesh_read_seconds = shapes.mesh_read_seconds;
-    crate::memory::release_freed();
     let geometry = Geometry::build(shapes.prims, shapes.meshes, shapes.rects, shapes.shape_geom)
         .map_err(|e| Error::scene(file, "shapes", e))?;
     let load_times = LoadTimes {

@@ -92,15 +92,6 @@ pub fn erfinv(x: f32xn) -> f32xn {
 
 const FRAC_1_SQRT_PI: f32 = 0.564_189_6;
 
-/// Smith's Lambda of the Beckmann distribution of roughness `m` for directions of
-/// elevation cosine `cos_t` (> 0).
-#[inline(always)]
-pub fn beckmann_lambda(m: f32xn, cos_t: f32xn) -> f32xn {
-    let s = f32xn::splat;
-    let sin_t = (s(1.0) - cos_t * cos_t).max(s(0.0)).sqrt();
-    lambda_of(cos_t / (m * sin_t))
-}
-
 /// Smith's Lambda of the Beckmann distribution of roughness (`mx`, `my`) along the
 /// tangent and bitangent for direction `w` (w.z > 0): Lambda at a = w.z / |(mx w.x, my w.y)|.
 #[inline(always)]
@@ -249,10 +240,10 @@ mod tests {
             let a = 1.0 / (m * ti.to_radians().tan());
             let want = (libm::erf(a) - 1.0) / 2.0
                 + (-a * a).exp() / (2.0 * a * std::f64::consts::PI.sqrt());
-            let got = lane0(beckmann_lambda(
-                f32xn::splat(m as f32),
-                f32xn::splat(ti.to_radians().cos() as f32),
-            )) as f64;
+            let (sin_t, cos_t) = ti.to_radians().sin_cos();
+            let w = Vec3xN::splat(Vec3::new(sin_t as f32, 0.0, cos_t as f32));
+            let r = f32xn::splat(m as f32);
+            let got = lane0(beckmann_lambda_dir(r, r, w)) as f64;
             assert!(
                 (got - want).abs() < 1e-5 + 1e-4 * want,
                 "m {m}, theta {ti}: {got} vs {want}"
