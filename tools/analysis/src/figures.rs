@@ -523,8 +523,8 @@ pub fn spheres(
         }
         root.draw(&Text::new(
             format!(
-                "{} spp in {} batches; noise floor {:.2e} (RMSE that noise alone adds to a difference image)",
-                est.spp, est.batches, est.noise_floor
+                "{} spp on average (up to {}) in {} batches; noise floor {:.2e} (RMSE that noise alone adds to a difference image)",
+                est.spp, est.spp_max, est.batches, est.noise_floor
             ),
             (10, foot + 40),
             small,

@@ -25,9 +25,12 @@
 //! Student's t (B - 1 degrees of freedom), taken through the square root to the RMSE. The
 //! noise floor is the RMS standard error of the difference image, `sqrt(mean s^2 / B)`:
 //! what noise alone adds to an error measured without the correction, and the size of the
-//! noise left in a difference image or FLIP map. The sample count grows (a pilot pass, then
-//! the count the pilot's noise calls for) until the noise floor is under a tenth of the
-//! smallest fit error and every interval narrower than a fifth of its error, up to a cap.
+//! noise left in a difference image or FLIP map. A pilot pass takes the same count in every
+//! pixel; the next pass puts samples where the pilot's differences were noisy (adaptive
+//! sampling: in proportion to the square root of each pixel's one-sample variance, the
+//! allocation that minimises the summed noise for a budget), scaled so that the noise
+//! floor is under a tenth of the smallest fit error, within a mean budget per pixel. Only
+//! the last pass is reported, so its intervals do not depend on the plan's noise.
 //! Errors under [`ErrorSettings::negligible`] of the image's RMS are below what a display
 //! shows and are exempt from these targets.
 
@@ -166,8 +169,10 @@ pub struct SphereErrors {
     pub flip_maps: Vec<Vec<f32>>,
     /// The largest noise of the fits' difference images.
     pub noise_floor: f64,
-    /// Samples per pixel of the reported pass, in how many batches, and passes made.
+    /// Mean samples per pixel of the reported pass and its most in one pixel, in how many
+    /// batches, and passes made.
     pub spp: usize,
+    pub spp_max: usize,
     pub batches: usize,
     pub passes: usize,
     /// The exposure (stops) of pictures and FLIP: under 1 % of the data image's pixels
@@ -203,7 +208,7 @@ fn point(k: usize, n: usize, shift: &[f64; 5]) -> [f64; 5] {
 }
 
 /// The samples of one pixel (all batches) that hit the sphere, as the batched
-/// evaluations take them, and the background each batch sees where a sample misses.
+/// evaluations take them.
 #[derive(Default)]
 struct PixelSamples {
     batch: Vec<usize>,
@@ -213,14 +218,16 @@ struct PixelSamples {
     /// n_map p_map + n_cone p_cone of each sample (the data's term is added once its
     /// density is evaluated).
     density: Vec<f64>,
-    background: Vec<[f64; 3]>,
 }
 
-/// A sample's direction before its densities: local (wo, wi) and the world direction.
-struct Drawn {
+/// A sample that hit the sphere, before its direction: its batch, strategy (0 map, 1 data,
+/// 2 cones), point, and the local frame's outgoing direction and mirror direction.
+struct Hit {
+    batch: usize,
+    strategy: usize,
+    point: [f64; 5],
+    frame: Frame,
     wo: glam::Vec3,
-    wi: glam::Vec3,
-    world: glam::Vec3,
     mirror: glam::DVec3,
 }
 
@@ -236,133 +243,186 @@ impl Stage<'_> {
         (per_batch, batches): (usize, usize),
         seed: u64,
     ) -> Vec<[f64; 3]> {
-        let set = self.draw(reps[0], (x, y), (per_batch, batches), seed);
+        let mut background = vec![[0.0; 3]; batches];
+        let hits = self.hits((x, y), (per_batch, batches), seed, &mut background);
+        let set = self.directions(reps[0], hits, per_batch);
         let n = set.wi.len();
         let mut values = vec![[0.0f64; 3]; reps.len() * batches];
         for row in values.chunks_mut(batches) {
-            row.copy_from_slice(&set.background);
+            row.copy_from_slice(&background);
         }
         let (mut f, mut pdf) = (vec![Rgb::splat(0.0); n], vec![0.0f32; n]);
         reps[0].eval_pdf_many(&set.wo, &set.wi, &mut f, &mut pdf);
+        // Per sample, the radiance over the density (the balance heuristic's weight).
         let n_data = (per_batch / 4) as f64;
-        let weight: Vec<f64> = (0..n)
+        let lw: Vec<[f64; 3]> = (0..n)
             .map(|k| {
                 let density = set.density[k] + n_data * pdf[k] as f64;
                 match density > 0.0 {
-                    true => set.wi[k].z as f64 / density,
-                    false => 0.0,
+                    true => set.radiance[k].map(|l| l * set.wi[k].z as f64 / density),
+                    false => [0.0; 3],
                 }
             })
             .collect();
+        // The samples come in batch order: each batch's run of them.
+        let runs = set.batch.chunk_by(|a, b| a == b).scan(0, |start, c| {
+            let r = (c[0], *start..*start + c.len());
+            *start += c.len();
+            Some(r)
+        });
+        let runs: Vec<(usize, std::ops::Range<usize>)> = runs.collect();
         for (r, rep) in reps.iter().enumerate() {
             if r > 0 {
                 rep.eval_pdf_many(&set.wo, &set.wi, &mut f, &mut pdf);
             }
-            for k in 0..n {
-                let fk = f[k].to_array();
-                let v: [f64; 3] =
-                    std::array::from_fn(|c| fk[c] as f64 * set.radiance[k][c] * weight[k]);
-                if v.iter().all(|x| x.is_finite()) {
-                    add(&mut values[r * batches + set.batch[k]], v, 1.0);
-                }
+            for (batch, run) in &runs {
+                add(
+                    &mut values[r * batches + batch],
+                    batch_sum(&f[run.clone()], &lw[run.clone()]),
+                    1.0,
+                );
             }
         }
         values
     }
 
-    /// The samples of pixel (x, y).
-    fn draw(
+    /// The camera samples of pixel (x, y) that hit the sphere; those that miss add the
+    /// map's radiance to their batch's `background`. Each strategy's samples are a
+    /// low-discrepancy set of their own, so that every strategy covers the whole pixel.
+    fn hits(
         &self,
-        data: &dyn Bsdf,
         (x, y): (u32, u32),
         (per_batch, batches): (usize, usize),
         seed: u64,
-    ) -> PixelSamples {
-        let mut set = PixelSamples {
-            background: vec![[0.0; 3]; batches],
-            ..Default::default()
-        };
+        background: &mut [[f64; 3]],
+    ) -> Vec<Hit> {
         let pixel_id = y as u64 * self.width as u64 + x as u64;
         let counts = [per_batch / 2, per_batch / 4, per_batch / 4];
-        for b in 0..batches {
-            let key = hash(hash(seed, pixel_id), b as u64);
+        let mut hits = Vec::with_capacity(per_batch * batches);
+        for (batch, bg) in background.iter_mut().enumerate() {
+            let key = hash(hash(seed, pixel_id), batch as u64);
             let shift: [f64; 5] = std::array::from_fn(|i| unit(hash(hash(key, i as u64), 17)));
-            for k in 0..per_batch {
-                let p = point(k, per_batch, &shift);
+            let samples = (0..3).flat_map(|j| (0..counts[j]).map(move |i| (j, i)));
+            for (strategy, i) in samples {
+                let point = point(i, counts[strategy], &shift);
                 let film = glam::Vec2::new(
-                    (x as f64 + p[0]) as f32 / self.width as f32,
-                    (y as f64 + p[1]) as f32 / self.height as f32,
+                    (x as f64 + point[0]) as f32 / self.width as f32,
+                    (y as f64 + point[1]) as f32 / self.height as f32,
                 );
                 let ray = self.camera.ray(film);
                 let t = self.sphere.intersect(&ray);
                 if !t.is_finite() {
                     let l = self.env.eval(ray.d.normalize());
-                    let l = [l.r as f64, l.g as f64, l.b as f64];
-                    add(&mut set.background[b], l, 1.0 / per_batch as f64);
+                    add(
+                        bg,
+                        [l.r as f64, l.g as f64, l.b as f64],
+                        1.0 / per_batch as f64,
+                    );
                     continue;
                 }
-                let strategy = match k % 4 {
-                    0 | 1 => 0,
-                    2 => 1,
-                    _ => 2,
-                };
-                let Some(d) = self.direction(data, ray.o + ray.d * t, ray.d, strategy, &p) else {
-                    continue;
-                };
-                let (l, p_env) = self.env.eval_pdf(d.world);
-                let l = [l.r as f64, l.g as f64, l.b as f64];
-                if !l.iter().any(|&v| v > 0.0) {
-                    continue;
+                let (_, n, dpdu) = self.sphere.surface(ray.o + ray.d * t);
+                let frame = Frame::from_normal_tangent(n, dpdu);
+                let wo = frame.to_local(-ray.d).normalize();
+                if wo.z > 0.0 {
+                    let mirror = glam::DVec3::new(-wo.x as f64, -wo.y as f64, wo.z as f64);
+                    hits.push(Hit {
+                        batch,
+                        strategy,
+                        point,
+                        frame,
+                        wo,
+                        mirror,
+                    });
                 }
-                set.batch.push(b);
-                set.wo.push(d.wo);
-                set.wi.push(d.wi);
-                set.radiance.push(l);
-                set.density.push(
-                    counts[0] as f64 * p_env as f64
-                        + counts[2] as f64 * mirror_cones::pdf(d.mirror, d.wi.as_dvec3()),
-                );
             }
+        }
+        hits
+    }
+
+    /// The directions of `hits` (the map's samples drawn together, in SIMD lanes), their
+    /// radiance and the map's and cones' share of their density (looked up together).
+    fn directions(&self, data: &dyn Bsdf, hits: Vec<Hit>, per_batch: usize) -> PixelSamples {
+        let u_of = |h: &Hit| {
+            glam::Vec2::new(
+                (h.point[2] as f32).min(1.0 - f32::EPSILON),
+                (h.point[3] as f32).min(1.0 - f32::EPSILON),
+            )
+        };
+        let us: Vec<glam::Vec2> = hits.iter().filter(|h| h.strategy == 0).map(u_of).collect();
+        let m = us.len();
+        let (mut map_dirs, mut li, mut pdf) = (
+            vec![glam::Vec3::ZERO; m],
+            vec![Rgb::splat(0.0); m],
+            vec![0.0; m],
+        );
+        self.env.sample_many(&us, &mut map_dirs, &mut li, &mut pdf);
+        let mut from_map = map_dirs.into_iter().zip(pdf);
+        // The data's samples drawn together too (a batched form where the model has one).
+        let of_data: Vec<&Hit> = hits.iter().filter(|h| h.strategy == 1).collect();
+        let wos: Vec<glam::Vec3> = of_data.iter().map(|h| h.wo).collect();
+        let u2: Vec<glam::Vec2> = of_data.iter().map(|h| u_of(h)).collect();
+        let ucs: Vec<f32> = of_data.iter().map(|h| h.point[4] as f32).collect();
+        let mut data_samples = vec![None; of_data.len()];
+        data.sample_many(&wos, &u2, &ucs, &mut data_samples);
+        let mut from_data = data_samples.into_iter();
+        let mut drawn = PixelSamples::default();
+        let mut world = Vec::with_capacity(hits.len());
+        for h in &hits {
+            let wi = match h.strategy {
+                0 => match from_map.next() {
+                    Some((d, p)) if p > 0.0 => Some(h.frame.to_local(d).normalize()),
+                    _ => None,
+                },
+                1 => from_data.next().flatten().map(|s| s.wi),
+                _ => {
+                    let e = mirror_cones::EXPONENTS[((h.point[4] * 4.0) as usize).min(3)];
+                    Some(mirror_cones::sample(h.mirror, e, [h.point[2], h.point[3]]).as_vec3())
+                }
+            };
+            let Some(wi) = wi.filter(|wi| wi.z > 0.0) else {
+                continue;
+            };
+            drawn.batch.push(h.batch);
+            drawn.wo.push(h.wo);
+            drawn.wi.push(wi);
+            drawn
+                .density
+                .push((per_batch / 4) as f64 * mirror_cones::pdf(h.mirror, wi.as_dvec3()));
+            world.push(h.frame.to_world(wi).normalize());
+        }
+        let mut looked_up = vec![(Rgb::splat(0.0), 0.0f32); world.len()];
+        self.env.eval_pdf_many(&world, &mut looked_up);
+        // Samples where the map is black add nothing: dropped before the evaluations.
+        let n_map = (per_batch / 2) as f64;
+        let mut set = PixelSamples::default();
+        for (k, (l, p_env)) in looked_up.into_iter().enumerate() {
+            if !(l.r > 0.0 || l.g > 0.0 || l.b > 0.0) {
+                continue;
+            }
+            set.batch.push(drawn.batch[k]);
+            set.wo.push(drawn.wo[k]);
+            set.wi.push(drawn.wi[k]);
+            set.radiance.push([l.r as f64, l.g as f64, l.b as f64]);
+            set.density.push(drawn.density[k] + n_map * p_env as f64);
         }
         set
     }
+}
 
-    /// The direction of `strategy` (0 map, 1 data, 2 cones) at the hit `p` of a ray along
-    /// `d`; None where it adds nothing (below the surface, nothing drawn).
-    fn direction(
-        &self,
-        data: &dyn Bsdf,
-        p: glam::Vec3,
-        d: glam::Vec3,
-        strategy: usize,
-        pt: &[f64; 5],
-    ) -> Option<Drawn> {
-        let (_, n, dpdu) = self.sphere.surface(p);
-        let frame = Frame::from_normal_tangent(n, dpdu);
-        let wo = frame.to_local(-d).normalize();
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let u = glam::Vec2::new(
-            (pt[2] as f32).min(1.0 - f32::EPSILON),
-            (pt[3] as f32).min(1.0 - f32::EPSILON),
-        );
-        let mirror = glam::DVec3::new(-wo.x as f64, -wo.y as f64, wo.z as f64);
-        let wi = match strategy {
-            0 => frame.to_local(self.env.sample(u)?.0).normalize(),
-            1 => data.sample(wo, u, pt[4] as f32)?.wi,
-            _ => {
-                let e = mirror_cones::EXPONENTS[((pt[4] * 4.0) as usize).min(3)];
-                mirror_cones::sample(mirror, e, [pt[2], pt[3]]).as_vec3()
+/// The sum of `f * lw` over samples, skipping any whose product is not finite; four
+/// independent accumulators so that the additions overlap.
+fn batch_sum(f: &[Rgb], lw: &[[f64; 3]]) -> [f64; 3] {
+    let mut acc = [[0.0f64; 3]; 4];
+    for (k, (fk, w)) in f.iter().zip(lw).enumerate() {
+        let v = [fk.r as f64 * w[0], fk.g as f64 * w[1], fk.b as f64 * w[2]];
+        if (v[0] + v[1] + v[2]).is_finite() {
+            let a = &mut acc[k % 4];
+            for c in 0..3 {
+                a[c] += v[c];
             }
-        };
-        (wi.z > 0.0).then(|| Drawn {
-            wo,
-            wi,
-            world: frame.to_world(wi).normalize(),
-            mirror,
-        })
+        }
     }
+    std::array::from_fn(|c| (acc[0][c] + acc[1][c]) + (acc[2][c] + acc[3][c]))
 }
 
 fn add(acc: &mut [f64; 3], v: [f64; 3], s: f64) {
@@ -409,8 +469,8 @@ impl Sums {
     }
 
     /// Adds one pixel channel's batch values `d` (a difference, or the data's own values
-    /// for representation 0) of representation `r`.
-    fn add(&mut self, r: usize, d: &[f64]) {
+    /// for representation 0) of representation `r`; returns their sample variance.
+    fn add(&mut self, r: usize, d: &[f64]) -> f64 {
         let b = d.len();
         let nb = b as f64;
         let mean = d.iter().sum::<f64>() / nb;
@@ -430,6 +490,7 @@ impl Sums {
             // The noise of a B-batch mean, estimated from B - 1 batches.
             self.v_loo[r * b + k] += var_k / nb;
         }
+        var
     }
 }
 
@@ -459,75 +520,123 @@ fn root(x: f64) -> f64 {
 /// A pixel's mean and the variance of that mean, per channel.
 type Moments = ([f32; 3], [f32; 3]);
 
-/// One pass at `spp` samples per pixel: the batch sums and the mean images (the data's
-/// two halves appended).
+/// One pass's results: the batch sums, the mean images (the data's two halves appended)
+/// and, per pixel and fit, the variance of one sample of its difference (summed over
+/// channels), from which the next pass's samples are allocated.
+struct Pass {
+    sums: Sums,
+    images: Vec<Vec<Moments>>,
+    /// `[pixel * fits + (rep - 1)]`.
+    sample_variance: Vec<f32>,
+}
+
+/// One pass with `spp[pixel]` samples in pixel `pixel` (row-major; each a multiple of
+/// four times the batch count).
 fn pass(
     stage: &Stage<'_>,
     reps: &[&dyn Bsdf],
     settings: &ErrorSettings,
-    spp: usize,
+    spp: &[usize],
     seed: u64,
-) -> (Sums, Vec<Vec<Moments>>) {
+) -> Pass {
     let m = reps.len();
     let batches = settings.batches;
-    let per_batch = spp / batches;
     let (w, h) = (stage.width, stage.height);
-    let rows: Vec<(Sums, Vec<Vec<Moments>>)> = (0..h)
+    let rows: Vec<Pass> = (0..h)
         .into_par_iter()
         .map(|y| {
-            let mut sums = Sums::new(m, batches);
-            let mut images = vec![Vec::with_capacity(w as usize); m + 2];
-            let mut d = vec![0.0; batches];
+            let mut row = Pass {
+                sums: Sums::new(m, batches),
+                images: vec![Vec::with_capacity(w as usize); m + 2],
+                sample_variance: vec![0.0; w as usize * (m - 1)],
+            };
             for x in 0..w {
+                let per_batch = spp[(y * w + x) as usize] / batches;
                 let px = stage.pixel(reps, (x, y), (per_batch, batches), seed);
-                let value = |r: usize, b: usize, c: usize| px[r * batches + b][c];
-                for c in 0..3 {
-                    for r in 0..m {
-                        for (b, db) in d.iter_mut().enumerate() {
-                            *db = match r {
-                                0 => value(0, b, c),
-                                _ => value(r, b, c) - value(0, b, c),
-                            };
-                        }
-                        sums.add(r, &d);
-                    }
-                }
-                let moments = |r: usize, bs: std::ops::Range<usize>| -> Moments {
-                    let n = bs.len() as f64;
-                    let mean: [f64; 3] = std::array::from_fn(|c| {
-                        bs.clone().map(|b| value(r, b, c)).sum::<f64>() / n
-                    });
-                    let var: [f64; 3] = std::array::from_fn(|c| {
-                        let ss: f64 = bs.clone().map(|b| (value(r, b, c) - mean[c]).powi(2)).sum();
-                        ss / (n - 1.0) / n
-                    });
-                    (mean.map(|v| v as f32), var.map(|v| v as f32))
-                };
-                for (r, img) in images.iter_mut().enumerate().take(m) {
-                    img.push(moments(r, 0..batches));
-                }
-                images[m].push(moments(0, 0..batches / 2));
-                images[m + 1].push(moments(0, batches / 2..batches));
-                sums.data_sq += images[0]
+                let variance = &mut row.sample_variance[x as usize * (m - 1)..][..m - 1];
+                pixel_sums(&px, batches, per_batch, &mut row.sums, variance);
+                pixel_moments(&px, m, batches, &mut row.images);
+                row.sums.data_sq += row.images[0]
                     .last()
                     .map_or(0.0, |p| p.0.iter().map(|&v| (v as f64).powi(2)).sum());
             }
-            (sums, images)
+            row
         })
         .collect();
-    let mut total = Sums::new(m, batches);
-    let mut images = vec![Vec::with_capacity((w * h) as usize); m + 2];
-    for (s, imgs) in &rows {
-        total = total.merge(s);
-        for (all, row) in images.iter_mut().zip(imgs) {
-            all.extend_from_slice(row);
+    let mut total = Pass {
+        sums: Sums::new(m, batches),
+        images: vec![Vec::with_capacity((w * h) as usize); m + 2],
+        sample_variance: Vec::with_capacity((w * h) as usize * (m - 1)),
+    };
+    for row in &rows {
+        total.sums = std::mem::take(&mut total.sums).merge(&row.sums);
+        for (all, part) in total.images.iter_mut().zip(&row.images) {
+            all.extend_from_slice(part);
+        }
+        total
+            .sample_variance
+            .extend_from_slice(&row.sample_variance);
+    }
+    total
+}
+
+/// Adds a pixel's batch values `px` (`[rep * batches + batch]`, RGB) to `sums` (the data's
+/// own values, and each fit's difference from them) and writes each fit's one-sample
+/// variance of its difference, summed over channels, to `variance`.
+fn pixel_sums(
+    px: &[[f64; 3]],
+    batches: usize,
+    per_batch: usize,
+    sums: &mut Sums,
+    variance: &mut [f32],
+) {
+    let m = px.len() / batches;
+    let value = |r: usize, b: usize, c: usize| px[r * batches + b][c];
+    let mut d = vec![0.0; batches];
+    variance.fill(0.0);
+    for c in 0..3 {
+        for r in 0..m {
+            for (b, db) in d.iter_mut().enumerate() {
+                *db = match r {
+                    0 => value(0, b, c),
+                    _ => value(r, b, c) - value(0, b, c),
+                };
+            }
+            let var = sums.add(r, &d);
+            if r > 0 {
+                variance[r - 1] += (var * per_batch as f64) as f32;
+            }
         }
     }
-    (total, images)
+}
+
+/// Appends a pixel's mean and its variance to each representation's image, and the data's
+/// two halves of batches to the last two.
+fn pixel_moments(px: &[[f64; 3]], m: usize, batches: usize, images: &mut [Vec<Moments>]) {
+    let value = |r: usize, b: usize, c: usize| px[r * batches + b][c];
+    let moments = |r: usize, bs: std::ops::Range<usize>| -> Moments {
+        let n = bs.len() as f64;
+        let mean: [f64; 3] =
+            std::array::from_fn(|c| bs.clone().map(|b| value(r, b, c)).sum::<f64>() / n);
+        let var: [f64; 3] = std::array::from_fn(|c| {
+            let ss: f64 = bs.clone().map(|b| (value(r, b, c) - mean[c]).powi(2)).sum();
+            ss / (n - 1.0) / n
+        });
+        (mean.map(|v| v as f32), var.map(|v| v as f32))
+    };
+    for (r, img) in images.iter_mut().enumerate().take(m) {
+        img.push(moments(r, 0..batches));
+    }
+    images[m].push(moments(0, 0..batches / 2));
+    images[m + 1].push(moments(0, batches / 2..batches));
 }
 
 /// The images, errors and noise of representations `reps` (`reps[0]` the measured data)
-/// on `stage`, sampled until the targets of `settings` hold or the cap is reached.
+/// on `stage`. A pilot pass at [`ErrorSettings::pilot_spp`] in every pixel; while the
+/// targets of `settings` miss, a new pass whose samples go where the last pass's
+/// differences were noisy ([`allocate`]), up to a mean of [`ErrorSettings::max_spp`] per
+/// pixel. Each pass is independent of the one it was planned from, and only the last is
+/// reported, so the allocation biases nothing.
 pub fn estimate(
     stage: &Stage<'_>,
     reps: &[&dyn Bsdf],
@@ -540,21 +649,162 @@ pub fn estimate(
     };
     let quantum = 4 * b;
     let round_up = |s: usize| s.div_ceil(quantum).max(1) * quantum;
+    let pixels = (stage.width * stage.height) as usize;
     let max_spp = round_up(settings.max_spp);
-    let mut spp = round_up(settings.pilot_spp).min(max_spp);
+    let mut spp = vec![round_up(settings.pilot_spp).min(max_spp); pixels];
     let mut passes = 0;
     loop {
         passes += 1;
-        let (sums, images) = pass(stage, reps, &settings, spp, settings.seed ^ passes as u64);
-        let (mut out, halves) = summarize(stage, &sums, images, &settings);
-        out.spp = spp;
+        let p = pass(stage, reps, &settings, &spp, settings.seed ^ passes as u64);
+        let (mut out, halves) = summarize(stage, &p.sums, p.images, &settings);
+        out.spp = spp.iter().sum::<usize>() / pixels;
+        out.spp_max = spp.iter().copied().max().unwrap_or(0);
         out.passes = passes;
-        let factor = needed_factor(&out, &settings);
-        if factor <= 1.0 || spp >= max_spp || passes >= 3 {
-            add_flip(&mut out, &halves)?;
-            return Ok(out);
+        let spent = out.spp >= max_spp * 9 / 10;
+        let next = match needed_factor(&out, &settings) <= 1.0 || spent || passes >= 3 {
+            true => None,
+            false => allocate(stage, &p.sample_variance, &out, &settings),
+        };
+        match next {
+            Some(n) => spp = n.into_iter().map(round_up).collect(),
+            None => {
+                add_flip(&mut out, &halves)?;
+                return Ok(out);
+            }
         }
-        spp = round_up((spp as f64 * factor * 1.2).ceil() as usize).min(max_spp);
+    }
+}
+
+/// The samples per pixel of the next pass, planned from the last pass's one-sample
+/// variances `sample_variance` (`[pixel * fits + fit]`): in proportion to the square root
+/// of each pixel's weighted variance summed over the fits (the allocation that minimises
+/// the weighted sum of their noise for a budget), widened by a 3x3 maximum so that a hot
+/// spot seen in one pixel covers its neighbours. The weights are raised, a few rounds,
+/// for the fits whose predicted noise is the largest, so that the largest (the noise
+/// floor) is what falls. Scaled so that the noise floor meets its target (a tenth of the
+/// smallest non-negligible error) within a mean of [`ErrorSettings::max_spp`] per pixel.
+/// None when no fit is non-negligible.
+fn allocate(
+    stage: &Stage<'_>,
+    sample_variance: &[f32],
+    out: &SphereErrors,
+    s: &ErrorSettings,
+) -> Option<Vec<usize>> {
+    let fits = out.errors.len() - 1;
+    let smallest = out.errors[1..]
+        .iter()
+        .filter(|e| !e.negligible)
+        .map(|e| e.rmse)
+        .min_by(f64::total_cmp)?;
+    let plan = Plan {
+        width: stage.width as usize,
+        height: stage.height as usize,
+        fits,
+        sample_variance,
+        floor: (4 * s.batches) as f64,
+        ceiling: 64.0 * s.max_spp as f64,
+    };
+    let target = (s.noise_ratio * smallest / 1.2).powi(2);
+    let mut weights = vec![1.0; fits];
+    let mut counts = Vec::new();
+    for _ in 0..4 {
+        let shape = plan.shape(&weights);
+        counts = plan.scaled(&shape, target, s.max_spp as f64);
+        let noise = plan.noise(&counts);
+        let worst = noise.iter().copied().fold(0.0, f64::max);
+        for (w, n) in weights.iter_mut().zip(&noise) {
+            *w *= (n / worst.max(1e-300)).max(1e-3);
+        }
+    }
+    Some(counts.into_iter().map(|x| x as usize).collect())
+}
+
+/// What [`allocate`] plans from: the film, the last pass's one-sample variances, and the
+/// fewest and most samples a pixel may take (the fewest is also their quantum).
+struct Plan<'a> {
+    width: usize,
+    height: usize,
+    fits: usize,
+    sample_variance: &'a [f32],
+    floor: f64,
+    ceiling: f64,
+}
+
+impl Plan<'_> {
+    /// Per pixel, the square root of the weighted variance summed over the fits, then the
+    /// largest of it over the pixel's 3x3 neighbourhood.
+    fn shape(&self, weights: &[f64]) -> Vec<f64> {
+        let (w, h) = (self.width, self.height);
+        let raw: Vec<f64> = self
+            .sample_variance
+            .chunks(self.fits)
+            .map(|v| {
+                v.iter()
+                    .zip(weights)
+                    .map(|(&x, k)| x as f64 * k)
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .collect();
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let ys = y.saturating_sub(1)..(y + 2).min(h);
+                ys.flat_map(|v| (x.saturating_sub(1)..(x + 2).min(w)).map(move |u| (u, v)))
+                    .map(|(u, v)| raw[v * w + u])
+                    .fold(0.0, f64::max)
+            })
+            .collect()
+    }
+
+    /// Samples per pixel in proportion to `shape`, clamped to the floor and the ceiling,
+    /// rounded up to a multiple of the floor.
+    fn counts(&self, shape: &[f64], scale: f64) -> Vec<f64> {
+        let q = self.floor;
+        shape
+            .iter()
+            .map(|g| ((scale * g).clamp(q, self.ceiling) / q).ceil() * q)
+            .collect()
+    }
+
+    /// Each fit's predicted mean square noise (per pixel and channel) under `counts`.
+    fn noise(&self, counts: &[f64]) -> Vec<f64> {
+        let n = 3.0 * counts.len() as f64;
+        (0..self.fits)
+            .map(|r| {
+                counts
+                    .iter()
+                    .enumerate()
+                    .map(|(i, c)| self.sample_variance[i * self.fits + r] as f64 / c)
+                    .sum::<f64>()
+                    / n
+            })
+            .collect()
+    }
+
+    /// The counts of the smallest scale of `shape` whose worst predicted noise meets
+    /// `target`, or of the largest whose mean is within `budget` if that is smaller
+    /// (bisections in log scale: noise falls and the mean grows with the scale).
+    fn scaled(&self, shape: &[f64], target: f64, budget: f64) -> Vec<f64> {
+        let mean = |c: &[f64]| c.iter().sum::<f64>() / c.len() as f64;
+        let meets = |x: f64| {
+            let worst = self.noise(&self.counts(shape, x.exp()));
+            worst.into_iter().fold(0.0, f64::max) <= target
+        };
+        let affordable = |x: f64| mean(&self.counts(shape, x.exp())) <= budget;
+        let bisect = |ok_high: bool, test: &dyn Fn(f64) -> bool| {
+            let (mut lo, mut hi) = (1e-6f64.ln(), 1e9f64.ln());
+            for _ in 0..50 {
+                let mid = 0.5 * (lo + hi);
+                match test(mid) == ok_high {
+                    true => hi = mid,
+                    false => lo = mid,
+                }
+            }
+            if ok_high { hi } else { lo }
+        };
+        let scale = bisect(true, &meets).min(bisect(false, &affordable));
+        self.counts(shape, scale.exp())
     }
 }
 
@@ -649,6 +899,7 @@ fn summarize(
         flip_maps: Vec::new(),
         noise_floor,
         spp: 0,
+        spp_max: 0,
         batches: b,
         passes: 0,
         exposure,
@@ -673,5 +924,54 @@ pub fn exposure_for(img: &Image) -> f32 {
     match *p99 > 0.0 {
         true => (-p99.log2()).clamp(-20.0, 20.0),
         false => 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 5 x 5 film with two fits: one pixel whose first fit is 100 times noisier than
+    /// anywhere else.
+    fn hot_spot() -> Vec<f32> {
+        let mut v = vec![1.0f32; 25 * 2];
+        v[12 * 2] = 100.0;
+        v
+    }
+
+    #[test]
+    fn samples_go_to_the_hot_spot_and_its_neighbours() {
+        let variance = hot_spot();
+        let plan = Plan {
+            width: 5,
+            height: 5,
+            fits: 2,
+            sample_variance: &variance,
+            floor: 4.0,
+            ceiling: 1e6,
+        };
+        let shape = plan.shape(&[1.0, 1.0]);
+        let counts = plan.scaled(&shape, 1e-3, 1e9);
+        let (hot, near, far) = (counts[12], counts[6], counts[0]);
+        assert!(hot == near && near > 5.0 * far, "{hot} {near} {far}");
+        assert!(counts.iter().all(|c| c % 4.0 == 0.0 && *c >= 4.0));
+        let worst = plan.noise(&counts).into_iter().fold(0.0, f64::max);
+        assert!(worst <= 1e-3, "{worst}");
+    }
+
+    #[test]
+    fn the_budget_bounds_the_mean() {
+        let variance = hot_spot();
+        let plan = Plan {
+            width: 5,
+            height: 5,
+            fits: 2,
+            sample_variance: &variance,
+            floor: 4.0,
+            ceiling: 1e6,
+        };
+        let counts = plan.scaled(&plan.shape(&[1.0, 1.0]), 1e-9, 64.0);
+        let mean = counts.iter().sum::<f64>() / 25.0;
+        assert!(mean <= 64.0 && mean > 48.0, "{mean}");
     }
 }

@@ -29,10 +29,21 @@ fn pair() -> [Arc<dyn Bsdf>; 2] {
 }
 
 fn run(stage: &Stage<'_>, reps: &[Arc<dyn Bsdf>], spp: usize, seed: u64) -> SphereErrors {
+    run_adaptive(stage, reps, (spp, spp), seed)
+}
+
+/// A pilot pass at `pilot` samples per pixel, then passes planned from it within a mean
+/// of `max` per pixel.
+fn run_adaptive(
+    stage: &Stage<'_>,
+    reps: &[Arc<dyn Bsdf>],
+    (pilot, max): (usize, usize),
+    seed: u64,
+) -> SphereErrors {
     let refs: Vec<&dyn Bsdf> = reps.iter().map(|b| b.as_ref()).collect();
     let s = ErrorSettings {
-        pilot_spp: spp,
-        max_spp: spp,
+        pilot_spp: pilot,
+        max_spp: max,
         seed,
         ..Default::default()
     };
@@ -76,6 +87,56 @@ fn intervals_cover_the_true_error_at_their_stated_rate() {
     assert!(
         noise > 0.0 && noise < truth,
         "noise floor {noise} vs error {truth}"
+    );
+}
+
+#[test]
+fn planned_passes_cover_the_true_error_and_move_samples_to_the_highlight() {
+    // A pilot pass, then a pass whose samples follow the pilot's noise: the reported pass
+    // is independent of the plan, so its intervals keep their rate; the samples gather
+    // where the difference is noisy (the highlight), well above the mean.
+    let env = studio();
+    let stage = Stage::sphere(&env, 24);
+    let reps = pair();
+    let truth = run(&stage, &reps, 16384, 999).errors[1].rmse;
+    let trials = 60;
+    let mut covered = 0;
+    for seed in 0..trials {
+        let e = run_adaptive(&stage, &reps, (64, 512), seed);
+        assert_eq!(e.passes, 2, "a second pass was planned");
+        assert!(
+            e.spp <= 512 && e.spp_max > 4 * e.spp,
+            "{} / {}",
+            e.spp,
+            e.spp_max
+        );
+        let r = &e.errors[1];
+        covered += (r.ci95[0] <= truth && truth <= r.ci95[1]) as usize;
+    }
+    assert!(
+        covered >= 51,
+        "{covered} of {trials} intervals cover {truth}"
+    );
+}
+
+#[test]
+fn planned_passes_lower_the_noise_floor_at_equal_samples() {
+    let env = studio();
+    let stage = Stage::sphere(&env, 32);
+    let reps = pair();
+    let uniform = run(&stage, &reps, 512, 4);
+    let planned = run_adaptive(&stage, &reps, (64, 512), 4);
+    assert!(
+        planned.spp <= uniform.spp,
+        "{} vs {}",
+        planned.spp,
+        uniform.spp
+    );
+    assert!(
+        planned.noise_floor < 0.8 * uniform.noise_floor,
+        "planned {} vs uniform {}",
+        planned.noise_floor,
+        uniform.noise_floor
     );
 }
 
@@ -169,8 +230,9 @@ fn the_estimate_is_the_same_whatever_the_thread_count() {
         .num_threads(1)
         .build()
         .unwrap();
-    let a = one.install(|| run(&stage, &reps, 64, 5));
-    let b = run(&stage, &reps, 64, 5);
+    let a = one.install(|| run_adaptive(&stage, &reps, (64, 256), 5));
+    let b = run_adaptive(&stage, &reps, (64, 256), 5);
+    assert_eq!(a.passes, 2);
     assert_eq!(a.errors, b.errors);
     assert_eq!(a.images[1].pixels, b.images[1].pixels);
 }

@@ -241,9 +241,10 @@ fn gather(
 }
 
 /// Keys of a map's entry in results.json copied from its metrics.json.
-const MAP_KEYS: [&str; 8] = [
+const MAP_KEYS: [&str; 9] = [
     "noise_floor",
     "spp",
+    "spp_max",
     "passes",
     "batches",
     "exposure",
@@ -527,9 +528,13 @@ fn render_grid(d: &MaterialData, env: usize) -> String {
     let (name, m) = &d.maps[env];
     let dir = format!("../{}", Layout::renders_rel(&d.name, name));
     let mut s = format!(
-        "<h3>Under {}</h3>\n<p class=\"note\">{} spp per pixel for every image from the same samples (common random numbers), {} batches; exposure {:+.2} stops (under 1 % of the reference's pixels clip). Noise floor {:.2e}: the RMS noise left in a difference image. Below each fit: its FLIP map against the reference.</p>\n",
+        "<h3>Under {}</h3>\n<p class=\"note\">{} spp per pixel on average{} for every image from the same samples (common random numbers), {} batches; exposure {:+.2} stops (under 1 % of the reference's pixels clip). Noise floor {:.2e}: the RMS noise left in a difference image. Below each fit: its FLIP map against the reference.</p>\n",
         esc(name),
         m["spp"],
+        match m["spp_max"].as_u64() {
+            Some(most) => format!(" (up to {most} where the differences are noisiest)"),
+            None => String::new(),
+        },
         m["batches"],
         m["exposure"].as_f64().unwrap_or(0.0),
         m["noise_floor"].as_f64().unwrap_or(f64::NAN),

@@ -468,7 +468,7 @@ fn renders(ctx: &Context<'_>, m: &StudyMaterial, env: &Env, key: &str) -> Result
         })
         .collect();
     let v = json!({
-        "key": key, "environment": env.name, "size": s.size, "spp": est.spp, "passes": est.passes,
+        "key": key, "environment": env.name, "size": s.size, "spp": est.spp, "spp_max": est.spp_max, "passes": est.passes,
         "batches": est.batches, "noise_floor": est.noise_floor,
         "exposure": est.exposure, "noise_target_met": est.noise_target_met,
         "interval_target_met": est.interval_target_met,
