@@ -9,9 +9,15 @@
 //! ~30 %, exponents ~4x the mirror-lobe ones, as n_h ~ 4 n_r predicts); docs/models.md
 //! records the evidence.
 //!
-//! Sampling: cos(theta_h) = u^(1 / (n + 1)), p(h) = (n + 1) / (2 pi) cos^n(theta_h).
+//! Sampling: the lobe is the cosine-power microfacet distribution D(h) of the same n, so its
+//! half vectors are drawn as that distribution's visible normals (a Beckmann proposal of
+//! m = sqrt(2 / (n + 2)), [`Distribution::sample_visible`]): the density of h follows
+//! D(h) max(0, wo.h), and the weight f cos / p no longer carries wo.h, which at grazing
+//! `wo` wasted most samples of the old D(h)-only sampler (docs/performance.md, "Sampling
+//! variance per model").
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
+use super::microfacet::Distribution;
 use crate::fastmath;
 use crate::fastmath::xn;
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
@@ -30,18 +36,8 @@ pub struct BlinnPhong {
     pub n: f64,
 }
 
-/// Half vector with density (n + 1) / (2 pi) cos^n(theta_h) about +z.
-#[inline]
-pub fn sample_cos_power_h(n: f32, u: Vec2) -> Vec3 {
-    lobe::half_from(fastmath::powf(u.y, 1.0 / (n + 1.0)), u.x)
-}
-
-/// [`sample_cos_power_h`] of `LANES` points (x, y) in lanes, bit for bit the same.
-#[inline(always)]
-pub fn sample_cos_power_h_xn(n: f32, ux: f32xn, uy: f32xn) -> Vec3xN {
-    lobe::xn::half_from(xn::powf(uy, f32xn::splat(1.0 / (n + 1.0))), ux)
-}
-
+/// Density (n + 1) / (2 pi) cos^n(theta) of a direction at angle theta from a cosine-power
+/// lobe's axis.
 #[inline]
 pub fn cos_power_pdf(n: f32, cos_t: f32) -> f32 {
     if cos_t <= 0.0 {
@@ -59,6 +55,13 @@ pub fn cos_power_pdf_xn(n: f32, cos_t: f32xn) -> f32xn {
 }
 
 impl BlinnPhong {
+    /// The lobe as a microfacet distribution (cosine power of exponent n), whose visible
+    /// normals sample it.
+    #[inline]
+    fn distribution(&self) -> Distribution {
+        Distribution::CosinePower { n: self.n.max(0.0) }
+    }
+
     #[inline]
     pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T {
         if above(wo, wi).is_none() {
@@ -79,7 +82,10 @@ impl Lobe for BlinnPhong {
     crate::impl_lobe_eval!();
 
     fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
-        sample_via_half(wo, sample_cos_power_h(self.n as f32, u))
+        if wo.z <= 0.0 {
+            return None;
+        }
+        sample_via_half(wo, self.distribution().sample_visible(wo, u))
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -89,7 +95,8 @@ impl Lobe for BlinnPhong {
         let Some(h) = half::<f32>(wo.into(), wi.into()) else {
             return 0.0;
         };
-        half_to_incident_pdf(cos_power_pdf(self.n as f32, h.z), wo.dot(h.into()))
+        let h: Vec3 = h.into();
+        half_to_incident_pdf(self.distribution().pdf_visible(wo, h), wo.dot(h))
     }
 
     fn sample_xn(
@@ -99,8 +106,9 @@ impl Lobe for BlinnPhong {
         _uc: &[f32; LANES],
     ) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
-        let h = sample_cos_power_h_xn(self.n as f32, ux, uy);
-        lobe::xn::sample_via_half(Vec3xN::from_array(wo), h)
+        let wo = Vec3xN::from_array(wo);
+        let h = self.distribution().sample_visible_xn(wo, ux, uy);
+        lobe::xn::sample_via_half(wo, h)
     }
 
     /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
@@ -111,7 +119,8 @@ impl Lobe for BlinnPhong {
         let n = self.n as f32;
         let v = f32xn::splat((n + 2.0) / (2.0 * PI)) * xn::powf(h.z.max(zero), f32xn::splat(n));
         let v = sel(ok, v, zero);
-        let p = lobe::xn::half_to_incident_pdf(cos_power_pdf_xn(n, h.z), wo.dot(h));
+        let p_h = self.distribution().pdf_visible_xn(wo, h);
+        let p = lobe::xn::half_to_incident_pdf(p_h, wo.dot(h));
         (RgbxN::new(v, v, v), sel(ok, p, zero))
     }
 

@@ -116,18 +116,19 @@ impl Distribution {
     }
 
     /// The roughness of the Beckmann distribution whose visible normals
-    /// ([`visible`]) sample this one: its own for Beckmann, the same `m` for the Gaussian
-    /// (a proposal); None for cosine power, sampled by D(h) cos(theta_h).
+    /// ([`visible`]) sample this one: its own for Beckmann; for the Gaussian and cosine
+    /// power (proposals), the `m` they were made from (cosine power's exponent is
+    /// n = 2 / m^2 - 2, the one whose peak matches Beckmann's of that m).
     fn visible_m(&self) -> Option<f32> {
         match *self {
             Distribution::Beckmann { m } | Distribution::Gaussian { m, .. } => Some(m as f32),
-            Distribution::CosinePower { .. } => None,
+            Distribution::CosinePower { n } => Some((2.0 / (n + 2.0)).sqrt() as f32),
         }
     }
 
     /// Samples a half vector seen from `wo` (local frame, wo.z > 0): Beckmann's visible
-    /// normals for Beckmann and the Gaussian ([`visible`]), [`Distribution::sample_h`]
-    /// for cosine power. Lane 0 of [`Distribution::sample_visible_xn`].
+    /// normals ([`visible`]) of [`Distribution::visible_m`]. Lane 0 of
+    /// [`Distribution::sample_visible_xn`].
     #[inline]
     pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Vec3 {
         match self.visible_m() {
