@@ -27,16 +27,17 @@
 //! - The specular spike rho_s (eq. 70) is not part of the lobe (bbm drops it too); the
 //!   uniform-diffuse term is the material's Lambertian.
 //!
-//! `sigma0` and `tau` are in micrometres. Sampling: a 50/50 mixture of Beckmann half-vector
-//! lobes with alpha = lambda_G / (2 pi tau) (the diffraction width of the smooth regime) and
-//! alpha = 2 sigma(wo, wo) / tau (the rough regime, where the lobe is Cook-Torrance with
-//! that Beckmann alpha).
+//! `sigma0` and `tau` are in micrometres. Sampling: a mixture of two Beckmann visible-normal
+//! samplers (Heitz and d'Eon 2014) with alpha = lambda_G / (2 pi tau cos_o) (the diffraction
+//! width of the smooth regime, which widens in angle at grazing) and alpha = 2 sigma(wo, wo) / tau (the rough regime, where the lobe
+//! is Cook-Torrance with that Beckmann alpha), weighted by the diffraction term's share of
+//! the series' energy at `wo` ([`He::proposal_mixture`]).
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
 use super::he_shadowing;
 use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
-use super::microfacet::{Distribution, MIN_ROUGHNESS, beckmann_cos_xn, beckmann_d_xn};
+use super::microfacet::{Distribution, MIN_ROUGHNESS, beckmann_d_xn, visible};
 use crate::fastmath::{self, xn};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
@@ -340,20 +341,27 @@ impl He {
         out
     }
 
-    /// The two Beckmann proposals of the sampler for `wo`.
-    fn proposals(&self, wo: Vec3) -> [Distribution; 2] {
-        self.proposal_roughness(wo)
-            .map(|m| Distribution::Beckmann { m })
-    }
-
-    /// The roughnesses of [`He::proposals`]: (smooth, rough).
-    fn proposal_roughness(&self, wo: Vec3) -> [f64; 2] {
-        let smooth =
-            (WAVELENGTHS_UM[1] / (2.0 * std::f64::consts::PI * self.tau)).clamp(MIN_ROUGHNESS, 2.0);
+    /// The proposals' roughnesses (smooth, rough) and the smooth one's share of the
+    /// samples at `wo`. The series is a Poisson mixture over m of lobes whose energy goes
+    /// as the Poisson weight g^m e^-g / m!: the m = 1 term is the diffraction lobe the
+    /// smooth proposal follows, the terms near m = g the rough one. Its share is the m = 1
+    /// term's part of the series' energy at g(wo, wo) (green), kept within [0.05, 0.95]
+    /// so that neither proposal is ever left out.
+    fn proposal_mixture(&self, wo: Vec3) -> ([f64; 2], f64) {
         let co = wo.z.clamp(1e-4, 1.0) as f64;
+        // The m = 1 term is exp(-pi^2 tau^2 |(wi + wo)_xy|^2 / lambda^2): Beckmann's
+        // exp(-tan^2 / m^2) with tan = |(wi + wo)_xy| / (cos_i + cos_o), cos_i ~ cos_o.
+        let smooth = (WAVELENGTHS_UM[1] / (2.0 * std::f64::consts::PI * self.tau * co))
+            .clamp(MIN_ROUGHNESS, 2.0);
         let sigma = he_shadowing::self_roughness(self.sigma0 as f32, self.tau as f32, co as f32);
         let rough = (2.0 * sigma as f64 / self.tau).clamp(smooth, 2.0);
-        [smooth, rough]
+        let k = 2.0 * std::f64::consts::PI / WAVELENGTHS_UM[1] * sigma as f64 * 2.0 * co;
+        let g = k * k;
+        let first = match g > 1e-12 {
+            true => g * (-g).exp() / -(-g).exp_m1(),
+            false => 1.0,
+        };
+        ([smooth, rough], first.clamp(0.05, 0.95))
     }
 }
 
@@ -399,17 +407,16 @@ impl Lobe for He {
     }
 
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3> {
-        let [a, b] = self.proposals(wo);
-        let h = if uc < 0.5 {
-            a.sample_h(u)
-        } else {
-            b.sample_h(u)
-        };
-        sample_via_half(wo, h)
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let ([a, b], w) = self.proposal_mixture(wo);
+        let m = if uc < w as f32 { a } else { b };
+        sample_via_half(wo, Distribution::Beckmann { m }.sample_visible(wo, u))
     }
 
     /// [`He::sample`] in lanes: each lane's proposal (its roughness depends on `wo`) one
-    /// by one, the Beckmann half vectors and their mirrors a lane vector at a time.
+    /// by one, the Beckmann visible normals and their mirrors a lane vector at a time.
     fn sample_xn(
         &self,
         wo: &[Vec3; LANES],
@@ -417,12 +424,13 @@ impl Lobe for He {
         uc: &[f32; LANES],
     ) -> [Option<Vec3>; LANES] {
         let m = simd::lanes(|i| {
-            let [smooth, rough] = self.proposal_roughness(wo[i]);
-            (if uc[i] < 0.5 { smooth } else { rough }) as f32
+            let ([smooth, rough], w) = self.proposal_mixture(wo[i]);
+            (if uc[i] < w as f32 { smooth } else { rough }) as f32
         });
         let [ux, uy] = simd::vec2s(u);
-        let h = lobe::xn::half_from(beckmann_cos_xn(f32xn::new(m), uy), ux);
-        lobe::xn::sample_via_half(Vec3xN::from_array(wo), h)
+        let m = f32xn::new(m);
+        let wo = Vec3xN::from_array(wo);
+        lobe::xn::sample_via_half(wo, visible::sample(m, m, wo, ux, uy))
     }
 
     /// The value in lanes ([`He::value_xn`]), `pdf` in lanes: each lane's proposal
@@ -434,18 +442,22 @@ impl Lobe for He {
         let f = self.value_xn_at_half(wo, wi, (h, has_half));
         let zero = f32xn::splat(0.0);
         let ok = lobe::xn::above(wo, wi) & has_half;
-        let m2 = simd::lanes(|k| self.proposal_roughness(o[k]).map(|m| (m * m) as f32));
+        // Each lane's two roughnesses as f32, their squares as
+        // [`Distribution::pdf_visible`] forms them (from the f32 roughness), and the smooth
+        // one's share.
+        let mix = simd::lanes(|k| self.proposal_mixture(o[k]));
         let cos = h.z;
         let positive = cos.simd_gt(zero);
-        let pdf_h = |m2: f32xn| sel(positive, beckmann_d_xn(m2, cos), zero) * cos;
-        let (smooth, rough) = (
-            f32xn::new(simd::lanes(|k| m2[k][0])),
-            f32xn::new(simd::lanes(|k| m2[k][1])),
-        );
-        let p = lobe::xn::half_to_incident_pdf(
-            f32xn::splat(0.5) * (pdf_h(smooth) + pdf_h(rough)),
-            wo.dot(h),
-        );
+        let pdf_h = |j: usize| {
+            let mj = simd::lanes(|k| mix[k].0[j] as f32);
+            let m2 = f32xn::new(simd::lanes(|k| (mj[k] as f64 * mj[k] as f64) as f32));
+            let mj = f32xn::new(mj);
+            let d = sel(positive, beckmann_d_xn(m2, cos), zero);
+            visible::pdf(mj, mj, wo, h, d)
+        };
+        let w = f32xn::new(simd::lanes(|k| mix[k].1 as f32));
+        let p_h = w * pdf_h(0) + (f32xn::splat(1.0) - w) * pdf_h(1);
+        let p = lobe::xn::half_to_incident_pdf(p_h, wo.dot(h));
         let p = sel(ok & p.is_finite(), p, zero);
         (f, p)
     }
@@ -457,8 +469,14 @@ impl Lobe for He {
         let Some(h) = (wo + wi).try_normalize() else {
             return 0.0;
         };
-        let [a, b] = self.proposals(wo);
-        let p = half_to_incident_pdf(0.5 * (a.pdf_h(h.z) + b.pdf_h(h.z)), wo.dot(h));
+        let ([a, b], w) = self.proposal_mixture(wo);
+        let w = w as f32;
+        let (a, b) = (
+            Distribution::Beckmann { m: a },
+            Distribution::Beckmann { m: b },
+        );
+        let p_h = w * a.pdf_visible(wo, h) + (1.0 - w) * b.pdf_visible(wo, h);
+        let p = half_to_incident_pdf(p_h, wo.dot(h));
         if p.is_finite() { p } else { 0.0 }
     }
 
