@@ -627,7 +627,7 @@ mod tests {
 
     /// The lane forms equal the scalar functions bit for bit.
     #[test]
-    fn x8_forms_are_bit_identical() {
+    fn lane_forms_equal_the_scalar_forms_bit_for_bit() {
         use crate::simd::f32xn;
         let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
         let mut xs: Vec<f32> = (0..=400_000)

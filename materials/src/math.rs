@@ -77,14 +77,6 @@ impl Real for f64 {
     }
 }
 
-/// `x` if `lo < x`, else `lo` (so NaN and -0.0 against +0.0 give `lo`): the clamp of the
-/// models' formulas, defined as the SIMD kernels' `max` is ([`crate::simd::max_lane`];
-/// `Float::max` leaves the sign of a zero unspecified).
-#[inline(always)]
-pub fn max_of<T: Real>(x: T, lo: T) -> T {
-    if lo < x { x } else { lo }
-}
-
 /// A 3-vector over a [`Real`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct V3<T> {

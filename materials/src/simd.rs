@@ -505,12 +505,6 @@ impl Vec3xN {
         Self::from(vec3s(v))
     }
 
-    /// A chunk of one to `LANES` vectors ([`padded`]).
-    #[inline(always)]
-    pub fn from_chunk(chunk: &[Vec3]) -> Self {
-        Self::from_array(&padded(chunk))
-    }
-
     /// Lane i as a glam vector.
     #[inline(always)]
     pub fn lane(&self, i: usize) -> Vec3 {

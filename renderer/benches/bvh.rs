@@ -7,7 +7,8 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-use lobe_renderer::geometry::bvh::{PrimKind, PrimShape, Primitive, Prims, ShapeGeom};
+use lobe_renderer::geometry::bvh::{Prims, ShapeGeom};
+use lobe_renderer::geometry::primitive::{PrimKind, PrimShape, Primitive};
 use lobe_renderer::geometry::{Geometry, Mesh, Ray};
 use std::hint::black_box;
 

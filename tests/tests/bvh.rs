@@ -3,7 +3,8 @@
 //! agree with closest hits.
 
 use glam::{Mat4, Vec3};
-use lobe_renderer::geometry::bvh::{PrimKind, PrimShape, Primitive, ShapeGeom};
+use lobe_renderer::geometry::bvh::ShapeGeom;
+use lobe_renderer::geometry::primitive::{PrimKind, PrimShape, Primitive};
 use lobe_renderer::geometry::{Geometry, Mesh, Ray, Rectangle, Sphere, Triangle};
 
 struct Lcg(u64);

@@ -748,7 +748,7 @@ mod tests {
     /// bit for bit, lane by lane, on a table of two interpolated parameters with constant
     /// and zero rows (the degenerate branches of the segment warp).
     #[test]
-    fn x8_forms_equal_the_scalar_ones_bit_for_bit() {
+    fn lane_forms_equal_the_scalar_ones_bit_for_bit() {
         use crate::simd::lanes;
         let (w, h) = (7, 6);
         let params = vec![vec![0.0, 0.4, 1.0], vec![-1.0, 0.0, 2.0, 3.0]];

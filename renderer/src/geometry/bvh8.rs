@@ -15,8 +15,8 @@
 //! bytes per leaf block, reported by [`Bvh8::memory_bytes`].
 
 use super::Ray;
-use super::bvh::PrimSource;
 use super::kernels::{self, RayLanes};
+use super::primitive::PrimSource;
 #[cfg(doc)]
 use super::{Rectangle, Sphere, Triangle};
 use lobe_materials::simd::sel;
@@ -363,8 +363,8 @@ impl Bvh8 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::bvh::{PrimKind, Primitive};
     use super::super::bvh8_build::Draft;
+    use super::super::primitive::{PrimKind, Primitive};
     use super::super::{Rectangle, Sphere};
     use super::*;
     use glam::Vec3;
@@ -416,7 +416,7 @@ mod tests {
             });
         }
         let meshes = [mesh];
-        let prims: super::super::bvh::Prims = prims.into_iter().collect();
+        let prims: super::super::prims::Prims = prims.into_iter().collect();
         let source = PrimSource {
             prims: &prims,
             meshes: &meshes,

@@ -12,11 +12,12 @@
 //! ([`Draft::finish`]). So the build never holds a whole-scene set of obvhs's buffers or
 //! two copies of the leaf blocks. The tree is the same whatever the thread count.
 
-use super::bvh::{PrimKind, PrimShape, PrimSource, Prims};
 use super::bvh8::{
     Bvh8, INDEX_MASK, INNER, KIND_SHIFT, LANES, MAX_DEPTH, Node, RECTANGLES, RectBlock, SPHERES,
     SphereBlock, TRIANGLES, TriBlock,
 };
+use super::primitive::{PrimKind, PrimShape, PrimSource};
+use super::prims::Prims;
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;

@@ -71,11 +71,6 @@ impl Mesh {
         }
         self.normals = acc.into_par_iter().map(|n| n.normalize_or_zero()).collect();
     }
-
-    pub fn triangle_area(&self, i: usize) -> f32 {
-        let p = self.indices[i].map(|k| self.positions[k as usize]);
-        0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
-    }
 }
 
 /// A triangle as a BVH primitive: its vertices, precomputed edges, and where it lives.

@@ -12,6 +12,7 @@ pub mod bvh8;
 mod bvh8_build;
 pub mod kernels;
 pub mod mesh;
+pub mod primitive;
 pub mod prims;
 pub mod rectangle;
 pub mod sphere;

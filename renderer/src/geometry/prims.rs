@@ -3,7 +3,7 @@
 //! primitive index names the same primitive as in a flat list, but a mesh costs a few
 //! bytes instead of 24 per triangle (at 16 million triangles, 384 MB).
 
-use super::bvh::{PrimKind, Primitive};
+use super::primitive::{PrimKind, Primitive};
 
 /// A run of primitives from index `start`: `first.kind` is a sphere or a rectangle (a run
 /// of one), or a mesh triangle followed by that mesh's next triangles.

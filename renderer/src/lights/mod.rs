@@ -172,10 +172,6 @@ impl Light {
         )
     }
 
-    pub fn is_delta(&self) -> bool {
-        matches!(self, Light::Point { .. } | Light::Directional { .. })
-    }
-
     /// Samples incident light at point `p`.
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         match self {
@@ -267,16 +263,6 @@ impl Light {
             Light::Env(env) => env.eval_pdf(d),
             Light::Constant { radiance } => (*radiance, UNIFORM_SPHERE_PDF),
             _ => (Rgb::ZERO, 0.0),
-        }
-    }
-
-    /// Solid-angle density with which `sample_li` picks direction `d` (infinite lights).
-    #[inline]
-    pub fn pdf_infinite(&self, d: Vec3) -> f32 {
-        match self {
-            Light::Env(env) => env.pdf(d),
-            Light::Constant { .. } => UNIFORM_SPHERE_PDF,
-            _ => 0.0,
         }
     }
 
