@@ -1,4 +1,4 @@
-//! Fuzz targets for every reader (issue 9), shared by the cargo-fuzz targets of `fuzz/`
+//! Fuzz targets for every reader, shared by the cargo-fuzz targets of `fuzz/`
 //! (libFuzzer, nightly: `scripts/fuzz.sh`) and by the stable mutation test
 //! `tests/tests/fuzz_smoke.rs` that CI runs. Each target takes arbitrary bytes and a scratch
 //! folder and must return (an error is fine) without panicking, hanging or allocating

@@ -1,4 +1,4 @@
-//! Brief, deterministic fuzzing of every reader on stable Rust (issue 9): each target of
+//! Brief, deterministic fuzzing of every reader on stable Rust: each target of
 //! `lobe_tests::fuzz` runs on its seed corpus, on deterministic mutations of it (bit flips,
 //! overwrites with interesting bytes, truncations, insertions, duplicated slices, extreme
 //! numbers) and on every input kept in tests/fuzz-regressions/<target>/ (crashes found by

@@ -12,9 +12,9 @@
 //! Sampling: the lobe is the cosine-power microfacet distribution D(h) of the same n, so its
 //! half vectors are drawn as that distribution's visible normals (a Beckmann proposal of
 //! m = sqrt(2 / (n + 2)), [`Distribution::sample_visible`]): the density of h follows
-//! D(h) max(0, wo.h), and the weight f cos / p no longer carries wo.h, which at grazing
-//! `wo` wasted most samples of the old D(h)-only sampler (docs/performance.md, "Sampling
-//! variance per model").
+//! D(h) max(0, wo.h), so the weight f cos / p does not carry wo.h, which at grazing `wo`
+//! would waste most samples of a D(h)-only sampler (docs/performance.md, "Sampling variance
+//! per model").
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::Distribution;
