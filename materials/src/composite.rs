@@ -150,6 +150,9 @@ const MAX_INLINE: usize = 8;
 /// the same lobe share its lane calls.
 const SAMPLE_BLOCK: usize = 256;
 
+/// The component of a query that chose none (its weights sum to zero).
+const NO_COMPONENT: usize = usize::MAX;
+
 /// The component weights of `LANES` queries, `w[k]` lane by lane, and their sums.
 struct LaneWeights {
     w: [f32xn; MAX_INLINE + 1],
@@ -299,13 +302,41 @@ impl Composite {
     fn sample_block(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let m = wo.len();
         debug_assert!(m <= SAMPLE_BLOCK);
-        // Per query: the chosen component (0 diffuse, k lobe k - 1; `NONE` for none) and
-        // what is left of `uc` within it.
-        const NONE: usize = usize::MAX;
-        let mut choice = [(NONE, 0.0f32); SAMPLE_BLOCK];
+        let mut choice = [(NO_COMPONENT, 0.0f32); SAMPLE_BLOCK];
         let mut wi = [None::<Vec3>; SAMPLE_BLOCK];
+        self.choose_components(wo, u, uc, &mut choice[..m], &mut wi[..m]);
+        self.sample_chosen_lobes(wo, u, &choice[..m], &mut wi[..m]);
         simd::chunks_where(
             m,
+            |k| wi[k].is_some(),
+            |idx| {
+                let o = simd::lanes_of(idx, |k| wo[k]);
+                let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo[k]));
+                let w = self.lane_weights(f32xn::new(simd::lanes(|lane| o[lane].z)));
+                let d = Vec3xN::from_array(&d);
+                let (v, p) = self.mix_xn(Vec3xN::from_array(&o), d, &w);
+                let s = BsdfSample::finish_xn(d, p, v);
+                for (lane, &k) in idx.iter().enumerate() {
+                    out[k] = s[lane];
+                }
+            },
+        );
+    }
+
+    /// The first step of [`Composite::sample_block`]: per query above the surface, the
+    /// component its `uc` chooses (0 diffuse, k lobe k - 1; [`NO_COMPONENT`] where the
+    /// weights sum to zero) and what is left of `uc` within it, weights a lane vector at a
+    /// time; the diffuse component's direction is drawn on the way.
+    fn choose_components(
+        &self,
+        wo: &[Vec3],
+        u: &[Vec2],
+        uc: &[f32],
+        choice: &mut [(usize, f32)],
+        wi: &mut [Option<Vec3>],
+    ) {
+        simd::chunks_where(
+            wo.len(),
             |k| !(wo[k].z <= 0.0),
             |idx| {
                 let w = self.lane_weights(f32xn::new(simd::lanes_of(idx, |k| wo[k].z)));
@@ -320,7 +351,7 @@ impl Composite {
                     let c = if total[lane] > 0.0 {
                         chosen[lane] as usize
                     } else {
-                        NONE
+                        NO_COMPONENT
                     };
                     choice[k] = (c, uc_rest[lane]);
                     let [x, y, z] = diffuse.map(|c| c[lane]);
@@ -328,7 +359,18 @@ impl Composite {
                 }
             },
         );
-        // Each lobe samples the queries that chose it as one batch ([`Lobe::sample_batch`]).
+    }
+
+    /// The second step of [`Composite::sample_block`]: each lobe samples the queries that
+    /// chose it as one batch ([`Lobe::sample_batch`]), so that no lane samples a lobe its
+    /// query did not choose.
+    fn sample_chosen_lobes(
+        &self,
+        wo: &[Vec3],
+        u: &[Vec2],
+        choice: &[(usize, f32)],
+        wi: &mut [Option<Vec3>],
+    ) {
         let mut idx = [0usize; SAMPLE_BLOCK];
         let mut batch_wo = [Vec3::ZERO; SAMPLE_BLOCK];
         let mut batch_u = [Vec2::ZERO; SAMPLE_BLOCK];
@@ -336,7 +378,7 @@ impl Composite {
         let mut batch_wi = [None::<Vec3>; SAMPLE_BLOCK];
         for (j, (_, lobe)) in self.lobes.iter().enumerate() {
             let mut len = 0;
-            for (k, c) in choice[..m].iter().enumerate() {
+            for (k, c) in choice.iter().enumerate() {
                 idx[len] = k;
                 len += (c.0 == j + 1) as usize;
             }
@@ -356,21 +398,6 @@ impl Composite {
                 wi[k] = batch_wi[q];
             }
         }
-        simd::chunks_where(
-            m,
-            |k| wi[k].is_some(),
-            |idx| {
-                let o = simd::lanes_of(idx, |k| wo[k]);
-                let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo[k]));
-                let w = self.lane_weights(f32xn::new(simd::lanes(|lane| o[lane].z)));
-                let d = Vec3xN::from_array(&d);
-                let (v, p) = self.mix_xn(Vec3xN::from_array(&o), d, &w);
-                let s = BsdfSample::finish_xn(d, p, v);
-                for (lane, &k) in idx.iter().enumerate() {
-                    out[k] = s[lane];
-                }
-            },
-        );
     }
 
     /// The component `uc` chooses in proportion to the weights `w` (sum `total`), and

@@ -298,38 +298,12 @@ pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
         )));
     }
     let (w, h) = (test.width, test.height);
-    let mut scales: Vec<u32> = Z_TEST_SCALES
+    let scales = z_test_scales(w, h);
+    let terms = PixelTerms::new(test, reference);
+    let tests: usize = scales
         .iter()
-        .copied()
-        .filter(|&s| s <= w.max(h))
-        .collect();
-    if !scales.contains(&w.max(h)) && w.max(h) < 64 {
-        scales.push(w.max(h));
-    }
-    // Per pixel and channel: difference, combined variance, and v^2 / dof for the
-    // Welch-Satterthwaite degrees of freedom.
-    let n = (w * h) as usize;
-    let (dof_t, dof_r) = (test.variance_dof.max(1.0), reference.variance_dof.max(1.0));
-    let mut diff = vec![[0.0f64; 3]; n];
-    let mut var = vec![[0.0f64; 3]; n];
-    let mut v2dof = vec![[0.0f64; 3]; n];
-    for k in 0..n {
-        let (a, b) = (test.pixels[k].to_array(), reference.pixels[k].to_array());
-        let (va, vb) = (
-            test.variance[k].to_array(),
-            reference.variance[k].to_array(),
-        );
-        for c in 0..3 {
-            let (va, vb) = (va[c] as f64, vb[c] as f64);
-            diff[k][c] = a[c] as f64 - b[c] as f64;
-            var[k][c] = va + vb;
-            v2dof[k][c] = va * va / dof_t + vb * vb / dof_r;
-        }
-    }
-    let mut tests = 0usize;
-    for &s in &scales {
-        tests += (w.div_ceil(s) * h.div_ceil(s) * 3) as usize;
-    }
+        .map(|&s| (w.div_ceil(s) * h.div_ceil(s) * 3) as usize)
+        .sum();
     let threshold = 1.0 - (1.0 - alpha).powf(1.0 / tests.max(1) as f64);
     let mut out = ZTest {
         min_p: 1.0,
@@ -341,38 +315,7 @@ pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
     for &s in &scales {
         for by in (0..h).step_by(s as usize) {
             for bx in (0..w).step_by(s as usize) {
-                let (mut d, mut v, mut r, mut q) =
-                    ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
-                let mut cnt = 0usize;
-                for y in by..(by + s).min(h) {
-                    for x in bx..(bx + s).min(w) {
-                        let k = (y * w + x) as usize;
-                        let rp = reference.pixels[k].to_array();
-                        for c in 0..3 {
-                            d[c] += diff[k][c];
-                            v[c] += var[k][c];
-                            q[c] += v2dof[k][c];
-                            r[c] += rp[c] as f64;
-                        }
-                        cnt += 1;
-                    }
-                }
-                let cnt = cnt as f64;
-                for c in 0..3 {
-                    let (dm, vm, rm) = (d[c] / cnt, v[c] / (cnt * cnt), r[c] / cnt);
-                    let (p, z) = if vm > 0.0 {
-                        let z = dm / vm.sqrt();
-                        let dof = if q[c] > 0.0 {
-                            v[c] * v[c] / q[c]
-                        } else {
-                            f64::INFINITY
-                        };
-                        (p_value_t(z, dof), z)
-                    } else if dm.abs() <= 1e-6 * (1.0 + rm.abs()) {
-                        (1.0, 0.0)
-                    } else {
-                        (0.0, f64::INFINITY)
-                    };
+                for (p, z) in terms.block_test((bx, by), s, reference) {
                     if p < out.min_p {
                         out.min_p = p;
                         out.worst = (bx, by, s, z);
@@ -386,6 +329,98 @@ pub fn z_test(test: &Image, reference: &Image, alpha: f64) -> Result<ZTest> {
         }
     }
     Ok(out)
+}
+
+/// The block sizes of a `w` x `h` image's test: [`Z_TEST_SCALES`] up to its size, and the
+/// whole image when it is smaller than the largest.
+fn z_test_scales(w: u32, h: u32) -> Vec<u32> {
+    let mut scales: Vec<u32> = Z_TEST_SCALES
+        .iter()
+        .copied()
+        .filter(|&s| s <= w.max(h))
+        .collect();
+    if !scales.contains(&w.max(h)) && w.max(h) < 64 {
+        scales.push(w.max(h));
+    }
+    scales
+}
+
+/// Per pixel and channel of a z-test: the difference, the combined variance, and v^2 / dof
+/// for the Welch-Satterthwaite degrees of freedom.
+struct PixelTerms {
+    width: u32,
+    height: u32,
+    diff: Vec<[f64; 3]>,
+    var: Vec<[f64; 3]>,
+    v2dof: Vec<[f64; 3]>,
+}
+
+impl PixelTerms {
+    fn new(test: &Image, reference: &Image) -> Self {
+        let n = (test.width * test.height) as usize;
+        let (dof_t, dof_r) = (test.variance_dof.max(1.0), reference.variance_dof.max(1.0));
+        let mut t = PixelTerms {
+            width: test.width,
+            height: test.height,
+            diff: vec![[0.0; 3]; n],
+            var: vec![[0.0; 3]; n],
+            v2dof: vec![[0.0; 3]; n],
+        };
+        for k in 0..n {
+            let (a, b) = (test.pixels[k].to_array(), reference.pixels[k].to_array());
+            let (va, vb) = (
+                test.variance[k].to_array(),
+                reference.variance[k].to_array(),
+            );
+            for c in 0..3 {
+                let (va, vb) = (va[c] as f64, vb[c] as f64);
+                t.diff[k][c] = a[c] as f64 - b[c] as f64;
+                t.var[k][c] = va + vb;
+                t.v2dof[k][c] = va * va / dof_t + vb * vb / dof_r;
+            }
+        }
+        t
+    }
+
+    /// The p-value and z of the mean difference over the `s` x `s` block at `(bx, by)`
+    /// (clipped to the image), per channel: Student's t with the Welch-Satterthwaite
+    /// degrees of freedom, or, where the combined variance is zero, a pass when the
+    /// difference is within `1e-6 (1 + |ref|)`.
+    fn block_test(&self, (bx, by): (u32, u32), s: u32, reference: &Image) -> [(f64, f64); 3] {
+        let (w, h) = (self.width, self.height);
+        let (mut d, mut v, mut r, mut q) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
+        let mut cnt = 0usize;
+        for y in by..(by + s).min(h) {
+            for x in bx..(bx + s).min(w) {
+                let k = (y * w + x) as usize;
+                let rp = reference.pixels[k].to_array();
+                for c in 0..3 {
+                    d[c] += self.diff[k][c];
+                    v[c] += self.var[k][c];
+                    q[c] += self.v2dof[k][c];
+                    r[c] += rp[c] as f64;
+                }
+                cnt += 1;
+            }
+        }
+        let cnt = cnt as f64;
+        std::array::from_fn(|c| {
+            let (dm, vm, rm) = (d[c] / cnt, v[c] / (cnt * cnt), r[c] / cnt);
+            if vm > 0.0 {
+                let z = dm / vm.sqrt();
+                let dof = if q[c] > 0.0 {
+                    v[c] * v[c] / q[c]
+                } else {
+                    f64::INFINITY
+                };
+                (p_value_t(z, dof), z)
+            } else if dm.abs() <= 1e-6 * (1.0 + rm.abs()) {
+                (1.0, 0.0)
+            } else {
+                (0.0, f64::INFINITY)
+            }
+        })
+    }
 }
 
 /// Mean and variance of the mean, per pixel, of several independent renders.

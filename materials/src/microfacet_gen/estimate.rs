@@ -130,51 +130,66 @@ fn estimate_p(
     f0: f64,
     diffuse_lum: f64,
 ) -> Vec<f64> {
-    let s = (n - 1) as f64 / 2.0;
-    let node_xy = |k: usize| (-1.0 + (k % n) as f64 / s, -1.0 + (k / n) as f64 / s);
-    let inside = |k: usize| node_dir(n, k % n, k / n).is_some();
     let value = |smp: &crate::fit::dataset::Sample| {
         let pair = (smp.wi.as_dvec3(), smp.wo.as_dvec3());
         eq4_sample(smp, pair, g, f0, diffuse_lum)
     };
-    if !data.anisotropic {
-        let last = (n - 1) as f64;
-        let (acc, wsum) = splat_all(data, n, &|smp, (acc, wsum)| {
-            if let Some((h, v)) = value(smp) {
-                let t = (h.x.hypot(h.y) * last).min(last);
-                let i = (t as usize).min(n - 2);
-                let f = t - i as f64;
-                for (k, w) in [(i, 1.0 - f), (i + 1, f)] {
-                    acc[k] += w * v;
-                    wsum[k] += w;
-                }
-            }
-        });
-        let mut radial: Vec<Option<f64>> = (0..n)
-            .map(|k| (wsum[k] > 1e-9).then(|| acc[k] / wsum[k]))
-            .collect();
-        let near = |k: usize| {
-            [k.wrapping_sub(1), k + 1]
-                .into_iter()
-                .filter(|&j| j < n)
-                .collect()
-        };
-        fill_from_neighbours(&mut radial, &|_| true, &near);
-        let radial: Vec<f64> = radial.into_iter().map(|v| v.unwrap_or(0.0)).collect();
-        return (0..n * n)
-            .map(|k| {
-                let (x, y) = node_xy(k);
-                let t = (x.hypot(y) * last).min(last);
-                let i = (t as usize).min(n - 2);
-                let f = t - i as f64;
-                if inside(k) {
-                    radial[i] * (1.0 - f) + radial[i + 1] * f
-                } else {
-                    0.0
-                }
-            })
-            .collect();
+    match data.anisotropic {
+        false => radial_estimate(data, n, &value),
+        true => table_estimate(data, n, &value),
     }
+}
+
+/// A measurement's half vector and its Eq. (4) value of p, if it has one.
+type PointValue<'a> = dyn Fn(&crate::fit::dataset::Sample) -> Option<(DVec3, f64)> + Sync + 'a;
+
+/// Isotropic data: the values splatted onto a radial profile (linear in |h_xy|, `n` slots
+/// from 0 to 1, empty slots filled from their neighbours), read by every node of the
+/// `n` x `n` table at its radius.
+fn radial_estimate(data: &Dataset, n: usize, value: &PointValue<'_>) -> Vec<f64> {
+    let s = (n - 1) as f64 / 2.0;
+    let last = (n - 1) as f64;
+    let (acc, wsum) = splat_all(data, n, &|smp, (acc, wsum)| {
+        if let Some((h, v)) = value(smp) {
+            let t = (h.x.hypot(h.y) * last).min(last);
+            let i = (t as usize).min(n - 2);
+            let f = t - i as f64;
+            for (k, w) in [(i, 1.0 - f), (i + 1, f)] {
+                acc[k] += w * v;
+                wsum[k] += w;
+            }
+        }
+    });
+    let mut radial: Vec<Option<f64>> = (0..n)
+        .map(|k| (wsum[k] > 1e-9).then(|| acc[k] / wsum[k]))
+        .collect();
+    let near = |k: usize| {
+        [k.wrapping_sub(1), k + 1]
+            .into_iter()
+            .filter(|&j| j < n)
+            .collect()
+    };
+    fill_from_neighbours(&mut radial, &|_| true, &near);
+    let radial: Vec<f64> = radial.into_iter().map(|v| v.unwrap_or(0.0)).collect();
+    (0..n * n)
+        .map(|k| {
+            let (x, y) = (-1.0 + (k % n) as f64 / s, -1.0 + (k / n) as f64 / s);
+            let t = (x.hypot(y) * last).min(last);
+            let i = (t as usize).min(n - 2);
+            let f = t - i as f64;
+            match node_dir(n, k % n, k / n) {
+                Some(_) => radial[i] * (1.0 - f) + radial[i + 1] * f,
+                None => 0.0,
+            }
+        })
+        .collect()
+}
+
+/// Anisotropic data: each value splatted bilinearly onto the `n` x `n` nodes around its
+/// half vector's projection, empty nodes inside the disc filled from their neighbours.
+fn table_estimate(data: &Dataset, n: usize, value: &PointValue<'_>) -> Vec<f64> {
+    let s = (n - 1) as f64 / 2.0;
+    let inside = |k: usize| node_dir(n, k % n, k / n).is_some();
     let (acc, wsum) = splat_all(data, n * n, &|smp, (acc, wsum)| {
         if let Some((h, v)) = value(smp) {
             let (px, py) = ((h.x + 1.0) * s, (h.y + 1.0) * s);

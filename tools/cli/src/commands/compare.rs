@@ -3,7 +3,10 @@
 
 use crate::args::finite;
 use lobe_renderer::Error;
-use lobe_renderer::compare::{check_finite, flip_heatmap, metrics, noise_aware_rmse, z_test};
+use lobe_renderer::compare::{
+    NoiseAwareRmse, ZTest, check_finite, flip_heatmap, metrics, noise_aware_rmse, z_test,
+};
+use lobe_renderer::film::Image;
 use lobe_renderer::image_io::{ImageWindows, read_exr_windows};
 use lobe_renderer::outputs::FilePlan;
 use std::path::{Path, PathBuf};
@@ -148,6 +151,29 @@ fn plan(args: &CompareArgs) -> FilePlan {
     plan
 }
 
+/// `--z-test`: the per-pixel and per-block z-test of the two images at false-alarm rate
+/// `alpha`, and the RMSE with the noise taken out, each image with the variance its file
+/// holds (or a sidecar gives).
+fn noise_tests(
+    args: &CompareArgs,
+    (test, test_windows): (&Image, &ImageWindows),
+    (reference, reference_windows): (&Image, &ImageWindows),
+    alpha: f64,
+) -> Result<(ZTest, NoiseAwareRmse), Error> {
+    if !(alpha > 0.0 && alpha < 1.0) {
+        return Err(Error::Other(format!(
+            "--z-test: expected a false-alarm rate in (0, 1), found {alpha}"
+        )));
+    }
+    let mut t = test.clone();
+    let mut r = reference.clone();
+    t.variance = load_variance(&args.test, test, test_windows)?;
+    r.variance = load_variance(&args.reference, reference, reference_windows)?;
+    t.variance_dof = args.test_dof.unwrap_or(f64::INFINITY);
+    r.variance_dof = args.reference_dof.unwrap_or(f64::INFINITY);
+    Ok((z_test(&t, &r, alpha)?, noise_aware_rmse(&t, &r)?))
+}
+
 pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
     let above: Vec<_> = args
         .fail_above
@@ -169,20 +195,12 @@ pub fn cmd_compare(args: CompareArgs, quiet: bool) -> Result<(), Error> {
     let (m, err) = metrics(&test, &reference, args.exposure)?;
     let z = match args.z_test {
         None => None,
-        Some(alpha) => {
-            if !(alpha > 0.0 && alpha < 1.0) {
-                return Err(Error::Other(format!(
-                    "--z-test: expected a false-alarm rate in (0, 1), found {alpha}"
-                )));
-            }
-            let mut t = test.clone();
-            let mut r = reference.clone();
-            t.variance = load_variance(&args.test, &test, &test_windows)?;
-            r.variance = load_variance(&args.reference, &reference, &reference_windows)?;
-            t.variance_dof = args.test_dof.unwrap_or(f64::INFINITY);
-            r.variance_dof = args.reference_dof.unwrap_or(f64::INFINITY);
-            Some((z_test(&t, &r, alpha)?, noise_aware_rmse(&t, &r)?))
-        }
+        Some(alpha) => Some(noise_tests(
+            &args,
+            (&test, &test_windows),
+            (&reference, &reference_windows),
+            alpha,
+        )?),
     };
     let noise = z.as_ref().map(|z| z.1);
     let z = z.map(|z| z.0);

@@ -133,127 +133,146 @@ pub fn cmd_microfacet(cmd: MicrofacetCmd, quiet: bool) -> Result<(), Error> {
             output,
             opts,
             resolution,
-        } => {
-            opts.check()?;
-            let json_path = output.with_extension("json");
-            check_outputs(&[&data], std::slice::from_ref(&output), Some(&json_path))?;
-            let d = Dataset::read(&data, resolution)?;
-            let source = data.display().to_string();
-            let est = run_estimate(&d, &source, &opts)?;
-            let name = data.file_stem().unwrap_or_default().to_string_lossy();
-            let top = lobe_analysis::figures::distribution_top(&[&est.table]);
-            let title = format!("{name}: estimated distribution of normals");
-            let (exr, png) = write_table(&est.table, &output, &title, top)?;
-            let file = exr
-                .file_name()
-                .map(|f| f.to_string_lossy().to_string())
-                .unwrap_or_default();
-            lobe_renderer::film::write_json(
-                &json_path,
-                &json!({
-                    "source": source,
-                    "material": est.material(&file),
-                    "error": est.error,
-                    "error_normalized": est.error / d.max_albedo.max(1e-300),
-                    "changes": est.changes,
-                    "nodes": opts.nodes,
-                }),
-            )?;
-            if !quiet {
-                eprintln!(
-                    "{source}: f0 {:.3}, Eq. (1) error {:.4e}, p change per iteration {:?}",
-                    est.f0, est.error, est.changes
-                );
-                eprintln!(
-                    "wrote {}, {}, {}",
-                    exr.display(),
-                    png.display(),
-                    json_path.display()
-                );
-            }
-            Ok(())
-        }
+        } => estimate_from_data(&data, &output, &opts, resolution, quiet),
         MicrofacetCmd::Synth {
             structure,
             output,
             opts,
             resolution,
             filled,
-        } => {
-            opts.check()?;
-            let shape = Shape::synthetic(&structure).ok_or_else(|| {
-                Error::Other(format!(
-                    "structure: unknown \"{structure}\"; expected brushed, satin or velvet"
-                ))
-            })?;
-            if !(1.0..=15.0).contains(&resolution) || !(0.01..=1.0).contains(&filled) {
-                return Err(Error::Other(format!(
-                    "--resolution {resolution} / --filled {filled}: expected 1 to 15 degrees and a fraction in (0, 1]"
-                )));
-            }
-            let stems = ["truth", "estimate"].map(|k| output.join(format!("{structure}-{k}")));
-            std::fs::create_dir_all(&output).map_err(|e| {
-                Error::file(output.display(), format!("cannot create the folder: {e}"))
-            })?;
-            check_outputs(&[], &stems, None)?;
-            let config = SynthConfig {
-                nodes: opts.nodes,
-                f0: opts.f0,
-                iterations: opts.iterations,
-                resolution,
-                filled,
-            };
-            let Synth {
-                data,
-                truth,
-                estimate: est,
-                correlation,
-                rows,
-            } = synth(
-                &lobe_materials::registry::Registry::builtin(),
-                &shape,
-                &structure,
-                &config,
-            )?;
-            // Truth and estimate on one colour range, so that they compare colour for colour.
-            let top = lobe_analysis::figures::distribution_top(&[&truth, &est.table]);
-            write_table(&truth, &stems[0], &format!("{structure}: true p(h)"), top)?;
-            write_table(
-                &est.table,
-                &stems[1],
-                &format!("{structure}: p(h) estimated from the data"),
-                top,
-            )?;
-            let mut text = format!(
-                "{structure}: {} bins ({resolution} degree 4D bins, {:.0} % filled), table {} x {}, correlation of p with the truth {:.4}, p change per iteration {:?}\n",
-                data.samples.len(),
-                filled * 100.0,
-                opts.nodes,
-                opts.nodes,
-                correlation,
-                est.changes
-                    .iter()
-                    .map(|c| format!("{c:.2e}"))
-                    .collect::<Vec<_>>()
-            );
-            text += "\n| model | Eq. (1) error | normalized | fitted lobe |\n|---|---|---|---|\n";
-            for (label, e, _, note) in &rows {
-                text += &format!(
-                    "| {label} | {e:.4e} | {:.4e} | {note} |\n",
-                    e / data.max_albedo.max(1e-300)
-                );
-            }
-            print!("{text}");
-            let table = output.join(format!("{structure}.md"));
-            lobe_renderer::film::atomic_write(&table, |w| w.write_all(text.as_bytes()))?;
-            if !quiet {
-                eprintln!(
-                    "wrote the tables, plots and {} into {}",
-                    table.display(),
-                    output.display()
-                );
-            }
-            Ok(())
-        }
+        } => synthetic_round_trip(&structure, &output, &opts, (resolution, filled), quiet),
     }
+}
+
+/// `lobe microfacet estimate`: the distribution of normals estimated from measured data,
+/// written as a table (EXR, PNG) and a material (JSON).
+fn estimate_from_data(
+    data: &Path,
+    output: &Path,
+    opts: &EstimateOpts,
+    resolution: f64,
+    quiet: bool,
+) -> Result<(), Error> {
+    opts.check()?;
+    let json_path = output.with_extension("json");
+    check_outputs(&[data], &[output.to_path_buf()], Some(&json_path))?;
+    let d = Dataset::read(data, resolution)?;
+    let source = data.display().to_string();
+    let est = run_estimate(&d, &source, opts)?;
+    let name = data.file_stem().unwrap_or_default().to_string_lossy();
+    let top = lobe_analysis::figures::distribution_top(&[&est.table]);
+    let title = format!("{name}: estimated distribution of normals");
+    let (exr, png) = write_table(&est.table, output, &title, top)?;
+    let file = exr
+        .file_name()
+        .map(|f| f.to_string_lossy().to_string())
+        .unwrap_or_default();
+    lobe_renderer::film::write_json(
+        &json_path,
+        &json!({
+            "source": source,
+            "material": est.material(&file),
+            "error": est.error,
+            "error_normalized": est.error / d.max_albedo.max(1e-300),
+            "changes": est.changes,
+            "nodes": opts.nodes,
+        }),
+    )?;
+    if !quiet {
+        eprintln!(
+            "{source}: f0 {:.3}, Eq. (1) error {:.4e}, p change per iteration {:?}",
+            est.f0, est.error, est.changes
+        );
+        eprintln!(
+            "wrote {}, {}, {}",
+            exr.display(),
+            png.display(),
+            json_path.display()
+        );
+    }
+    Ok(())
+}
+
+/// `lobe microfacet synth`: a synthetic structure's true distribution, its BRDF binned as
+/// measured data, the distribution estimated back from it and every model's fit.
+fn synthetic_round_trip(
+    structure: &str,
+    output: &Path,
+    opts: &EstimateOpts,
+    (resolution, filled): (f64, f64),
+    quiet: bool,
+) -> Result<(), Error> {
+    opts.check()?;
+    let shape = Shape::synthetic(structure).ok_or_else(|| {
+        Error::Other(format!(
+            "structure: unknown \"{structure}\"; expected brushed, satin or velvet"
+        ))
+    })?;
+    if !(1.0..=15.0).contains(&resolution) || !(0.01..=1.0).contains(&filled) {
+        return Err(Error::Other(format!(
+            "--resolution {resolution} / --filled {filled}: expected 1 to 15 degrees and a fraction in (0, 1]"
+        )));
+    }
+    let stems = ["truth", "estimate"].map(|k| output.join(format!("{structure}-{k}")));
+    std::fs::create_dir_all(output)
+        .map_err(|e| Error::file(output.display(), format!("cannot create the folder: {e}")))?;
+    check_outputs(&[], &stems, None)?;
+    let config = SynthConfig {
+        nodes: opts.nodes,
+        f0: opts.f0,
+        iterations: opts.iterations,
+        resolution,
+        filled,
+    };
+    let Synth {
+        data,
+        truth,
+        estimate: est,
+        correlation,
+        rows,
+    } = synth(
+        &lobe_materials::registry::Registry::builtin(),
+        &shape,
+        structure,
+        &config,
+    )?;
+    // Truth and estimate on one colour range, so that they compare colour for colour.
+    let top = lobe_analysis::figures::distribution_top(&[&truth, &est.table]);
+    write_table(&truth, &stems[0], &format!("{structure}: true p(h)"), top)?;
+    write_table(
+        &est.table,
+        &stems[1],
+        &format!("{structure}: p(h) estimated from the data"),
+        top,
+    )?;
+    let mut text = format!(
+        "{structure}: {} bins ({resolution} degree 4D bins, {:.0} % filled), table {} x {}, correlation of p with the truth {:.4}, p change per iteration {:?}\n",
+        data.samples.len(),
+        filled * 100.0,
+        opts.nodes,
+        opts.nodes,
+        correlation,
+        est.changes
+            .iter()
+            .map(|c| format!("{c:.2e}"))
+            .collect::<Vec<_>>()
+    );
+    text += "\n| model | Eq. (1) error | normalized | fitted lobe |\n|---|---|---|---|\n";
+    for (label, e, _, note) in &rows {
+        text += &format!(
+            "| {label} | {e:.4e} | {:.4e} | {note} |\n",
+            e / data.max_albedo.max(1e-300)
+        );
+    }
+    print!("{text}");
+    let table = output.join(format!("{structure}.md"));
+    lobe_renderer::film::atomic_write(&table, |w| w.write_all(text.as_bytes()))?;
+    if !quiet {
+        eprintln!(
+            "wrote the tables, plots and {} into {}",
+            table.display(),
+            output.display()
+        );
+    }
+    Ok(())
 }
