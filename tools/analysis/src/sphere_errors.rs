@@ -939,17 +939,22 @@ mod tests {
         v
     }
 
-    #[test]
-    fn samples_go_to_the_hot_spot_and_its_neighbours() {
-        let variance = hot_spot();
-        let plan = Plan {
+    /// The plan of a 5 x 5 film with two fits, 4 to a million samples per pixel.
+    fn plan(variance: &[f32]) -> Plan<'_> {
+        Plan {
             width: 5,
             height: 5,
             fits: 2,
-            sample_variance: &variance,
+            sample_variance: variance,
             floor: 4.0,
             ceiling: 1e6,
-        };
+        }
+    }
+
+    #[test]
+    fn samples_go_to_the_hot_spot_and_its_neighbours() {
+        let variance = hot_spot();
+        let plan = plan(&variance);
         let shape = plan.shape(&[1.0, 1.0]);
         let counts = plan.scaled(&shape, 1e-3, 1e9);
         let (hot, near, far) = (counts[12], counts[6], counts[0]);
@@ -962,14 +967,7 @@ mod tests {
     #[test]
     fn the_budget_bounds_the_mean() {
         let variance = hot_spot();
-        let plan = Plan {
-            width: 5,
-            height: 5,
-            fits: 2,
-            sample_variance: &variance,
-            floor: 4.0,
-            ceiling: 1e6,
-        };
+        let plan = plan(&variance);
         let counts = plan.scaled(&plan.shape(&[1.0, 1.0]), 1e-9, 64.0);
         let mean = counts.iter().sum::<f64>() / 25.0;
         assert!(mean <= 64.0 && mean > 48.0, "{mean}");
