@@ -119,7 +119,7 @@ pub struct ErrorSettings {
 impl Default for ErrorSettings {
     fn default() -> Self {
         Self {
-            batches: 16,
+            batches: 8,
             pilot_spp: 64,
             max_spp: 512,
             noise_ratio: 0.1,
