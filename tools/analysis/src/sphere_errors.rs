@@ -194,14 +194,18 @@ fn radical_inverse(mut k: u64, b: u64) -> f64 {
     inv
 }
 
-/// Point `k` of a pixel's batch: 5 coordinates (film x, y; direction u, v; component),
-/// a low-discrepancy set shifted modulo 1 by `shift`.
+/// Point `k` of `n` of a strategy's set in a pixel's batch: 5 coordinates (film x, y;
+/// direction u, v; component), a low-discrepancy set shifted modulo 1 by `shift`. The
+/// direction, where the variance is, takes the Hammersley pair (k / n, radical inverse in
+/// base 2), a (0, m, 2)-net for n = 2^m; the film and the component the radical inverses
+/// in bases 3, 5 and 7. (With Halton's bases 3 and 5 for the direction, the noise floor
+/// is 1.4-1.5x higher at equal samples.)
 fn point(k: usize, n: usize, shift: &[f64; 5]) -> [f64; 5] {
     let base = [
-        (k as f64 + 0.5) / n as f64,
-        radical_inverse(k as u64, 2),
         radical_inverse(k as u64, 3),
         radical_inverse(k as u64, 5),
+        (k as f64 + 0.5) / n as f64,
+        radical_inverse(k as u64, 2),
         radical_inverse(k as u64, 7),
     ];
     std::array::from_fn(|i| (base[i] + shift[i]).fract())
