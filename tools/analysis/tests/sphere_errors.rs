@@ -50,40 +50,49 @@ fn run_adaptive(
     estimate(stage, &refs, &s).unwrap()
 }
 
-#[test]
-fn intervals_cover_the_true_error_at_their_stated_rate() {
+/// 60 independent estimates of the [`pair`]'s error on a 24-pixel stage (pilot and
+/// budget `spp`), and the true error (a 16,384 spp estimate).
+fn trials(spp: (usize, usize)) -> (f64, Vec<SphereErrors>) {
     let env = studio();
     let stage = Stage::sphere(&env, 24);
     let reps = pair();
     let truth = run(&stage, &reps, 16384, 999).errors[1].rmse;
-    let trials = 60;
-    let mut covered = 0;
-    let mut spread = Vec::new();
-    let mut noise = 0.0;
-    for seed in 0..trials {
-        let e = run(&stage, &reps, 64, seed);
-        let r = &e.errors[1];
-        covered += (r.ci95[0] <= truth && truth <= r.ci95[1]) as usize;
-        spread.push(r.rmse);
-        noise += e.noise_floor / trials as f64;
-    }
-    // 95 % intervals: at least 51 of 60 (P(X <= 50) = 0.4 % for a true 95 % rate).
+    let runs = (0..60)
+        .map(|seed| run_adaptive(&stage, &reps, spp, seed))
+        .collect();
+    (truth, runs)
+}
+
+/// That at least 51 of the 60 runs' 95 % intervals cover `truth` (P(X <= 50) = 0.4 % for a
+/// true 95 % rate).
+fn assert_coverage(truth: f64, runs: &[SphereErrors]) {
+    let covered = runs
+        .iter()
+        .filter(|e| e.errors[1].ci95[0] <= truth && truth <= e.errors[1].ci95[1])
+        .count();
     assert!(
         covered >= 51,
-        "{covered} of {trials} intervals cover {truth}"
+        "{covered} of {} intervals cover {truth}",
+        runs.len()
     );
+}
+
+#[test]
+fn intervals_cover_the_true_error_at_their_stated_rate() {
+    let (truth, runs) = trials((64, 64));
+    assert_coverage(truth, &runs);
     // The mean square is unbiased: its average over the trials is within three standard
     // errors of the truth's square.
-    let squares: Vec<f64> = spread.iter().map(|x| x * x).collect();
-    let mean = squares.iter().sum::<f64>() / trials as f64;
-    let se = (squares.iter().map(|x| (x - mean).powi(2)).sum::<f64>()
-        / (trials * (trials - 1)) as f64)
-        .sqrt();
+    let n = runs.len() as f64;
+    let squares: Vec<f64> = runs.iter().map(|e| e.errors[1].rmse.powi(2)).collect();
+    let mean = squares.iter().sum::<f64>() / n;
+    let se = (squares.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n * (n - 1.0))).sqrt();
     assert!(
         (mean - truth * truth).abs() < 3.0 * se,
         "mean square {mean} +- {se} vs true {}",
         truth * truth
     );
+    let noise = runs.iter().map(|e| e.noise_floor).sum::<f64>() / n;
     assert!(
         noise > 0.0 && noise < truth,
         "noise floor {noise} vs error {truth}"
@@ -95,14 +104,8 @@ fn planned_passes_cover_the_true_error_and_move_samples_to_the_highlight() {
     // A pilot pass, then a pass whose samples follow the pilot's noise: the reported pass
     // is independent of the plan, so its intervals keep their rate; the samples gather
     // where the difference is noisy (the highlight), well above the mean.
-    let env = studio();
-    let stage = Stage::sphere(&env, 24);
-    let reps = pair();
-    let truth = run(&stage, &reps, 16384, 999).errors[1].rmse;
-    let trials = 60;
-    let mut covered = 0;
-    for seed in 0..trials {
-        let e = run_adaptive(&stage, &reps, (64, 512), seed);
+    let (truth, runs) = trials((64, 512));
+    for e in &runs {
         assert_eq!(e.passes, 2, "a second pass was planned");
         assert!(
             e.spp <= 512 && e.spp_max > 4 * e.spp,
@@ -110,13 +113,8 @@ fn planned_passes_cover_the_true_error_and_move_samples_to_the_highlight() {
             e.spp,
             e.spp_max
         );
-        let r = &e.errors[1];
-        covered += (r.ci95[0] <= truth && truth <= r.ci95[1]) as usize;
     }
-    assert!(
-        covered >= 51,
-        "{covered} of {trials} intervals cover {truth}"
-    );
+    assert_coverage(truth, &runs);
 }
 
 #[test]
