@@ -37,7 +37,7 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
 use super::he_shadowing;
 use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
-use super::microfacet::{Distribution, MIN_ROUGHNESS, beckmann_d_xn, visible};
+use super::microfacet::{Distribution, MIN_ROUGHNESS, beckmann_visible_pdf_xn, visible};
 use crate::fastmath::{self, xn};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
@@ -442,18 +442,11 @@ impl Lobe for He {
         let f = self.value_xn_at_half(wo, wi, (h, has_half));
         let zero = f32xn::splat(0.0);
         let ok = lobe::xn::above(wo, wi) & has_half;
-        // Each lane's two roughnesses as f32, their squares as
-        // [`Distribution::pdf_visible`] forms them (from the f32 roughness), and the smooth
-        // one's share.
+        // Each lane's two roughnesses and the smooth one's share.
         let mix = simd::lanes(|k| self.proposal_mixture(o[k]));
-        let cos = h.z;
-        let positive = cos.simd_gt(zero);
         let pdf_h = |j: usize| {
-            let mj = simd::lanes(|k| mix[k].0[j] as f32);
-            let m2 = f32xn::new(simd::lanes(|k| (mj[k] as f64 * mj[k] as f64) as f32));
-            let mj = f32xn::new(mj);
-            let d = sel(positive, beckmann_d_xn(m2, cos), zero);
-            visible::pdf(mj, mj, wo, h, d)
+            let m = f32xn::new(simd::lanes(|k| mix[k].0[j] as f32));
+            beckmann_visible_pdf_xn(m, wo, h)
         };
         let w = f32xn::new(simd::lanes(|k| mix[k].1 as f32));
         let p_h = w * pdf_h(0) + (f32xn::splat(1.0) - w) * pdf_h(1);

@@ -224,8 +224,9 @@ struct PixelSamples {
     density: Vec<f64>,
 }
 
-/// A sample that hit the sphere, before its direction: its batch, strategy (0 map, 1 data,
-/// 2 cones), point, and the local frame's outgoing direction and mirror direction.
+/// A sample that hit the sphere, before its direction: its batch, strategy ([`MAP`],
+/// [`DATA`] or [`CONES`]), point, and the local frame's outgoing direction and mirror
+/// direction.
 struct Hit {
     batch: usize,
     strategy: usize,
@@ -258,7 +259,7 @@ impl Stage<'_> {
         let (mut f, mut pdf) = (vec![Rgb::splat(0.0); n], vec![0.0f32; n]);
         reps[0].eval_pdf_many(&set.wo, &set.wi, &mut f, &mut pdf);
         // Per sample, the radiance over the density (the balance heuristic's weight).
-        let n_data = (per_batch / 4) as f64;
+        let n_data = strategy_counts(per_batch)[DATA] as f64;
         let lw: Vec<[f64; 3]> = (0..n)
             .map(|k| {
                 let density = set.density[k] + n_data * pdf[k] as f64;
@@ -301,12 +302,12 @@ impl Stage<'_> {
         background: &mut [[f64; 3]],
     ) -> Vec<Hit> {
         let pixel_id = y as u64 * self.width as u64 + x as u64;
-        let counts = [per_batch / 2, per_batch / 4, per_batch / 4];
+        let counts = strategy_counts(per_batch);
         let mut hits = Vec::with_capacity(per_batch * batches);
         for (batch, bg) in background.iter_mut().enumerate() {
             let key = hash(hash(seed, pixel_id), batch as u64);
             let shift: [f64; 5] = std::array::from_fn(|i| unit(hash(hash(key, i as u64), 17)));
-            let samples = (0..3).flat_map(|j| (0..counts[j]).map(move |i| (j, i)));
+            let samples = (0..counts.len()).flat_map(|j| (0..counts[j]).map(move |i| (j, i)));
             for (strategy, i) in samples {
                 let point = point(i, counts[strategy], &shift);
                 let film = glam::Vec2::new(
@@ -346,13 +347,18 @@ impl Stage<'_> {
     /// The directions of `hits` (the map's samples drawn together, in SIMD lanes), their
     /// radiance and the map's and cones' share of their density (looked up together).
     fn directions(&self, data: &dyn Bsdf, hits: Vec<Hit>, per_batch: usize) -> PixelSamples {
+        let counts = strategy_counts(per_batch);
         let u_of = |h: &Hit| {
             glam::Vec2::new(
                 (h.point[2] as f32).min(1.0 - f32::EPSILON),
                 (h.point[3] as f32).min(1.0 - f32::EPSILON),
             )
         };
-        let us: Vec<glam::Vec2> = hits.iter().filter(|h| h.strategy == 0).map(u_of).collect();
+        let us: Vec<glam::Vec2> = hits
+            .iter()
+            .filter(|h| h.strategy == MAP)
+            .map(u_of)
+            .collect();
         let m = us.len();
         let (mut map_dirs, mut li, mut pdf) = (
             vec![glam::Vec3::ZERO; m],
@@ -362,7 +368,7 @@ impl Stage<'_> {
         self.env.sample_many(&us, &mut map_dirs, &mut li, &mut pdf);
         let mut from_map = map_dirs.into_iter().zip(pdf);
         // The data's samples drawn together too (a batched form where the model has one).
-        let of_data: Vec<&Hit> = hits.iter().filter(|h| h.strategy == 1).collect();
+        let of_data: Vec<&Hit> = hits.iter().filter(|h| h.strategy == DATA).collect();
         let wos: Vec<glam::Vec3> = of_data.iter().map(|h| h.wo).collect();
         let u2: Vec<glam::Vec2> = of_data.iter().map(|h| u_of(h)).collect();
         let ucs: Vec<f32> = of_data.iter().map(|h| h.point[4] as f32).collect();
@@ -373,11 +379,11 @@ impl Stage<'_> {
         let mut world = Vec::with_capacity(hits.len());
         for h in &hits {
             let wi = match h.strategy {
-                0 => match from_map.next() {
+                MAP => match from_map.next() {
                     Some((d, p)) if p > 0.0 => Some(h.frame.to_local(d).normalize()),
                     _ => None,
                 },
-                1 => from_data.next().flatten().map(|s| s.wi),
+                DATA => from_data.next().flatten().map(|s| s.wi),
                 _ => {
                     let e = mirror_cones::EXPONENTS[((h.point[4] * 4.0) as usize).min(3)];
                     Some(mirror_cones::sample(h.mirror, e, [h.point[2], h.point[3]]).as_vec3())
@@ -391,13 +397,13 @@ impl Stage<'_> {
             drawn.wi.push(wi);
             drawn
                 .density
-                .push((per_batch / 4) as f64 * mirror_cones::pdf(h.mirror, wi.as_dvec3()));
+                .push(counts[CONES] as f64 * mirror_cones::pdf(h.mirror, wi.as_dvec3()));
             world.push(h.frame.to_world(wi).normalize());
         }
         let mut looked_up = vec![(Rgb::splat(0.0), 0.0f32); world.len()];
         self.env.eval_pdf_many(&world, &mut looked_up);
         // Samples where the map is black add nothing: dropped before the evaluations.
-        let n_map = (per_batch / 2) as f64;
+        let n_map = counts[MAP] as f64;
         let mut set = PixelSamples::default();
         for (k, (l, p_env)) in looked_up.into_iter().enumerate() {
             if !(l.r > 0.0 || l.g > 0.0 || l.b > 0.0) {
@@ -411,6 +417,19 @@ impl Stage<'_> {
         }
         set
     }
+}
+
+/// The sampling strategies, in the order of a batch's samples: the map's importance
+/// sampling, the measured data's BRDF sampling, and cones `cos^e` around the mirror
+/// direction.
+const MAP: usize = 0;
+const DATA: usize = 1;
+const CONES: usize = 2;
+
+/// How many of a batch's `per_batch` samples (a multiple of 4) each strategy takes: half
+/// the map's, a quarter each the data's and the cones'.
+fn strategy_counts(per_batch: usize) -> [usize; 3] {
+    [per_batch / 2, per_batch / 4, per_batch / 4]
 }
 
 /// The sum of `f * lw` over samples, skipping any whose product is not finite; four
@@ -665,7 +684,9 @@ pub fn estimate(
         out.spp_max = spp.iter().copied().max().unwrap_or(0);
         out.passes = passes;
         let spent = out.spp >= max_spp * 9 / 10;
-        let next = match needed_factor(&out, &settings) <= 1.0 || spent || passes >= 3 {
+        // The noise floor bounds every fit's own noise, so its target covers theirs.
+        let met = out.noise_target_met && out.interval_target_met;
+        let next = match met || spent || passes >= 3 {
             true => None,
             false => allocate(stage, &p.sample_variance, &out, &settings),
         };
@@ -810,27 +831,6 @@ impl Plan<'_> {
         let scale = bisect(true, &meets).min(bisect(false, &affordable));
         self.counts(shape, scale.exp())
     }
-}
-
-/// How many times more samples the targets call for (1 when met): every non-negligible
-/// fit's own noise under `noise_ratio` of its error (so that its FLIP map shows its error
-/// rather than noise), every interval narrower than `interval_ratio` of its error, and the
-/// noise floor under `noise_ratio` of the smallest error.
-fn needed_factor(out: &SphereErrors, s: &ErrorSettings) -> f64 {
-    let fits: Vec<&RepError> = out.errors[1..].iter().filter(|e| !e.negligible).collect();
-    let Some(smallest) = fits.iter().map(|e| e.rmse).min_by(f64::total_cmp) else {
-        return 1.0;
-    };
-    let own = fits
-        .iter()
-        .map(|e| (e.noise / (s.noise_ratio * e.rmse)).powi(2))
-        .fold(0.0, f64::max);
-    let floor = (out.noise_floor / (s.noise_ratio * smallest)).powi(2);
-    let width = fits
-        .iter()
-        .map(|e| (e.relative_width() / s.interval_ratio).powi(2))
-        .fold(0.0, f64::max);
-    own.max(floor).max(width)
 }
 
 /// The FLIP of every representation against the data's image at the common exposure

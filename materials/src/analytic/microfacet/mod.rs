@@ -13,8 +13,7 @@
 pub mod fresnel;
 pub mod visible;
 
-use crate::fastmath::{self, xn};
-use crate::lobe::{self, half_from};
+use crate::fastmath::xn;
 use crate::math::Real;
 use crate::simd::{Vec3xN, f32xn, sel};
 use glam::{Vec2, Vec3};
@@ -90,39 +89,14 @@ impl Distribution {
         }
     }
 
-    /// Samples a half vector h with density proportional to D(h) cos(theta_h) (exactly for
-    /// Beckmann and cosine power; a Beckmann proposal of the same m for the Gaussian).
-    #[inline]
-    pub fn sample_h(&self, u: Vec2) -> Vec3 {
-        let cos_t = match *self {
-            Distribution::Beckmann { m } | Distribution::Gaussian { m, .. } => {
-                beckmann_cos(m as f32, u.y)
-            }
-            Distribution::CosinePower { n } => fastmath::powf(u.y, 1.0 / (n as f32 + 2.0)),
-        };
-        half_from(cos_t, u.x)
-    }
-
-    /// [`Distribution::sample_h`] of `LANES` points (x, y) in lanes, bit for bit the same.
-    #[inline(always)]
-    pub fn sample_h_xn(&self, ux: f32xn, uy: f32xn) -> Vec3xN {
-        let cos_t = match *self {
-            Distribution::Beckmann { m } | Distribution::Gaussian { m, .. } => {
-                beckmann_cos_xn(f32xn::splat(m as f32), uy)
-            }
-            Distribution::CosinePower { n } => xn::powf(uy, f32xn::splat(1.0 / (n as f32 + 2.0))),
-        };
-        lobe::xn::half_from(cos_t, ux)
-    }
-
     /// The roughness of the Beckmann distribution whose visible normals
     /// ([`visible`]) sample this one: its own for Beckmann; for the Gaussian and cosine
     /// power (proposals), the `m` they were made from (cosine power's exponent is
     /// n = 2 / m^2 - 2, the one whose peak matches Beckmann's of that m).
-    fn visible_m(&self) -> Option<f32> {
+    fn visible_m(&self) -> f32 {
         match *self {
-            Distribution::Beckmann { m } | Distribution::Gaussian { m, .. } => Some(m as f32),
-            Distribution::CosinePower { n } => Some((2.0 / (n + 2.0)).sqrt() as f32),
+            Distribution::Beckmann { m } | Distribution::Gaussian { m, .. } => m as f32,
+            Distribution::CosinePower { n } => (2.0 / (n + 2.0)).sqrt() as f32,
         }
     }
 
@@ -131,19 +105,15 @@ impl Distribution {
     /// [`Distribution::sample_visible_xn`].
     #[inline]
     pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Vec3 {
-        match self.visible_m() {
-            Some(m) => visible::sample_one(m, m, wo, u),
-            None => self.sample_h(u),
-        }
+        let m = self.visible_m();
+        visible::sample_one(m, m, wo, u)
     }
 
     /// [`Distribution::sample_visible`] per lane.
     #[inline(always)]
     pub fn sample_visible_xn(&self, wo: Vec3xN, ux: f32xn, uy: f32xn) -> Vec3xN {
-        match self.visible_m() {
-            Some(m) => visible::sample(f32xn::splat(m), f32xn::splat(m), wo, ux, uy),
-            None => self.sample_h_xn(ux, uy),
-        }
+        let m = f32xn::splat(self.visible_m());
+        visible::sample(m, m, wo, ux, uy)
     }
 
     /// Density of [`Distribution::sample_visible`] (solid angle of h). Lane 0 of
@@ -157,13 +127,7 @@ impl Distribution {
     /// [`Distribution::pdf_visible`] per lane.
     #[inline(always)]
     pub fn pdf_visible_xn(&self, wo: Vec3xN, h: Vec3xN) -> f32xn {
-        match self.visible_m() {
-            Some(m) => {
-                let d = Distribution::Beckmann { m: m as f64 }.d_xn(h.z);
-                visible::pdf(f32xn::splat(m), f32xn::splat(m), wo, h, d)
-            }
-            None => self.pdf_h_xn(h.z),
-        }
+        beckmann_visible_pdf_xn(f32xn::splat(self.visible_m()), wo, h)
     }
 
     /// [`Distribution::d`] per lane (f32).
@@ -184,28 +148,18 @@ impl Distribution {
         };
         sel(cos_h.simd_le(zero), zero, d)
     }
+}
 
-    /// [`Distribution::pdf_h`] per lane.
-    #[inline(always)]
-    pub fn pdf_h_xn(&self, cos_h: f32xn) -> f32xn {
-        match *self {
-            Distribution::Beckmann { .. } | Distribution::CosinePower { .. } => {
-                self.d_xn(cos_h) * cos_h
-            }
-            Distribution::Gaussian { m, .. } => Distribution::Beckmann { m }.d_xn(cos_h) * cos_h,
-        }
-    }
-
-    /// Density of `sample_h` (solid angle of h).
-    #[inline]
-    pub fn pdf_h(&self, cos_h: f32) -> f32 {
-        match *self {
-            Distribution::Beckmann { .. } | Distribution::CosinePower { .. } => {
-                self.d(cos_h) * cos_h
-            }
-            Distribution::Gaussian { m, .. } => Distribution::Beckmann { m }.d(cos_h) * cos_h,
-        }
-    }
+/// The density (solid angle of h) of Beckmann visible normals seen from `wo`, each lane its
+/// own isotropic roughness `m`: [`visible::pdf`] with D(h) squared-rounded as
+/// [`Distribution::d`] rounds it (`(m * m) as f32` in f64), zero for `h.z <= 0`.
+#[inline(always)]
+pub fn beckmann_visible_pdf_xn(m: f32xn, wo: Vec3xN, h: Vec3xN) -> f32xn {
+    let zero = f32xn::splat(0.0);
+    let mm = m.to_array();
+    let m2 = f32xn::new(crate::simd::lanes(|k| (mm[k] as f64 * mm[k] as f64) as f32));
+    let d = sel(h.z.simd_le(zero), zero, beckmann_d_xn(m2, h.z));
+    visible::pdf(m, m, wo, h, d)
 }
 
 /// Beckmann's D per lane for positive `cos_h`, each lane its own squared roughness `m2`
@@ -219,21 +173,6 @@ pub fn beckmann_d_xn(m2: f32xn, cos_h: f32xn) -> f32xn {
     let e = xn::exp(-tan2 / m2);
     let d = e / (s(std::f32::consts::PI) * m2 * c2 * c2);
     sel(e.simd_eq(zero), zero, d)
-}
-
-/// cos(theta_h) of Beckmann sampling with roughness `m`: tan^2 = -m^2 ln(1 - u).
-#[inline]
-pub fn beckmann_cos(m: f32, u: f32) -> f32 {
-    let tan2 = -m * m * fastmath::ln((1.0 - u).max(f32::MIN_POSITIVE));
-    1.0 / (1.0 + tan2).sqrt()
-}
-
-/// [`beckmann_cos`] per lane (each lane its own roughness).
-#[inline(always)]
-pub fn beckmann_cos_xn(m: f32xn, u: f32xn) -> f32xn {
-    let one = f32xn::splat(1.0);
-    let tan2 = -m * m * xn::ln((one - u).max(f32xn::splat(f32::MIN_POSITIVE)));
-    one / (one + tan2).sqrt()
 }
 
 /// c such that 2 pi c int_0^{pi/2} exp(-(theta/m)^2) cos(theta) sin(theta) dtheta = 1
