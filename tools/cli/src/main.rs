@@ -102,7 +102,11 @@ fn main() -> ExitCode {
     exit_quietly_on_closed_pipe();
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(args) => render::cmd_render(args, cli.quiet),
+        Command::Render(args) => {
+            // Before the reader's and the builder's threads start (a big mesh's peak).
+            lobe_renderer::memory::use_one_arena();
+            render::cmd_render(args, cli.quiet)
+        }
         Command::Eval(args) => eval::cmd_eval(args),
         Command::Compare(args) => compare::cmd_compare(args, cli.quiet),
         Command::Tabulate(args) => tabulate::cmd_tabulate(args, cli.quiet),
