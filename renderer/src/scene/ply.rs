@@ -73,11 +73,20 @@ impl PropertyAccess for Vertex {
 }
 
 /// One face as read: its corners' vertex indices (at most [`MAX_CORNERS`]; a triangle's
-/// held in place, 48 bytes a face rather than a vector and its allocation), or why not.
+/// held in place, 32 bytes a face rather than a vector and its allocation), or why not.
 #[derive(Default)]
 struct Face {
-    corners: SmallVec<[i64; 3]>,
-    error: Option<&'static str>,
+    corners: SmallVec<[u32; 3]>,
+    error: Option<FaceError>,
+}
+
+/// What is wrong with a face's vertex indices.
+#[derive(Clone, Copy)]
+enum FaceError {
+    NotIntegers,
+    TooManyCorners,
+    /// A negative index (only signed lists, whose values fit in 32 bits, hold them).
+    Negative(i32),
 }
 
 /// Corners of one polygon.
@@ -92,23 +101,25 @@ impl PropertyAccess for Face {
         if name != "vertex_indices" && name != "vertex_index" {
             return;
         }
-        let corners: SmallVec<[i64; 3]> = match property {
-            Property::ListChar(v) => v.into_iter().map(i64::from).collect(),
-            Property::ListUChar(v) => v.into_iter().map(i64::from).collect(),
-            Property::ListShort(v) => v.into_iter().map(i64::from).collect(),
-            Property::ListUShort(v) => v.into_iter().map(i64::from).collect(),
-            Property::ListInt(v) => v.into_iter().map(i64::from).collect(),
-            Property::ListUInt(v) => v.into_iter().map(i64::from).collect(),
-            _ => {
-                self.error = Some("expected a list of integer vertex indices");
-                return;
-            }
+        let signed = |v: Vec<i32>| -> std::result::Result<SmallVec<[u32; 3]>, FaceError> {
+            v.into_iter()
+                .map(|i| u32::try_from(i).map_err(|_| FaceError::Negative(i)))
+                .collect()
         };
-        if corners.len() > MAX_CORNERS {
-            self.error = Some("has more than 65536 corners");
-            return;
+        let corners: std::result::Result<SmallVec<[u32; 3]>, FaceError> = match property {
+            Property::ListChar(v) => signed(v.into_iter().map(i32::from).collect()),
+            Property::ListUChar(v) => Ok(v.into_iter().map(u32::from).collect()),
+            Property::ListShort(v) => signed(v.into_iter().map(i32::from).collect()),
+            Property::ListUShort(v) => Ok(v.into_iter().map(u32::from).collect()),
+            Property::ListInt(v) => signed(v),
+            Property::ListUInt(v) => Ok(v.into_iter().collect()),
+            _ => Err(FaceError::NotIntegers),
+        };
+        match corners {
+            Ok(c) if c.len() > MAX_CORNERS => self.error = Some(FaceError::TooManyCorners),
+            Ok(c) => self.corners = c,
+            Err(e) => self.error = Some(e),
         }
-        self.corners = corners;
     }
 }
 
@@ -214,11 +225,22 @@ fn mesh(vertices: &[Vertex], faces: &[Face]) -> std::result::Result<Mesh, String
             }
         ));
     }
-    let n = vertices.len() as i64;
+    let n = vertices.len();
     let mut indices = Vec::with_capacity(faces.len());
     for (k, f) in faces.iter().enumerate() {
-        if let Some(e) = f.error {
-            return Err(format!("face {k}: {e}"));
+        let bad_vertex =
+            |v: i64| format!("face {k} refers to vertex {v}, but the file has {n} vertices");
+        match f.error {
+            Some(FaceError::NotIntegers) => {
+                return Err(format!(
+                    "face {k}: expected a list of integer vertex indices"
+                ));
+            }
+            Some(FaceError::TooManyCorners) => {
+                return Err(format!("face {k}: has more than {MAX_CORNERS} corners"));
+            }
+            Some(FaceError::Negative(v)) => return Err(bad_vertex(v as i64)),
+            None => {}
         }
         if f.corners.len() < 3 {
             return Err(format!(
@@ -226,13 +248,11 @@ fn mesh(vertices: &[Vertex], faces: &[Face]) -> std::result::Result<Mesh, String
                 f.corners.len()
             ));
         }
-        if let Some(bad) = f.corners.iter().find(|&&i| !(0..n).contains(&i)) {
-            return Err(format!(
-                "face {k} refers to vertex {bad}, but the file has {n} vertices"
-            ));
+        if let Some(&bad) = f.corners.iter().find(|&&i| i as usize >= n) {
+            return Err(bad_vertex(bad as i64));
         }
         for j in 1..f.corners.len() - 1 {
-            indices.push([f.corners[0], f.corners[j], f.corners[j + 1]].map(|i| i as u32));
+            indices.push([f.corners[0], f.corners[j], f.corners[j + 1]]);
         }
         if indices.len() > MAX_TRIANGLES {
             return Err(format!(
@@ -337,6 +357,16 @@ mod tests {
     }
 
     #[test]
+    fn a_face_as_read_takes_32_bytes() {
+        // 4M faces of a scan held at once while the file is read.
+        assert!(
+            std::mem::size_of::<Face>() <= 32,
+            "{}",
+            std::mem::size_of::<Face>()
+        );
+    }
+
+    #[test]
     fn broken_files_are_errors_naming_what_is_wrong() {
         let ascii = String::from_utf8(quad("ascii")).unwrap();
         let binary = quad("binary_little_endian");
@@ -345,6 +375,10 @@ mod tests {
             (
                 ascii.replace("4 0 1 2 3", "4 0 1 2 9").into_bytes(),
                 "face 0 refers to vertex 9",
+            ),
+            (
+                ascii.replace("4 0 1 2 3", "4 0 1 -2 3").into_bytes(),
+                "face 0 refers to vertex -2",
             ),
             (
                 ascii.replace("4 0 1 2 3", "2 0 1").into_bytes(),
