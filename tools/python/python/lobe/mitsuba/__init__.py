@@ -5,7 +5,7 @@
 
 with any of lobe's analytic models (docs/models.md), a published Ngan et al. fit
 (``"ngan": "nickel"``) or a model of a lobe fit report (``"report": "x.fit.json"``). The
-models are Dr.Jit twins written from the papers (models.py), independent of lobe's Rust
+models are Dr.Jit twins written from the papers (models/, one file per model), independent of lobe's Rust
 code; they run in ``scalar_rgb`` and ``llvm_ad_rgb`` (tested) and ``cuda_ad_rgb`` (the
 same code as ``llvm_ad_rgb``; untested, lobe's test machine has no GPU).
 

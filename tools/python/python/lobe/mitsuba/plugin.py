@@ -1,5 +1,5 @@
 """The ``lobe`` Mitsuba 3 BSDF: diffuse / pi + specular * lobe, with the lobe one of
-lobe's analytic models (models.py), the parameters given as in a lobe description:
+lobe's analytic models (models/), the parameters given as in a lobe description:
 
     {"type": "lobe", "model": "ward", "diffuse": [0.3, 0.1, 0.05], "specular": 0.15, "alpha": 0.15}
     {"type": "lobe", "model": "he", "ngan": "nickel"}                  # a published Ngan et al. fit
@@ -22,14 +22,9 @@ import mitsuba as mi
 
 from . import backend, ngan
 from .models import Lobe
+from .models.common import rgb as _rgb
 
 ANISOTROPIC = ("ward-anisotropic", "ashikhmin-shirley-anisotropic", "poulin-fournier", "sampled-microfacet")
-
-
-def _rgb(v):
-    if isinstance(v, (int, float)):
-        return [float(v)] * 3
-    return [float(x) for x in v]
 
 
 def _prop(v):
