@@ -30,6 +30,7 @@ pub mod partial;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod settings;
 pub mod showcase;
 
 pub use error::Error;

@@ -222,11 +222,14 @@ fn render_tile(
     samples: Range<u32>,
     cancel: Option<&AtomicBool>,
 ) -> Option<TileResult> {
-    let w = TILE.min(scene.width - x0);
-    let h = TILE.min(scene.height - y0);
-    let spp = scene.spp;
-    let mut sampler = Sampler::with_scramble(scene.seed, spp, scene.scramble);
-    let inv = Vec2::new(1.0 / scene.width as f32, 1.0 / scene.height as f32);
+    let w = TILE.min(scene.settings.width - x0);
+    let h = TILE.min(scene.settings.height - y0);
+    let spp = scene.settings.spp;
+    let mut sampler = Sampler::with_scramble(scene.settings.seed, spp, scene.settings.scramble);
+    let inv = Vec2::new(
+        1.0 / scene.settings.width as f32,
+        1.0 / scene.settings.height as f32,
+    );
     let pixels: Vec<(u32, u32)> = (y0..y0 + h)
         .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
         .collect();
@@ -264,7 +267,7 @@ fn render_tile(
         radiance.clear();
         radiance.resize(camera.index.len(), Rgb::ZERO);
         let (rays, keys, indices) = (&camera.ray, &camera.key, &camera.index);
-        scene.integrator.li_many(
+        scene.settings.integrator.li_many(
             scene,
             rays,
             keys,
@@ -294,14 +297,14 @@ fn render_tile(
 /// [`MAX_THREADS`] threads, allocates the film fallibly (an error, not an abort, under a
 /// memory limit) and starts no more threads than there are tiles.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats)> {
-    let mut img = Image::try_new(scene.width, scene.height)?;
-    img.variance_dof = (scene.spp.max(2) - 1) as f64;
+    let mut img = Image::try_new(scene.settings.width, scene.settings.height)?;
+    img.variance_dof = (scene.settings.spp.max(2) - 1) as f64;
     // Each finished tile goes straight into the film, so memory is the film plus a tile
     // per thread; every pixel's value is computed by one tile alone, so the order in
     // which tiles finish changes nothing.
     let film = Mutex::new(&mut img);
-    let width = scene.width;
-    let run = run_tiles(scene, 0..scene.spp, opts, &|t: &TileResult| {
+    let width = scene.settings.width;
+    let run = run_tiles(scene, 0..scene.settings.spp, opts, &|t: &TileResult| {
         let mut img = film.lock().unwrap_or_else(|e| e.into_inner());
         for j in 0..t.h {
             for i in 0..t.w {
@@ -312,7 +315,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Image, RenderStats
             }
         }
     })?;
-    Ok((img, run.stats(scene, scene.spp)))
+    Ok((img, run.stats(scene, scene.settings.spp)))
 }
 
 /// Renders the samples `first..last` of every pixel (of the scene's `spp`), as per-pixel
@@ -322,16 +325,17 @@ pub fn render_samples(
     (first, last): (u32, u32),
     opts: &RenderOptions,
 ) -> Result<(PartialRender, RenderStats)> {
-    if !(first < last && last <= scene.spp) {
+    if !(first < last && last <= scene.settings.spp) {
         return Err(Error::Other(format!(
             "samples {first}:{last}: expected a range FIRST:LAST with 0 <= FIRST < LAST <= {} (the scene's samples per pixel)",
-            scene.spp
+            scene.settings.spp
         )));
     }
-    let size = (scene.width, scene.height);
-    let mut part = PartialRender::try_new(size, scene.spp, (first, last), scene.render_key())?;
+    let size = (scene.settings.width, scene.settings.height);
+    let mut part =
+        PartialRender::try_new(size, scene.settings.spp, (first, last), scene.render_key())?;
     let sums = Mutex::new(&mut part);
-    let width = scene.width;
+    let width = scene.settings.width;
     let run = run_tiles(scene, first..last, opts, &|t: &TileResult| {
         let mut p = sums.lock().unwrap_or_else(|e| e.into_inner());
         for j in 0..t.h {
@@ -357,11 +361,11 @@ struct TileRun {
 impl TileRun {
     fn stats(&self, scene: &Scene, spp: u32) -> RenderStats {
         RenderStats {
-            width: scene.width,
-            height: scene.height,
+            width: scene.settings.width,
+            height: scene.settings.height,
             spp,
             seconds: self.seconds,
-            samples: scene.width as u64 * scene.height as u64 * spp as u64,
+            samples: scene.settings.width as u64 * scene.settings.height as u64 * spp as u64,
             nonfinite_dropped: self.dropped,
             threads: self.threads,
             primitives: scene.geometry.prims.len(),
@@ -380,8 +384,10 @@ fn run_tiles(
     opts: &RenderOptions,
     store: &(dyn Fn(&TileResult) + Sync),
 ) -> Result<TileRun> {
-    let tiles: Vec<(u32, u32)> = (0..scene.height.div_ceil(TILE))
-        .flat_map(|ty| (0..scene.width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+    let tiles: Vec<(u32, u32)> = (0..scene.settings.height.div_ceil(TILE))
+        .flat_map(|ty| {
+            (0..scene.settings.width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE))
+        })
         .collect();
     let pool = match opts.threads {
         Some(n) if n > MAX_THREADS => {
@@ -400,7 +406,7 @@ fn run_tiles(
     let threads = pool
         .as_ref()
         .map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
-    let total = scene.width as u64 * scene.height as u64;
+    let total = scene.settings.width as u64 * scene.settings.height as u64;
     // Pixels done; its lock also keeps the progress calls one at a time and in order.
     let done = Mutex::new(0u64);
     let cancelled = AtomicBool::new(false);

@@ -44,7 +44,7 @@ pub fn showcase_scene() -> Value {
 /// The model name of each showcase sphere, left to right, and where to write it: the
 /// film position (pixels, x right, y down) just in front of the sphere's foot on the floor.
 pub fn labels(scene: &crate::scene::Scene) -> Vec<(String, glam::Vec2)> {
-    let film = glam::Vec2::new(scene.width as f32, scene.height as f32);
+    let film = glam::Vec2::new(scene.settings.width as f32, scene.settings.height as f32);
     let desc = showcase_scene();
     let spheres = desc["shapes"].as_array().into_iter().flatten();
     spheres

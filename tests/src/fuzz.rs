@@ -75,9 +75,9 @@ fn dirs() -> [(glam::Vec3, glam::Vec3); 3] {
 /// Loads the scene; renders it when it is tiny (so that a fuzzed film size cannot hang).
 fn load_and_render(v: &Value, scratch: &Path) {
     if let Ok(mut scene) = from_value(v, "fuzz.json", scratch, &LoadOptions::with_builtins()) {
-        let work = scene.width as u64 * scene.height as u64;
+        let work = scene.settings.width as u64 * scene.settings.height as u64;
         if work <= 64 * 64 {
-            scene.spp = scene.spp.min(2);
+            scene.settings.spp = scene.settings.spp.min(2);
             let (img, _) = render(
                 &scene,
                 &RenderOptions {

@@ -57,7 +57,7 @@ fn same_image_with_one_and_two_threads() {
     };
     assert_eq!(bits(&one), bits(&two));
     assert_eq!(bits(&one), bits(&three));
-    scene.seed = 12;
+    scene.settings.seed = 12;
     let other = render(
         &scene,
         &RenderOptions {

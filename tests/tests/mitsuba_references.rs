@@ -123,7 +123,7 @@ fn floor_variance(img: &mut Image, reference: &Image, ratio: f32) {
 fn render_lobe(desc: &Value, file: &str, base: &Path, spp: u32) -> Image {
     let mut scene = from_value(desc, file, base, &LoadOptions::with_builtins())
         .unwrap_or_else(|e| panic!("{e}"));
-    scene.spp = spp;
+    scene.settings.spp = spp;
     let (img, stats) = render(&scene, &RenderOptions::default()).unwrap();
     assert_eq!(stats.nonfinite_dropped, 0, "{file}: non-finite samples");
     img

@@ -28,7 +28,7 @@ fn every_shipped_scene_loads_and_renders() {
             continue;
         }
         let mut scene = load(&path).unwrap_or_else(|e| panic!("{e}"));
-        scene.spp = 2;
+        scene.settings.spp = 2;
         let (img, stats) = render(&scene, &RenderOptions::default()).unwrap();
         assert_eq!(stats.nonfinite_dropped, 0, "{}", path.display());
         assert!(
@@ -610,7 +610,7 @@ fn showcase_labels_name_each_sphere_below_it() {
             "lafortune"
         ]
     );
-    let film = glam::Vec2::new(scene.width as f32, scene.height as f32);
+    let film = glam::Vec2::new(scene.settings.width as f32, scene.settings.height as f32);
     for (k, (name, at)) in labels.iter().enumerate() {
         let centre = glam::Vec3::new(-2.6 + 1.3 * k as f32, 0.6, 0.0);
         let c = scene.camera.project(centre).unwrap() * film;

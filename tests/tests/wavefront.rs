@@ -15,14 +15,21 @@ use std::path::Path;
 /// in batches of `batch` samples (a batch may hold samples of several pixels, and a
 /// pixel's samples may span batches), each equal to the scalar integrator's.
 fn check(scene: &Scene, batch: usize) {
-    let inv = Vec2::new(1.0 / scene.width as f32, 1.0 / scene.height as f32);
+    let inv = Vec2::new(
+        1.0 / scene.settings.width as f32,
+        1.0 / scene.settings.height as f32,
+    );
     let mut ws = Wavefront::default();
     let mut checked = 0;
-    for y in (0..scene.height).step_by(3) {
-        let mut base = Sampler::with_scramble(scene.seed, scene.spp, scene.scramble);
+    for y in (0..scene.settings.height).step_by(3) {
+        let mut base = Sampler::with_scramble(
+            scene.settings.seed,
+            scene.settings.spp,
+            scene.settings.scramble,
+        );
         let (mut rays, mut keys, mut indices, mut scalar) = (vec![], vec![], vec![], vec![]);
-        for x in (0..scene.width).step_by(3) {
-            for s in 0..scene.spp {
+        for x in (0..scene.settings.width).step_by(3) {
+            for s in 0..scene.settings.spp {
                 base.start(x, y, s);
                 let film = (Vec2::new(x as f32, y as f32) + base.next_2d()) * inv;
                 let ray = scene.camera.ray(film);
@@ -30,7 +37,7 @@ fn check(scene: &Scene, batch: usize) {
                 keys.push(base.key());
                 indices.push(s);
                 let mut own = base.clone();
-                scalar.push((x, scene.integrator.li(scene, ray, &mut own)));
+                scalar.push((x, scene.settings.integrator.li(scene, ray, &mut own)));
             }
         }
         let mut many = vec![Rgb::ZERO; rays.len()];
@@ -43,6 +50,7 @@ fn check(scene: &Scene, batch: usize) {
             // A sampler at the dimension after the camera's (of whichever pixel).
             let mut sampler = base.clone();
             scene
+                .settings
                 .integrator
                 .li_many(scene, r, k, idx, &mut sampler, o, &mut ws);
         }
@@ -137,7 +145,7 @@ fn scene_files() {
             continue;
         }
         let mut scene = load(&root.join(name)).unwrap();
-        scene.spp = 4;
+        scene.settings.spp = 4;
         check(&scene, 64);
     }
 }

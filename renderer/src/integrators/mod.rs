@@ -12,30 +12,13 @@ pub use wavefront::Wavefront;
 use crate::geometry::{Interaction, spawn_ray, spawn_ray_to};
 use crate::lights::LightSample;
 use crate::scene::Scene;
+use crate::settings::Integrator;
 use crate::{Rgb, geometry::Ray, sampler::Sampler};
 use glam::Vec3;
 use lobe_materials::Bsdf;
 use lobe_materials::frame::Frame;
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, f32xn};
-
-/// Which light transport algorithm renders the image.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Integrator {
-    /// `max_depth`: longest path in vertices, Mitsuba's meaning: 1 shows only directly
-    /// visible emitters, 2 adds direct illumination; `None` is unbounded.
-    /// Russian roulette starts at path depth `rr_depth`.
-    Path {
-        max_depth: Option<u32>,
-        rr_depth: u32,
-    },
-    /// Direct illumination with `emitter_samples` light samples and `bsdf_samples` BSDF
-    /// samples per hit, combined with the power heuristic (Mitsuba's `direct`).
-    Direct {
-        emitter_samples: u32,
-        bsdf_samples: u32,
-    },
-}
 
 impl Integrator {
     /// Radiance along a camera ray.

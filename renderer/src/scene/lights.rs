@@ -5,9 +5,9 @@
 use super::json::{Obj, describe};
 use super::{Loader, non_negative, transform};
 use crate::error::{Error, Result};
-use crate::integrators::Integrator;
 use crate::lights::Light;
 use crate::lights::envmap::EnvMap;
+use crate::settings::Integrator;
 use glam::Mat3;
 use serde_json::Value;
 

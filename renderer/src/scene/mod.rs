@@ -24,10 +24,10 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::image_io::RgbImage;
-use crate::integrators::Integrator;
 use crate::lights::Light;
 use crate::lights::envmap::load_rgb_image;
 use crate::sampler::Scramble;
+use crate::settings::{Integrator, RenderSettings};
 use json::{Obj, describe};
 use lobe_materials::Bsdf;
 use lobe_materials::registry::{BuildContext, Registry};
@@ -53,15 +53,8 @@ pub struct Scene {
     /// The scene file (for messages and the statistics sidecar).
     pub file: String,
     pub camera: Camera,
-    pub width: u32,
-    pub height: u32,
-    pub spp: u32,
-    pub seed: u64,
-    /// How the sampler randomizes its points (`sampler.scramble`).
-    pub scramble: Scramble,
-    /// Exposure (stops) for the PNG output.
-    pub exposure: f32,
-    pub integrator: Integrator,
+    /// The film, sampler and integrator the file asks for.
+    pub settings: RenderSettings,
     pub geometry: Geometry,
     pub shapes: Vec<ShapeInfo>,
     pub lights: Vec<Light>,
@@ -91,11 +84,11 @@ impl Scene {
     pub fn render_key(&self) -> String {
         lobe_materials::key::KeyBuilder::new("render")
             .text("scene", &self.description_digest)
-            .number("spp", self.spp as f64)
-            .text("seed", &self.seed.to_string())
-            .text("scramble", self.scramble.name())
-            .number("width", self.width as f64)
-            .number("height", self.height as f64)
+            .number("spp", self.settings.spp as f64)
+            .text("seed", &self.settings.seed.to_string())
+            .text("scramble", self.settings.scramble.name())
+            .number("width", self.settings.width as f64)
+            .number("height", self.settings.height as f64)
             .finish()
     }
 }
@@ -329,13 +322,15 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
     Ok(Scene {
         file: file.to_string(),
         camera,
-        width,
-        height,
-        spp,
-        seed,
-        scramble,
-        exposure,
-        integrator,
+        settings: RenderSettings {
+            width,
+            height,
+            spp,
+            seed,
+            scramble,
+            exposure,
+            integrator,
+        },
         geometry,
         shapes: shapes.shapes,
         lights,

@@ -121,7 +121,7 @@ fn line(xs: &[f64], ys: &[f64]) -> (f64, f64) {
 /// The curve of material `b` in `scene` (the full film's stage; the curve renders it at
 /// 1/[`FILM_DIVISOR`] across) against its converged full-film image `converged`.
 pub fn measure(scene: &mut Scene, b: &Arc<dyn Bsdf>, converged: &Image) -> Result<Curve, Error> {
-    let (fw, fh) = (scene.width, scene.height);
+    let (fw, fh) = (scene.settings.width, scene.settings.height);
     let k = FILM_DIVISOR;
     if fw % k != 0 || fh % k != 0 || fw < k || fh < k {
         return Err(Error::Other(format!(
@@ -129,17 +129,17 @@ pub fn measure(scene: &mut Scene, b: &Arc<dyn Bsdf>, converged: &Image) -> Resul
         )));
     }
     let target = downsample(converged, k);
-    scene.width = fw / k;
-    scene.height = fh / k;
+    scene.settings.width = fw / k;
+    scene.settings.height = fh / k;
     scene.shapes[0].material = b.clone();
     let mut points = Vec::new();
     for &spp in &CURVE_SPP {
-        scene.spp = spp;
+        scene.settings.spp = spp;
         let (img, stats) = render(scene, &RenderOptions::default())?;
         points.push((spp, stats.seconds, noise_of(&img, &target)));
     }
-    scene.width = fw;
-    scene.height = fh;
+    scene.settings.width = fw;
+    scene.settings.height = fh;
     Ok(fit(&points, (k * k) as f64))
 }
 

@@ -195,7 +195,7 @@ impl Stage {
         let mut v = self.scene.clone();
         v["materials"]["subject"] = desc.clone();
         let mut scene = from_value(&v, &self.file, &self.base, &LoadOptions::with_builtins())?;
-        scene.spp = spp;
+        scene.settings.spp = spp;
         let (img, stats) = render(&scene, &RenderOptions::default())?;
         Ok((img, stats.seconds))
     }

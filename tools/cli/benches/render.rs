@@ -6,12 +6,12 @@ use lobe_renderer::render::{RenderOptions, render};
 
 fn bench_sphere_envmap(c: &mut Criterion) {
     let mut scene = lobe_renderer::showcase::bench_scene().expect("built-in scene loads");
-    scene.spp = 4;
+    scene.settings.spp = 4;
     let opts = RenderOptions::default();
     let mut g = c.benchmark_group("render");
     g.sample_size(10);
     g.throughput(criterion::Throughput::Elements(
-        (scene.width * scene.height * scene.spp) as u64,
+        (scene.settings.width * scene.settings.height * scene.settings.spp) as u64,
     ));
     g.bench_function("sphere_envmap_256x256x4spp", |b| {
         b.iter(|| render(&scene, &opts).expect("renders"))

@@ -126,8 +126,8 @@ fn load_scene(
             return Err(Error::Other("scene: expected a file or a dict".into()));
         }
     };
-    sc.spp = spp.unwrap_or(sc.spp);
-    sc.seed = seed.unwrap_or(sc.seed);
+    sc.settings.spp = spp.unwrap_or(sc.settings.spp);
+    sc.settings.seed = seed.unwrap_or(sc.settings.seed);
     Ok(sc)
 }
 

@@ -91,13 +91,13 @@ fn load_scene(args: &RenderArgs) -> Result<Scene, Error> {
         None => lobe_renderer::showcase::showcase()?,
     };
     if let Some(spp) = args.spp {
-        scene.spp = args::check_spp("--spp", spp)?;
+        scene.settings.spp = args::check_spp("--spp", spp)?;
     }
     if let Some(seed) = args.seed {
-        scene.seed = seed;
+        scene.settings.seed = seed;
     }
     if let Some(e) = args.exposure {
-        scene.exposure = e;
+        scene.settings.exposure = e;
     }
     Ok(scene)
 }
@@ -260,7 +260,7 @@ fn render_part(
             "samples {}:{} of {}: {}",
             range.0,
             range.1,
-            scene.spp,
+            scene.settings.spp,
             stats.summary()
         );
         eprintln!("wrote {}", output.display());
@@ -360,7 +360,7 @@ fn write_render(
 ) -> Result<(), Error> {
     // All or none: each file is staged, then the set is moved into place together.
     let mut set = OutputSet::new();
-    stage_images(&mut set, files, img, (scene.exposure, labels))?;
+    stage_images(&mut set, files, img, (scene.settings.exposure, labels))?;
     let stats = stats_json(scene, stats, files);
     set.stage(&files.stats, |out| film::encode_json(out, &stats))?;
     Ok(set.commit()?)
@@ -370,13 +370,16 @@ fn stats_json(scene: &Scene, stats: &RenderStats, files: &RenderFiles) -> serde_
     let mut v = stats.to_json();
     let o = v.as_object_mut().expect("object");
     o.insert("scene".into(), scene.file.clone().into());
-    o.insert("seed".into(), scene.seed.into());
-    o.insert("scramble".into(), scene.scramble.name().into());
-    o.insert("integrator".into(), scene.integrator.describe().into());
+    o.insert("seed".into(), scene.settings.seed.into());
+    o.insert("scramble".into(), scene.settings.scramble.name().into());
+    o.insert(
+        "integrator".into(),
+        scene.settings.integrator.describe().into(),
+    );
     o.insert("exr".into(), files.exr.display().to_string().into());
     if let Some(p) = &files.png {
         o.insert("png".into(), p.display().to_string().into());
-        o.insert("exposure".into(), scene.exposure.into());
+        o.insert("exposure".into(), scene.settings.exposure.into());
     }
     o.insert("lobe_version".into(), env!("CARGO_PKG_VERSION").into());
     v
@@ -400,10 +403,10 @@ fn bench(scene: &Scene, opts: &RenderOptions, runs: u32, quiet: bool) -> Result<
     println!(
         "bench {}: {}x{} at {} spp, {}: median {:.2} Msamples/s ({:.2} s) over {} runs",
         scene.file,
-        scene.width,
-        scene.height,
-        scene.spp,
-        scene.integrator.describe(),
+        scene.settings.width,
+        scene.settings.height,
+        scene.settings.spp,
+        scene.settings.integrator.describe(),
         median,
         seconds,
         runs
