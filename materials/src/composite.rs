@@ -371,21 +371,27 @@ impl Composite {
         choice: &[(usize, f32)],
         wi: &mut [Option<Vec3>],
     ) {
-        let mut idx = [0usize; SAMPLE_BLOCK];
+        let mut order = [0u32; SAMPLE_BLOCK];
+        let mut starts = [0usize; MAX_INLINE + 1];
+        let starts = &mut starts[..self.lobes.len() + 1];
+        // Lobe j + 1's queries (the diffuse component's and unchosen ones in no group).
+        let lobe_of = |k: usize| match choice[k].0 {
+            0 | NO_COMPONENT => None,
+            c => Some(c - 1),
+        };
+        crate::grouping::group_stable(choice.len(), lobe_of, starts, &mut order);
         let mut batch_wo = [Vec3::ZERO; SAMPLE_BLOCK];
         let mut batch_u = [Vec2::ZERO; SAMPLE_BLOCK];
         let mut batch_uc = [0.0f32; SAMPLE_BLOCK];
         let mut batch_wi = [None::<Vec3>; SAMPLE_BLOCK];
         for (j, (_, lobe)) in self.lobes.iter().enumerate() {
-            let mut len = 0;
-            for (k, c) in choice.iter().enumerate() {
-                idx[len] = k;
-                len += (c.0 == j + 1) as usize;
-            }
+            let idx = &order[starts[j]..starts[j + 1]];
+            let len = idx.len();
             if len == 0 {
                 continue;
             }
-            for (q, &k) in idx[..len].iter().enumerate() {
+            for (q, &k) in idx.iter().enumerate() {
+                let k = k as usize;
                 (batch_wo[q], batch_u[q], batch_uc[q]) = (wo[k], u[k], choice[k].1);
             }
             lobe.sample_batch(
@@ -394,8 +400,8 @@ impl Composite {
                 &batch_uc[..len],
                 &mut batch_wi[..len],
             );
-            for (q, &k) in idx[..len].iter().enumerate() {
-                wi[k] = batch_wi[q];
+            for (q, &k) in idx.iter().enumerate() {
+                wi[k as usize] = batch_wi[q];
             }
         }
     }

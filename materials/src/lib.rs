@@ -28,6 +28,7 @@ pub mod error;
 pub mod fastmath;
 pub mod fit;
 pub mod frame;
+pub mod grouping;
 pub mod guard;
 pub mod io;
 pub mod json;

@@ -37,6 +37,7 @@ use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use lobe_materials::frame::Frame;
+use lobe_materials::grouping::group_stable;
 use lobe_materials::sampling::warp::power_heuristic;
 use lobe_materials::simd;
 use lobe_materials::simd::LANES;
@@ -122,10 +123,11 @@ pub struct LightSampleQueue {
     pub wi_local: Vec<Vec3>,
     pub f: Vec<Rgb>,
     pub bsdf_pdf: Vec<f32>,
-    /// Requests grouped by light: hit indices, ordered by light, and each light's range;
-    /// one light's batch of points, samples and results.
+    /// Requests grouped by light: hit indices, ordered by light, and where each light's
+    /// run of them starts ([`group_stable`]); one light's batch of points, samples and
+    /// results.
     order: Vec<u32>,
-    ranges: Vec<(usize, usize)>,
+    starts: Vec<usize>,
     u: Vec<Vec2>,
     batch: LightSamples,
 }
@@ -149,9 +151,11 @@ pub struct MaterialGroups {
     order: Vec<u32>,
     ranges: Vec<(usize, usize, u32)>,
     contiguous: bool,
-    /// Per hit, its batch's number; per batch, (material group, first shape, hit count).
+    /// Per hit, its batch's number; per batch, (material group, first shape) and where its
+    /// run of `order` starts.
     key: Vec<usize>,
-    distinct: Vec<(u32, u32, usize)>,
+    distinct: Vec<(u32, u32)>,
+    starts: Vec<usize>,
     /// Per material group, its batch in the current call (`u32::MAX`: none).
     batch_of_group: Vec<u32>,
     /// Gathered inputs and outputs of one batch (when not contiguous).
@@ -415,32 +419,24 @@ impl Wavefront {
         if n_lights == 0 {
             return;
         }
-        // Requests grouped by light (a counting sort, stable).
+        // Requests grouped by light; when one light takes them all (as in scenes of one
+        // light), the queue itself is its batch.
         let choice = |uc: f32| ((uc * n_lights as f32) as usize).min(n_lights - 1);
-        q.ranges.clear();
-        q.ranges.resize(n_lights, (0, 0));
-        for &uc in &s.light_uc {
-            q.ranges[choice(uc)].1 += 1;
-        }
         let its = &self.hits.it;
-        if let Some(k) = q.ranges.iter().position(|r| r.1 == m) {
+        if n_lights == 1 {
+            scene.lights[0].sample_li_many(|h| its[h].p, &s.light_u, &mut q.samples);
+            return;
+        }
+        q.starts.resize(n_lights + 1, 0);
+        q.order.resize(m, 0);
+        let light_of = |h: usize| Some(choice(s.light_uc[h]));
+        group_stable(m, light_of, &mut q.starts, &mut q.order);
+        if let Some(k) = (0..n_lights).find(|&k| q.starts[k + 1] - q.starts[k] == m) {
             scene.lights[k].sample_li_many(|h| its[h].p, &s.light_u, &mut q.samples);
             return;
         }
-        let mut start = 0;
-        for r in &mut q.ranges {
-            let len = r.1;
-            *r = (start, start);
-            start += len;
-        }
-        q.order.resize(m, 0);
-        for (h, &uc) in s.light_uc.iter().enumerate() {
-            let r = &mut q.ranges[choice(uc)];
-            q.order[r.1] = h as u32;
-            r.1 += 1;
-        }
-        for (k, &(a, b)) in q.ranges.iter().enumerate() {
-            let hits = &q.order[a..b];
+        for k in 0..n_lights {
+            let hits = &q.order[q.starts[k]..q.starts[k + 1]];
             if hits.is_empty() {
                 continue;
             }
@@ -619,7 +615,7 @@ impl MaterialGroups {
     fn build(&mut self, scene: &Scene, its: &[Interaction]) {
         self.key.clear();
         // The batch of each material group seen in the last call back to none.
-        for &(group, _, _) in &self.distinct {
+        for &(group, _) in &self.distinct {
             self.batch_of_group[group as usize] = u32::MAX;
         }
         self.distinct.clear();
@@ -632,22 +628,23 @@ impl MaterialGroups {
             if g == u32::MAX as usize {
                 g = self.distinct.len();
                 self.batch_of_group[group] = g as u32;
-                self.distinct.push((group as u32, it.shape, 0));
+                self.distinct.push((group as u32, it.shape));
             }
-            self.distinct[g].2 += 1;
             self.key.push(g);
         }
-        self.ranges.clear();
-        let mut start = 0;
-        for &(_, shape, count) in &self.distinct {
-            self.ranges.push((start, start, shape));
-            start += count;
-        }
         self.order.resize(its.len(), 0);
-        for (h, &g) in self.key.iter().enumerate() {
-            let r = &mut self.ranges[g];
-            self.order[r.1] = h as u32;
-            r.1 += 1;
+        self.starts.resize(self.distinct.len() + 1, 0);
+        let key = &self.key;
+        group_stable(
+            its.len(),
+            |h| Some(key[h]),
+            &mut self.starts,
+            &mut self.order,
+        );
+        self.ranges.clear();
+        for (g, &(_, shape)) in self.distinct.iter().enumerate() {
+            self.ranges
+                .push((self.starts[g], self.starts[g + 1], shape));
         }
         self.contiguous = self.order.iter().enumerate().all(|(j, &h)| j == h as usize);
     }
