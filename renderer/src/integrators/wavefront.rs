@@ -423,10 +423,6 @@ impl Wavefront {
         // light), the queue itself is its batch.
         let choice = |uc: f32| ((uc * n_lights as f32) as usize).min(n_lights - 1);
         let its = &self.hits.it;
-        if n_lights == 1 {
-            scene.lights[0].sample_li_many(|h| its[h].p, &s.light_u, &mut q.samples);
-            return;
-        }
         q.starts.resize(n_lights + 1, 0);
         q.order.resize(m, 0);
         let light_of = |h: usize| Some(choice(s.light_uc[h]));
