@@ -1,13 +1,13 @@
 //! The Ashikhmin-Premože-Shirley microfacet generator (SIGGRAPH 2000) with a tabulated
 //! distribution of normals as a lobe (rho = p(h) <h.n> F(k.h) / (4 g(k1) g(k2)), Ngan et
-//! al. 2005 Eq. 3, sampled through the distribution of half vectors), and its registry
+//! al. 2005 Eq. 3, sampled through the distribution of visible normals), and its registry
 //! entry: the `sampled-microfacet` material (Ngan et al. 2005, section 5) with a built-in
 //! or EXR distribution.
 
 use super::synthetic::Shape;
 use super::table::{DEFAULT_RES, Table};
 use crate::composite::Composite;
-use crate::lobe::{self, Lobe, sample_via_half};
+use crate::lobe::{self, Lobe};
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
@@ -37,41 +37,37 @@ impl Lobe for SampledMicrofacet {
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
         [self.table.rho(wo, wi, self.f0); 3]
     }
-    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
-        sample_via_half(wo, self.table.sample_h(u)?)
+    /// Lane 0 of [`SampledMicrofacet::sample_xn`]: one sampler for both.
+    fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3> {
+        self.sample_xn(&[wo; LANES], &[u; LANES], &[uc; LANES])[0]
     }
+    /// Half vectors visible from `wo` ([`Table::sample_visible_xn`]), reflected.
     fn sample_xn(
         &self,
         wo: &[Vec3; LANES],
         u: &[Vec2; LANES],
         _uc: &[f32; LANES],
     ) -> [Option<Vec3>; LANES] {
-        let (h, drawn) = self.table.sample_h_lanes(u);
-        lobe::xn::sample_via_half_where(drawn, Vec3xN::from_array(wo), h)
+        let [s] = self.sample_groups([wo], [u]);
+        s
     }
-    /// Two lane vectors at a time, their hierarchy descents side by side
-    /// ([`Table::sample_h_groups`]); a last lone lane vector alone.
+    /// Two lane vectors at a time, side by side ([`Table::sample_visible_xn`]); a last
+    /// lone lane vector alone.
     fn sample_batch(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<Vec3>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n);
         for first in (0..n).step_by(2 * LANES) {
             let end = (first + 2 * LANES).min(n);
             let mid = (first + LANES).min(end);
-            let u0 = simd::padded(&u[first..mid]);
-            let hs = if mid == end {
-                let [h] = self.table.sample_h_groups([&u0]);
-                [h, h]
+            let (wo0, u0) = (simd::padded(&wo[first..mid]), simd::padded(&u[first..mid]));
+            if mid == end {
+                let [s] = self.sample_groups([&wo0], [&u0]);
+                out[first..mid].copy_from_slice(&s[..mid - first]);
             } else {
-                self.table
-                    .sample_h_groups([&u0, &simd::padded(&u[mid..end])])
-            };
-            for (r, (h, drawn)) in [first..mid, mid..end].into_iter().zip(hs) {
-                if r.is_empty() {
-                    break;
-                }
-                let o = Vec3xN::from_array(&simd::padded(&wo[r.clone()]));
-                let s = lobe::xn::sample_via_half_where(drawn, o, h);
-                out[r.clone()].copy_from_slice(&s[..r.len()]);
+                let (wo1, u1) = (simd::padded(&wo[mid..end]), simd::padded(&u[mid..end]));
+                let [s0, s1] = self.sample_groups([&wo0, &wo1], [&u0, &u1]);
+                out[first..mid].copy_from_slice(&s0[..mid - first]);
+                out[mid..end].copy_from_slice(&s1[..end - mid]);
             }
         }
     }
@@ -79,13 +75,13 @@ impl Lobe for SampledMicrofacet {
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.pdf_xn(Vec3xN::splat(wo), Vec3xN::splat(wi)).to_array()[0]
     }
-    /// The generator's value ([`Table::rho_xn`]) and density (p(h) h_z, converted to
-    /// the density of wi) of `LANES` pairs, p(h) looked up once for both.
+    /// The generator's value ([`Table::rho_xn`]) and density (of the visible normals,
+    /// converted to the density of wi) of `LANES` pairs, p(h) looked up once for both.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let h = (wo + wi).normalize_or_zero();
         let p_h = self.table.p_xn(h.x, h.y);
         let v = self.table.rho_at_xn(wo, wi, h, p_h, self.f0 as f32);
-        (RgbxN::new(v, v, v), Self::pdf_at_xn(wo, wi, h, p_h))
+        (RgbxN::new(v, v, v), self.pdf_at_xn(wo, wi, h, p_h))
     }
     fn flags(&self) -> Flags {
         Flags::RECIPROCAL | Flags::GLOSSY
@@ -96,24 +92,45 @@ impl Lobe for SampledMicrofacet {
 }
 
 impl SampledMicrofacet {
+    /// [`Lobe::sample_xn`] of `N` lane vectors side by side.
+    #[inline(always)]
+    fn sample_groups<const N: usize>(
+        &self,
+        wo: [&[Vec3; LANES]; N],
+        u: [&[Vec2; LANES]; N],
+    ) -> [[Option<Vec3>; LANES]; N] {
+        let wo = wo.map(Vec3xN::from_array);
+        let xy = u.map(simd::vec2s);
+        let h = self
+            .table
+            .sample_visible_xn(wo, xy.map(|[x, _]| x), xy.map(|[_, y]| y));
+        std::array::from_fn(|g| {
+            let (h, drawn) = h[g];
+            let drawn = drawn & wo[g].z.simd_gt(f32xn::splat(0.0));
+            lobe::xn::sample_via_half_where(drawn, wo[g], h)
+        })
+    }
+
     #[inline]
     fn rho_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
         self.table.rho_xn(wo, wi, self.f0 as f32)
     }
 
-    /// The density of wi: p(h) h_z / (4 wo.h), zero below the surface or where not finite.
+    /// The density of wi: that of its half vector over 4 wo.h, zero below the surface or
+    /// where not finite.
     #[inline]
     fn pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
         let h = (wo + wi).normalize_or_zero();
-        Self::pdf_at_xn(wo, wi, h, self.table.p_xn(h.x, h.y))
+        self.pdf_at_xn(wo, wi, h, self.table.p_xn(h.x, h.y))
     }
 
     /// [`SampledMicrofacet::pdf_xn`] given the half vector `h` of `wo` and `wi` and
     /// `p_h`, [`Table::p_xn`] of it.
     #[inline]
-    fn pdf_at_xn(wo: Vec3xN, wi: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
+    fn pdf_at_xn(&self, wo: Vec3xN, wi: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
         let zero = f32xn::splat(0.0);
-        let p = lobe::xn::half_to_incident_pdf(Table::pdf_h_at_xn(h, p_h), wo.dot(h));
+        let p_h = self.table.pdf_visible_at_xn(wo, h, p_h);
+        let p = lobe::xn::half_to_incident_pdf(p_h, wo.dot(h));
         let ok = lobe::xn::above(wo, wi) & p.is_finite();
         sel(ok, p, zero)
     }

@@ -19,10 +19,10 @@
 //! wide); it coarsens towards the horizon, where distributions are small and the data stop
 //! at 80 degrees anyway. Because dw = dA / h_z, the bilinear table is itself the density of
 //! h over the disk with respect to p(h) h_z dw: normalizing it to unit integral over the
-//! disk normalizes <h.n>, and the sampler draws h with density p(h) h_z exactly (a cell by
-//! hierarchical warping in proportion to its bilinear patch's mass, then a point of the
-//! patch by its bilinear density). g(k) is tabulated over (theta_k, phi_k) on 2 x 5 degree
-//! nodes by quadrature over the same grid.
+//! disk normalizes <h.n>. g(k) is tabulated over (theta_k, phi_k) on 2 x 5 degree nodes by
+//! quadrature over the same grid. The sampler draws the normals visible from wo, p(h)
+//! (wo.h)+ / g(wo), with the table's fine structure exact and the smooth factor
+//! (wo.h)+ / h_z piecewise constant over blocks of cells (`visible`).
 //!
 //! Estimation (Ngan et al. Eq. 4): p(h) = rho(k1, k2) 4 g(k1) g(k2) / (<h.n> F(k.h)),
 //! averaged over all measured pairs whose half vector falls near each node (bilinear
@@ -31,7 +31,8 @@
 //! estimated with the colours by the fitter's non-negative least squares and subtracted in
 //! a second round; `f0` is given or found by a golden-section search on the Eq. (1) error.
 //!
-//! Files: `table` holds the tabulated p with its shadowing table g and sampler, `lobe`
+//! Files: `table` holds the tabulated p with its shadowing table g, `visible` its
+//! sampler, `lobe`
 //! the generator as a lobe and its registry entry (`sampled-microfacet`), `estimate` the
 //! estimation of p, g and the colours from measurements, `synthetic` the closed-form and
 //! synthetic distributions and the sparse 4D data sets the tests estimate them from.
@@ -40,6 +41,7 @@ mod estimate;
 mod lobe;
 mod synthetic;
 mod table;
+mod visible;
 
 pub use estimate::{Estimate, estimate};
 pub use lobe::{SCHEMA, SampledMicrofacet, register};

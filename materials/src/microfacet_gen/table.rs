@@ -1,19 +1,17 @@
 //! The tabulated distribution of normals p(h) of the Ashikhmin-Premože-Shirley generator
 //! (SIGGRAPH 2000): node values over the projected hemisphere, normalized so that
 //! <h.n> = 1, interpolated bilinearly; APS2000's shadowing term g(k) = int (h.k)+ p(h) dw
-//! tabulated on (theta_k, phi_k) nodes by quadrature over the same grid; the sampler of h
-//! (a grid cell by hierarchical warping in proportion to its bilinear patch's mass, then a
-//! point by the patch's bilinear density: exactly the density p(h) h_z); the forward model
+//! tabulated on (theta_k, phi_k) nodes by quadrature over the same grid; the sampler of
+//! the normals visible from wo ([`VisibleSampler`]); the forward model
 //! rho (Ngan et al. 2005, section 5, Eq. 3); and the EXR file a table is stored in.
 //!
 //! Each lookup has an f64 form (fitting) and a lane f32 form (rendering:
 //! [`crate::fastmath::xn`]'s acos and atan2, gathers from the f32 tables).
 
+use super::visible::VisibleSampler;
 use crate::fastmath::xn;
-use crate::sampling::hierarchy::Hierarchy2D;
-use crate::sampling::warp::{square_to_bilinear, square_to_bilinear_xn};
-use crate::simd::{self, LANES, MaskN, Vec3xN, f32xn, i32xn, sel};
-use glam::{DVec3, Vec2, Vec3};
+use crate::simd::{self, MaskN, Vec3xN, f32xn, i32xn, sel};
+use glam::DVec3;
 use std::path::Path;
 
 /// Default nodes per side of the distribution table.
@@ -32,8 +30,8 @@ pub struct Table {
     g: Vec<f32>,
     /// The corners of each (theta, phi) cell of `g`, for the lane lookups.
     g_cells: CellCorners,
-    /// The (n - 1)^2 grid cells, drawn in proportion to the mass of their bilinear patch.
-    cells: Hierarchy2D,
+    /// The sampler of visible normals.
+    visible: VisibleSampler,
 }
 
 pub(super) fn node_dir(n: usize, i: usize, j: usize) -> Option<DVec3> {
@@ -160,19 +158,21 @@ impl Table {
                 0.25 * (at(i, j) + at(i + 1, j) + at(i, j + 1) + at(i + 1, j + 1))
             })
             .collect();
-        let (cells, _) = Hierarchy2D::new(&masses, m, m);
+        let visible = VisibleSampler::new(n, &masses);
         Ok(Table {
             n,
             p,
             g,
             g_cells,
-            cells,
+            visible,
         })
     }
 
     /// Bytes held by the node values, the g table and the sampler.
     pub fn memory_bytes(&self) -> usize {
-        (self.p.len() + self.g.len()) * 4 + self.g_cells.memory_bytes() + self.cells.memory_bytes()
+        (self.p.len() + self.g.len()) * 4
+            + self.g_cells.memory_bytes()
+            + self.visible.memory_bytes()
     }
 
     pub fn resolution(&self) -> usize {
@@ -292,88 +292,24 @@ impl Table {
         sel(ok, v.max(zero), zero)
     }
 
-    /// [`Table::pdf_h`] per lane, in f32.
+    /// The density (solid angle of h) with which [`Table::sample_visible_xn`] draws `h`
+    /// seen from `wo`, given `p_h`, [`Table::p_xn`] of `h`.
     #[inline]
-    pub fn pdf_h_xn(&self, h: Vec3xN) -> f32xn {
-        Self::pdf_h_at_xn(h, self.p_xn(h.x, h.y))
+    pub fn pdf_visible_at_xn(&self, wo: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
+        self.visible.pdf(wo, h, p_h)
     }
 
-    /// [`Table::pdf_h_xn`] given `p_h`, [`Table::p_xn`] of `h`.
+    /// Half vectors visible from `wo` ([`VisibleSampler`]) from uniforms (`ux`, `uy`), and
+    /// the mask of the lanes where one was drawn (the others hold no direction); `N` lane
+    /// vectors side by side, each bit for bit its own call.
     #[inline]
-    pub fn pdf_h_at_xn(h: Vec3xN, p_h: f32xn) -> f32xn {
-        let zero = f32xn::splat(0.0);
-        sel(h.z.simd_le(zero), zero, p_h * h.z)
-    }
-
-    /// Density of h with respect to solid angle of `sample_h`: p(h) h_z.
-    pub fn pdf_h(&self, h: DVec3) -> f64 {
-        if h.z <= 0.0 {
-            0.0
-        } else {
-            self.p(h.x, h.y) * h.z
-        }
-    }
-
-    /// Draws h with density p(h) h_z (None when the bilinear density leaks past the rim):
-    /// a cell by hierarchical warping ([`Hierarchy2D`]), then a point of it by its bilinear
-    /// density ([`square_to_bilinear`]).
-    pub fn sample_h(&self, u: Vec2) -> Option<Vec3> {
-        let (ix, iy, r) = self.cells.sample(u);
-        let k = iy * self.n + ix;
-        let p = &self.p;
-        let f = square_to_bilinear(r, [p[k], p[k + 1], p[k + self.n], p[k + self.n + 1]]);
-        let inv = 1.0 / (self.n - 1) as f32;
-        let (x, y) = (
-            2.0 * ((ix as f32 + f.x) * inv) - 1.0,
-            2.0 * ((iy as f32 + f.y) * inv) - 1.0,
-        );
-        let r2 = x * x + y * y;
-        (r2 < 1.0).then(|| Vec3::new(x, y, (1.0 - r2).sqrt()))
-    }
-
-    /// [`Table::sample_h`] of `LANES` points, lane by lane the same.
-    pub fn sample_h_xn(&self, u: &[Vec2; LANES]) -> [Option<Vec3>; LANES] {
-        let (h, drawn) = self.sample_h_lanes(u);
-        h.options(drawn)
-    }
-
-    /// [`Table::sample_h_xn`] as lane vectors: the half vectors, and the mask of the
-    /// lanes where one was drawn (the others hold no direction).
-    #[inline]
-    pub fn sample_h_lanes(&self, u: &[Vec2; LANES]) -> (Vec3xN, MaskN) {
-        let [r] = self.sample_h_groups([u]);
-        r
-    }
-
-    /// [`Table::sample_h_lanes`] of `N` lane vectors of points, each bit for bit its own
-    /// call: the groups descend the cell hierarchy side by side
-    /// ([`Hierarchy2D::sample_groups`]), so that the core overlaps their dependency
-    /// chains of reads and divisions.
-    #[inline]
-    pub fn sample_h_groups<const N: usize>(&self, u: [&[Vec2; LANES]; N]) -> [(Vec3xN, MaskN); N] {
-        let xy = u.map(simd::vec2s);
-        let cells = self
-            .cells
-            .sample_groups(xy.map(|[x, _]| x), xy.map(|[_, y]| y));
-        cells.map(|(cx, cy, rx, ry)| {
-            let (cx, cy) = (
-                wide::bytemuck::cast::<_, i32xn>(cx),
-                wide::bytemuck::cast::<_, i32xn>(cy),
-            );
-            let n = self.n as i32;
-            let k = cy * i32xn::splat(n) + cx;
-            let at = |offset: i32| simd::gather(&self.p, k + i32xn::splat(offset));
-            let (fx, fy) = square_to_bilinear_xn(rx, ry, [at(0), at(1), at(n), at(n + 1)]);
-            let inv = f32xn::splat(1.0 / (self.n - 1) as f32);
-            let (two, one) = (f32xn::splat(2.0), f32xn::splat(1.0));
-            let coordinate =
-                |c: i32xn, f: f32xn| two * ((crate::simd::float_of(c) + f) * inv) - one;
-            let (x, y) = (coordinate(cx, fx), coordinate(cy, fy));
-            let r2 = x * x + y * y;
-            let drawn = r2.simd_lt(one);
-            let z = sel(drawn, one - r2, f32xn::splat(0.0)).sqrt();
-            (Vec3xN::new(x, y, z), drawn)
-        })
+    pub fn sample_visible_xn<const N: usize>(
+        &self,
+        wo: [Vec3xN; N],
+        ux: [f32xn; N],
+        uy: [f32xn; N],
+    ) -> [(Vec3xN, MaskN); N] {
+        self.visible.sample(&self.p, wo, ux, uy)
     }
 
     /// Reads a distribution written by [`Table::write_exr`] (any square EXR; the first
@@ -479,6 +415,7 @@ pub fn correlation(a: &Table, b: &Table) -> f64 {
 mod tests {
     use super::*;
     use crate::microfacet_gen::synthetic::Shape;
+    use crate::simd::LANES;
 
     /// The f32 lane forms used for rendering agree with the f64 forms used for fitting
     /// to f32 precision (relative 2e-4: the tables are f32, the angles from fastmath),

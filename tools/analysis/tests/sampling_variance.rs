@@ -88,10 +88,28 @@ fn sampling_variance_table() {
             "ashikhmin-shirley, n 100",
             spec("ashikhmin-shirley", json!({"n": 100})),
         ),
+        (
+            "ashikhmin-shirley-anisotropic, 50 / 500",
+            spec(
+                "ashikhmin-shirley-anisotropic",
+                json!({"nu": 50, "nv": 500}),
+            ),
+        ),
         ("he (defaults)", spec("he", json!({}))),
         (
             "ward-anisotropic, 0.1 / 0.3",
             spec("ward-anisotropic", json!({"alpha_x": 0.1, "alpha_y": 0.3})),
+        ),
+        (
+            "sampled-microfacet, Beckmann 0.2 (table)",
+            spec(
+                "sampled-microfacet",
+                json!({"alpha_x": 0.2, "alpha_y": 0.2}),
+            ),
+        ),
+        (
+            "sampled-microfacet, satin (table)",
+            spec("sampled-microfacet", json!({"distribution": "satin"})),
         ),
         (
             "poulin-fournier (defaults)",
@@ -103,7 +121,9 @@ fn sampling_variance_table() {
         VIEWS.map(|d| format!("theta_o {d}")).join(" | "),
         "---|".repeat(VIEWS.len())
     );
-    for (name, desc) in rows {
+    // LOBE_VARIANCE_ROWS=text: only the rows whose name holds it.
+    let only = std::env::var("LOBE_VARIANCE_ROWS").unwrap_or_default();
+    for (name, desc) in rows.into_iter().filter(|(name, _)| name.contains(&only)) {
         let m = model(desc);
         let cells: Vec<String> = table_row(m.as_ref(), &env, 200_000)
             .iter()

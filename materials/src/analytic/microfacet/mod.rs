@@ -175,6 +175,24 @@ pub fn beckmann_d_xn(m2: f32xn, cos_h: f32xn) -> f32xn {
     sel(e.simd_eq(zero), zero, d)
 }
 
+/// The anisotropic Beckmann D per lane, roughness `mx` along the tangent and `my` along the
+/// bitangent: exp(-tan^2(theta_h) (cos^2(phi_h) / mx^2 + sin^2(phi_h) / my^2)) /
+/// (pi mx my cos^4(theta_h)), zero for h_z <= 0 and where the exponential underflows.
+/// tan^2 comes from cos(theta_h) as in [`beckmann_d_xn`], so that a lobe evaluated from
+/// cos(theta_h) rounds as this density does where a narrow lobe meets f32's resolution of
+/// cos(theta_h) near 1, and weights f / p stay near their exact value.
+#[inline(always)]
+pub fn beckmann_d_anisotropic_xn(mx: f32xn, my: f32xn, h: Vec3xN) -> f32xn {
+    let (s, zero) = (f32xn::splat, f32xn::splat(0.0));
+    let c2 = h.z * h.z;
+    let tan2 = (s(1.0) - c2).max(zero) / c2;
+    let s2 = h.x * h.x + h.y * h.y;
+    let cos2_phi = sel(s2.simd_le(s(1e-30)), s(1.0), h.x * h.x / s2);
+    let e = xn::exp(-tan2 * (cos2_phi / (mx * mx) + (s(1.0) - cos2_phi) / (my * my)));
+    let d = e / (s(std::f32::consts::PI) * mx * my * c2 * c2);
+    sel(h.z.simd_le(zero) | e.simd_eq(zero), zero, d)
+}
+
 /// c such that 2 pi c int_0^{pi/2} exp(-(theta/m)^2) cos(theta) sin(theta) dtheta = 1
 /// (composite Simpson's rule on 4096 intervals, exact to ~1e-12 for m >= 1e-3; for smaller
 /// m the small-angle closed form c = 1 / (pi m^2) is used).
