@@ -343,20 +343,33 @@ impl He {
 
     /// The proposals' roughnesses (smooth, rough) and the smooth one's share of the
     /// samples at `wo`. The series is a Poisson mixture over m of lobes whose energy goes
-    /// as the Poisson weight g^m e^-g / m!: the m = 1 term is the diffraction lobe the
-    /// smooth proposal follows, the terms near m = g the rough one. Its share is the m = 1
-    /// term's part of the series' energy at g(wo, wo) (green), kept within [0.05, 0.95]
-    /// so that neither proposal is ever left out.
+    /// as the Poisson weight g^m e^-g / m!, the term m a lobe sqrt(m) times as wide as the
+    /// m = 1 term, the diffraction lobe the smooth proposal follows. The rough proposal
+    /// takes the width of the term one standard deviation above the Poisson mean,
+    /// m = g + sqrt(g) + 1: 2 sigma / tau sqrt(1 + 1 / sqrt(g) + 1 / g), the rough limit
+    /// 2 sigma / tau as g grows (with that limit itself the proposal left the wider terms
+    /// of the upper tail to heavy-tailed weights). The smooth proposal's share is the
+    /// m = 1 term's part of the series' energy at g(wo, wo), kept within [0.05, 0.95] so
+    /// that neither proposal is ever left out.
     fn proposal_mixture(&self, wo: Vec3) -> ([f64; 2], f64) {
         let co = wo.z.clamp(1e-4, 1.0) as f64;
         // The m = 1 term is exp(-pi^2 tau^2 |(wi + wo)_xy|^2 / lambda^2): Beckmann's
-        // exp(-tan^2 / m^2) with tan = |(wi + wo)_xy| / (cos_i + cos_o), cos_i ~ cos_o.
-        let smooth = (WAVELENGTHS_UM[1] / (2.0 * std::f64::consts::PI * self.tau * co))
-            .clamp(MIN_ROUGHNESS, 2.0);
+        // exp(-tan^2 / m^2) with tan = |(wi + wo)_xy| / (cos_i + cos_o), so
+        // m (cos_i + cos_o) = lambda / (pi tau) = a. The lobe's directions lie about half
+        // its width above the mirror direction (which matters at grazing wo, where the
+        // horizon cuts the lobe's lower half): cos_i ~ cos_o + m / 2, and
+        // m = a / (2 cos_o + m / 2), whose positive root is 2 a / (2 cos_o + sqrt(4 cos_o^2 + 2 a)).
+        let a = WAVELENGTHS_UM[1] / (std::f64::consts::PI * self.tau);
+        let smooth =
+            (2.0 * a / (2.0 * co + (4.0 * co * co + 2.0 * a).sqrt())).clamp(MIN_ROUGHNESS, 2.0);
         let sigma = he_shadowing::self_roughness(self.sigma0 as f32, self.tau as f32, co as f32);
-        let rough = (2.0 * sigma as f64 / self.tau).clamp(smooth, 2.0);
         let k = 2.0 * std::f64::consts::PI / WAVELENGTHS_UM[1] * sigma as f64 * 2.0 * co;
         let g = k * k;
+        let rough = match g > 1e-12 {
+            true => 2.0 * sigma as f64 / self.tau * (1.0 + 1.0 / g.sqrt() + 1.0 / g).sqrt(),
+            false => smooth,
+        };
+        let rough = rough.clamp(smooth, 2.0);
         let first = match g > 1e-12 {
             true => g * (-g).exp() / -(-g).exp_m1(),
             false => 1.0,

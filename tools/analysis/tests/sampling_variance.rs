@@ -97,6 +97,14 @@ fn sampling_variance_table() {
         ),
         ("he (defaults)", spec("he", json!({}))),
         (
+            "he, sigma0 0.05, tau 2",
+            spec("he", json!({"sigma0": 0.05, "tau": 2})),
+        ),
+        (
+            "he, sigma0 1, tau 4",
+            spec("he", json!({"sigma0": 1, "tau": 4})),
+        ),
+        (
             "ward-anisotropic, 0.1 / 0.3",
             spec("ward-anisotropic", json!({"alpha_x": 0.1, "alpha_y": 0.3})),
         ),
