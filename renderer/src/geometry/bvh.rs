@@ -210,7 +210,8 @@ impl Geometry {
         let mut spheres = [0usize; LANES];
         let mut n = 0;
         for (h, &(i, t, prim)) in hits.iter().enumerate() {
-            if matches!(self.prims.get(prim).kind, PrimKind::Sphere(_)) {
+            let primitive = self.prims.get(prim);
+            if matches!(primitive.kind, PrimKind::Sphere(_)) {
                 spheres[n] = h;
                 n += 1;
                 if n == LANES {
@@ -218,7 +219,7 @@ impl Geometry {
                     n = 0;
                 }
             } else {
-                self.interaction_into(&rays[i as usize], t, prim, &mut out[h]);
+                self.interaction_of(&rays[i as usize], t, prim, primitive, &mut out[h]);
             }
         }
         if n > 0 {
@@ -347,13 +348,26 @@ impl Geometry {
     /// line).
     #[inline(always)]
     pub fn interaction_into(&self, ray: &Ray, t: f32, prim: u32, it: &mut Interaction) {
-        let shape = self.prims.get(prim).shape;
+        self.interaction_of(ray, t, prim, self.prims.get(prim), it);
+    }
+
+    /// [`Geometry::interaction_into`] of primitive `prim`, already looked up as `primitive`.
+    #[inline(always)]
+    fn interaction_of(
+        &self,
+        ray: &Ray,
+        t: f32,
+        prim: u32,
+        primitive: Primitive,
+        it: &mut Interaction,
+    ) {
+        let shape = primitive.shape;
         let sg = self.shapes[shape as usize];
         let orient = |n: Vec3| if sg.flip_normals { -n } else { n };
         it.t = t;
         it.shape = shape;
         it.prim = prim;
-        match &self.shape_of(prim) {
+        match &self.source().shape_of_primitive(primitive) {
             PrimShape::Sphere(s) => {
                 let (pos, n, dpdu) = s.surface(ray.at(t));
                 it.p = pos;
@@ -368,7 +382,7 @@ impl Geometry {
                 it.p = r.point(uv);
                 it.ng = orient(r.n);
                 it.ns = orient(r.n);
-                it.dpdu = r.eu.normalize();
+                it.dpdu = r.tangent();
                 it.uv = uv;
                 it.exit = Vec3::ZERO;
             }

@@ -110,7 +110,13 @@ impl PrimSource<'_> {
     /// bit for bit those of [`Triangle::new`]).
     #[inline(always)]
     pub fn shape_of(&self, i: u32) -> PrimShape {
-        match self.prims.get(i).kind {
+        self.shape_of_primitive(self.prims.get(i))
+    }
+
+    /// [`PrimSource::shape_of`] of a primitive already looked up.
+    #[inline(always)]
+    pub fn shape_of_primitive(&self, p: Primitive) -> PrimShape {
+        match p.kind {
             PrimKind::Sphere(s) => PrimShape::Sphere(s),
             PrimKind::Triangle { mesh, index } => {
                 PrimShape::Triangle(Triangle::new(mesh, &self.meshes[mesh as usize], index))

@@ -16,6 +16,10 @@ pub struct Rectangle {
     /// Dual vectors: (p - corner) . du = u in [0, 1], same for v.
     du: Vec3,
     dv: Vec3,
+    /// `eu` normalized (the surface tangent along u) and the area |eu x ev|, computed once:
+    /// every hit and every light sample needs them.
+    tangent: Vec3,
+    area: f32,
 }
 
 impl Rectangle {
@@ -45,6 +49,8 @@ impl Rectangle {
             n,
             du,
             dv,
+            tangent: eu.normalize(),
+            area: eu.cross(ev).length(),
         })
     }
 
@@ -89,6 +95,11 @@ impl Rectangle {
     }
 
     pub fn area(&self) -> f32 {
-        self.eu.cross(self.ev).length()
+        self.area
+    }
+
+    /// The unit tangent along u (`eu` normalized).
+    pub fn tangent(&self) -> Vec3 {
+        self.tangent
     }
 }
