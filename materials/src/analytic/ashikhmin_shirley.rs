@@ -18,7 +18,7 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::fresnel::schlick;
-use super::microfacet::{beckmann_d_anisotropic_xn, visible};
+use super::microfacet::{beckmann_d_anisotropic_xn, cosine_power_beckmann_m, visible};
 use crate::fastmath::xn;
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
@@ -72,12 +72,11 @@ impl AshikhminShirley {
     }
 
     /// Roughness (tangent, bitangent) of the anisotropic Beckmann distribution whose
-    /// visible normals sample the lobe: m = sqrt(2 / (n + 2)) per axis, the width at which a
-    /// cosine power's peak matches Beckmann's
-    /// ([`super::microfacet::Distribution::CosinePower`]).
+    /// visible normals sample the lobe: per axis, the one whose peak matches the cosine
+    /// power of that axis's exponent ([`cosine_power_beckmann_m`]).
     #[inline]
     fn proposal_roughness(&self) -> (f32, f32) {
-        let m = |n: f64| (2.0 / (n.max(0.0) + 2.0)).sqrt() as f32;
+        let m = |n: f64| cosine_power_beckmann_m(n.max(0.0));
         (m(self.nu), m(self.nv))
     }
 

@@ -358,7 +358,8 @@ impl He {
         // m (cos_i + cos_o) = lambda / (pi tau) = a. The lobe's directions lie about half
         // its width above the mirror direction (which matters at grazing wo, where the
         // horizon cuts the lobe's lower half): cos_i ~ cos_o + m / 2, and
-        // m = a / (2 cos_o + m / 2), whose positive root is 2 a / (2 cos_o + sqrt(4 cos_o^2 + 2 a)).
+        // m = a / (2 cos_o + m / 2), whose positive root is
+        // 2 a / (2 cos_o + sqrt(4 cos_o^2 + 2 a)).
         let a = WAVELENGTHS_UM[1] / (std::f64::consts::PI * self.tau);
         let smooth =
             (2.0 * a / (2.0 * co + (4.0 * co * co + 2.0 * a).sqrt())).clamp(MIN_ROUGHNESS, 2.0);

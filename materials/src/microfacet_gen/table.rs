@@ -43,7 +43,7 @@ pub(super) fn node_dir(n: usize, i: usize, j: usize) -> Option<DVec3> {
 
 /// The node below a non-negative table coordinate, at most `last` (NaN gives 0).
 #[inline(always)]
-fn node_index(x: f32xn, last: usize) -> i32xn {
+pub(super) fn node_index(x: f32xn, last: usize) -> i32xn {
     x.trunc_int()
         .max(i32xn::splat(0))
         .min(i32xn::splat(last as i32))

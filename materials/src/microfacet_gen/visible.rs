@@ -12,11 +12,13 @@
 //! (wo.h)+ / h_z is approximated: the grid's cells are grouped into blocks of about
 //! 32 x 32 per side; a block is drawn with probability its mass of p(h) h_z times
 //! (v.c)+ / c_z at its mass centroid c, for the view v of the nearest of 24 x 24
-//! (theta_o, phi_o) directions ([`view`]) (a small floor keeps every block with mass reachable, so
-//! the estimator stays unbiased; by mass alone for a view that no block faces); within the block a cell is drawn in proportion to its
-//! mass and a point of the cell by its bilinear density, as the table's own sampler
-//! does. The density of h is then p(h) h_z P(block | wo) / mass(block), exactly.
+//! (theta_o, phi_o) directions ([`view`]). A small floor keeps every block with mass
+//! reachable, so the estimator stays unbiased; a view that no block faces draws blocks by
+//! mass alone. Within the block a cell is drawn in proportion to its mass and a point of
+//! the cell by its bilinear density. The density of h is then
+//! p(h) h_z P(block | wo) / mass(block), exactly.
 
+use super::table::node_index;
 use crate::sampling::warp::square_to_bilinear_xn;
 use crate::simd::{self, MaskN, Vec3xN, f32xn, gather, i32xn, sel};
 use glam::DVec3;
@@ -140,13 +142,13 @@ impl VisibleSampler {
             .collect();
         let mut block_cdf = Vec::with_capacity(THETA_NODES * PHI_NODES * blocks * blocks);
         let mut weight = vec![0.0f64; blocks * blocks];
+        let total: f64 = mass.iter().sum();
         for t in 0..THETA_NODES {
             for f in 0..PHI_NODES {
                 let v = view(t, f);
                 for (w, c) in weight.iter_mut().zip(&facing) {
                     *w = c.map_or(0.0, |c| v.dot(c).max(0.0));
                 }
-                let total: f64 = mass.iter().sum();
                 let mean = weight.iter().zip(&mass).map(|(w, m)| w * m).sum::<f64>() / total;
                 for (w, m) in weight.iter_mut().zip(&mass) {
                     // No block faces the view: the blocks by mass alone.
@@ -192,7 +194,7 @@ impl VisibleSampler {
         let t = (below * s((THETA_NODES - 1) as f32) + s(0.5)).trunc_int();
         let a = diamond_angle(wo.x, wo.y) * s(PHI_NODES as f32 / 4.0) + s(0.5);
         let f = a.trunc_int();
-        let f = sel_i(
+        let f = sel(
             f.simd_ge(i32xn::splat(PHI_NODES as i32)),
             i32xn::splat(0),
             f,
@@ -224,12 +226,7 @@ impl VisibleSampler {
     pub(super) fn pdf(&self, wo: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
         let s = f32xn::splat;
         let half_span = s((self.n - 1) as f32 / 2.0);
-        let cell = |c: f32xn| {
-            ((c + s(1.0)) * half_span)
-                .trunc_int()
-                .max(i32xn::splat(0))
-                .min(i32xn::splat(self.n as i32 - 2))
-        };
+        let cell = |c: f32xn| node_index((c + s(1.0)) * half_span, self.n - 2);
         let (bx, by) = (div(cell(h.x), self.side), div(cell(h.y), self.side));
         let b = by * i32xn::splat(self.blocks as i32) + bx;
         let p = p_h * h.z * self.block_density(self.view_offset(wo), b);
@@ -286,12 +283,6 @@ fn div(a: i32xn, d: usize) -> i32xn {
     ((simd::float_of(a) + f32xn::splat(0.5)) * f32xn::splat(1.0 / d as f32)).trunc_int()
 }
 
-/// `a` where `m`, else `b`, per lane of i32 vectors.
-#[inline(always)]
-fn sel_i(m: i32xn, a: i32xn, b: i32xn) -> i32xn {
-    (a & m) | (b & !m)
-}
-
 /// The first of the `n` inclusive CDF values `cdf[offset + k]` (non-decreasing, ending
 /// at one) above `u`, per lane, and `u` remapped to [0, 1) within that entry's step; `N`
 /// lane vectors side by side.
@@ -328,7 +319,7 @@ fn invert<const N: usize>(
         for g in 0..N {
             let next = base[g] + i32xn::splat(half as i32 - 1);
             let skip = gather(cdf, offset[g] + next).simd_le(u[g]);
-            base[g] = sel_i(wide::bytemuck::cast(skip), next + i32xn::splat(1), base[g]);
+            base[g] = sel(wide::bytemuck::cast(skip), next + i32xn::splat(1), base[g]);
         }
         size -= half;
     }

@@ -50,7 +50,7 @@ impl Rectangle {
             du,
             dv,
             tangent: eu.normalize(),
-            area: eu.cross(ev).length(),
+            area: cross.length(),
         })
     }
 

@@ -96,7 +96,7 @@ impl Distribution {
     fn visible_m(&self) -> f32 {
         match *self {
             Distribution::Beckmann { m } | Distribution::Gaussian { m, .. } => m as f32,
-            Distribution::CosinePower { n } => (2.0 / (n + 2.0)).sqrt() as f32,
+            Distribution::CosinePower { n } => cosine_power_beckmann_m(n),
         }
     }
 
@@ -173,6 +173,14 @@ pub fn beckmann_d_xn(m2: f32xn, cos_h: f32xn) -> f32xn {
     let e = xn::exp(-tan2 / m2);
     let d = e / (s(std::f32::consts::PI) * m2 * c2 * c2);
     sel(e.simd_eq(zero), zero, d)
+}
+
+/// The roughness m = sqrt(2 / (n + 2)) of the Beckmann distribution whose peak matches
+/// that of a cosine power of exponent `n`: the visible-normal proposal of cosine-power
+/// lobes.
+#[inline]
+pub fn cosine_power_beckmann_m(n: f64) -> f32 {
+    (2.0 / (n + 2.0)).sqrt() as f32
 }
 
 /// The anisotropic Beckmann D per lane, roughness `mx` along the tangent and `my` along the
