@@ -546,31 +546,36 @@ fn too_deep(levels: usize) -> String {
 }
 
 /// The primitives in the order of a Morton curve through their box centres (10 bits per
-/// axis over the centres' box; ties in primitive order, so the order is unique).
+/// axis over the box of the meshes' vertices and the other primitives' centres, which holds
+/// every centre; ties in primitive order, so the order is unique). Taking the box from the
+/// vertices lets each centre go straight into its key, computed once and never stored
+/// (16M triangles: 0.41 -> 0.34 s).
 fn morton_order(source: PrimSource) -> Vec<u32> {
     use glam::Vec3A;
     use rayon::prelude::*;
     let n = source.prims.len() as u32;
-    let centres: Vec<Vec3A> = (0..n)
-        .into_par_iter()
-        .map(|i| source.shape_of(i).aabb().center())
-        .collect();
-    let bounds = centres
+    let vertices = source
+        .meshes
         .par_iter()
-        .fold(Aabb::empty, |mut a, &c| *a.extend(c))
+        .flat_map(|m| m.positions.par_iter())
+        .fold(Aabb::empty, |mut a, &p| *a.extend(p.into()))
         .reduce(Aabb::empty, |a, b| a.union(&b));
+    let bounds = source
+        .prims
+        .singles()
+        .map(|p| source.shape_of_primitive(p).aabb().center())
+        .fold(vertices, |mut a, c| *a.extend(c));
     let scale = 1023.0;
     let extent = (bounds.max - bounds.min).max(Vec3A::splat(f32::MIN_POSITIVE));
-    let mut keys: Vec<u64> = centres
-        .par_iter()
-        .zip(0..n)
-        .map(|(&c, i)| {
+    let mut keys: Vec<u64> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let c = source.shape_of(i).aabb().center();
             let q = ((c - bounds.min) / extent * scale).clamp(Vec3A::ZERO, Vec3A::splat(scale));
             let code = morton_encode_u32(q.x as u16, q.y as u16, q.z as u16);
             ((code as u64) << 32) | i as u64
         })
         .collect();
-    drop(centres);
     // The keys are unique (the index in their low bits), so any sort gives one order; a
     // parallel radix sort (rdst, obvhs's own) takes half a comparison sort's time.
     {

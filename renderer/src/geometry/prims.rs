@@ -83,6 +83,14 @@ impl Prims {
         (0..self.len).map(|i| self.get(i))
     }
 
+    /// The primitives that are not mesh triangles (spheres and rectangles), in order.
+    pub fn singles(&self) -> impl Iterator<Item = Primitive> + '_ {
+        self.runs
+            .iter()
+            .filter(|r| !matches!(r.first.kind, PrimKind::Triangle { .. }))
+            .map(|r| r.first)
+    }
+
     /// Bytes held.
     pub fn memory_bytes(&self) -> usize {
         self.runs.len() * size_of::<Run>()
@@ -135,6 +143,8 @@ mod tests {
         let prims: Prims = flat.iter().copied().collect();
         assert_eq!(prims.len(), flat.len());
         assert_eq!(prims.runs.len(), 7);
+        let singles: Vec<Primitive> = prims.singles().collect();
+        assert_eq!(singles, [flat[8], flat[15]]);
         for (i, p) in flat.iter().enumerate() {
             assert_eq!(prims.get(i as u32), *p, "primitive {i}");
         }
