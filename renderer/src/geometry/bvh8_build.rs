@@ -1,8 +1,8 @@
 //! Construction of the renderer's BVH8 ([`Bvh8`]): obvhs's binary BVH (PLOC, Meister and
 //! Bittner, "Parallel Locally-Ordered Clustering for Bounding Volume Hierarchy
-//! Construction", 2018, with obvhs's `fast_build` settings: a short PLOC search, a light
-//! reinsertion pass and SAH leaf collapse to at most eight primitives) collapsed top-down
-//! into eight-wide nodes: each node keeps opening the inner child of largest surface area
+//! Construction", 2018, with obvhs's `fast_build` settings: a short PLOC search and a light
+//! reinsertion pass; every subtree of at most eight primitives a leaf, [`leaves_of_lanes`])
+//! collapsed top-down into eight-wide nodes: each node keeps opening the inner child of largest surface area
 //! until it has eight children (Wald et al. 2008, section 3), and the leaves among a
 //! node's children are packed into as few blocks of eight lanes as fit ([`pack`]: the
 //! leaf collapse only joins two sibling leaves, so blocks held 5.9 triangles on average,
@@ -28,13 +28,6 @@ use obvhs::bvh2::Bvh2;
 use obvhs::ploc::morton::morton_encode_u32;
 use std::time::Duration;
 use wide::{f32x8, u32x8};
-
-/// The cost of a traversal step relative to one primitive test in obvhs's leaf collapse
-/// (its default 3 is for scalar leaves). A leaf block tests its eight primitives in one
-/// SIMD step, so fuller leaves cost nothing: at 12 the collapse fills them (measured on the
-/// million-triangle bench: leaf blocks and nodes 93 -> 70 MB, incoherent closest-hit
-/// queries 20 % and occlusion queries 10 % faster, the same images bit for bit).
-const COLLAPSE_TRAVERSAL_COST: f32 = 12.0;
 
 /// Primitives per chunk of a big scene's build ([`Draft::build_chunked`]): a chunk's build
 /// buffers stay small, and a scene of a few chunks still spreads over all cores.
@@ -133,19 +126,21 @@ impl Draft {
     }
 
     /// obvhs's binary tree over the primitives `ids` (its leaves name them by their index
-    /// into `source.prims`).
+    /// into `source.prims`), its subtrees of at most [`LANES`] primitives made leaves
+    /// ([`leaves_of_lanes`]).
     fn binary(source: PrimSource, ids: &[u32]) -> Bvh2 {
         use rayon::prelude::*;
         // `fast_build` rather than `medium_build` (a longer PLOC search and two reinsertion
         // passes): the 4M-triangle build 3.4 -> 1.7 s, and the bench's incoherent queries
-        // were not slower (docs/performance.md).
+        // were not slower (docs/performance.md). obvhs's own leaf collapse is off
+        // (`max_prims_per_leaf` 1): [`leaves_of_lanes`] makes the same leaves.
         let params = BvhBuildParams {
-            max_prims_per_leaf: LANES as u32,
-            collapse_traversal_cost: COLLAPSE_TRAVERSAL_COST,
+            max_prims_per_leaf: 1,
             ..BvhBuildParams::fast_build()
         };
         let boxes: Vec<Aabb> = ids.par_iter().map(|&i| source.shape_of(i).aabb()).collect();
         let mut bvh2 = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
+        leaves_of_lanes(&mut bvh2);
         for p in &mut bvh2.primitive_indices {
             *p = ids[*p as usize];
         }
@@ -540,6 +535,67 @@ fn pack(mut leaves: Vec<Leaf>) -> Vec<Leaf> {
     blocks
 }
 
+/// Makes every subtree of `bvh2` that holds at most [`LANES`] primitives, and is not
+/// inside a smaller such subtree, one leaf, its primitives in depth-first order (left
+/// first). A leaf block tests its eight lanes in one SIMD step, so such a leaf always costs
+/// less than the subtree: this is the SAH leaf collapse (as obvhs and madmann91's bvh run
+/// it) at a traversal cost of [`LANES`] or more, where every collapse pays. (At obvhs's
+/// default cost of 3, for scalar leaves, the million-triangle bench's leaf blocks and nodes
+/// took 93 MB rather than 70, and its incoherent closest-hit queries were 20 % slower.)
+/// obvhs's collapse at cost 12 makes the same leaves; this one skips its copies of the
+/// whole tree (the 4M and 16M builds 5-9 % faster). The subtree's inner nodes stay in
+/// `bvh2.nodes`, unreachable.
+fn leaves_of_lanes(bvh2: &mut Bvh2) {
+    let nodes = &mut bvh2.nodes;
+    if nodes.is_empty() {
+        return;
+    }
+    // Pre-order from the root; counts filled in reverse (children before parents).
+    let mut order = Vec::with_capacity(nodes.len());
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        order.push(i);
+        if !nodes[i].is_leaf() {
+            let l = nodes[i].first_index as usize;
+            stack.extend([l + 1, l]);
+        }
+    }
+    let mut count = vec![0u32; nodes.len()];
+    for &i in order.iter().rev() {
+        let n = &nodes[i];
+        count[i] = match n.is_leaf() {
+            true => n.prim_count,
+            false => count[n.first_index as usize] + count[n.first_index as usize + 1],
+        };
+    }
+    let old = std::mem::take(&mut bvh2.primitive_indices);
+    let mut indices = Vec::with_capacity(old.len());
+    let mut gather = Vec::new();
+    stack.push(0);
+    while let Some(i) = stack.pop() {
+        let n = nodes[i];
+        if !n.is_leaf() && count[i] > LANES as u32 {
+            let l = n.first_index as usize;
+            stack.extend([l + 1, l]);
+            continue;
+        }
+        let first = indices.len() as u32;
+        gather.push(i);
+        while let Some(j) = gather.pop() {
+            let m = nodes[j];
+            match m.is_leaf() {
+                true => indices.extend_from_slice(
+                    &old[m.first_index as usize..(m.first_index + m.prim_count) as usize],
+                ),
+                false => gather.extend([m.first_index as usize + 1, m.first_index as usize]),
+            }
+        }
+        nodes[i].first_index = first;
+        nodes[i].prim_count = count[i];
+    }
+    bvh2.primitive_indices = indices;
+}
+
 /// The error of a tree deeper than the traversal stack allows.
 fn too_deep(levels: usize) -> String {
     format!("the BVH would be {levels} levels deep; at most {MAX_DEPTH} are supported")
@@ -650,5 +706,59 @@ mod tests {
             "the union of the boxes"
         );
         assert!(blocks.iter().all(|b| b.ids.len() <= LANES));
+    }
+}
+
+#[cfg(test)]
+mod leaf_tests {
+    use super::*;
+
+    /// The leaves reachable from the root, in depth-first order (left first), each as its
+    /// primitives in order.
+    fn leaves(bvh2: &Bvh2) -> Vec<Vec<u32>> {
+        let (mut out, mut stack) = (Vec::new(), vec![0usize]);
+        while let Some(i) = stack.pop() {
+            let n = &bvh2.nodes[i];
+            match n.is_leaf() {
+                true => {
+                    let r = n.first_index as usize..(n.first_index + n.prim_count) as usize;
+                    out.push(bvh2.primitive_indices[r].to_vec());
+                }
+                false => stack.extend([n.first_index as usize + 1, n.first_index as usize]),
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn leaves_of_lanes_are_the_sah_collapse_at_a_high_traversal_cost() {
+        // Boxes of different sizes scattered in a cube, so that subtrees of every size occur.
+        let boxes: Vec<Aabb> = (0..5000u64)
+            .map(|i| {
+                let u = |k: u64| {
+                    use lobe_materials::sampling::random::{hash, unit};
+                    unit(hash(i, k)) as f32
+                };
+                let c = glam::Vec3A::new(u(0), u(1), u(2)) * 10.0;
+                let h = glam::Vec3A::splat(0.01 + 0.3 * u(3) * u(3));
+                Aabb::new(c - h, c + h)
+            })
+            .collect();
+        let params = BvhBuildParams {
+            max_prims_per_leaf: 1,
+            ..BvhBuildParams::fast_build()
+        };
+        let built = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
+        let (mut ours, mut theirs) = (built.clone(), built);
+        leaves_of_lanes(&mut ours);
+        obvhs::bvh2::leaf_collapser::collapse(&mut theirs, LANES as u32, 12.0);
+        let got = leaves(&ours);
+        assert_eq!(got, leaves(&theirs));
+        assert!(got.iter().all(|l| !l.is_empty() && l.len() <= LANES));
+        let mut all: Vec<u32> = got.concat();
+        all.sort_unstable();
+        assert_eq!(all, (0..5000).collect::<Vec<u32>>());
+        // Fuller than obvhs's own leaves would be: most hold more than half a block.
+        assert!(got.len() * 4 < 5000, "{} leaves", got.len());
     }
 }
