@@ -80,10 +80,11 @@ fn bench(c: &mut Criterion) {
     let geo =
         Geometry::build(tris, vec![mesh.clone()], vec![], vec![ShapeGeom::default()]).expect("BVH");
     println!(
-        "BVH of {} triangles: {:.1} MB of nodes and leaf blocks, {:.1} MB of primitives and mesh data",
+        "BVH of {} triangles: {:.1} MB of nodes and leaf blocks, {:.1} MB of primitives and mesh data, SAH cost {:.2}",
         geo.prims.len(),
         geo.bvh_memory_bytes() as f64 / 1e6,
-        geo.primitive_memory_bytes() as f64 / 1e6
+        geo.primitive_memory_bytes() as f64 / 1e6,
+        geo.bvh_sah_cost()
     );
     let mut s = 7u64;
     let mut rnd = move || {

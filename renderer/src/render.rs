@@ -76,6 +76,9 @@ pub struct RenderStats {
     pub primitives: usize,
     pub bvh_bytes: usize,
     pub primitive_bytes: usize,
+    /// The BVH's surface area heuristic cost (its quality, free of timing noise:
+    /// [`crate::geometry::bvh8::Bvh8::sah_cost`]).
+    pub bvh_sah_cost: f64,
     /// Where the scene's loading time went (reading meshes, building the BVH).
     pub load: crate::scene::LoadTimes,
 }
@@ -148,6 +151,7 @@ impl RenderStats {
             "geometry": {
                 "primitives": self.primitives,
                 "bvh_bytes": self.bvh_bytes,
+                "bvh_sah_cost": self.bvh_sah_cost,
                 "primitive_bytes": self.primitive_bytes,
                 "bvh_build_seconds": self.load.bvh_build_seconds,
                 "mesh_read_seconds": self.load.mesh_read_seconds,
@@ -370,6 +374,7 @@ impl TileRun {
             threads: self.threads,
             primitives: scene.geometry.prims.len(),
             bvh_bytes: scene.geometry.bvh_memory_bytes(),
+            bvh_sah_cost: scene.geometry.bvh_sah_cost(),
             primitive_bytes: scene.geometry.primitive_memory_bytes(),
             load: scene.load_times,
         }

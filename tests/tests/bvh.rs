@@ -421,3 +421,79 @@ fn batched_closest_hits_equal_single_ones() {
         );
     }
 }
+
+/// A BVH's SAH cost is the tests a ray expects: over spheres that all share one box every
+/// box is hit whenever the root is, so the cost is every node and leaf block (at least one
+/// block per eight spheres); spread along a line, a ray expects the root, about one node
+/// per level below it, and one block.
+#[test]
+fn the_sah_cost_counts_the_tests_a_ray_expects() {
+    let n = 200;
+    let spheres = |spread: f32| {
+        let prims = (0..n)
+            .map(|k| {
+                let center = Vec3::new(k as f32 * spread, 0.0, 0.0);
+                (
+                    PrimShape::Sphere(Sphere {
+                        center,
+                        radius: 0.5,
+                    }),
+                    0,
+                )
+            })
+            .collect();
+        Geometry::from_shapes(prims, vec![], vec![ShapeGeom::default()]).expect("BVH")
+    };
+    let (stacked, spread) = (spheres(0.0), spheres(3.0));
+    assert!(stacked.has_bvh() && spread.has_bvh());
+    let all = stacked.bvh_sah_cost();
+    assert!(all >= 1.0 + n as f64 / 8.0, "{all}");
+    let cost = spread.bvh_sah_cost();
+    assert!(
+        cost > 2.0 && cost < 4.0 && all > 10.0 * cost,
+        "{cost} {all}"
+    );
+}
+
+/// Primitives that share one box (duplicated geometry) make PLOC's tree a chain deeper
+/// than the traversal stack; the build falls back to median splits, in one tree and in
+/// chunks, and the tree answers as brute force does.
+#[test]
+fn coincident_primitives_build_and_hit_as_brute_force() {
+    let sphere = PrimShape::Sphere(Sphere {
+        center: Vec3::new(0.0, 0.0, 2.0),
+        radius: 0.5,
+    });
+    let spheres =
+        Geometry::from_shapes(vec![(sphere, 0); 4096], vec![], vec![ShapeGeom::default()])
+            .expect("4096 coincident spheres");
+    let mesh = Mesh {
+        positions: vec![
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(1.0, -1.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ],
+        indices: vec![[0, 1, 2]; 70_000],
+        ..Default::default()
+    };
+    let prims = (0..70_000)
+        .map(|t| (PrimShape::Triangle(Triangle::new(0, &mesh, t)), 0))
+        .collect();
+    let triangles = Geometry::from_shapes(prims, vec![mesh], vec![ShapeGeom::default()])
+        .expect("70000 coincident triangles");
+    let mut r = Lcg(5);
+    for g in [&spheres, &triangles] {
+        assert!(g.has_bvh());
+        let mut hits = 0;
+        for _ in 0..200 {
+            let ray = Ray::new(
+                Vec3::ZERO,
+                (Vec3::new(0.0, 0.0, 2.0) + r.v(0.8)).normalize(),
+            );
+            let (a, b) = (g.closest(&ray), g.closest_brute_force(&ray));
+            assert_eq!(a.map(|h| h.0), b.map(|h| h.0), "{ray:?}");
+            hits += usize::from(a.is_some());
+        }
+        assert!(hits > 50, "{hits} hits");
+    }
+}

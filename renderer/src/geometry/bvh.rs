@@ -117,6 +117,11 @@ impl Geometry {
         self.bvh.as_ref().map_or(0, Bvh8::memory_bytes)
     }
 
+    /// The BVH's surface area heuristic cost ([`Bvh8::sah_cost`]; 0 without a BVH).
+    pub fn bvh_sah_cost(&self) -> f64 {
+        self.bvh.as_ref().map_or(0.0, Bvh8::sah_cost)
+    }
+
     /// Bytes of the primitive list and the meshes' vertex data.
     pub fn primitive_memory_bytes(&self) -> usize {
         use std::mem::size_of;

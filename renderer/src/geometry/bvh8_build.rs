@@ -40,17 +40,34 @@ const CUT: usize = 16;
 /// time): enough for every core to stay busy as subtree sizes vary.
 const PARALLEL_SUBTREES: usize = 64;
 
+/// How the binary trees split their primitives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Splits {
+    /// obvhs's PLOC ([`Draft::binary`]).
+    Ploc,
+    /// Object medians along the widest axis of the centres ([`median_splits`]): balanced,
+    /// so never deeper than log2 of the primitive count.
+    Median,
+}
+
 /// The BVH8 over the primitives of `source` (at least one). Scenes of up to [`CHUNK`]
-/// primitives get one binary tree; bigger ones are built in chunks.
+/// primitives get one binary tree; bigger ones are built in chunks. PLOC's tree over many
+/// primitives that share one box (duplicated geometry) is a chain, as its merges tie:
+/// when that makes the tree deeper than the traversal stack allows, it is built again
+/// with median splits.
 pub fn build(source: PrimSource) -> Result<Bvh8, String> {
+    build_with(source, Splits::Ploc).or_else(|_| build_with(source, Splits::Median))
+}
+
+fn build_with(source: PrimSource, splits: Splits) -> Result<Bvh8, String> {
     let draft = if source.prims.len() > CHUNK {
-        let draft = Draft::build_chunked(source)?;
+        let draft = Draft::build_chunked(source, splits)?;
         // The chunks' freed parts, before the leaf blocks take their final memory.
         crate::memory::release_freed();
         draft
     } else {
         let ids: Vec<u32> = (0..source.prims.len() as u32).collect();
-        let bvh2 = Draft::binary(source, &ids);
+        let bvh2 = Draft::binary(source, &ids, splits, true);
         let mut draft = Draft::empty();
         draft.collapse(&bvh2, source)?;
         draft
@@ -128,18 +145,14 @@ impl Draft {
     /// obvhs's binary tree over the primitives `ids` (its leaves name them by their index
     /// into `source.prims`), its subtrees of at most [`LANES`] primitives made leaves
     /// ([`leaves_of_lanes`]).
-    fn binary(source: PrimSource, ids: &[u32]) -> Bvh2 {
+    fn binary(source: PrimSource, ids: &[u32], splits: Splits, suspect: bool) -> Bvh2 {
         use rayon::prelude::*;
-        // `fast_build` rather than `medium_build` (a longer PLOC search and two reinsertion
-        // passes): the 4M-triangle build 3.4 -> 1.7 s, and the bench's incoherent queries
-        // were not slower (docs/performance.md). obvhs's own leaf collapse is off
-        // (`max_prims_per_leaf` 1): [`leaves_of_lanes`] makes the same leaves.
-        let params = BvhBuildParams {
-            max_prims_per_leaf: 1,
-            ..BvhBuildParams::fast_build()
-        };
         let boxes: Vec<Aabb> = ids.par_iter().map(|&i| source.shape_of(i).aabb()).collect();
-        let mut bvh2 = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
+        let splits = match suspect && piled(&boxes) {
+            true => Splits::Median,
+            false => splits,
+        };
+        let mut bvh2 = binary_tree(&boxes, splits);
         leaves_of_lanes(&mut bvh2);
         for p in &mut bvh2.primitive_indices {
             *p = ids[*p as usize];
@@ -155,15 +168,16 @@ impl Draft {
     /// part while the chunk's binary tree is freed; a top-level binary tree over the
     /// parts' boxes is collapsed in turn, and the parts are appended under it. The chunks
     /// are fixed by the Morton order, so the tree is the same whatever the thread count.
-    fn build_chunked(source: PrimSource) -> Result<Self, String> {
+    fn build_chunked(source: PrimSource, splits: Splits) -> Result<Self, String> {
         use rayon::prelude::*;
         // What the mesh readers freed, back to the system before the build's peak.
         crate::memory::release_freed();
-        let order = morton_order(source);
+        let (order, runs) = morton_order(source);
         let parts: Vec<(Aabb, Self)> = order
             .par_chunks(CHUNK)
-            .map(|ids| {
-                let bvh2 = Self::binary(source, ids);
+            .zip(runs)
+            .map(|(ids, run)| {
+                let bvh2 = Self::binary(source, ids, splits, run > PILE);
                 cut(&bvh2, CUT)
                     .into_iter()
                     .map(|n2| {
@@ -179,11 +193,14 @@ impl Draft {
             .collect();
         drop(order);
         let boxes: Vec<Aabb> = parts.iter().map(|p| p.0).collect();
-        let params = BvhBuildParams {
-            max_prims_per_leaf: 1,
-            ..BvhBuildParams::fast_build()
-        };
-        let top = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
+        let top = binary_tree(
+            &boxes,
+            if piled(&boxes) {
+                Splits::Median
+            } else {
+                splits
+            },
+        );
         let mut out = Self::empty();
         let joints = out.collapse_top(&top)?;
         out.reserve_for(parts.iter().map(|p| &p.1));
@@ -535,6 +552,82 @@ fn pack(mut leaves: Vec<Leaf>) -> Vec<Leaf> {
     blocks
 }
 
+/// Primitives sharing one box beyond which PLOC is built on median splits instead: PLOC's
+/// merges tie among identical boxes, so a pile of `k` of them takes `k` rounds over the
+/// whole chunk (70000 coincident triangles: 30 s rather than 30 ms).
+const PILE: usize = 64;
+
+/// Whether more than [`PILE`] of `boxes` are identical.
+fn piled(boxes: &[Aabb]) -> bool {
+    if boxes.len() <= PILE {
+        return false;
+    }
+    let mut bits: Vec<[u32; 6]> = boxes
+        .iter()
+        .map(|b| {
+            let (lo, hi) = (b.min.to_array(), b.max.to_array());
+            [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]].map(f32::to_bits)
+        })
+        .collect();
+    bits.sort_unstable();
+    bits.chunk_by(|a, b| a == b).any(|run| run.len() > PILE)
+}
+
+/// A binary tree over `boxes` with one primitive per leaf (leaves name their box's index).
+/// PLOC with obvhs's `fast_build` settings rather than `medium_build` (a longer PLOC search
+/// and two reinsertion passes): the 4M-triangle build 3.4 -> 1.7 s, and the bench's
+/// incoherent queries were not slower (docs/performance.md). obvhs's own leaf collapse is
+/// off (`max_prims_per_leaf` 1): [`leaves_of_lanes`] makes the same leaves.
+fn binary_tree(boxes: &[Aabb], splits: Splits) -> Bvh2 {
+    match splits {
+        Splits::Ploc => {
+            let params = BvhBuildParams {
+                max_prims_per_leaf: 1,
+                ..BvhBuildParams::fast_build()
+            };
+            obvhs::bvh2::builder::build_bvh2(boxes, params, &mut Duration::default())
+        }
+        Splits::Median => median_splits(boxes),
+    }
+}
+
+/// A balanced binary tree over `boxes`, one per leaf: each node's boxes split at the median
+/// of their centres along the axis where the centres spread widest (ties broken by index,
+/// so the tree is unique).
+fn median_splits(boxes: &[Aabb]) -> Bvh2 {
+    let centre = |i: u32| boxes[i as usize].center();
+    let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+    let mut nodes = vec![obvhs::bvh2::node::Bvh2Node::default()];
+    let mut work = vec![(0usize, 0usize, boxes.len())];
+    while let Some((node, lo, hi)) = work.pop() {
+        let ids = &mut order[lo..hi];
+        let bounds = ids
+            .iter()
+            .fold(Aabb::empty(), |a, &i| a.union(&boxes[i as usize]));
+        if ids.len() == 1 {
+            nodes[node] = obvhs::bvh2::node::Bvh2Node::new(bounds, 1, lo as u32);
+            continue;
+        }
+        let spread = ids
+            .iter()
+            .fold(Aabb::empty(), |mut a, &i| *a.extend(centre(i)));
+        let axis = (spread.max - spread.min).max_position();
+        let mid = ids.len() / 2;
+        ids.select_nth_unstable_by(mid, |&a, &b| {
+            centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b))
+        });
+        let left = nodes.len();
+        nodes.extend([obvhs::bvh2::node::Bvh2Node::default(); 2]);
+        nodes[node] = obvhs::bvh2::node::Bvh2Node::new(bounds, 0, left as u32);
+        work.extend([(left, lo, lo + mid), (left + 1, lo + mid, hi)]);
+    }
+    Bvh2 {
+        nodes,
+        primitive_indices: order,
+        ..Bvh2::default()
+    }
+}
+
 /// Makes every subtree of `bvh2` that holds at most [`LANES`] primitives, and is not
 /// inside a smaller such subtree, one leaf, its primitives in depth-first order (left
 /// first). A leaf block tests its eight lanes in one SIMD step, so such a leaf always costs
@@ -605,8 +698,9 @@ fn too_deep(levels: usize) -> String {
 /// axis over the box of the meshes' vertices and the other primitives' centres, which holds
 /// every centre; ties in primitive order, so the order is unique). Taking the box from the
 /// vertices lets each centre go straight into its key, computed once and never stored
-/// (16M triangles: 0.41 -> 0.34 s).
-fn morton_order(source: PrimSource) -> Vec<u32> {
+/// (16M triangles: 0.41 -> 0.34 s). With the order, per chunk of [`CHUNK`] primitives, the
+/// longest run of equal keys: an upper bound on how many of its primitives share one box.
+fn morton_order(source: PrimSource) -> (Vec<u32>, Vec<usize>) {
     use glam::Vec3A;
     use rayon::prelude::*;
     let n = source.prims.len() as u32;
@@ -638,7 +732,16 @@ fn morton_order(source: PrimSource) -> Vec<u32> {
         use rdst::RadixSort;
         keys.radix_sort_unstable();
     }
-    keys.into_par_iter().map(|k| k as u32).collect()
+    let runs = keys
+        .par_chunks(CHUNK)
+        .map(|c| {
+            c.chunk_by(|a, b| a >> 32 == b >> 32)
+                .map(<[u64]>::len)
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    (keys.into_par_iter().map(|k| k as u32).collect(), runs)
 }
 
 /// The `count` subtrees of `bvh2` that a top-down cut ends with: starting from the root,
