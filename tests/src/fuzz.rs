@@ -273,32 +273,7 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
             let bytes = t.to_bytes();
             vec![bytes[..12].to_vec(), bytes]
         }
-        "binned" => {
-            let mut b = Binned::empty(
-                true,
-                vec![
-                    Axis::new(3, 0.0, 90.0),
-                    Axis::new(3, 0.0, 90.0),
-                    Axis::new(4, 0.0, 360.0),
-                    Axis::new(4, 0.0, 360.0),
-                ],
-            );
-            for k in (0..b.len()).step_by(3) {
-                b.values[k] = Some([0.1, 0.2, 0.3]);
-            }
-            let mut iso = Binned::empty(
-                false,
-                vec![
-                    Axis::new(6, 0.0, 90.0),
-                    Axis::new(6, 0.0, 90.0),
-                    Axis::new(8, 0.0, 180.0),
-                ],
-            );
-            for k in 0..iso.len() {
-                iso.values[k] = (k % 5 != 0).then_some([0.05, 0.1 * (k % 7) as f32, 2.0]);
-            }
-            vec![b.to_bytes(), iso.to_bytes()]
-        }
+        "binned" => binned_seeds(),
         "rgl" => {
             // The real files when present (read-only), else a tensor-file header.
             let mut v = vec![b"tensor_file\0\x01\x00\x00\x00\x00\x00".to_vec()];
@@ -311,60 +286,21 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
             }
             v
         }
-        "fit_json" => vec![
-            serde_json::to_vec(&{
-                let fit = |m: serde_json::Value, e: f64| json!({"material": m, "error": e,
-                    "error_normalized": e * 4.0, "starts": 3, "starts_agreeing": 2,
-                    "evaluations": 100, "seconds": 0.1});
-                json!({"format_version": 1, "material": "x", "source": "x.binary",
-                    "resolution_deg": 1, "samples": 1000, "max_albedo": 0.25, "models": {
-                    "ward": fit(json!({"type": "ward", "diffuse": 0.1, "specular": 0.2, "alpha": 0.2}), 0.01),
-                    "cook-torrance": fit(json!({"type": "cook-torrance", "diffuse": [0.1, 0.2, 0.3], "specular": 0.5, "m": 0.15}), 0.02),
-                    "he": fit(json!({"type": "he", "diffuse": 0.05, "specular": 1.2, "sigma0": 0.3, "tau": 4, "eta": 1.6}), 0.02),
-                    "lafortune-2": fit(json!({"type": "composite", "diffuse": 0.1, "lobes": [
-                        {"type": "lafortune", "specular": 0.3, "cx": -0.7, "cy": -0.7, "cz": 0.6, "n": 20},
-                        {"type": "lafortune", "specular": 0.1, "cx": -0.3, "cy": -0.3, "cz": 0.9, "n": 3}]}), 0.03)
-                }})
-            })
-            .expect("json"),
-        ],
+        "fit_json" => fit_json_seeds(),
         "obj" => {
             let mut v = vec![
                 b"v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 1\nvt 0 0\nf 1/1/1 2/1/1 3/1/1\nf 1 3 4\n"
                     .to_vec(),
             ];
-            v.extend(std::fs::read(crate::workspace().join("scenes/meshes/bunny.obj")));
+            v.extend(std::fs::read(
+                crate::workspace().join("scenes/meshes/bunny.obj"),
+            ));
             v
         }
         "ply" => ["ascii", "binary_little_endian", "binary_big_endian"]
             .map(ply_tetrahedron)
             .to_vec(),
-        "gltf" => {
-            // One triangle with an embedded base64 buffer (3 VEC3 floats + 3 u16 indices),
-            // the same as a GLB with a BIN chunk, and the repository's glTF stage as a GLB.
-            let triangle = br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0,"translation":[0,0,0]}],
-"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
-"buffers":[{"byteLength":42,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIA"}],
-"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
-"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
-{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#
-                .to_vec();
-            let mut v = vec![triangle.clone()];
-            let mut doc: Value = serde_json::from_slice(&triangle).expect("json");
-            let bin = base64_payload(&doc["buffers"][0]["uri"]);
-            doc["buffers"][0] = json!({"byteLength": 42});
-            v.push(glb(&doc, &bin));
-            let stage = crate::workspace().join("scenes/meshes");
-            if let (Ok(text), Ok(bin)) = (
-                std::fs::read(stage.join("bunny-stage.gltf")),
-                std::fs::read(stage.join("bunny-stage.bin")),
-            ) && let Ok(mut doc) = serde_json::from_slice::<Value>(&text)
-            {
-                doc["buffers"][0] = json!({"byteLength": bin.len()});
-                v.push(glb(&doc, &bin));
-            }
-            v
-        }
+        "gltf" => gltf_seeds(),
         "envmap_exr" => {
             let dir = tempfile::tempdir().expect("tempdir");
             let p = dir.path().join("e.exr");
@@ -373,7 +309,9 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
                 .collect();
             lobe_renderer::image_io::write_exr(&p, 8, 4, &px).expect("exr");
             let mut v = vec![std::fs::read(p).expect("read")];
-            v.extend(std::fs::read(crate::workspace().join("scenes/envmaps/studio-512.exr")));
+            v.extend(std::fs::read(
+                crate::workspace().join("scenes/envmaps/studio-512.exr"),
+            ));
             v
         }
         "envmap_hdr" => {
@@ -384,20 +322,103 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
             vec![v]
         }
         "partial_render" => {
-            let scene = from_value(&scene, "seed.json", Path::new("."), &LoadOptions::with_builtins())
-                .expect("the seed scene loads");
+            let scene = from_value(
+                &scene,
+                "seed.json",
+                Path::new("."),
+                &LoadOptions::with_builtins(),
+            )
+            .expect("the seed scene loads");
             let opts = RenderOptions::default();
             [(0, 1), (0, 2)]
                 .iter()
                 .map(|&r| {
-                    let (p, _) = lobe_renderer::render::render_samples(&scene, r, &opts)
-                        .expect("renders");
+                    let (p, _) =
+                        lobe_renderer::render::render_samples(&scene, r, &opts).expect("renders");
                     p.to_bytes()
                 })
                 .collect()
         }
         _ => panic!("unknown fuzz target {name}"),
     }
+}
+
+/// Seeds of the binned-data reader: an anisotropic table with every third bin set, and an
+/// isotropic one with missing bins.
+fn binned_seeds() -> Vec<Vec<u8>> {
+    let mut b = Binned::empty(
+        true,
+        vec![
+            Axis::new(3, 0.0, 90.0),
+            Axis::new(3, 0.0, 90.0),
+            Axis::new(4, 0.0, 360.0),
+            Axis::new(4, 0.0, 360.0),
+        ],
+    );
+    for k in (0..b.len()).step_by(3) {
+        b.values[k] = Some([0.1, 0.2, 0.3]);
+    }
+    let mut iso = Binned::empty(
+        false,
+        vec![
+            Axis::new(6, 0.0, 90.0),
+            Axis::new(6, 0.0, 90.0),
+            Axis::new(8, 0.0, 180.0),
+        ],
+    );
+    for k in 0..iso.len() {
+        iso.values[k] = (k % 5 != 0).then_some([0.05, 0.1 * (k % 7) as f32, 2.0]);
+    }
+    vec![b.to_bytes(), iso.to_bytes()]
+}
+
+/// Seeds of the fit-file reader: a fit of four models, one of them a two-lobe composite.
+fn fit_json_seeds() -> Vec<Vec<u8>> {
+    vec![
+        serde_json::to_vec(&{
+            let fit = |m: serde_json::Value, e: f64| json!({"material": m, "error": e,
+                "error_normalized": e * 4.0, "starts": 3, "starts_agreeing": 2,
+                "evaluations": 100, "seconds": 0.1});
+            json!({"format_version": 1, "material": "x", "source": "x.binary",
+                "resolution_deg": 1, "samples": 1000, "max_albedo": 0.25, "models": {
+                "ward": fit(json!({"type": "ward", "diffuse": 0.1, "specular": 0.2, "alpha": 0.2}), 0.01),
+                "cook-torrance": fit(json!({"type": "cook-torrance", "diffuse": [0.1, 0.2, 0.3], "specular": 0.5, "m": 0.15}), 0.02),
+                "he": fit(json!({"type": "he", "diffuse": 0.05, "specular": 1.2, "sigma0": 0.3, "tau": 4, "eta": 1.6}), 0.02),
+                "lafortune-2": fit(json!({"type": "composite", "diffuse": 0.1, "lobes": [
+                    {"type": "lafortune", "specular": 0.3, "cx": -0.7, "cy": -0.7, "cz": 0.6, "n": 20},
+                    {"type": "lafortune", "specular": 0.1, "cx": -0.3, "cy": -0.3, "cz": 0.9, "n": 3}]}), 0.03)
+            }})
+        })
+        .expect("json"),
+    ]
+}
+
+/// Seeds of the glTF reader: one triangle with an embedded base64 buffer (3 VEC3 floats +
+/// 3 u16 indices), the same as a GLB with a BIN chunk, and the repository's glTF stage as
+/// a GLB.
+fn gltf_seeds() -> Vec<Vec<u8>> {
+    let triangle = br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0,"translation":[0,0,0]}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+"buffers":[{"byteLength":42,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIA"}],
+"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#
+        .to_vec();
+    let mut v = vec![triangle.clone()];
+    let mut doc: Value = serde_json::from_slice(&triangle).expect("json");
+    let bin = base64_payload(&doc["buffers"][0]["uri"]);
+    doc["buffers"][0] = json!({"byteLength": 42});
+    v.push(glb(&doc, &bin));
+    let stage = crate::workspace().join("scenes/meshes");
+    if let (Ok(text), Ok(bin)) = (
+        std::fs::read(stage.join("bunny-stage.gltf")),
+        std::fs::read(stage.join("bunny-stage.bin")),
+    ) && let Ok(mut doc) = serde_json::from_slice::<Value>(&text)
+    {
+        doc["buffers"][0] = json!({"byteLength": bin.len()});
+        v.push(glb(&doc, &bin));
+    }
+    v
 }
 
 /// The bytes of a base64 `data:` URI.

@@ -31,7 +31,16 @@ fn make(desc: Value, moderate: bool) -> Case {
     }
 }
 
+/// Every model of the suite, with moderate parameters and at its extremes.
 fn cases() -> Vec<Case> {
+    let mut v = microfacet_cases();
+    v.extend(phong_and_ward_cases());
+    v.extend(he_and_poulin_fournier_cases());
+    v
+}
+
+/// Cook-Torrance with each distribution and the sampled-microfacet generator.
+fn microfacet_cases() -> Vec<Case> {
     let mut v = vec![make(
         json!({"type": "lambert", "reflectance": [1, 0.5, 0]}),
         true,
@@ -73,6 +82,12 @@ fn cases() -> Vec<Case> {
         json!({"type": "sampled-microfacet", "specular": 1, "distribution": "beckmann", "alpha_x": 0.01, "alpha_y": 0.01}),
         false,
     ));
+    v
+}
+
+/// Ward, Blinn-Phong, Lafortune and Ashikhmin-Shirley, at ordinary and extreme exponents.
+fn phong_and_ward_cases() -> Vec<Case> {
+    let mut v = Vec::new();
     for ty in ["ward", "ward-duer"] {
         v.push(make(
             json!({"type": ty, "diffuse": 0.3, "specular": 0.2, "alpha": 0.25}),
@@ -125,6 +140,12 @@ fn cases() -> Vec<Case> {
         ));
     }
     v.push(make(json!({"type": "ashikhmin-shirley-anisotropic", "specular": 1, "nu": 0, "nv": 1e6, "f0": 1}), false));
+    v
+}
+
+/// He et al. over its roughness regimes, and Poulin-Fournier.
+fn he_and_poulin_fournier_cases() -> Vec<Case> {
+    let mut v = Vec::new();
     // Moderate He lobes are kept wider than the chi-square grid's polar cells: the smooth
     // regime's width is lambda / (2 pi tau).
     v.push(make(

@@ -271,6 +271,15 @@ fn spawned_rays_skip_only_what_they_cannot_hit() {
 #[test]
 fn batched_closest_hits_equal_single_ones() {
     let mut r = Lcg(11);
+    for g in &geometries_of_every_kind(&mut r) {
+        let rays = rays_near_the_origin(g, &mut r);
+        batched_queries_equal_single_ones(g, &rays);
+    }
+}
+
+/// Scenes of one sphere, of four (with outward and inward normals), a small scene of
+/// every kind (tested in ray lanes, without a BVH) and the whole random scene.
+fn geometries_of_every_kind(r: &mut Lcg) -> Vec<Geometry> {
     let sphere_scenes: Vec<Vec<Sphere>> = vec![
         vec![Sphere {
             center: Vec3::ZERO,
@@ -345,81 +354,90 @@ fn batched_closest_hits_equal_single_ones() {
     assert!(!small.has_bvh());
     geometries.push(small);
     geometries.push(scene());
-    for g in &geometries {
-        let n_prims = g.prims.len() as u32;
-        let rays: Vec<Ray> = (0..203)
-            .map(|i| {
-                // Aimed near the origin: some rays hit, some miss.
-                let o = r.v(3.0);
-                let mut ray = Ray::new(o, r.v(2.0) - o);
-                match i % 5 {
-                    0 => ray.tmax = 2.0 * r.f(),
-                    1 => ray.skip = (r.f() * n_prims as f32) as u32 % n_prims,
-                    2 => {
-                        // On a sphere's surface, leaving it.
-                        if let PrimKind::Sphere(s) = g.prims.get(0).kind {
-                            let n = r.v(1.0).normalize();
-                            ray = Ray::new(s.center + n * s.radius, n + r.v(0.5));
-                            ray.skip = 0;
-                        }
+    geometries
+}
+
+/// 203 rays aimed near the origin (some hit, some miss), with short ranges, skipped
+/// primitives, starts on a sphere's surface and raised `tmin` among them.
+fn rays_near_the_origin(g: &Geometry, r: &mut Lcg) -> Vec<Ray> {
+    let n_prims = g.prims.len() as u32;
+    (0..203)
+        .map(|i| {
+            // Aimed near the origin: some rays hit, some miss.
+            let o = r.v(3.0);
+            let mut ray = Ray::new(o, r.v(2.0) - o);
+            match i % 5 {
+                0 => ray.tmax = 2.0 * r.f(),
+                1 => ray.skip = (r.f() * n_prims as f32) as u32 % n_prims,
+                2 => {
+                    // On a sphere's surface, leaving it.
+                    if let PrimKind::Sphere(s) = g.prims.get(0).kind {
+                        let n = r.v(1.0).normalize();
+                        ray = Ray::new(s.center + n * s.radius, n + r.v(0.5));
+                        ray.skip = 0;
                     }
-                    3 => ray.tmin = 0.5 * r.f(),
-                    _ => {}
                 }
-                ray
-            })
-            .collect();
-        for len in [1usize, 7, 8, 9, 203] {
-            let idx: Vec<u32> = (0..len as u32).rev().collect();
-            let mut out = Vec::new();
-            g.closest_many(&rays, &idx, &mut out);
-            assert_eq!(out.len(), len);
-            for (k, &i) in idx.iter().enumerate() {
-                let e = g.closest(&rays[i as usize]);
-                assert_eq!(
-                    out[k].map(|(t, p)| (t.to_bits(), p)),
-                    e.map(|(t, p)| (t.to_bits(), p)),
-                    "ray {i}: {:?}",
-                    rays[i as usize]
-                );
+                3 => ray.tmin = 0.5 * r.f(),
+                _ => {}
             }
+            ray
+        })
+        .collect()
+}
+
+/// `closest_many`, `interactions_many` and `occluded_many` answer bit for bit as the
+/// single queries, for batches of 1, 7, 8, 9 and all the rays.
+fn batched_queries_equal_single_ones(g: &Geometry, rays: &[Ray]) {
+    for len in [1usize, 7, 8, 9, 203] {
+        let idx: Vec<u32> = (0..len as u32).rev().collect();
+        let mut out = Vec::new();
+        g.closest_many(&rays, &idx, &mut out);
+        assert_eq!(out.len(), len);
+        for (k, &i) in idx.iter().enumerate() {
+            let e = g.closest(&rays[i as usize]);
+            assert_eq!(
+                out[k].map(|(t, p)| (t.to_bits(), p)),
+                e.map(|(t, p)| (t.to_bits(), p)),
+                "ray {i}: {:?}",
+                rays[i as usize]
+            );
         }
-        // interactions_many: every field of every hit's interaction, bit for bit.
-        let idx: Vec<u32> = (0..rays.len() as u32).collect();
-        let mut closest = Vec::new();
-        g.closest_many(&rays, &idx, &mut closest);
-        let hits: Vec<(u32, f32, u32)> = closest
-            .iter()
-            .enumerate()
-            .filter_map(|(i, c)| c.map(|(t, p)| (i as u32, t, p)))
-            .collect();
-        let mut its = Vec::new();
-        g.interactions_many(&rays, &hits, &mut its);
-        assert_eq!(its.len(), hits.len());
-        let bits = |it: &lobe_renderer::geometry::Interaction| {
-            let mut v = vec![it.t.to_bits(), it.shape, it.prim];
-            for w in [it.p, it.ng, it.ns, it.dpdu, it.exit] {
-                v.extend(w.to_array().map(f32::to_bits));
-            }
-            v.extend(it.uv.to_array().map(f32::to_bits));
-            v
-        };
-        for (it, &(i, t, prim)) in its.iter().zip(&hits) {
-            let e = g.interaction(&rays[i as usize], t, prim);
-            assert_eq!(bits(it), bits(&e), "ray {i}");
-        }
-        let mut occluded = Vec::new();
-        g.occluded_many(&rays, &mut occluded);
-        assert_eq!(occluded.len(), rays.len());
-        for (ray, &o) in rays.iter().zip(&occluded) {
-            assert_eq!(o, g.occluded(ray), "occluded_many on {ray:?}");
-        }
-        let hits = rays.iter().filter(|ray| g.closest(ray).is_some()).count();
-        assert!(
-            hits > 20 && hits < 190,
-            "{hits} hits: the rays should both hit and miss"
-        );
     }
+    // interactions_many: every field of every hit's interaction, bit for bit.
+    let idx: Vec<u32> = (0..rays.len() as u32).collect();
+    let mut closest = Vec::new();
+    g.closest_many(&rays, &idx, &mut closest);
+    let hits: Vec<(u32, f32, u32)> = closest
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| c.map(|(t, p)| (i as u32, t, p)))
+        .collect();
+    let mut its = Vec::new();
+    g.interactions_many(&rays, &hits, &mut its);
+    assert_eq!(its.len(), hits.len());
+    let bits = |it: &lobe_renderer::geometry::Interaction| {
+        let mut v = vec![it.t.to_bits(), it.shape, it.prim];
+        for w in [it.p, it.ng, it.ns, it.dpdu, it.exit] {
+            v.extend(w.to_array().map(f32::to_bits));
+        }
+        v.extend(it.uv.to_array().map(f32::to_bits));
+        v
+    };
+    for (it, &(i, t, prim)) in its.iter().zip(&hits) {
+        let e = g.interaction(&rays[i as usize], t, prim);
+        assert_eq!(bits(it), bits(&e), "ray {i}");
+    }
+    let mut occluded = Vec::new();
+    g.occluded_many(&rays, &mut occluded);
+    assert_eq!(occluded.len(), rays.len());
+    for (ray, &o) in rays.iter().zip(&occluded) {
+        assert_eq!(o, g.occluded(ray), "occluded_many on {ray:?}");
+    }
+    let hits = rays.iter().filter(|ray| g.closest(ray).is_some()).count();
+    assert!(
+        hits > 20 && hits < 190,
+        "{hits} hits: the rays should both hit and miss"
+    );
 }
 
 /// A BVH's SAH cost is the tests a ray expects: over spheres that all share one box every

@@ -77,7 +77,18 @@ fn with(mut v: Value, pointer: &str, x: Value) -> Value {
 
 #[test]
 fn bad_values_are_named_by_file_path_and_expectation() {
-    let cases: Vec<(Value, &[&str])> = vec![
+    for (v, needles) in [settings_cases(), world_cases(), light_and_document_cases()].concat() {
+        let e = error_of(v.clone());
+        assert!(!e.contains('\n'), "error is not one line: {e}");
+        for n in needles {
+            assert!(e.contains(n), "error for {v}\n  was: {e}\n  lacks: {n}");
+        }
+    }
+}
+
+/// A scene with a bad sphere radius, film, sampler or camera, and what its error must say.
+fn settings_cases() -> Vec<(Value, &'static [&'static str])> {
+    vec![
         (
             with(base(), "/shapes/0/radius", json!(-1)),
             &["bad.json: shapes[0].radius: expected a positive radius, found -1"],
@@ -114,6 +125,12 @@ fn bad_values_are_named_by_file_path_and_expectation() {
             with(base(), "/camera/target", json!([0, 0, 4])),
             &["camera", "degenerate"],
         ),
+    ]
+}
+
+/// A scene with a bad shape or material, and what its error must say.
+fn world_cases() -> Vec<(Value, &'static [&'static str])> {
+    vec![
         (
             with(base(), "/shapes/0/type", json!("torus")),
             &["shapes[0].type", "sphere", "\"torus\""],
@@ -154,6 +171,13 @@ fn bad_values_are_named_by_file_path_and_expectation() {
             with(base(), "/shapes/0/material", json!(3)),
             &["shapes[0].material", "material name or a material object"],
         ),
+    ]
+}
+
+/// A scene with a bad light, integrator, mesh file, transform or emitter (or a bad
+/// document), and what its error must say.
+fn light_and_document_cases() -> Vec<(Value, &'static [&'static str])> {
+    vec![
         (
             with(
                 base(),
@@ -264,14 +288,7 @@ fn bad_values_are_named_by_file_path_and_expectation() {
             &["bad.json: colour: unknown key", "camera, film"],
         ),
         (json!([1, 2]), &["bad.json", "expected an object", "array"]),
-    ];
-    for (v, needles) in cases {
-        let e = error_of(v.clone());
-        assert!(!e.contains('\n'), "error is not one line: {e}");
-        for n in needles {
-            assert!(e.contains(n), "error for {v}\n  was: {e}\n  lacks: {n}");
-        }
-    }
+    ]
 }
 
 #[test]

@@ -101,7 +101,7 @@ fn figures_draw_pngs_from_fit_reports() {
 }
 
 #[test]
-fn microfacet_synth_and_estimate_write_tables_plots_and_materials() {
+fn microfacet_synth_writes_its_table_and_plots() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("velvet");
     let o = lobe()
@@ -152,6 +152,12 @@ fn microfacet_synth_and_estimate_write_tables_plots_and_materials() {
     // The table printed is also written into the folder.
     let written = std::fs::read_to_string(out.join("velvet.md")).unwrap();
     assert_eq!(written, table);
+}
+
+#[test]
+fn microfacet_estimate_writes_a_material_that_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("velvet");
     // Estimate from a MERL table tabulated from the generator itself.
     let data = dir.path().join("beckmann.binary");
     let o = lobe()
