@@ -391,7 +391,7 @@ fn batched_queries_equal_single_ones(g: &Geometry, rays: &[Ray]) {
     for len in [1usize, 7, 8, 9, 203] {
         let idx: Vec<u32> = (0..len as u32).rev().collect();
         let mut out = Vec::new();
-        g.closest_many(&rays, &idx, &mut out);
+        g.closest_many(rays, &idx, &mut out);
         assert_eq!(out.len(), len);
         for (k, &i) in idx.iter().enumerate() {
             let e = g.closest(&rays[i as usize]);
@@ -406,14 +406,14 @@ fn batched_queries_equal_single_ones(g: &Geometry, rays: &[Ray]) {
     // interactions_many: every field of every hit's interaction, bit for bit.
     let idx: Vec<u32> = (0..rays.len() as u32).collect();
     let mut closest = Vec::new();
-    g.closest_many(&rays, &idx, &mut closest);
+    g.closest_many(rays, &idx, &mut closest);
     let hits: Vec<(u32, f32, u32)> = closest
         .iter()
         .enumerate()
         .filter_map(|(i, c)| c.map(|(t, p)| (i as u32, t, p)))
         .collect();
     let mut its = Vec::new();
-    g.interactions_many(&rays, &hits, &mut its);
+    g.interactions_many(rays, &hits, &mut its);
     assert_eq!(its.len(), hits.len());
     let bits = |it: &lobe_renderer::geometry::Interaction| {
         let mut v = vec![it.t.to_bits(), it.shape, it.prim];
@@ -428,7 +428,7 @@ fn batched_queries_equal_single_ones(g: &Geometry, rays: &[Ray]) {
         assert_eq!(bits(it), bits(&e), "ray {i}");
     }
     let mut occluded = Vec::new();
-    g.occluded_many(&rays, &mut occluded);
+    g.occluded_many(rays, &mut occluded);
     assert_eq!(occluded.len(), rays.len());
     for (ray, &o) in rays.iter().zip(&occluded) {
         assert_eq!(o, g.occluded(ray), "occluded_many on {ray:?}");
