@@ -846,10 +846,12 @@ impl Plan<'_> {
             .collect()
     }
 
-    /// Each fit's predicted mean square noise (per pixel and channel) under `counts`.
+    /// Each fit's predicted mean square noise (per pixel and channel) under `counts` (the
+    /// fits on all cores, each summed in pixel order: the same sums for any thread count).
     fn noise(&self, counts: &[f64]) -> Vec<f64> {
         let n = 3.0 * counts.len() as f64;
         (0..self.fits)
+            .into_par_iter()
             .map(|r| {
                 counts
                     .iter()
@@ -889,15 +891,20 @@ impl Plan<'_> {
 
 /// The FLIP of every representation against the data's image at the common exposure
 /// (for the data: between the images of its two halves of batches, `halves`), and the
-/// maps; computed for the reported pass only.
+/// maps; computed for the reported pass only, the representations on all cores.
 fn add_flip(out: &mut SphereErrors, halves: &[Image; 2]) -> Result<(), lobe_renderer::Error> {
+    let flips = (0..out.images.len())
+        .into_par_iter()
+        .map(|r| {
+            let (against, test) = match r {
+                0 => (&halves[0], &halves[1]),
+                _ => (&out.images[0], &out.images[r]),
+            };
+            metrics(test, against, out.exposure)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     out.flip_maps.clear();
-    for r in 0..out.images.len() {
-        let (against, test) = match r {
-            0 => (&halves[0], &halves[1]),
-            _ => (&out.images[0], &out.images[r]),
-        };
-        let (mt, map) = metrics(test, against, out.exposure)?;
+    for (r, (mt, map)) in flips.into_iter().enumerate() {
         out.errors[r].flip = mt.flip;
         out.flip_maps.push(map);
     }
