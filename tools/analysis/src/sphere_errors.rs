@@ -383,14 +383,19 @@ impl Stage<'_> {
         let mut from_map = map_dirs.into_iter().zip(pdf);
         // The data's samples drawn together too (a batched form where the model has one),
         // and each fit's.
-        let from_data = Self::bsdf_samples(reps[0], &hits, |h| h.strategy == DATA, u_of);
-        let mut from_data = from_data.into_iter();
+        let of_data: Vec<&Hit> = hits.iter().filter(|h| h.strategy == DATA).collect();
+        let mut from_data = Self::bsdf_samples(reps[0], &of_data, u_of).into_iter();
+        // Each fit's samples, the hits sorted to their fits in one pass (none in a pass
+        // too small for the fits' share).
         let fits = reps.len() - 1;
-        let mut from_fits: Vec<_> = (0..fits)
-            .map(|j| {
-                let of_j = |h: &Hit| h.strategy == FITS && h.member % fits == j;
-                Self::bsdf_samples(reps[1 + j], &hits, of_j, u_of).into_iter()
-            })
+        let mut of_fits: Vec<Vec<&Hit>> = vec![Vec::new(); fits];
+        for h in hits.iter().filter(|h| h.strategy == FITS && fits > 0) {
+            of_fits[h.member % fits].push(h);
+        }
+        let mut from_fits: Vec<_> = of_fits
+            .iter()
+            .enumerate()
+            .map(|(j, of_j)| Self::bsdf_samples(reps[1 + j], of_j, u_of).into_iter())
             .collect();
         let mut drawn = PixelSamples::default();
         let mut world = Vec::with_capacity(hits.len());
@@ -439,15 +444,16 @@ impl Stage<'_> {
 }
 
 impl Stage<'_> {
-    /// The samples `bsdf` draws for the hits that `take` picks, in their order (None where
-    /// it draws none), in one batched call.
+    /// The samples `bsdf` draws for the hits `picked`, in their order (None where it
+    /// draws none), in one batched call (none for no hits).
     fn bsdf_samples(
         bsdf: &dyn Bsdf,
-        hits: &[Hit],
-        take: impl Fn(&Hit) -> bool,
+        picked: &[&Hit],
         u_of: impl Fn(&Hit) -> glam::Vec2,
     ) -> Vec<Option<lobe_materials::BsdfSample>> {
-        let picked: Vec<&Hit> = hits.iter().filter(|h| take(h)).collect();
+        if picked.is_empty() {
+            return Vec::new();
+        }
         let wos: Vec<glam::Vec3> = picked.iter().map(|h| h.wo).collect();
         let u2: Vec<glam::Vec2> = picked.iter().map(|h| u_of(h)).collect();
         let ucs: Vec<f32> = picked.iter().map(|h| h.point[4] as f32).collect();
