@@ -245,31 +245,34 @@ impl Bvh8 {
     /// taken as hit with the probability of its area over the root's. A measure of the
     /// tree's quality free of timing noise: lower is faster to traverse.
     pub fn sah_cost(&self) -> f64 {
-        let area = |n: &Node, k: usize| -> f64 {
-            let e: [f64; 3] = std::array::from_fn(|a| {
-                (n.bounds[a][1].to_array()[k] - n.bounds[a][0].to_array()[k]) as f64
-            });
-            // Empty slots (lower +inf, upper -inf) are never hit.
-            if e.iter().any(|x| !(*x >= 0.0)) {
-                return 0.0;
+        // Half the surface area of the box lo..hi; 0 for an empty slot (lower +inf, upper
+        // -inf), which no ray hits.
+        let half_area = |lo: [f32; 3], hi: [f32; 3]| -> f64 {
+            let e: [f64; 3] = std::array::from_fn(|a| (hi[a] - lo[a]) as f64);
+            match e.iter().all(|x| *x >= 0.0) {
+                true => e[0] * e[1] + e[1] * e[2] + e[2] * e[0],
+                false => 0.0,
             }
-            e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+        };
+        let lanes = |n: &Node, side: usize| -> [[f32; LANES]; 3] {
+            std::array::from_fn(|a| n.bounds[a][side].to_array())
         };
         let Some(root) = self.nodes.first() else {
             return 0.0;
         };
-        let union: [[f32; 2]; 3] = std::array::from_fn(|a| {
-            let (lo, hi) = (root.bounds[a][0].to_array(), root.bounds[a][1].to_array());
-            let lo = lo.iter().copied().fold(f32::INFINITY, f32::min);
-            let hi = hi.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-            [lo, hi]
-        });
-        let e: [f64; 3] = std::array::from_fn(|a| (union[a][1] - union[a][0]) as f64);
-        let root_area = (e[0] * e[1] + e[1] * e[2] + e[2] * e[0]).max(f64::MIN_POSITIVE);
+        let (lo, hi) = (lanes(root, 0), lanes(root, 1));
+        let root_lo = lo.map(|l| l.iter().copied().fold(f32::INFINITY, f32::min));
+        let root_hi = hi.map(|h| h.iter().copied().fold(f32::NEG_INFINITY, f32::max));
+        let root_area = half_area(root_lo, root_hi).max(f64::MIN_POSITIVE);
         let children: f64 = self
             .nodes
             .iter()
-            .map(|n| (0..LANES).map(|k| area(n, k)).sum::<f64>())
+            .map(|n| {
+                let (lo, hi) = (lanes(n, 0), lanes(n, 1));
+                (0..LANES)
+                    .map(|k| half_area(lo.map(|l| l[k]), hi.map(|h| h[k])))
+                    .sum::<f64>()
+            })
             .sum();
         1.0 + children / root_area
     }

@@ -2,8 +2,9 @@
 //! Bittner, "Parallel Locally-Ordered Clustering for Bounding Volume Hierarchy
 //! Construction", 2018, with obvhs's `fast_build` settings: a short PLOC search and a light
 //! reinsertion pass; every subtree of at most eight primitives a leaf, [`leaves_of_lanes`])
-//! collapsed top-down into eight-wide nodes: each node keeps opening the inner child of largest surface area
-//! until it has eight children (Wald et al. 2008, section 3), and the leaves among a
+//! collapsed top-down into eight-wide nodes: each node keeps opening the inner child of
+//! largest surface area until it has eight children (Wald et al. 2008, section 3), and the
+//! leaves among a
 //! node's children are packed into as few blocks of eight lanes as fit ([`pack`]: the
 //! leaf collapse only joins two sibling leaves, so blocks held 5.9 triangles on average,
 //! 6.2 packed; the 4M-triangle bench's leaf blocks 216 -> 205 MB, the same images bit for
@@ -148,11 +149,7 @@ impl Draft {
     fn binary(source: PrimSource, ids: &[u32], splits: Splits, suspect: bool) -> Bvh2 {
         use rayon::prelude::*;
         let boxes: Vec<Aabb> = ids.par_iter().map(|&i| source.shape_of(i).aabb()).collect();
-        let splits = match suspect && piled(&boxes) {
-            true => Splits::Median,
-            false => splits,
-        };
-        let mut bvh2 = binary_tree(&boxes, splits);
+        let mut bvh2 = binary_tree(&boxes, splits, suspect);
         leaves_of_lanes(&mut bvh2);
         for p in &mut bvh2.primitive_indices {
             *p = ids[*p as usize];
@@ -193,14 +190,7 @@ impl Draft {
             .collect();
         drop(order);
         let boxes: Vec<Aabb> = parts.iter().map(|p| p.0).collect();
-        let top = binary_tree(
-            &boxes,
-            if piled(&boxes) {
-                Splits::Median
-            } else {
-                splits
-            },
-        );
+        let top = binary_tree(&boxes, splits, true);
         let mut out = Self::empty();
         let joints = out.collapse_top(&top)?;
         out.reserve_for(parts.iter().map(|p| &p.1));
@@ -573,12 +563,17 @@ fn piled(boxes: &[Aabb]) -> bool {
     bits.chunk_by(|a, b| a == b).any(|run| run.len() > PILE)
 }
 
-/// A binary tree over `boxes` with one primitive per leaf (leaves name their box's index).
+/// A binary tree over `boxes` with one primitive per leaf (leaves name their box's index),
+/// split as `splits` says, or at medians when `suspect` boxes turn out piled ([`piled`]).
 /// PLOC with obvhs's `fast_build` settings rather than `medium_build` (a longer PLOC search
 /// and two reinsertion passes): the 4M-triangle build 3.4 -> 1.7 s, and the bench's
 /// incoherent queries were not slower (docs/performance.md). obvhs's own leaf collapse is
 /// off (`max_prims_per_leaf` 1): [`leaves_of_lanes`] makes the same leaves.
-fn binary_tree(boxes: &[Aabb], splits: Splits) -> Bvh2 {
+fn binary_tree(boxes: &[Aabb], splits: Splits, suspect: bool) -> Bvh2 {
+    let splits = match suspect && piled(boxes) {
+        true => Splits::Median,
+        false => splits,
+    };
     match splits {
         Splits::Ploc => {
             let params = BvhBuildParams {
@@ -810,11 +805,6 @@ mod tests {
         );
         assert!(blocks.iter().all(|b| b.ids.len() <= LANES));
     }
-}
-
-#[cfg(test)]
-mod leaf_tests {
-    use super::*;
 
     /// The leaves reachable from the root, in depth-first order (left first), each as its
     /// primitives in order.
@@ -847,11 +837,7 @@ mod leaf_tests {
                 Aabb::new(c - h, c + h)
             })
             .collect();
-        let params = BvhBuildParams {
-            max_prims_per_leaf: 1,
-            ..BvhBuildParams::fast_build()
-        };
-        let built = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
+        let built = binary_tree(&boxes, Splits::Ploc, false);
         let (mut ours, mut theirs) = (built.clone(), built);
         leaves_of_lanes(&mut ours);
         obvhs::bvh2::leaf_collapser::collapse(&mut theirs, LANES as u32, 12.0);

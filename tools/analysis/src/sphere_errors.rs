@@ -389,8 +389,10 @@ impl Stage<'_> {
         // too small for the fits' share).
         let fits = reps.len() - 1;
         let mut of_fits: Vec<Vec<&Hit>> = vec![Vec::new(); fits];
-        for h in hits.iter().filter(|h| h.strategy == FITS && fits > 0) {
-            of_fits[h.member % fits].push(h);
+        if fits > 0 {
+            for h in hits.iter().filter(|h| h.strategy == FITS) {
+                of_fits[h.member % fits].push(h);
+            }
         }
         let mut from_fits: Vec<_> = of_fits
             .iter()

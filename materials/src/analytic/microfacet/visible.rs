@@ -27,9 +27,10 @@
 //! One form in lanes serves both paths: the scalar entry points run it on one lane, so
 //! one-at-a-time and batched sampling agree bit for bit. A lane's Newton iterate stops
 //! changing once its CDF is within a tolerance of the target, and the loop ends when all
-//! lanes have stopped, so a lane's result does not depend on its neighbours. `erf` is Abramowitz and Stegun's 7.1.26
-//! (absolute error under 1.5e-7) and `erfinv` Giles' single-precision approximation
-//! ("Approximating the erfinv function", GPU Computing Gems, 2011).
+//! lanes have stopped, so a lane's result does not depend on its neighbours. `erf` is
+//! Abramowitz and Stegun's 7.1.26 (absolute error under 1.5e-7) and `erfinv` Giles'
+//! single-precision approximation ("Approximating the erfinv function", GPU Computing
+//! Gems, 2011).
 
 // The coefficients are the published decimal values, kept as printed.
 #![allow(clippy::excessive_precision)]
