@@ -1,14 +1,12 @@
-//! Construction of the renderer's BVH8 ([`Bvh8`]): obvhs's binary BVH (PLOC, Meister and
-//! Bittner, "Parallel Locally-Ordered Clustering for Bounding Volume Hierarchy
-//! Construction", 2018, with obvhs's `fast_build` settings: a short PLOC search and a light
-//! reinsertion pass; every subtree of at most eight primitives a leaf, [`leaves_of_lanes`])
-//! collapsed top-down into eight-wide nodes: each node keeps opening the inner child of
-//! largest surface area until it has eight children (Wald et al. 2008, section 3), and the
-//! leaves among a
-//! node's children are packed into as few blocks of eight lanes as fit ([`pack`]: the
-//! leaf collapse only joins two sibling leaves, so blocks held 5.9 triangles on average,
-//! 6.2 packed; the 4M-triangle bench's leaf blocks 216 -> 205 MB, the same images bit for
-//! bit).
+//! Construction of the renderer's BVH8 ([`Bvh8`]): a binary BVH by PLOC ([`ploc`]: Meister
+//! and Bittner, "Parallel Locally-Ordered Clustering for Bounding Volume Hierarchy
+//! Construction", 2018) over the primitives in Morton order, improved by obvhs's
+//! reinsertion pass, every subtree of at most eight primitives a leaf
+//! ([`leaves_of_lanes`]), collapsed top-down into eight-wide nodes: each node keeps opening
+//! the inner child of largest surface area until it has eight children (Wald et al. 2008,
+//! section 3), and the leaves among a node's children are packed into as few blocks of
+//! eight lanes as fit ([`pack`]: blocks held 5.9 triangles on average, 6.2 packed; the
+//! 4M-triangle bench's leaf blocks 216 -> 205 MB).
 //!
 //! Big scenes are built in chunks of the Morton order, each chunk's binary tree collapsed
 //! and freed before the next ([`Draft::build_chunked`], after Ganestam et al., "Bonsai",
@@ -23,11 +21,10 @@ use super::bvh8::{
 };
 use super::primitive::{PrimKind, PrimShape, PrimSource};
 use super::prims::Prims;
-use obvhs::BvhBuildParams;
+use super::ploc::{COARSE_SHIFT, MortonGrid, morton_sorted, ploc};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
-use obvhs::ploc::morton::morton_encode_u32;
-use std::time::Duration;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use wide::{f32x8, u32x8};
 
 /// Primitives per chunk of a big scene's build ([`Draft::build_chunked`]): a chunk's build
@@ -44,7 +41,7 @@ const PARALLEL_SUBTREES: usize = 64;
 /// How the binary trees split their primitives.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Splits {
-    /// obvhs's PLOC ([`Draft::binary`]).
+    /// PLOC ([`ploc`]) and obvhs's reinsertion ([`binary_tree`]).
     Ploc,
     /// Object medians along the widest axis of the centres ([`median_splits`]): balanced,
     /// so never deeper than log2 of the primitive count.
@@ -61,14 +58,16 @@ pub fn build(source: PrimSource) -> Result<Bvh8, String> {
 }
 
 fn build_with(source: PrimSource, splits: Splits) -> Result<Bvh8, String> {
+    // What the mesh readers freed, back to the system before the build's peak.
+    crate::memory::release_freed();
+    let order = morton_order(source);
     let draft = if source.prims.len() > CHUNK {
-        let draft = Draft::build_chunked(source, splits)?;
+        let draft = Draft::build_chunked(source, order, splits)?;
         // The chunks' freed parts, before the leaf blocks take their final memory.
         crate::memory::release_freed();
         draft
     } else {
-        let ids: Vec<u32> = (0..source.prims.len() as u32).collect();
-        let bvh2 = Draft::binary(source, &ids, splits, true);
+        let bvh2 = Draft::binary(source, &order.ids, &order.grid, splits, true);
         let mut draft = Draft::empty();
         draft.collapse(&bvh2, source)?;
         draft
@@ -143,16 +142,27 @@ impl Draft {
         }
     }
 
-    /// obvhs's binary tree over the primitives `ids` (its leaves name them by their index
-    /// into `source.prims`), its subtrees of at most [`LANES`] primitives made leaves
-    /// ([`leaves_of_lanes`]).
-    fn binary(source: PrimSource, ids: &[u32], splits: Splits, suspect: bool) -> Bvh2 {
+    /// The binary tree over the primitives `ids`, which are in the coarse Morton order of
+    /// `grid` ([`morton_order`]; its leaves name them by their index into `source.prims`),
+    /// its subtrees of at most [`LANES`] primitives made leaves ([`leaves_of_lanes`]). The
+    /// order is first refined to the grid's fine codes ([`refined_order`]), which PLOC
+    /// needs: the coarse grid holds several primitives per cell.
+    fn binary(
+        source: PrimSource,
+        ids: &[u32],
+        grid: &MortonGrid,
+        splits: Splits,
+        suspect: bool,
+    ) -> Bvh2 {
         use rayon::prelude::*;
         let boxes: Vec<Aabb> = ids.par_iter().map(|&i| source.shape_of(i).aabb()).collect();
-        let mut bvh2 = binary_tree(&boxes, splits, suspect);
+        let order = refined_order(&boxes, grid);
+        let sorted: Vec<Aabb> = order.iter().map(|&k| boxes[k as usize]).collect();
+        drop(boxes);
+        let mut bvh2 = binary_tree(&sorted, splits, suspect);
         leaves_of_lanes(&mut bvh2);
         for p in &mut bvh2.primitive_indices {
-            *p = ids[*p as usize];
+            *p = ids[order[*p as usize] as usize];
         }
         bvh2
     }
@@ -165,16 +175,15 @@ impl Draft {
     /// part while the chunk's binary tree is freed; a top-level binary tree over the
     /// parts' boxes is collapsed in turn, and the parts are appended under it. The chunks
     /// are fixed by the Morton order, so the tree is the same whatever the thread count.
-    fn build_chunked(source: PrimSource, splits: Splits) -> Result<Self, String> {
+    fn build_chunked(source: PrimSource, order: MortonOrder, splits: Splits) -> Result<Self, String> {
         use rayon::prelude::*;
-        // What the mesh readers freed, back to the system before the build's peak.
-        crate::memory::release_freed();
-        let (order, runs) = morton_order(source);
+        let grid = order.grid;
         let parts: Vec<(Aabb, Self)> = order
+            .ids
             .par_chunks(CHUNK)
-            .zip(runs)
+            .zip(order.runs)
             .map(|(ids, run)| {
-                let bvh2 = Self::binary(source, ids, splits, run > PILE);
+                let bvh2 = Self::binary(source, ids, &grid, splits, run > PILE);
                 cut(&bvh2, CUT)
                     .into_iter()
                     .map(|n2| {
@@ -188,9 +197,17 @@ impl Draft {
             .into_iter()
             .flatten()
             .collect();
-        drop(order);
-        let boxes: Vec<Aabb> = parts.iter().map(|p| p.0).collect();
-        let top = binary_tree(&boxes, splits, true);
+        drop(order.ids);
+        let top = {
+            let boxes: Vec<Aabb> = parts.iter().map(|p| p.0).collect();
+            let order = morton_sorted(&boxes);
+            let sorted: Vec<Aabb> = order.iter().map(|&k| boxes[k as usize]).collect();
+            let mut top = binary_tree(&sorted, splits, true);
+            for p in &mut top.primitive_indices {
+                *p = order[*p as usize];
+            }
+            top
+        };
         let mut out = Self::empty();
         let joints = out.collapse_top(&top)?;
         out.reserve_for(parts.iter().map(|p| &p.1));
@@ -563,12 +580,16 @@ fn piled(boxes: &[Aabb]) -> bool {
     bits.chunk_by(|a, b| a == b).any(|run| run.len() > PILE)
 }
 
-/// A binary tree over `boxes` with one primitive per leaf (leaves name their box's index),
-/// split as `splits` says, or at medians when `suspect` boxes turn out piled ([`piled`]).
-/// PLOC with obvhs's `fast_build` settings rather than `medium_build` (a longer PLOC search
-/// and two reinsertion passes): the 4M-triangle build 3.4 -> 1.7 s, and the bench's
-/// incoherent queries were not slower (docs/performance.md). obvhs's own leaf collapse is
-/// off (`max_prims_per_leaf` 1): [`leaves_of_lanes`] makes the same leaves.
+/// Nodes whose reinsertion obvhs's optimizer tries, as a fraction of the tree's nodes
+/// (obvhs's `fast_build` setting; its `medium_build`, a longer PLOC search and two
+/// reinsertion passes, built the 4M-triangle mesh in twice the time, and the bench's
+/// incoherent queries were not faster).
+const REINSERTION_BATCH: f32 = 0.02;
+
+/// A binary tree over `boxes` (in Morton order) with one primitive per leaf (leaves name
+/// their box's index), split as `splits` says, or at medians when `suspect` boxes turn out
+/// piled ([`piled`]). PLOC's tree ([`ploc`]) then gets obvhs's reinsertion pass (Meister
+/// et al., "Parallel Reinsertion for Bounding Volume Hierarchy Optimization", 2018).
 fn binary_tree(boxes: &[Aabb], splits: Splits, suspect: bool) -> Bvh2 {
     let splits = match suspect && piled(boxes) {
         true => Splits::Median,
@@ -576,14 +597,28 @@ fn binary_tree(boxes: &[Aabb], splits: Splits, suspect: bool) -> Bvh2 {
     };
     match splits {
         Splits::Ploc => {
-            let params = BvhBuildParams {
-                max_prims_per_leaf: 1,
-                ..BvhBuildParams::fast_build()
-            };
-            obvhs::bvh2::builder::build_bvh2(boxes, params, &mut Duration::default())
+            let mut bvh2 = ploc(boxes);
+            ReinsertionOptimizer::default().run(&mut bvh2, REINSERTION_BATCH, None);
+            bvh2
         }
         Splits::Median => median_splits(boxes),
     }
+}
+
+/// The positions of `boxes` (in the coarse Morton order of `grid`: ordered by their
+/// centres' codes' top bits, [`COARSE_SHIFT`]) in the order of their centres' whole codes:
+/// each run of equal coarse codes sorted by the fine code, ties by position.
+fn refined_order(boxes: &[Aabb], grid: &MortonGrid) -> Vec<u32> {
+    let codes: Vec<u64> = boxes.iter().map(|b| grid.code(b.center())).collect();
+    let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+    let mut start = 0;
+    for run in codes.chunk_by(|a, b| a >> COARSE_SHIFT == b >> COARSE_SHIFT) {
+        if run.len() > 1 {
+            order[start..start + run.len()].sort_unstable_by_key(|&k| (codes[k as usize], k));
+        }
+        start += run.len();
+    }
+    order
 }
 
 /// A balanced binary tree over `boxes`, one per leaf: each node's boxes split at the median
@@ -634,52 +669,32 @@ fn median_splits(boxes: &[Aabb]) -> Bvh2 {
 /// whole tree (the 4M and 16M builds 5-9 % faster). The subtree's inner nodes stay in
 /// `bvh2.nodes`, unreachable.
 fn leaves_of_lanes(bvh2: &mut Bvh2) {
-    let nodes = &mut bvh2.nodes;
-    if nodes.is_empty() {
+    if bvh2.nodes.is_empty() {
         return;
-    }
-    // Pre-order from the root; counts filled in reverse (children before parents).
-    let mut order = Vec::with_capacity(nodes.len());
-    let mut stack = vec![0usize];
-    while let Some(i) = stack.pop() {
-        order.push(i);
-        if !nodes[i].is_leaf() {
-            let l = nodes[i].first_index as usize;
-            stack.extend([l + 1, l]);
-        }
-    }
-    let mut count = vec![0u32; nodes.len()];
-    for &i in order.iter().rev() {
-        let n = &nodes[i];
-        count[i] = match n.is_leaf() {
-            true => n.prim_count,
-            false => count[n.first_index as usize] + count[n.first_index as usize + 1],
-        };
     }
     let old = std::mem::take(&mut bvh2.primitive_indices);
     let mut indices = Vec::with_capacity(old.len());
-    let mut gather = Vec::new();
-    stack.push(0);
-    while let Some(i) = stack.pop() {
+    let nodes = &mut bvh2.nodes;
+    // One post-order walk, left first: each subtree's primitives are appended to `indices`
+    // in order, so they are the run from where they started (`start`, [`UNSEEN`] before
+    // the node's children are walked); a subtree of at most LANES becomes a leaf over its
+    // run. Inner nodes of a smaller subtree become leaves too, unreachable.
+    const UNSEEN: u32 = u32::MAX;
+    let mut stack = vec![(0usize, UNSEEN)];
+    while let Some((i, start)) = stack.pop() {
         let n = nodes[i];
-        if !n.is_leaf() && count[i] > LANES as u32 {
-            let l = n.first_index as usize;
-            stack.extend([l + 1, l]);
-            continue;
-        }
         let first = indices.len() as u32;
-        gather.push(i);
-        while let Some(j) = gather.pop() {
-            let m = nodes[j];
-            match m.is_leaf() {
-                true => indices.extend_from_slice(
-                    &old[m.first_index as usize..(m.first_index + m.prim_count) as usize],
-                ),
-                false => gather.extend([m.first_index as usize + 1, m.first_index as usize]),
-            }
+        if n.is_leaf() {
+            let prims = n.first_index as usize..(n.first_index + n.prim_count) as usize;
+            indices.extend_from_slice(&old[prims]);
+            nodes[i].first_index = first;
+        } else if start == UNSEEN {
+            let l = n.first_index as usize;
+            stack.extend([(i, first), (l + 1, UNSEEN), (l, UNSEEN)]);
+        } else if first - start <= LANES as u32 {
+            nodes[i].first_index = start;
+            nodes[i].prim_count = first - start;
         }
-        nodes[i].first_index = first;
-        nodes[i].prim_count = count[i];
     }
     bvh2.primitive_indices = indices;
 }
@@ -689,14 +704,24 @@ fn too_deep(levels: usize) -> String {
     format!("the BVH would be {levels} levels deep; at most {MAX_DEPTH} are supported")
 }
 
-/// The primitives in the order of a Morton curve through their box centres (10 bits per
-/// axis over the box of the meshes' vertices and the other primitives' centres, which holds
-/// every centre; ties in primitive order, so the order is unique). Taking the box from the
-/// vertices lets each centre go straight into its key, computed once and never stored
-/// (16M triangles: 0.41 -> 0.34 s). With the order, per chunk of [`CHUNK`] primitives, the
-/// longest run of equal keys: an upper bound on how many of its primitives share one box.
-fn morton_order(source: PrimSource) -> (Vec<u32>, Vec<usize>) {
-    use glam::Vec3A;
+/// The primitives in the coarse Morton order of their box centres ([`morton_order`]).
+struct MortonOrder {
+    /// The primitives' indices in order.
+    ids: Vec<u32>,
+    /// Per chunk of [`CHUNK`] primitives, the longest run of equal coarse codes: an upper
+    /// bound on how many of its primitives share one box.
+    runs: Vec<usize>,
+    /// The grid of the codes.
+    grid: MortonGrid,
+}
+
+/// The primitives in the order of a Morton curve through their box centres, on the coarse
+/// grid of 10 bits per axis ([`COARSE_SHIFT`]) over the box of the meshes' vertices and the
+/// other primitives' centres, which holds every centre; ties in primitive order, so the
+/// order is unique. Taking the box from the vertices lets each centre go straight into its
+/// code, computed once and never stored (16M triangles: 0.41 -> 0.34 s). The coarse codes
+/// and the indices sort as one 64-bit key.
+fn morton_order(source: PrimSource) -> MortonOrder {
     use rayon::prelude::*;
     let n = source.prims.len() as u32;
     let vertices = source
@@ -710,15 +735,12 @@ fn morton_order(source: PrimSource) -> (Vec<u32>, Vec<usize>) {
         .singles()
         .map(|p| source.shape_of_primitive(p).aabb().center())
         .fold(vertices, |mut a, c| *a.extend(c));
-    let scale = 1023.0;
-    let extent = (bounds.max - bounds.min).max(Vec3A::splat(f32::MIN_POSITIVE));
+    let grid = MortonGrid::new(&bounds);
     let mut keys: Vec<u64> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let c = source.shape_of(i).aabb().center();
-            let q = ((c - bounds.min) / extent * scale).clamp(Vec3A::ZERO, Vec3A::splat(scale));
-            let code = morton_encode_u32(q.x as u16, q.y as u16, q.z as u16);
-            ((code as u64) << 32) | i as u64
+            let coarse = grid.code(source.shape_of(i).aabb().center()) >> COARSE_SHIFT;
+            (coarse << 32) | i as u64
         })
         .collect();
     // The keys are unique (the index in their low bits), so any sort gives one order; a
@@ -736,7 +758,11 @@ fn morton_order(source: PrimSource) -> (Vec<u32>, Vec<usize>) {
                 .unwrap_or(0)
         })
         .collect();
-    (keys.into_par_iter().map(|k| k as u32).collect(), runs)
+    MortonOrder {
+        ids: keys.into_par_iter().map(|k| k as u32).collect(),
+        runs,
+        grid,
+    }
 }
 
 /// The `count` subtrees of `bvh2` that a top-down cut ends with: starting from the root,

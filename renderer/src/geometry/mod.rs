@@ -10,6 +10,7 @@
 pub mod bvh;
 pub mod bvh8;
 mod bvh8_build;
+mod ploc;
 pub mod kernels;
 pub mod mesh;
 pub mod primitive;
