@@ -19,9 +19,9 @@ use super::bvh8::{
     Bvh8, INDEX_MASK, INNER, KIND_SHIFT, LANES, MAX_DEPTH, Node, RECTANGLES, RectBlock, SPHERES,
     SphereBlock, TRIANGLES, TriBlock,
 };
+use super::ploc::{COARSE_SHIFT, MortonGrid, morton_sorted, ploc};
 use super::primitive::{PrimKind, PrimShape, PrimSource};
 use super::prims::Prims;
-use super::ploc::{COARSE_SHIFT, MortonGrid, morton_sorted, ploc};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
@@ -175,7 +175,11 @@ impl Draft {
     /// part while the chunk's binary tree is freed; a top-level binary tree over the
     /// parts' boxes is collapsed in turn, and the parts are appended under it. The chunks
     /// are fixed by the Morton order, so the tree is the same whatever the thread count.
-    fn build_chunked(source: PrimSource, order: MortonOrder, splits: Splits) -> Result<Self, String> {
+    fn build_chunked(
+        source: PrimSource,
+        order: MortonOrder,
+        splits: Splits,
+    ) -> Result<Self, String> {
         use rayon::prelude::*;
         let grid = order.grid;
         let parts: Vec<(Aabb, Self)> = order

@@ -10,9 +10,9 @@
 pub mod bvh;
 pub mod bvh8;
 mod bvh8_build;
-mod ploc;
 pub mod kernels;
 pub mod mesh;
+mod ploc;
 pub mod primitive;
 pub mod prims;
 pub mod rectangle;

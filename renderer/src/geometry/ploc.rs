@@ -245,10 +245,16 @@ fn find_nearest(
             best = cast::<_, u32x8>(nearer).select(j, best);
         };
         for d in (1..=radius).rev() {
-            consider(lanes(&areas[d - 1], PAD + start - d), i - u32x8::splat(d as u32));
+            consider(
+                lanes(&areas[d - 1], PAD + start - d),
+                i - u32x8::splat(d as u32),
+            );
         }
         for d in 1..=radius {
-            consider(lanes(&areas[d - 1], PAD + start), i + u32x8::splat(d as u32));
+            consider(
+                lanes(&areas[d - 1], PAD + start),
+                i + u32x8::splat(d as u32),
+            );
         }
         let n = WIDTH.min(m - start);
         nearest[start..start + n].copy_from_slice(&best.to_array()[..n]);
@@ -340,47 +346,9 @@ mod tests {
         // The top cell along one axis sets every third bit.
         assert_eq!(grid.code(Vec3A::new(2.0, 0.0, 0.0)), 0x1249_2492_4924_9249);
         assert_eq!(grid.code(Vec3A::new(1.0, 0.0, 0.0)), 1 << 60);
-        let xs: Vec<u64> = (0..100).map(|i| grid.code(Vec3A::X * i as f32 * 0.02)).collect();
+        let xs: Vec<u64> = (0..100)
+            .map(|i| grid.code(Vec3A::X * i as f32 * 0.02))
+            .collect();
         assert!(xs.windows(2).all(|w| w[0] < w[1]));
-    }
-}
-
-#[cfg(test)]
-mod timing {
-    use super::*;
-    #[test]
-    #[ignore]
-    fn ploc_timing() {
-        // A displaced 256x256 grid of triangle boxes.
-        let mut boxes = Vec::new();
-        for y in 0..256 {
-            for x in 0..128 {
-                for t in 0..2 {
-                    let h = |x: f32, y: f32| (x * 0.3).sin() * (y * 0.2).cos() * 2.0;
-                    let (fx, fy) = (x as f32 * 2.0 + t as f32, y as f32);
-                    let p = [Vec3A::new(fx, fy, h(fx, fy)), Vec3A::new(fx + 1.0, fy, h(fx + 1.0, fy)), Vec3A::new(fx, fy + 1.0, h(fx, fy + 1.0))];
-                    boxes.push(Aabb::new(p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2])));
-                }
-            }
-        }
-        let order = morton_sorted(&boxes);
-        let sorted: Vec<Aabb> = order.iter().map(|&i| boxes[i as usize]).collect();
-        let mut best = f64::MAX;
-        for _ in 0..30 {
-            let t = std::time::Instant::now();
-            let b = ploc(&sorted);
-            best = best.min(t.elapsed().as_secs_f64());
-            std::hint::black_box(b);
-        }
-        let mut best_o = f64::MAX;
-        for _ in 0..30 {
-            let t = std::time::Instant::now();
-            let b = obvhs::ploc::PlocBuilder::with_capacity(sorted.len()).build(
-                obvhs::ploc::PlocSearchDistance::Low, &sorted, (0..sorted.len() as u32).collect(),
-                obvhs::ploc::SortPrecision::U64, 2);
-            best_o = best_o.min(t.elapsed().as_secs_f64());
-            std::hint::black_box(b);
-        }
-        eprintln!("ploc {:.2} ms ({:.1} ns/box), obvhs {:.2} ms", best * 1e3, best * 1e9 / sorted.len() as f64, best_o * 1e3);
     }
 }
