@@ -351,4 +351,70 @@ mod tests {
             .collect();
         assert!(xs.windows(2).all(|w| w[0] < w[1]));
     }
+
+    /// The boxes of a displaced grid's triangles, `2 * side * side` of them.
+    fn terrain(side: usize) -> Vec<Aabb> {
+        let h = |x: f32, y: f32| (x * 0.3).sin() * (y * 0.2).cos() * 2.0;
+        let p = |x: f32, y: f32| Vec3A::new(x, y, h(x, y));
+        let mut boxes = Vec::new();
+        for y in 0..side {
+            for x in 0..side {
+                let (x, y) = (x as f32, y as f32);
+                for [a, b, c] in [
+                    [p(x, y), p(x + 1.0, y), p(x, y + 1.0)],
+                    [p(x + 1.0, y), p(x + 1.0, y + 1.0), p(x, y + 1.0)],
+                ] {
+                    boxes.push(Aabb::new(a.min(b).min(c), a.max(b).max(c)));
+                }
+            }
+        }
+        boxes
+    }
+
+    /// The summed surface area of a tree's inner nodes: its SAH cost but for the leaves,
+    /// which are the same in every tree over the same boxes.
+    fn inner_area(bvh2: &Bvh2) -> f64 {
+        let inner = bvh2.nodes.iter().filter(|n| !n.is_leaf());
+        inner.map(|n| n.aabb().half_area() as f64).sum()
+    }
+
+    #[test]
+    fn ploc_is_as_good_as_obvhs_ploc() {
+        let boxes = terrain(100);
+        let order = morton_sorted(&boxes);
+        let sorted: Vec<Aabb> = order.iter().map(|&i| boxes[i as usize]).collect();
+        let ours = ploc(&sorted);
+        check_tree(&ours, &sorted);
+        let theirs = obvhs::ploc::PlocBuilder::with_capacity(boxes.len()).build(
+            obvhs::ploc::PlocSearchDistance::Low,
+            &boxes,
+            (0..boxes.len() as u32).collect(),
+            obvhs::ploc::SortPrecision::U64,
+            NARROW_ROUNDS,
+        );
+        let ratio = inner_area(&ours) / inner_area(&theirs);
+        assert!(ratio < 1.01, "lobe's PLOC tree costs {ratio} of obvhs's");
+        // In a scrambled order PLOC's neighbours are far apart: a much worse tree.
+        let n = boxes.len();
+        let scrambled: Vec<Aabb> = (0..n).map(|i| boxes[i * 7919 % n]).collect();
+        let worse = inner_area(&ploc(&scrambled)) / inner_area(&theirs);
+        assert!(worse > 1.5, "{ratio} {worse}");
+    }
+
+    #[test]
+    fn morton_order_refines_by_the_fine_code() {
+        let boxes = terrain(30);
+        let order = morton_sorted(&boxes);
+        let centres = boxes
+            .iter()
+            .fold(Aabb::empty(), |mut a, b| *a.extend(b.center()));
+        let grid = MortonGrid::new(&centres);
+        let codes: Vec<u64> = order
+            .iter()
+            .map(|&i| grid.code(boxes[i as usize].center()))
+            .collect();
+        assert!(codes.windows(2).all(|w| w[0] <= w[1]));
+        let coarse: Vec<u64> = codes.iter().map(|c| c >> COARSE_SHIFT).collect();
+        assert!(coarse.windows(2).all(|w| w[0] <= w[1]));
+    }
 }
