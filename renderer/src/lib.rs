@@ -2,8 +2,8 @@
 //!
 //! A scene file (JSON, see docs/scene-format.md) is loaded by [`scene::load`] into a
 //! [`scene::Scene`]: analytic spheres, rectangles and triangle meshes (OBJ, PLY, glTF) under
-//! one BVH (built with obvhs's PLOC, per Morton chunk for big meshes, then collapsed by
-//! lobe into its own 8-wide BVH and traversed by lobe's SIMD kernels), a
+//! one BVH (a binary tree by lobe's PLOC and obvhs's reinsertion, per Morton chunk for big
+//! meshes, collapsed into lobe's own 8-wide BVH and traversed by lobe's SIMD kernels), a
 //! Mitsuba-3-compatible camera,
 //! lights (importance-sampled lat-long environment maps with Mitsuba 3's direction
 //! convention, constant environments, point, directional and diffuse area lights) and

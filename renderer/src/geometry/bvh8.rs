@@ -6,7 +6,7 @@
 //! operations, lane by lane, as the scalar tests of [`Triangle`], [`Sphere`] and
 //! [`Rectangle`] (so a hit's distance is bit for bit the scalar one).
 //!
-//! Built by [`super::bvh8_build`] from obvhs's binary BVH. Child boxes are tested with
+//! Built by [`super::bvh8_build`] from a binary BVH. Child boxes are tested with
 //! pbrt-v4's conservative slab test (the far distance scaled by 1 + 2 gamma(3), Pharr,
 //! Jakob and Humphreys, "Physically Based Rendering", 4th ed., section 6.8.2), and children
 //! are visited nearest first.

@@ -95,16 +95,18 @@ impl Draft {
         Bvh8 {
             nodes: self.nodes,
             tris: fetch(source, &tris, |s, id| {
-                let t = s.map(|p| match p {
-                    PrimShape::Triangle(t) => t,
-                    _ => unreachable!("grouped by kind"),
-                });
-                TriBlock {
-                    p0: v3(t.map(|t| t.p0)),
-                    e1: v3(t.map(|t| t.e1)),
-                    e2: v3(t.map(|t| t.e2)),
-                    id,
+                // [p0, e1, e2][axis][lane], filled lane by lane.
+                let mut v = [[[0.0; LANES]; 3]; 3];
+                for (lane, p) in s.iter().enumerate() {
+                    let PrimShape::Triangle(t) = p else {
+                        unreachable!("grouped by kind")
+                    };
+                    for (k, p) in [t.p0, t.e1, t.e2].into_iter().enumerate() {
+                        (v[k][0][lane], v[k][1][lane], v[k][2][lane]) = (p.x, p.y, p.z);
+                    }
                 }
+                let [p0, e1, e2] = v.map(|axes| axes.map(f32x8::new));
+                TriBlock { p0, e1, e2, id }
             }),
             spheres: fetch(source, &spheres, |s, id| {
                 let s = s.map(|p| match p {
