@@ -745,8 +745,8 @@ fn morton_order(source: PrimSource) -> MortonOrder {
     let mut keys: Vec<u64> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let coarse = grid.code(source.shape_of(i).aabb().center()) >> COARSE_SHIFT;
-            (coarse << 32) | i as u64
+            let coarse = grid.coarse_code(source.shape_of(i).aabb().center());
+            ((coarse as u64) << 32) | i as u64
         })
         .collect();
     // The keys are unique (the index in their low bits), so any sort gives one order; a

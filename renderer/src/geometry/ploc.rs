@@ -53,9 +53,24 @@ impl MortonGrid {
     /// The 63-bit Morton code of `p`'s cell (points outside the box are clamped to it).
     #[inline(always)]
     pub(super) fn code(&self, p: Vec3A) -> u64 {
+        let [x, y, z] = self.cell(p);
+        obvhs::ploc::morton::morton_encode_u64(x, y, z)
+    }
+
+    /// `code(p) >> COARSE_SHIFT`: the 30-bit code of `p`'s cell on the grid of 2^10 cells
+    /// per axis, at a third of the cost.
+    #[inline(always)]
+    pub(super) fn coarse_code(&self, p: Vec3A) -> u32 {
+        let [x, y, z] = self.cell(p).map(|q| (q >> (FINE_BITS - 10)) as u16);
+        obvhs::ploc::morton::morton_encode_u32(x, y, z)
+    }
+
+    /// The coordinates of `p`'s cell.
+    #[inline(always)]
+    fn cell(&self, p: Vec3A) -> [u32; 3] {
         let top = ((1u32 << FINE_BITS) - 1) as f32;
         let q = ((p - self.min) * self.cells_per_unit).clamp(Vec3A::ZERO, Vec3A::splat(top));
-        obvhs::ploc::morton::morton_encode_u64(q.x as u32, q.y as u32, q.z as u32)
+        [q.x as u32, q.y as u32, q.z as u32]
     }
 }
 

@@ -67,6 +67,7 @@ impl PrimShape {
 
     /// The primitive's bounding box, padded a little so that axis-aligned rectangles and
     /// triangles have volume.
+    #[inline(always)]
     pub fn aabb(&self) -> Aabb {
         let (lo, hi) = match self {
             PrimShape::Sphere(s) => (
