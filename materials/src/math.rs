@@ -1,13 +1,193 @@
-//! The small float abstraction that lets each model's formula be written once and
-//! evaluated in f32 (rendering) and f64 (fitting): [`Real`] over num-traits' `Float`
-//! (with `exp_r`, `powf_r`, `acos_r`: `fastmath`'s in f32, whose lane forms the
-//! models' SIMD kernels use), and a minimal generic 3-vector [`V3`].
+//! The numeric abstraction that lets each formula be written once and evaluated in f64
+//! (fitting), f32 (rendering, one query) and lanes of f32 (rendering, [`crate::simd::f32xn`]):
+//! [`Num`], with masks and [`select`] in the manner of Dr.Jit's `dr::select` (Mitsuba 3
+//! writes each BSDF once over one `Float` type the same way). A formula over [`Num`] that
+//! branches computes both sides and selects, so its lanes give bit for bit what its scalar
+//! instantiation gives. [`Real`] is the scalar subset (f32, f64) over num-traits' `Float`
+//! (with `exp_r`, `powf_r`, `acos_r`: `fastmath`'s in f32, whose lane forms the lane
+//! instantiation uses), and [`V3`] a minimal generic 3-vector.
 
+use crate::simd::f32xn;
 use num_traits::{Float, FloatConst};
-use std::ops::{Add, Mul, Neg, Sub};
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
+
+/// A number a formula is written over: one f32 or f64, or [`f32xn`] lanes. Comparisons give a
+/// [`Num::Mask`] (a bool, or a lane mask) that [`select`] reads. The methods carry a `num_`
+/// prefix so that they never shadow `Float`'s on a [`Real`]; formulas call the free
+/// functions ([`select`], [`minimum`], [`maximum`], [`le`], [`lt`], [`eq`], [`exp`],
+/// [`acos`], [`powf`]).
+pub trait Num:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// A per-value condition.
+    type Mask: Copy
+        + BitAnd<Output = Self::Mask>
+        + BitOr<Output = Self::Mask>
+        + Not<Output = Self::Mask>;
+    /// The constant `x`, rounded to the type's precision (every lane `x as f32`).
+    fn of(x: f64) -> Self;
+    fn num_select(m: Self::Mask, t: Self, f: Self) -> Self;
+    fn num_min(self, o: Self) -> Self;
+    fn num_max(self, o: Self) -> Self;
+    fn num_le(self, o: Self) -> Self::Mask;
+    fn num_lt(self, o: Self) -> Self::Mask;
+    fn num_eq(self, o: Self) -> Self::Mask;
+    /// e^x as [`Real::exp_r`] (`fastmath`'s in f32 and its lane form in lanes).
+    fn num_exp(self) -> Self;
+    /// acos x as [`Real::acos_r`].
+    fn num_acos(self) -> Self;
+    /// x^y as [`Real::powf_r`].
+    fn num_powf(self, y: Self) -> Self;
+}
+
+/// `t` where `m` holds, else `f` (per lane).
+#[inline(always)]
+pub fn select<T: Num>(m: T::Mask, t: T, f: T) -> T {
+    T::num_select(m, t, f)
+}
+/// The smaller of `a` and `b` (per lane; `f32::min`'s NaN rule for scalars, the SIMD min's
+/// for lanes, as the hand-written forms had).
+#[inline(always)]
+pub fn minimum<T: Num>(a: T, b: T) -> T {
+    a.num_min(b)
+}
+/// The larger of `a` and `b` (as [`minimum`]).
+#[inline(always)]
+pub fn maximum<T: Num>(a: T, b: T) -> T {
+    a.num_max(b)
+}
+/// `a <= b`.
+#[inline(always)]
+pub fn le<T: Num>(a: T, b: T) -> T::Mask {
+    a.num_le(b)
+}
+/// `a < b`.
+#[inline(always)]
+pub fn lt<T: Num>(a: T, b: T) -> T::Mask {
+    a.num_lt(b)
+}
+/// `a == b`.
+#[inline(always)]
+pub fn eq<T: Num>(a: T, b: T) -> T::Mask {
+    a.num_eq(b)
+}
+/// e^x ([`Num::num_exp`]).
+#[inline(always)]
+pub fn exp<T: Num>(x: T) -> T {
+    x.num_exp()
+}
+/// acos x ([`Num::num_acos`]).
+#[inline(always)]
+pub fn acos<T: Num>(x: T) -> T {
+    x.num_acos()
+}
+/// x^y ([`Num::num_powf`]).
+#[inline(always)]
+pub fn powf<T: Num>(x: T, y: T) -> T {
+    x.num_powf(y)
+}
+
+macro_rules! scalar_num {
+    ($t:ty) => {
+        impl Num for $t {
+            type Mask = bool;
+            #[inline(always)]
+            fn of(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn num_select(m: bool, t: Self, f: Self) -> Self {
+                if m { t } else { f }
+            }
+            #[inline(always)]
+            fn num_min(self, o: Self) -> Self {
+                self.min(o)
+            }
+            #[inline(always)]
+            fn num_max(self, o: Self) -> Self {
+                self.max(o)
+            }
+            #[inline(always)]
+            fn num_le(self, o: Self) -> bool {
+                self <= o
+            }
+            #[inline(always)]
+            fn num_lt(self, o: Self) -> bool {
+                self < o
+            }
+            #[inline(always)]
+            fn num_eq(self, o: Self) -> bool {
+                self == o
+            }
+            #[inline(always)]
+            fn num_exp(self) -> Self {
+                self.exp_r()
+            }
+            #[inline(always)]
+            fn num_acos(self) -> Self {
+                self.acos_r()
+            }
+            #[inline(always)]
+            fn num_powf(self, y: Self) -> Self {
+                self.powf_r(y)
+            }
+        }
+    };
+}
+scalar_num!(f32);
+scalar_num!(f64);
+
+impl Num for f32xn {
+    type Mask = f32xn;
+    #[inline(always)]
+    fn of(x: f64) -> Self {
+        f32xn::splat(x as f32)
+    }
+    #[inline(always)]
+    fn num_select(m: Self, t: Self, f: Self) -> Self {
+        crate::simd::sel(m, t, f)
+    }
+    #[inline(always)]
+    fn num_min(self, o: Self) -> Self {
+        self.min(o)
+    }
+    #[inline(always)]
+    fn num_max(self, o: Self) -> Self {
+        self.max(o)
+    }
+    #[inline(always)]
+    fn num_le(self, o: Self) -> Self {
+        self.simd_le(o)
+    }
+    #[inline(always)]
+    fn num_lt(self, o: Self) -> Self {
+        self.simd_lt(o)
+    }
+    #[inline(always)]
+    fn num_eq(self, o: Self) -> Self {
+        self.simd_eq(o)
+    }
+    #[inline(always)]
+    fn num_exp(self) -> Self {
+        crate::fastmath::xn::exp(self)
+    }
+    #[inline(always)]
+    fn num_acos(self) -> Self {
+        crate::fastmath::xn::acos(self)
+    }
+    #[inline(always)]
+    fn num_powf(self, y: Self) -> Self {
+        crate::fastmath::xn::powf(self, y)
+    }
+}
 
 /// A floating-point scalar: f32 or f64.
-pub trait Real: Float + FloatConst + std::fmt::Debug + Send + Sync + 'static {
+pub trait Real: Num + Float + FloatConst + std::fmt::Debug + Send + Sync + 'static {
     /// Converts a constant.
     fn c(x: f64) -> Self;
     fn to_f64(self) -> f64;

@@ -16,7 +16,7 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
 use super::microfacet::fresnel::{FRESNELS, Fresnel};
-use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g, vgroove_g_xn};
+use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g};
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
 use crate::math::{Real, V3, half};
 use crate::schema::{
@@ -108,8 +108,8 @@ impl Lobe for CookTorrance {
         let (h, has_half) = lobe::xn::half(wo, wi);
         let ok = lobe::xn::above(wo, wi) & has_half;
         let (co, ci, ch, oh) = (wo.z, wi.z, h.z, wo.dot(h));
-        let d = self.distribution.d_xn(ch);
-        let g = vgroove_g_xn(ch, co, ci, oh);
+        let d = self.distribution.d(ch);
+        let g = vgroove_g(ch, co, ci, oh);
         let f = self.fresnel.eval_xn(wi.dot(h));
         let v = d * g * f / (f32xn::splat(std::f32::consts::PI) * ci * co);
         let v = sel(ok & !d.simd_eq(zero) & v.is_finite(), v.max(zero), zero);

@@ -14,7 +14,7 @@ pub mod fresnel;
 pub mod visible;
 
 use crate::fastmath::xn;
-use crate::math::Real;
+use crate::math::{Num, acos, eq, exp, le, maximum, minimum, powf, select};
 use crate::simd::{Vec3xN, f32xn, sel};
 use glam::{Vec2, Vec3};
 
@@ -61,32 +61,23 @@ impl Distribution {
         })
     }
 
-    /// D(h) for cos(theta_h) = `c` (isotropic distributions).
-    #[inline]
-    pub fn d<T: Real>(&self, cos_h: T) -> T {
-        if cos_h <= T::zero() {
-            return T::zero();
-        }
-        let c2 = cos_h * cos_h;
-        match *self {
-            Distribution::Beckmann { m } => {
-                let m2 = T::c(m * m);
-                let tan2 = ((T::one() - c2).max(T::zero())) / c2;
-                let e = (-tan2 / m2).exp_r();
-                if e == T::zero() {
-                    return T::zero();
-                }
-                e / (T::PI() * m2 * c2 * c2)
-            }
+    /// D(h) for cos(theta_h) = `cos_h` (isotropic distributions), zero for `cos_h <= 0`;
+    /// one formula for f64, f32 and lanes ([`Num`]).
+    #[inline(always)]
+    pub fn d<T: Num>(&self, cos_h: T) -> T {
+        let zero = T::of(0.0);
+        let d = match *self {
+            Distribution::Beckmann { m } => beckmann_d(T::of(m * m), cos_h),
             Distribution::Gaussian { m, c } => {
-                let theta = cos_h.min(T::one()).acos_r();
-                let r = theta / T::c(m);
-                T::c(c) * (-r * r).exp_r()
+                let theta = acos(minimum(cos_h, T::of(1.0)));
+                let r = theta / T::of(m);
+                T::of(c) * exp(-r * r)
             }
             Distribution::CosinePower { n } => {
-                T::c((n + 2.0) / (2.0 * std::f64::consts::PI)) * cos_h.powf_r(T::c(n))
+                T::of((n + 2.0) / (2.0 * std::f64::consts::PI)) * powf(cos_h, T::of(n))
             }
-        }
+        };
+        select(le(cos_h, zero), zero, d)
     }
 
     /// The roughness of the Beckmann distribution whose visible normals
@@ -129,25 +120,6 @@ impl Distribution {
     pub fn pdf_visible_xn(&self, wo: Vec3xN, h: Vec3xN) -> f32xn {
         beckmann_visible_pdf_xn(f32xn::splat(self.visible_m()), wo, h)
     }
-
-    /// [`Distribution::d`] per lane (f32).
-    #[inline(always)]
-    pub fn d_xn(&self, cos_h: f32xn) -> f32xn {
-        let s = f32xn::splat;
-        let zero = s(0.0);
-        let d = match *self {
-            Distribution::Beckmann { m } => beckmann_d_xn(s((m * m) as f32), cos_h),
-            Distribution::Gaussian { m, c } => {
-                let theta = xn::acos(cos_h.min(s(1.0)));
-                let r = theta / s(m as f32);
-                s(c as f32) * xn::exp(-r * r)
-            }
-            Distribution::CosinePower { n } => {
-                s(((n + 2.0) / (2.0 * std::f64::consts::PI)) as f32) * xn::powf(cos_h, s(n as f32))
-            }
-        };
-        sel(cos_h.simd_le(zero), zero, d)
-    }
 }
 
 /// The density (solid angle of h) of Beckmann visible normals seen from `wo`, each lane its
@@ -158,21 +130,21 @@ pub fn beckmann_visible_pdf_xn(m: f32xn, wo: Vec3xN, h: Vec3xN) -> f32xn {
     let zero = f32xn::splat(0.0);
     let mm = m.to_array();
     let m2 = f32xn::new(crate::simd::lanes(|k| (mm[k] as f64 * mm[k] as f64) as f32));
-    let d = sel(h.z.simd_le(zero), zero, beckmann_d_xn(m2, h.z));
+    let d = sel(h.z.simd_le(zero), zero, beckmann_d(m2, h.z));
     visible::pdf(m, m, wo, h, d)
 }
 
-/// Beckmann's D per lane for positive `cos_h`, each lane its own squared roughness `m2`
-/// (`(m * m) as f32`, as [`Distribution::d`] rounds it): the lanes of
-/// [`Distribution::d_xn`] (which zeroes `cos_h <= 0`).
+/// Beckmann's D for positive `cos_h`, of squared roughness `m2` (`(m * m) as f32` in f32, as
+/// [`Distribution::d`] rounds it): exp(-tan^2(theta_h) / m2) / (pi m2 cos^4(theta_h)), zero
+/// where the exponential underflows.
 #[inline(always)]
-pub fn beckmann_d_xn(m2: f32xn, cos_h: f32xn) -> f32xn {
-    let (s, zero) = (f32xn::splat, f32xn::splat(0.0));
+pub fn beckmann_d<T: Num>(m2: T, cos_h: T) -> T {
+    let zero = T::of(0.0);
     let c2 = cos_h * cos_h;
-    let tan2 = (s(1.0) - c2).max(zero) / c2;
-    let e = xn::exp(-tan2 / m2);
-    let d = e / (s(std::f32::consts::PI) * m2 * c2 * c2);
-    sel(e.simd_eq(zero), zero, d)
+    let tan2 = maximum(T::of(1.0) - c2, zero) / c2;
+    let e = exp(-tan2 / m2);
+    let d = e / (T::of(std::f64::consts::PI) * m2 * c2 * c2);
+    select(eq(e, zero), zero, d)
 }
 
 /// The roughness m = sqrt(2 / (n + 2)) of the Beckmann distribution whose peak matches
@@ -186,7 +158,7 @@ pub fn cosine_power_beckmann_m(n: f64) -> f32 {
 /// The anisotropic Beckmann D per lane, roughness `mx` along the tangent and `my` along the
 /// bitangent: exp(-tan^2(theta_h) (cos^2(phi_h) / mx^2 + sin^2(phi_h) / my^2)) /
 /// (pi mx my cos^4(theta_h)), zero for h_z <= 0 and where the exponential underflows.
-/// tan^2 comes from cos(theta_h) as in [`beckmann_d_xn`], so that a lobe evaluated from
+/// tan^2 comes from cos(theta_h) as in [`beckmann_d`], so that a lobe evaluated from
 /// cos(theta_h) rounds as this density does where a narrow lobe meets f32's resolution of
 /// cos(theta_h) near 1, and weights f / p stay near their exact value.
 #[inline(always)]
@@ -220,25 +192,13 @@ pub fn gaussian_normalization(m: f64) -> f64 {
 }
 
 /// V-groove shadowing-masking (Torrance and Sparrow 1967; Cook and Torrance 1981, eq. 4):
-/// G = min(1, 2 (n.h)(n.wo) / (wo.h), 2 (n.h)(n.wi) / (wi.h)).
-#[inline]
-pub fn vgroove_g<T: Real>(cos_h: T, cos_o: T, cos_i: T, wo_dot_h: T) -> T {
-    if wo_dot_h <= T::zero() {
-        return T::zero();
-    }
+/// G = min(1, 2 (n.h)(n.wo) / (wo.h), 2 (n.h)(n.wi) / (wi.h)), zero for wo.h <= 0.
+#[inline(always)]
+pub fn vgroove_g<T: Num>(cos_h: T, cos_o: T, cos_i: T, wo_dot_h: T) -> T {
     // wo.h = wi.h for the half vector of wo and wi.
-    let two = T::c(2.0);
+    let (zero, two) = (T::of(0.0), T::of(2.0));
     let a = two * cos_h * cos_o / wo_dot_h;
     let b = two * cos_h * cos_i / wo_dot_h;
-    T::one().min(a).min(b).max(T::zero())
-}
-
-/// [`vgroove_g`] per lane.
-#[inline(always)]
-pub fn vgroove_g_xn(cos_h: f32xn, cos_o: f32xn, cos_i: f32xn, wo_dot_h: f32xn) -> f32xn {
-    let s = f32xn::splat;
-    let a = s(2.0) * cos_h * cos_o / wo_dot_h;
-    let b = s(2.0) * cos_h * cos_i / wo_dot_h;
-    let g = s(1.0).min(a).min(b).max(s(0.0));
-    sel(wo_dot_h.simd_le(s(0.0)), s(0.0), g)
+    let g = maximum(minimum(minimum(T::of(1.0), a), b), zero);
+    select(le(wo_dot_h, zero), zero, g)
 }
