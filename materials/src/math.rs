@@ -15,7 +15,7 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 /// [`Num::Mask`] (a bool, or a lane mask) that [`select`] reads. The methods carry a `num_`
 /// prefix so that they never shadow `Float`'s on a [`Real`]; formulas call the free
 /// functions ([`select`], [`minimum`], [`maximum`], [`le`], [`lt`], [`eq`], [`exp`],
-/// [`acos`], [`powf`]).
+/// [`acos`], [`powf`], [`sqrt`]).
 pub trait Num:
     Copy
     + Add<Output = Self>
@@ -43,6 +43,8 @@ pub trait Num:
     fn num_acos(self) -> Self;
     /// x^y as [`Real::powf_r`].
     fn num_powf(self, y: Self) -> Self;
+    /// The square root (IEEE, as `f32::sqrt`).
+    fn num_sqrt(self) -> Self;
 }
 
 /// `t` where `m` holds, else `f` (per lane).
@@ -85,6 +87,11 @@ pub fn exp<T: Num>(x: T) -> T {
 #[inline(always)]
 pub fn acos<T: Num>(x: T) -> T {
     x.num_acos()
+}
+/// The square root ([`Num::num_sqrt`]).
+#[inline(always)]
+pub fn sqrt<T: Num>(x: T) -> T {
+    x.num_sqrt()
 }
 /// x^y ([`Num::num_powf`]).
 #[inline(always)]
@@ -136,6 +143,10 @@ macro_rules! scalar_num {
             fn num_powf(self, y: Self) -> Self {
                 self.powf_r(y)
             }
+            #[inline(always)]
+            fn num_sqrt(self) -> Self {
+                self.sqrt()
+            }
         }
     };
 }
@@ -183,6 +194,10 @@ impl Num for f32xn {
     #[inline(always)]
     fn num_powf(self, y: Self) -> Self {
         crate::fastmath::xn::powf(self, y)
+    }
+    #[inline(always)]
+    fn num_sqrt(self) -> Self {
+        self.sqrt()
     }
 }
 

@@ -18,10 +18,9 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::Distribution;
-use crate::fastmath;
 use crate::fastmath::xn;
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
-use crate::math::{Real, V3, half};
+use crate::math::{Num, Real, V3, half, le, powf, select};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
@@ -37,21 +36,12 @@ pub struct BlinnPhong {
 }
 
 /// Density (n + 1) / (2 pi) cos^n(theta) of a direction at angle theta from a cosine-power
-/// lobe's axis.
-#[inline]
-pub fn cos_power_pdf(n: f32, cos_t: f32) -> f32 {
-    if cos_t <= 0.0 {
-        return 0.0;
-    }
-    (n + 1.0) / (2.0 * PI) * fastmath::powf(cos_t, n)
-}
-
-/// [`cos_power_pdf`] per lane.
+/// lobe's axis (zero for `cos_t <= 0`), one formula for one value and lanes ([`Num`]).
 #[inline(always)]
-pub fn cos_power_pdf_xn(n: f32, cos_t: f32xn) -> f32xn {
-    let zero = f32xn::splat(0.0);
-    let p = f32xn::splat((n + 1.0) / (2.0 * PI)) * xn::powf(cos_t, f32xn::splat(n));
-    sel(cos_t.simd_le(zero), zero, p)
+pub fn cos_power_pdf<T: Num>(n: f32, cos_t: T) -> T {
+    let zero = T::of(0.0);
+    let p = T::of(((n + 1.0) / (2.0 * PI)) as f64) * powf(cos_t, T::of(n as f64));
+    select(le(cos_t, zero), zero, p)
 }
 
 impl BlinnPhong {

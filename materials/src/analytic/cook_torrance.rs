@@ -110,7 +110,7 @@ impl Lobe for CookTorrance {
         let (co, ci, ch, oh) = (wo.z, wi.z, h.z, wo.dot(h));
         let d = self.distribution.d(ch);
         let g = vgroove_g(ch, co, ci, oh);
-        let f = self.fresnel.eval_xn(wi.dot(h));
+        let f = self.fresnel.eval(wi.dot(h));
         let v = d * g * f / (f32xn::splat(std::f32::consts::PI) * ci * co);
         let v = sel(ok & !d.simd_eq(zero) & v.is_finite(), v.max(zero), zero);
         let p = lobe::xn::half_to_incident_pdf(self.distribution.pdf_visible_xn(wo, h), oh);

@@ -242,7 +242,7 @@ impl He {
         let cd = wi.dot(h);
         let ch = h.z;
         let ok = lobe::xn::above(wo, wi) & has_half & cd.simd_gt(zero) & ch.simd_gt(zero);
-        let fresnel = Dielectric { eta: self.eta }.eval_xn(cd);
+        let fresnel = Dielectric { eta: self.eta }.eval(cd);
         let (ci_l, co_l) = (ci.to_array(), co.to_array());
         let terms = simd::lanes(|k| {
             he_shadowing::elevation_terms(self.sigma0 as f32, self.tau as f32, ci_l[k], co_l[k])

@@ -13,7 +13,7 @@
 //! Sampling: a cosine-power lobe (n) around the generalized mirror direction
 //! u' = normalize(Cx wo_x, Cy wo_y, Cz wo_z): the lobe is |C o wo|^n (u' . wi)^n.
 
-use super::blinn_phong::{cos_power_pdf, cos_power_pdf_xn};
+use super::blinn_phong::cos_power_pdf;
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
 use crate::fastmath::{self, xn};
 use crate::frame::{self, Frame};
@@ -150,7 +150,7 @@ impl Lobe for Lafortune {
         };
         let v = sel(ok & dot.simd_gt(zero) & v.is_finite(), v, zero);
         let axis = Vec3xN::new(cx * wo.x, cy * wo.y, cz * wo.z).normalize_or_zero();
-        let p = sel(ok, cos_power_pdf_xn(n, axis.dot(wi)), zero);
+        let p = sel(ok, cos_power_pdf(n, axis.dot(wi)), zero);
         (RgbxN::new(v, v, v), p)
     }
 

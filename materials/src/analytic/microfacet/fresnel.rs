@@ -2,8 +2,7 @@
 //! eq. 15) and the exact unpolarized reflectance of a dielectric interface with a real
 //! relative index of refraction eta (Cook and Torrance 1981, eq. 5; Born and Wolf).
 
-use crate::math::Real;
-use crate::simd::{f32xn, sel};
+use crate::math::{Num, le, maximum, minimum, select, sqrt};
 
 /// Which Fresnel term a model uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -20,66 +19,38 @@ pub const FRESNELS: &[&str] = &["none", "schlick", "dielectric"];
 
 impl Fresnel {
     /// F for the cosine `c` of the angle between the incident direction and the microfacet
-    /// normal.
-    #[inline]
-    pub fn eval<T: Real>(&self, c: T) -> T {
-        match *self {
-            Fresnel::None => T::one(),
-            Fresnel::Schlick { f0 } => schlick(T::c(f0), c),
-            Fresnel::Dielectric { eta } => dielectric(T::c(eta), c),
-        }
-    }
-}
-
-/// [`Fresnel::eval`] per lane.
-impl Fresnel {
+    /// normal; one formula for f64, f32 and lanes ([`Num`]).
     #[inline(always)]
-    pub fn eval_xn(&self, c: f32xn) -> f32xn {
-        let s = f32xn::splat;
+    pub fn eval<T: Num>(&self, c: T) -> T {
         match *self {
-            Fresnel::None => s(1.0),
-            Fresnel::Schlick { f0 } => {
-                let f0 = f0 as f32;
-                let m = (s(1.0) - c).max(s(0.0)).min(s(1.0));
-                let m2 = m * m;
-                s(f0) + s(1.0 - f0) * m2 * m2 * m
-            }
-            Fresnel::Dielectric { eta } => {
-                let eta = eta as f32;
-                let c = c.max(s(0.0)).min(s(1.0));
-                let g2 = s(eta * eta) + c * c - s(1.0);
-                let g = g2.sqrt();
-                let a = (g - c) / (g + c);
-                let b = (c * (g + c) - s(1.0)) / (c * (g - c) + s(1.0));
-                let f = (s(0.5) * a * a * (s(1.0) + b * b)).max(s(0.0)).min(s(1.0));
-                sel(g2.simd_le(s(0.0)), s(1.0), f)
-            }
+            Fresnel::None => T::of(1.0),
+            Fresnel::Schlick { f0 } => schlick(T::of(f0), c),
+            Fresnel::Dielectric { eta } => dielectric(T::of(eta), c),
         }
     }
 }
 
-#[inline]
-pub fn schlick<T: Real>(f0: T, c: T) -> T {
-    let m = (T::one() - c).max(T::zero()).min(T::one());
+#[inline(always)]
+pub fn schlick<T: Num>(f0: T, c: T) -> T {
+    let one = T::of(1.0);
+    let m = minimum(maximum(one - c, T::of(0.0)), one);
     let m2 = m * m;
-    f0 + (T::one() - f0) * m2 * m2 * m
+    f0 + (one - f0) * m2 * m2 * m
 }
 
 /// Cook and Torrance's form: with g^2 = eta^2 + c^2 - 1,
 /// F = (g - c)^2 / (2 (g + c)^2) * (1 + ((c (g + c) - 1) / (c (g - c) + 1))^2);
-/// total internal reflection (g^2 < 0) gives 1.
-#[inline]
-pub fn dielectric<T: Real>(eta: T, c: T) -> T {
-    let c = c.max(T::zero()).min(T::one());
-    let g2 = eta * eta + c * c - T::one();
-    if g2 <= T::zero() {
-        return T::one();
-    }
-    let g = g2.sqrt();
+/// total internal reflection (g^2 <= 0) gives 1.
+#[inline(always)]
+pub fn dielectric<T: Num>(eta: T, c: T) -> T {
+    let (zero, one) = (T::of(0.0), T::of(1.0));
+    let c = minimum(maximum(c, zero), one);
+    let g2 = eta * eta + c * c - one;
+    let g = sqrt(g2);
     let a = (g - c) / (g + c);
-    let b = (c * (g + c) - T::one()) / (c * (g - c) + T::one());
-    let f = T::c(0.5) * a * a * (T::one() + b * b);
-    f.max(T::zero()).min(T::one())
+    let b = (c * (g + c) - one) / (c * (g - c) + one);
+    let f = minimum(maximum(T::of(0.5) * a * a * (one + b * b), zero), one);
+    select(le(g2, zero), one, f)
 }
 
 #[cfg(test)]
