@@ -8,7 +8,7 @@
 //! rendering and an f64 one for fitting through [`impl_lobe_eval!`].
 //! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
 
-use crate::math::{Real, V3};
+use crate::math::{Num, Real, V3, gt, is_finite, le, select, sqrt};
 use crate::simd::{LANES, RgbxN, Vec3xN, f32xn, lanes, padded};
 use crate::{Flags, Rgb};
 use glam::{DVec3, Vec2, Vec3};
@@ -115,13 +115,11 @@ pub fn half_from(cos_t: f32, ux: f32) -> Vec3 {
 }
 
 /// Converts a half-vector density to the density of the reflected direction:
-/// p(wi) = p(h) / (4 |wo . h|) (Walter et al. 2007, eq. 14).
-#[inline]
-pub fn half_to_incident_pdf(pdf_h: f32, wo_dot_h: f32) -> f32 {
-    if wo_dot_h <= 0.0 {
-        return 0.0;
-    }
-    pdf_h / (4.0 * wo_dot_h)
+/// p(wi) = p(h) / (4 |wo . h|) (Walter et al. 2007, eq. 14); zero where `wo . h <= 0`.
+#[inline(always)]
+pub fn half_to_incident_pdf<T: Num>(pdf_h: T, wo_dot_h: T) -> T {
+    let zero = T::of(0.0);
+    select(le(wo_dot_h, zero), zero, pdf_h / (T::of(4.0) * wo_dot_h))
 }
 
 /// Samples `wi` by reflecting `wo` about a half vector drawn by `sample_h`, rejecting
@@ -138,7 +136,7 @@ pub fn sample_via_half(wo: Vec3, h: Vec3) -> Option<Vec3> {
 /// Lane forms of this module's helpers, for the lobes' [`Lobe::eval_pdf_xn`]
 /// kernels: each lane computes what the scalar helper computes, operation for operation.
 pub mod xn {
-    use crate::simd::{LANES, MaskN, Vec3xN, f32xn, sel};
+    use crate::simd::{LANES, MaskN, Vec3xN, f32xn};
     use glam::Vec3;
 
     /// [`super::sample_via_half`] per lane: the mirror of `wo` about `h`, where `wo` and
@@ -170,38 +168,27 @@ pub mod xn {
             crate::fastmath::xn::sin_cos_moderate(f32xn::splat(2.0 * std::f32::consts::PI) * ux);
         Vec3xN::new(sin_t * c, sin_t * s, cos_t)
     }
-
-    /// [`super::above`] per lane: both directions above the surface.
-    #[inline(always)]
-    pub fn above(wo: Vec3xN, wi: Vec3xN) -> MaskN {
-        let zero = f32xn::splat(0.0);
-        wo.z.simd_gt(zero) & wi.z.simd_gt(zero)
-    }
-
-    /// [`crate::math::half`] per lane: the unit half vector, and where it exists (a
-    /// positive, finite squared length).
-    #[inline(always)]
-    pub fn half(wo: Vec3xN, wi: Vec3xN) -> (Vec3xN, MaskN) {
-        let h = wo + wi;
-        let l2 = h.length_squared();
-        let ok = l2.simd_gt(f32xn::splat(0.0)) & l2.is_finite();
-        (h * (f32xn::splat(1.0) / l2.sqrt()), ok)
-    }
-
-    /// [`super::half_to_incident_pdf`] per lane.
-    #[inline(always)]
-    pub fn half_to_incident_pdf(pdf_h: f32xn, wo_dot_h: f32xn) -> f32xn {
-        let zero = f32xn::splat(0.0);
-        sel(
-            wo_dot_h.simd_le(zero),
-            zero,
-            pdf_h / (f32xn::splat(4.0) * wo_dot_h),
-        )
-    }
 }
 
 /// Cosines of the angles of a pair of upper-hemisphere directions, or None below.
 #[inline(always)]
 pub fn above<T: Real>(wo: V3<T>, wi: V3<T>) -> Option<(T, T)> {
     (wo.z > T::zero() && wi.z > T::zero()).then_some((wo.z, wi.z))
+}
+
+/// Where both directions are above the surface (per lane): [`above`]'s condition.
+#[inline(always)]
+pub fn both_above<T: Num>(wo: V3<T>, wi: V3<T>) -> T::Mask {
+    let zero = T::of(0.0);
+    gt(wo.z, zero) & gt(wi.z, zero)
+}
+
+/// The unit half vector of `wo` and `wi`, and where it exists (a positive, finite squared
+/// length): [`crate::math::half`] with its `None` as a mask.
+#[inline(always)]
+pub fn half_where<T: Num>(wo: V3<T>, wi: V3<T>) -> (V3<T>, T::Mask) {
+    let h = wo + wi;
+    let l2 = h.length_squared();
+    let ok = gt(l2, T::of(0.0)) & is_finite(l2);
+    (h * (T::of(1.0) / sqrt(l2)), ok)
 }

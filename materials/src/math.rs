@@ -45,6 +45,8 @@ pub trait Num:
     fn num_powf(self, y: Self) -> Self;
     /// The square root (IEEE, as `f32::sqrt`).
     fn num_sqrt(self) -> Self;
+    /// Neither infinite nor NaN.
+    fn num_is_finite(self) -> Self::Mask;
 }
 
 /// `t` where `m` holds, else `f` (per lane).
@@ -72,6 +74,16 @@ pub fn le<T: Num>(a: T, b: T) -> T::Mask {
 #[inline(always)]
 pub fn lt<T: Num>(a: T, b: T) -> T::Mask {
     a.num_lt(b)
+}
+/// `a > b`.
+#[inline(always)]
+pub fn gt<T: Num>(a: T, b: T) -> T::Mask {
+    b.num_lt(a)
+}
+/// Neither infinite nor NaN ([`Num::num_is_finite`]).
+#[inline(always)]
+pub fn is_finite<T: Num>(x: T) -> T::Mask {
+    x.num_is_finite()
 }
 /// `a == b`.
 #[inline(always)]
@@ -147,6 +159,10 @@ macro_rules! scalar_num {
             fn num_sqrt(self) -> Self {
                 self.sqrt()
             }
+            #[inline(always)]
+            fn num_is_finite(self) -> bool {
+                <$t>::is_finite(self)
+            }
         }
     };
 }
@@ -198,6 +214,10 @@ impl Num for f32xn {
     #[inline(always)]
     fn num_sqrt(self) -> Self {
         self.sqrt()
+    }
+    #[inline(always)]
+    fn num_is_finite(self) -> Self {
+        f32xn::is_finite(self)
     }
 }
 
@@ -272,7 +292,8 @@ impl Real for f64 {
     }
 }
 
-/// A 3-vector over a [`Real`].
+/// A 3-vector over a [`Num`]: one f32 or f64 vector, or [`crate::simd::Vec3xN`] (lanes of
+/// vectors, one component per register).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct V3<T> {
     pub x: T,
@@ -280,7 +301,7 @@ pub struct V3<T> {
     pub z: T,
 }
 
-impl<T: Real> V3<T> {
+impl<T: Num> V3<T> {
     #[inline(always)]
     pub fn new(x: T, y: T, z: T) -> Self {
         Self { x, y, z }
@@ -293,6 +314,17 @@ impl<T: Real> V3<T> {
     pub fn length_squared(self) -> T {
         self.dot(self)
     }
+    #[inline(always)]
+    pub fn cross(self, o: Self) -> Self {
+        Self::new(
+            self.y * o.z - self.z * o.y,
+            self.z * o.x - self.x * o.z,
+            self.x * o.y - self.y * o.x,
+        )
+    }
+}
+
+impl<T: Real> V3<T> {
     #[inline(always)]
     pub fn length(self) -> T {
         self.dot(self).sqrt()
@@ -307,38 +339,30 @@ impl<T: Real> V3<T> {
             None
         }
     }
-    #[inline(always)]
-    pub fn cross(self, o: Self) -> Self {
-        Self::new(
-            self.y * o.z - self.z * o.y,
-            self.z * o.x - self.x * o.z,
-            self.x * o.y - self.y * o.x,
-        )
-    }
 }
 
-impl<T: Real> Add for V3<T> {
+impl<T: Num> Add for V3<T> {
     type Output = Self;
     #[inline(always)]
     fn add(self, o: Self) -> Self {
         Self::new(self.x + o.x, self.y + o.y, self.z + o.z)
     }
 }
-impl<T: Real> Sub for V3<T> {
+impl<T: Num> Sub for V3<T> {
     type Output = Self;
     #[inline(always)]
     fn sub(self, o: Self) -> Self {
         Self::new(self.x - o.x, self.y - o.y, self.z - o.z)
     }
 }
-impl<T: Real> Mul<T> for V3<T> {
+impl<T: Num> Mul<T> for V3<T> {
     type Output = Self;
     #[inline(always)]
     fn mul(self, s: T) -> Self {
         Self::new(self.x * s, self.y * s, self.z * s)
     }
 }
-impl<T: Real> Neg for V3<T> {
+impl<T: Num> Neg for V3<T> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {

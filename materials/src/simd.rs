@@ -28,6 +28,7 @@
 //! width).
 
 use crate::Rgb;
+use crate::math::V3;
 use glam::{Vec2, Vec3};
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
@@ -479,20 +480,11 @@ pub fn fmadd(a: f32xn, b: f32xn, c: f32xn) -> f32xn {
     }
 }
 
-/// `LANES` 3-vectors, one component per register.
-#[derive(Clone, Copy, Debug)]
-pub struct Vec3xN {
-    pub x: f32xn,
-    pub y: f32xn,
-    pub z: f32xn,
-}
+/// `LANES` 3-vectors, one component per register: [`V3`] over lanes, so that a formula
+/// over [`V3`] serves one vector and lanes of them.
+pub type Vec3xN = V3<f32xn>;
 
 impl Vec3xN {
-    #[inline(always)]
-    pub fn new(x: f32xn, y: f32xn, z: f32xn) -> Self {
-        Self { x, y, z }
-    }
-
     /// The same vector in every lane.
     #[inline(always)]
     pub fn splat(v: Vec3) -> Self {
@@ -520,27 +512,6 @@ impl Vec3xN {
     pub fn to_array(self) -> [Vec3; LANES] {
         let [x, y, z] = arrays3(self.into());
         lanes(|i| Vec3::new(x[i], y[i], z[i]))
-    }
-
-    /// glam's `dot` per lane.
-    #[inline(always)]
-    pub fn dot(self, o: Self) -> f32xn {
-        self.x * o.x + self.y * o.y + self.z * o.z
-    }
-
-    #[inline(always)]
-    pub fn length_squared(self) -> f32xn {
-        self.dot(self)
-    }
-
-    /// glam's `cross` per lane.
-    #[inline(always)]
-    pub fn cross(self, o: Self) -> Self {
-        Self::new(
-            self.y * o.z - o.y * self.z,
-            self.z * o.x - o.z * self.x,
-            self.x * o.y - o.x * self.y,
-        )
     }
 
     /// glam's `normalize` per lane: `self * (1 / length)` (no check).
@@ -598,43 +569,11 @@ impl From<Vec3xN> for [f32xn; 3] {
     }
 }
 
-impl Add for Vec3xN {
-    type Output = Self;
-    #[inline(always)]
-    fn add(self, o: Self) -> Self {
-        Self::new(self.x + o.x, self.y + o.y, self.z + o.z)
-    }
-}
-
-impl Sub for Vec3xN {
-    type Output = Self;
-    #[inline(always)]
-    fn sub(self, o: Self) -> Self {
-        Self::new(self.x - o.x, self.y - o.y, self.z - o.z)
-    }
-}
-
-impl Mul<f32xn> for Vec3xN {
-    type Output = Self;
-    #[inline(always)]
-    fn mul(self, s: f32xn) -> Self {
-        Self::new(self.x * s, self.y * s, self.z * s)
-    }
-}
-
 impl Mul for Vec3xN {
     type Output = Self;
     #[inline(always)]
     fn mul(self, o: Self) -> Self {
         Self::new(self.x * o.x, self.y * o.y, self.z * o.z)
-    }
-}
-
-impl Neg for Vec3xN {
-    type Output = Self;
-    #[inline(always)]
-    fn neg(self) -> Self {
-        Self::new(-self.x, -self.y, -self.z)
     }
 }
 

@@ -19,9 +19,8 @@
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::fresnel::schlick;
 use super::microfacet::{beckmann_d_anisotropic_xn, cosine_power_beckmann_m, visible};
-use crate::fastmath::xn;
-use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
-use crate::math::{Real, V3, half};
+use crate::lobe::{self, Lobe, half_to_incident_pdf, sample_via_half};
+use crate::math::{Num, V3, gt, half, is_finite, le, maximum, powf, select, sqrt};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, ParamSpec, Params,
     PublishedFit,
@@ -29,7 +28,6 @@ use crate::schema::{
 use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
-use std::f32::consts::PI;
 use std::sync::Arc;
 
 #[derive(Clone, Debug)]
@@ -41,34 +39,29 @@ pub struct AshikhminShirley {
 }
 
 impl AshikhminShirley {
-    #[inline]
-    fn exponent<T: Real>(&self, h: V3<T>) -> T {
-        // sin^2(theta_h) from the tangential components: 1 - h_z^2 cancels near the normal.
+    /// The exponent nu cos^2(phi_h) + nv sin^2(phi_h), with sin^2(theta_h) from the
+    /// tangential components (1 - h_z^2 cancels near the normal); at h = n, where its value
+    /// does not matter (cos(theta_h)^e = 1), nu.
+    #[inline(always)]
+    fn exponent<T: Num>(&self, h: V3<T>) -> T {
         let s2 = h.x * h.x + h.y * h.y;
-        if s2 <= T::c(1e-12) {
-            // At h = n the exponent's value does not matter (cos(theta_h)^e = 1).
-            return T::c(self.nu);
-        }
-        (T::c(self.nu) * h.x * h.x + T::c(self.nv) * h.y * h.y) / s2
+        let e = (T::of(self.nu) * h.x * h.x + T::of(self.nv) * h.y * h.y) / s2;
+        select(le(s2, T::of(1e-12)), T::of(self.nu), e)
     }
 
-    #[inline]
-    pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T {
-        let Some((co, ci)) = above(wo, wi) else {
-            return T::zero();
-        };
-        let Some(h) = half(wo, wi) else {
-            return T::zero();
-        };
+    /// The lobe, written once for f64, f32 and lanes: zero below the surface, where the
+    /// half vector is behind either direction, and where the value overflows.
+    #[inline(always)]
+    pub fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let (zero, one) = (T::of(0.0), T::of(1.0));
+        let (h, has_half) = lobe::half_where(wo, wi);
         let kh = wi.dot(h);
-        if kh <= T::zero() || h.z <= T::zero() {
-            return T::zero();
-        }
-        let norm = ((T::c(self.nu) + T::one()) * (T::c(self.nv) + T::one())).sqrt()
-            / (T::c(8.0) * T::PI());
-        let lobe = h.z.powf_r(self.exponent(h));
-        let v = norm * lobe * schlick(T::c(self.rs), kh) / (kh * ci.max(co));
-        if v.is_finite() { v } else { T::zero() }
+        let norm = sqrt((T::of(self.nu) + one) * (T::of(self.nv) + one))
+            / (T::of(8.0) * T::of(std::f64::consts::PI));
+        let lobe = powf(h.z, self.exponent(h));
+        let v = norm * lobe * schlick(T::of(self.rs), kh) / (kh * maximum(wi.z, wo.z));
+        let lit = lobe::both_above(wo, wi) & has_half & gt(kh, zero) & gt(h.z, zero);
+        select(lit & is_finite(v), v, zero)
     }
 
     /// Roughness (tangent, bitangent) of the anisotropic Beckmann distribution whose
@@ -86,15 +79,6 @@ impl AshikhminShirley {
         let (mx, my) = self.proposal_roughness();
         let (mx, my) = (f32xn::splat(mx), f32xn::splat(my));
         visible::pdf(mx, my, wo, h, beckmann_d_anisotropic_xn(mx, my, h))
-    }
-
-    /// [`AshikhminShirley::exponent`] per lane (f32).
-    #[inline(always)]
-    fn exponent_xn(&self, h: Vec3xN) -> f32xn {
-        let s = f32xn::splat;
-        let s2 = h.x * h.x + h.y * h.y;
-        let e = (s(self.nu as f32) * h.x * h.x + s(self.nv as f32) * h.y * h.y) / s2;
-        sel(s2.simd_le(s(1e-12)), s(self.nu as f32), e)
     }
 }
 
@@ -139,26 +123,12 @@ impl Lobe for AshikhminShirley {
         half_to_incident_pdf(ph, wo.dot(h))
     }
 
-    /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let s = f32xn::splat;
-        let zero = s(0.0);
-        let (h, has_half) = lobe::xn::half(wo, wi);
-        let ok = lobe::xn::above(wo, wi) & has_half;
-        let (nu, nv) = (self.nu as f32, self.nv as f32);
-        let e = self.exponent_xn(h);
-        let kh = wi.dot(h);
-        let norm = ((nu + 1.0) * (nv + 1.0)).sqrt() / (8.0 * PI);
-        let rs = self.rs as f32;
-        let m = (s(1.0) - kh).max(zero).min(s(1.0));
-        let m2 = m * m;
-        let fresnel = s(rs) + s(1.0 - rs) * m2 * m2 * m;
-        let v = s(norm) * xn::powf(h.z, e) * fresnel / (kh * wi.z.max(wo.z));
-        let lit = ok & kh.simd_gt(zero) & h.z.simd_gt(zero) & v.is_finite();
-        let v = sel(lit, v, zero);
-        let ph = self.pdf_h_xn(wo, h);
-        let p = lobe::xn::half_to_incident_pdf(ph, wo.dot(h));
-        (RgbxN::new(v, v, v), sel(ok, p, zero))
+        let v = self.value(wo, wi);
+        let (h, has_half) = lobe::half_where(wo, wi);
+        let ok = lobe::both_above(wo, wi) & has_half;
+        let p = lobe::half_to_incident_pdf(self.pdf_h_xn(wo, h), wo.dot(h));
+        (RgbxN::new(v, v, v), sel(ok, p, f32xn::splat(0.0)))
     }
 
     fn flags(&self) -> Flags {

@@ -18,9 +18,8 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::Distribution;
-use crate::fastmath::xn;
-use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
-use crate::math::{Num, Real, V3, half, le, powf, select};
+use crate::lobe::{self, Lobe, half_to_incident_pdf, sample_via_half};
+use crate::math::{Num, V3, half, le, maximum, powf, select};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
@@ -52,16 +51,15 @@ impl BlinnPhong {
         Distribution::CosinePower { n: self.n.max(0.0) }
     }
 
-    #[inline]
-    pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T {
-        if above(wo, wi).is_none() {
-            return T::zero();
-        }
-        let Some(h) = half(wo, wi) else {
-            return T::zero();
-        };
-        let n = T::c(self.n);
-        (n + T::c(2.0)) / (T::c(2.0) * T::PI()) * h.z.max(T::zero()).powf_r(n)
+    /// The lobe, written once for f64, f32 and lanes (zero below the surface).
+    #[inline(always)]
+    pub fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let zero = T::of(0.0);
+        let (h, has_half) = lobe::half_where(wo, wi);
+        let n = T::of(self.n);
+        let v = (n + T::of(2.0)) / (T::of(2.0) * T::of(std::f64::consts::PI))
+            * powf(maximum(h.z, zero), n);
+        select(lobe::both_above(wo, wi) & has_half, v, zero)
     }
 }
 
@@ -101,16 +99,13 @@ impl Lobe for BlinnPhong {
         lobe::xn::sample_via_half(wo, h)
     }
 
-    /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let zero = f32xn::splat(0.0);
-        let (h, has_half) = lobe::xn::half(wo, wi);
-        let ok = lobe::xn::above(wo, wi) & has_half;
-        let n = self.n as f32;
-        let v = f32xn::splat((n + 2.0) / (2.0 * PI)) * xn::powf(h.z.max(zero), f32xn::splat(n));
-        let v = sel(ok, v, zero);
+        let v = self.value(wo, wi);
+        let (h, has_half) = lobe::half_where(wo, wi);
+        let ok = lobe::both_above(wo, wi) & has_half;
         let p_h = self.distribution().pdf_visible_xn(wo, h);
-        let p = lobe::xn::half_to_incident_pdf(p_h, wo.dot(h));
+        let p = lobe::half_to_incident_pdf(p_h, wo.dot(h));
         (RgbxN::new(v, v, v), sel(ok, p, zero))
     }
 

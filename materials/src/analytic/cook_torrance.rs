@@ -17,8 +17,8 @@
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
 use super::microfacet::fresnel::{FRESNELS, Fresnel};
 use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g};
-use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
-use crate::math::{Real, V3, half};
+use crate::lobe::{self, Lobe, half_to_incident_pdf, sample_via_half};
+use crate::math::{Num, V3, eq, half, is_finite, maximum, select};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
@@ -41,28 +41,19 @@ impl CookTorrance {
         }
     }
 
-    #[inline]
-    pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T {
-        let Some((co, ci)) = above(wo, wi) else {
-            return T::zero();
-        };
-        let Some(h) = half(wo, wi) else {
-            return T::zero();
-        };
-        let ch = h.z;
-        let oh = wo.dot(h);
+    /// D G F / (pi cos_i cos_o), written once for f64, f32 and lanes: zero below the
+    /// surface, where D vanishes, and where the value overflows.
+    #[inline(always)]
+    pub fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let zero = T::of(0.0);
+        let (h, has_half) = lobe::half_where(wo, wi);
+        let (co, ci, ch, oh) = (wo.z, wi.z, h.z, wo.dot(h));
         let d = self.distribution.d(ch);
-        if d == T::zero() {
-            return T::zero();
-        }
         let g = vgroove_g(ch, co, ci, oh);
         let f = self.fresnel.eval(wi.dot(h));
-        let v = d * g * f / (T::PI() * ci * co);
-        if v.is_finite() {
-            v.max(T::zero())
-        } else {
-            T::zero()
-        }
+        let v = d * g * f / (T::of(std::f64::consts::PI) * ci * co);
+        let ok = lobe::both_above(wo, wi) & has_half & !eq(d, zero) & is_finite(v);
+        select(ok, maximum(v, zero), zero)
     }
 }
 
@@ -102,19 +93,12 @@ impl Lobe for CookTorrance {
         half_to_incident_pdf(self.distribution.pdf_visible(wo, h), wo.dot(h))
     }
 
-    /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let zero = f32xn::splat(0.0);
-        let (h, has_half) = lobe::xn::half(wo, wi);
-        let ok = lobe::xn::above(wo, wi) & has_half;
-        let (co, ci, ch, oh) = (wo.z, wi.z, h.z, wo.dot(h));
-        let d = self.distribution.d(ch);
-        let g = vgroove_g(ch, co, ci, oh);
-        let f = self.fresnel.eval(wi.dot(h));
-        let v = d * g * f / (f32xn::splat(std::f32::consts::PI) * ci * co);
-        let v = sel(ok & !d.simd_eq(zero) & v.is_finite(), v.max(zero), zero);
-        let p = lobe::xn::half_to_incident_pdf(self.distribution.pdf_visible_xn(wo, h), oh);
-        (RgbxN::new(v, v, v), sel(ok, p, zero))
+        let v = self.value(wo, wi);
+        let (h, has_half) = lobe::half_where(wo, wi);
+        let ok = lobe::both_above(wo, wi) & has_half;
+        let p = lobe::half_to_incident_pdf(self.distribution.pdf_visible_xn(wo, h), wo.dot(h));
+        (RgbxN::new(v, v, v), sel(ok, p, f32xn::splat(0.0)))
     }
 
     fn flags(&self) -> Flags {

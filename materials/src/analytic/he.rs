@@ -230,7 +230,7 @@ impl He {
     /// ([`he_series::tabulated_xn`]); within [`RENDER_ERROR_BOUND`] of the fitted lobe
     /// (tested).
     pub fn value_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
-        self.value_xn_at_half(wo, wi, lobe::xn::half(wo, wi))
+        self.value_xn_at_half(wo, wi, lobe::half_where(wo, wi))
     }
 
     /// [`He::value_xn`] with the half vectors (and where they exist) already found.
@@ -241,7 +241,7 @@ impl He {
         let (co, ci) = (wo.z, wi.z);
         let cd = wi.dot(h);
         let ch = h.z;
-        let ok = lobe::xn::above(wo, wi) & has_half & cd.simd_gt(zero) & ch.simd_gt(zero);
+        let ok = lobe::both_above(wo, wi) & has_half & cd.simd_gt(zero) & ch.simd_gt(zero);
         let fresnel = Dielectric { eta: self.eta }.eval(cd);
         let (ci_l, co_l) = (ci.to_array(), co.to_array());
         let terms = simd::lanes(|k| {
@@ -452,10 +452,10 @@ impl Lobe for He {
     /// [`He::pdf`]).
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let o = wo.to_array();
-        let (h, has_half) = lobe::xn::half(wo, wi);
+        let (h, has_half) = lobe::half_where(wo, wi);
         let f = self.value_xn_at_half(wo, wi, (h, has_half));
         let zero = f32xn::splat(0.0);
-        let ok = lobe::xn::above(wo, wi) & has_half;
+        let ok = lobe::both_above(wo, wi) & has_half;
         // Each lane's two roughnesses and the smooth one's share.
         let mix = simd::lanes(|k| self.proposal_mixture(o[k]));
         let pdf_h = |j: usize| {
@@ -464,7 +464,7 @@ impl Lobe for He {
         };
         let w = f32xn::new(simd::lanes(|k| mix[k].1 as f32));
         let p_h = w * pdf_h(0) + (f32xn::splat(1.0) - w) * pdf_h(1);
-        let p = lobe::xn::half_to_incident_pdf(p_h, wo.dot(h));
+        let p = lobe::half_to_incident_pdf(p_h, wo.dot(h));
         let p = sel(ok & p.is_finite(), p, zero);
         (f, p)
     }

@@ -17,15 +17,14 @@ use super::blinn_phong::cos_power_pdf;
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
 use crate::fastmath::{self, xn};
 use crate::frame::{self, Frame};
-use crate::lobe::{self, Lobe, above};
-use crate::math::{Real, V3};
+use crate::lobe::{self, Lobe};
+use crate::math::{Num, V3, gt, is_finite, le, minimum, powf, select};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
 use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
 use glam::{Vec2, Vec3};
-use std::f32::consts::PI;
 use std::sync::Arc;
 
 #[derive(Clone, Debug)]
@@ -43,28 +42,28 @@ impl Lafortune {
         self.cx.abs().max(self.cy.abs()).max(self.cz.abs())
     }
 
-    #[inline]
-    pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T {
-        if above(wo, wi).is_none() {
-            return T::zero();
-        }
-        let s =
-            T::c(self.cx) * wi.x * wo.x + T::c(self.cy) * wi.y * wo.y + T::c(self.cz) * wi.z * wo.z;
-        if s <= T::zero() {
-            return T::zero();
-        }
-        let n = T::c(self.n);
-        if self.ngan {
-            let cmax = T::c(self.cmax());
-            if cmax <= T::zero() {
-                return T::zero();
-            }
-            let v = (n + T::c(2.0)) / (T::c(2.0) * T::PI()) * (s / cmax).min(T::one()).powf_r(n);
-            if v.is_finite() { v } else { T::zero() }
+    /// The lobe, written once for f64, f32 and lanes: zero below the surface, where the
+    /// generalized cosine is not positive, and where the power overflows.
+    #[inline(always)]
+    pub fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let zero = T::of(0.0);
+        let s = T::of(self.cx) * wi.x * wo.x
+            + T::of(self.cy) * wi.y * wo.y
+            + T::of(self.cz) * wi.z * wo.z;
+        let n = T::of(self.n);
+        let v = if self.ngan {
+            let cmax = T::of(self.cmax());
+            let norm = (n + T::of(2.0)) / (T::of(2.0) * T::of(std::f64::consts::PI));
+            let v = norm * powf(minimum(s / cmax, T::of(1.0)), n);
+            select(le(cmax, zero), zero, v)
         } else {
-            let v = s.powf_r(n);
-            if v.is_finite() { v } else { T::zero() }
-        }
+            powf(s, n)
+        };
+        select(
+            lobe::both_above(wo, wi) & gt(s, zero) & is_finite(v),
+            v,
+            zero,
+        )
     }
 
     /// The generalized mirror direction of `wo`.
@@ -133,25 +132,14 @@ impl Lobe for Lafortune {
     /// [`Lafortune::value`] and [`Lobe::pdf`] in SIMD lanes, operation for operation.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let s = f32xn::splat;
-        let zero = s(0.0);
-        let ok = lobe::xn::above(wo, wi);
+        let v = self.value(wo, wi);
         let (cx, cy, cz) = (s(self.cx as f32), s(self.cy as f32), s(self.cz as f32));
-        let dot = cx * wi.x * wo.x + cy * wi.y * wo.y + cz * wi.z * wo.z;
-        let n = self.n as f32;
-        let v = if self.ngan {
-            let cmax = self.cmax() as f32;
-            if cmax <= 0.0 {
-                zero
-            } else {
-                s((n + 2.0) / (2.0 * PI)) * xn::powf((dot / s(cmax)).min(s(1.0)), s(n))
-            }
-        } else {
-            xn::powf(dot, s(n))
-        };
-        let v = sel(ok & dot.simd_gt(zero) & v.is_finite(), v, zero);
         let axis = Vec3xN::new(cx * wo.x, cy * wo.y, cz * wo.z).normalize_or_zero();
-        let p = sel(ok, cos_power_pdf(n, axis.dot(wi)), zero);
-        (RgbxN::new(v, v, v), p)
+        let p = cos_power_pdf(self.n as f32, axis.dot(wi));
+        (
+            RgbxN::new(v, v, v),
+            sel(lobe::both_above(wo, wi), p, s(0.0)),
+        )
     }
 
     fn flags(&self) -> Flags {
@@ -313,7 +301,7 @@ mod tests {
         let m = V3::new(-0.5f32, 0.0, 0.75f32.sqrt());
         let v = chrome.value(w, m);
         assert!(
-            v.is_finite() && (v - 6632.0 / (2.0 * PI)).abs() < 1e-2 * v,
+            v.is_finite() && (v - 6632.0 / (2.0 * std::f32::consts::PI)).abs() < 1e-2 * v,
             "{v}"
         );
     }

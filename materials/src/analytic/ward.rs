@@ -17,9 +17,8 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::{MIN_ROUGHNESS, visible};
-use crate::fastmath::xn;
-use crate::lobe::{self, Lobe, above, sample_via_half};
-use crate::math::{Real, V3};
+use crate::lobe::{self, Lobe, sample_via_half};
+use crate::math::{Num, V3, eq, exp, gt, is_finite, maximum, select, sqrt};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
@@ -57,41 +56,29 @@ impl Ward {
 
     /// The exponent tan^2(theta_h) (cos^2 phi_h / ax^2 + sin^2 phi_h / ay^2) from an
     /// unnormalized half vector.
-    #[inline]
-    fn exponent<T: Real>(&self, h: V3<T>) -> T {
-        let (ax, ay) = (T::c(self.alpha_x), T::c(self.alpha_y));
+    #[inline(always)]
+    fn exponent<T: Num>(&self, h: V3<T>) -> T {
+        let (ax, ay) = (T::of(self.alpha_x), T::of(self.alpha_y));
         (h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay)) / (h.z * h.z)
     }
 
-    #[inline]
-    pub fn value<T: Real>(&self, wo: V3<T>, wi: V3<T>) -> T {
-        let Some((co, ci)) = above(wo, wi) else {
-            return T::zero();
-        };
+    /// The lobe, written once for f64, f32 and lanes: zero below the surface, where the
+    /// half vector points down, where the exponential underflows or the value overflows.
+    #[inline(always)]
+    pub fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let zero = T::of(0.0);
         let h = wo + wi;
-        if h.z <= T::zero() {
-            return T::zero();
-        }
-        let e = (-self.exponent(h)).exp_r();
-        if e == T::zero() {
-            return T::zero();
-        }
-        let norm = T::c(4.0) * T::PI() * T::c(self.alpha_x * self.alpha_y);
+        let e = exp(-self.exponent(h));
+        let norm = T::of(4.0) * T::of(std::f64::consts::PI) * T::of(self.alpha_x * self.alpha_y);
         let cos_term = if self.duer {
-            let floor = T::c(DUER_COS_FLOOR);
-            ci.max(floor) * co.max(floor)
+            let floor = T::of(DUER_COS_FLOOR);
+            maximum(wi.z, floor) * maximum(wo.z, floor)
         } else {
-            (ci * co).sqrt()
+            sqrt(wi.z * wo.z)
         };
         let v = e / (norm * cos_term);
-        if v.is_finite() { v } else { T::zero() }
-    }
-
-    /// [`Ward::exponent`] of `LANES` half vectors (unnormalized).
-    #[inline(always)]
-    fn exponent_xn(&self, h: Vec3xN) -> f32xn {
-        let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);
-        (h.x * h.x / f32xn::splat(ax * ax) + h.y * h.y / f32xn::splat(ay * ay)) / (h.z * h.z)
+        let ok = lobe::both_above(wo, wi) & gt(h.z, zero) & !eq(e, zero) & is_finite(v);
+        select(ok, v, zero)
     }
 
     /// The roughness of the visible-normal proposal, per lane.
@@ -109,14 +96,14 @@ impl Ward {
     fn pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
         let s = f32xn::splat;
         let zero = s(0.0);
-        let (hn, has_half) = lobe::xn::half(wo, wi);
-        let d = xn::exp(-self.exponent_xn(hn))
+        let (hn, has_half) = lobe::half_where(wo, wi);
+        let d = exp(-self.exponent(hn))
             / (s(PI * (self.alpha_x * self.alpha_y) as f32) * (hn.z * hn.z) * (hn.z * hn.z));
         let d = sel(hn.z.simd_le(zero), zero, d);
         let (mx, my) = self.roughness_xn();
         let ph = visible::pdf(mx, my, wo, hn, d);
-        let p = lobe::xn::half_to_incident_pdf(ph, wo.dot(hn));
-        let valid = lobe::xn::above(wo, wi) & has_half & p.is_finite();
+        let p = lobe::half_to_incident_pdf(ph, wo.dot(hn));
+        let valid = lobe::both_above(wo, wi) & has_half & p.is_finite();
         sel(valid, p, zero)
     }
 }
@@ -152,24 +139,8 @@ impl Lobe for Ward {
         self.pdf_xn(Vec3xN::splat(wo), Vec3xN::splat(wi)).to_array()[0]
     }
 
-    /// `value` and `pdf` in SIMD lanes, step by step the scalar forms.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let s = f32xn::splat;
-        let zero = s(0.0);
-        let above = lobe::xn::above(wo, wi);
-        // value::<f32>, from the unnormalized half vector.
-        let h = wo + wi;
-        let e = xn::exp(-self.exponent_xn(h));
-        let norm = 4.0f32 * PI * (self.alpha_x * self.alpha_y) as f32;
-        let cos = if self.duer {
-            let floor = s(DUER_COS_FLOOR as f32);
-            wi.z.max(floor) * wo.z.max(floor)
-        } else {
-            (wi.z * wo.z).sqrt()
-        };
-        let v = e / (s(norm) * cos);
-        let ok = above & h.z.simd_gt(zero) & !e.simd_eq(zero) & v.is_finite();
-        let v = sel(ok, v, zero);
+        let v = self.value(wo, wi);
         (RgbxN::new(v, v, v), self.pdf_xn(wo, wi))
     }
 

@@ -130,8 +130,8 @@ impl SampledMicrofacet {
     fn pdf_at_xn(&self, wo: Vec3xN, wi: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
         let zero = f32xn::splat(0.0);
         let p_h = self.table.pdf_visible_at_xn(wo, h, p_h);
-        let p = lobe::xn::half_to_incident_pdf(p_h, wo.dot(h));
-        let ok = lobe::xn::above(wo, wi) & p.is_finite();
+        let p = lobe::half_to_incident_pdf(p_h, wo.dot(h));
+        let ok = lobe::both_above(wo, wi) & p.is_finite();
         sel(ok, p, zero)
     }
 }
