@@ -9,8 +9,7 @@
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::lobe::Lobe;
 use crate::sampling::warp::{
-    cosine_hemisphere_pdf, cosine_hemisphere_pdf_xn, square_to_cosine_hemisphere,
-    square_to_cosine_hemisphere_xn,
+    cosine_hemisphere, cosine_hemisphere_pdf, cosine_hemisphere_pdf_xn, square_to_cosine_hemisphere,
 };
 use crate::simd::{self, RgbxN, Vec3xN, f32xn, i32xn, max_lane, sel};
 use glam::{Vec2, Vec3};
@@ -343,7 +342,7 @@ impl Composite {
                 let lane_uc = f32xn::new(simd::lanes_of(idx, |k| uc[k]));
                 let (chosen, uc_rest) = Self::choose_xn(lane_uc, &w, self.lobes.len() + 1);
                 let [ux, uy] = simd::vec2s(&simd::lanes_of(idx, |k| u[k]));
-                let diffuse = simd::arrays3(square_to_cosine_hemisphere_xn(ux, uy));
+                let diffuse = simd::arrays3(cosine_hemisphere(ux, uy));
                 let (total, chosen, uc_rest) =
                     (w.total.to_array(), chosen.to_array(), uc_rest.to_array());
                 // Without a branch on the choice, a coin flip between components.

@@ -47,6 +47,11 @@ pub trait Num:
     fn num_sqrt(self) -> Self;
     /// Neither infinite nor NaN.
     fn num_is_finite(self) -> Self::Mask;
+    /// |x|.
+    fn num_abs(self) -> Self;
+    /// (sin x, cos x) for |x| up to a few pi: [`crate::fastmath::sin_cos_moderate`] in f32
+    /// (its lane form in lanes), the C library's in f64.
+    fn num_sin_cos(self) -> (Self, Self);
 }
 
 /// `t` where `m` holds, else `f` (per lane).
@@ -84,6 +89,16 @@ pub fn gt<T: Num>(a: T, b: T) -> T::Mask {
 #[inline(always)]
 pub fn is_finite<T: Num>(x: T) -> T::Mask {
     x.num_is_finite()
+}
+/// |x|.
+#[inline(always)]
+pub fn abs<T: Num>(x: T) -> T {
+    x.num_abs()
+}
+/// (sin x, cos x) ([`Num::num_sin_cos`]).
+#[inline(always)]
+pub fn sin_cos<T: Num>(x: T) -> (T, T) {
+    x.num_sin_cos()
 }
 /// `a == b`.
 #[inline(always)]
@@ -163,6 +178,14 @@ macro_rules! scalar_num {
             fn num_is_finite(self) -> bool {
                 <$t>::is_finite(self)
             }
+            #[inline(always)]
+            fn num_abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn num_sin_cos(self) -> (Self, Self) {
+                self.sin_cos_r()
+            }
         }
     };
 }
@@ -219,6 +242,14 @@ impl Num for f32xn {
     fn num_is_finite(self) -> Self {
         f32xn::is_finite(self)
     }
+    #[inline(always)]
+    fn num_abs(self) -> Self {
+        f32xn::abs(self)
+    }
+    #[inline(always)]
+    fn num_sin_cos(self) -> (Self, Self) {
+        crate::fastmath::xn::sin_cos_moderate(self)
+    }
 }
 
 /// A floating-point scalar: f32 or f64.
@@ -236,6 +267,9 @@ pub trait Real: Num + Float + FloatConst + std::fmt::Debug + Send + Sync + 'stat
     fn powf_r(self, y: Self) -> Self;
     /// acos x, as [`Real::exp_r`]: [`crate::fastmath::acos`] in f32.
     fn acos_r(self) -> Self;
+    /// (sin x, cos x): [`crate::fastmath::sin_cos_moderate`] in f32 (|x| up to a few pi),
+    /// the C library's in f64.
+    fn sin_cos_r(self) -> (Self, Self);
 }
 
 impl Real for f32 {
@@ -263,6 +297,10 @@ impl Real for f32 {
     fn acos_r(self) -> Self {
         crate::fastmath::acos(self)
     }
+    #[inline(always)]
+    fn sin_cos_r(self) -> (Self, Self) {
+        crate::fastmath::sin_cos_moderate(self)
+    }
 }
 
 impl Real for f64 {
@@ -289,6 +327,10 @@ impl Real for f64 {
     #[inline(always)]
     fn acos_r(self) -> Self {
         self.acos()
+    }
+    #[inline(always)]
+    fn sin_cos_r(self) -> (Self, Self) {
+        self.sin_cos()
     }
 }
 

@@ -8,7 +8,7 @@ use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::fastmath::select;
 use crate::sampling::warp::{
-    cosine_hemisphere_pdf, square_to_cosine_hemisphere, square_to_cosine_hemisphere_xn,
+    cosine_hemisphere, cosine_hemisphere_pdf, square_to_cosine_hemisphere,
 };
 use crate::schema::{Bounds, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params};
 use crate::simd;
@@ -80,7 +80,7 @@ impl Bsdf for Lambert {
         }
     }
 
-    /// `LANES` queries per SIMD warp ([`square_to_cosine_hemisphere_xn`]).
+    /// `LANES` queries per SIMD warp ([`cosine_hemisphere`]).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
         assert!(wo.len() == out.len() && u.len() == out.len());
         for ((wc, uc), oc) in wo
@@ -90,7 +90,7 @@ impl Bsdf for Lambert {
         {
             let n = oc.len();
             let uu = simd::lanes(|i| uc[i.min(n - 1)]);
-            let [x, y, z] = square_to_cosine_hemisphere_xn(
+            let [x, y, z] = cosine_hemisphere(
                 f32xn::new(simd::lanes(|i| uu[i].x)),
                 f32xn::new(simd::lanes(|i| uu[i].y)),
             );

@@ -19,7 +19,7 @@
 //! p(h) h_z P(block | wo) / mass(block), exactly.
 
 use super::table::node_index;
-use crate::sampling::warp::square_to_bilinear_xn;
+use crate::sampling::warp::bilinear;
 use crate::simd::{self, MaskN, Vec3xN, f32xn, gather, i32xn, sel};
 use glam::DVec3;
 
@@ -265,7 +265,7 @@ impl VisibleSampler {
             let n = self.n as i32;
             let k = cy * i32xn::splat(n) + cx;
             let at = |o: i32| simd::gather(p, k + i32xn::splat(o));
-            let (fx, fy) = square_to_bilinear_xn(ux, uy, [at(0), at(1), at(n), at(n + 1)]);
+            let (fx, fy) = bilinear(ux, uy, [at(0), at(1), at(n), at(n + 1)]);
             let inv = s(1.0 / (self.n - 1) as f32);
             let coordinate = |c: i32xn, f: f32xn| s(2.0) * ((simd::float_of(c) + f) * inv) - s(1.0);
             let (x, y) = (coordinate(cx, fx), coordinate(cy, fy));

@@ -5,68 +5,51 @@
 //! pbrt-v4's `SampleLinear`/`SampleBilinear`; and Veach's power heuristic (1997,
 //! beta = 2) that weighs two such strategies in multiple importance sampling.
 
-use crate::fastmath::xn;
+use crate::math::{Num, abs, eq, gt, maximum, minimum, select, sin_cos, sqrt};
 use crate::simd;
 use crate::simd::f32xn;
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI, TAU};
+use std::f32::consts::{FRAC_1_PI, PI, TAU};
 
-/// Concentric square-to-disk map (Shirley and Chiu 1997). Both wedges' angles are
-/// computed and one is selected, with no branch: which wedge a uniform point falls in is a
-/// coin flip the branch predictor would miss half the time.
+/// Concentric square-to-disk map (Shirley and Chiu 1997) of `u` = (`ux`, `uy`), written
+/// once for one point and lanes. Both wedges' angles are computed and one is selected,
+/// with no branch: which wedge a uniform point falls in is a coin flip the branch
+/// predictor would miss half the time.
+#[inline(always)]
+pub fn disk_concentric<T: Num>(ux: T, uy: T) -> (T, T) {
+    let (one, two, zero) = (T::of(1.0), T::of(2.0), T::of(0.0));
+    let (ox, oy) = (two * ux - one, two * uy - one);
+    let wide = gt(abs(ox), abs(oy));
+    let r = select(wide, ox, oy);
+    let quarter = T::of(std::f64::consts::FRAC_PI_4);
+    let theta_x = quarter * (oy / ox);
+    let theta_y = T::of(std::f64::consts::FRAC_PI_2) - quarter * (ox / oy);
+    // |theta| <= 3 pi / 4 (NaN only at the centre, which is replaced below).
+    let (s, c) = sin_cos(select(wide, theta_x, theta_y));
+    let centre = eq(ox, zero) & eq(oy, zero);
+    (select(centre, zero, r * c), select(centre, zero, r * s))
+}
+
+/// [`disk_concentric`] of one point.
 #[inline]
 pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
-    let o = 2.0 * u - Vec2::ONE;
-    let wide = o.x.abs() > o.y.abs();
-    let r = crate::fastmath::select(wide, o.x, o.y);
-    let theta_x = FRAC_PI_4 * (o.y / o.x);
-    let theta_y = FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y);
-    let theta = crate::fastmath::select(wide, theta_x, theta_y);
-    // |theta| <= 3 pi / 4 (NaN only at the centre, which is replaced below).
-    let (s, c) = crate::fastmath::sin_cos_moderate(theta);
-    let d = Vec2::new(r * c, r * s);
-    if o.x == 0.0 && o.y == 0.0 {
-        Vec2::ZERO
-    } else {
-        d
-    }
+    let (x, y) = disk_concentric(u.x, u.y);
+    Vec2::new(x, y)
 }
 
-/// [`square_to_disk_concentric`] in SIMD lanes, with the same operations (bit for bit
-/// the same).
+/// Cosine-weighted direction (x, y, z) about +z (Malley's method), written once for one
+/// point and lanes.
 #[inline(always)]
-pub fn square_to_disk_concentric_xn(ux: f32xn, uy: f32xn) -> (f32xn, f32xn) {
-    let (one, two, zero) = (f32xn::splat(1.0), f32xn::splat(2.0), f32xn::splat(0.0));
-    let (ox, oy) = (two * ux - one, two * uy - one);
-    let wide = ox.abs().simd_gt(oy.abs());
-    let r = simd::sel(wide, ox, oy);
-    let theta_x = f32xn::splat(FRAC_PI_4) * (oy / ox);
-    let theta_y = f32xn::splat(FRAC_PI_2) - f32xn::splat(FRAC_PI_4) * (ox / oy);
-    let theta = simd::sel(wide, theta_x, theta_y);
-    let (s, c) = xn::sin_cos_moderate(theta);
-    let centre = ox.simd_eq(zero) & oy.simd_eq(zero);
-    (
-        simd::sel(centre, zero, r * c),
-        simd::sel(centre, zero, r * s),
-    )
-}
-
-/// [`square_to_cosine_hemisphere`] in SIMD lanes (bit for bit the same): (x, y, z).
-#[inline(always)]
-pub fn square_to_cosine_hemisphere_xn(ux: f32xn, uy: f32xn) -> [f32xn; 3] {
-    let (x, y) = square_to_disk_concentric_xn(ux, uy);
-    let z = (f32xn::splat(1.0) - (x * x + y * y))
-        .max(f32xn::splat(0.0))
-        .sqrt();
+pub fn cosine_hemisphere<T: Num>(ux: T, uy: T) -> [T; 3] {
+    let (x, y) = disk_concentric(ux, uy);
+    let z = sqrt(maximum(T::of(1.0) - (x * x + y * y), T::of(0.0)));
     [x, y, z]
 }
 
-/// Cosine-weighted hemisphere around +z (Malley's method).
+/// [`cosine_hemisphere`] of one point.
 #[inline]
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = square_to_disk_concentric(u);
-    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
-    Vec3::new(d.x, d.y, z)
+    Vec3::from_array(cosine_hemisphere(u.x, u.y))
 }
 
 #[inline]
@@ -126,47 +109,36 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
 
 /// Samples x in [0, 1] with density proportional to the linear ramp (1 - x) a + x b
 /// (a, b >= 0): the inverse of its CDF, written as in pbrt-v4's `SampleLinear` so that
-/// it does not cancel when a and b are close.
-#[inline]
-pub fn sample_linear(u: f32, a: f32, b: f32) -> f32 {
-    if u == 0.0 && a == 0.0 {
-        return 0.0;
-    }
-    let denom = a + ((1.0 - u) * a * a + u * b * b).max(0.0).sqrt();
-    if !(denom > 0.0) {
-        return u;
-    }
-    (u * (a + b) / denom).min(1.0 - f32::EPSILON / 2.0)
+/// it does not cancel when a and b are close; once for one value and lanes.
+#[inline(always)]
+pub fn sample_linear<T: Num>(u: T, a: T, b: T) -> T {
+    let (zero, one) = (T::of(0.0), T::of(1.0));
+    let denom = a + sqrt(maximum((one - u) * a * a + u * b * b, zero));
+    let x = minimum(
+        u * (a + b) / denom,
+        T::of((1.0 - f32::EPSILON / 2.0) as f64),
+    );
+    let x = select(gt(denom, zero), x, u);
+    select(eq(u, zero) & eq(a, zero), zero, x)
 }
 
 /// Samples the unit square with density proportional to the bilinear interpolation of
 /// the corner weights `w` = [w(0,0), w(1,0), w(0,1), w(1,1)] (all >= 0, not all zero):
 /// y from the marginal ramp, then x from the ramp conditional on y. Monotone in each
-/// coordinate of `u`, so stratified samples stay stratified.
+/// coordinate of `u`, so stratified samples stay stratified. Once for one point and
+/// lanes (`w` holds each lane's weights).
+#[inline(always)]
+pub fn bilinear<T: Num>(ux: T, uy: T, w: [T; 4]) -> (T, T) {
+    let y = sample_linear(uy, w[0] + w[1], w[2] + w[3]);
+    let x = sample_linear(ux, w[0] + (w[2] - w[0]) * y, w[1] + (w[3] - w[1]) * y);
+    (x, y)
+}
+
+/// [`bilinear`] of one point.
 #[inline]
 pub fn square_to_bilinear(u: Vec2, w: [f32; 4]) -> Vec2 {
-    let y = sample_linear(u.y, w[0] + w[1], w[2] + w[3]);
-    let x = sample_linear(u.x, w[0] + (w[2] - w[0]) * y, w[1] + (w[3] - w[1]) * y);
+    let (x, y) = bilinear(u.x, u.y, w);
     Vec2::new(x, y)
-}
-
-/// [`sample_linear`] in SIMD lanes, with the same operations (bit for bit the same).
-#[inline(always)]
-pub fn sample_linear_xn(u: f32xn, a: f32xn, b: f32xn) -> f32xn {
-    let (zero, one) = (f32xn::splat(0.0), f32xn::splat(1.0));
-    let denom = a + ((one - u) * a * a + u * b * b).max(zero).sqrt();
-    let x = (u * (a + b) / denom).min(f32xn::splat(1.0 - f32::EPSILON / 2.0));
-    let x = simd::sel(denom.simd_gt(zero), x, u);
-    simd::sel(u.simd_eq(zero) & a.simd_eq(zero), zero, x)
-}
-
-/// [`square_to_bilinear`] in SIMD lanes (bit for bit the same): `w` holds the corner
-/// weights of each lane.
-#[inline(always)]
-pub fn square_to_bilinear_xn(ux: f32xn, uy: f32xn, w: [f32xn; 4]) -> (f32xn, f32xn) {
-    let y = sample_linear_xn(uy, w[0] + w[1], w[2] + w[3]);
-    let x = sample_linear_xn(ux, w[0] + (w[2] - w[0]) * y, w[1] + (w[3] - w[1]) * y);
-    (x, y)
 }
 
 #[cfg(test)]
@@ -255,7 +227,7 @@ mod tests {
     /// The lane bilinear warp equals the scalar one bit for bit, including the
     /// degenerate ramps (zero weights, zero u).
     #[test]
-    fn bilinear_xn_is_bit_identical() {
+    fn bilinear_lanes_equal_one_point() {
         let ws = [
             [1.0, 2.0, 3.0, 4.0],
             [0.0, 0.0, 0.0, 0.0],
@@ -274,7 +246,7 @@ mod tests {
                         Vec2::new((t * 0.618_034).fract(), (t * 0.754_878 + k as f32).fract())
                     }
                 });
-                let (x, y) = square_to_bilinear_xn(
+                let (x, y) = bilinear(
                     f32xn::new(us.map(|u| u.x)),
                     f32xn::new(us.map(|u| u.y)),
                     w.map(f32xn::splat),
@@ -296,7 +268,7 @@ mod tests {
     /// The lane cosine warp equals the scalar one bit for bit, including the centre
     /// and the diagonals of the square.
     #[test]
-    fn cosine_hemisphere_xn_is_bit_identical() {
+    fn cosine_hemisphere_lanes_equal_one_point() {
         let mut us: Vec<Vec2> = (0..=64)
             .flat_map(|i| (0..=64).map(move |j| Vec2::new(i as f32 / 64.0, j as f32 / 64.0)))
             .collect();
@@ -307,10 +279,8 @@ mod tests {
         us.push(Vec2::splat(0.5));
         for c in us.chunks(LANES) {
             let u = std::array::from_fn::<Vec2, LANES, _>(|i| c[i.min(c.len() - 1)]);
-            let [x, y, z] = square_to_cosine_hemisphere_xn(
-                f32xn::new(u.map(|u| u.x)),
-                f32xn::new(u.map(|u| u.y)),
-            );
+            let [x, y, z] =
+                cosine_hemisphere(f32xn::new(u.map(|u| u.x)), f32xn::new(u.map(|u| u.y)));
             let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
             for i in 0..LANES {
                 let e = square_to_cosine_hemisphere(u[i]);

@@ -30,7 +30,7 @@ use crate::image_io::{RgbImage, read_rgb_image_windows};
 use glam::{Mat3, Vec2, Vec3};
 use lobe_materials::fastmath::{self, xn};
 use lobe_materials::sampling::hierarchy::Hierarchy2D;
-use lobe_materials::sampling::warp::{square_to_bilinear, square_to_bilinear_xn};
+use lobe_materials::sampling::warp::{bilinear, square_to_bilinear};
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, RgbxN, f32xn, i32xn, u32xn};
 use std::f32::consts::{PI, TAU};
@@ -427,7 +427,7 @@ impl EnvMap {
                     (rx, ry)
                 } else {
                     let cw = self.corner_weights_xn(&t, s_top, s_bottom);
-                    square_to_bilinear_xn(rx, ry, cw)
+                    bilinear(rx, ry, cw)
                 };
                 let cxf = f32xn::new(simd::lanes(|i| ix[i] as f32));
                 let cyf = f32xn::new(simd::lanes(|i| iy[i] as f32));
