@@ -18,7 +18,7 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::fresnel::schlick;
-use super::microfacet::{beckmann_d_anisotropic_xn, cosine_power_beckmann_m, visible};
+use super::microfacet::{beckmann_d_anisotropic, cosine_power_beckmann_m, visible};
 use crate::lobe::{self, Lobe, half_to_incident_pdf, sample_via_half};
 use crate::math::{Num, V3, gt, half, is_finite, le, maximum, powf, select, sqrt};
 use crate::schema::{
@@ -78,7 +78,7 @@ impl AshikhminShirley {
     fn pdf_h_xn(&self, wo: Vec3xN, h: Vec3xN) -> f32xn {
         let (mx, my) = self.proposal_roughness();
         let (mx, my) = (f32xn::splat(mx), f32xn::splat(my));
-        visible::pdf(mx, my, wo, h, beckmann_d_anisotropic_xn(mx, my, h))
+        visible::pdf(mx, my, wo, h, beckmann_d_anisotropic(mx, my, h))
     }
 }
 

@@ -81,12 +81,9 @@ impl Ward {
         select(ok, v, zero)
     }
 
-    /// The roughness of the visible-normal proposal, per lane.
-    fn roughness_xn(&self) -> (f32xn, f32xn) {
-        (
-            f32xn::splat(self.alpha_x as f32),
-            f32xn::splat(self.alpha_y as f32),
-        )
+    /// The roughness (tangent, bitangent) of the visible-normal proposal.
+    fn roughness<T: Num>(&self) -> (T, T) {
+        (T::of(self.alpha_x), T::of(self.alpha_y))
     }
 
     /// The density of [`Lobe::sample`]'s `wi` per lane: the visible-normal density of
@@ -100,7 +97,7 @@ impl Ward {
         let d = exp(-self.exponent(hn))
             / (s(PI * (self.alpha_x * self.alpha_y) as f32) * (hn.z * hn.z) * (hn.z * hn.z));
         let d = sel(hn.z.simd_le(zero), zero, d);
-        let (mx, my) = self.roughness_xn();
+        let (mx, my) = self.roughness();
         let ph = visible::pdf(mx, my, wo, hn, d);
         let p = lobe::half_to_incident_pdf(ph, wo.dot(hn));
         let valid = lobe::both_above(wo, wi) & has_half & p.is_finite();
@@ -130,7 +127,7 @@ impl Lobe for Ward {
     ) -> [Option<Vec3>; LANES] {
         let [ux, uy] = simd::vec2s(u);
         let wo = Vec3xN::from_array(wo);
-        let (mx, my) = self.roughness_xn();
+        let (mx, my) = self.roughness();
         lobe::xn::sample_via_half(wo, visible::sample(mx, my, wo, ux, uy))
     }
 

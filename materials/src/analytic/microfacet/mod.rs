@@ -13,8 +13,7 @@
 pub mod fresnel;
 pub mod visible;
 
-use crate::fastmath::xn;
-use crate::math::{Num, acos, eq, exp, le, maximum, minimum, powf, select};
+use crate::math::{Num, V3, acos, eq, exp, le, maximum, minimum, powf, select};
 use crate::simd::{Vec3xN, f32xn, sel};
 use glam::{Vec2, Vec3};
 
@@ -155,22 +154,22 @@ pub fn cosine_power_beckmann_m(n: f64) -> f32 {
     (2.0 / (n + 2.0)).sqrt() as f32
 }
 
-/// The anisotropic Beckmann D per lane, roughness `mx` along the tangent and `my` along the
+/// The anisotropic Beckmann D (one value or lanes), roughness `mx` along the tangent and `my` along the
 /// bitangent: exp(-tan^2(theta_h) (cos^2(phi_h) / mx^2 + sin^2(phi_h) / my^2)) /
 /// (pi mx my cos^4(theta_h)), zero for h_z <= 0 and where the exponential underflows.
 /// tan^2 comes from cos(theta_h) as in [`beckmann_d`], so that a lobe evaluated from
 /// cos(theta_h) rounds as this density does where a narrow lobe meets f32's resolution of
 /// cos(theta_h) near 1, and weights f / p stay near their exact value.
 #[inline(always)]
-pub fn beckmann_d_anisotropic_xn(mx: f32xn, my: f32xn, h: Vec3xN) -> f32xn {
-    let (s, zero) = (f32xn::splat, f32xn::splat(0.0));
+pub fn beckmann_d_anisotropic<T: Num>(mx: T, my: T, h: V3<T>) -> T {
+    let (zero, one) = (T::of(0.0), T::of(1.0));
     let c2 = h.z * h.z;
-    let tan2 = (s(1.0) - c2).max(zero) / c2;
+    let tan2 = maximum(one - c2, zero) / c2;
     let s2 = h.x * h.x + h.y * h.y;
-    let cos2_phi = sel(s2.simd_le(s(1e-30)), s(1.0), h.x * h.x / s2);
-    let e = xn::exp(-tan2 * (cos2_phi / (mx * mx) + (s(1.0) - cos2_phi) / (my * my)));
-    let d = e / (s(std::f32::consts::PI) * mx * my * c2 * c2);
-    sel(h.z.simd_le(zero) | e.simd_eq(zero), zero, d)
+    let cos2_phi = select(le(s2, T::of(1e-30)), one, h.x * h.x / s2);
+    let e = exp(-tan2 * (cos2_phi / (mx * mx) + (one - cos2_phi) / (my * my)));
+    let d = e / (T::of(std::f64::consts::PI) * mx * my * c2 * c2);
+    select(le(h.z, zero) | eq(e, zero), zero, d)
 }
 
 /// c such that 2 pi c int_0^{pi/2} exp(-(theta/m)^2) cos(theta) sin(theta) dtheta = 1
