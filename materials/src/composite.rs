@@ -8,6 +8,7 @@
 
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::lobe::Lobe;
+use crate::math::{Num, clamp, lt, maximum, select};
 use crate::sampling::warp::{
     cosine_hemisphere, cosine_hemisphere_pdf, cosine_hemisphere_pdf_xn, square_to_cosine_hemisphere,
 };
@@ -284,6 +285,7 @@ impl Composite {
     /// samples it.
     fn choose_and_sample(&self, wo: Vec3, u: Vec2, uc: f32, w: &[f32], total: f32) -> Option<Vec3> {
         let (chosen, uc_rest) = Self::choose(uc, w, total);
+        let chosen = chosen as usize;
         if chosen == 0 {
             Some(square_to_cosine_hemisphere(u))
         } else {
@@ -340,7 +342,8 @@ impl Composite {
             |idx| {
                 let w = self.lane_weights(f32xn::new(simd::lanes_of(idx, |k| wo[k].z)));
                 let lane_uc = f32xn::new(simd::lanes_of(idx, |k| uc[k]));
-                let (chosen, uc_rest) = Self::choose_xn(lane_uc, &w, self.lobes.len() + 1);
+                let (chosen, uc_rest) =
+                    Self::choose(lane_uc, &w.w[..self.lobes.len() + 1], w.total);
                 let [ux, uy] = simd::vec2s(&simd::lanes_of(idx, |k| u[k]));
                 let diffuse = simd::arrays3(cosine_hemisphere(ux, uy));
                 let (total, chosen, uc_rest) =
@@ -405,41 +408,28 @@ impl Composite {
         }
     }
 
-    /// The component `uc` chooses in proportion to the weights `w` (sum `total`), and
-    /// what is left of `uc` within it, rescaled to [0, 1).
-    #[inline]
-    fn choose(uc: f32, w: &[f32], total: f32) -> (usize, f32) {
+    /// The component `uc` chooses among the weights `w` (summing to `total`), as a float
+    /// index, and what is left of `uc` within it; once for one query and lanes.
+    #[inline(always)]
+    fn choose<T: Num>(uc: T, w: &[T], total: T) -> (T, T) {
+        let n = w.len();
         let mut target = uc * total;
-        let mut chosen = w.len() - 1;
-        for (k, &wk) in w.iter().enumerate() {
-            if target < wk {
-                chosen = k;
-                break;
-            }
-            target -= wk;
+        let mut done = lt(target, w[0]);
+        let mut chosen = select(done, T::of(0.0), T::of((n - 1) as f64));
+        let mut w_chosen = select(done, w[0], w[n - 1]);
+        target = select(done, target, target - w[0]);
+        for (k, &wk) in w.iter().enumerate().skip(1) {
+            let found = !done & lt(target, wk);
+            chosen = select(found, T::of(k as f64), chosen);
+            w_chosen = select(found, wk, w_chosen);
+            done = done | found;
+            target = select(done, target, target - wk);
         }
-        let uc_rest =
-            (target / w[chosen].max(f32::MIN_POSITIVE)).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
-        (chosen, uc_rest)
-    }
-
-    /// [`Composite::choose`] per lane, with the same operations (bit for bit): the
-    /// component each lane's `uc` chooses among the first `n` weights of `w` (as a float)
-    /// and what is left of `uc` within it.
-    fn choose_xn(uc: f32xn, w: &LaneWeights, n: usize) -> (f32xn, f32xn) {
-        let mut target = uc * w.total;
-        let mut chosen = f32xn::splat((n - 1) as f32);
-        let mut w_chosen = w.w[n - 1];
-        let mut searching = simd::all_set();
-        for (k, &wk) in w.w[..n].iter().enumerate() {
-            let found = searching & target.simd_lt(wk);
-            chosen = sel(found, f32xn::splat(k as f32), chosen);
-            w_chosen = sel(found, wk, w_chosen);
-            searching &= !found;
-            target = sel(searching, target - wk, target);
-        }
-        let rest = target / w_chosen.max(f32xn::splat(f32::MIN_POSITIVE));
-        (chosen, simd::clamp(rest, 0.0, 1.0 - f32::EPSILON / 2.0))
+        let rest = target / maximum(w_chosen, T::of(f32::MIN_POSITIVE as f64));
+        (
+            chosen,
+            clamp(rest, T::of(0.0), T::of((1.0 - f32::EPSILON / 2.0) as f64)),
+        )
     }
 
     /// The component weights of `LANES` outgoing directions (lane by lane

@@ -90,6 +90,12 @@ pub fn gt<T: Num>(a: T, b: T) -> T::Mask {
 pub fn is_finite<T: Num>(x: T) -> T::Mask {
     x.num_is_finite()
 }
+/// `x` clamped to [`lo`, `hi`], NaN staying NaN (as `f32::clamp`).
+#[inline(always)]
+pub fn clamp<T: Num>(x: T, lo: T, hi: T) -> T {
+    let x = select(lt(x, lo), lo, x);
+    select(gt(x, hi), hi, x)
+}
 /// |x|.
 #[inline(always)]
 pub fn abs<T: Num>(x: T) -> T {
