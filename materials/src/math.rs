@@ -3,9 +3,9 @@
 //! [`Num`], with masks and [`select`] in the manner of Dr.Jit's `dr::select` (Mitsuba 3
 //! writes each BSDF once over one `Float` type the same way). A formula over [`Num`] that
 //! branches computes both sides and selects, so its lanes give bit for bit what its scalar
-//! instantiation gives. [`Real`] is the scalar subset (f32, f64) over num-traits' `Float`
-//! (with `exp_r`, `powf_r`, `acos_r`: `fastmath`'s in f32, whose lane forms the lane
-//! instantiation uses), and [`V3`] a minimal generic 3-vector.
+//! instantiation gives. The transcendental functions are `fastmath`'s in f32 and their lane
+//! forms in lanes (so that the two agree bit for bit), the C library's in f64. [`Real`] is
+//! the scalar subset (f32, f64) over num-traits' `Float`, and [`V3`] the one 3-vector.
 
 use crate::simd::f32xn;
 use num_traits::{Float, FloatConst};
@@ -37,11 +37,11 @@ pub trait Num:
     fn num_le(self, o: Self) -> Self::Mask;
     fn num_lt(self, o: Self) -> Self::Mask;
     fn num_eq(self, o: Self) -> Self::Mask;
-    /// e^x as [`Real::exp_r`] (`fastmath`'s in f32 and its lane form in lanes).
+    /// e^x: [`crate::fastmath::exp`] in f32, its lane form in lanes, the C library's in f64.
     fn num_exp(self) -> Self;
-    /// acos x as [`Real::acos_r`].
+    /// acos x, as [`Num::num_exp`]: [`crate::fastmath::acos`] in f32.
     fn num_acos(self) -> Self;
-    /// x^y as [`Real::powf_r`].
+    /// x^y, as [`Num::num_exp`]: [`crate::fastmath::powf`] in f32.
     fn num_powf(self, y: Self) -> Self;
     /// The square root (IEEE, as `f32::sqrt`).
     fn num_sqrt(self) -> Self;
@@ -133,7 +133,7 @@ pub fn powf<T: Num>(x: T, y: T) -> T {
 }
 
 macro_rules! scalar_num {
-    ($t:ty) => {
+    ($t:ty, exp: $exp:path, powf: $powf:path, acos: $acos:path, sin_cos: $sin_cos:path) => {
         impl Num for $t {
             type Mask = bool;
             #[inline(always)]
@@ -166,15 +166,15 @@ macro_rules! scalar_num {
             }
             #[inline(always)]
             fn num_exp(self) -> Self {
-                self.exp_r()
+                $exp(self)
             }
             #[inline(always)]
             fn num_acos(self) -> Self {
-                self.acos_r()
+                $acos(self)
             }
             #[inline(always)]
             fn num_powf(self, y: Self) -> Self {
-                self.powf_r(y)
+                $powf(self, y)
             }
             #[inline(always)]
             fn num_sqrt(self) -> Self {
@@ -190,13 +190,21 @@ macro_rules! scalar_num {
             }
             #[inline(always)]
             fn num_sin_cos(self) -> (Self, Self) {
-                self.sin_cos_r()
+                $sin_cos(self)
             }
         }
     };
 }
-scalar_num!(f32);
-scalar_num!(f64);
+// f32 (rendering) takes `fastmath`'s functions, whose lane forms the lane instantiation
+// uses, so that one value and lanes agree bit for bit; f64 (fitting) the C library's.
+scalar_num!(
+    f32,
+    exp: crate::fastmath::exp,
+    powf: crate::fastmath::powf,
+    acos: crate::fastmath::acos,
+    sin_cos: crate::fastmath::sin_cos_moderate
+);
+scalar_num!(f64, exp: f64::exp, powf: f64::powf, acos: f64::acos, sin_cos: f64::sin_cos);
 
 impl Num for f32xn {
     type Mask = f32xn;
@@ -265,17 +273,6 @@ pub trait Real: Num + Float + FloatConst + std::fmt::Debug + Send + Sync + 'stat
     fn to_f64(self) -> f64;
     /// Complementary error function (libm, the musl port).
     fn erfc(self) -> Self;
-    /// e^x: the C library's in f64 (fitting), [`crate::fastmath::exp`] in f32 (rendering:
-    /// the function whose lane form the SIMD kernels use, so that they equal the
-    /// scalar models bit for bit).
-    fn exp_r(self) -> Self;
-    /// x^y, as [`Real::exp_r`]: [`crate::fastmath::powf`] in f32.
-    fn powf_r(self, y: Self) -> Self;
-    /// acos x, as [`Real::exp_r`]: [`crate::fastmath::acos`] in f32.
-    fn acos_r(self) -> Self;
-    /// (sin x, cos x): [`crate::fastmath::sin_cos_moderate`] in f32 (|x| up to a few pi),
-    /// the C library's in f64.
-    fn sin_cos_r(self) -> (Self, Self);
 }
 
 impl Real for f32 {
@@ -291,22 +288,6 @@ impl Real for f32 {
     fn erfc(self) -> Self {
         libm::erfcf(self)
     }
-    #[inline(always)]
-    fn exp_r(self) -> Self {
-        crate::fastmath::exp(self)
-    }
-    #[inline(always)]
-    fn powf_r(self, y: Self) -> Self {
-        crate::fastmath::powf(self, y)
-    }
-    #[inline(always)]
-    fn acos_r(self) -> Self {
-        crate::fastmath::acos(self)
-    }
-    #[inline(always)]
-    fn sin_cos_r(self) -> (Self, Self) {
-        crate::fastmath::sin_cos_moderate(self)
-    }
 }
 
 impl Real for f64 {
@@ -321,22 +302,6 @@ impl Real for f64 {
     #[inline(always)]
     fn erfc(self) -> Self {
         libm::erfc(self)
-    }
-    #[inline(always)]
-    fn exp_r(self) -> Self {
-        self.exp()
-    }
-    #[inline(always)]
-    fn powf_r(self, y: Self) -> Self {
-        self.powf(y)
-    }
-    #[inline(always)]
-    fn acos_r(self) -> Self {
-        self.acos()
-    }
-    #[inline(always)]
-    fn sin_cos_r(self) -> (Self, Self) {
-        self.sin_cos()
     }
 }
 
