@@ -52,6 +52,9 @@ pub trait Num:
     /// (sin x, cos x) for |x| up to a few pi: [`crate::fastmath::sin_cos_moderate`] in f32
     /// (its lane form in lanes), the C library's in f64.
     fn num_sin_cos(self) -> (Self, Self);
+    /// atan2(self, x) in [-pi, pi]: [`crate::fastmath::atan2`] in f32, the C library's
+    /// in f64.
+    fn num_atan2(self, x: Self) -> Self;
 }
 
 /// `t` where `m` holds, else `f` (per lane).
@@ -106,6 +109,11 @@ pub fn abs<T: Num>(x: T) -> T {
 pub fn sin_cos<T: Num>(x: T) -> (T, T) {
     x.num_sin_cos()
 }
+/// atan2(y, x) ([`Num::num_atan2`]).
+#[inline(always)]
+pub fn atan2<T: Num>(y: T, x: T) -> T {
+    y.num_atan2(x)
+}
 /// `a == b`.
 #[inline(always)]
 pub fn eq<T: Num>(a: T, b: T) -> T::Mask {
@@ -133,7 +141,7 @@ pub fn powf<T: Num>(x: T, y: T) -> T {
 }
 
 macro_rules! scalar_num {
-    ($t:ty, exp: $exp:path, powf: $powf:path, acos: $acos:path, sin_cos: $sin_cos:path) => {
+    ($t:ty, exp: $exp:path, powf: $powf:path, acos: $acos:path, sin_cos: $sin_cos:path, atan2: $atan2:path) => {
         impl Num for $t {
             type Mask = bool;
             #[inline(always)]
@@ -192,6 +200,10 @@ macro_rules! scalar_num {
             fn num_sin_cos(self) -> (Self, Self) {
                 $sin_cos(self)
             }
+            #[inline(always)]
+            fn num_atan2(self, x: Self) -> Self {
+                $atan2(self, x)
+            }
         }
     };
 }
@@ -202,9 +214,17 @@ scalar_num!(
     exp: crate::fastmath::exp,
     powf: crate::fastmath::powf,
     acos: crate::fastmath::acos,
-    sin_cos: crate::fastmath::sin_cos_moderate
+    sin_cos: crate::fastmath::sin_cos_moderate,
+    atan2: crate::fastmath::atan2
 );
-scalar_num!(f64, exp: f64::exp, powf: f64::powf, acos: f64::acos, sin_cos: f64::sin_cos);
+scalar_num!(
+    f64,
+    exp: f64::exp,
+    powf: f64::powf,
+    acos: f64::acos,
+    sin_cos: f64::sin_cos,
+    atan2: f64::atan2
+);
 
 impl Num for f32xn {
     type Mask = f32xn;
@@ -263,6 +283,10 @@ impl Num for f32xn {
     #[inline(always)]
     fn num_sin_cos(self) -> (Self, Self) {
         crate::fastmath::xn::sin_cos_moderate(self)
+    }
+    #[inline(always)]
+    fn num_atan2(self, x: Self) -> Self {
+        crate::fastmath::xn::atan2(self, x)
     }
 }
 

@@ -12,17 +12,16 @@
 //!
 //! In memory the table is f32 RGB (17.5 MB). Lookups are nearest (the bin) or trilinear
 //! between bin centres (periodic in phi_d), skipping missing corners. The trilinear lookup
-//! the renderer uses runs in f32 without trigonometric rotations ([`coords_f32`]), one pair
+//! the renderer uses runs in f32 without trigonometric rotations ([`bin_coords`]), one pair
 //! at a time or `LANES` ([`Merl::lookup_xn`], the batched evaluation of the `merl` material);
 //! fitting and the nearest-bin lookup keep the f64 angles of [`half_diff`].
 
 use crate::Rgb;
 use crate::error::FileError;
-use crate::fastmath::{self, xn};
 use crate::frame::{from_half_diff, half_diff};
-use crate::simd::{RgbxN, Vec3xN, clamp, f32xn, gather, i32xn, max_lane, sel};
+use crate::math::{Num, V3, atan2, gt, is_finite, le, lt, maximum, select, sqrt};
+use crate::simd::{RgbxN, Vec3xN, clamp, f32xn, gather, i32xn, sel};
 use glam::Vec3;
-use std::f32::consts::{FRAC_PI_2 as FRAC_PI_2_32, PI as PI32};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::Path;
 
@@ -63,84 +62,53 @@ fn coords(theta_h: f64, theta_d: f64, phi_d: f64) -> (f64, f64, f64) {
     (th, td, pd)
 }
 
-/// `v / |v|` as glam's `normalize_or_zero` computes it, `None` where that is zero.
+/// `v / |v|` as glam's `normalize_or_zero` computes it, `fallback` where that is zero.
 #[inline(always)]
-fn unit(v: Vec3) -> Option<Vec3> {
-    let rcp = 1.0 / (v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
-    (rcp.is_finite() && rcp > 0.0).then(|| v * rcp)
+fn unit_or<T: Num>(v: V3<T>, fallback: V3<T>) -> V3<T> {
+    let rcp = T::of(1.0) / sqrt(v.length_squared());
+    let ok = is_finite(rcp) & gt(rcp, T::of(0.0));
+    let n = v * rcp;
+    V3::new(
+        select(ok, n.x, fallback.x),
+        select(ok, n.y, fallback.y),
+        select(ok, n.z, fallback.z),
+    )
 }
 
 /// Continuous bin coordinates `[theta_h, theta_d, phi_d]` of a direction pair above the
-/// surface, in f32: Rusinkiewicz's half/difference angles as [`half_diff`] computes them,
-/// with the two rotations taken from the half vector's own components (cos and sin of
-/// theta_h and phi_h are h.z, |h.xy| and h.xy / |h.xy|: no trigonometric call) and every
-/// angle an `atan2` of a sine and a cosine ([`fastmath::atan2`]), which stays accurate near
-/// 0 where `acos` loses half the digits (theta_h's bins are finest there). [`coords_xn`]
-/// does the same operations in the same order on `LANES` pairs.
-#[inline]
-pub fn coords_f32(wi: Vec3, wo: Vec3) -> [f32; 3] {
-    let (wi, wo) = (
-        unit(wi).unwrap_or(Vec3::ZERO),
-        unit(wo).unwrap_or(Vec3::ZERO),
-    );
-    let h = unit(wi + wo).unwrap_or(Vec3::Z);
-    let sin_h = (h.x * h.x + h.y * h.y).sqrt();
-    let theta_h = fastmath::atan2(sin_h, h.z);
-    let (cp, sp) = if sin_h > 0.0 {
-        (h.x / sin_h, h.y / sin_h)
-    } else {
-        (1.0, 0.0)
-    };
-    // wi rotated by -phi_h about z, then by -theta_h about y.
-    let t = Vec3::new(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);
-    let d = Vec3::new(t.x * h.z - t.z * sin_h, t.y, t.x * sin_h + t.z * h.z);
-    let theta_d = fastmath::atan2((d.x * d.x + d.y * d.y).sqrt(), d.z);
-    let phi_d = fastmath::atan2(d.y, d.x);
-    let phi_d = if phi_d < 0.0 { phi_d + PI32 } else { phi_d };
-    let pd = phi_d / PI32 * RES_PHI_D as f32;
-    [
-        (max_lane(theta_h, 0.0) / FRAC_PI_2_32).sqrt() * RES_THETA_H as f32,
-        max_lane(theta_d, 0.0) / FRAC_PI_2_32 * RES_THETA_D as f32,
-        if pd >= RES_PHI_D as f32 {
-            pd - RES_PHI_D as f32
-        } else {
-            pd
-        },
-    ]
-}
-
-/// [`coords_f32`] of `LANES` pairs, lane by lane bit for bit.
+/// surface (one pair, or lanes of pairs): Rusinkiewicz's half/difference angles as
+/// [`half_diff`] computes them, with the two rotations taken from the half vector's own
+/// components (cos and sin of theta_h and phi_h are h.z, |h.xy| and h.xy / |h.xy|: no
+/// trigonometric call) and every angle an `atan2` of a sine and a cosine
+/// ([`crate::fastmath::atan2`] in f32), which stays accurate near 0 where `acos` loses half the
+/// digits (theta_h's bins are finest there).
 #[inline(always)]
-pub fn coords_xn(wi: Vec3xN, wo: Vec3xN) -> [f32xn; 3] {
-    let s = f32xn::splat;
-    let (wi, wo) = (wi.normalize_or_zero(), wo.normalize_or_zero());
-    let sum = wi + wo;
-    let rcp = s(1.0) / (sum.x * sum.x + sum.y * sum.y + sum.z * sum.z).sqrt();
-    let ok = rcp.is_finite() & rcp.simd_gt(s(0.0));
-    let h = sum * rcp;
-    let h = Vec3xN::new(
-        sel(ok, h.x, s(0.0)),
-        sel(ok, h.y, s(0.0)),
-        sel(ok, h.z, s(1.0)),
-    );
-    let sin_h = (h.x * h.x + h.y * h.y).sqrt();
-    let theta_h = xn::atan2(sin_h, h.z);
-    let has_phi = sin_h.simd_gt(s(0.0));
+pub fn bin_coords<T: Num>(wi: V3<T>, wo: V3<T>) -> [T; 3] {
+    let (zero, one) = (T::of(0.0), T::of(1.0));
+    let origin = V3::new(zero, zero, zero);
+    let (wi, wo) = (unit_or(wi, origin), unit_or(wo, origin));
+    let h = unit_or(wi + wo, V3::new(zero, zero, one));
+    let sin_h = sqrt(h.x * h.x + h.y * h.y);
+    let theta_h = atan2(sin_h, h.z);
+    let has_phi = gt(sin_h, zero);
     let (cp, sp) = (
-        sel(has_phi, h.x / sin_h, s(1.0)),
-        sel(has_phi, h.y / sin_h, s(0.0)),
+        select(has_phi, h.x / sin_h, one),
+        select(has_phi, h.y / sin_h, zero),
     );
-    let t = Vec3xN::new(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);
-    let d = Vec3xN::new(t.x * h.z - t.z * sin_h, t.y, t.x * sin_h + t.z * h.z);
-    let theta_d = xn::atan2((d.x * d.x + d.y * d.y).sqrt(), d.z);
-    let phi_d = xn::atan2(d.y, d.x);
-    let phi_d = sel(phi_d.simd_lt(s(0.0)), phi_d + s(PI32), phi_d);
-    let n_pd = s(RES_PHI_D as f32);
-    let pd = phi_d / s(PI32) * n_pd;
+    // wi rotated by -phi_h about z, then by -theta_h about y.
+    let t = V3::new(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);
+    let d = V3::new(t.x * h.z - t.z * sin_h, t.y, t.x * sin_h + t.z * h.z);
+    let theta_d = atan2(sqrt(d.x * d.x + d.y * d.y), d.z);
+    let phi_d = atan2(d.y, d.x);
+    let pi = T::of(PI);
+    let phi_d = select(lt(phi_d, zero), phi_d + pi, phi_d);
+    let n_pd = T::of(RES_PHI_D as f64);
+    let pd = phi_d / pi * n_pd;
+    let quarter = T::of(FRAC_PI_2);
     [
-        (theta_h.max(s(0.0)) / s(FRAC_PI_2_32)).sqrt() * s(RES_THETA_H as f32),
-        theta_d.max(s(0.0)) / s(FRAC_PI_2_32) * s(RES_THETA_D as f32),
-        sel(pd.simd_ge(n_pd), pd - n_pd, pd),
+        sqrt(maximum(theta_h, zero) / quarter) * T::of(RES_THETA_H as f64),
+        maximum(theta_d, zero) / quarter * T::of(RES_THETA_D as f64),
+        select(le(n_pd, pd), pd - n_pd, pd),
     ]
 }
 
@@ -350,13 +318,13 @@ impl Merl {
 
     /// Trilinear lookup between bin centres (clamped in theta, periodic in phi_d),
     /// renormalized over the corners that are not missing. In f32 throughout, for the
-    /// renderer: the bin coordinates come from [`coords_f32`], the corners' weights and
+    /// renderer: the bin coordinates come from [`bin_coords`], the corners' weights and
     /// sums in f32; [`Merl::lookup_xn`] gives the same values a lane vector at a time.
     pub fn lookup(&self, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let [a, b, c] = coords_f32(wi, wo);
+        let [a, b, c] = bin_coords(V3::from(wi), V3::from(wo));
         let (a0, a1, wa) = split_clamped(a, RES_THETA_H);
         let (b0, b1, wb) = split_clamped(b, RES_THETA_D);
         let (c0, c1, wc) = split_periodic(c);
@@ -382,7 +350,7 @@ impl Merl {
     pub fn lookup_xn(&self, wi: Vec3xN, wo: Vec3xN) -> RgbxN {
         let s = f32xn::splat;
         let above = wi.z.simd_gt(s(0.0)) & wo.z.simd_gt(s(0.0));
-        let [a, b, c] = coords_xn(wi, wo);
+        let [a, b, c] = bin_coords(wi, wo);
         let (a0, a1, wa) = split_clamped_xn(a, RES_THETA_H);
         let (b0, b1, wb) = split_clamped_xn(b, RES_THETA_D);
         let (c0, c1, wc) = split_periodic_xn(c);
@@ -433,7 +401,7 @@ mod tests {
             let (th, _, td, pd) = half_diff(wi, wo);
             let (a, b, c) = coords(th, td, pd);
             assert_eq!(((a as usize), (b as usize), (c as usize)), (ith, itd, ipd));
-            let [a, b, c] = coords_f32(wi, wo);
+            let [a, b, c] = bin_coords(V3::from(wi), V3::from(wo));
             assert_eq!(((a as usize), (b as usize), (c as usize)), (ith, itd, ipd));
         }
     }
@@ -458,7 +426,7 @@ mod tests {
             }
             let (th, _, td, pd) = half_diff(wi, wo);
             let exact = coords(th, td, pd);
-            let fast = coords_f32(wi, wo);
+            let fast = bin_coords(V3::from(wi), V3::from(wo));
             // Below half a bin of theta_h every lookup takes bin 0 (the f32 half vector's
             // rounding, ~1e-7 rad, is 0.02-0.05 bins there through the sqrt); phi_d is
             // undefined where theta_h or theta_d vanishes.
