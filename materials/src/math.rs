@@ -55,6 +55,8 @@ pub trait Num:
     /// atan2(self, x) in [-pi, pi]: [`crate::fastmath::atan2`] in f32, the C library's
     /// in f64.
     fn num_atan2(self, x: Self) -> Self;
+    /// asin x, as [`Num::num_exp`]: [`crate::fastmath::asin`] in f32.
+    fn num_asin(self) -> Self;
 }
 
 /// `t` where `m` holds, else `f` (per lane).
@@ -109,6 +111,11 @@ pub fn abs<T: Num>(x: T) -> T {
 pub fn sin_cos<T: Num>(x: T) -> (T, T) {
     x.num_sin_cos()
 }
+/// asin x ([`Num::num_asin`]).
+#[inline(always)]
+pub fn asin<T: Num>(x: T) -> T {
+    x.num_asin()
+}
 /// atan2(y, x) ([`Num::num_atan2`]).
 #[inline(always)]
 pub fn atan2<T: Num>(y: T, x: T) -> T {
@@ -141,7 +148,7 @@ pub fn powf<T: Num>(x: T, y: T) -> T {
 }
 
 macro_rules! scalar_num {
-    ($t:ty, exp: $exp:path, powf: $powf:path, acos: $acos:path, sin_cos: $sin_cos:path, atan2: $atan2:path) => {
+    ($t:ty, exp: $exp:path, powf: $powf:path, acos: $acos:path, sin_cos: $sin_cos:path, atan2: $atan2:path, asin: $asin:path) => {
         impl Num for $t {
             type Mask = bool;
             #[inline(always)]
@@ -204,6 +211,10 @@ macro_rules! scalar_num {
             fn num_atan2(self, x: Self) -> Self {
                 $atan2(self, x)
             }
+            #[inline(always)]
+            fn num_asin(self) -> Self {
+                $asin(self)
+            }
         }
     };
 }
@@ -215,7 +226,8 @@ scalar_num!(
     powf: crate::fastmath::powf,
     acos: crate::fastmath::acos,
     sin_cos: crate::fastmath::sin_cos_moderate,
-    atan2: crate::fastmath::atan2
+    atan2: crate::fastmath::atan2,
+    asin: crate::fastmath::asin
 );
 scalar_num!(
     f64,
@@ -223,7 +235,8 @@ scalar_num!(
     powf: f64::powf,
     acos: f64::acos,
     sin_cos: f64::sin_cos,
-    atan2: f64::atan2
+    atan2: f64::atan2,
+    asin: f64::asin
 );
 
 impl Num for f32xn {
@@ -287,6 +300,10 @@ impl Num for f32xn {
     #[inline(always)]
     fn num_atan2(self, x: Self) -> Self {
         crate::fastmath::xn::atan2(self, x)
+    }
+    #[inline(always)]
+    fn num_asin(self) -> Self {
+        crate::fastmath::xn::asin(self)
     }
 }
 

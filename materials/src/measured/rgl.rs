@@ -30,8 +30,9 @@ use crate::Rgb;
 use crate::error::FileError;
 use crate::fastmath;
 use crate::fastmath::xn;
+use crate::math::{Num, V3, asin, clamp, maximum, sqrt};
 use crate::sampling::marginal2d::{Marginal2D, Slices, SlicesxN};
-use crate::simd::{MaskN, RgbxN, Vec3xN, clamp, f32xn, max_lane, sel};
+use crate::simd::{MaskN, RgbxN, Vec3xN, f32xn, max_lane, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
 use std::path::Path;
@@ -61,11 +62,18 @@ impl Rgl {
     }
 }
 
-fn theta2u(t: f32) -> f32 {
-    max_lane(t * (2.0 / PI), 0.0).sqrt()
+/// The VNDF table's first coordinate of elevation `t`: sqrt(t / (pi / 2)) (one value or
+/// lanes).
+#[inline(always)]
+fn theta2u<T: Num>(t: T) -> T {
+    let pi = T::of(std::f64::consts::PI);
+    sqrt(maximum(t * (T::of(2.0) / pi), T::of(0.0)))
 }
-fn phi2u(p: f32) -> f32 {
-    (p + PI) * (0.5 / PI)
+/// The table's azimuth coordinate of `p` in [-pi, pi]: (p + pi) / (2 pi).
+#[inline(always)]
+fn phi2u<T: Num>(p: T) -> T {
+    let pi = T::of(std::f64::consts::PI);
+    (p + pi) * (T::of(0.5) / pi)
 }
 fn u2theta(u: f32) -> f32 {
     u * u * FRAC_PI_2
@@ -73,12 +81,13 @@ fn u2theta(u: f32) -> f32 {
 fn u2phi(u: f32) -> f32 {
     (2.0 * u - 1.0) * PI
 }
-/// acos(d.z) computed stably (Mitsuba's `elevation`).
-#[inline]
-fn elevation(d: Vec3) -> f32 {
-    2.0 * fastmath::asin(
-        (0.5 * (d.x * d.x + d.y * d.y + (d.z - 1.0) * (d.z - 1.0)).sqrt()).clamp(-1.0, 1.0),
-    )
+/// acos(d.z) computed stably (Mitsuba's `elevation`), one direction or lanes.
+#[inline(always)]
+fn elevation<T: Num>(d: V3<T>) -> T {
+    let one = T::of(1.0);
+    let zm = d.z - one;
+    let dist = sqrt(d.x * d.x + d.y * d.y + zm * zm);
+    T::of(2.0) * asin(clamp(T::of(0.5) * dist, -one, one))
 }
 /// -v when the sign bit of s is clear (s >= +0), v otherwise (Dr.Jit's mulsign_neg).
 fn mulsign_neg(v: f32, s: f32) -> f32 {
@@ -299,7 +308,7 @@ impl Rgl {
     #[inline]
     fn view(&self, wo: Vec3) -> View {
         let wo = self.fold(wo, wo);
-        let theta_o = elevation(wo);
+        let theta_o = elevation(V3::from(wo));
         let phi_o = fastmath::atan2(wo.y, wo.x);
         let sigma4 = if self.jacobian {
             let u_o = [theta2u(theta_o), phi2u(phi_o)];
@@ -325,7 +334,7 @@ impl Rgl {
         }
         let mut uy = phi2u(phi_m);
         uy -= uy.floor();
-        let u_m = [theta2u(elevation(m)), uy];
+        let u_m = [theta2u(elevation(V3::from(m))), uy];
         let (s, p_vndf) = self.vndf.invert_in(u_m, &v.slices);
         Half { m, u_m, s, p_vndf }
     }
@@ -461,20 +470,6 @@ struct HalfxN {
     p_vndf: f32xn,
 }
 
-#[inline(always)]
-fn theta2u_xn(t: f32xn) -> f32xn {
-    (t * f32xn::splat(2.0 / PI)).max(f32xn::splat(0.0)).sqrt()
-}
-#[inline(always)]
-fn phi2u_xn(p: f32xn) -> f32xn {
-    (p + f32xn::splat(PI)) * f32xn::splat(0.5 / PI)
-}
-#[inline(always)]
-fn elevation_xn(d: Vec3xN) -> f32xn {
-    let zm = d.z - f32xn::splat(1.0);
-    let dist = (d.x * d.x + d.y * d.y + zm * zm).sqrt();
-    f32xn::splat(2.0) * xn::asin(clamp(f32xn::splat(0.5) * dist, -1.0, 1.0))
-}
 /// [`mulsign_neg`] per lane: the sign bit of v flipped where s's is clear.
 #[inline(always)]
 fn mulsign_neg_xn(v: f32xn, s: f32xn) -> f32xn {
@@ -498,10 +493,10 @@ impl Rgl {
     #[inline(always)]
     fn view_xn(&self, wo: Vec3xN) -> ViewxN {
         let wo = self.fold_xn(wo, wo);
-        let theta_o = elevation_xn(wo);
+        let theta_o = elevation(wo);
         let phi_o = xn::atan2(wo.y, wo.x);
         let sigma4 = if self.jacobian {
-            let u_o = [theta2u_xn(theta_o), phi2u_xn(phi_o)];
+            let u_o = [theta2u(theta_o), phi2u(phi_o)];
             f32xn::splat(4.0) * self.sigma.eval_xn(u_o, &SlicesxN::none())
         } else {
             f32xn::splat(1.0)
@@ -521,9 +516,9 @@ impl Rgl {
         if self.isotropic {
             phi_m -= v.phi_o;
         }
-        let uy = phi2u_xn(phi_m);
+        let uy = phi2u(phi_m);
         let uy = uy - uy.floor();
-        let u_m = [theta2u_xn(elevation_xn(m)), uy];
+        let u_m = [theta2u(elevation(m)), uy];
         let (s, p_vndf) = self.vndf.invert_xn(u_m, &v.slices);
         HalfxN { m, u_m, s, p_vndf }
     }
