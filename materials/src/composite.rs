@@ -10,7 +10,7 @@ use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::lobe::Lobe;
 use crate::math::{Num, clamp, lt, maximum, select};
 use crate::sampling::warp::{
-    cosine_hemisphere, cosine_hemisphere_pdf, cosine_hemisphere_pdf_xn, square_to_cosine_hemisphere,
+    cosine_hemisphere, cosine_hemisphere_pdf, square_to_cosine_hemisphere,
 };
 use crate::simd::{self, RgbxN, Vec3xN, f32xn, i32xn, max_lane, sel};
 use glam::{Vec2, Vec3};
@@ -456,7 +456,7 @@ impl Composite {
     fn mix_xn(&self, wo: Vec3xN, wi: Vec3xN, w: &LaneWeights) -> (RgbxN, f32xn) {
         let zero = f32xn::splat(0.0);
         let mut f = RgbxN::splat(self.diffuse * FRAC_1_PI);
-        let mut pdf = w.w[0] * cosine_hemisphere_pdf_xn(wi.z);
+        let mut pdf = w.w[0] * cosine_hemisphere_pdf(wi.z);
         for (k, (c, l)) in self.lobes.iter().enumerate() {
             let (v, p) = l.eval_pdf_xn(wo, wi);
             f = RgbxN::select(v.is_finite(), f + RgbxN::splat(*c) * v.max(0.0), f);

@@ -5,6 +5,7 @@
 //! measure-zero set and exact to rounding. Spherical coordinates follow the usual physics
 //! convention: theta from +z, phi from +x toward +y.
 
+use crate::math::{Num, V3, copysign};
 use glam::Vec3;
 
 /// An orthonormal frame (s, t, n): `n` is the shading normal.
@@ -18,12 +19,12 @@ pub struct Frame {
 impl Frame {
     /// The frame of a unit normal (Duff et al. 2017, Listing 3).
     pub fn from_normal(n: Vec3) -> Self {
-        let sign = 1.0f32.copysign(n.z);
-        let a = -1.0 / (sign + n.z);
-        let b = n.x * n.y * a;
-        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
-        Self { s, t, n }
+        let (s, t) = tangents_of_normal(V3::from(n));
+        Self {
+            s: s.into(),
+            t: t.into(),
+            n,
+        }
     }
 
     /// A frame whose first axis follows the projection of `dpdu` onto the plane of `n`
@@ -54,25 +55,24 @@ impl Frame {
     }
 }
 
-/// Lane forms of the frame operations, each lane operation for operation the scalar
-/// one (so batched and one-at-a-time samples agree bit for bit).
-pub mod xn {
-    use crate::simd::{Vec3xN, f32xn};
+/// The tangent and bitangent of [`Frame::from_normal`] for a unit normal `n`, written once
+/// over [`Num`] (Duff et al. 2017, Listing 3).
+#[inline(always)]
+pub fn tangents_of_normal<T: Num>(n: V3<T>) -> (V3<T>, V3<T>) {
+    let one = T::of(1.0);
+    let sign = copysign(one, n.z);
+    let a = -one / (sign + n.z);
+    let b = n.x * n.y * a;
+    let s = V3::new(one + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let t = V3::new(b, sign + n.y * n.y * a, -n.y);
+    (s, t)
+}
 
-    /// `Frame::from_normal(n).to_world(v)` per lane.
-    #[inline(always)]
-    pub fn to_world_of_normal(n: Vec3xN, v: Vec3xN) -> Vec3xN {
-        let one = f32xn::splat(1.0);
-        // copysign(1, n.z)
-        let sign = f32xn::from_bits(
-            one.to_bits() | (n.z.to_bits() & crate::simd::u32xn::splat(0x8000_0000)),
-        );
-        let a = f32xn::splat(-1.0) / (sign + n.z);
-        let b = n.x * n.y * a;
-        let s = Vec3xN::new(one + sign * n.x * n.x * a, sign * b, -sign * n.x);
-        let t = Vec3xN::new(b, sign + n.y * n.y * a, -n.y);
-        s * v.x + t * v.y + n * v.z
-    }
+/// `Frame::from_normal(n).to_world(v)`, written once over [`Num`].
+#[inline(always)]
+pub fn to_world_of_normal<T: Num>(n: V3<T>, v: V3<T>) -> V3<T> {
+    let (s, t) = tangents_of_normal(n);
+    s * v.x + t * v.y + n * v.z
 }
 
 /// Unit direction from spherical angles (radians).

@@ -3,12 +3,13 @@
 //!
 //! A lobe is a function of the two directions, shared by the three colour channels in
 //! every model but He et al.'s, whose wave-optics terms depend on the wavelength of each
-//! channel; so a lobe value is an RGB triple (equal channels for the others). Each model
-//! writes its formula once as a generic `value::<T: Real>` and gets an f32 evaluation for
-//! rendering and an f64 one for fitting through [`impl_lobe_eval!`].
+//! channel; so a lobe value is an RGB triple (equal channels for the others). A model writes
+//! its value, sampler density and sampler once over [`Num`] ([`GenericLobe`]) and gets the
+//! f32 and lane entry points for rendering and the f64 value for fitting through
+//! [`impl_lobe_forms!`] (a model with only a generic value uses [`impl_lobe_eval!`]).
 //! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
 
-use crate::math::{Num, Real, V3, gt, is_finite, le, select, sqrt};
+use crate::math::{Num, Real, V3, gt, is_finite, le, maximum, select, sin_cos, sqrt};
 use crate::simd::{LANES, RgbxN, Vec3xN, f32xn, lanes, padded};
 use crate::{Flags, Rgb};
 use glam::{DVec3, Vec2, Vec3};
@@ -100,18 +101,100 @@ macro_rules! impl_lobe_eval {
     };
 }
 
-/// Mirror of `wo` about the unit vector `h`.
-#[inline]
-pub fn reflect(wo: Vec3, h: Vec3) -> Vec3 {
-    2.0 * wo.dot(h) * h - wo
+/// A lobe written once over [`Num`]: its value, the density of its sampler and the
+/// sampler, each one generic function that [`impl_lobe_forms!`] instantiates for the
+/// scalar entry points of [`Lobe`] (f32, and f64 for the value) and for its lane entry
+/// points ([`f32xn`]), which therefore agree bit for bit. Directions in the local frame.
+pub trait GenericLobe {
+    /// The lobe value (1/sr, no cosine) shared by the three channels, zero below the
+    /// surface.
+    fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T;
+    /// Solid-angle density of [`GenericLobe::draw`]'s direction, zero where it draws none.
+    fn density<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T;
+    /// A direction for `wo` from a 2D uniform (`ux`, `uy`) and a 1D uniform `uc`, and
+    /// where it is one (above the surface, for `wo` above it).
+    fn draw<T: Num>(&self, wo: V3<T>, ux: T, uy: T, uc: T) -> (V3<T>, T::Mask);
+}
+
+/// Implements [`Lobe`]'s `eval`, `eval_f64`, `pdf`, `sample`, `eval_pdf_xn` and `sample_xn`
+/// inside an `impl Lobe` block of a type that implements [`GenericLobe`].
+#[macro_export]
+macro_rules! impl_lobe_forms {
+    () => {
+        #[inline]
+        fn eval(&self, wo: glam::Vec3, wi: glam::Vec3) -> $crate::Rgb {
+            $crate::Rgb::splat($crate::lobe::GenericLobe::value::<f32>(
+                self,
+                wo.into(),
+                wi.into(),
+            ))
+        }
+        #[inline]
+        fn eval_f64(&self, wo: glam::DVec3, wi: glam::DVec3) -> [f64; 3] {
+            [$crate::lobe::GenericLobe::value::<f64>(self, wo.into(), wi.into()); 3]
+        }
+        #[inline]
+        fn pdf(&self, wo: glam::Vec3, wi: glam::Vec3) -> f32 {
+            $crate::lobe::GenericLobe::density::<f32>(self, wo.into(), wi.into())
+        }
+        #[inline]
+        fn sample(&self, wo: glam::Vec3, u: glam::Vec2, uc: f32) -> Option<glam::Vec3> {
+            let (wi, ok) = $crate::lobe::GenericLobe::draw::<f32>(self, wo.into(), u.x, u.y, uc);
+            ok.then(|| wi.into())
+        }
+        #[inline]
+        fn eval_pdf_xn(
+            &self,
+            wo: $crate::simd::Vec3xN,
+            wi: $crate::simd::Vec3xN,
+        ) -> ($crate::simd::RgbxN, $crate::simd::f32xn) {
+            let v = $crate::lobe::GenericLobe::value(self, wo, wi);
+            let p = $crate::lobe::GenericLobe::density(self, wo, wi);
+            ($crate::simd::RgbxN::new(v, v, v), p)
+        }
+        #[inline]
+        fn sample_xn(
+            &self,
+            wo: &[glam::Vec3; $crate::simd::LANES],
+            u: &[glam::Vec2; $crate::simd::LANES],
+            uc: &[f32; $crate::simd::LANES],
+        ) -> [Option<glam::Vec3>; $crate::simd::LANES] {
+            let [ux, uy] = $crate::simd::vec2s(u);
+            let wo = $crate::simd::Vec3xN::from_array(wo);
+            let uc = $crate::simd::f32xn::new(*uc);
+            let (wi, ok) = $crate::lobe::GenericLobe::draw(self, wo, ux, uy, uc);
+            wi.options(ok)
+        }
+    };
+}
+
+/// The mirror of `wo` about the unit vector `h`, 2 (wo . h) h - wo, and where it is a
+/// sample: `wo` and it above the surface and `wo . h` positive (Walter et al. 2007,
+/// eq. 14, the reflection of a sampled half vector).
+#[inline(always)]
+pub fn reflect_above<T: Num>(wo: V3<T>, h: V3<T>) -> (V3<T>, T::Mask) {
+    let zero = T::of(0.0);
+    let d = wo.dot(h);
+    let wi = h * (T::of(2.0) * d) - wo;
+    (wi, gt(wo.z, zero) & gt(d, zero) & gt(wi.z, zero))
 }
 
 /// A half vector from its elevation cosine and the azimuth `2 pi ux` (`ux` in [0, 1)).
-#[inline]
-pub fn half_from(cos_t: f32, ux: f32) -> Vec3 {
-    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let (s, c) = crate::fastmath::sin_cos_moderate(2.0 * std::f32::consts::PI * ux);
-    Vec3::new(sin_t * c, sin_t * s, cos_t)
+#[inline(always)]
+pub fn half_from<T: Num>(cos_t: T, ux: T) -> V3<T> {
+    let sin_t = sqrt(maximum(T::of(1.0) - cos_t * cos_t, T::of(0.0)));
+    let (s, c) = sin_cos(T::of(2.0 * std::f32::consts::PI as f64) * ux);
+    V3::new(sin_t * c, sin_t * s, cos_t)
+}
+
+/// The density of `wi` = `wo` reflected about a half vector drawn with density `pdf_h`
+/// (solid angle of h): pdf_h(h) / (4 wo.h) ([`half_to_incident_pdf`]), zero below the
+/// surface and where `wo` and `wi` have no half vector.
+#[inline(always)]
+pub fn reflected_pdf<T: Num>(wo: V3<T>, wi: V3<T>, pdf_h: impl Fn(V3<T>) -> T) -> T {
+    let (h, has_half) = half_where(wo, wi);
+    let ok = both_above(wo, wi) & has_half;
+    select(ok, half_to_incident_pdf(pdf_h(h), wo.dot(h)), T::of(0.0))
 }
 
 /// Converts a half-vector density to the density of the reflected direction:
@@ -120,54 +203,6 @@ pub fn half_from(cos_t: f32, ux: f32) -> Vec3 {
 pub fn half_to_incident_pdf<T: Num>(pdf_h: T, wo_dot_h: T) -> T {
     let zero = T::of(0.0);
     select(le(wo_dot_h, zero), zero, pdf_h / (T::of(4.0) * wo_dot_h))
-}
-
-/// Samples `wi` by reflecting `wo` about a half vector drawn by `sample_h`, rejecting
-/// directions below the surface.
-#[inline]
-pub fn sample_via_half(wo: Vec3, h: Vec3) -> Option<Vec3> {
-    if wo.z <= 0.0 || wo.dot(h) <= 0.0 {
-        return None;
-    }
-    let wi = reflect(wo, h);
-    (wi.z > 0.0).then_some(wi)
-}
-
-/// Lane forms of this module's helpers, for the lobes' [`Lobe::eval_pdf_xn`]
-/// kernels: each lane computes what the scalar helper computes, operation for operation.
-pub mod xn {
-    use crate::simd::{LANES, MaskN, Vec3xN, f32xn};
-    use glam::Vec3;
-
-    /// [`super::sample_via_half`] per lane: the mirror of `wo` about `h`, where `wo` and
-    /// it are above the surface and `wo . h` is positive, as options.
-    #[inline(always)]
-    pub fn sample_via_half(wo: Vec3xN, h: Vec3xN) -> [Option<Vec3>; LANES] {
-        sample_via_half_where(crate::simd::all_set(), wo, h)
-    }
-
-    /// [`sample_via_half`] in the lanes of `drawn` (where a half vector was drawn), None
-    /// in the others.
-    #[inline(always)]
-    pub fn sample_via_half_where(drawn: MaskN, wo: Vec3xN, h: Vec3xN) -> [Option<Vec3>; LANES] {
-        let zero = f32xn::splat(0.0);
-        let d = wo.dot(h);
-        // `reflect`: 2 (wo . h) h - wo.
-        let wi = h * (f32xn::splat(2.0) * d) - wo;
-        wi.options(drawn & wo.z.simd_gt(zero) & d.simd_gt(zero) & wi.z.simd_gt(zero))
-    }
-
-    /// A half vector in lanes from its elevation cosine and the azimuth `2 pi ux`
-    /// (`ux` in [0, 1)), as the scalar samplers build it.
-    #[inline(always)]
-    pub fn half_from(cos_t: f32xn, ux: f32xn) -> Vec3xN {
-        let sin_t = (f32xn::splat(1.0) - cos_t * cos_t)
-            .max(f32xn::splat(0.0))
-            .sqrt();
-        let (s, c) =
-            crate::fastmath::xn::sin_cos_moderate(f32xn::splat(2.0 * std::f32::consts::PI) * ux);
-        Vec3xN::new(sin_t * c, sin_t * s, cos_t)
-    }
 }
 
 /// Cosines of the angles of a pair of upper-hemisphere directions, or None below.

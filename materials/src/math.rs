@@ -57,6 +57,12 @@ pub trait Num:
     fn num_atan2(self, x: Self) -> Self;
     /// asin x, as [`Num::num_exp`]: [`crate::fastmath::asin`] in f32.
     fn num_asin(self) -> Self;
+    /// ln x, as [`Num::num_exp`]: [`crate::fastmath::ln`] in f32.
+    fn num_ln(self) -> Self;
+    /// The magnitude of `self` with the sign bit of `sign`.
+    fn num_copysign(self, sign: Self) -> Self;
+    /// Whether the condition holds everywhere (every lane).
+    fn mask_all(m: Self::Mask) -> bool;
 }
 
 /// `t` where `m` holds, else `f` (per lane).
@@ -64,8 +70,8 @@ pub trait Num:
 pub fn select<T: Num>(m: T::Mask, t: T, f: T) -> T {
     T::num_select(m, t, f)
 }
-/// The smaller of `a` and `b` (per lane; `f32::min`'s NaN rule for scalars, the SIMD min's
-/// for lanes, as the hand-written forms had).
+/// The smaller of `a` and `b` (per lane, `wide`'s rule in every form: `b` where `a` is NaN
+/// or the two are equal).
 #[inline(always)]
 pub fn minimum<T: Num>(a: T, b: T) -> T {
     a.num_min(b)
@@ -146,9 +152,24 @@ pub fn sqrt<T: Num>(x: T) -> T {
 pub fn powf<T: Num>(x: T, y: T) -> T {
     x.num_powf(y)
 }
+/// ln x ([`Num::num_ln`]).
+#[inline(always)]
+pub fn ln<T: Num>(x: T) -> T {
+    x.num_ln()
+}
+/// The magnitude of `x` with the sign bit of `sign` ([`Num::num_copysign`]).
+#[inline(always)]
+pub fn copysign<T: Num>(x: T, sign: T) -> T {
+    x.num_copysign(sign)
+}
+/// Whether `m` holds in every lane ([`Num::mask_all`]).
+#[inline(always)]
+pub fn all<T: Num>(m: T::Mask) -> bool {
+    T::mask_all(m)
+}
 
 macro_rules! scalar_num {
-    ($t:ty, exp: $exp:path, powf: $powf:path, acos: $acos:path, sin_cos: $sin_cos:path, atan2: $atan2:path, asin: $asin:path) => {
+    ($t:ty, exp: $exp:path, powf: $powf:path, acos: $acos:path, sin_cos: $sin_cos:path, atan2: $atan2:path, asin: $asin:path, ln: $ln:path) => {
         impl Num for $t {
             type Mask = bool;
             #[inline(always)]
@@ -159,13 +180,15 @@ macro_rules! scalar_num {
             fn num_select(m: bool, t: Self, f: Self) -> Self {
                 if m { t } else { f }
             }
+            // `wide`'s rule, which the lanes follow: the second operand where the first is
+            // NaN or the two are equal (so `maximum(-0.0, 0.0)` is 0.0 in every form).
             #[inline(always)]
             fn num_min(self, o: Self) -> Self {
-                self.min(o)
+                if self < o { self } else { o }
             }
             #[inline(always)]
             fn num_max(self, o: Self) -> Self {
-                self.max(o)
+                if o < self { self } else { o }
             }
             #[inline(always)]
             fn num_le(self, o: Self) -> bool {
@@ -215,6 +238,18 @@ macro_rules! scalar_num {
             fn num_asin(self) -> Self {
                 $asin(self)
             }
+            #[inline(always)]
+            fn num_ln(self) -> Self {
+                $ln(self)
+            }
+            #[inline(always)]
+            fn num_copysign(self, sign: Self) -> Self {
+                <$t>::copysign(self, sign)
+            }
+            #[inline(always)]
+            fn mask_all(m: bool) -> bool {
+                m
+            }
         }
     };
 }
@@ -227,7 +262,8 @@ scalar_num!(
     acos: crate::fastmath::acos,
     sin_cos: crate::fastmath::sin_cos_moderate,
     atan2: crate::fastmath::atan2,
-    asin: crate::fastmath::asin
+    asin: crate::fastmath::asin,
+    ln: crate::fastmath::ln
 );
 scalar_num!(
     f64,
@@ -236,7 +272,8 @@ scalar_num!(
     acos: f64::acos,
     sin_cos: f64::sin_cos,
     atan2: f64::atan2,
-    asin: f64::asin
+    asin: f64::asin,
+    ln: f64::ln
 );
 
 impl Num for f32xn {
@@ -305,6 +342,19 @@ impl Num for f32xn {
     fn num_asin(self) -> Self {
         crate::fastmath::xn::asin(self)
     }
+    #[inline(always)]
+    fn num_ln(self) -> Self {
+        crate::fastmath::xn::ln(self)
+    }
+    #[inline(always)]
+    fn num_copysign(self, sign: Self) -> Self {
+        let bit = crate::simd::u32xn::splat(0x8000_0000);
+        f32xn::from_bits((self.to_bits() & !bit) | (sign.to_bits() & bit))
+    }
+    #[inline(always)]
+    fn mask_all(m: Self) -> bool {
+        m.all()
+    }
 }
 
 /// A floating-point scalar: f32 or f64.
@@ -367,6 +417,12 @@ impl<T: Num> V3<T> {
     #[inline(always)]
     pub fn length_squared(self) -> T {
         self.dot(self)
+    }
+    /// `self / |self|` (as `self * (1 / sqrt(|self|^2))`), for a vector known not to be
+    /// zero or infinite.
+    #[inline(always)]
+    pub fn unit(self) -> Self {
+        self * (T::of(1.0) / sqrt(self.length_squared()))
     }
     #[inline(always)]
     pub fn cross(self, o: Self) -> Self {

@@ -5,17 +5,19 @@
 //! its build context, not with the builtin one). Through the builtin registry the same
 //! report is a clear "unknown model" error naming the report's field.
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::Vec3;
 use lobe_materials::analytic::common::{DIFFUSE, SPECULAR, lobe_param};
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
 use lobe_materials::fit::{fit, model_specs};
-use lobe_materials::lobe::Lobe;
+use lobe_materials::lobe::{GenericLobe, Lobe};
+use lobe_materials::math::{Num, V3, gt, maximum, powf, select};
 use lobe_materials::registry::{BuildContext, Registry};
+use lobe_materials::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use lobe_materials::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params,
 };
-use lobe_materials::{Flags, ParamError, Rgb};
+use lobe_materials::{Flags, ParamError};
 use serde_json::json;
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -27,12 +29,22 @@ struct RetroPhong {
     n: f64,
 }
 
-impl RetroPhong {
-    fn value(&self, wo: DVec3, wi: DVec3) -> f64 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        (self.n + 2.0) / (2.0 * PI) * wo.dot(wi).max(0.0).powf(self.n)
+/// The model's formulas, each written once over `Num` (f64 for the fitter, f32 and lanes
+/// for the renderer): branches are masks and `select`.
+impl GenericLobe for RetroPhong {
+    fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let zero = T::of(0.0);
+        let v = T::of((self.n + 2.0) / (2.0 * PI)) * powf(maximum(wo.dot(wi), zero), T::of(self.n));
+        select(gt(wo.z, zero) & gt(wi.z, zero), v, zero)
+    }
+    /// Cosine-weighted: any density covering the lobe is a valid sampler.
+    fn density<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let zero = T::of(0.0);
+        select(gt(wo.z, zero), cosine_hemisphere_pdf(wi.z), zero)
+    }
+    fn draw<T: Num>(&self, wo: V3<T>, ux: T, uy: T, _uc: T) -> (V3<T>, T::Mask) {
+        let [x, y, z] = cosine_hemisphere(ux, uy);
+        (V3::new(x, y, z), gt(wo.z, T::of(0.0)) & gt(z, T::of(0.0)))
     }
 }
 
@@ -40,32 +52,8 @@ impl Lobe for RetroPhong {
     fn model(&self) -> &'static str {
         "retro-phong"
     }
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        Rgb::splat(self.value(wo.as_dvec3(), wi.as_dvec3()) as f32)
-    }
-    fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
-        [self.value(wo, wi); 3]
-    }
-    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
-        // Cosine-weighted: any density covering the lobe is a valid sampler.
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let r = u.x.sqrt();
-        let phi = 2.0 * std::f32::consts::PI * u.y;
-        Some(Vec3::new(
-            r * phi.cos(),
-            r * phi.sin(),
-            (1.0 - u.x).max(0.0).sqrt(),
-        ))
-    }
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            0.0
-        } else {
-            wi.z / std::f32::consts::PI
-        }
-    }
+    // eval, eval_f64, pdf, sample and their lane forms, from the formulas above.
+    lobe_materials::impl_lobe_forms!();
     fn flags(&self) -> Flags {
         Flags::ISOTROPIC | Flags::RECIPROCAL | Flags::GLOSSY
     }
@@ -148,5 +136,39 @@ fn a_model_registered_by_the_caller_is_fitted_and_loaded_from_its_report() {
     assert!(
         e.message.contains("unknown model \"retro-phong\"") && e.message.contains("ward"),
         "{e}"
+    );
+}
+
+/// The formulas written once give lane entry points equal to the scalar ones, bit for bit.
+#[test]
+fn the_lane_forms_of_a_model_written_once_equal_its_scalar_forms() {
+    use glam::Vec2;
+    use lobe_materials::simd::{LANES, Vec3xN, lanes};
+    let lobe = RetroPhong { n: 25.0 };
+    let dir = |k: usize, s: f32| {
+        let a = 0.37 * k as f32 + s;
+        Vec3::new(a.cos() * 0.6, a.sin() * 0.6, 0.8 - 0.1 * (k % 3) as f32 - s).normalize()
+    };
+    let wo: [Vec3; LANES] = lanes(|k| dir(k, 0.0));
+    let wi: [Vec3; LANES] = lanes(|k| dir(k, if k % 4 == 0 { 0.9 } else { 0.1 }));
+    let (f, p) = lobe.eval_pdf_xn(Vec3xN::from_array(&wo), Vec3xN::from_array(&wi));
+    let u: [Vec2; LANES] = lanes(|k| Vec2::new(k as f32 / LANES as f32, 0.77 - 0.04 * k as f32));
+    let uc = [0.5; LANES];
+    let drawn = lobe.sample_xn(&wo, &u, &uc);
+    let (f, p) = (f.to_array(), p.to_array());
+    let mut lit = 0;
+    for k in 0..LANES {
+        assert_eq!(
+            f[k].to_array(),
+            lobe.eval(wo[k], wi[k]).to_array(),
+            "lane {k}"
+        );
+        assert_eq!(p[k].to_bits(), lobe.pdf(wo[k], wi[k]).to_bits(), "lane {k}");
+        assert_eq!(drawn[k], lobe.sample(wo[k], u[k], uc[k]), "lane {k}");
+        lit += (f[k].to_array()[0] > 0.0) as usize;
+    }
+    assert!(
+        lit > 0,
+        "every lane below the surface: the test would check nothing"
     );
 }

@@ -19,15 +19,13 @@
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::fresnel::schlick;
 use super::microfacet::{beckmann_d_anisotropic, cosine_power_beckmann_m, visible};
-use crate::lobe::{self, Lobe, half_to_incident_pdf, sample_via_half};
-use crate::math::{Num, V3, gt, half, is_finite, le, maximum, powf, select, sqrt};
+use crate::lobe::{self, GenericLobe, Lobe};
+use crate::math::{Num, V3, gt, is_finite, le, maximum, powf, select, sqrt};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, ParamSpec, Params,
     PublishedFit,
 };
-use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
-use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
 #[derive(Clone, Debug)]
@@ -49,10 +47,21 @@ impl AshikhminShirley {
         select(le(s2, T::of(1e-12)), T::of(self.nu), e)
     }
 
-    /// The lobe, written once for f64, f32 and lanes: zero below the surface, where the
-    /// half vector is behind either direction, and where the value overflows.
+    /// Roughness (tangent, bitangent) of the anisotropic Beckmann distribution whose
+    /// visible normals sample the lobe: per axis, the one whose peak matches the cosine
+    /// power of that axis's exponent ([`cosine_power_beckmann_m`]).
+    #[inline]
+    fn proposal_roughness<T: Num>(&self) -> (T, T) {
+        let m = |n: f64| T::of(cosine_power_beckmann_m(n.max(0.0)) as f64);
+        (m(self.nu), m(self.nv))
+    }
+}
+
+impl GenericLobe for AshikhminShirley {
+    /// The lobe: zero below the surface, where the half vector is behind either
+    /// direction, and where the value overflows.
     #[inline(always)]
-    pub fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+    fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
         let (zero, one) = (T::of(0.0), T::of(1.0));
         let (h, has_half) = lobe::half_where(wo, wi);
         let kh = wi.dot(h);
@@ -64,21 +73,19 @@ impl AshikhminShirley {
         select(lit & is_finite(v), v, zero)
     }
 
-    /// Roughness (tangent, bitangent) of the anisotropic Beckmann distribution whose
-    /// visible normals sample the lobe: per axis, the one whose peak matches the cosine
-    /// power of that axis's exponent ([`cosine_power_beckmann_m`]).
-    #[inline]
-    fn proposal_roughness(&self) -> (f32, f32) {
-        let m = |n: f64| cosine_power_beckmann_m(n.max(0.0));
-        (m(self.nu), m(self.nv))
+    /// The visible-normal density of the half vector over 4 wo.h.
+    #[inline(always)]
+    fn density<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let (mx, my) = self.proposal_roughness();
+        lobe::reflected_pdf(wo, wi, |h| {
+            visible::pdf(mx, my, wo, h, beckmann_d_anisotropic(mx, my, h))
+        })
     }
 
-    /// The density (solid angle of h) of the sampled half vectors seen from `wo`, per lane.
     #[inline(always)]
-    fn pdf_h_xn(&self, wo: Vec3xN, h: Vec3xN) -> f32xn {
+    fn draw<T: Num>(&self, wo: V3<T>, ux: T, uy: T, _uc: T) -> (V3<T>, T::Mask) {
         let (mx, my) = self.proposal_roughness();
-        let (mx, my) = (f32xn::splat(mx), f32xn::splat(my));
-        visible::pdf(mx, my, wo, h, beckmann_d_anisotropic(mx, my, h))
+        lobe::reflect_above(wo, visible::sample(mx, my, wo, ux, uy))
     }
 }
 
@@ -86,50 +93,7 @@ impl Lobe for AshikhminShirley {
     fn model(&self) -> &'static str {
         "ashikhmin-shirley"
     }
-    crate::impl_lobe_eval!();
-
-    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let (mx, my) = self.proposal_roughness();
-        sample_via_half(wo, visible::sample_one(mx, my, wo, u))
-    }
-
-    fn sample_xn(
-        &self,
-        wo: &[Vec3; LANES],
-        u: &[Vec2; LANES],
-        _uc: &[f32; LANES],
-    ) -> [Option<Vec3>; LANES] {
-        let [ux, uy] = simd::vec2s(u);
-        let wo = Vec3xN::from_array(wo);
-        let (mx, my) = self.proposal_roughness();
-        let h = visible::sample(f32xn::splat(mx), f32xn::splat(my), wo, ux, uy);
-        lobe::xn::sample_via_half(wo, h)
-    }
-
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let Some(h) = half::<f32>(wo.into(), wi.into()) else {
-            return 0.0;
-        };
-        let h = Vec3::from(h);
-        let ph = self
-            .pdf_h_xn(Vec3xN::splat(wo), Vec3xN::splat(h))
-            .to_array()[0];
-        half_to_incident_pdf(ph, wo.dot(h))
-    }
-
-    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let v = self.value(wo, wi);
-        let (h, has_half) = lobe::half_where(wo, wi);
-        let ok = lobe::both_above(wo, wi) & has_half;
-        let p = lobe::half_to_incident_pdf(self.pdf_h_xn(wo, h), wo.dot(h));
-        (RgbxN::new(v, v, v), sel(ok, p, f32xn::splat(0.0)))
-    }
+    crate::impl_lobe_forms!();
 
     fn flags(&self) -> Flags {
         // The specular lobe's albedo stays below its Fresnel factor (AS 2000, sec. 3).

@@ -18,14 +18,12 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::Distribution;
-use crate::lobe::{self, Lobe, half_to_incident_pdf, sample_via_half};
-use crate::math::{Num, V3, half, le, maximum, powf, select};
+use crate::lobe::{self, GenericLobe, Lobe};
+use crate::math::{Num, V3, le, maximum, powf, select};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
-use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
 
@@ -50,10 +48,12 @@ impl BlinnPhong {
     fn distribution(&self) -> Distribution {
         Distribution::CosinePower { n: self.n.max(0.0) }
     }
+}
 
-    /// The lobe, written once for f64, f32 and lanes (zero below the surface).
+impl GenericLobe for BlinnPhong {
+    /// The lobe (zero below the surface).
     #[inline(always)]
-    pub fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+    fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
         let zero = T::of(0.0);
         let (h, has_half) = lobe::half_where(wo, wi);
         let n = T::of(self.n);
@@ -61,53 +61,23 @@ impl BlinnPhong {
             * powf(maximum(h.z, zero), n);
         select(lobe::both_above(wo, wi) & has_half, v, zero)
     }
+
+    #[inline(always)]
+    fn density<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        self.distribution().pdf_reflected(wo, wi)
+    }
+
+    #[inline(always)]
+    fn draw<T: Num>(&self, wo: V3<T>, ux: T, uy: T, _uc: T) -> (V3<T>, T::Mask) {
+        self.distribution().sample_reflected(wo, ux, uy)
+    }
 }
 
 impl Lobe for BlinnPhong {
     fn model(&self) -> &'static str {
         "blinn-phong"
     }
-    crate::impl_lobe_eval!();
-
-    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        sample_via_half(wo, self.distribution().sample_visible(wo, u))
-    }
-
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let Some(h) = half::<f32>(wo.into(), wi.into()) else {
-            return 0.0;
-        };
-        let h: Vec3 = h.into();
-        half_to_incident_pdf(self.distribution().pdf_visible(wo, h), wo.dot(h))
-    }
-
-    fn sample_xn(
-        &self,
-        wo: &[Vec3; LANES],
-        u: &[Vec2; LANES],
-        _uc: &[f32; LANES],
-    ) -> [Option<Vec3>; LANES] {
-        let [ux, uy] = simd::vec2s(u);
-        let wo = Vec3xN::from_array(wo);
-        let h = self.distribution().sample_visible_xn(wo, ux, uy);
-        lobe::xn::sample_via_half(wo, h)
-    }
-
-    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let zero = f32xn::splat(0.0);
-        let v = self.value(wo, wi);
-        let (h, has_half) = lobe::half_where(wo, wi);
-        let ok = lobe::both_above(wo, wi) & has_half;
-        let p_h = self.distribution().pdf_visible_xn(wo, h);
-        let p = lobe::half_to_incident_pdf(p_h, wo.dot(h));
-        (RgbxN::new(v, v, v), sel(ok, p, zero))
-    }
+    crate::impl_lobe_forms!();
 
     fn flags(&self) -> Flags {
         Flags::ISOTROPIC | Flags::RECIPROCAL | Flags::GLOSSY

@@ -17,14 +17,12 @@
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
 use super::microfacet::fresnel::{FRESNELS, Fresnel};
 use super::microfacet::{DISTRIBUTIONS, Distribution, vgroove_g};
-use crate::lobe::{self, Lobe, half_to_incident_pdf, sample_via_half};
-use crate::math::{Num, V3, eq, half, is_finite, maximum, select};
+use crate::lobe::{self, GenericLobe, Lobe};
+use crate::math::{Num, V3, eq, is_finite, maximum, select};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
-use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
 #[derive(Clone, Debug)]
@@ -40,11 +38,13 @@ impl CookTorrance {
             fresnel,
         }
     }
+}
 
-    /// D G F / (pi cos_i cos_o), written once for f64, f32 and lanes: zero below the
-    /// surface, where D vanishes, and where the value overflows.
+impl GenericLobe for CookTorrance {
+    /// D G F / (pi cos_i cos_o): zero below the surface, where D vanishes, and where the
+    /// value overflows.
     #[inline(always)]
-    pub fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+    fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
         let zero = T::of(0.0);
         let (h, has_half) = lobe::half_where(wo, wi);
         let (co, ci, ch, oh) = (wo.z, wi.z, h.z, wo.dot(h));
@@ -55,51 +55,23 @@ impl CookTorrance {
         let ok = lobe::both_above(wo, wi) & has_half & !eq(d, zero) & is_finite(v);
         select(ok, maximum(v, zero), zero)
     }
+
+    #[inline(always)]
+    fn density<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        self.distribution.pdf_reflected(wo, wi)
+    }
+
+    #[inline(always)]
+    fn draw<T: Num>(&self, wo: V3<T>, ux: T, uy: T, _uc: T) -> (V3<T>, T::Mask) {
+        self.distribution.sample_reflected(wo, ux, uy)
+    }
 }
 
 impl Lobe for CookTorrance {
     fn model(&self) -> &'static str {
         "cook-torrance"
     }
-    crate::impl_lobe_eval!();
-
-    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        sample_via_half(wo, self.distribution.sample_visible(wo, u))
-    }
-
-    fn sample_xn(
-        &self,
-        wo: &[Vec3; LANES],
-        u: &[Vec2; LANES],
-        _uc: &[f32; LANES],
-    ) -> [Option<Vec3>; LANES] {
-        let [ux, uy] = simd::vec2s(u);
-        let wo = Vec3xN::from_array(wo);
-        let h = self.distribution.sample_visible_xn(wo, ux, uy);
-        lobe::xn::sample_via_half(wo, h)
-    }
-
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let Some(h) = half::<f32>(wo.into(), wi.into()) else {
-            return 0.0;
-        };
-        let h = Vec3::from(h);
-        half_to_incident_pdf(self.distribution.pdf_visible(wo, h), wo.dot(h))
-    }
-
-    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let v = self.value(wo, wi);
-        let (h, has_half) = lobe::half_where(wo, wi);
-        let ok = lobe::both_above(wo, wi) & has_half;
-        let p = lobe::half_to_incident_pdf(self.distribution.pdf_visible_xn(wo, h), wo.dot(h));
-        (RgbxN::new(v, v, v), sel(ok, p, f32xn::splat(0.0)))
-    }
+    crate::impl_lobe_forms!();
 
     fn flags(&self) -> Flags {
         // Reciprocal (symmetric in wo, wi); not energy-bounded: the 1/pi normalization is

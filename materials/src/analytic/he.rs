@@ -37,9 +37,9 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
 use super::he_shadowing;
 use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
-use super::microfacet::{Distribution, MIN_ROUGHNESS, beckmann_visible_pdf_xn, visible};
+use super::microfacet::{Distribution, MIN_ROUGHNESS, beckmann_visible_pdf, visible};
 use crate::fastmath::{self, xn};
-use crate::lobe::{self, Lobe, above, half_to_incident_pdf, sample_via_half};
+use crate::lobe::{self, Lobe, above, half_to_incident_pdf};
 use crate::math::{Real, V3, half};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
@@ -426,7 +426,9 @@ impl Lobe for He {
         }
         let ([a, b], w) = self.proposal_mixture(wo);
         let m = if uc < w as f32 { a } else { b };
-        sample_via_half(wo, Distribution::Beckmann { m }.sample_visible(wo, u))
+        let h = Distribution::Beckmann { m }.sample_visible::<f32>(wo.into(), u.x, u.y);
+        let (wi, ok) = lobe::reflect_above(wo.into(), h);
+        ok.then(|| wi.into())
     }
 
     /// [`He::sample`] in lanes: each lane's proposal (its roughness depends on `wo`) one
@@ -444,7 +446,8 @@ impl Lobe for He {
         let [ux, uy] = simd::vec2s(u);
         let m = f32xn::new(m);
         let wo = Vec3xN::from_array(wo);
-        lobe::xn::sample_via_half(wo, visible::sample(m, m, wo, ux, uy))
+        let (wi, ok) = lobe::reflect_above(wo, visible::sample(m, m, wo, ux, uy));
+        wi.options(ok)
     }
 
     /// The value in lanes ([`He::value_xn`]), `pdf` in lanes: each lane's proposal
@@ -460,7 +463,7 @@ impl Lobe for He {
         let mix = simd::lanes(|k| self.proposal_mixture(o[k]));
         let pdf_h = |j: usize| {
             let m = f32xn::new(simd::lanes(|k| mix[k].0[j] as f32));
-            beckmann_visible_pdf_xn(m, wo, h)
+            beckmann_visible_pdf(m, wo, h)
         };
         let w = f32xn::new(simd::lanes(|k| mix[k].1 as f32));
         let p_h = w * pdf_h(0) + (f32xn::splat(1.0) - w) * pdf_h(1);
@@ -482,7 +485,8 @@ impl Lobe for He {
             Distribution::Beckmann { m: a },
             Distribution::Beckmann { m: b },
         );
-        let p_h = w * a.pdf_visible(wo, h) + (1.0 - w) * b.pdf_visible(wo, h);
+        let (wo3, h3) = (V3::from(wo), V3::from(h));
+        let p_h = w * a.pdf_visible(wo3, h3) + (1.0 - w) * b.pdf_visible(wo3, h3);
         let p = half_to_incident_pdf(p_h, wo.dot(h));
         if p.is_finite() { p } else { 0.0 }
     }

@@ -15,16 +15,13 @@
 
 use super::blinn_phong::cos_power_pdf;
 use super::common::{DIFFUSE, SPECULAR, lobe_param, setting};
-use crate::fastmath::{self, xn};
-use crate::frame::{self, Frame};
-use crate::lobe::{self, Lobe};
-use crate::math::{Num, V3, gt, is_finite, le, minimum, powf, select};
+use crate::frame;
+use crate::lobe::{self, GenericLobe, Lobe};
+use crate::math::{Num, V3, gt, is_finite, le, minimum, powf, select, sqrt};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
-use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
 #[derive(Clone, Debug)]
@@ -42,10 +39,25 @@ impl Lafortune {
         self.cx.abs().max(self.cy.abs()).max(self.cz.abs())
     }
 
-    /// The lobe, written once for f64, f32 and lanes: zero below the surface, where the
-    /// generalized cosine is not positive, and where the power overflows.
+    /// The generalized mirror direction of `wo`, normalized as glam's `try_normalize`
+    /// (times the reciprocal length), and where it exists.
     #[inline(always)]
-    pub fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+    fn axis<T: Num>(&self, wo: V3<T>) -> (V3<T>, T::Mask) {
+        let a = V3::new(
+            T::of(self.cx) * wo.x,
+            T::of(self.cy) * wo.y,
+            T::of(self.cz) * wo.z,
+        );
+        let rcp = T::of(1.0) / sqrt(a.length_squared());
+        (a * rcp, is_finite(rcp) & gt(rcp, T::of(0.0)))
+    }
+}
+
+impl GenericLobe for Lafortune {
+    /// The lobe: zero below the surface, where the generalized cosine is not positive,
+    /// and where the power overflows.
+    #[inline(always)]
+    fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
         let zero = T::of(0.0);
         let s = T::of(self.cx) * wi.x * wo.x
             + T::of(self.cy) * wi.y * wo.y
@@ -66,14 +78,23 @@ impl Lafortune {
         )
     }
 
-    /// The generalized mirror direction of `wo`.
-    fn axis(&self, wo: Vec3) -> Option<Vec3> {
-        Vec3::new(
-            self.cx as f32 * wo.x,
-            self.cy as f32 * wo.y,
-            self.cz as f32 * wo.z,
-        )
-        .try_normalize()
+    /// The cosine-power density about the axis.
+    #[inline(always)]
+    fn density<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let (axis, has_axis) = self.axis(wo);
+        let p = cos_power_pdf(self.n as f32, axis.dot(wi));
+        select(lobe::both_above(wo, wi) & has_axis, p, T::of(0.0))
+    }
+
+    /// A cosine-power direction about the axis, kept above the surface.
+    #[inline(always)]
+    fn draw<T: Num>(&self, wo: V3<T>, ux: T, uy: T, _uc: T) -> (V3<T>, T::Mask) {
+        let zero = T::of(0.0);
+        let (axis, has_axis) = self.axis(wo);
+        let n = self.n as f32;
+        let local = lobe::half_from(powf(uy, T::of((1.0 / (n + 1.0)) as f64)), ux);
+        let wi = frame::to_world_of_normal(axis, local);
+        (wi, gt(wo.z, zero) & has_axis & gt(wi.z, zero))
     }
 }
 
@@ -81,66 +102,7 @@ impl Lobe for Lafortune {
     fn model(&self) -> &'static str {
         "lafortune"
     }
-    crate::impl_lobe_eval!();
-
-    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let axis = self.axis(wo)?;
-        let n = self.n as f32;
-        let local = lobe::half_from(fastmath::powf(u.y, 1.0 / (n + 1.0)), u.x);
-        let wi = Frame::from_normal(axis).to_world(local);
-        (wi.z > 0.0).then_some(wi)
-    }
-
-    /// [`Lafortune::sample`] of `LANES` queries in lanes, bit for bit the same.
-    fn sample_xn(
-        &self,
-        wo: &[Vec3; LANES],
-        u: &[Vec2; LANES],
-        _uc: &[f32; LANES],
-    ) -> [Option<Vec3>; LANES] {
-        let s = f32xn::splat;
-        let o = Vec3xN::from_array(wo);
-        // `axis`: the scaled direction, normalized as glam's `try_normalize`.
-        let a = Vec3xN::new(
-            s(self.cx as f32) * o.x,
-            s(self.cy as f32) * o.y,
-            s(self.cz as f32) * o.z,
-        );
-        let rcp = s(1.0) / a.length_squared().sqrt();
-        let has_axis = rcp.is_finite() & rcp.simd_gt(s(0.0));
-        let axis = a * rcp;
-        let [ux, uy] = simd::vec2s(u);
-        let n = self.n as f32;
-        let local = lobe::xn::half_from(xn::powf(uy, s(1.0 / (n + 1.0))), ux);
-        let wi = frame::xn::to_world_of_normal(axis, local);
-        wi.options(o.z.simd_gt(s(0.0)) & has_axis & wi.z.simd_gt(s(0.0)))
-    }
-
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        match self.axis(wo) {
-            Some(axis) => cos_power_pdf(self.n as f32, axis.dot(wi)),
-            None => 0.0,
-        }
-    }
-
-    /// [`Lafortune::value`] and [`Lobe::pdf`] in SIMD lanes, operation for operation.
-    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let s = f32xn::splat;
-        let v = self.value(wo, wi);
-        let (cx, cy, cz) = (s(self.cx as f32), s(self.cy as f32), s(self.cz as f32));
-        let axis = Vec3xN::new(cx * wo.x, cy * wo.y, cz * wo.z).normalize_or_zero();
-        let p = cos_power_pdf(self.n as f32, axis.dot(wi));
-        (
-            RgbxN::new(v, v, v),
-            sel(lobe::both_above(wo, wi), p, s(0.0)),
-        )
-    }
+    crate::impl_lobe_forms!();
 
     fn flags(&self) -> Flags {
         let iso = if self.cx == self.cy {

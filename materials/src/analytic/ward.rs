@@ -17,14 +17,12 @@
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::microfacet::{MIN_ROUGHNESS, visible};
-use crate::lobe::{self, Lobe, sample_via_half};
-use crate::math::{Num, V3, eq, exp, gt, is_finite, maximum, select, sqrt};
+use crate::lobe::{self, GenericLobe, Lobe};
+use crate::math::{Num, V3, eq, exp, gt, is_finite, le, maximum, select, sqrt};
 use crate::schema::{
     Bounds, Contains, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Flags, ParamError};
-use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
 
@@ -62,10 +60,17 @@ impl Ward {
         (h.x * h.x / (ax * ax) + h.y * h.y / (ay * ay)) / (h.z * h.z)
     }
 
-    /// The lobe, written once for f64, f32 and lanes: zero below the surface, where the
-    /// half vector points down, where the exponential underflows or the value overflows.
+    /// The roughness (tangent, bitangent) of the visible-normal proposal.
+    fn roughness<T: Num>(&self) -> (T, T) {
+        (T::of(self.alpha_x), T::of(self.alpha_y))
+    }
+}
+
+impl GenericLobe for Ward {
+    /// The lobe: zero below the surface, where the half vector points down, where the
+    /// exponential underflows or the value overflows.
     #[inline(always)]
-    pub fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+    fn value<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
         let zero = T::of(0.0);
         let h = wo + wi;
         let e = exp(-self.exponent(h));
@@ -81,27 +86,25 @@ impl Ward {
         select(ok, v, zero)
     }
 
-    /// The roughness (tangent, bitangent) of the visible-normal proposal.
-    fn roughness<T: Num>(&self) -> (T, T) {
-        (T::of(self.alpha_x), T::of(self.alpha_y))
+    /// The visible-normal density of the half vector (Ward's exp(-tan^2 ...) / (pi ax ay
+    /// cos^4) is Beckmann's D) over 4 wo.h.
+    #[inline(always)]
+    fn density<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let zero = T::of(0.0);
+        let norm = T::of((PI * (self.alpha_x * self.alpha_y) as f32) as f64);
+        let (mx, my) = self.roughness();
+        let p = lobe::reflected_pdf(wo, wi, |h| {
+            let d = exp(-self.exponent(h)) / (norm * (h.z * h.z) * (h.z * h.z));
+            visible::pdf(mx, my, wo, h, select(le(h.z, zero), zero, d))
+        });
+        select(is_finite(p), p, zero)
     }
 
-    /// The density of [`Lobe::sample`]'s `wi` per lane: the visible-normal density of
-    /// the half vector (Ward's exp(-tan^2 ...) / (pi ax ay cos^4) is Beckmann's D) over
-    /// 4 wo.h.
+    /// A visible normal of the anisotropic Beckmann distribution, reflected.
     #[inline(always)]
-    fn pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
-        let s = f32xn::splat;
-        let zero = s(0.0);
-        let (hn, has_half) = lobe::half_where(wo, wi);
-        let d = exp(-self.exponent(hn))
-            / (s(PI * (self.alpha_x * self.alpha_y) as f32) * (hn.z * hn.z) * (hn.z * hn.z));
-        let d = sel(hn.z.simd_le(zero), zero, d);
+    fn draw<T: Num>(&self, wo: V3<T>, ux: T, uy: T, _uc: T) -> (V3<T>, T::Mask) {
         let (mx, my) = self.roughness();
-        let ph = visible::pdf(mx, my, wo, hn, d);
-        let p = lobe::half_to_incident_pdf(ph, wo.dot(hn));
-        let valid = lobe::both_above(wo, wi) & has_half & p.is_finite();
-        sel(valid, p, zero)
+        lobe::reflect_above(wo, visible::sample(mx, my, wo, ux, uy))
     }
 }
 
@@ -109,37 +112,7 @@ impl Lobe for Ward {
     fn model(&self) -> &'static str {
         if self.duer { "ward-duer" } else { "ward" }
     }
-    crate::impl_lobe_eval!();
-
-    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<Vec3> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let (ax, ay) = (self.alpha_x as f32, self.alpha_y as f32);
-        sample_via_half(wo, visible::sample_one(ax, ay, wo, u))
-    }
-
-    fn sample_xn(
-        &self,
-        wo: &[Vec3; LANES],
-        u: &[Vec2; LANES],
-        _uc: &[f32; LANES],
-    ) -> [Option<Vec3>; LANES] {
-        let [ux, uy] = simd::vec2s(u);
-        let wo = Vec3xN::from_array(wo);
-        let (mx, my) = self.roughness();
-        lobe::xn::sample_via_half(wo, visible::sample(mx, my, wo, ux, uy))
-    }
-
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        // One lane of the lane form, so that both agree bit for bit.
-        self.pdf_xn(Vec3xN::splat(wo), Vec3xN::splat(wi)).to_array()[0]
-    }
-
-    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let v = self.value(wo, wi);
-        (RgbxN::new(v, v, v), self.pdf_xn(wo, wi))
-    }
+    crate::impl_lobe_forms!();
 
     fn flags(&self) -> Flags {
         let iso = if self.alpha_x == self.alpha_y {

@@ -11,9 +11,7 @@
 
 use crate::fastmath::{self, xn};
 use crate::sampling::cdf::Cdf2D;
-use crate::sampling::warp::{
-    cosine_hemisphere_pdf, cosine_hemisphere_pdf_xn, square_to_cosine_hemisphere,
-};
+use crate::sampling::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 use crate::simd::{self, Vec3xN, f32xn, i32xn, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -144,7 +142,7 @@ impl TabulatedSampler {
         let dphi = x - s(PI);
         let ip = bin(dphi.abs() / s(PI) * s(N_PHI as f32), N_PHI);
         let cell = (io * i32xn::splat(N_THETA as i32) + it) * i32xn::splat(N_PHI as i32) + ip;
-        let cos = cosine_hemisphere_pdf_xn(wi.z);
+        let cos = cosine_hemisphere_pdf(wi.z);
         let mixed =
             s(COSINE_FRACTION) * cos + s(1.0 - COSINE_FRACTION) * simd::gather(&self.density, cell);
         let io = io.to_array();

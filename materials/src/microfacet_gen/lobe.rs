@@ -106,8 +106,8 @@ impl SampledMicrofacet {
             .sample_visible_xn(wo, xy.map(|[x, _]| x), xy.map(|[_, y]| y));
         std::array::from_fn(|g| {
             let (h, drawn) = h[g];
-            let drawn = drawn & wo[g].z.simd_gt(f32xn::splat(0.0));
-            lobe::xn::sample_via_half_where(drawn, wo[g], h)
+            let (wi, ok) = lobe::reflect_above(wo[g], h);
+            wi.options(drawn & ok)
         })
     }
 

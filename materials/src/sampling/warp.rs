@@ -6,8 +6,6 @@
 //! beta = 2) that weighs two such strategies in multiple importance sampling.
 
 use crate::math::{Num, abs, eq, gt, maximum, minimum, select, sin_cos, sqrt};
-use crate::simd;
-use crate::simd::f32xn;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI, TAU};
 
@@ -52,16 +50,10 @@ pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
     Vec3::from_array(cosine_hemisphere(u.x, u.y))
 }
 
-#[inline]
-pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    // `max_lane`: the same as the SIMD forms' `max` for -0.0 too.
-    simd::max_lane(cos_theta, 0.0) * FRAC_1_PI
-}
-
-/// [`cosine_hemisphere_pdf`] per lane.
+/// Density of [`cosine_hemisphere`] (solid angle): max(cos theta, 0) / pi.
 #[inline(always)]
-pub fn cosine_hemisphere_pdf_xn(cos_theta: f32xn) -> f32xn {
-    cos_theta.max(f32xn::splat(0.0)) * f32xn::splat(FRAC_1_PI)
+pub fn cosine_hemisphere_pdf<T: Num>(cos_theta: T) -> T {
+    maximum(cos_theta, T::of(0.0)) * T::of(FRAC_1_PI as f64)
 }
 
 /// Uniform direction on the unit sphere.
@@ -144,7 +136,7 @@ pub fn square_to_bilinear(u: Vec2, w: [f32; 4]) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simd::LANES;
+    use crate::simd::{LANES, f32xn};
 
     #[test]
     fn warps_land_where_they_should() {

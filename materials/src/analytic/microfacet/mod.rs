@@ -13,9 +13,8 @@
 pub mod fresnel;
 pub mod visible;
 
+use crate::lobe;
 use crate::math::{Num, V3, acos, eq, exp, le, maximum, minimum, powf, select};
-use crate::simd::{Vec3xN, f32xn, sel};
-use glam::{Vec2, Vec3};
 
 /// A microfacet normal distribution.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -90,46 +89,44 @@ impl Distribution {
         }
     }
 
-    /// Samples a half vector seen from `wo` (local frame, wo.z > 0): Beckmann's visible
-    /// normals ([`visible`]) of [`Distribution::visible_m`]. Lane 0 of
-    /// [`Distribution::sample_visible_xn`].
-    #[inline]
-    pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Vec3 {
-        let m = self.visible_m();
-        visible::sample_one(m, m, wo, u)
-    }
-
-    /// [`Distribution::sample_visible`] per lane.
+    /// Samples a half vector seen from `wo` (local frame, wo.z > 0) from uniforms
+    /// (`ux`, `uy`): Beckmann's visible normals ([`visible`]) of
+    /// [`Distribution::visible_m`].
     #[inline(always)]
-    pub fn sample_visible_xn(&self, wo: Vec3xN, ux: f32xn, uy: f32xn) -> Vec3xN {
-        let m = f32xn::splat(self.visible_m());
+    pub fn sample_visible<T: Num>(&self, wo: V3<T>, ux: T, uy: T) -> V3<T> {
+        let m = T::of(self.visible_m() as f64);
         visible::sample(m, m, wo, ux, uy)
     }
 
-    /// Density of [`Distribution::sample_visible`] (solid angle of h). Lane 0 of
-    /// [`Distribution::pdf_visible_xn`].
-    #[inline]
-    pub fn pdf_visible(&self, wo: Vec3, h: Vec3) -> f32 {
-        self.pdf_visible_xn(Vec3xN::splat(wo), Vec3xN::splat(h))
-            .to_array()[0]
+    /// Density of [`Distribution::sample_visible`] (solid angle of h).
+    #[inline(always)]
+    pub fn pdf_visible<T: Num>(&self, wo: V3<T>, h: V3<T>) -> T {
+        beckmann_visible_pdf(T::of(self.visible_m() as f64), wo, h)
     }
 
-    /// [`Distribution::pdf_visible`] per lane.
+    /// `wo` reflected about a visible normal ([`Distribution::sample_visible`]), and where
+    /// that is a sample ([`lobe::reflect_above`]).
     #[inline(always)]
-    pub fn pdf_visible_xn(&self, wo: Vec3xN, h: Vec3xN) -> f32xn {
-        beckmann_visible_pdf_xn(f32xn::splat(self.visible_m()), wo, h)
+    pub fn sample_reflected<T: Num>(&self, wo: V3<T>, ux: T, uy: T) -> (V3<T>, T::Mask) {
+        lobe::reflect_above(wo, self.sample_visible(wo, ux, uy))
+    }
+
+    /// Density (solid angle of `wi`) of [`Distribution::sample_reflected`]: the visible
+    /// normal's density over 4 wo.h (Walter et al. 2007, eq. 14), zero below the surface.
+    #[inline(always)]
+    pub fn pdf_reflected<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        lobe::reflected_pdf(wo, wi, |h| self.pdf_visible(wo, h))
     }
 }
 
-/// The density (solid angle of h) of Beckmann visible normals seen from `wo`, each lane its
-/// own isotropic roughness `m`: [`visible::pdf`] with D(h) squared-rounded as
-/// [`Distribution::d`] rounds it (`(m * m) as f32` in f64), zero for `h.z <= 0`.
+/// The density (solid angle of h) of Beckmann visible normals seen from `wo`, of isotropic
+/// roughness `m` (each lane its own): [`visible::pdf`] with D(h) of the squared roughness
+/// `m * m` (in f32 the rounding of [`Distribution::d`]'s `(m * m) as f32`: the product
+/// of two f32 is exact in f64), zero for `h.z <= 0`.
 #[inline(always)]
-pub fn beckmann_visible_pdf_xn(m: f32xn, wo: Vec3xN, h: Vec3xN) -> f32xn {
-    let zero = f32xn::splat(0.0);
-    let mm = m.to_array();
-    let m2 = f32xn::new(crate::simd::lanes(|k| (mm[k] as f64 * mm[k] as f64) as f32));
-    let d = sel(h.z.simd_le(zero), zero, beckmann_d(m2, h.z));
+pub fn beckmann_visible_pdf<T: Num>(m: T, wo: V3<T>, h: V3<T>) -> T {
+    let zero = T::of(0.0);
+    let d = select(le(h.z, zero), zero, beckmann_d(m * m, h.z));
     visible::pdf(m, m, wo, h, d)
 }
 

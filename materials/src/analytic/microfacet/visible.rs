@@ -24,8 +24,8 @@
 //! exp(-a^2) / (2 a sqrt(pi)), a = 1 / (m tan(theta_o)) (with m = |(mx cos phi_o, my sin
 //! phi_o)| when anisotropic).
 //!
-//! One form in lanes serves both paths: the scalar entry points run it on one lane, so
-//! one-at-a-time and batched sampling agree bit for bit. A lane's Newton iterate stops
+//! One form over [`Num`] serves both paths: instantiated for one f32 and for lanes, it
+//! makes one-at-a-time and batched sampling agree bit for bit. A lane's Newton iterate stops
 //! changing once its CDF is within a tolerance of the target, and the loop ends when all
 //! lanes have stopped, so a lane's result does not depend on its neighbours. `erf` is
 //! Abramowitz and Stegun's 7.1.26 (absolute error under 1.5e-7) and `erfinv` Giles'
@@ -35,37 +35,37 @@
 // The coefficients are the published decimal values, kept as printed.
 #![allow(clippy::excessive_precision)]
 
-use crate::fastmath::xn;
-use crate::simd::{Vec3xN, f32xn, sel};
-use glam::{Vec2, Vec3};
+use crate::math::{
+    Num, V3, abs, acos, all, exp, gt, is_finite, le, ln, lt, maximum, powf, select, sin_cos, sqrt,
+};
 
 /// Newton steps of the marginal's inversion at most: from the fitted guess, 6 steps bring
 /// the CDF within 1e-6 of the target everywhere (tested); most lanes stop earlier, once
 /// within [`TOLERANCE`].
 const NEWTON_STEPS: usize = 6;
 /// The CDF error at which a lane's inversion stops.
-const TOLERANCE: f32 = 2e-7;
+const TOLERANCE: f64 = 2e-7;
 
-/// erf(x) per lane (Abramowitz and Stegun 7.1.26, odd extension).
+/// erf(x) (Abramowitz and Stegun 7.1.26, odd extension).
 #[inline(always)]
-pub fn erf(x: f32xn) -> f32xn {
-    let s = f32xn::splat;
-    let a = x.abs();
+pub fn erf<T: Num>(x: T) -> T {
+    let s = T::of;
+    let a = abs(x);
     let t = s(1.0) / (s(1.0) + s(0.327_591_1) * a);
     let poly = ((((s(1.061_405_429) * t - s(1.453_152_027)) * t + s(1.421_413_741)) * t
         - s(0.284_496_736))
         * t
         + s(0.254_829_592))
         * t;
-    let y = s(1.0) - poly * xn::exp(-a * a);
-    sel(x.simd_lt(s(0.0)), -y, y)
+    let y = s(1.0) - poly * exp(-a * a);
+    select(lt(x, s(0.0)), -y, y)
 }
 
-/// erfinv(x) per lane for x in (-1, 1) (Giles' single-precision approximation).
+/// erfinv(x) for x in (-1, 1) (Giles' single-precision approximation).
 #[inline(always)]
-pub fn erfinv(x: f32xn) -> f32xn {
-    let s = f32xn::splat;
-    let w = -xn::ln((s(1.0) - x) * (s(1.0) + x));
+pub fn erfinv<T: Num>(x: T) -> T {
+    let s = T::of;
+    let w = -ln((s(1.0) - x) * (s(1.0) + x));
     let c = w - s(2.5);
     let central = [
         3.432_739_39e-7,
@@ -79,7 +79,7 @@ pub fn erfinv(x: f32xn) -> f32xn {
     ]
     .iter()
     .fold(s(2.810_226_36e-8), |p, &k| s(k) + p * c);
-    let t = w.sqrt() - s(3.0);
+    let t = sqrt(w) - s(3.0);
     let tail = [
         1.009_505_58e-4,
         1.349_343_22e-3,
@@ -92,113 +92,111 @@ pub fn erfinv(x: f32xn) -> f32xn {
     ]
     .iter()
     .fold(s(-2.002_142_57e-4), |p, &k| s(k) + p * t);
-    sel(w.simd_lt(s(5.0)), central, tail) * x
+    select(lt(w, s(5.0)), central, tail) * x
 }
 
-const FRAC_1_SQRT_PI: f32 = 0.564_189_6;
+/// 1 / sqrt(pi), rounded to f32 as the single-precision constant was.
+const FRAC_1_SQRT_PI: f64 = 0.564_189_6_f32 as f64;
 
 /// Smith's Lambda of the Beckmann distribution of roughness (`mx`, `my`) along the
 /// tangent and bitangent for direction `w` (w.z > 0): Lambda at a = w.z / |(mx w.x, my w.y)|.
 #[inline(always)]
-pub fn beckmann_lambda_dir(mx: f32xn, my: f32xn, w: Vec3xN) -> f32xn {
+pub fn beckmann_lambda_dir<T: Num>(mx: T, my: T, w: V3<T>) -> T {
     let (sx, sy) = (mx * w.x, my * w.y);
-    lambda_of(w.z / (sx * sx + sy * sy).sqrt())
+    lambda_of(w.z / sqrt(sx * sx + sy * sy))
 }
 
 /// Lambda(a) = (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi)).
 #[inline(always)]
-fn lambda_of(a: f32xn) -> f32xn {
-    let s = f32xn::splat;
-    let lambda = (erf(a) - s(1.0)) * s(0.5) + xn::exp(-a * a) / (s(2.0) * a) * s(FRAC_1_SQRT_PI);
+fn lambda_of<T: Num>(a: T) -> T {
+    let s = T::of;
+    let lambda = (erf(a) - s(1.0)) * s(0.5) + exp(-a * a) / (s(2.0) * a) * s(FRAC_1_SQRT_PI);
     // Straight up (a = inf) and far from grazing, nothing is masked.
-    sel(
-        a.simd_gt(s(9.0)) | !a.is_finite(),
+    select(
+        gt(a, s(9.0)) | !is_finite(a),
         s(0.0),
-        lambda.max(s(0.0)),
+        maximum(lambda, s(0.0)),
     )
 }
 
 /// The slope (x, y) of a visible facet of the roughness-1 Beckmann distribution seen from
 /// elevation cosine `cos_t` (in (0, 1]) and azimuth 0, from uniforms `u1`, `u2`.
 #[inline(always)]
-fn slope_11(cos_t: f32xn, u1: f32xn, u2: f32xn) -> (f32xn, f32xn) {
-    let s = f32xn::splat;
-    let u1 = u1.max(s(1e-6));
-    let sin_t = (s(1.0) - cos_t * cos_t).max(s(0.0)).sqrt();
+fn slope_11<T: Num>(cos_t: T, u1: T, u2: T) -> (T, T) {
+    let s = T::of;
+    let u1 = maximum(u1, s(1e-6));
+    let sin_t = sqrt(maximum(s(1.0) - cos_t * cos_t, s(0.0)));
     let tan_t = sin_t / cos_t;
-    let cot_t = cos_t / sin_t.max(s(1e-12));
+    let cot_t = cos_t / maximum(sin_t, s(1e-12));
     let (mut a, mut c) = (s(-1.0), erf(cot_t));
-    let theta = xn::acos(cos_t);
+    let theta = acos(cos_t);
     let fit = s(1.0) + theta * (s(-0.876) + theta * (s(0.4265) - s(0.0594) * theta));
-    let mut b = c - (s(1.0) + c) * xn::powf(s(1.0) - u1, fit);
-    let norm = s(1.0) / (s(1.0) + c + s(FRAC_1_SQRT_PI) * tan_t * xn::exp(-cot_t * cot_t));
+    let mut b = c - (s(1.0) + c) * powf(s(1.0) - u1, fit);
+    let norm = s(1.0) / (s(1.0) + c + s(FRAC_1_SQRT_PI) * tan_t * exp(-cot_t * cot_t));
     // A lane whose CDF is within TOLERANCE of its target keeps that iterate; the loop ends
     // when every lane has, which leaves each lane's result what it would be alone.
-    let mut done = s(1.0).simd_lt(s(0.0));
+    let mut done = lt(s(1.0), s(0.0));
     for _ in 0..NEWTON_STEPS {
         // Outside the bracket (or NaN): bisect.
-        let inside = b.simd_ge(a) & b.simd_le(c);
-        b = sel(inside, b, s(0.5) * (a + c));
+        let inside = le(a, b) & le(b, c);
+        b = select(inside, b, s(0.5) * (a + c));
         let inv = erfinv(b);
-        let value = norm * (s(1.0) + b + s(FRAC_1_SQRT_PI) * tan_t * xn::exp(-inv * inv)) - u1;
+        let value = norm * (s(1.0) + b + s(FRAC_1_SQRT_PI) * tan_t * exp(-inv * inv)) - u1;
         let derivative = norm * (s(1.0) - inv * tan_t);
-        done |= value.abs().simd_le(s(TOLERANCE));
-        let above = value.simd_gt(s(0.0));
-        c = sel(done | !above, c, b);
-        a = sel(done | above, a, b);
-        b = sel(done, b, b - value / derivative);
-        if done.all() {
+        done = done | le(abs(value), s(TOLERANCE));
+        let above = gt(value, s(0.0));
+        c = select(done | !above, c, b);
+        a = select(done | above, a, b);
+        b = select(done, b, b - value / derivative);
+        if all::<T>(done) {
             break;
         }
     }
-    let inside = b.simd_ge(a) & b.simd_le(c);
-    let b = sel(inside, b, s(0.5) * (a + c));
+    let inside = le(a, b) & le(b, c);
+    let b = select(inside, b, s(0.5) * (a + c));
     let x = erfinv(b);
-    let y = erfinv(s(2.0) * u2.max(s(1e-6)) - s(1.0));
+    let y = erfinv(s(2.0) * maximum(u2, s(1e-6)) - s(1.0));
     // At normal incidence the visible slopes are the slopes: a 2D normal of variance 1/2.
-    let r = (-xn::ln(s(1.0) - u1)).sqrt();
-    let (sin_p, cos_p) = xn::sin_cos_moderate(s(std::f32::consts::TAU) * u2);
-    let straight = cos_t.simd_gt(s(0.9999));
-    (sel(straight, r * cos_p, x), sel(straight, r * sin_p, y))
+    let r = sqrt(-ln(s(1.0) - u1));
+    let (sin_p, cos_p) = sin_cos(s(std::f32::consts::TAU as f64) * u2);
+    let straight = gt(cos_t, s(0.9999));
+    (
+        select(straight, r * cos_p, x),
+        select(straight, r * sin_p, y),
+    )
 }
 
 /// Half vectors of the Beckmann distribution of roughness (`mx`, `my`) along the tangent
 /// and bitangent (equal for an isotropic one) visible from `wo` (in the local frame,
 /// wo.z > 0), from uniforms (`u1`, `u2`) per lane.
 #[inline(always)]
-pub fn sample(mx: f32xn, my: f32xn, wo: Vec3xN, u1: f32xn, u2: f32xn) -> Vec3xN {
-    let s = f32xn::splat;
-    let stretched = Vec3xN::new(mx * wo.x, my * wo.y, wo.z).normalize();
+pub fn sample<T: Num>(mx: T, my: T, wo: V3<T>, u1: T, u2: T) -> V3<T> {
+    let s = T::of;
+    let stretched = V3::new(mx * wo.x, my * wo.y, wo.z).unit();
     let (sx, sy) = slope_11(stretched.z, u1, u2);
-    let sin_t = (stretched.x * stretched.x + stretched.y * stretched.y).sqrt();
-    let flat = sin_t.simd_le(s(1e-9));
-    let cos_p = sel(flat, s(1.0), stretched.x / sin_t);
-    let sin_p = sel(flat, s(0.0), stretched.y / sin_t);
+    let sin_t = sqrt(stretched.x * stretched.x + stretched.y * stretched.y);
+    let flat = le(sin_t, s(1e-9));
+    let cos_p = select(flat, s(1.0), stretched.x / sin_t);
+    let sin_p = select(flat, s(0.0), stretched.y / sin_t);
     let (rx, ry) = (cos_p * sx - sin_p * sy, sin_p * sx + cos_p * sy);
-    Vec3xN::new(-(mx * rx), -(my * ry), s(1.0)).normalize()
+    V3::new(-(mx * rx), -(my * ry), s(1.0)).unit()
 }
 
 /// The density of [`sample`]'s half vector `h` (solid angle of h): G1(wo) max(0, wo.h)
 /// D(h) / cos(theta_o), with the Beckmann distribution's `d` = D(h) given.
 #[inline(always)]
-pub fn pdf(mx: f32xn, my: f32xn, wo: Vec3xN, h: Vec3xN, d: f32xn) -> f32xn {
-    let s = f32xn::splat;
+pub fn pdf<T: Num>(mx: T, my: T, wo: V3<T>, h: V3<T>, d: T) -> T {
+    let s = T::of;
     let g1 = s(1.0) / (s(1.0) + beckmann_lambda_dir(mx, my, wo));
-    let v = g1 * wo.dot(h).max(s(0.0)) * d / wo.z;
-    sel(wo.z.simd_gt(s(0.0)) & v.is_finite(), v, s(0.0))
-}
-
-/// [`sample`] of one direction (lane 0 of the lane form, so it equals the batched result
-/// bit for bit).
-#[inline]
-pub fn sample_one(mx: f32, my: f32, wo: Vec3, u: Vec2) -> Vec3 {
-    let s = f32xn::splat;
-    sample(s(mx), s(my), Vec3xN::splat(wo), s(u.x), s(u.y)).lane(0)
+    let v = g1 * maximum(wo.dot(h), s(0.0)) * d / wo.z;
+    select(gt(wo.z, s(0.0)) & is_finite(v), v, s(0.0))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simd::{Vec3xN, f32xn};
+    use glam::Vec3;
 
     fn lane0(v: f32xn) -> f32 {
         v.to_array()[0]
