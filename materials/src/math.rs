@@ -7,7 +7,7 @@
 //! forms in lanes (so that the two agree bit for bit), the C library's in f64. [`Real`] is
 //! the scalar subset (f32, f64) over num-traits' `Float`, and [`V3`] the one 3-vector.
 
-use crate::simd::f32xn;
+use crate::simd::{f32xn, i32xn};
 use num_traits::{Float, FloatConst};
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
@@ -61,6 +61,28 @@ pub trait Num:
     fn num_ln(self) -> Self;
     /// The magnitude of `self` with the sign bit of `sign`.
     fn num_copysign(self, sign: Self) -> Self;
+    /// The largest integer not above `self` (`f32::floor`).
+    fn num_floor(self) -> Self;
+    /// `self * a + b` with one rounding (`f32::mul_add`; [`crate::simd::fmadd`] in lanes).
+    fn num_mul_add(self, a: Self, b: Self) -> Self;
+    /// An index per value (one i32, or [`crate::simd::i32xn`] lanes), for table lookups.
+    type Int: Copy + Add<Output = Self::Int> + Sub<Output = Self::Int> + Mul<Output = Self::Int>;
+    /// The index `i` (in every lane).
+    fn int(i: i32) -> Self::Int;
+    /// The smaller index (per lane).
+    fn int_min(a: Self::Int, b: Self::Int) -> Self::Int;
+    /// The larger index (per lane).
+    fn int_max(a: Self::Int, b: Self::Int) -> Self::Int;
+    /// `a` where `m` holds, else `b` (per lane).
+    fn int_select(m: Self::Mask, a: Self::Int, b: Self::Int) -> Self::Int;
+    /// `self` truncated toward zero to an index (for values in i32's range).
+    fn trunc_int(self) -> Self::Int;
+    /// The index as a number.
+    fn of_int(i: Self::Int) -> Self;
+    /// `table[i]` (per lane); an index outside the table panics.
+    fn gather(table: &[f32], i: Self::Int) -> Self;
+    /// `table[i..i + 4]` as four values (per lane): a node of a four-channel table.
+    fn gather4(table: &[f32], i: Self::Int) -> [Self; 4];
     /// Whether the condition holds everywhere (every lane).
     fn mask_all(m: Self::Mask) -> bool;
 }
@@ -162,6 +184,16 @@ pub fn ln<T: Num>(x: T) -> T {
 pub fn copysign<T: Num>(x: T, sign: T) -> T {
     x.num_copysign(sign)
 }
+/// `a * b + c` with one rounding ([`Num::num_mul_add`]).
+#[inline(always)]
+pub fn mul_add<T: Num>(a: T, b: T, c: T) -> T {
+    a.num_mul_add(b, c)
+}
+/// The largest integer not above `x` ([`Num::num_floor`]).
+#[inline(always)]
+pub fn floor<T: Num>(x: T) -> T {
+    x.num_floor()
+}
 /// Whether `m` holds in every lane ([`Num::mask_all`]).
 #[inline(always)]
 pub fn all<T: Num>(m: T::Mask) -> bool {
@@ -245,6 +277,49 @@ macro_rules! scalar_num {
             #[inline(always)]
             fn num_copysign(self, sign: Self) -> Self {
                 <$t>::copysign(self, sign)
+            }
+            #[inline(always)]
+            fn num_mul_add(self, a: Self, b: Self) -> Self {
+                <$t>::mul_add(self, a, b)
+            }
+            #[inline(always)]
+            fn num_floor(self) -> Self {
+                <$t>::floor(self)
+            }
+            type Int = i32;
+            #[inline(always)]
+            fn int(i: i32) -> i32 {
+                i
+            }
+            #[inline(always)]
+            fn int_min(a: i32, b: i32) -> i32 {
+                a.min(b)
+            }
+            #[inline(always)]
+            fn int_max(a: i32, b: i32) -> i32 {
+                a.max(b)
+            }
+            #[inline(always)]
+            fn int_select(m: bool, a: i32, b: i32) -> i32 {
+                if m { a } else { b }
+            }
+            #[inline(always)]
+            fn trunc_int(self) -> i32 {
+                self as i32
+            }
+            #[inline(always)]
+            fn of_int(i: i32) -> Self {
+                i as $t
+            }
+            #[inline(always)]
+            fn gather(table: &[f32], i: i32) -> Self {
+                table[i as usize] as $t
+            }
+            #[inline(always)]
+            fn gather4(table: &[f32], i: i32) -> [Self; 4] {
+                let i = i as usize;
+                let r = &table[i..i + 4];
+                [r[0] as $t, r[1] as $t, r[2] as $t, r[3] as $t]
             }
             #[inline(always)]
             fn mask_all(m: bool) -> bool {
@@ -347,6 +422,51 @@ impl Num for f32xn {
         crate::fastmath::xn::ln(self)
     }
     #[inline(always)]
+    fn num_mul_add(self, a: Self, b: Self) -> Self {
+        crate::simd::fmadd(self, a, b)
+    }
+    #[inline(always)]
+    fn num_floor(self) -> Self {
+        f32xn::floor(self)
+    }
+    type Int = i32xn;
+    #[inline(always)]
+    fn int(i: i32) -> i32xn {
+        i32xn::splat(i)
+    }
+    #[inline(always)]
+    fn int_min(a: i32xn, b: i32xn) -> i32xn {
+        a.min(b)
+    }
+    #[inline(always)]
+    fn int_max(a: i32xn, b: i32xn) -> i32xn {
+        a.max(b)
+    }
+    #[inline(always)]
+    fn int_select(m: Self, a: i32xn, b: i32xn) -> i32xn {
+        wide::Select::<i32xn>::select(m, a, b)
+    }
+    #[inline(always)]
+    fn trunc_int(self) -> i32xn {
+        f32xn::trunc_int(self)
+    }
+    #[inline(always)]
+    fn of_int(i: i32xn) -> Self {
+        crate::simd::float_of(i)
+    }
+    #[inline(always)]
+    fn gather(table: &[f32], i: i32xn) -> Self {
+        crate::simd::gather(table, i)
+    }
+    #[inline(always)]
+    fn gather4(table: &[f32], i: i32xn) -> [Self; 4] {
+        let i = i.to_array();
+        crate::simd::rows4(|k| {
+            let j = i[k] as usize;
+            [table[j], table[j + 1], table[j + 2], table[j + 3]]
+        })
+    }
+    #[inline(always)]
     fn num_copysign(self, sign: Self) -> Self {
         let bit = crate::simd::u32xn::splat(0x8000_0000);
         f32xn::from_bits((self.to_bits() & !bit) | (sign.to_bits() & bit))
@@ -423,6 +543,19 @@ impl<T: Num> V3<T> {
     #[inline(always)]
     pub fn unit(self) -> Self {
         self * (T::of(1.0) / sqrt(self.length_squared()))
+    }
+    /// `self / |self|` as glam's `normalize_or_zero` computes it, `fallback` where that is
+    /// zero (the reciprocal length not finite and positive).
+    #[inline(always)]
+    pub fn unit_or(self, fallback: Self) -> Self {
+        let rcp = T::of(1.0) / sqrt(self.length_squared());
+        let ok = is_finite(rcp) & gt(rcp, T::of(0.0));
+        let n = self * rcp;
+        V3::new(
+            select(ok, n.x, fallback.x),
+            select(ok, n.y, fallback.y),
+            select(ok, n.z, fallback.z),
+        )
     }
     #[inline(always)]
     pub fn cross(self, o: Self) -> Self {

@@ -410,8 +410,11 @@ impl Bsdf for RglBsdf {
             return None;
         }
         // The table's own warp: its density and value come with the sample.
-        let (wi, p, v) = self.table.sample_value(wo, u)?;
-        self.finish(wi, v, p)
+        let (wi, p, v, ok) = self.table.sample_value::<f32>(wo.into(), [u.x, u.y]);
+        if !ok {
+            return None;
+        }
+        self.finish(wi.into(), Rgb::from(v), p)
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -421,7 +424,7 @@ impl Bsdf for RglBsdf {
         self.table.pdf(wo, wi)
     }
 
-    /// The pairs above the surface a lane vector at a time through [`Rgl::eval_projected_pdf_xn`].
+    /// The pairs above the surface a lane vector at a time through [`Rgl::eval_projected_pdf`].
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
@@ -429,11 +432,11 @@ impl Bsdf for RglBsdf {
         pdf.fill(0.0);
         let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
         simd::chunks_where(n, above, |idx| {
-            let (v, p) = self.table.eval_projected_pdf_xn(
+            let ([r, g, b], p) = self.table.eval_projected_pdf(
                 Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
                 Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k])),
             );
-            let p = p.to_array();
+            let (v, p) = (RgbxN::new(r, g, b), p.to_array());
             for (lane, &k) in idx.iter().enumerate() {
                 f[k] = self.f(wi[k], v.lane(lane));
                 pdf[k] = p[lane];
@@ -441,7 +444,7 @@ impl Bsdf for RglBsdf {
         });
     }
 
-    /// The queries above the surface a lane vector at a time ([`Rgl::sample_value_xn`]).
+    /// The queries above the surface a lane vector at a time ([`Rgl::sample_value`]).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
@@ -450,11 +453,11 @@ impl Bsdf for RglBsdf {
             n,
             |k| !(wo[k].z <= 0.0),
             |idx| {
-                let (wi, p, v, ok) = self.table.sample_value_xn(
+                let (wi, p, [r, g, b], ok) = self.table.sample_value(
                     Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
                     simd::vec2s(&simd::lanes_of(idx, |k| u[k])),
                 );
-                let (p, ok) = (p.to_array(), simd::mask_bits(ok));
+                let (v, p, ok) = (RgbxN::new(r, g, b), p.to_array(), simd::mask_bits(ok));
                 for (lane, &k) in idx.iter().enumerate() {
                     if ok >> lane & 1 == 1 {
                         out[k] = self.finish(wi.lane(lane), v.lane(lane), p[lane]);

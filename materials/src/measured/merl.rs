@@ -19,7 +19,7 @@
 use crate::Rgb;
 use crate::error::FileError;
 use crate::frame::{from_half_diff, half_diff};
-use crate::math::{Num, V3, atan2, gt, is_finite, le, lt, maximum, select, sqrt};
+use crate::math::{Num, V3, atan2, gt, le, lt, maximum, select, sqrt};
 use crate::simd::{RgbxN, Vec3xN, clamp, f32xn, gather, i32xn, sel};
 use glam::Vec3;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -62,19 +62,6 @@ fn coords(theta_h: f64, theta_d: f64, phi_d: f64) -> (f64, f64, f64) {
     (th, td, pd)
 }
 
-/// `v / |v|` as glam's `normalize_or_zero` computes it, `fallback` where that is zero.
-#[inline(always)]
-fn unit_or<T: Num>(v: V3<T>, fallback: V3<T>) -> V3<T> {
-    let rcp = T::of(1.0) / sqrt(v.length_squared());
-    let ok = is_finite(rcp) & gt(rcp, T::of(0.0));
-    let n = v * rcp;
-    V3::new(
-        select(ok, n.x, fallback.x),
-        select(ok, n.y, fallback.y),
-        select(ok, n.z, fallback.z),
-    )
-}
-
 /// Continuous bin coordinates `[theta_h, theta_d, phi_d]` of a direction pair above the
 /// surface (one pair, or lanes of pairs): Rusinkiewicz's half/difference angles as
 /// [`half_diff`] computes them, with the two rotations taken from the half vector's own
@@ -86,8 +73,8 @@ fn unit_or<T: Num>(v: V3<T>, fallback: V3<T>) -> V3<T> {
 pub fn bin_coords<T: Num>(wi: V3<T>, wo: V3<T>) -> [T; 3] {
     let (zero, one) = (T::of(0.0), T::of(1.0));
     let origin = V3::new(zero, zero, zero);
-    let (wi, wo) = (unit_or(wi, origin), unit_or(wo, origin));
-    let h = unit_or(wi + wo, V3::new(zero, zero, one));
+    let (wi, wo) = (wi.unit_or(origin), wo.unit_or(origin));
+    let h = (wi + wo).unit_or(V3::new(zero, zero, one));
     let sin_h = sqrt(h.x * h.x + h.y * h.y);
     let theta_h = atan2(sin_h, h.z);
     let has_phi = gt(sin_h, zero);

@@ -28,11 +28,10 @@
 use super::tensor::TensorFile;
 use crate::Rgb;
 use crate::error::FileError;
-use crate::fastmath;
-use crate::fastmath::xn;
-use crate::math::{Num, V3, asin, clamp, maximum, sqrt};
-use crate::sampling::marginal2d::{Marginal2D, Slices, SlicesxN};
-use crate::simd::{MaskN, RgbxN, Vec3xN, f32xn, max_lane, sel};
+use crate::math::{
+    Num, V3, asin, atan2, clamp, copysign, floor, gt, is_finite, le, maximum, select, sin_cos, sqrt,
+};
+use crate::sampling::marginal2d::{Marginal2D, Slices};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
 use std::path::Path;
@@ -75,11 +74,15 @@ fn phi2u<T: Num>(p: T) -> T {
     let pi = T::of(std::f64::consts::PI);
     (p + pi) * (T::of(0.5) / pi)
 }
-fn u2theta(u: f32) -> f32 {
-    u * u * FRAC_PI_2
+/// The elevation of the VNDF table's first coordinate `u` (inverse of [`theta2u`]).
+#[inline(always)]
+fn u2theta<T: Num>(u: T) -> T {
+    u * u * T::of(FRAC_PI_2 as f64)
 }
-fn u2phi(u: f32) -> f32 {
-    (2.0 * u - 1.0) * PI
+/// The azimuth of the table's coordinate `u` (inverse of [`phi2u`]).
+#[inline(always)]
+fn u2phi<T: Num>(u: T) -> T {
+    (T::of(2.0) * u - T::of(1.0)) * T::of(PI as f64)
 }
 /// acos(d.z) computed stably (Mitsuba's `elevation`), one direction or lanes.
 #[inline(always)]
@@ -90,8 +93,9 @@ fn elevation<T: Num>(d: V3<T>) -> T {
     T::of(2.0) * asin(clamp(T::of(0.5) * dist, -one, one))
 }
 /// -v when the sign bit of s is clear (s >= +0), v otherwise (Dr.Jit's mulsign_neg).
-fn mulsign_neg(v: f32, s: f32) -> f32 {
-    if s.is_sign_positive() { -v } else { v }
+#[inline(always)]
+fn mulsign_neg<T: Num>(v: T, s: T) -> T {
+    select(gt(copysign(T::of(1.0), s), T::of(0.0)), -v, v)
 }
 
 /// What a field's values may be.
@@ -140,21 +144,22 @@ fn check_fields(fields: &[(&str, &[f32], Range)]) -> Result<(), String> {
 /// Everything that depends on the viewer direction only, shared by evaluation, density
 /// and sampling: the folded direction, its angles (the tables' parameters), the slices
 /// they select, and the Jacobian's sigma(u_o).
-struct View {
-    wo: Vec3,
-    phi_o: f32,
-    slices: Slices,
+/// One viewer (f32) or one per lane.
+struct View<T: Num> {
+    wo: V3<T>,
+    phi_o: T,
+    slices: Slices<T>,
     /// 4 sigma(u_o) (tables with the Jacobian flag; 1 otherwise).
-    sigma4: f32,
+    sigma4: T,
 }
 
 /// A half vector's table coordinates and its inversion through the VNDF.
-struct Half {
-    m: Vec3,
-    u_m: [f32; 2],
+struct Half<T: Num> {
+    m: V3<T>,
+    u_m: [T; 2],
     /// The sample-space point of `u_m` and the VNDF density there.
-    s: [f32; 2],
-    p_vndf: f32,
+    s: [T; 2],
+    p_vndf: T,
 }
 
 impl Rgl {
@@ -267,11 +272,10 @@ impl Rgl {
     /// luminance whose integral is too small to normalize in f32).
     fn probe(&self) -> Result<(), String> {
         let bad = crate::bsdf::probe_directions(|wo, wi, u, _| {
-            let v = self.eval_projected_raw(wo, wi);
-            let pdf = self.pdf_raw(wo, wi);
+            let (v, pdf) = self.raw_query(wo, wi);
             let w = self
                 .sample(wo, u)
-                .map_or(Rgb::ZERO, |(wi, p)| self.eval_projected_raw(wo, wi) / p);
+                .map_or(Rgb::ZERO, |(wi, p)| self.raw_query(wo, wi).0 / p);
             (!(v.is_finite() && pdf.is_finite() && w.is_finite())).then(|| {
                 format!(
                     "value {:?}, density {pdf}, sample weight {:?}",
@@ -294,27 +298,27 @@ impl Rgl {
 
     /// Folds directions by the table's symmetry (anisotropic tables only); folding twice
     /// by the same `by` is the identity.
-    #[inline]
-    fn fold(&self, v: Vec3, by: Vec3) -> Vec3 {
+    #[inline(always)]
+    fn fold<T: Num>(&self, v: V3<T>, by: V3<T>) -> V3<T> {
         if self.reduction < 2 {
             return v;
         }
         let sy = by.y;
         let sx = if self.reduction == 4 { by.x } else { sy };
-        Vec3::new(mulsign_neg(v.x, sx), mulsign_neg(v.y, sy), v.z)
+        V3::new(mulsign_neg(v.x, sx), mulsign_neg(v.y, sy), v.z)
     }
 
     /// The viewer-dependent part of a query (`wo` unfolded).
-    #[inline]
-    fn view(&self, wo: Vec3) -> View {
+    #[inline(always)]
+    fn view<T: Num>(&self, wo: V3<T>) -> View<T> {
         let wo = self.fold(wo, wo);
-        let theta_o = elevation(V3::from(wo));
-        let phi_o = fastmath::atan2(wo.y, wo.x);
+        let theta_o = elevation(wo);
+        let phi_o = atan2(wo.y, wo.x);
         let sigma4 = if self.jacobian {
             let u_o = [theta2u(theta_o), phi2u(phi_o)];
-            4.0 * self.sigma.eval_in(u_o, &Slices::NONE)
+            T::of(4.0) * self.sigma.eval_in(u_o, &Slices::none())
         } else {
-            1.0
+            T::of(1.0)
         };
         View {
             wo,
@@ -325,62 +329,80 @@ impl Rgl {
     }
 
     /// The half vector of the (folded) viewer and light `wi`, inverted through the VNDF.
-    #[inline]
-    fn half(&self, v: &View, wi: Vec3, wo: Vec3) -> Half {
-        let m = (v.wo + self.fold(wi, wo)).normalize_or_zero();
-        let mut phi_m = fastmath::atan2(m.y, m.x);
+    #[inline(always)]
+    fn half<T: Num>(&self, v: &View<T>, wi: V3<T>, wo: V3<T>) -> Half<T> {
+        let zero = T::of(0.0);
+        let m = (v.wo + self.fold(wi, wo)).unit_or(V3::new(zero, zero, zero));
+        let mut phi_m = atan2(m.y, m.x);
         if self.isotropic {
-            phi_m -= v.phi_o;
+            phi_m = phi_m - v.phi_o;
         }
-        let mut uy = phi2u(phi_m);
-        uy -= uy.floor();
-        let u_m = [theta2u(elevation(V3::from(m))), uy];
+        let uy = phi2u(phi_m);
+        let u_m = [theta2u(elevation(m)), uy - floor(uy)];
         let (s, p_vndf) = self.vndf.invert_in(u_m, &v.slices);
         Half { m, u_m, s, p_vndf }
     }
 
     /// The tabulated value (BRDF x cos(theta_i)) at sample-space point s, and the
     /// luminance density there.
-    #[inline]
-    fn lookup(&self, v: &View, s: [f32; 2], u_m: [f32; 2]) -> (Rgb, f32) {
-        let [r, g, b, p_lum] = self.colour.eval_channels::<4>(s, &v.slices);
-        let mut c = Rgb::new(r, g, b);
+    #[inline(always)]
+    fn lookup<T: Num>(&self, v: &View<T>, s: [T; 2], u_m: [T; 2]) -> ([T; 3], T) {
+        let [r, g, b, p_lum] = self.colour.eval_channels::<T, 4>(s, &v.slices);
         if self.jacobian {
-            c *= self.ndf.eval_in(u_m, &Slices::NONE) / v.sigma4;
+            let k = self.ndf.eval_in(u_m, &Slices::none()) / v.sigma4;
+            ([r * k, g * k, b * k], p_lum)
+        } else {
+            ([r, g, b], p_lum)
         }
-        (c, p_lum)
     }
 
-    /// The table's density of `wi` at a half vector from the luminance density at its
-    /// sample-space point (0 when not finite and positive).
-    #[inline]
-    fn density(&self, v: &View, h: &Half, p_lum: f32) -> f32 {
-        let p = self.density_raw(v, h, p_lum);
-        if p.is_finite() && p > 0.0 { p } else { 0.0 }
+    /// The table's density of the light direction with half vector `m` (sin(theta_m)
+    /// `sin_m`, first table coordinate `u_m0`, VNDF density `p_vndf`) from the luminance
+    /// density at its sample-space point, as computed (non-finite or not).
+    #[inline(always)]
+    fn density<T: Num>(&self, v: &View<T>, m: V3<T>, sin_m: T, u_m0: T, p_vndf: T, p_lum: T) -> T {
+        let two_pi2 = T::of((2.0 * PI * PI) as f64);
+        let jac = maximum(two_pi2 * u_m0 * sin_m, T::of(1e-6)) * T::of(4.0) * v.wo.dot(m);
+        p_vndf * p_lum / jac
     }
 
-    /// [`Rgl::density`] as computed, non-finite or not (for [`Rgl::probe`]).
-    #[inline]
-    fn density_raw(&self, v: &View, h: &Half, p_lum: f32) -> f32 {
-        let sin_m = max_lane(h.m.x * h.m.x + h.m.y * h.m.y, 0.0).sqrt();
-        let jac = max_lane(2.0 * PI * PI * h.u_m[0] * sin_m, 1e-6) * 4.0 * v.wo.dot(h.m);
-        h.p_vndf * p_lum / jac
-    }
-
-    /// BRDF x cos(theta_i) for viewer `wo` and light `wi` (Mitsuba's `eval`, negative values included).
-    pub fn eval_projected(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        let v = self.eval_projected_raw(wo, wi);
-        if v.is_finite() { v } else { Rgb::ZERO }
-    }
-
-    fn eval_projected_raw(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Rgb::ZERO;
-        }
+    /// BRDF x cos(theta_i) and the density of `wi` as computed, non-finite or not (for
+    /// [`Rgl::probe`]), for a pair above the surface.
+    #[inline(always)]
+    fn query<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> ([T; 3], T) {
         let v = self.view(wo);
         let h = self.half(&v, wi, wo);
-        let (c, _) = self.lookup(&v, h.s, h.u_m);
-        c
+        let (c, p_lum) = self.lookup(&v, h.s, h.u_m);
+        let sin_m = sqrt(maximum(h.m.x * h.m.x + h.m.y * h.m.y, T::of(0.0)));
+        (c, self.density(&v, h.m, sin_m, h.u_m[0], h.p_vndf, p_lum))
+    }
+
+    /// [`Rgl::query`] of one pair, zero below the surface.
+    fn raw_query(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let (c, p) = self.query::<f32>(wo.into(), wi.into());
+        (Rgb::from(c), p)
+    }
+
+    /// BRDF x cos(theta_i) for viewer `wo` and light `wi` (Mitsuba's `eval`, negative
+    /// values included) and the density of [`Rgl::sample_value`]'s `wi`: zero below the
+    /// surface, the value zero where not finite, the density where not finite and
+    /// positive. One pair (f32) or lanes of pairs.
+    pub fn eval_projected_pdf<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> ([T; 3], T) {
+        let zero = T::of(0.0);
+        let below = le(wo.z, zero) | le(wi.z, zero);
+        let (c, p) = self.query(wo, wi);
+        let finite = is_finite(c[0]) & is_finite(c[1]) & is_finite(c[2]);
+        let c = c.map(|x| select(finite & !below, x, zero));
+        let p_ok = is_finite(p) & gt(p, zero) & !below;
+        (c, select(p_ok, p, zero))
+    }
+
+    /// [`Rgl::eval_projected_pdf`]'s value of one pair (zero below the surface).
+    pub fn eval_projected(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.eval_projected_pdf_one(wo, wi).0
     }
 
     /// The BRDF (1/sr).
@@ -394,192 +416,49 @@ impl Rgl {
 
     /// Density of `sample`.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let p = self.pdf_raw(wo, wi);
-        if p.is_finite() && p > 0.0 { p } else { 0.0 }
+        self.eval_projected_pdf_one(wo, wi).1
     }
 
-    fn pdf_raw(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let v = self.view(wo);
-        let h = self.half(&v, wi, wo);
-        let (_, p_lum) = self.lookup(&v, h.s, h.u_m);
-        self.density_raw(&v, &h, p_lum)
-    }
-
-    /// [`Rgl::eval_projected`] and [`Rgl::pdf`] of one pair with the work they share done
-    /// once (bit for bit the two calls).
-    pub fn eval_projected_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+    /// [`Rgl::eval_projected_pdf`] of one pair, zero below the surface.
+    fn eval_projected_pdf_one(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return (Rgb::ZERO, 0.0);
         }
-        let v = self.view(wo);
-        let h = self.half(&v, wi, wo);
-        let (c, p_lum) = self.lookup(&v, h.s, h.u_m);
-        let c = if c.is_finite() { c } else { Rgb::ZERO };
-        (c, self.density(&v, &h, p_lum))
+        let (c, p) = self.eval_projected_pdf::<f32>(wo.into(), wi.into());
+        (Rgb::from(c), p)
     }
 
     /// Samples the light direction for viewer `wo`: (wi, pdf).
     pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
-        self.sample_value(wo, u).map(|(wi, pdf, _)| (wi, pdf))
-    }
-
-    /// Samples the light direction for viewer `wo` as Mitsuba's `measured` does: (wi,
-    /// pdf, BRDF x cos(theta_i) at the sampled point, zero when not finite).
-    pub fn sample_value(&self, wo: Vec3, u: Vec2) -> Option<(Vec3, f32, Rgb)> {
         if wo.z <= 0.0 {
             return None;
         }
+        let (wi, pdf, _, ok) = self.sample_value::<f32>(wo.into(), [u.x, u.y]);
+        ok.then(|| (wi.into(), pdf))
+    }
+
+    /// Samples the light direction for viewer `wo` as Mitsuba's `measured` does: (wi, pdf,
+    /// BRDF x cos(theta_i) at the sampled point, zero when not finite, and where the
+    /// sample exists: `wo` and `wi` above the surface, the pdf finite and positive). One
+    /// viewer (f32) or lanes of viewers.
+    pub fn sample_value<T: Num>(&self, wo: V3<T>, u: [T; 2]) -> (V3<T>, T, [T; 3], T::Mask) {
+        let zero = T::of(0.0);
         let v = self.view(wo);
-        let (s, p_lum) = self.luminance.sample_in([u.y, u.x], &v.slices);
+        let (s, p_lum) = self.luminance.sample_in([u[1], u[0]], &v.slices);
         let (u_m, p_vndf) = self.vndf.sample_in(s, &v.slices);
         let mut phi_m = u2phi(u_m[1]);
         let theta_m = u2theta(u_m[0]);
         if self.isotropic {
-            phi_m += v.phi_o;
+            phi_m = phi_m + v.phi_o;
         }
-        let (st, ct) = fastmath::sin_cos_moderate(theta_m);
-        let (sp, cp) = fastmath::sin_cos_moderate(phi_m);
-        let m = Vec3::new(cp * st, sp * st, ct);
-        let jac = max_lane(2.0 * PI * PI * u_m[0] * st, 1e-6) * 4.0 * v.wo.dot(m);
-        let pdf = p_vndf * p_lum / jac;
-        let wi = self.fold(m * (2.0 * m.dot(v.wo)) - v.wo, wo);
-        if !(wi.z > 0.0 && pdf.is_finite() && pdf > 0.0) {
-            return None;
-        }
+        let (st, ct) = sin_cos(theta_m);
+        let (sp, cp) = sin_cos(phi_m);
+        let m = V3::new(cp * st, sp * st, ct);
+        let pdf = self.density(&v, m, st, u_m[0], p_vndf, p_lum);
+        let wi = self.fold(m * (T::of(2.0) * m.dot(v.wo)) - v.wo, wo);
+        let ok = gt(wo.z, zero) & gt(wi.z, zero) & is_finite(pdf) & gt(pdf, zero);
         let (c, _) = self.lookup(&v, s, u_m);
-        Some((wi, pdf, if c.is_finite() { c } else { Rgb::ZERO }))
-    }
-}
-
-/// [`View`] of `LANES` viewers.
-struct ViewxN {
-    wo: Vec3xN,
-    phi_o: f32xn,
-    slices: SlicesxN,
-    sigma4: f32xn,
-}
-
-/// [`Half`] of `LANES` pairs.
-struct HalfxN {
-    m: Vec3xN,
-    u_m: [f32xn; 2],
-    s: [f32xn; 2],
-    p_vndf: f32xn,
-}
-
-/// [`mulsign_neg`] per lane: the sign bit of v flipped where s's is clear.
-#[inline(always)]
-fn mulsign_neg_xn(v: f32xn, s: f32xn) -> f32xn {
-    let sign = crate::simd::u32xn::splat(0x8000_0000);
-    f32xn::from_bits(v.to_bits() ^ (!s.to_bits() & sign))
-}
-
-/// The lane forms of evaluation, density and sampling: every lane equals the
-/// scalar form bit for bit (the same operations in the same order, tested), so that the
-/// renderer's batched calls agree exactly with its one-at-a-time ones.
-impl Rgl {
-    #[inline(always)]
-    fn fold_xn(&self, v: Vec3xN, by: Vec3xN) -> Vec3xN {
-        if self.reduction < 2 {
-            return v;
-        }
-        let sx = if self.reduction == 4 { by.x } else { by.y };
-        Vec3xN::new(mulsign_neg_xn(v.x, sx), mulsign_neg_xn(v.y, by.y), v.z)
-    }
-
-    #[inline(always)]
-    fn view_xn(&self, wo: Vec3xN) -> ViewxN {
-        let wo = self.fold_xn(wo, wo);
-        let theta_o = elevation(wo);
-        let phi_o = xn::atan2(wo.y, wo.x);
-        let sigma4 = if self.jacobian {
-            let u_o = [theta2u(theta_o), phi2u(phi_o)];
-            f32xn::splat(4.0) * self.sigma.eval_xn(u_o, &SlicesxN::none())
-        } else {
-            f32xn::splat(1.0)
-        };
-        ViewxN {
-            wo,
-            phi_o,
-            slices: self.vndf.slices_xn(&[phi_o, theta_o]),
-            sigma4,
-        }
-    }
-
-    #[inline(always)]
-    fn half_xn(&self, v: &ViewxN, wi: Vec3xN, wo: Vec3xN) -> HalfxN {
-        let m = (v.wo + self.fold_xn(wi, wo)).normalize_or_zero();
-        let mut phi_m = xn::atan2(m.y, m.x);
-        if self.isotropic {
-            phi_m -= v.phi_o;
-        }
-        let uy = phi2u(phi_m);
-        let uy = uy - uy.floor();
-        let u_m = [theta2u(elevation(m)), uy];
-        let (s, p_vndf) = self.vndf.invert_xn(u_m, &v.slices);
-        HalfxN { m, u_m, s, p_vndf }
-    }
-
-    #[inline(always)]
-    fn lookup_xn(&self, v: &ViewxN, s: [f32xn; 2], u_m: [f32xn; 2]) -> (RgbxN, f32xn) {
-        let [r, g, b, p_lum] = self.colour.eval_channels_xn::<4>(s, &v.slices);
-        let c = RgbxN::new(r, g, b);
-        if self.jacobian {
-            let k = self.ndf.eval_xn(u_m, &SlicesxN::none()) / v.sigma4;
-            (c * k, p_lum)
-        } else {
-            (c, p_lum)
-        }
-    }
-
-    #[inline(always)]
-    fn density_xn(&self, v: &ViewxN, h: &HalfxN, p_lum: f32xn) -> f32xn {
-        let zero = f32xn::splat(0.0);
-        let sin_m = (h.m.x * h.m.x + h.m.y * h.m.y).max(zero).sqrt();
-        let jac = (f32xn::splat(2.0 * PI * PI) * h.u_m[0] * sin_m).max(f32xn::splat(1e-6))
-            * f32xn::splat(4.0)
-            * v.wo.dot(h.m);
-        let p = h.p_vndf * p_lum / jac;
-        sel(p.is_finite() & p.simd_gt(zero), p, zero)
-    }
-
-    /// [`Rgl::eval_projected_pdf`] of `LANES` pairs.
-    pub fn eval_projected_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let zero = f32xn::splat(0.0);
-        let below = wo.z.simd_le(zero) | wi.z.simd_le(zero);
-        let v = self.view_xn(wo);
-        let h = self.half_xn(&v, wi, wo);
-        let (c, p_lum) = self.lookup_xn(&v, h.s, h.u_m);
-        let black = RgbxN::splat(Rgb::ZERO);
-        let c = RgbxN::select(c.is_finite() & !below, c, black);
-        (c, sel(below, zero, self.density_xn(&v, &h, p_lum)))
-    }
-
-    /// [`Rgl::sample_value`] of `LANES` viewers: (wi, pdf, value, where a sample exists).
-    pub fn sample_value_xn(&self, wo: Vec3xN, u: [f32xn; 2]) -> (Vec3xN, f32xn, RgbxN, MaskN) {
-        let zero = f32xn::splat(0.0);
-        let v = self.view_xn(wo);
-        let (s, p_lum) = self.luminance.sample_xn([u[1], u[0]], &v.slices);
-        let (u_m, p_vndf) = self.vndf.sample_xn(s, &v.slices);
-        let mut phi_m = (f32xn::splat(2.0) * u_m[1] - f32xn::splat(1.0)) * f32xn::splat(PI);
-        let theta_m = u_m[0] * u_m[0] * f32xn::splat(FRAC_PI_2);
-        if self.isotropic {
-            phi_m += v.phi_o;
-        }
-        let (st, ct) = xn::sin_cos_moderate(theta_m);
-        let (sp, cp) = xn::sin_cos_moderate(phi_m);
-        let m = Vec3xN::new(cp * st, sp * st, ct);
-        let jac = (f32xn::splat(2.0 * PI * PI) * u_m[0] * st).max(f32xn::splat(1e-6))
-            * f32xn::splat(4.0)
-            * v.wo.dot(m);
-        let pdf = p_vndf * p_lum / jac;
-        let wi = self.fold_xn(m * (f32xn::splat(2.0) * m.dot(v.wo)) - v.wo, wo);
-        let ok = wo.z.simd_gt(zero) & wi.z.simd_gt(zero) & pdf.is_finite() & pdf.simd_gt(zero);
-        let (c, _) = self.lookup_xn(&v, s, u_m);
-        let c = RgbxN::select(c.is_finite(), c, RgbxN::splat(Rgb::ZERO));
-        (wi, pdf, c, ok)
+        let finite = is_finite(c[0]) & is_finite(c[1]) & is_finite(c[2]);
+        (wi, pdf, c.map(|x| select(finite, x, zero)), ok)
     }
 }

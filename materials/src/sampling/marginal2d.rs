@@ -15,8 +15,7 @@
 //! A table may hold several values per node (`channels`: the RGL colour table keeps r, g
 //! and b of a node side by side, so that one patch lookup reads all three).
 
-use crate::simd::{clamp, f32xn, fmadd, gather, i32xn, max_lane, rows4, sel};
-use wide::Select;
+use crate::math::{Num, abs, clamp, eq, gt, lt, maximum, mul_add, select, sqrt};
 
 /// At most this many parameters take part in the interpolation (parameters with a single
 /// value select their slice and cost nothing).
@@ -37,65 +36,100 @@ pub struct Marginal2D {
 
 /// The parameter slices a query reads and their weights: the first slice, and per
 /// interpolated parameter (in parameter order) its stride in slices and its weights
-/// (1 - t, t). Found once per query by [`Marginal2D::slices`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Slices {
-    first: usize,
+/// (1 - t, t). Found once per query by [`Marginal2D::slices`]; over [`Num`], for one
+/// query (f32) or one query per lane.
+#[derive(Clone, Copy, Debug)]
+pub struct Slices<T: Num> {
+    first: T::Int,
     dims: usize,
-    stride: [usize; MAX_PARAMS],
-    weight: [(f32, f32); MAX_PARAMS],
+    stride: [i32; MAX_PARAMS],
+    weight: [(T, T); MAX_PARAMS],
 }
 
-impl Slices {
+impl<T: Num> Slices<T> {
     /// The only slice of a table without parameters.
-    pub const NONE: Slices = Slices {
-        first: 0,
-        dims: 0,
-        stride: [0; MAX_PARAMS],
-        weight: [(1.0, 0.0); MAX_PARAMS],
-    };
+    pub fn none() -> Self {
+        Self {
+            first: T::int(0),
+            dims: 0,
+            stride: [0; MAX_PARAMS],
+            weight: [(T::of(1.0), T::of(0.0)); MAX_PARAMS],
+        }
+    }
 
     /// Entry `i` of a table `arr` of `n` entries per slice, blended over the slices as
     /// Mitsuba's `lookup` does: the last parameter outermost, `fmadd(v0, w0, v1 * w1)`.
     #[inline(always)]
-    pub fn at(&self, arr: &[f32], n: usize, i: usize) -> f32 {
-        let b = self.first * n + i;
-        let inner = |j: usize| {
-            let (w0, w1) = self.weight[0];
-            arr[j].mul_add(w0, arr[j + self.stride[0] * n] * w1)
-        };
+    pub fn at(&self, arr: &[f32], n: usize, i: T::Int) -> T {
+        let n = n as i32;
+        let b = self.first * T::int(n) + i;
         match self.dims {
-            0 => arr[b],
-            1 => inner(b),
+            0 => T::gather(arr, b),
+            1 => self.inner(arr, n, b),
             _ => {
                 let (w0, w1) = self.weight[1];
-                inner(b).mul_add(w0, inner(b + self.stride[1] * n) * w1)
+                let far = self.inner(arr, n, b + T::int(self.stride[1] * n));
+                mul_add(self.inner(arr, n, b), w0, far * w1)
             }
         }
+    }
+
+    /// [`Slices::at`] of the four entries `i..i + 4` (a node of a four-channel table): in
+    /// lanes one 16-byte load per lane and slice, transposed, instead of four gathers.
+    #[inline(always)]
+    pub fn at4(&self, arr: &[f32], n: usize, i: T::Int) -> [T; 4] {
+        let n = n as i32;
+        let b = self.first * T::int(n) + i;
+        match self.dims {
+            0 => T::gather4(arr, b),
+            1 => self.inner4(arr, n, b),
+            _ => {
+                let (w0, w1) = self.weight[1];
+                let near = self.inner4(arr, n, b);
+                let far = self.inner4(arr, n, b + T::int(self.stride[1] * n));
+                [0, 1, 2, 3].map(|c| mul_add(near[c], w0, far[c] * w1))
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn inner4(&self, arr: &[f32], n: i32, j: T::Int) -> [T; 4] {
+        let (w0, w1) = self.weight[0];
+        let near = T::gather4(arr, j);
+        let far = T::gather4(arr, j + T::int(self.stride[0] * n));
+        [0, 1, 2, 3].map(|c| mul_add(near[c], w0, far[c] * w1))
+    }
+
+    /// The blend over the first interpolated parameter at entries `j`.
+    #[inline(always)]
+    fn inner(&self, arr: &[f32], n: i32, j: T::Int) -> T {
+        let (w0, w1) = self.weight[0];
+        let far = T::gather(arr, j + T::int(self.stride[0] * n));
+        mul_add(T::gather(arr, j), w0, far * w1)
     }
 }
 
 /// Index of the first of `n` values `v(0)`, .., `v(n - 1)` (non-decreasing) that is at
 /// least `x`, or `n - 1` when none is: the linear scan's answer by binary search (the
-/// iteration count depends on `n` only).
+/// iteration count depends on `n` only, so lanes take the same probes).
 #[inline(always)]
-pub fn first_at_least(n: usize, x: f32, v: impl Fn(usize) -> f32) -> usize {
+pub fn first_at_least<T: Num>(n: usize, x: T, v: impl Fn(T::Int) -> T) -> T::Int {
     // The answer (n: none) lies in [base, base + size] (Khuong and Morin's branch-free
     // lower bound).
-    let (mut base, mut size) = (0usize, n);
+    let (mut base, mut size) = (T::int(0), n);
     while size > 1 {
         let half = size / 2;
-        if v(base + half) < x {
-            base += half;
-        }
+        let next = base + T::int(half as i32);
+        base = T::int_select(lt(v(next), x), next, base);
         size -= half;
     }
-    (base + (v(base) < x) as usize).min(n - 1)
+    let below = T::int_select(lt(v(base), x), T::int(1), T::int(0));
+    T::int_min(base + below, T::int(n as i32 - 1))
 }
 
 #[inline(always)]
-fn lerp(a: f32, b: f32, t: f32) -> f32 {
-    b.mul_add(t, (-a).mul_add(t, a))
+fn lerp<T: Num>(a: T, b: T, t: T) -> T {
+    mul_add(b, t, mul_add(-a, t, a))
 }
 
 impl Marginal2D {
@@ -187,19 +221,20 @@ impl Marginal2D {
     /// The slices and weights of parameters `p` (Mitsuba's `interpolate_weights`): per
     /// parameter the interval [v_i, v_i+1] of its values that holds p (the first or last
     /// one beyond them) and t = (p - v_i) / (v_i+1 - v_i) clamped to [0, 1].
-    pub fn slices(&self, p: &[f32]) -> Slices {
-        let mut s = Slices::NONE;
+    pub fn slices<T: Num>(&self, p: &[T]) -> Slices<T> {
+        let mut s = Slices::none();
         for (d, vals) in self.params.iter().enumerate() {
             let n = vals.len();
             if n <= 1 {
                 continue;
             }
             let x = p[d];
-            let i = first_at_least(n - 1, x, |k| vals[k + 1]);
-            let t = ((x - vals[i]) / (vals[i + 1] - vals[i])).clamp(0.0, 1.0);
-            s.first += self.strides[d] * i;
-            s.stride[s.dims] = self.strides[d];
-            s.weight[s.dims] = (1.0 - t, t);
+            let i = first_at_least(n - 1, x, |k| T::gather(vals, k + T::int(1)));
+            let (v0, v1) = (T::gather(vals, i), T::gather(vals, i + T::int(1)));
+            let t = clamp((x - v0) / (v1 - v0), T::of(0.0), T::of(1.0));
+            s.first = s.first + i * T::int(self.strides[d] as i32);
+            s.stride[s.dims] = self.strides[d] as i32;
+            s.weight[s.dims] = (T::of(1.0) - t, t);
             s.dims += 1;
         }
         s
@@ -208,48 +243,67 @@ impl Marginal2D {
     /// The patch of u (clamped to the square): its lower-left node (x, y) and the
     /// fractions of u within it.
     #[inline(always)]
-    fn patch(&self, u: [f32; 2]) -> (usize, usize, f32, f32) {
+    fn patch<T: Num>(&self, u: [T; 2]) -> (T::Int, T::Int, T, T) {
         let (w, h) = (self.w, self.h);
-        let px = u[0].clamp(0.0, 1.0) * (w - 1) as f32;
-        let py = u[1].clamp(0.0, 1.0) * (h - 1) as f32;
-        let ox = (px as usize).min(w - 2);
-        let oy = (py as usize).min(h - 2);
-        (ox, oy, px - ox as f32, py - oy as f32)
+        let (zero, one) = (T::of(0.0), T::of(1.0));
+        let px = clamp(u[0], zero, one) * T::of((w - 1) as f64);
+        let py = clamp(u[1], zero, one) * T::of((h - 1) as f64);
+        let ox = T::int_min(px.trunc_int(), T::int(w as i32 - 2));
+        let oy = T::int_min(py.trunc_int(), T::int(h as i32 - 2));
+        (ox, oy, px - T::of_int(ox), py - T::of_int(oy))
     }
 
     /// The (normalized) density at u in the slices of a query.
     #[inline]
-    pub fn eval_in(&self, u: [f32; 2], sl: &Slices) -> f32 {
-        self.eval_channels::<1>(u, sl)[0]
+    pub fn eval_in<T: Num>(&self, u: [T; 2], sl: &Slices<T>) -> T {
+        self.eval_channels::<T, 1>(u, sl)[0]
     }
 
     /// The `C` values of the bilinear interpolant at u in the slices of a query (each as
-    /// [`Marginal2D::eval_in`] computes it for a table of one channel).
+    /// [`Marginal2D::eval_in`] computes it for a table of one channel; four-channel tables
+    /// by [`Slices::at4`]).
     #[inline]
-    pub fn eval_channels<const C: usize>(&self, u: [f32; 2], sl: &Slices) -> [f32; C] {
+    pub fn eval_channels<T: Num, const C: usize>(&self, u: [T; 2], sl: &Slices<T>) -> [T; C] {
         assert_eq!(C, self.channels);
         let (ox, oy, fx, fy) = self.patch(u);
         let n = self.w * self.h * C;
-        let i = (oy * self.w + ox) * C;
-        let row = self.w * C;
-        let mut out = [0.0; C];
+        let i = (oy * T::int(self.w as i32) + ox) * T::int(C as i32);
+        let (c1, row) = (T::int(C as i32), T::int((self.w * C) as i32));
+        let mut out = [T::of(0.0); C];
+        if C == 4 {
+            let (v00, v10) = (sl.at4(&self.data, n, i), sl.at4(&self.data, n, i + c1));
+            let (v01, v11) = (
+                sl.at4(&self.data, n, i + row),
+                sl.at4(&self.data, n, i + row + c1),
+            );
+            for (c, o) in out.iter_mut().enumerate() {
+                *o = lerp(lerp(v00[c], v10[c], fx), lerp(v01[c], v11[c], fx), fy);
+            }
+            return out;
+        }
         for (c, o) in out.iter_mut().enumerate() {
-            let at = |k: usize| sl.at(&self.data, n, k + c);
-            let (v00, v10) = (at(i), at(i + C));
-            let (v01, v11) = (at(i + row), at(i + row + C));
+            let at = |k: T::Int| sl.at(&self.data, n, k + T::int(c as i32));
+            let (v00, v10) = (at(i), at(i + c1));
+            let (v01, v11) = (at(i + row), at(i + row + c1));
             *o = lerp(lerp(v00, v10, fx), lerp(v01, v11, fx), fy);
         }
         out
     }
 
-    fn sample_segment(u: f32, inv_w: f32, v0: f32, v1: f32) -> f32 {
-        let nonconst = (v0 - v1).abs() > 1e-4 * (v0 + v1);
-        let div = if nonconst { v0 - v1 } else { v0 + v1 };
-        let mut u = u * 2.0 * inv_w;
-        if nonconst {
-            u = v0 - max_lane(v0 * v0 + u * (v1 - v0), 0.0).sqrt();
-        }
-        if div != 0.0 { u / div } else { u }
+    /// The fraction of a segment of width 1 / `inv_w` and end values `v0`, `v1` whose
+    /// (linear) density integrates to `u`.
+    #[inline(always)]
+    fn sample_segment<T: Num>(u: T, inv_w: f32, v0: T, v1: T) -> T {
+        let zero = T::of(0.0);
+        let nonconst = gt(abs(v0 - v1), T::of(1e-4) * (v0 + v1));
+        let div = select(nonconst, v0 - v1, v0 + v1);
+        let u = u * T::of(2.0) * T::of(inv_w as f64);
+        let u = select(
+            nonconst,
+            v0 - sqrt(maximum(v0 * v0 + u * (v1 - v0), zero)),
+            u,
+        );
+        select(!eq(div, zero), u / div, u)
     }
 
     /// Warps a uniform sample to the distribution: (u, density).
@@ -258,364 +312,90 @@ impl Marginal2D {
     }
 
     /// [`Marginal2D::sample`] in the slices of a query.
-    pub fn sample_in(&self, xi: [f32; 2], b: &Slices) -> ([f32; 2], f32) {
+    pub fn sample_in<T: Num>(&self, xi: [T; 2], b: &Slices<T>) -> ([T; 2], T) {
         let (w, h) = (self.w, self.h);
         let eps = f32::EPSILON / 2.0;
-        let (mut x, mut y) = (xi[0].clamp(eps, 1.0 - eps), xi[1].clamp(eps, 1.0 - eps));
-        let nm = h - 1;
-        let nc = h * (w - 1);
+        let (lo, hi) = (T::of(eps as f64), T::of((1.0 - eps) as f64));
+        let (mut x, mut y) = (clamp(xi[0], lo, hi), clamp(xi[1], lo, hi));
+        let (nm, nc) = (h - 1, h * (w - 1));
+        let (one, zero, fzero) = (T::int(1), T::int(0), T::of(0.0));
         // Row: the first r with marg[r] >= y.
         let row = first_at_least(h - 1, y, |r| b.at(&self.marg, nm, r));
-        if row > 0 {
-            y -= b.at(&self.marg, nm, row - 1);
-        }
-        let r0 = b.at(&self.cond, nc, row * (w - 1) + w - 2);
-        let r1 = b.at(&self.cond, nc, (row + 1) * (w - 1) + w - 2);
+        let prev = b.at(&self.marg, nm, T::int_max(row - one, zero));
+        y = select(gt(T::of_int(row), fzero), y - prev, y);
+        let wm1 = T::int(w as i32 - 1);
+        let (row0, row1) = (row * wm1, (row + one) * wm1);
+        let last = T::int(w as i32 - 2);
+        let r0 = b.at(&self.cond, nc, row0 + last);
+        let r1 = b.at(&self.cond, nc, row1 + last);
         let ty = Self::sample_segment(y, (h - 1) as f32, r0, r1);
-        x *= lerp(r0, r1, ty);
-        let c = |k: usize| {
+        x = x * lerp(r0, r1, ty);
+        let c = |k: T::Int| {
             lerp(
-                b.at(&self.cond, nc, row * (w - 1) + k),
-                b.at(&self.cond, nc, (row + 1) * (w - 1) + k),
+                b.at(&self.cond, nc, row0 + k),
+                b.at(&self.cond, nc, row1 + k),
                 ty,
             )
         };
         let col = first_at_least(w - 1, x, c);
-        if col > 0 {
-            x -= c(col - 1);
-        }
+        let prev = c(T::int_max(col - one, zero));
+        x = select(gt(T::of_int(col), fzero), x - prev, x);
         let n = w * h;
-        let i = row * w + col;
+        let wi = T::int(w as i32);
+        let i = row * wi + col;
         let v00 = b.at(&self.data, n, i);
-        let v10 = b.at(&self.data, n, i + 1);
-        let v01 = b.at(&self.data, n, i + w);
-        let v11 = b.at(&self.data, n, i + w + 1);
+        let v10 = b.at(&self.data, n, i + one);
+        let v01 = b.at(&self.data, n, i + wi);
+        let v11 = b.at(&self.data, n, i + wi + one);
         let c0 = lerp(v00, v01, ty);
         let c1 = lerp(v10, v11, ty);
         let tx = Self::sample_segment(x, (w - 1) as f32, c0, c1);
-        let inv = [1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32];
+        let inv = [1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32].map(|v| T::of(v as f64));
         (
-            [(col as f32 + tx) * inv[0], (row as f32 + ty) * inv[1]],
+            [
+                (T::of_int(col) + tx) * inv[0],
+                (T::of_int(row) + ty) * inv[1],
+            ],
             lerp(c0, c1, tx),
         )
     }
 
     /// The uniform sample that [`Marginal2D::sample_in`] maps to u, and the density at
     /// u, in the slices of a query.
-    pub fn invert_in(&self, u: [f32; 2], b: &Slices) -> ([f32; 2], f32) {
+    pub fn invert_in<T: Num>(&self, u: [T; 2], b: &Slices<T>) -> ([T; 2], T) {
         let (w, h) = (self.w, self.h);
         let (px, py, fx, fy) = self.patch(u);
+        let (one, zero, fzero) = (T::int(1), T::int(0), T::of(0.0));
         let n = w * h;
-        let i = py * w + px;
-        let v00 = b.at(&self.data, n, i);
-        let v10 = b.at(&self.data, n, i + 1);
-        let v01 = b.at(&self.data, n, i + w);
-        let v11 = b.at(&self.data, n, i + w + 1);
-        let c0 = lerp(v00, v01, fy);
-        let c1 = lerp(v10, v11, fy);
-        let pdf = lerp(c0, c1, fx);
-        let nc = h * (w - 1);
-        let nm = h - 1;
-        let mut x = fx * lerp(c0, c1, 0.5 * fx) * (1.0 / (w - 1) as f32);
-        if px > 0 {
-            x += lerp(
-                b.at(&self.cond, nc, py * (w - 1) + px - 1),
-                b.at(&self.cond, nc, (py + 1) * (w - 1) + px - 1),
-                fy,
-            );
-        }
-        let r0 = b.at(&self.cond, nc, py * (w - 1) + w - 2);
-        let r1 = b.at(&self.cond, nc, (py + 1) * (w - 1) + w - 2);
-        let rl = lerp(r0, r1, fy);
-        if rl > 0.0 {
-            x /= rl;
-        }
-        let mut y = fy * lerp(r0, r1, 0.5 * fy) * (1.0 / (h - 1) as f32);
-        if py > 0 {
-            y += b.at(&self.marg, nm, py - 1);
-        }
-        ([x, y], pdf)
-    }
-}
-
-/// [`Slices`] of `LANES` queries, one per lane ([`Marginal2D::slices_xn`]).
-#[derive(Clone, Copy, Debug)]
-pub struct SlicesxN {
-    first: i32xn,
-    dims: usize,
-    stride: [i32; MAX_PARAMS],
-    weight: [(f32xn, f32xn); MAX_PARAMS],
-}
-
-impl SlicesxN {
-    /// The only slice of a table without parameters, in every lane.
-    pub fn none() -> Self {
-        Self {
-            first: i32xn::splat(0),
-            dims: 0,
-            stride: [0; MAX_PARAMS],
-            weight: [(f32xn::splat(1.0), f32xn::splat(0.0)); MAX_PARAMS],
-        }
-    }
-
-    /// [`Slices::at`] per lane (entry `i[k]` in lane k).
-    #[inline(always)]
-    pub fn at(&self, arr: &[f32], n: usize, i: i32xn) -> f32xn {
-        let n = n as i32;
-        let b = self.first * i32xn::splat(n) + i;
-        match self.dims {
-            0 => gather(arr, b),
-            1 => self.inner(arr, n, b),
-            _ => {
-                let (w0, w1) = self.weight[1];
-                let far = self.inner(arr, n, b + i32xn::splat(self.stride[1] * n));
-                fmadd(self.inner(arr, n, b), w0, far * w1)
-            }
-        }
-    }
-
-    /// [`SlicesxN::at`] of the four entries `i[k]..i[k] + 4` in lane k (a node of a
-    /// four-channel table): one 16-byte load per lane and slice, transposed
-    /// ([`crate::simd::rows4`]), instead of four gathers.
-    #[inline(always)]
-    pub fn at4(&self, arr: &[f32], n: usize, i: i32xn) -> [f32xn; 4] {
-        let n = n as i32;
-        let b = self.first * i32xn::splat(n) + i;
-        match self.dims {
-            0 => rows(arr, b),
-            1 => self.inner4(arr, n, b),
-            _ => {
-                let (w0, w1) = self.weight[1];
-                let near = self.inner4(arr, n, b);
-                let far = self.inner4(arr, n, b + i32xn::splat(self.stride[1] * n));
-                [0, 1, 2, 3].map(|c| fmadd(near[c], w0, far[c] * w1))
-            }
-        }
-    }
-
-    #[inline(always)]
-    fn inner4(&self, arr: &[f32], n: i32, j: i32xn) -> [f32xn; 4] {
-        let (w0, w1) = self.weight[0];
-        let near = rows(arr, j);
-        let far = rows(arr, j + i32xn::splat(self.stride[0] * n));
-        [0, 1, 2, 3].map(|c| fmadd(near[c], w0, far[c] * w1))
-    }
-
-    /// The blend over the first interpolated parameter at entries `j`.
-    #[inline(always)]
-    fn inner(&self, arr: &[f32], n: i32, j: i32xn) -> f32xn {
-        let (w0, w1) = self.weight[0];
-        let far = gather(arr, j + i32xn::splat(self.stride[0] * n));
-        fmadd(gather(arr, j), w0, far * w1)
-    }
-}
-
-/// The four values from `arr[j[k]]` on, lane k, as four lane vectors.
-#[inline(always)]
-fn rows(arr: &[f32], j: i32xn) -> [f32xn; 4] {
-    let j = j.to_array();
-    rows4(|k| {
-        let j = j[k] as usize;
-        [arr[j], arr[j + 1], arr[j + 2], arr[j + 3]]
-    })
-}
-
-/// [`first_at_least`] per lane: the same probes, lane by lane.
-#[inline(always)]
-pub fn first_at_least_xn(n: usize, x: f32xn, v: impl Fn(i32xn) -> f32xn) -> i32xn {
-    let mut base = i32xn::splat(0);
-    let mut size = n;
-    while size > 1 {
-        let half = size / 2;
-        let next = base + i32xn::splat(half as i32);
-        base = Select::<i32xn>::select(v(next).simd_lt(x), next, base);
-        size -= half;
-    }
-    let below: i32xn = wide::bytemuck::cast(v(base).simd_lt(x));
-    // `below` is -1 where set: subtracting it adds one.
-    (base - below).min(i32xn::splat(n as i32 - 1))
-}
-
-#[inline(always)]
-fn lerp_xn(a: f32xn, b: f32xn, t: f32xn) -> f32xn {
-    fmadd(b, t, fmadd(-a, t, a))
-}
-
-impl Marginal2D {
-    /// [`Marginal2D::slices`] per lane.
-    pub fn slices_xn(&self, p: &[f32xn]) -> SlicesxN {
-        let mut s = SlicesxN::none();
-        for (d, vals) in self.params.iter().enumerate() {
-            let n = vals.len();
-            if n <= 1 {
-                continue;
-            }
-            let x = p[d];
-            let i = first_at_least_xn(n - 1, x, |k| gather(vals, k + i32xn::splat(1)));
-            let v0 = gather(vals, i);
-            let v1 = gather(vals, i + i32xn::splat(1));
-            let t = clamp((x - v0) / (v1 - v0), 0.0, 1.0);
-            s.first += i * i32xn::splat(self.strides[d] as i32);
-            s.stride[s.dims] = self.strides[d] as i32;
-            s.weight[s.dims] = (f32xn::splat(1.0) - t, t);
-            s.dims += 1;
-        }
-        s
-    }
-
-    /// [`Marginal2D::patch`] per lane.
-    #[inline(always)]
-    fn patch_xn(&self, u: [f32xn; 2]) -> (i32xn, i32xn, f32xn, f32xn) {
-        let (w, h) = (self.w, self.h);
-        let px = clamp(u[0], 0.0, 1.0) * f32xn::splat((w - 1) as f32);
-        let py = clamp(u[1], 0.0, 1.0) * f32xn::splat((h - 1) as f32);
-        let ox = px.trunc_int().min(i32xn::splat(w as i32 - 2));
-        let oy = py.trunc_int().min(i32xn::splat(h as i32 - 2));
-        (
-            ox,
-            oy,
-            px - crate::simd::float_of(ox),
-            py - crate::simd::float_of(oy),
-        )
-    }
-
-    /// [`Marginal2D::eval_in`] per lane.
-    #[inline]
-    pub fn eval_xn(&self, u: [f32xn; 2], sl: &SlicesxN) -> f32xn {
-        self.eval_channels_xn::<1>(u, sl)[0]
-    }
-
-    /// [`Marginal2D::eval_channels`] per lane (four-channel tables by transposed loads).
-    #[inline]
-    pub fn eval_channels_xn<const C: usize>(&self, u: [f32xn; 2], sl: &SlicesxN) -> [f32xn; C] {
-        assert_eq!(C, self.channels);
-        let (ox, oy, fx, fy) = self.patch_xn(u);
-        let n = self.w * self.h * C;
-        let i = (oy * i32xn::splat(self.w as i32) + ox) * i32xn::splat(C as i32);
-        let (c1, row) = (i32xn::splat(C as i32), i32xn::splat((self.w * C) as i32));
-        let mut out = [f32xn::splat(0.0); C];
-        if C == 4 {
-            let (v00, v10) = (sl.at4(&self.data, n, i), sl.at4(&self.data, n, i + c1));
-            let (v01, v11) = (
-                sl.at4(&self.data, n, i + row),
-                sl.at4(&self.data, n, i + row + c1),
-            );
-            for (c, o) in out.iter_mut().enumerate() {
-                *o = lerp_xn(lerp_xn(v00[c], v10[c], fx), lerp_xn(v01[c], v11[c], fx), fy);
-            }
-            return out;
-        }
-        for (c, o) in out.iter_mut().enumerate() {
-            let at = |k: i32xn| sl.at(&self.data, n, k + i32xn::splat(c as i32));
-            let (v00, v10) = (at(i), at(i + c1));
-            let (v01, v11) = (at(i + row), at(i + row + c1));
-            *o = lerp_xn(lerp_xn(v00, v10, fx), lerp_xn(v01, v11, fx), fy);
-        }
-        out
-    }
-
-    /// [`Marginal2D::sample_segment`] per lane.
-    #[inline(always)]
-    fn sample_segment_xn(u: f32xn, inv_w: f32, v0: f32xn, v1: f32xn) -> f32xn {
-        let zero = f32xn::splat(0.0);
-        let nonconst = (v0 - v1).abs().simd_gt(f32xn::splat(1e-4) * (v0 + v1));
-        let div = sel(nonconst, v0 - v1, v0 + v1);
-        let u = u * f32xn::splat(2.0) * f32xn::splat(inv_w);
-        let u = sel(nonconst, v0 - (v0 * v0 + u * (v1 - v0)).max(zero).sqrt(), u);
-        sel(!div.simd_eq(zero), u / div, u)
-    }
-
-    /// [`Marginal2D::sample_in`] per lane.
-    pub fn sample_xn(&self, xi: [f32xn; 2], b: &SlicesxN) -> ([f32xn; 2], f32xn) {
-        let (w, h) = (self.w, self.h);
-        let eps = f32::EPSILON / 2.0;
-        let (mut x, mut y) = (clamp(xi[0], eps, 1.0 - eps), clamp(xi[1], eps, 1.0 - eps));
-        let (nm, nc) = (h - 1, h * (w - 1));
-        let (one, zero) = (i32xn::splat(1), i32xn::splat(0));
-        let row = first_at_least_xn(h - 1, y, |r| b.at(&self.marg, nm, r));
-        let prev = b.at(&self.marg, nm, (row - one).max(zero));
-        y = sel(
-            crate::simd::float_of(row).simd_gt(f32xn::splat(0.0)),
-            y - prev,
-            y,
-        );
-        let wm1 = i32xn::splat(w as i32 - 1);
-        let (row0, row1) = (row * wm1, (row + one) * wm1);
-        let last = i32xn::splat(w as i32 - 2);
-        let r0 = b.at(&self.cond, nc, row0 + last);
-        let r1 = b.at(&self.cond, nc, row1 + last);
-        let ty = Self::sample_segment_xn(y, (h - 1) as f32, r0, r1);
-        x *= lerp_xn(r0, r1, ty);
-        let c = |k: i32xn| {
-            lerp_xn(
-                b.at(&self.cond, nc, row0 + k),
-                b.at(&self.cond, nc, row1 + k),
-                ty,
-            )
-        };
-        let col = first_at_least_xn(w - 1, x, c);
-        let prev = c((col - one).max(zero));
-        x = sel(
-            crate::simd::float_of(col).simd_gt(f32xn::splat(0.0)),
-            x - prev,
-            x,
-        );
-        let n = w * h;
-        let i = row * i32xn::splat(w as i32) + col;
-        let wi = i32xn::splat(w as i32);
-        let v00 = b.at(&self.data, n, i);
-        let v10 = b.at(&self.data, n, i + one);
-        let v01 = b.at(&self.data, n, i + wi);
-        let v11 = b.at(&self.data, n, i + wi + one);
-        let c0 = lerp_xn(v00, v01, ty);
-        let c1 = lerp_xn(v10, v11, ty);
-        let tx = Self::sample_segment_xn(x, (w - 1) as f32, c0, c1);
-        let inv = [1.0 / (w - 1) as f32, 1.0 / (h - 1) as f32].map(f32xn::splat);
-        (
-            [
-                (crate::simd::float_of(col) + tx) * inv[0],
-                (crate::simd::float_of(row) + ty) * inv[1],
-            ],
-            lerp_xn(c0, c1, tx),
-        )
-    }
-
-    /// [`Marginal2D::invert_in`] per lane.
-    pub fn invert_xn(&self, u: [f32xn; 2], b: &SlicesxN) -> ([f32xn; 2], f32xn) {
-        let (w, h) = (self.w, self.h);
-        let (px, py, fx, fy) = self.patch_xn(u);
-        let (one, zero) = (i32xn::splat(1), i32xn::splat(0));
-        let n = w * h;
-        let wi = i32xn::splat(w as i32);
+        let wi = T::int(w as i32);
         let i = py * wi + px;
         let v00 = b.at(&self.data, n, i);
         let v10 = b.at(&self.data, n, i + one);
         let v01 = b.at(&self.data, n, i + wi);
         let v11 = b.at(&self.data, n, i + wi + one);
-        let c0 = lerp_xn(v00, v01, fy);
-        let c1 = lerp_xn(v10, v11, fy);
-        let pdf = lerp_xn(c0, c1, fx);
+        let c0 = lerp(v00, v01, fy);
+        let c1 = lerp(v10, v11, fy);
+        let pdf = lerp(c0, c1, fx);
         let (nc, nm) = (h * (w - 1), h - 1);
-        let half = f32xn::splat(0.5);
-        let mut x = fx * lerp_xn(c0, c1, half * fx) * f32xn::splat(1.0 / (w - 1) as f32);
-        let wm1 = i32xn::splat(w as i32 - 1);
+        let half = T::of(0.5);
+        let mut x = fx * lerp(c0, c1, half * fx) * T::of((1.0 / (w - 1) as f32) as f64);
+        let wm1 = T::int(w as i32 - 1);
         let (row0, row1) = (py * wm1, (py + one) * wm1);
-        let left = (px - one).max(zero);
-        let before = lerp_xn(
+        let left = T::int_max(px - one, zero);
+        let before = lerp(
             b.at(&self.cond, nc, row0 + left),
             b.at(&self.cond, nc, row1 + left),
             fy,
         );
-        let fzero = f32xn::splat(0.0);
-        x = sel(crate::simd::float_of(px).simd_gt(fzero), x + before, x);
-        let last = i32xn::splat(w as i32 - 2);
+        x = select(gt(T::of_int(px), fzero), x + before, x);
+        let last = T::int(w as i32 - 2);
         let r0 = b.at(&self.cond, nc, row0 + last);
         let r1 = b.at(&self.cond, nc, row1 + last);
-        let rl = lerp_xn(r0, r1, fy);
-        x = sel(rl.simd_gt(fzero), x / rl, x);
-        let mut y = fy * lerp_xn(r0, r1, half * fy) * f32xn::splat(1.0 / (h - 1) as f32);
-        let above = b.at(&self.marg, nm, (py - one).max(zero));
-        y = sel(crate::simd::float_of(py).simd_gt(fzero), y + above, y);
+        let rl = lerp(r0, r1, fy);
+        x = select(gt(rl, fzero), x / rl, x);
+        let mut y = fy * lerp(r0, r1, half * fy) * T::of((1.0 / (h - 1) as f32) as f64);
+        let above = b.at(&self.marg, nm, T::int_max(py - one, zero));
+        y = select(gt(T::of_int(py), fzero), y + above, y);
         ([x, y], pdf)
     }
 }
@@ -623,7 +403,7 @@ impl Marginal2D {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simd::LANES;
+    use crate::simd::{LANES, f32xn};
 
     /// Two parameter slices of a 5 x 4 table.
     fn table() -> Marginal2D {
@@ -683,7 +463,7 @@ mod tests {
             for x10 in -10..(n as i32 * 5) {
                 let x = x10 as f32 * 0.1;
                 assert_eq!(
-                    first_at_least(n, x, |k| v[k]),
+                    first_at_least(n, x, |k| v[k as usize]) as usize,
                     linear(&v, x),
                     "n {n}, x {x}"
                 );
@@ -772,12 +552,12 @@ mod tests {
             let p1 = lanes(|i| q(i * 6 + 1) * 5.0 - 1.5);
             let u = lanes(|i| [q(i * 6 + 2), q(i * 6 + 3)]);
             let xi = lanes(|i| [q(i * 6 + 4), q(i * 6 + 5)]);
-            let sl8 = m.slices_xn(&[f32xn::new(p0), f32xn::new(p1)]);
+            let sl8 = m.slices(&[f32xn::new(p0), f32xn::new(p1)]);
             let u8 = [f32xn::new(u.map(|v| v[0])), f32xn::new(u.map(|v| v[1]))];
             let xi8 = [f32xn::new(xi.map(|v| v[0])), f32xn::new(xi.map(|v| v[1]))];
-            let e = m.eval_xn(u8, &sl8).to_array();
-            let (iv, ip) = m.invert_xn(u8, &sl8);
-            let (sv, sp) = m.sample_xn(xi8, &sl8);
+            let e = m.eval_in(u8, &sl8).to_array();
+            let (iv, ip) = m.invert_in(u8, &sl8);
+            let (sv, sp) = m.sample_in(xi8, &sl8);
             for i in 0..LANES {
                 let sl = m.slices(&[p0[i], p1[i]]);
                 let ctx = format!("p ({}, {}), u {:?}, xi {:?}", p0[i], p1[i], u[i], xi[i]);
@@ -794,17 +574,19 @@ mod tests {
         }
     }
 
-    /// The binary search per lane finds what the scalar one finds.
+    /// The binary search in lanes finds what the one-query search finds.
     #[test]
-    fn first_at_least_xn_equals_the_scalar_search() {
+    fn first_at_least_in_lanes_equals_the_one_query_search() {
         use crate::simd::lanes;
         for n in 1..40 {
             let v: Vec<f32> = (0..n).map(|k| (k / 3) as f32).collect();
             for x10 in (-10..(n as i32 * 5)).step_by(8) {
                 let xs = lanes(|i| (x10 + i as i32) as f32 * 0.1);
-                let got = first_at_least_xn(n, f32xn::new(xs), |k| gather(&v, k)).to_array();
+                let got = first_at_least(n, f32xn::new(xs), |k| crate::simd::gather(&v, k));
+                let got = got.to_array();
                 for i in 0..LANES {
-                    assert_eq!(got[i] as usize, first_at_least(n, xs[i], |k| v[k]), "n {n}");
+                    let one = first_at_least(n, xs[i], |k| v[k as usize]);
+                    assert_eq!(got[i], one, "n {n}");
                 }
             }
         }
@@ -851,12 +633,12 @@ mod tests {
                 let u = lanes(|i| [q(4 * i) * 1.2 - 0.1, q(4 * i + 1)]);
                 let p = lanes(|i| [q(4 * i + 2) * 1.4 - 0.2, q(4 * i + 3) * 3.0]);
                 let p8 = [f32xn::new(p.map(|p| p[0])), f32xn::new(p.map(|p| p[1]))];
-                let sl8 = table.slices_xn(&p8[..params.len()]);
+                let sl8 = table.slices(&p8[..params.len()]);
                 let u8 = [f32xn::new(u.map(|u| u[0])), f32xn::new(u.map(|u| u[1]))];
-                let got8 = table.eval_channels_xn::<C>(u8, &sl8);
+                let got8 = table.eval_channels::<_, C>(u8, &sl8);
                 for i in 0..LANES {
                     let p = &p[i][..params.len()];
-                    let got = table.eval_channels::<C>(u[i], &table.slices(p));
+                    let got = table.eval_channels::<_, C>(u[i], &table.slices(p));
                     for c in 0..C {
                         let want = single[c].eval_in(u[i], &single[c].slices(p)).to_bits();
                         assert_eq!(got[c].to_bits(), want, "{C} channels: {u:?} {p:?}");
