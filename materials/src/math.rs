@@ -73,6 +73,13 @@ pub trait Num:
     fn int_min(a: Self::Int, b: Self::Int) -> Self::Int;
     /// The larger index (per lane).
     fn int_max(a: Self::Int, b: Self::Int) -> Self::Int;
+    /// `a < b` (per lane).
+    fn int_lt(a: Self::Int, b: Self::Int) -> Self::Mask;
+    /// `a == b` (per lane).
+    fn int_eq(a: Self::Int, b: Self::Int) -> Self::Mask;
+    /// `f(i)` per lane: records of `N` values looked up by index, one lane's record in
+    /// each lane.
+    fn gather_by<const N: usize>(i: Self::Int, f: impl Fn(usize) -> [f32; N]) -> [Self; N];
     /// `a` where `m` holds, else `b` (per lane).
     fn int_select(m: Self::Mask, a: Self::Int, b: Self::Int) -> Self::Int;
     /// `self` truncated toward zero to an index (for values in i32's range).
@@ -300,6 +307,18 @@ macro_rules! scalar_num {
                 a.max(b)
             }
             #[inline(always)]
+            fn int_lt(a: i32, b: i32) -> bool {
+                a < b
+            }
+            #[inline(always)]
+            fn int_eq(a: i32, b: i32) -> bool {
+                a == b
+            }
+            #[inline(always)]
+            fn gather_by<const N: usize>(i: i32, f: impl Fn(usize) -> [f32; N]) -> [Self; N] {
+                f(i as usize).map(|v| v as $t)
+            }
+            #[inline(always)]
             fn int_select(m: bool, a: i32, b: i32) -> i32 {
                 if m { a } else { b }
             }
@@ -441,6 +460,20 @@ impl Num for f32xn {
     #[inline(always)]
     fn int_max(a: i32xn, b: i32xn) -> i32xn {
         a.max(b)
+    }
+    #[inline(always)]
+    fn int_lt(a: i32xn, b: i32xn) -> Self {
+        wide::bytemuck::cast(a.simd_lt(b))
+    }
+    #[inline(always)]
+    fn int_eq(a: i32xn, b: i32xn) -> Self {
+        wide::bytemuck::cast(a.simd_eq(b))
+    }
+    #[inline(always)]
+    fn gather_by<const N: usize>(i: i32xn, f: impl Fn(usize) -> [f32; N]) -> [Self; N] {
+        let i = i.to_array();
+        let rows = crate::simd::lanes(|k| f(i[k] as usize));
+        std::array::from_fn(|c| f32xn::new(crate::simd::lanes(|k| rows[k][c])))
     }
     #[inline(always)]
     fn int_select(m: Self, a: i32xn, b: i32xn) -> i32xn {

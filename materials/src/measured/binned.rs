@@ -18,14 +18,13 @@
 //! phi_d = |phi_o - phi_i| folded into [0, 180] degrees (isotropy and reciprocity).
 //!
 //! Lookups: [`Binned::bin_of`] finds a bin from f64 angles (fitting, tabulation);
-//! rendering uses [`Binned::lookup_f32`] and [`Binned::lookup_xn`], one query or `LANES` in
-//! SIMD lanes, with f32 angles from [`crate::fastmath`] (the same bin except within about
+//! rendering uses [`Binned::bin_value`] (written once, for one query or `LANES` in
+//! SIMD lanes) with f32 angles from [`crate::fastmath`] (the same bin except within about
 //! 1e-4 degrees of a bin edge).
 
 use crate::Rgb;
 use crate::error::FileError;
-use crate::fastmath::{self, xn};
-use crate::simd::{self, RgbxN, Vec3xN, f32xn, i32xn, sel};
+use crate::math::{Num, V3, acos, atan2, gt, lt, maximum, minimum, select};
 use glam::Vec3;
 use std::path::Path;
 
@@ -52,18 +51,11 @@ impl Axis {
         let t = (deg - self.min) / (self.max - self.min) * self.count as f64;
         (t.max(0.0) as usize).min(self.count - 1)
     }
-    /// [`Axis::bin`] in f32 ([`Binned::lookup_f32`]).
+    /// [`Axis::bin`] in f32, one value or lanes ([`Binned::bin_value`]).
     #[inline(always)]
-    fn bin_f32(&self, deg: f32) -> usize {
-        let t = (deg - self.min as f32) / (self.max - self.min) as f32 * self.count as f32;
-        simd::max_lane(t, 0.0).min((self.count - 1) as f32) as usize
-    }
-    /// [`Axis::bin_f32`] per lane.
-    #[inline(always)]
-    fn bin_xn(&self, deg: f32xn) -> i32xn {
-        let s = f32xn::splat;
-        let t = (deg - s(self.min as f32)) / s((self.max - self.min) as f32) * s(self.count as f32);
-        t.max(s(0.0)).min(s((self.count - 1) as f32)).trunc_int()
+    fn bin_of<T: Num>(&self, deg: T) -> T::Int {
+        let t = (deg - T::of(self.min)) / T::of(self.max - self.min) * T::of(self.count as f64);
+        minimum(maximum(t, T::of(0.0)), T::of((self.count - 1) as f64)).trunc_int()
     }
     /// Centre of bin k in degrees.
     pub fn centre(&self, k: usize) -> f64 {
@@ -220,58 +212,39 @@ impl Binned {
     }
 
     /// [`Binned::lookup`] with f32 angles (rendering; lane for lane
-    /// [`Binned::lookup_xn`]).
+    /// [`Binned::bin_value`]).
     pub fn lookup_f32(&self, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let sph = |w: Vec3| {
-            let t = fastmath::acos(w.z.clamp(-1.0, 1.0)) * DEGREES;
-            let p = fastmath::atan2(w.y, w.x) * DEGREES;
-            (t, if p < 0.0 { p + 360.0 } else { p })
-        };
-        let ((ti, pi), (to, po)) = (sph(wi), sph(wo));
-        let a = &self.axes;
-        let k = if self.anisotropic {
-            ((a[0].bin_f32(ti) * a[1].count + a[1].bin_f32(to)) * a[2].count + a[2].bin_f32(pi))
-                * a[3].count
-                + a[3].bin_f32(po)
-        } else {
-            let d = po - pi;
-            let d = if d < 0.0 { d + 360.0 } else { d };
-            let d = if d > 180.0 { 360.0 - d } else { d };
-            (a[0].bin_f32(ti) * a[1].count + a[1].bin_f32(to)) * a[2].count + a[2].bin_f32(d)
-        };
-        self.values[k].map_or(Rgb::ZERO, Rgb::from)
+        Rgb::from(self.bin_value::<f32>(wi.into(), wo.into()))
     }
 
-    /// [`Binned::lookup_f32`] of `LANES` pairs: the bins in SIMD lanes, then one load each.
-    pub fn lookup_xn(&self, wi: Vec3xN, wo: Vec3xN) -> RgbxN {
-        let s = f32xn::splat;
-        let sph = |w: Vec3xN| {
-            let t = xn::acos(w.z.max(s(-1.0)).min(s(1.0))) * s(DEGREES);
-            let p = xn::atan2(w.y, w.x) * s(DEGREES);
-            (t, sel(p.simd_lt(s(0.0)), p + s(360.0), p))
+    /// [`Binned::lookup_f32`] written once over [`Num`] (one pair, or lanes of pairs): the
+    /// bin of the pair's angles in f32, zero for an empty bin and below the surface.
+    #[inline]
+    pub fn bin_value<T: Num>(&self, wi: V3<T>, wo: V3<T>) -> [T; 3] {
+        let s = T::of;
+        let sph = |w: V3<T>| {
+            let t = acos(minimum(maximum(w.z, s(-1.0)), s(1.0))) * s(DEGREES as f64);
+            let p = atan2(w.y, w.x) * s(DEGREES as f64);
+            (t, select(lt(p, s(0.0)), p + s(360.0), p))
         };
         let ((ti, pi), (to, po)) = (sph(wi), sph(wo));
         let a = &self.axes;
-        let count = |d: usize| i32xn::splat(a[d].count as i32);
+        let count = |d: usize| T::int(a[d].count as i32);
         let k = if self.anisotropic {
-            ((a[0].bin_xn(ti) * count(1) + a[1].bin_xn(to)) * count(2) + a[2].bin_xn(pi)) * count(3)
-                + a[3].bin_xn(po)
+            ((a[0].bin_of(ti) * count(1) + a[1].bin_of(to)) * count(2) + a[2].bin_of(pi)) * count(3)
+                + a[3].bin_of(po)
         } else {
             let d = po - pi;
-            let d = sel(d.simd_lt(s(0.0)), d + s(360.0), d);
-            let d = sel(d.simd_gt(s(180.0)), s(360.0) - d, d);
-            (a[0].bin_xn(ti) * count(1) + a[1].bin_xn(to)) * count(2) + a[2].bin_xn(d)
+            let d = select(lt(d, s(0.0)), d + s(360.0), d);
+            let d = select(gt(d, s(180.0)), s(360.0) - d, d);
+            (a[0].bin_of(ti) * count(1) + a[1].bin_of(to)) * count(2) + a[2].bin_of(d)
         };
-        let above = wi.z.simd_gt(s(0.0)) & wo.z.simd_gt(s(0.0));
-        let (k, above) = (k.to_array(), simd::mask_bits(above));
-        RgbxN::from_array(&simd::lanes(|i| {
-            let v = (above >> i) & 1 == 1;
-            let value = if v { self.values[k[i] as usize] } else { None };
-            value.map_or(Rgb::ZERO, Rgb::from)
-        }))
+        let above = gt(wi.z, s(0.0)) & gt(wo.z, s(0.0));
+        let v = T::gather_by(k, |k| self.values[k].unwrap_or([0.0; 3]));
+        v.map(|x| select(above, x, s(0.0)))
     }
 
     /// Fills empty bins by repeatedly averaging their non-empty neighbours (along every
@@ -503,7 +476,7 @@ impl Binned {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simd::LANES;
+    use crate::simd::{self, LANES, RgbxN, Vec3xN};
 
     /// The f32 lookups of rendering find the bin the f64 angles find, except within
     /// 1e-3 degrees of a bin edge, and the lane form equals the single one bit for
@@ -537,7 +510,8 @@ mod tests {
                     simd::lanes(|i| dir(LANES * chunk + i, 0.618_034, 0.414_214));
                 let wo: [Vec3; LANES] =
                     simd::lanes(|i| dir(LANES * chunk + i + 5, 0.754_878, 0.569_840));
-                let lanes = t.lookup_xn(Vec3xN::from_array(&wi), Vec3xN::from_array(&wo));
+                let [r, g, b] = t.bin_value(Vec3xN::from_array(&wi), Vec3xN::from_array(&wo));
+                let lanes = RgbxN::new(r, g, b);
                 for i in 0..LANES {
                     let one = t.lookup_f32(wi[i], wo[i]);
                     let lane = lanes.lane(i);

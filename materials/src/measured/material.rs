@@ -60,7 +60,8 @@ impl Table for MerlTable {
     }
     fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
         if self.interpolate {
-            self.table.lookup_xn(wi, wo)
+            let [r, g, b] = self.table.interpolate(wi, wo);
+            RgbxN::new(r, g, b)
         } else {
             eval_lanes(|o, i| self.table.lookup_nearest(i, o), wo, wi)
         }
@@ -84,7 +85,8 @@ impl Table for BinnedTable {
             .map(|x| simd::max_lane(x, 0.0))
     }
     fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
-        self.table.lookup_xn(wi, wo).max(0.0)
+        let [r, g, b] = self.table.bin_value(wi, wo);
+        RgbxN::new(r, g, b).max(0.0)
     }
     fn is_isotropic(&self) -> bool {
         !self.table.anisotropic

@@ -13,14 +13,13 @@
 //! In memory the table is f32 RGB (17.5 MB). Lookups are nearest (the bin) or trilinear
 //! between bin centres (periodic in phi_d), skipping missing corners. The trilinear lookup
 //! the renderer uses runs in f32 without trigonometric rotations ([`bin_coords`]), one pair
-//! at a time or `LANES` ([`Merl::lookup_xn`], the batched evaluation of the `merl` material);
+//! at a time or `LANES` ([`Merl::interpolate`], the batched evaluation of the `merl` material);
 //! fitting and the nearest-bin lookup keep the f64 angles of [`half_diff`].
 
 use crate::Rgb;
 use crate::error::FileError;
 use crate::frame::{from_half_diff, half_diff};
-use crate::math::{Num, V3, atan2, gt, le, lt, maximum, select, sqrt};
-use crate::simd::{RgbxN, Vec3xN, clamp, f32xn, gather, i32xn, sel};
+use crate::math::{Num, V3, atan2, clamp, floor, gt, le, lt, maximum, select, sqrt};
 use glam::Vec3;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::Path;
@@ -102,47 +101,23 @@ pub fn bin_coords<T: Num>(wi: V3<T>, wo: V3<T>) -> [T; 3] {
 /// The two bins either side of a clamped continuous coordinate and the second's weight:
 /// `(i0, i1, w)` with `x - 0.5` clamped to [0, n - 1] (bin centres at k + 1/2).
 #[inline(always)]
-fn split_clamped(x: f32, n: usize) -> (usize, usize, f32) {
-    let x = (x - 0.5).clamp(0.0, (n - 1) as f32);
-    let i = x.floor();
-    let i0 = i as usize;
-    (i0, (i0 + 1).min(n - 1), x - i)
-}
-
-/// [`split_clamped`] per lane.
-#[inline(always)]
-fn split_clamped_xn(x: f32xn, n: usize) -> (i32xn, i32xn, f32xn) {
-    let x = clamp(x - f32xn::splat(0.5), 0.0, (n - 1) as f32);
-    let i = x.floor();
+fn split_clamped<T: Num>(x: T, n: usize) -> (T::Int, T::Int, T) {
+    let x = clamp(x - T::of(0.5), T::of(0.0), T::of((n - 1) as f64));
+    let i = floor(x);
     let i0 = i.trunc_int();
-    (
-        i0,
-        (i0 + i32xn::splat(1)).min(i32xn::splat(n as i32 - 1)),
-        x - i,
-    )
+    (i0, T::int_min(i0 + T::int(1), T::int(n as i32 - 1)), x - i)
 }
 
 /// The two bins either side of the periodic phi_d coordinate and the second's weight.
 #[inline(always)]
-fn split_periodic(x: f32) -> (usize, usize, f32) {
-    let xc = x - 0.5;
-    let f = xc.floor();
-    let i = f as i32;
-    let i0 = if i < 0 { i + RES_PHI_D as i32 } else { i } as usize;
-    let i1 = if i0 + 1 == RES_PHI_D { 0 } else { i0 + 1 };
-    (i0, i1, xc - f)
-}
-
-/// [`split_periodic`] per lane.
-#[inline(always)]
-fn split_periodic_xn(x: f32xn) -> (i32xn, i32xn, f32xn) {
-    let xc = x - f32xn::splat(0.5);
-    let f = xc.floor();
+fn split_periodic<T: Num>(x: T) -> (T::Int, T::Int, T) {
+    let xc = x - T::of(0.5);
+    let f = floor(xc);
     let i = f.trunc_int();
-    let n = i32xn::splat(RES_PHI_D as i32);
-    let i0 = i.simd_lt(i32xn::splat(0)).select(i + n, i);
-    let i1 = i0 + i32xn::splat(1);
-    let i1 = i1.simd_eq(n).select(i32xn::splat(0), i1);
+    let n = T::int(RES_PHI_D as i32);
+    let i0 = T::int_select(T::int_lt(i, T::int(0)), i + n, i);
+    let i1 = i0 + T::int(1);
+    let i1 = T::int_select(T::int_eq(i1, n), T::int(0), i1);
     (i0, i1, xc - f)
 }
 
@@ -306,63 +281,45 @@ impl Merl {
     /// Trilinear lookup between bin centres (clamped in theta, periodic in phi_d),
     /// renormalized over the corners that are not missing. In f32 throughout, for the
     /// renderer: the bin coordinates come from [`bin_coords`], the corners' weights and
-    /// sums in f32; [`Merl::lookup_xn`] gives the same values a lane vector at a time.
+    /// sums in f32; [`Merl::interpolate`] gives the same values a lane vector at a time.
     pub fn lookup(&self, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let [a, b, c] = bin_coords(V3::from(wi), V3::from(wo));
+        Rgb::from(self.interpolate::<f32>(wi.into(), wo.into()))
+    }
+
+    /// [`Merl::lookup`] written once over [`Num`] (one pair, or lanes of pairs): the
+    /// coordinates and weights, the eight corners' values gathered, the missing ones and
+    /// the pairs below the surface weighted zero.
+    #[inline]
+    pub fn interpolate<T: Num>(&self, wi: V3<T>, wo: V3<T>) -> [T; 3] {
+        let s = T::of;
+        let above = gt(wi.z, s(0.0)) & gt(wo.z, s(0.0));
+        let [a, b, c] = bin_coords(wi, wo);
         let (a0, a1, wa) = split_clamped(a, RES_THETA_H);
         let (b0, b1, wb) = split_clamped(b, RES_THETA_D);
         let (c0, c1, wc) = split_periodic(c);
-        let mut acc = Rgb::ZERO;
-        let mut wsum = 0.0f32;
-        for (ia, fa) in [(a0, 1.0 - wa), (a1, wa)] {
-            for (ib, fb) in [(b0, 1.0 - wb), (b1, wb)] {
-                for (ic, fc) in [(c0, 1.0 - wc), (c1, wc)] {
-                    let w = fa * fb * fc;
-                    let v = self.data[index(ia, ib, ic)];
-                    if w > 0.0 && v[0] >= 0.0 {
-                        acc += Rgb::from(v) * w;
-                        wsum += w;
-                    }
-                }
-            }
-        }
-        if wsum > 0.0 { acc / wsum } else { Rgb::ZERO }
-    }
-
-    /// [`Merl::lookup`] of `LANES` pairs, lane by lane bit for bit: the coordinates and
-    /// weights in SIMD lanes, the eight corners' values gathered.
-    pub fn lookup_xn(&self, wi: Vec3xN, wo: Vec3xN) -> RgbxN {
-        let s = f32xn::splat;
-        let above = wi.z.simd_gt(s(0.0)) & wo.z.simd_gt(s(0.0));
-        let [a, b, c] = bin_coords(wi, wo);
-        let (a0, a1, wa) = split_clamped_xn(a, RES_THETA_H);
-        let (b0, b1, wb) = split_clamped_xn(b, RES_THETA_D);
-        let (c0, c1, wc) = split_periodic_xn(c);
         let flat = self.data.as_flattened();
         let (mut r, mut g, mut bl, mut wsum) = (s(0.0), s(0.0), s(0.0), s(0.0));
         for (ia, fa) in [(a0, s(1.0) - wa), (a1, wa)] {
             for (ib, fb) in [(b0, s(1.0) - wb), (b1, wb)] {
-                let row =
-                    (ia * i32xn::splat(RES_THETA_D as i32) + ib) * i32xn::splat(RES_PHI_D as i32);
+                let row = (ia * T::int(RES_THETA_D as i32) + ib) * T::int(RES_PHI_D as i32);
                 for (ic, fc) in [(c0, s(1.0) - wc), (c1, wc)] {
                     let w = fa * fb * fc;
-                    let at = (row + ic) * i32xn::splat(3);
-                    let vr = gather(flat, at);
-                    let keep = above & w.simd_gt(s(0.0)) & vr.simd_ge(s(0.0));
-                    let w = sel(keep, w, s(0.0));
-                    r += vr * w;
-                    g += gather(flat, at + i32xn::splat(1)) * w;
-                    bl += gather(flat, at + i32xn::splat(2)) * w;
-                    wsum += w;
+                    let at = (row + ic) * T::int(3);
+                    let vr = T::gather(flat, at);
+                    let keep = above & gt(w, s(0.0)) & le(s(0.0), vr);
+                    let w = select(keep, w, s(0.0));
+                    r = r + vr * w;
+                    g = g + T::gather(flat, at + T::int(1)) * w;
+                    bl = bl + T::gather(flat, at + T::int(2)) * w;
+                    wsum = wsum + w;
                 }
             }
         }
-        let some = wsum.simd_gt(s(0.0));
-        let norm = |x: f32xn| sel(some, x / wsum, s(0.0));
-        RgbxN::new(norm(r), norm(g), norm(bl))
+        let some = gt(wsum, s(0.0));
+        [r, g, bl].map(|x| select(some, x / wsum, s(0.0)))
     }
 
     /// Fraction of bins that hold a sample.
