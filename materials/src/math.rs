@@ -63,6 +63,9 @@ pub trait Num:
     fn num_copysign(self, sign: Self) -> Self;
     /// The largest integer not above `self` (`f32::floor`).
     fn num_floor(self) -> Self;
+    /// Radians to degrees: times 180 / pi (in f32 and lanes the quotient of the f32
+    /// constants, in f64 `f64::to_degrees`).
+    fn num_to_degrees(self) -> Self;
     /// `self * a + b` with one rounding (`f32::mul_add`; [`crate::simd::fmadd`] in lanes).
     fn num_mul_add(self, a: Self, b: Self) -> Self;
     /// An index per value (one i32, or [`crate::simd::i32xn`] lanes), for table lookups.
@@ -196,6 +199,11 @@ pub fn copysign<T: Num>(x: T, sign: T) -> T {
 pub fn mul_add<T: Num>(a: T, b: T, c: T) -> T {
     a.num_mul_add(b, c)
 }
+/// Radians to degrees ([`Num::num_to_degrees`]).
+#[inline(always)]
+pub fn to_degrees<T: Num>(x: T) -> T {
+    x.num_to_degrees()
+}
 /// The largest integer not above `x` ([`Num::num_floor`]).
 #[inline(always)]
 pub fn floor<T: Num>(x: T) -> T {
@@ -208,7 +216,7 @@ pub fn all<T: Num>(m: T::Mask) -> bool {
 }
 
 macro_rules! scalar_num {
-    ($t:ty, exp: $exp:path, powf: $powf:path, acos: $acos:path, sin_cos: $sin_cos:path, atan2: $atan2:path, asin: $asin:path, ln: $ln:path) => {
+    ($t:ty, exp: $exp:path, powf: $powf:path, acos: $acos:path, sin_cos: $sin_cos:path, atan2: $atan2:path, asin: $asin:path, ln: $ln:path, degrees: $deg:expr) => {
         impl Num for $t {
             type Mask = bool;
             #[inline(always)]
@@ -293,6 +301,10 @@ macro_rules! scalar_num {
             fn num_floor(self) -> Self {
                 <$t>::floor(self)
             }
+            #[inline(always)]
+            fn num_to_degrees(self) -> Self {
+                $deg(self)
+            }
             type Int = i32;
             #[inline(always)]
             fn int(i: i32) -> i32 {
@@ -357,7 +369,8 @@ scalar_num!(
     sin_cos: crate::fastmath::sin_cos_moderate,
     atan2: crate::fastmath::atan2,
     asin: crate::fastmath::asin,
-    ln: crate::fastmath::ln
+    ln: crate::fastmath::ln,
+    degrees: |x: f32| x * (180.0 / std::f32::consts::PI)
 );
 scalar_num!(
     f64,
@@ -367,7 +380,8 @@ scalar_num!(
     sin_cos: f64::sin_cos,
     atan2: f64::atan2,
     asin: f64::asin,
-    ln: f64::ln
+    ln: f64::ln,
+    degrees: f64::to_degrees
 );
 
 impl Num for f32xn {
@@ -448,6 +462,10 @@ impl Num for f32xn {
     fn num_floor(self) -> Self {
         f32xn::floor(self)
     }
+    #[inline(always)]
+    fn num_to_degrees(self) -> Self {
+        self * f32xn::splat(180.0 / std::f32::consts::PI)
+    }
     type Int = i32xn;
     #[inline(always)]
     fn int(i: i32) -> i32xn {
@@ -494,9 +512,17 @@ impl Num for f32xn {
     #[inline(always)]
     fn gather4(table: &[f32], i: i32xn) -> [Self; 4] {
         let i = i.to_array();
+        // One bounds check for all lanes (as unsigned, a negative index is out of range).
+        let top = i.iter().map(|&j| j as u32 as usize).max().unwrap_or(0);
+        assert!(
+            top + 4 <= table.len(),
+            "gather4 index {top} + 4 beyond {}",
+            table.len()
+        );
         crate::simd::rows4(|k| {
-            let j = i[k] as usize;
-            [table[j], table[j + 1], table[j + 2], table[j + 3]]
+            let j = i[k] as u32 as usize;
+            // SAFETY: j + 4 <= table.len() for every lane, checked above.
+            unsafe { table.get_unchecked(j..j + 4).try_into().unwrap_unchecked() }
         })
     }
     #[inline(always)]

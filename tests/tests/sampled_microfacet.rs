@@ -61,7 +61,7 @@ fn beckmann_generator_is_cook_torrance_with_smith_shadowing() {
             peak = peak.max(reference(wi, wo));
         }
         for &(wi, wo) in &pairs {
-            let (a, b) = (t.rho(wo, wi, f0), reference(wi, wo));
+            let (a, b) = (t.rho(wo.into(), wi.into(), f0), reference(wi, wo));
             // Relative error where the lobe matters (above 1 % of its peak).
             if b > 0.01 * peak {
                 worst = worst.max((a - b).abs() / b);
@@ -87,7 +87,7 @@ fn recovered_distributions_match_the_truth_and_beat_analytic_fits() {
         let t = truth.clone();
         let data = sparse_4d(
             &|wi, wo| {
-                let r = t.rho(wo.as_dvec3(), wi.as_dvec3(), f0);
+                let r = t.rho(wo.as_dvec3().into(), wi.as_dvec3().into(), f0);
                 [0, 1, 2].map(|c| kd[c] / std::f64::consts::PI + ks[c] * r)
             },
             5.0,
@@ -142,7 +142,7 @@ fn fresnel_is_found_by_the_outer_search() {
     let truth = Arc::new(Table::from_fn(n, |h| shape.density(h)).unwrap());
     let t = truth.clone();
     let data = sparse_4d(
-        &|wi, wo| [t.rho(wo.as_dvec3(), wi.as_dvec3(), 0.3) * 0.5; 3],
+        &|wi, wo| [t.rho(wo.as_dvec3().into(), wi.as_dvec3().into(), 0.3) * 0.5; 3],
         6.0,
         0.25,
         9,
@@ -164,8 +164,9 @@ fn tables_round_trip_and_bad_tables_are_errors() {
     let wo = dir_f32(40.0, 10.0);
     let wi = dir_f32(30.0, 200.0);
     assert!(
-        (t.rho(wo.as_dvec3(), wi.as_dvec3(), 1.0) - back.rho(wo.as_dvec3(), wi.as_dvec3(), 1.0))
-            .abs()
+        (t.rho(wo.as_dvec3().into(), wi.as_dvec3().into(), 1.0)
+            - back.rho(wo.as_dvec3().into(), wi.as_dvec3().into(), 1.0))
+        .abs()
             < 1e-4
     );
     assert!(
@@ -224,7 +225,7 @@ fn isotropic_data_give_a_distribution_symmetric_about_the_normal() {
     let t = truth.clone();
     let data = lobe_materials::fit::dataset::Dataset::isotropic(
         &|wi, wo| {
-            let r = t.rho(wo.as_dvec3(), wi.as_dvec3(), 1.0) as f32;
+            let r = t.rho(wo.as_dvec3().into(), wi.as_dvec3().into(), 1.0) as f32;
             Some(lobe_materials::Rgb::new(0.6 * r, 0.5 * r, 0.4 * r))
         },
         2.0,

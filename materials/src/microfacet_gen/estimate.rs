@@ -237,7 +237,7 @@ fn alternate(
     for _ in 0..iterations.max(1) {
         let nodes = match &table {
             None => estimate_p(data, n, &|_| 1.0, f0, diffuse_lum),
-            Some(t) => estimate_p(data, n, &|k| t.g(k), f0, diffuse_lum),
+            Some(t) => estimate_p(data, n, &|k| t.g(k.into()), f0, diffuse_lum),
         };
         let next = Arc::new(Table::from_nodes(n, nodes)?);
         if let Some(prev) = &table {

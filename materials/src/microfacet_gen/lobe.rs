@@ -8,6 +8,7 @@ use super::synthetic::Shape;
 use super::table::{DEFAULT_RES, Table};
 use crate::composite::Composite;
 use crate::lobe::{self, Lobe};
+use crate::math::V3;
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
@@ -29,19 +30,18 @@ impl Lobe for SampledMicrofacet {
     fn model(&self) -> &'static str {
         "sampled-microfacet"
     }
-    /// Lane 0 of [`SampledMicrofacet::eval_pdf_xn`]'s value: one formula for both.
+    /// [`Table::rho`] in f32.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        let v = self.rho_xn(Vec3xN::splat(wo), Vec3xN::splat(wi));
-        Rgb::splat(v.to_array()[0])
+        Rgb::splat(self.table.rho(wo.into(), wi.into(), self.f0 as f32))
     }
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
-        [self.table.rho(wo, wi, self.f0); 3]
+        [self.table.rho(wo.into(), wi.into(), self.f0); 3]
     }
     /// Lane 0 of [`SampledMicrofacet::sample_xn`]: one sampler for both.
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3> {
         self.sample_xn(&[wo; LANES], &[u; LANES], &[uc; LANES])[0]
     }
-    /// Half vectors visible from `wo` ([`Table::sample_visible_xn`]), reflected.
+    /// Half vectors visible from `wo` ([`Table::sample_visible`]), reflected.
     fn sample_xn(
         &self,
         wo: &[Vec3; LANES],
@@ -51,7 +51,7 @@ impl Lobe for SampledMicrofacet {
         let [s] = self.sample_groups([wo], [u]);
         s
     }
-    /// Two lane vectors at a time, side by side ([`Table::sample_visible_xn`]); a last
+    /// Two lane vectors at a time, side by side ([`Table::sample_visible`]); a last
     /// lone lane vector alone.
     fn sample_batch(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<Vec3>]) {
         let n = out.len();
@@ -71,17 +71,26 @@ impl Lobe for SampledMicrofacet {
             }
         }
     }
-    /// Lane 0 of [`SampledMicrofacet::eval_pdf_xn`]'s density.
+    /// Lane 0 of [`SampledMicrofacet::eval_pdf_xn`]'s density (the visible-normal
+    /// sampler's tables are read in lanes).
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.pdf_xn(Vec3xN::splat(wo), Vec3xN::splat(wi)).to_array()[0]
+        self.eval_pdf_xn(Vec3xN::splat(wo), Vec3xN::splat(wi))
+            .1
+            .to_array()[0]
     }
-    /// The generator's value ([`Table::rho_xn`]) and density (of the visible normals,
-    /// converted to the density of wi) of `LANES` pairs, p(h) looked up once for both.
+    /// The generator's value ([`Table::rho_at`]) and density (of the visible normals,
+    /// converted to the density of wi, zero below the surface or where not finite) of
+    /// `LANES` pairs, p(h) looked up once for both.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let h = (wo + wi).normalize_or_zero();
-        let p_h = self.table.p_xn(h.x, h.y);
-        let v = self.table.rho_at_xn(wo, wi, h, p_h, self.f0 as f32);
-        (RgbxN::new(v, v, v), self.pdf_at_xn(wo, wi, h, p_h))
+        let zero = f32xn::splat(0.0);
+        let h = (wo + wi).unit_or(V3::new(zero, zero, zero));
+        let p_h = self.table.p(h.x, h.y);
+        let v = self
+            .table
+            .rho_at(wo, wi, h, p_h, f32xn::splat(self.f0 as f32));
+        let p = lobe::half_to_incident_pdf(self.table.pdf_visible_at(wo, h, p_h), wo.dot(h));
+        let ok = lobe::both_above(wo, wi) & p.is_finite();
+        (RgbxN::new(v, v, v), sel(ok, p, zero))
     }
     fn flags(&self) -> Flags {
         Flags::RECIPROCAL | Flags::GLOSSY
@@ -103,36 +112,12 @@ impl SampledMicrofacet {
         let xy = u.map(simd::vec2s);
         let h = self
             .table
-            .sample_visible_xn(wo, xy.map(|[x, _]| x), xy.map(|[_, y]| y));
+            .sample_visible(wo, xy.map(|[x, _]| x), xy.map(|[_, y]| y));
         std::array::from_fn(|g| {
             let (h, drawn) = h[g];
             let (wi, ok) = lobe::reflect_above(wo[g], h);
             wi.options(drawn & ok)
         })
-    }
-
-    #[inline]
-    fn rho_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
-        self.table.rho_xn(wo, wi, self.f0 as f32)
-    }
-
-    /// The density of wi: that of its half vector over 4 wo.h, zero below the surface or
-    /// where not finite.
-    #[inline]
-    fn pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
-        let h = (wo + wi).normalize_or_zero();
-        self.pdf_at_xn(wo, wi, h, self.table.p_xn(h.x, h.y))
-    }
-
-    /// [`SampledMicrofacet::pdf_xn`] given the half vector `h` of `wo` and `wi` and
-    /// `p_h`, [`Table::p_xn`] of it.
-    #[inline]
-    fn pdf_at_xn(&self, wo: Vec3xN, wi: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
-        let zero = f32xn::splat(0.0);
-        let p_h = self.table.pdf_visible_at_xn(wo, h, p_h);
-        let p = lobe::half_to_incident_pdf(p_h, wo.dot(h));
-        let ok = lobe::both_above(wo, wi) & p.is_finite();
-        sel(ok, p, zero)
     }
 }
 

@@ -5,12 +5,14 @@
 //! the normals visible from wo ([`VisibleSampler`]); the forward model
 //! rho (Ngan et al. 2005, section 5, Eq. 3); and the EXR file a table is stored in.
 //!
-//! Each lookup has an f64 form (fitting) and a lane f32 form (rendering:
-//! [`crate::fastmath::xn`]'s acos and atan2, gathers from the f32 tables).
+//! Each lookup is written once over [`Num`]: f64 for fitting, f32 and lanes for rendering
+//! ([`crate::fastmath`]'s acos and atan2, gathers from the f32 tables).
 
 use super::visible::VisibleSampler;
-use crate::fastmath::xn;
-use crate::simd::{self, MaskN, Vec3xN, f32xn, i32xn, sel};
+use crate::math::{
+    Num, V3, acos, atan2, gt, is_finite, le, lt, maximum, minimum, select, to_degrees,
+};
+use crate::simd::{MaskN, Vec3xN, f32xn};
 use glam::DVec3;
 use std::path::Path;
 
@@ -43,21 +45,20 @@ pub(super) fn node_dir(n: usize, i: usize, j: usize) -> Option<DVec3> {
 
 /// The node below a non-negative table coordinate, at most `last` (NaN gives 0).
 #[inline(always)]
-pub(super) fn node_index(x: f32xn, last: usize) -> i32xn {
-    x.trunc_int()
-        .max(i32xn::splat(0))
-        .min(i32xn::splat(last as i32))
+pub(super) fn node_index<T: Num>(x: T, last: usize) -> T::Int {
+    T::int_min(T::int_max(x.trunc_int(), T::int(0)), T::int(last as i32))
 }
 
 /// The four corner values of every cell of a row-major grid of nodes, one 16-byte packet
 /// per cell ([v(i, j), v(i + 1, j), v(i, j + 1), v(i + 1, j + 1)]), so that a lane
-/// lookup reads one packet per lane and transposes them ([`simd::rows4`]) instead of
+/// lookup reads one packet per lane and transposes them ([`Num::gather4`]) instead of
 /// gathering four values per lane.
 #[derive(Clone, Debug)]
 struct CellCorners {
     /// Cells per row (nodes per row - 1).
     cells_per_row: usize,
-    packets: Vec<[f32; 4]>,
+    /// The packets, four values each, one after the other.
+    packets: Vec<f32>,
 }
 
 impl CellCorners {
@@ -66,7 +67,7 @@ impl CellCorners {
         assert!(cols >= 2 && rows >= 2 && v.len() == cols * rows);
         let packets = (0..rows - 1)
             .flat_map(|j| (0..cols - 1).map(move |i| (i, j)))
-            .map(|(i, j)| {
+            .flat_map(|(i, j)| {
                 let at = |i: usize, j: usize| v[j * cols + i];
                 [at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)]
             })
@@ -78,26 +79,25 @@ impl CellCorners {
     }
 
     fn memory_bytes(&self) -> usize {
-        self.packets.len() * std::mem::size_of::<[f32; 4]>()
+        self.packets.len() * std::mem::size_of::<f32>()
     }
 
-    /// The corners of cell (ix, iy) per lane (indices are clamped to the grid).
+    /// The corners of cell (ix, iy) (indices are clamped to the grid).
     #[inline(always)]
-    fn corners_xn(&self, ix: i32xn, iy: i32xn) -> [f32xn; 4] {
-        let last = i32xn::splat(self.packets.len() as i32 - 1);
-        let k = (iy * i32xn::splat(self.cells_per_row as i32) + ix)
-            .max(i32xn::splat(0))
-            .min(last)
-            .to_array();
-        // SAFETY: 0 <= k[i] <= packets.len() - 1 by the clamp above.
-        simd::rows4(|i| unsafe { *self.packets.get_unchecked(k[i] as usize) })
+    fn corners<T: Num>(&self, ix: T::Int, iy: T::Int) -> [T; 4] {
+        let last = T::int(self.packets.len() as i32 / 4 - 1);
+        let k = T::int_min(
+            T::int_max(iy * T::int(self.cells_per_row as i32) + ix, T::int(0)),
+            last,
+        );
+        T::gather4(&self.packets, k * T::int(4))
     }
 }
 
 /// Bilinear interpolation of corners [(0, 0), (1, 0), (0, 1), (1, 1)] at (fx, fy).
 #[inline(always)]
-fn bilinear(fx: f32xn, fy: f32xn, [a, b, c, d]: [f32xn; 4]) -> f32xn {
-    let one = f32xn::splat(1.0);
+fn bilinear<T: Num>(fx: T, fy: T, [a, b, c, d]: [T; 4]) -> T {
+    let one = T::of(1.0);
     (one - fy) * ((one - fx) * a + fx * b) + fy * ((one - fx) * c + fx * d)
 }
 
@@ -184,118 +184,63 @@ impl Table {
         &self.p
     }
 
-    /// p(h), bilinear between nodes (h need not be normalized to the disk exactly).
+    /// p(h), bilinear between nodes (h need not be normalized to the disk exactly), zero
+    /// outside the unit disk.
     #[inline]
-    pub fn p(&self, hx: f64, hy: f64) -> f64 {
-        if hx * hx + hy * hy >= 1.0 {
-            return 0.0;
-        }
-        let s = (self.n - 1) as f64 / 2.0;
-        let (px, py) = ((hx + 1.0) * s, (hy + 1.0) * s);
-        let (ix, iy) = ((px as usize).min(self.n - 2), (py as usize).min(self.n - 2));
-        let (fx, fy) = (px - ix as f64, py - iy as f64);
-        let at = |x: usize, y: usize| self.p[y * self.n + x] as f64;
-        (1.0 - fy) * ((1.0 - fx) * at(ix, iy) + fx * at(ix + 1, iy))
-            + fy * ((1.0 - fx) * at(ix, iy + 1) + fx * at(ix + 1, iy + 1))
+    pub fn p<T: Num>(&self, hx: T, hy: T) -> T {
+        let s = T::of;
+        let half_span = s((self.n - 1) as f64 / 2.0);
+        let (px, py) = ((hx + s(1.0)) * half_span, (hy + s(1.0)) * half_span);
+        let (ix, iy) = (node_index(px, self.n - 2), node_index(py, self.n - 2));
+        let (fx, fy) = (px - T::of_int(ix), py - T::of_int(iy));
+        let k = iy * T::int(self.n as i32) + ix;
+        let at = |offset: i32| T::gather(&self.p, k + T::int(offset));
+        let n = self.n as i32;
+        let v = bilinear(fx, fy, [at(0), at(1), at(n), at(n + 1)]);
+        select(le(s(1.0), hx * hx + hy * hy), s(0.0), v)
     }
 
     /// g(k) from its table, bilinear in (theta, phi).
     #[inline]
-    pub fn g(&self, k: DVec3) -> f64 {
-        let theta = k.z.clamp(-1.0, 1.0).acos().to_degrees().min(89.9) / 2.0;
-        let mut phi = k.y.atan2(k.x).to_degrees();
-        if phi < 0.0 {
-            phi += 360.0;
-        }
-        let phi = phi / 5.0;
-        let (it, ip) = (
-            (theta as usize).min(G_THETA - 2),
-            (phi as usize).min(G_PHI - 2),
-        );
-        let (ft, fp) = (theta - it as f64, phi - ip as f64);
-        let at = |t: usize, f: usize| self.g[t * G_PHI + f] as f64;
-        (1.0 - ft) * ((1.0 - fp) * at(it, ip) + fp * at(it, ip + 1))
-            + ft * ((1.0 - fp) * at(it + 1, ip) + fp * at(it + 1, ip + 1))
-    }
-
-    /// The generator's value per unit specular colour.
-    #[inline]
-    pub fn rho(&self, wo: DVec3, wi: DVec3, f0: f64) -> f64 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let h = (wo + wi).normalize_or_zero();
-        if h.z <= 0.0 {
-            return 0.0;
-        }
-        let c = wi.dot(h).clamp(0.0, 1.0);
-        let fresnel = f0 + (1.0 - f0) * (1.0 - c).powi(5);
-        let v = self.p(h.x, h.y) * fresnel / (4.0 * self.g(wo) * self.g(wi));
-        if v.is_finite() { v.max(0.0) } else { 0.0 }
-    }
-
-    /// [`Table::p`] per lane, in f32.
-    #[inline]
-    pub fn p_xn(&self, hx: f32xn, hy: f32xn) -> f32xn {
-        let s = f32xn::splat;
-        let half_span = s((self.n - 1) as f32 / 2.0);
-        let (px, py) = ((hx + s(1.0)) * half_span, (hy + s(1.0)) * half_span);
-        let (ix, iy) = (node_index(px, self.n - 2), node_index(py, self.n - 2));
-        let (fx, fy) = (
-            px - crate::simd::float_of(ix),
-            py - crate::simd::float_of(iy),
-        );
-        let k = iy * i32xn::splat(self.n as i32) + ix;
-        let at = |offset: i32| simd::gather(&self.p, k + i32xn::splat(offset));
-        let n = self.n as i32;
-        let v = bilinear(fx, fy, [at(0), at(1), at(n), at(n + 1)]);
-        sel((hx * hx + hy * hy).simd_ge(s(1.0)), s(0.0), v)
-    }
-
-    /// [`Table::g`] per lane, in f32.
-    #[inline]
-    pub fn g_xn(&self, k: Vec3xN) -> f32xn {
-        let s = f32xn::splat;
-        let deg = s(180.0 / std::f32::consts::PI);
-        let cos_t = k.z.max(s(-1.0)).min(s(1.0));
-        let theta = (xn::acos(cos_t) * deg).min(s(89.9)) / s(2.0);
-        let phi = xn::atan2(k.y, k.x) * deg;
-        let phi = sel(phi.simd_lt(s(0.0)), phi + s(360.0), phi) / s(5.0);
+    pub fn g<T: Num>(&self, k: V3<T>) -> T {
+        let s = T::of;
+        let cos_t = minimum(maximum(k.z, s(-1.0)), s(1.0));
+        let theta = minimum(to_degrees(acos(cos_t)), s(89.9)) / s(2.0);
+        let phi = to_degrees(atan2(k.y, k.x));
+        let phi = select(lt(phi, s(0.0)), phi + s(360.0), phi) / s(5.0);
         let (it, ip) = (node_index(theta, G_THETA - 2), node_index(phi, G_PHI - 2));
-        let (ft, fp) = (
-            theta - crate::simd::float_of(it),
-            phi - crate::simd::float_of(ip),
-        );
-        bilinear(fp, ft, self.g_cells.corners_xn(ip, it))
+        let (ft, fp) = (theta - T::of_int(it), phi - T::of_int(ip));
+        bilinear(fp, ft, self.g_cells.corners(ip, it))
     }
 
-    /// [`Table::rho`] per lane, in f32.
+    /// The generator's value per unit specular colour (Schlick's Fresnel of
+    /// reflectance `f0`).
     #[inline]
-    pub fn rho_xn(&self, wo: Vec3xN, wi: Vec3xN, f0: f32) -> f32xn {
-        let h = (wo + wi).normalize_or_zero();
-        self.rho_at_xn(wo, wi, h, self.p_xn(h.x, h.y), f0)
+    pub fn rho<T: Num>(&self, wo: V3<T>, wi: V3<T>, f0: T) -> T {
+        let zero = T::of(0.0);
+        let h = (wo + wi).unit_or(V3::new(zero, zero, zero));
+        self.rho_at(wo, wi, h, self.p(h.x, h.y), f0)
     }
 
-    /// [`Table::rho_xn`] given the half vector `h` of `wo` and `wi` (normalized or zero)
-    /// and `p_h`, [`Table::p_xn`] of it: callers that also need the density of `h`
-    /// ([`Table::pdf_h_at_xn`]) look p(h) up once.
+    /// [`Table::rho`] given the half vector `h` of `wo` and `wi` (normalized or zero)
+    /// and `p_h`, [`Table::p`] of it: callers that also need the density of `h` look p(h)
+    /// up once.
     #[inline]
-    pub fn rho_at_xn(&self, wo: Vec3xN, wi: Vec3xN, h: Vec3xN, p_h: f32xn, f0: f32) -> f32xn {
-        let s = f32xn::splat;
-        let zero = s(0.0);
-        let c = wi.dot(h).max(zero).min(s(1.0));
-        let m = s(1.0) - c;
+    pub fn rho_at<T: Num>(&self, wo: V3<T>, wi: V3<T>, h: V3<T>, p_h: T, f0: T) -> T {
+        let (zero, one) = (T::of(0.0), T::of(1.0));
+        let c = minimum(maximum(wi.dot(h), zero), one);
+        let m = one - c;
         let m2 = m * m;
-        let fresnel = s(f0) + s(1.0 - f0) * (m2 * m2 * m);
-        let v = p_h * fresnel / (s(4.0) * self.g_xn(wo) * self.g_xn(wi));
-        let ok = wo.z.simd_gt(zero) & wi.z.simd_gt(zero) & h.z.simd_gt(zero) & v.is_finite();
-        sel(ok, v.max(zero), zero)
+        let fresnel = f0 + (one - f0) * (m2 * m2 * m);
+        let v = p_h * fresnel / (T::of(4.0) * self.g(wo) * self.g(wi));
+        let ok = gt(wo.z, zero) & gt(wi.z, zero) & gt(h.z, zero) & is_finite(v);
+        select(ok, maximum(v, zero), zero)
     }
 
-    /// The density (solid angle of h) with which [`Table::sample_visible_xn`] draws `h`
-    /// seen from `wo`, given `p_h`, [`Table::p_xn`] of `h`.
+    /// The density (solid angle of h) with which [`Table::sample_visible`] draws `h`
+    /// seen from `wo`, given `p_h`, [`Table::p`] of `h`.
     #[inline]
-    pub fn pdf_visible_at_xn(&self, wo: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
+    pub fn pdf_visible_at(&self, wo: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
         self.visible.pdf(wo, h, p_h)
     }
 
@@ -303,7 +248,7 @@ impl Table {
     /// the mask of the lanes where one was drawn (the others hold no direction); `N` lane
     /// vectors side by side, each bit for bit its own call.
     #[inline]
-    pub fn sample_visible_xn<const N: usize>(
+    pub fn sample_visible<const N: usize>(
         &self,
         wo: [Vec3xN; N],
         ux: [f32xn; N],
@@ -415,7 +360,7 @@ pub fn correlation(a: &Table, b: &Table) -> f64 {
 mod tests {
     use super::*;
     use crate::microfacet_gen::synthetic::Shape;
-    use crate::simd::LANES;
+    use crate::simd::{self, LANES};
 
     /// The f32 lane forms used for rendering agree with the f64 forms used for fitting
     /// to f32 precision (relative 2e-4: the tables are f32, the angles from fastmath),
@@ -444,12 +389,12 @@ mod tests {
                 let wi: [DVec3; LANES] =
                     simd::lanes(|i| dir(LANES * chunk + i + 3, 0.754_878, 0.569_840));
                 let v8 = |d: &[DVec3; LANES]| Vec3xN::from_array(&simd::lanes(|i| d[i].as_vec3()));
-                let rho = table.rho_xn(v8(&wo), v8(&wi), 0.3).to_array();
-                let g = table.g_xn(v8(&wo)).to_array();
+                let rho = table.rho(v8(&wo), v8(&wi), f32xn::splat(0.3)).to_array();
+                let g = table.g(v8(&wo)).to_array();
                 for i in 0..LANES {
                     // The f64 form of the same f32 inputs.
                     let (o, w) = (wo[i].as_vec3().as_dvec3(), wi[i].as_vec3().as_dvec3());
-                    let expected = table.rho(o, w, 0.3);
+                    let expected = table.rho(o.into(), w.into(), 0.3);
                     let tol = 2e-4 * expected + 1e-6;
                     assert!(
                         (rho[i] as f64 - expected).abs() <= tol,
@@ -457,7 +402,7 @@ mod tests {
                         rho[i]
                     );
                     if o.z > 0.0 {
-                        let ge = table.g(o);
+                        let ge = table.g(o.into());
                         assert!(
                             (g[i] as f64 - ge).abs() <= 2e-4 * ge,
                             "g({o}): {} vs {ge}",

@@ -73,7 +73,7 @@ pub fn synth(
     let (kd, ks) = ([0.05, 0.04, 0.03], [0.5, 0.4, 0.3]);
     let data = sparse_4d(
         &|wi, wo| {
-            let r = truth.rho(wo.as_dvec3(), wi.as_dvec3(), f0);
+            let r = truth.rho(wo.as_dvec3().into(), wi.as_dvec3().into(), f0);
             [0, 1, 2].map(|c| kd[c] / std::f64::consts::PI + ks[c] * r)
         },
         config.resolution,
