@@ -161,7 +161,7 @@ impl Bsdf for Measured {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         // `LANES` queries at a time: directions one by one, their densities in lanes
-        // (TabulatedSampler::pdf_xn), the values of those with a density in lanes.
+        // (TabulatedSampler::density), the values of those with a density in lanes.
         for start in (0..n).step_by(simd::LANES) {
             let len = (n - start).min(simd::LANES);
             let at = |i: usize| start + i.min(len - 1);
@@ -172,7 +172,7 @@ impl Bsdf for Measured {
             });
             let pdf = self
                 .sampler
-                .pdf_xn(
+                .density(
                     Vec3xN::from_array(&simd::lanes(|i| wo[at(i)])),
                     Vec3xN::from_array(&simd::lanes(|i| wi[i].unwrap_or(Vec3::Z))),
                 )
@@ -199,7 +199,7 @@ impl Bsdf for Measured {
     }
 
     /// The values of the pairs above the surface and the sampler's densities, `LANES` at a
-    /// time ([`Table::eval_xn`], [`TabulatedSampler::pdf_xn`]).
+    /// time ([`Table::eval_xn`], [`TabulatedSampler::density`]).
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
@@ -216,7 +216,7 @@ impl Bsdf for Measured {
         });
         for (start, chunk) in pdf.chunks_mut(simd::LANES).enumerate() {
             let at = |i: usize| simd::LANES * start + i.min(chunk.len() - 1);
-            let p = self.sampler.pdf_xn(
+            let p = self.sampler.density(
                 Vec3xN::from_array(&simd::lanes(|i| wo[at(i)])),
                 Vec3xN::from_array(&simd::lanes(|i| wi[at(i)])),
             );

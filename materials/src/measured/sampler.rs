@@ -9,10 +9,10 @@
 //! unbiased whatever the table's accuracy. Angles at render time come from [`fastmath`]
 //! (no C library call per query).
 
-use crate::fastmath::{self, xn};
+use crate::fastmath;
+use crate::math::{Num, V3, abs, acos, atan2, gt, le, lt, maximum, minimum, select};
 use crate::sampling::cdf::Cdf2D;
 use crate::sampling::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
-use crate::simd::{self, Vec3xN, f32xn, i32xn, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_2, PI};
 
@@ -122,34 +122,38 @@ impl TabulatedSampler {
         }
     }
 
-    /// [`TabulatedSampler::pdf`] of `LANES` pairs, lane by lane bit for bit (the angles by
-    /// [`fastmath::xn`], the wrap of phi_i - phi_o by selects: the exact remainder for
-    /// its range).
-    pub fn pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> f32xn {
-        let s = f32xn::splat;
+    /// [`TabulatedSampler::pdf`] written once over [`Num`] (one pair, or lanes of pairs):
+    /// the mixture of the cosine lobe and the slice's tabulated density (the cosine lobe
+    /// alone where the slice has no table), zero below the surface.
+    #[inline]
+    pub fn density<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        let s = T::of;
         let zero = s(0.0);
-        let bin = |x: f32xn, n: usize| {
-            x.trunc_int()
-                .max(i32xn::splat(0))
-                .min(i32xn::splat(n as i32 - 1))
-        };
-        let polar = |z: f32xn| xn::acos(z.max(s(-1.0)).min(s(1.0)));
-        let io = bin(polar(wo.z) / s(FRAC_PI_2) * s(N_THETA_O as f32), N_THETA_O);
-        let it = bin(polar(wi.z) / s(FRAC_PI_2) * s(N_THETA as f32), N_THETA);
-        let x = xn::atan2(wi.y, wi.x) - xn::atan2(wo.y, wo.x) + s(PI);
-        let x = sel(x.simd_ge(s(2.0 * PI)), x - s(2.0 * PI), x);
-        let x = sel(x.simd_lt(zero), x + s(2.0 * PI), x);
-        let dphi = x - s(PI);
-        let ip = bin(dphi.abs() / s(PI) * s(N_PHI as f32), N_PHI);
-        let cell = (io * i32xn::splat(N_THETA as i32) + it) * i32xn::splat(N_PHI as i32) + ip;
+        let bin =
+            |x: T, n: usize| T::int_min(T::int_max(x.trunc_int(), T::int(0)), T::int(n as i32 - 1));
+        let polar = |z: T| acos(minimum(maximum(z, s(-1.0)), s(1.0)));
+        let io = bin(
+            polar(wo.z) / s(FRAC_PI_2 as f64) * s(N_THETA_O as f64),
+            N_THETA_O,
+        );
+        let it = bin(
+            polar(wi.z) / s(FRAC_PI_2 as f64) * s(N_THETA as f64),
+            N_THETA,
+        );
+        let (pi, two_pi) = (s(PI as f64), s((2.0 * PI) as f64));
+        let x = atan2(wi.y, wi.x) - atan2(wo.y, wo.x) + pi;
+        let x = select(le(two_pi, x), x - two_pi, x);
+        let x = select(lt(x, zero), x + two_pi, x);
+        let dphi = x - pi;
+        let ip = bin(abs(dphi) / pi * s(N_PHI as f64), N_PHI);
+        let cell = (io * T::int(N_THETA as i32) + it) * T::int(N_PHI as i32) + ip;
         let cos = cosine_hemisphere_pdf(wi.z);
+        let fraction = s(COSINE_FRACTION as f64);
         let mixed =
-            s(COSINE_FRACTION) * cos + s(1.0 - COSINE_FRACTION) * simd::gather(&self.density, cell);
-        let io = io.to_array();
-        let black = simd::mask_from_bools(simd::lanes(|i| self.tables[io[i] as usize].is_none()));
-        let p = sel(black, cos, mixed);
-        let above = wo.z.simd_gt(zero) & wi.z.simd_gt(zero);
-        sel(above, p, zero)
+            fraction * cos + s((1.0 - COSINE_FRACTION) as f64) * T::gather(&self.density, cell);
+        let [tabulated] = T::gather_by(io, |k| [self.tables[k].is_some() as u8 as f32]);
+        let p = select(gt(tabulated, zero), mixed, cos);
+        select(gt(wo.z, zero) & gt(wi.z, zero), p, zero)
     }
 
     fn slice(wo: Vec3) -> usize {
@@ -182,22 +186,11 @@ impl TabulatedSampler {
         Some(Vec3::new(st * cp, st * sp, ct))
     }
 
-    /// Density of `sample`.
+    /// Density of `sample` (solid angle of wi), zero below the surface.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let io = Self::slice(wo);
-        let cos = cosine_hemisphere_pdf(wi.z);
-        if self.tables[io].is_none() {
-            return cos;
-        }
-        let theta = fastmath::acos(wi.z.clamp(-1.0, 1.0));
-        let it = ((theta / FRAC_PI_2 * N_THETA as f32) as usize).min(N_THETA - 1);
-        let mut dphi = fastmath::atan2(wi.y, wi.x) - fastmath::atan2(wo.y, wo.x);
-        dphi = (dphi + PI).rem_euclid(2.0 * PI) - PI;
-        let ip = ((dphi.abs() / PI * N_PHI as f32) as usize).min(N_PHI - 1);
-        COSINE_FRACTION * cos
-            + (1.0 - COSINE_FRACTION) * self.density[(io * N_THETA + it) * N_PHI + ip]
+        self.density(V3::from(wo), V3::from(wi))
     }
 }

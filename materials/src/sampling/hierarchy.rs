@@ -3,6 +3,7 @@
 //! `Hierarchical2D`): cells drawn with the probabilities of [`super::cdf::Cdf2D`], but
 //! nearby samples land in nearby cells at every scale, for environment-map light sampling.
 
+use crate::math::{Num, clamp, gt, le, select};
 use crate::simd;
 use crate::simd::{f32xn, u32xn};
 use glam::Vec2;
@@ -105,8 +106,8 @@ impl Hierarchy2D {
         for level in self.levels.iter().rev() {
             let (right, lower);
             (right, lower, ux, uy) = descend(level.packet(x as usize, y as usize), ux, uy);
-            x = 2 * x + right;
-            y = 2 * y + lower;
+            x = 2 * x + right as u32;
+            y = 2 * y + lower as u32;
         }
         let (x, y) = ((x as usize).min(self.nu - 1), (y as usize).min(self.nv - 1));
         (x, y, Vec2::new(ux, uy))
@@ -152,7 +153,7 @@ impl Hierarchy2D {
                     }))
                 };
                 let (right, lower);
-                (right, lower, ux[j], uy[j]) = descend_xn(q, ux[j], uy[j]);
+                (right, lower, ux[j], uy[j]) = descend(q, ux[j], uy[j]);
                 x[j] = (x[j] << 1) + (right.to_bits() & one);
                 y[j] = (y[j] << 1) + (lower.to_bits() & one);
             }
@@ -170,55 +171,31 @@ const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
 /// One step of [`Hierarchy2D::sample`]: in a 2x2 block `p` = [top-left, top-right,
 /// bottom-left, bottom-right], picks the row with `uy` and the column within it with `ux`,
 /// never a child of zero mass, and rescales both to [0, 1): (right, lower, ux', uy').
-/// Written with selects only (no branch), so that [`Hierarchy2D::sample_groups`]
-/// vectorizes.
+/// Written once over [`Num`] with selects only (no branch): one point for
+/// [`Hierarchy2D::sample`], lanes for [`Hierarchy2D::sample_groups`].
 #[inline(always)]
-fn descend(p: [f32; 4], ux: f32, uy: f32) -> (u32, u32, f32, f32) {
+fn descend<T: Num>(p: [T; 4], ux: T, uy: T) -> (T::Mask, T::Mask, T, T) {
+    let zero = T::of(0.0);
+    let (lo, hi) = (zero, T::of(ONE_MINUS_EPS as f64));
     let (r0, r1) = (p[0] + p[1], p[2] + p[3]);
     let ty = uy * (r0 + r1);
-    let lower = (ty >= r0) & (r1 > 0.0) | (r0 <= 0.0);
-    let c0 = if lower { p[2] } else { p[0] };
-    let c1 = if lower { p[3] } else { p[1] };
-    let dy = if lower { r1 } else { r0 };
+    let lower = (le(r0, ty) & gt(r1, zero)) | le(r0, zero);
+    let c0 = select(lower, p[2], p[0]);
+    let c1 = select(lower, p[3], p[1]);
+    let dy = select(lower, r1, r0);
     let tx = ux * dy;
-    let right = (tx >= c0) & (c1 > 0.0) | (c0 <= 0.0);
-    let dx = if right { c1 } else { c0 };
+    let right = (le(c0, tx) & gt(c1, zero)) | le(c0, zero);
+    let dx = select(right, c1, c0);
     // Blocks of zero mass are never picked; dy or dx is zero only for NaN input, which
     // then keeps its sample as it is.
-    let ny = if dy > 0.0 {
-        ((ty - if lower { r0 } else { 0.0 }) / dy).clamp(0.0, ONE_MINUS_EPS)
-    } else {
-        uy
-    };
-    let nx = if dx > 0.0 {
-        ((tx - if right { c0 } else { 0.0 }) / dx).clamp(0.0, ONE_MINUS_EPS)
-    } else {
-        ux
-    };
-    (right as u32, lower as u32, nx, ny)
-}
-
-/// [`descend`] in SIMD lanes, with the same operations: (right, lower) as lane masks.
-#[inline(always)]
-fn descend_xn(p: [f32xn; 4], ux: f32xn, uy: f32xn) -> (f32xn, f32xn, f32xn, f32xn) {
-    let zero = f32xn::splat(0.0);
-    let (r0, r1) = (p[0] + p[1], p[2] + p[3]);
-    let ty = uy * (r0 + r1);
-    let lower = (ty.simd_ge(r0) & r1.simd_gt(zero)) | r0.simd_le(zero);
-    let c0 = simd::sel(lower, p[2], p[0]);
-    let c1 = simd::sel(lower, p[3], p[1]);
-    let dy = simd::sel(lower, r1, r0);
-    let tx = ux * dy;
-    let right = (tx.simd_ge(c0) & c1.simd_gt(zero)) | c0.simd_le(zero);
-    let dx = simd::sel(right, c1, c0);
-    let ny = simd::sel(
-        dy.simd_gt(zero),
-        simd::clamp((ty - simd::sel(lower, r0, zero)) / dy, 0.0, ONE_MINUS_EPS),
+    let ny = select(
+        gt(dy, zero),
+        clamp((ty - select(lower, r0, zero)) / dy, lo, hi),
         uy,
     );
-    let nx = simd::sel(
-        dx.simd_gt(zero),
-        simd::clamp((tx - simd::sel(right, c0, zero)) / dx, 0.0, ONE_MINUS_EPS),
+    let nx = select(
+        gt(dx, zero),
+        clamp((tx - select(right, c0, zero)) / dx, lo, hi),
         ux,
     );
     (right, lower, nx, ny)
