@@ -12,7 +12,7 @@ use crate::math::{Num, clamp, lt, maximum, select};
 use crate::sampling::warp::{
     cosine_hemisphere, cosine_hemisphere_pdf, square_to_cosine_hemisphere,
 };
-use crate::simd::{self, RgbxN, Vec3xN, f32xn, i32xn, max_lane, sel};
+use crate::simd::{self, RgbxN, Vec3xN, f32xn, i32xn, sel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -168,7 +168,7 @@ impl Bsdf for Composite {
         for (c, l) in &self.lobes {
             let v = l.eval(wo, wi);
             if v.is_finite() {
-                f += *c * v.map(|x| max_lane(x, 0.0));
+                f += *c * v.map(|x| maximum(x, 0.0));
             }
         }
         f

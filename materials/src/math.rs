@@ -228,7 +228,8 @@ macro_rules! scalar_num {
                 if m { t } else { f }
             }
             // `wide`'s rule, which the lanes follow: the second operand where the first is
-            // NaN or the two are equal (so `maximum(-0.0, 0.0)` is 0.0 in every form).
+            // NaN or the two are equal (so `maximum(-0.0, 0.0)` is 0.0 in every form;
+            // `f32::max` gives -0.0 in some builds and +0.0 in others).
             #[inline(always)]
             fn num_min(self, o: Self) -> Self {
                 if self < o { self } else { o }

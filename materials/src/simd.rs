@@ -450,21 +450,6 @@ pub fn gather(table: &[f32], idx: i32xn) -> f32xn {
     f32xn::new(lanes(|i| table[idx[i] as usize]))
 }
 
-/// The scalar twin of `f32xn::max` (`wide`'s): `if lo < x { x } else { lo }`, so NaN and
-/// -0.0 against +0.0 give `lo`. Scalar forms of batched kernels use it where they clamp:
-/// `f32::max` gives -0.0 for `(-0.0).max(0.0)` in some builds and +0.0 in others.
-#[inline(always)]
-pub fn max_lane(x: f32, lo: f32) -> f32 {
-    if lo < x { x } else { lo }
-}
-
-/// The scalar twin of `f32xn::min` (`wide`'s): `if x < hi { x } else { hi }`, so NaN
-/// gives `hi`.
-#[inline(always)]
-pub fn min_lane(x: f32, hi: f32) -> f32 {
-    if x < hi { x } else { hi }
-}
-
 /// `a * b + c` per lane with a single rounding, as `f32::mul_add` gives it, in every build
 /// (`wide`'s `mul_add` rounds twice when the target has no FMA unit).
 #[inline(always)]
@@ -632,7 +617,7 @@ impl RgbxN {
             + f32xn::splat(0.072169) * self.b
     }
 
-    /// [`max_lane`] per channel (`wide`'s `max`).
+    /// [`crate::math::maximum`] per channel (`wide`'s `max`).
     #[inline(always)]
     pub fn max(self, lo: f32) -> Self {
         let lo = f32xn::splat(lo);
@@ -834,7 +819,7 @@ mod tests {
             let fin = mask_bits(fin);
             for i in 0..LANES {
                 assert!(same(lum[i], a[i].luminance()), "luminance {:?}", a[i]);
-                let m = a[i].map(|x| max_lane(x, 0.0));
+                let m = a[i].map(|x| crate::math::maximum(x, 0.0));
                 assert!(sr(max.lane(i), m), "max {:?}", a[i]);
                 assert_eq!(fin >> i & 1 == 1, a[i].is_finite());
                 assert!(sr((ca + cb).lane(i), a[i] + b[i]));

@@ -199,7 +199,7 @@ impl He {
             let k = k * sigma * (ci + co);
             k * k
         });
-        let g_min = simd::min_lane(simd::min_lane(gs[0], gs[1]), gs[2]);
+        let g_min = crate::math::minimum(crate::math::minimum(gs[0], gs[1]), gs[2]);
         let common = fresnel * shadow * g_geo / (std::f32::consts::PI * ci * co);
         let w = g_min - 18.0;
         std::array::from_fn(|c| {
@@ -217,7 +217,7 @@ impl He {
             };
             let v = common * n * sum;
             if ok && v.is_finite() {
-                simd::max_lane(v, 0.0)
+                crate::math::maximum(v, 0.0)
             } else {
                 0.0
             }

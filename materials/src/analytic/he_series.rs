@@ -139,7 +139,7 @@ pub fn build_table() {
 /// [`tabulated_xn`] of one point, bit for bit a lane of it.
 #[inline]
 pub fn tabulated_f32(g: f32, e: f32) -> f32 {
-    let u = simd::max_lane(e, 0.0).sqrt();
+    let u = crate::math::maximum(e, 0.0).sqrt();
     let (gs, us) = (g * (1.0 / G_STEP) as f32, u * (1.0 / U_STEP) as f32);
     // The lanes' conversion: truncation, i32::MIN for NaN and out of range, then clamped.
     let index = |x: f32, top: usize| {
@@ -165,7 +165,7 @@ pub fn tabulated_f32(g: f32, e: f32) -> f32 {
             sum += wg * (wu * f + wu_d * f_u) + wg_d * (wu * f_g + wu_d * f_gu);
         }
     }
-    let s = g * simd::max_lane(sum, 0.0);
+    let s = g * crate::math::maximum(sum, 0.0);
     if u >= U_MAX as f32 { 0.0 } else { s }
 }
 

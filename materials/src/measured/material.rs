@@ -82,7 +82,7 @@ impl Table for BinnedTable {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         self.table
             .lookup_f32(wi, wo)
-            .map(|x| simd::max_lane(x, 0.0))
+            .map(|x| crate::math::maximum(x, 0.0))
     }
     fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
         let [r, g, b] = self.table.bin_value(wi, wo);
@@ -375,7 +375,7 @@ impl RglBsdf {
 
     fn clamped(&self, v: Rgb) -> Rgb {
         if self.clamp {
-            v.map(|x| crate::simd::max_lane(x, 0.0))
+            v.map(|x| crate::math::maximum(x, 0.0))
         } else {
             v
         }
