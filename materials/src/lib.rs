@@ -45,3 +45,5 @@ pub mod simd;
 
 pub use bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 pub use error::{FileError, ParamError};
+/// The vector types of the public interface (re-exported for the exported macros).
+pub use glam;

@@ -40,7 +40,7 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     /// [`Lobe::eval`] and [`Lobe::pdf`] of `LANES` pairs (lane k: `wo.lane(k)`,
     /// `wi.lane(k)`), each lane bit for bit the scalar calls: the batched calls of the
     /// materials made of lobes ([`crate::composite::Composite`]). The default calls the
-    /// scalar forms lane by lane; models override it with SIMD arithmetic.
+    /// scalar forms lane by lane; a [`GenericLobe`] gets it from [`impl_lobe_forms!`].
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let (o, i) = (wo.to_array(), wi.to_array());
         let f = lanes(|k| self.eval(o[k], i[k]));
@@ -91,11 +91,11 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
 macro_rules! impl_lobe_eval {
     () => {
         #[inline]
-        fn eval(&self, wo: glam::Vec3, wi: glam::Vec3) -> $crate::Rgb {
+        fn eval(&self, wo: $crate::glam::Vec3, wi: $crate::glam::Vec3) -> $crate::Rgb {
             $crate::Rgb::splat(self.value::<f32>(wo.into(), wi.into()))
         }
         #[inline]
-        fn eval_f64(&self, wo: glam::DVec3, wi: glam::DVec3) -> [f64; 3] {
+        fn eval_f64(&self, wo: $crate::glam::DVec3, wi: $crate::glam::DVec3) -> [f64; 3] {
             [self.value::<f64>(wo.into(), wi.into()); 3]
         }
     };
@@ -122,7 +122,7 @@ pub trait GenericLobe {
 macro_rules! impl_lobe_forms {
     () => {
         #[inline]
-        fn eval(&self, wo: glam::Vec3, wi: glam::Vec3) -> $crate::Rgb {
+        fn eval(&self, wo: $crate::glam::Vec3, wi: $crate::glam::Vec3) -> $crate::Rgb {
             $crate::Rgb::splat($crate::lobe::GenericLobe::value::<f32>(
                 self,
                 wo.into(),
@@ -130,15 +130,20 @@ macro_rules! impl_lobe_forms {
             ))
         }
         #[inline]
-        fn eval_f64(&self, wo: glam::DVec3, wi: glam::DVec3) -> [f64; 3] {
+        fn eval_f64(&self, wo: $crate::glam::DVec3, wi: $crate::glam::DVec3) -> [f64; 3] {
             [$crate::lobe::GenericLobe::value::<f64>(self, wo.into(), wi.into()); 3]
         }
         #[inline]
-        fn pdf(&self, wo: glam::Vec3, wi: glam::Vec3) -> f32 {
+        fn pdf(&self, wo: $crate::glam::Vec3, wi: $crate::glam::Vec3) -> f32 {
             $crate::lobe::GenericLobe::density::<f32>(self, wo.into(), wi.into())
         }
         #[inline]
-        fn sample(&self, wo: glam::Vec3, u: glam::Vec2, uc: f32) -> Option<glam::Vec3> {
+        fn sample(
+            &self,
+            wo: $crate::glam::Vec3,
+            u: $crate::glam::Vec2,
+            uc: f32,
+        ) -> Option<$crate::glam::Vec3> {
             let (wi, ok) = $crate::lobe::GenericLobe::draw::<f32>(self, wo.into(), u.x, u.y, uc);
             ok.then(|| wi.into())
         }
@@ -155,10 +160,10 @@ macro_rules! impl_lobe_forms {
         #[inline]
         fn sample_xn(
             &self,
-            wo: &[glam::Vec3; $crate::simd::LANES],
-            u: &[glam::Vec2; $crate::simd::LANES],
+            wo: &[$crate::glam::Vec3; $crate::simd::LANES],
+            u: &[$crate::glam::Vec2; $crate::simd::LANES],
             uc: &[f32; $crate::simd::LANES],
-        ) -> [Option<glam::Vec3>; $crate::simd::LANES] {
+        ) -> [Option<$crate::glam::Vec3>; $crate::simd::LANES] {
             let [ux, uy] = $crate::simd::vec2s(u);
             let wo = $crate::simd::Vec3xN::from_array(wo);
             let uc = $crate::simd::f32xn::new(*uc);

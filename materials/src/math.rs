@@ -12,10 +12,13 @@ use num_traits::{Float, FloatConst};
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 /// A number a formula is written over: one f32 or f64, or [`f32xn`] lanes. Comparisons give a
-/// [`Num::Mask`] (a bool, or a lane mask) that [`select`] reads. The methods carry a `num_`
-/// prefix so that they never shadow `Float`'s on a [`Real`]; formulas call the free
-/// functions ([`select`], [`minimum`], [`maximum`], [`le`], [`lt`], [`eq`], [`exp`],
-/// [`acos`], [`powf`], [`sqrt`]).
+/// [`Num::Mask`] (a bool, or a lane mask) that [`select`] reads; [`Num::Int`] is the index
+/// type of table lookups (i32, or i32 lanes), with gathers from f32 tables. The arithmetic
+/// methods carry a `num_` prefix so that they never shadow `Float`'s on a [`Real`]; formulas
+/// call the free functions ([`select`], [`minimum`], [`maximum`], [`le`], [`lt`], [`gt`],
+/// [`eq`], [`abs`], [`sqrt`], [`exp`], [`ln`], [`powf`], [`acos`], [`asin`], [`atan2`],
+/// [`sin_cos`], [`floor`], [`to_degrees`], [`copysign`], [`mul_add`], [`clamp`], [`all`])
+/// and the index methods (`T::int`, `T::gather`, ...) directly.
 pub trait Num:
     Copy
     + Add<Output = Self>
@@ -85,7 +88,8 @@ pub trait Num:
     fn gather_by<const N: usize>(i: Self::Int, f: impl Fn(usize) -> [f32; N]) -> [Self; N];
     /// `a` where `m` holds, else `b` (per lane).
     fn int_select(m: Self::Mask, a: Self::Int, b: Self::Int) -> Self::Int;
-    /// `self` truncated toward zero to an index (for values in i32's range).
+    /// `self` truncated toward zero to an index, saturating at i32's range, NaN giving 0
+    /// (Rust's `as i32`, and `wide`'s `trunc_int` in lanes).
     fn trunc_int(self) -> Self::Int;
     /// The index as a number.
     fn of_int(i: Self::Int) -> Self;
@@ -102,8 +106,8 @@ pub trait Num:
 pub fn select<T: Num>(m: T::Mask, t: T, f: T) -> T {
     T::num_select(m, t, f)
 }
-/// The smaller of `a` and `b` (per lane, `wide`'s rule in every form: `b` where `a` is NaN
-/// or the two are equal).
+/// The smaller of `a` and `b` (per lane, `wide`'s rule in every form: `a` where `b` is NaN,
+/// else `b` where `a` is NaN or the two are equal).
 #[inline(always)]
 pub fn minimum<T: Num>(a: T, b: T) -> T {
     a.num_min(b)
@@ -227,16 +231,17 @@ macro_rules! scalar_num {
             fn num_select(m: bool, t: Self, f: Self) -> Self {
                 if m { t } else { f }
             }
-            // `wide`'s rule, which the lanes follow: the second operand where the first is
-            // NaN or the two are equal (so `maximum(-0.0, 0.0)` is 0.0 in every form;
-            // `f32::max` gives -0.0 in some builds and +0.0 in others).
+            // `wide`'s rule, which the lanes follow: the first operand where the second is
+            // NaN; else the second where the first is NaN or the two are equal (so
+            // `maximum(-0.0, 0.0)` is 0.0 in every form; `f32::max` gives -0.0 in some
+            // builds and +0.0 in others).
             #[inline(always)]
             fn num_min(self, o: Self) -> Self {
-                if self < o { self } else { o }
+                if o.is_nan() || self < o { self } else { o }
             }
             #[inline(always)]
             fn num_max(self, o: Self) -> Self {
-                if o < self { self } else { o }
+                if o.is_nan() || o < self { self } else { o }
             }
             #[inline(always)]
             fn num_le(self, o: Self) -> bool {

@@ -53,7 +53,7 @@ impl Axis {
     }
     /// [`Axis::bin`] in f32, one value or lanes ([`Binned::bin_value`]).
     #[inline(always)]
-    fn bin_of<T: Num>(&self, deg: T) -> T::Int {
+    fn bin_index<T: Num>(&self, deg: T) -> T::Int {
         let t = (deg - T::of(self.min)) / T::of(self.max - self.min) * T::of(self.count as f64);
         minimum(maximum(t, T::of(0.0)), T::of((self.count - 1) as f64)).trunc_int()
     }
@@ -214,7 +214,7 @@ impl Binned {
     /// [`Binned::lookup`] with f32 angles (rendering; lane for lane
     /// [`Binned::bin_value`]).
     pub fn lookup_f32(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
+        if !(wi.z > 0.0 && wo.z > 0.0) {
             return Rgb::ZERO;
         }
         Rgb::from(self.bin_value::<f32>(wi.into(), wo.into()))
@@ -234,13 +234,14 @@ impl Binned {
         let a = &self.axes;
         let count = |d: usize| T::int(a[d].count as i32);
         let k = if self.anisotropic {
-            ((a[0].bin_of(ti) * count(1) + a[1].bin_of(to)) * count(2) + a[2].bin_of(pi)) * count(3)
-                + a[3].bin_of(po)
+            ((a[0].bin_index(ti) * count(1) + a[1].bin_index(to)) * count(2) + a[2].bin_index(pi))
+                * count(3)
+                + a[3].bin_index(po)
         } else {
             let d = po - pi;
             let d = select(lt(d, s(0.0)), d + s(360.0), d);
             let d = select(gt(d, s(180.0)), s(360.0) - d, d);
-            (a[0].bin_of(ti) * count(1) + a[1].bin_of(to)) * count(2) + a[2].bin_of(d)
+            (a[0].bin_index(ti) * count(1) + a[1].bin_index(to)) * count(2) + a[2].bin_index(d)
         };
         let above = gt(wi.z, s(0.0)) & gt(wo.z, s(0.0));
         let v = T::gather_by(k, |k| self.values[k].unwrap_or([0.0; 3]));

@@ -283,7 +283,7 @@ impl Merl {
     /// renderer: the bin coordinates come from [`bin_coords`], the corners' weights and
     /// sums in f32; [`Merl::interpolate`] gives the same values a lane vector at a time.
     pub fn lookup(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
+        if !(wi.z > 0.0 && wo.z > 0.0) {
             return Rgb::ZERO;
         }
         Rgb::from(self.interpolate::<f32>(wi.into(), wo.into()))

@@ -188,7 +188,7 @@ impl TabulatedSampler {
 
     /// Density of `sample` (solid angle of wi), zero below the surface.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
+        if !(wo.z > 0.0 && wi.z > 0.0) {
             return 0.0;
         }
         self.density(V3::from(wo), V3::from(wi))

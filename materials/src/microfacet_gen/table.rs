@@ -238,7 +238,8 @@ impl Table {
     }
 
     /// The density (solid angle of h) with which [`Table::sample_visible`] draws `h`
-    /// seen from `wo`, given `p_h`, [`Table::p`] of `h`.
+    /// seen from `wo`, given `p_h`, [`Table::p`] of `h`; in lanes (the visible-normal
+    /// sampler's tables are read in lanes; one query is lane 0).
     #[inline]
     pub fn pdf_visible_at(&self, wo: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
         self.visible.pdf(wo, h, p_h)

@@ -95,7 +95,7 @@ pub fn erfinv<T: Num>(x: T) -> T {
     select(lt(w, s(5.0)), central, tail) * x
 }
 
-/// 1 / sqrt(pi), rounded to f32 as the single-precision constant was.
+/// 1 / sqrt(pi) as its f32 rounding (the value every form uses).
 const FRAC_1_SQRT_PI: f64 = 0.564_189_6_f32 as f64;
 
 /// Smith's Lambda of the Beckmann distribution of roughness (`mx`, `my`) along the
