@@ -517,16 +517,13 @@ impl Num for f32xn {
     }
     #[inline(always)]
     fn gather4(table: &[f32], i: i32xn) -> [Self; 4] {
+        // One bounds check for all lanes, in lanes: 0 <= i <= len - 4.
+        let last = i32xn::splat(table.len().min(i32::MAX as usize) as i32 - 4);
+        let outside: f32xn = wide::bytemuck::cast(i.simd_lt(i32xn::splat(0)) | i.simd_gt(last));
+        assert!(!outside.any(), "gather4 beyond a table of {}", table.len());
         let i = i.to_array();
-        // One bounds check for all lanes (as unsigned, a negative index is out of range).
-        let top = i.iter().map(|&j| j as u32 as usize).max().unwrap_or(0);
-        assert!(
-            top + 4 <= table.len(),
-            "gather4 index {top} + 4 beyond {}",
-            table.len()
-        );
         crate::simd::rows4(|k| {
-            let j = i[k] as u32 as usize;
+            let j = i[k] as usize;
             // SAFETY: j + 4 <= table.len() for every lane, checked above.
             unsafe { table.get_unchecked(j..j + 4).try_into().unwrap_unchecked() }
         })

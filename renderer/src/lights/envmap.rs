@@ -28,11 +28,13 @@ use crate::Rgb;
 use crate::error::{Error, Result};
 use crate::image_io::{RgbImage, read_rgb_image_windows};
 use glam::{Mat3, Vec2, Vec3};
-use lobe_materials::fastmath::{self, xn};
+use lobe_materials::math::{
+    Num, V3, acos, atan2, clamp, floor, gt, le, lt, maximum, minimum, select, sin_cos, sqrt,
+};
 use lobe_materials::sampling::hierarchy::Hierarchy2D;
-use lobe_materials::sampling::warp::{bilinear, square_to_bilinear};
+use lobe_materials::sampling::warp::bilinear;
 use lobe_materials::simd;
-use lobe_materials::simd::{LANES, RgbxN, f32xn, i32xn, u32xn};
+use lobe_materials::simd::{LANES, RgbxN, Vec3xN, f32xn, i32xn, u32xn};
 use std::f32::consts::{PI, TAU};
 use std::path::Path;
 
@@ -117,7 +119,9 @@ impl EnvMap {
         for j in 0..h - 1 {
             for i in 0..w {
                 // The integral of the bilinear patch: the mean of its corner weights.
-                let c = Self::corner_weights(&data, &sin_row, offset, w, i, j);
+                let (t, s_top, s_bottom) =
+                    cell_corners::<f32>(&data, &sin_row, w, i as i32, j as i32);
+                let c = corner_weights(&t, s_top, s_bottom, offset);
                 cells[j * w + i] = 0.25 * (c[0] + c[1] + c[2] + c[3]);
             }
         }
@@ -137,253 +141,99 @@ impl EnvMap {
         }
     }
 
-    /// Sampling weights of the four corners of cell (ix, iy), [top-left, top-right,
-    /// bottom-left, bottom-right]: (luminance - `offset`, at least 0) x sin(theta) of each
-    /// corner's pixel row.
-    #[inline(always)]
-    fn corner_weights(
-        d: &[f32],
-        sin_row: &[f32],
-        offset: f32,
-        w: usize,
-        ix: usize,
-        iy: usize,
-    ) -> [f32; 4] {
-        let k = iy * (w + 1) + ix;
-        let (st, sb) = (sin_row[iy], sin_row[iy + 1]);
-        let l = |k| (texel(d, k).luminance() - offset).max(0.0);
-        [
-            l(k) * st,
-            l(k + 1) * st,
-            l(k + w + 1) * sb,
-            l(k + w + 2) * sb,
-        ]
-    }
-
     pub fn resolution(&self) -> (usize, usize) {
         (self.width, self.height)
     }
 
-    /// Bilinear lookup at Mitsuba's texture coordinates (u, v).
-    #[inline]
-    fn lookup(&self, u: f32, v: f32) -> Rgb {
-        self.lookup_density(u, v).0 * self.scale
-    }
-
-    /// Bilinear lookup (without `scale`) and the density of [`EnvMap::sample`] over the unit
-    /// square of (u, v): the bilinear interpolation of the corner weights
-    /// (luminance x sin(theta) of the row) over their mean, which is the cell's probability
-    /// times the bilinear density within it. Both come from the same four texels.
-    #[inline]
-    fn lookup_density(&self, u: f32, v: f32) -> (Rgb, f32) {
-        self.blend(self.texel_cell(u, v))
-    }
-
-    /// The bilinear cell of texture coordinates (u, v): (index of its top-left texel in
-    /// `data`, its row, fractional position within it).
+    /// The bilinear cell of texture coordinates (u, v): its column and row and the
+    /// fractional position within it.
     #[inline(always)]
-    fn texel_cell(&self, u: f32, v: f32) -> (usize, usize, f32, f32) {
+    fn texel_cell<T: Num>(&self, u: T, v: T) -> (T::Int, T::Int, T, T) {
         let (w, h) = (self.width, self.height);
-        let mut x = u - 0.5 / w as f32;
-        x -= x.floor();
-        let mut y = v;
-        y -= y.floor();
-        let x = x * w as f32;
-        let y = y * (h - 1) as f32;
-        let ix = (x as usize).min(w - 1);
-        let iy = (y as usize).min(h - 2);
-        (iy * (w + 1) + ix, iy, x - ix as f32, y - iy as f32)
+        let x = u - T::of((0.5 / w as f32) as f64);
+        let x = (x - floor(x)) * T::of(w as f64);
+        let y = (v - floor(v)) * T::of((h - 1) as f64);
+        let ix = T::int_min(T::int_max(x.trunc_int(), T::int(0)), T::int(w as i32 - 1));
+        let iy = T::int_min(T::int_max(y.trunc_int(), T::int(0)), T::int(h as i32 - 2));
+        (ix, iy, x - T::of_int(ix), y - T::of_int(iy))
     }
 
-    /// Radiance (without `scale`) and sampling density at a point of a cell from
-    /// [`EnvMap::texel_cell`]: both interpolate the same four texels.
+    /// Radiance (without `scale`) and the density of [`EnvMap::sample`] over the unit
+    /// square of (u, v) at (`fx`, `fy`) in a cell with corner texels `t`, whose pixel rows
+    /// have sin(theta) `s_top` and `s_bottom`: both interpolate the same four texels. The
+    /// density is the bilinear interpolation of the corner weights (luminance x sin(theta)
+    /// of the row) over their mean: the cell's probability times the bilinear density
+    /// within it.
     #[inline(always)]
-    fn blend(&self, (k, iy, fx, fy): (usize, usize, f32, f32)) -> (Rgb, f32) {
-        let (d, w) = (&self.data, self.width);
-        let top = texel(d, k) * (1.0 - fx) + texel(d, k + 1) * fx;
-        let bottom = texel(d, k + w + 1) * (1.0 - fx) + texel(d, k + w + 2) * fx;
-        let texel = top * (1.0 - fy) + bottom * fy;
-        // Luminance is linear: that of the interpolated rows is the interpolated luminance.
+    fn blend<T: Num>(&self, t: &[[T; 3]; 4], s_top: T, s_bottom: T, fx: T, fy: T) -> ([T; 3], T) {
+        let one = T::of(1.0);
+        let mix = |a: [T; 3], b: [T; 3], f: T| std::array::from_fn(|c| a[c] * (one - f) + b[c] * f);
+        let top = mix(t[0], t[1], fx);
+        let bottom = mix(t[2], t[3], fx);
+        let texel = mix(top, bottom, fy);
+        let inv_mean = T::of(self.inv_mean as f64);
         let density = if self.inv_mean == 0.0 {
-            1.0
+            one
         } else if self.offset > 0.0 {
             // With MIS compensation the weights are clamped per pixel, so they are
             // interpolated one by one.
-            let c = Self::corner_weights(d, &self.sin_row, self.offset, w, k % (w + 1), iy);
-            ((1.0 - fy) * (c[0] * (1.0 - fx) + c[1] * fx) + fy * (c[2] * (1.0 - fx) + c[3] * fx))
-                * self.inv_mean
+            let c = corner_weights(t, s_top, s_bottom, self.offset);
+            ((one - fy) * (c[0] * (one - fx) + c[1] * fx) + fy * (c[2] * (one - fx) + c[3] * fx))
+                * inv_mean
         } else {
-            ((1.0 - fy) * top.luminance().max(0.0) * self.sin_row[iy]
-                + fy * bottom.luminance().max(0.0) * self.sin_row[iy + 1])
-                * self.inv_mean
+            // Luminance is linear: that of the interpolated rows is the interpolated one.
+            let zero = T::of(0.0);
+            ((one - fy) * maximum(luminance(top), zero) * s_top
+                + fy * maximum(luminance(bottom), zero) * s_bottom)
+                * inv_mean
         };
         (texel, density)
-    }
-
-    /// Local direction -> Mitsuba texture coordinates.
-    #[inline]
-    fn uv_of(d: Vec3) -> Vec2 {
-        let mut u = fastmath::atan2(d.x, -d.z) * (1.0 / TAU);
-        if u < 0.0 {
-            u += 1.0;
-        }
-        Vec2::new(u, fastmath::acos(d.y.clamp(-1.0, 1.0)) * (1.0 / PI))
     }
 
     /// Radiance arriving from world direction `d` (unit; pointing away from the scene).
     #[inline]
     pub fn eval(&self, d: Vec3) -> Rgb {
-        let uv = Self::uv_of(self.to_local * d);
-        self.lookup(uv.x, uv.y)
+        self.eval_pdf(d).0
     }
 
     /// Radiance from world direction `d` and the solid-angle density with which
     /// [`EnvMap::sample`] picks it, sharing the coordinate computation.
     #[inline]
     pub fn eval_pdf(&self, d: Vec3) -> (Rgb, f32) {
-        let l = self.to_local * d;
-        let uv = Self::uv_of(l);
-        let (texel, density) = self.lookup_density(uv.x, uv.y);
-        let radiance = texel * self.scale;
-        let sin_theta = (l.x * l.x + l.z * l.z).sqrt();
-        if sin_theta <= 1e-7 {
-            return (radiance, 0.0);
-        }
-        (radiance, density / (2.0 * PI * PI * sin_theta))
+        let (radiance, pdf) = self.radiance_pdf::<f32>(d.into());
+        (Rgb::from(radiance), pdf)
     }
 
-    /// The corner texels of `LANES` cells (columns `ix`, rows `iy`) and the sines of their
-    /// top and bottom pixel rows: `([top-left, top-right, bottom-left, bottom-right],
-    /// sin top, sin bottom)`. The cells are clamped to the grid first (a no-op for the
-    /// cells the callers compute), so the reads need no bounds check per lane.
+    /// [`EnvMap::eval_pdf`] written once over [`Num`] (one direction, or lanes of them):
+    /// the texture coordinates, the cell, the blend of its texels and of their weights.
     #[inline(always)]
-    fn cells_xn(&self, ix: u32xn, iy: u32xn) -> ([RgbxN; 4], f32xn, f32xn) {
-        let (w, h) = (self.width, self.height);
-        let ix = ix.min(u32xn::splat(w as u32 - 1));
-        let iy = iy.min(u32xn::splat(h as u32 - 2));
-        let k = (iy * u32xn::splat(w as u32 + 1) + ix).to_array();
-        let iy = iy.to_array();
-        let (d, rows) = (&self.data, &self.sin_row);
-        assert!(w >= 2 && h >= 3 && d.len() == 3 * (w + 1) * h && rows.len() == h);
-        // SAFETY: with ix <= w - 1 and iy <= h - 2 (clamped above), the last float read,
-        // that of the bottom-right texel k + w + 2 <= (h - 1)(w + 1) + w, is within the
-        // h (w + 1) texels of `data` (asserted).
-        let (tl, tr) = unsafe { Self::pixel_pairs(d, &k, 0) };
-        let (bl, br) = unsafe { Self::pixel_pairs(d, &k, 3 * (w + 1)) };
-        // SAFETY: iy + 1 <= h - 1 < rows.len() (clamped above, asserted).
-        let sine = |j: usize| {
-            f32xn::new(simd::lanes(|i| unsafe {
-                *rows.get_unchecked(iy[i] as usize + j)
-            }))
-        };
-        ([tl, tr, bl, br], sine(0), sine(1))
-    }
-
-    /// The texels `k[i]` and `k[i] + 1` of `data`, offset by `offset` floats, in lane i:
-    /// a pixel pair is six floats, r0 g0 b0 r1 g1 b1, whose first four and last four
-    /// (overlapping) are read as two 4-float transposes.
-    ///
-    /// # Safety
-    /// `3 k[i] + offset + 6 <= data.len()` in every lane.
-    #[inline(always)]
-    unsafe fn pixel_pairs(data: &[f32], k: &[u32; LANES], offset: usize) -> (RgbxN, RgbxN) {
-        let p = simd::lanes(|i| {
-            let s = 3 * k[i] as usize + offset;
-            // SAFETY: in bounds by the caller's contract.
-            let f = |j: usize| unsafe { *data.get_unchecked(s + j) };
-            ([f(0), f(1), f(2), f(3)], [f(2), f(3), f(4), f(5)])
-        });
-        let a = simd::transpose4xn(&simd::lanes(|i| p[i].0));
-        let b = simd::transpose4xn(&simd::lanes(|i| p[i].1));
-        (RgbxN::new(a[0], a[1], a[2]), RgbxN::new(a[3], b[2], b[3]))
-    }
-
-    /// [`EnvMap::blend`] in SIMD lanes, with the same operations: radiance (without
-    /// `scale`) and density at (`fx`, `fy`) in cells with corner texels `t`, whose rows
-    /// have sin(theta) `s_top` and `s_bottom`.
-    #[inline(always)]
-    fn blend_xn(
-        &self,
-        t: &[RgbxN; 4],
-        s_top: f32xn,
-        s_bottom: f32xn,
-        fx: f32xn,
-        fy: f32xn,
-    ) -> (RgbxN, f32xn) {
-        let one = f32xn::splat(1.0);
-        let zero = f32xn::splat(0.0);
-        let top = t[0] * (one - fx) + t[1] * fx;
-        let bottom = t[2] * (one - fx) + t[3] * fx;
-        let texel = top * (one - fy) + bottom * fy;
-        let inv_mean = f32xn::splat(self.inv_mean);
-        let density = if self.inv_mean == 0.0 {
-            one
-        } else if self.offset > 0.0 {
-            let c = self.corner_weights_xn(t, s_top, s_bottom);
-            ((one - fy) * (c[0] * (one - fx) + c[1] * fx) + fy * (c[2] * (one - fx) + c[3] * fx))
-                * inv_mean
-        } else {
-            ((one - fy) * top.luminance().max(zero) * s_top
-                + fy * bottom.luminance().max(zero) * s_bottom)
-                * inv_mean
-        };
-        (texel, density)
-    }
-
-    /// [`EnvMap::corner_weights`] in SIMD lanes.
-    #[inline(always)]
-    fn corner_weights_xn(&self, t: &[RgbxN; 4], s_top: f32xn, s_bottom: f32xn) -> [f32xn; 4] {
-        let (offset, zero) = (f32xn::splat(self.offset), f32xn::splat(0.0));
-        let w = |c: &RgbxN, s: f32xn| (c.luminance() - offset).max(zero) * s;
-        [
-            w(&t[0], s_top),
-            w(&t[1], s_top),
-            w(&t[2], s_bottom),
-            w(&t[3], s_bottom),
-        ]
+    fn radiance_pdf<T: Num>(&self, d: V3<T>) -> ([T; 3], T) {
+        let w = self.width;
+        let zero = T::of(0.0);
+        let l = mat3_mul(&self.to_local, d);
+        // Texture coordinates: u = atan2(x, -z) / (2 pi) wrapped to [0, 1), v = acos(y) / pi.
+        let u = atan2(l.x, -l.z) * T::of((1.0 / TAU) as f64);
+        let u = select(lt(u, zero), u + T::of(1.0), u);
+        let v = acos(clamp(l.y, T::of(-1.0), T::of(1.0))) * T::of((1.0 / PI) as f64);
+        let (ix, iy, fx, fy) = self.texel_cell(u, v);
+        let (t, s_top, s_bottom) = cell_corners(&self.data, &self.sin_row, w, ix, iy);
+        let (texel, density) = self.blend(&t, s_top, s_bottom, fx, fy);
+        let radiance = texel.map(|c| c * T::of(self.scale as f64));
+        let st = sqrt(l.x * l.x + l.z * l.z);
+        let pdf = density / (T::of((2.0 * PI * PI) as f64) * st);
+        (radiance, select(le(st, T::of(1e-7)), zero, pdf))
     }
 
     /// [`EnvMap::eval_pdf`] of many directions, `out[i]` for `dirs[i]`, bit for bit the
-    /// same: a lane vector at a time in SIMD lanes (`wide`'s AVX vectors), with the lane forms of
-    /// the same functions ([`fastmath::xn`]), so that the independent texel reads of `LANES`
+    /// same: a lane vector at a time, so that the independent texel reads of `LANES`
     /// lookups overlap and the arithmetic runs once per `LANES` directions.
     pub fn eval_pdf_many(&self, dirs: &[Vec3], out: &mut [(Rgb, f32)]) {
         assert_eq!(dirs.len(), out.len());
-        let (w, h) = (self.width, self.height);
-        let zero = f32xn::splat(0.0);
         for (dc, oc) in dirs.chunks(LANES).zip(out.chunks_mut(LANES)) {
-            let n = dc.len();
-            let d = simd::lanes(|i| dc[i.min(n - 1)]);
-            let [dx, dy, dz] = simd::vec3s(&d);
-            let [lx, ly, lz] = mat3_mul_xn(&self.to_local, dx, dy, dz);
-            // Texture coordinates ([`EnvMap::uv_of`]).
-            let u = xn::atan2(lx, -lz) * f32xn::splat(1.0 / TAU);
-            let u = simd::sel(u.simd_lt(zero), u + f32xn::splat(1.0), u);
-            let v = xn::acos(simd::clamp(ly, -1.0, 1.0)) * f32xn::splat(1.0 / PI);
-            let st = (lx * lx + lz * lz).sqrt();
-            // The bilinear cell ([`EnvMap::texel_cell`]).
-            let x = u - f32xn::splat(0.5 / w as f32);
-            let x = (x - x.floor()) * f32xn::splat(w as f32);
-            let y = (v - v.floor()) * f32xn::splat((h - 1) as f32);
-            let ix = x
-                .trunc_int()
-                .max(i32xn::splat(0))
-                .min(i32xn::splat(w as i32 - 1));
-            let iy = y
-                .trunc_int()
-                .max(i32xn::splat(0))
-                .min(i32xn::splat(h as i32 - 2));
-            let fx = x - lobe_materials::simd::float_of(ix);
-            let fy = y - lobe_materials::simd::float_of(iy);
-            let (t, s_top, s_bottom) = self.cells_xn(to_u32(ix), to_u32(iy));
-            let (texel, density) = self.blend_xn(&t, s_top, s_bottom, fx, fy);
-            let radiance = texel * f32xn::splat(self.scale);
-            let pdf = simd::sel(
-                st.simd_le(f32xn::splat(1e-7)),
-                zero,
-                density / (f32xn::splat(2.0 * PI * PI) * st),
-            )
-            .to_array();
+            let d = Vec3xN::from_array(&simd::padded(dc));
+            let ([r, g, b], pdf) = self.radiance_pdf(d);
+            let radiance = RgbxN::new(r, g, b);
+            let pdf = pdf.to_array();
             for (i, o) in oc.iter_mut().enumerate() {
                 *o = (radiance.lane(i), pdf[i]);
             }
@@ -396,9 +246,7 @@ impl EnvMap {
     /// `sample` gives None.
     pub fn sample_many(&self, us: &[Vec2], wi: &mut [Vec3], li: &mut [Rgb], pdf: &mut [f32]) {
         assert!(us.len() == wi.len() && us.len() == li.len() && us.len() == pdf.len());
-        let (w, h) = (self.width as f32, (self.height - 1) as f32);
         let zero = f32xn::splat(0.0);
-        let one_minus_eps = f32xn::splat(1.0 - f32::EPSILON / 2.0);
         // Two lane vectors of points at a time: two groups descend the hierarchy side by side
         // (two independent dependency chains the core overlaps; three or four groups
         // measured no faster), then each goes on alone.
@@ -418,37 +266,16 @@ impl EnvMap {
                 }
             };
             for (g, uc) in uc2.chunks(LANES).enumerate() {
-                let n = uc.len();
                 let (cx, cy, rx, ry) = cells[g];
-                let (t, s_top, s_bottom) = self.cells_xn(cx, cy);
-                let (ix, iy) = (cx.to_array(), cy.to_array());
-                // Within the cell, the bilinear density of the corner weights.
-                let (fx, fy) = if self.inv_mean == 0.0 {
-                    (rx, ry)
-                } else {
-                    let cw = self.corner_weights_xn(&t, s_top, s_bottom);
-                    bilinear(rx, ry, cw)
-                };
-                let cxf = f32xn::new(simd::lanes(|i| ix[i] as f32));
-                let cyf = f32xn::new(simd::lanes(|i| iy[i] as f32));
-                let ax = ((cxf + fx) / f32xn::splat(w)).min(one_minus_eps);
-                let vv = ((cyf + fy) / f32xn::splat(h)).min(one_minus_eps);
-                let x = ax + f32xn::splat(0.5 / w);
-                let uu = simd::sel(x.simd_ge(f32xn::splat(1.0)), x - f32xn::splat(1.0), x);
-                let (st, ct) = xn::sin_cos_moderate(vv * f32xn::splat(PI));
-                let (sp, cp) = xn::sin_cos_moderate(uu * f32xn::splat(TAU));
-                let (texel, pdf_ab) = self.blend_xn(&t, s_top, s_bottom, fx, fy);
-                let valid = st.simd_gt(f32xn::splat(1e-7)) & pdf_ab.simd_gt(zero);
-                let [dx, dy, dz] = mat3_mul_xn(&self.to_world, st * sp, ct, -(st * cp));
-                let radiance = texel * f32xn::splat(self.scale);
-                let p = pdf_ab / (f32xn::splat(2.0 * PI * PI) * st);
+                let as_int = |c: u32xn| i32xn::new(c.to_array().map(|v| v as i32));
+                let (d, radiance, p, valid) = self.sample_in_cell(as_int(cx), as_int(cy), rx, ry);
                 // Invalid lanes get a zero direction, radiance and pdf.
                 let keep = |v: f32xn| simd::sel(valid, v, zero);
-                let [dx, dy, dz] = simd::arrays3([keep(dx), keep(dy), keep(dz)]);
-                let [r, gr, b] = simd::arrays3([radiance.r, radiance.g, radiance.b].map(keep));
+                let [dx, dy, dz] = simd::arrays3([d.x, d.y, d.z].map(keep));
+                let [r, gr, b] = simd::arrays3(radiance.map(keep));
                 let p = keep(p).to_array();
                 let base = LANES * (GROUPS * c2 + g);
-                for i in 0..n {
+                for i in 0..uc.len() {
                     let o = base + i;
                     wi[o] = Vec3::new(dx[i], dy[i], dz[i]);
                     li[o] = Rgb::new(r[i], gr[i], b[i]);
@@ -468,59 +295,104 @@ impl EnvMap {
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, Rgb, f32)> {
         let (ix, iy, r) = self.cells.sample(u);
-        // Within the cell, the bilinear density of the corner luminances (uniform for a
-        // black map): the radiance over the density is then smooth, not stepped per cell.
-        let f = if self.inv_mean == 0.0 {
-            r
+        let (d, radiance, pdf, valid) = self.sample_in_cell::<f32>(ix as i32, iy as i32, r.x, r.y);
+        valid.then(|| (d.into(), Rgb::from(radiance), pdf))
+    }
+
+    /// The direction, radiance and solid-angle density of the point (`rx`, `ry`) of the
+    /// unit square mapped into cell (`ix`, `iy`) (drawn by the hierarchy), and where it is
+    /// a sample (off the poles, of positive density); one point or lanes of points.
+    /// Within the cell the point follows the bilinear density of the corner weights
+    /// (uniform for a black map), so the radiance over the density is smooth, not stepped
+    /// per cell; the radiance and density are the lookup [`EnvMap::eval_pdf`] makes at the
+    /// sampled direction, without finding the cell again.
+    #[inline(always)]
+    fn sample_in_cell<T: Num>(
+        &self,
+        ix: T::Int,
+        iy: T::Int,
+        rx: T,
+        ry: T,
+    ) -> (V3<T>, [T; 3], T, T::Mask) {
+        let (w, h) = (self.width, self.height);
+        let (zero, one) = (T::of(0.0), T::of(1.0));
+        let (t, s_top, s_bottom) = cell_corners(&self.data, &self.sin_row, w, ix, iy);
+        let (fx, fy) = if self.inv_mean == 0.0 {
+            (rx, ry)
         } else {
-            square_to_bilinear(
-                r,
-                Self::corner_weights(&self.data, &self.sin_row, self.offset, self.width, ix, iy),
-            )
+            bilinear(rx, ry, corner_weights(&t, s_top, s_bottom, self.offset))
         };
-        let ab = Vec2::new(
-            ((ix as f32 + f.x) / self.width as f32).min(1.0 - f32::EPSILON / 2.0),
-            ((iy as f32 + f.y) / (self.height - 1) as f32).min(1.0 - f32::EPSILON / 2.0),
-        );
-        let mut uu = ab.x + 0.5 / self.width as f32;
-        if uu >= 1.0 {
-            uu -= 1.0;
-        }
-        let theta = ab.y * PI;
-        let phi = uu * TAU;
-        let (st, ct) = fastmath::sin_cos(theta);
-        let (sp, cp) = fastmath::sin_cos(phi);
-        if st <= 1e-7 {
-            return None;
-        }
-        // Radiance and density at the sampled point of the cell: the lookup `eval_pdf`
-        // makes at the sampled direction, without finding the cell again.
-        let (texel, pdf_ab) = self.blend((iy * (self.width + 1) + ix, iy, f.x, f.y));
-        if !(pdf_ab > 0.0) {
-            return None;
-        }
-        let local = Vec3::new(st * sp, ct, -st * cp);
-        let pdf = pdf_ab / (2.0 * PI * PI * st);
-        Some((self.to_world * local, texel * self.scale, pdf))
+        let below_one = T::of((1.0 - f32::EPSILON / 2.0) as f64);
+        let ax = minimum((T::of_int(ix) + fx) / T::of(w as f64), below_one);
+        let vv = minimum((T::of_int(iy) + fy) / T::of((h - 1) as f64), below_one);
+        let x = ax + T::of((0.5 / w as f32) as f64);
+        let uu = select(le(one, x), x - one, x);
+        let (st, ct) = sin_cos(vv * T::of(PI as f64));
+        let (sp, cp) = sin_cos(uu * T::of(TAU as f64));
+        let (texel, pdf_ab) = self.blend(&t, s_top, s_bottom, fx, fy);
+        let valid = gt(st, T::of(1e-7)) & gt(pdf_ab, zero);
+        let d = mat3_mul(&self.to_world, V3::new(st * sp, ct, -(st * cp)));
+        let radiance = texel.map(|c| c * T::of(self.scale as f64));
+        let pdf = pdf_ab / (T::of((2.0 * PI * PI) as f64) * st);
+        (d, radiance, pdf, valid)
     }
 }
 
-/// Pixel `k` of flat r, g, b data.
+/// The corner texels of cell (`ix`, `iy`) of flat r, g, b `data` with rows of `w + 1`
+/// texels ([top-left, top-right, bottom-left, bottom-right]), and the sines of its top and
+/// bottom pixel rows. A texel pair is six floats, r0 g0 b0 r1 g1 b1, read as two
+/// overlapping 4-float loads ([`Num::gather4`]: in lanes, transposed).
 #[inline(always)]
-fn texel(d: &[f32], k: usize) -> Rgb {
-    let p = &d[3 * k..3 * k + 3];
-    Rgb::new(p[0], p[1], p[2])
+fn cell_corners<T: Num>(
+    data: &[f32],
+    sin_row: &[f32],
+    w: usize,
+    ix: T::Int,
+    iy: T::Int,
+) -> ([[T; 3]; 4], T, T) {
+    let k = (iy * T::int(w as i32 + 1) + ix) * T::int(3);
+    let (tl, tr) = texel_pair(data, k);
+    let (bl, br) = texel_pair(data, k + T::int(3 * (w as i32 + 1)));
+    let s = |j: i32| T::gather(sin_row, iy + T::int(j));
+    ([tl, tr, bl, br], s(0), s(1))
 }
 
-/// `m * (x, y, z)` in SIMD lanes, with glam's `Mat3 * Vec3` operations.
+/// The texels whose r, g, b start at float `at` and `at + 3` of `data`: two overlapping
+/// 4-float loads.
 #[inline(always)]
-fn mat3_mul_xn(m: &Mat3, x: f32xn, y: f32xn, z: f32xn) -> [f32xn; 3] {
-    let row = |c: usize| {
-        f32xn::splat(m.x_axis[c]) * x
-            + f32xn::splat(m.y_axis[c]) * y
-            + f32xn::splat(m.z_axis[c]) * z
-    };
-    [row(0), row(1), row(2)]
+fn texel_pair<T: Num>(data: &[f32], at: T::Int) -> ([T; 3], [T; 3]) {
+    let a = T::gather4(data, at);
+    let b = T::gather4(data, at + T::int(2));
+    ([a[0], a[1], a[2]], [a[3], b[2], b[3]])
+}
+
+/// Sampling weights of the four corners `t` of a cell whose pixel rows have sin(theta)
+/// `s_top` and `s_bottom`: (luminance - `offset`, at least 0) x sin(theta) of each
+/// corner's row.
+#[inline(always)]
+fn corner_weights<T: Num>(t: &[[T; 3]; 4], s_top: T, s_bottom: T, offset: f32) -> [T; 4] {
+    let w = |c: [T; 3], s: T| maximum(luminance(c) - T::of(offset as f64), T::of(0.0)) * s;
+    [
+        w(t[0], s_top),
+        w(t[1], s_top),
+        w(t[2], s_bottom),
+        w(t[3], s_bottom),
+    ]
+}
+
+/// [`Rgb::luminance`] over [`Num`].
+#[inline(always)]
+fn luminance<T: Num>(c: [T; 3]) -> T {
+    let k = |x: f32| T::of(x as f64);
+    k(0.212671) * c[0] + k(0.715160) * c[1] + k(0.072169) * c[2]
+}
+
+/// `m * v` with glam's `Mat3 * Vec3` operations.
+#[inline(always)]
+fn mat3_mul<T: Num>(m: &Mat3, v: V3<T>) -> V3<T> {
+    let k = |x: f32| T::of(x as f64);
+    let row = |c: usize| k(m.x_axis[c]) * v.x + k(m.y_axis[c]) * v.y + k(m.z_axis[c]) * v.z;
+    V3::new(row(0), row(1), row(2))
 }
 
 /// Reads an environment map image (see [`crate::image_io::read_rgb_image`]) and checks it:
@@ -558,12 +430,6 @@ fn validate_image(mut img: RgbImage, name: &str) -> Result<RgbImage> {
         *p = p.map(|c| c.max(0.0));
     }
     Ok(img)
-}
-
-/// Non-negative lanes as unsigned ones (the same bits).
-#[inline(always)]
-fn to_u32(v: i32xn) -> u32xn {
-    u32xn::new(v.to_array().map(|x| x as u32))
 }
 
 #[cfg(test)]
