@@ -499,23 +499,6 @@ impl Vec3xN {
         lanes(|i| Vec3::new(x[i], y[i], z[i]))
     }
 
-    /// glam's `normalize` per lane: `self * (1 / length)` (no check).
-    #[inline(always)]
-    pub fn normalize(self) -> Self {
-        self * (f32xn::splat(1.0) / self.length_squared().sqrt())
-    }
-
-    /// glam's `normalize_or_zero` per lane: zero where `1 / length` is not finite and
-    /// positive.
-    #[inline(always)]
-    pub fn normalize_or_zero(self) -> Self {
-        let rcp = f32xn::splat(1.0) / self.length_squared().sqrt();
-        let ok = rcp.is_finite() & rcp.simd_gt(f32xn::splat(0.0));
-        let n = self * rcp;
-        let zero = f32xn::splat(0.0);
-        Self::new(sel(ok, n.x, zero), sel(ok, n.y, zero), sel(ok, n.z, zero))
-    }
-
     /// `self * a + b` per component, fused ([`fmadd`]).
     #[inline(always)]
     pub fn mul_add(self, a: f32xn, b: Self) -> Self {
@@ -775,8 +758,8 @@ mod tests {
             let s = f32xn::new(lanes(|i| b[i].y));
             let dot = va.dot(vb).to_array();
             let cross = va.cross(vb).to_array();
-            let norm = va.normalize().to_array();
-            let nz = va.normalize_or_zero().to_array();
+            let norm = va.unit().to_array();
+            let nz = va.unit_or(Vec3xN::splat(Vec3::ZERO)).to_array();
             let ma = va.mul_add(s, vb).to_array();
             let sum = (va + vb).to_array();
             let diff = (va - vb).to_array();

@@ -71,26 +71,22 @@ impl Lobe for SampledMicrofacet {
             }
         }
     }
-    /// Lane 0 of [`SampledMicrofacet::eval_pdf_xn`]'s density (the visible-normal
-    /// sampler's tables are read in lanes).
+    /// Lane 0 of [`SampledMicrofacet::density`] (the visible-normal sampler's tables are
+    /// read in lanes).
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.eval_pdf_xn(Vec3xN::splat(wo), Vec3xN::splat(wi))
-            .1
-            .to_array()[0]
+        let (wo, wi) = (Vec3xN::splat(wo), Vec3xN::splat(wi));
+        let h = Self::half(wo, wi);
+        self.density(wo, wi, h, self.table.p(h.x, h.y)).to_array()[0]
     }
-    /// The generator's value ([`Table::rho_at`]) and density (of the visible normals,
-    /// converted to the density of wi, zero below the surface or where not finite) of
-    /// `LANES` pairs, p(h) looked up once for both.
+    /// The generator's value ([`Table::rho_at`]) and density ([`SampledMicrofacet::density`])
+    /// of `LANES` pairs, p(h) looked up once for both.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let zero = f32xn::splat(0.0);
-        let h = (wo + wi).unit_or(V3::new(zero, zero, zero));
+        let h = Self::half(wo, wi);
         let p_h = self.table.p(h.x, h.y);
         let v = self
             .table
             .rho_at(wo, wi, h, p_h, f32xn::splat(self.f0 as f32));
-        let p = lobe::half_to_incident_pdf(self.table.pdf_visible_at(wo, h, p_h), wo.dot(h));
-        let ok = lobe::both_above(wo, wi) & p.is_finite();
-        (RgbxN::new(v, v, v), sel(ok, p, zero))
+        (RgbxN::new(v, v, v), self.density(wo, wi, h, p_h))
     }
     fn flags(&self) -> Flags {
         Flags::RECIPROCAL | Flags::GLOSSY
@@ -101,6 +97,22 @@ impl Lobe for SampledMicrofacet {
 }
 
 impl SampledMicrofacet {
+    /// The unit half vector of `wo` and `wi`, zero where there is none.
+    #[inline(always)]
+    fn half(wo: Vec3xN, wi: Vec3xN) -> Vec3xN {
+        let zero = f32xn::splat(0.0);
+        (wo + wi).unit_or(V3::new(zero, zero, zero))
+    }
+
+    /// The density of wi: that of the visible normal `h` (its p(h) `p_h`) converted to the
+    /// density of wi, zero below the surface or where not finite.
+    #[inline(always)]
+    fn density(&self, wo: Vec3xN, wi: Vec3xN, h: Vec3xN, p_h: f32xn) -> f32xn {
+        let p = lobe::half_to_incident_pdf(self.table.pdf_visible_at(wo, h, p_h), wo.dot(h));
+        let ok = lobe::both_above(wo, wi) & p.is_finite();
+        sel(ok, p, f32xn::splat(0.0))
+    }
+
     /// [`Lobe::sample_xn`] of `N` lane vectors side by side.
     #[inline(always)]
     fn sample_groups<const N: usize>(
