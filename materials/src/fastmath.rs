@@ -1,27 +1,24 @@
-//! Branch-free f32 `sin_cos`, `atan2`, `acos` and `asin` for the hot paths (env-map
-//! lookups and sampling, direction warps, measured-BRDF coordinates, the analytic lobes'
-//! half-vector sampling), a few times faster than the C library's.
+//! Branch-free single-precision `sin_cos`, `atan2`, `acos`, `asin`, `exp`, `ln` and `powf`
+//! for the hot paths (env-map lookups and sampling, direction warps, measured-BRDF
+//! coordinates, the analytic lobes' half-vector sampling), a few times faster than the C
+//! library's.
 //!
 //! Each is a Cody-Waite range reduction followed by the minimax polynomials of Cephes'
-//! single-precision `sinf`/`cosf`, `atanf` and `asinf` (S. L. Moshier, "Methods and
-//! Programs for Mathematical Functions", 1989; the same approximations Dr.Jit, and so
-//! Mitsuba 3, uses). Written with selects ([`select`]) instead of branches, so that no
-//! branch mispredicts on random arguments, the core can overlap consecutive calls, and
-//! loops of them vectorize. Accuracy, checked against
-//! f64 over dense grids by the tests below: absolute error under 2.5e-7 for `sin_cos`
-//! (|x| <= 1e4; larger arguments fall back to the C library), under 4e-7 for `acos`
-//! (below 2 ulp of its result near pi) and `asin`, relative error under 4e-7 for
-//! `atan2`. NaN inputs give NaN.
-//!
-//! [`xn`] has lane forms of the same functions on `wide`'s AVX vectors, for the
-//! renderer's SIMD batches: the same operations lane by lane, so each lane equals the
-//! scalar function bit for bit (tested), and batched and one-at-a-time renders agree
-//! exactly. The other SIMD building blocks (lane types, transposes, selects, gathers) are
-//! in [`crate::simd`].
+//! single-precision `sinf`/`cosf`, `atanf`, `asinf`, `expf` and `logf` (S. L. Moshier,
+//! "Methods and Programs for Mathematical Functions", 1989; the same approximations Dr.Jit,
+//! and so Mitsuba 3, uses). Each is written once over [`Single`] (one f32, or f32 lanes)
+//! with selects instead of branches, so that a lane's result equals the scalar
+//! instantiation's bit for bit (tested), batched and one-at-a-time renders agree exactly,
+//! and no branch mispredicts on random arguments. Accuracy, checked against f64 over dense
+//! grids by the tests below: absolute error under 2.5e-7 for `sin_cos` (|x| <= 1e4; larger
+//! arguments fall back to the C library in [`sin_cos`]), under 4e-7 for `acos` (below 2 ulp
+//! of its result near pi) and `asin`, relative error under 4e-7 for `atan2`. NaN inputs
+//! give NaN.
 
 // The coefficients are Cephes' published decimal values, kept as printed.
 #![allow(clippy::excessive_precision)]
 
+use crate::math::{Single, abs, copysign, eq, gt, le, lt, maximum, minimum, select, sqrt};
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 /// Beyond this |x| the three-part reduction of `sin_cos` loses accuracy.
@@ -37,25 +34,40 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     sin_cos_moderate(x)
 }
 
+/// Whether `x` is NaN (per lane).
+#[inline(always)]
+fn is_nan<T: Single>(x: T) -> T::Mask {
+    !eq(x, x)
+}
+
 /// (sin x, cos x) for |x| <= 1e4 (inaccurate beyond), without the branch to the C
-/// library, so that loops of it vectorize.
-#[inline]
-pub fn sin_cos_moderate(x: f32) -> (f32, f32) {
+/// library.
+#[inline(always)]
+pub fn sin_cos_moderate<T: Single>(x: T) -> (T, T) {
+    let s = T::of32;
     // x = k pi/2 + r, |r| <= pi/4, with pi/2 split in three parts (Cephes' DP1..DP3
     // doubled) so that k * part is exact.
-    let k = (x * std::f32::consts::FRAC_2_PI).round_ties_even();
-    let r = ((x - k * 1.570_312_5) - k * 4.837_512_969_970_703e-4) - k * 7.549_789_948_768_648e-8;
+    let k = (x * s(std::f32::consts::FRAC_2_PI)).round_ties_even();
+    let r = ((x - k * s(1.570_312_5)) - k * s(4.837_512_969_970_703e-4))
+        - k * s(7.549_789_948_768_648e-8);
     let z = r * r;
-    let s = r + r * z * ((-1.951_529_589_1e-4 * z + 8.332_160_873_6e-3) * z - 1.666_665_461_1e-1);
-    let c = 1.0 - 0.5 * z
+    let sin = r + r
+        * z
+        * ((s(-1.951_529_589_1e-4) * z + s(8.332_160_873_6e-3)) * z - s(1.666_665_461_1e-1));
+    let cos = s(1.0) - s(0.5) * z
         + z * z
-            * ((2.443_315_711_809_948e-5 * z - 1.388_731_625_493_765e-3) * z
-                + 4.166_664_568_298_827e-2);
-    let q = (k as i32) & 3;
-    let (s1, c1) = if q & 1 == 0 { (s, c) } else { (c, s) };
-    let sin = if q & 2 == 0 { s1 } else { -s1 };
-    let cos = if (q + 1) & 2 == 0 { c1 } else { -c1 };
-    (sin, cos)
+            * ((s(2.443_315_711_809_948e-5) * z - s(1.388_731_625_493_765e-3)) * z
+                + s(4.166_664_568_298_827e-2));
+    // The quadrant (0 for NaN, as `trunc_int` gives).
+    let q = k.trunc_int() & T::int(3);
+    let odd = T::int_eq(q & T::int(1), T::int(1));
+    let (s1, c1) = (select(odd, cos, sin), select(odd, sin, cos));
+    let neg_s = (q & T::int(2)) << 30;
+    let neg_c = ((q + T::int(1)) & T::int(2)) << 30;
+    (
+        T::from_bits(s1.to_bits() ^ neg_s),
+        T::from_bits(c1.to_bits() ^ neg_c),
+    )
 }
 
 /// `if c { a } else { b }` by bit masks, kept branch-free: for choices a branch predictor
@@ -63,77 +75,76 @@ pub fn sin_cos_moderate(x: f32) -> (f32, f32) {
 /// branch costs more than computing both sides. The mask goes through `black_box` since
 /// the compiler otherwise turns the masks back into a branch.
 #[inline(always)]
-pub fn select(c: bool, a: f32, b: f32) -> f32 {
+pub fn select_branchless(c: bool, a: f32, b: f32) -> f32 {
     let m = std::hint::black_box(0u32.wrapping_sub(c as u32));
     f32::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
 }
 
 /// atan(t) for t in [0, 1].
-#[inline]
-fn atan_unit(t: f32) -> f32 {
+#[inline(always)]
+fn atan_unit<T: Single>(t: T) -> T {
+    let s = T::of32;
     // Above tan(pi/8), atan t = pi/4 + atan((t - 1) / (t + 1)).
-    let big = t > 0.414_213_57;
-    let x = if big { (t - 1.0) / (t + 1.0) } else { t };
+    let big = gt(t, s(0.414_213_57));
+    let x = select(big, (t - s(1.0)) / (t + s(1.0)), t);
     let z = x * x;
-    let p = (((8.053_744_495_38e-2 * z - 1.387_768_560_32e-1) * z + 1.997_771_064_78e-1) * z
-        - 3.333_294_915_39e-1)
+    let p = (((s(8.053_744_495_38e-2) * z - s(1.387_768_560_32e-1)) * z + s(1.997_771_064_78e-1))
+        * z
+        - s(3.333_294_915_39e-1))
         * z
         * x
         + x;
-    if big { p + FRAC_PI_4 } else { p }
+    select(big, p + s(FRAC_PI_4), p)
 }
 
 /// atan2(y, x) in [-pi, pi], with the C library's signs and special cases for finite
 /// inputs (atan2(±0, +0) = ±0, atan2(±0, -0) = ±pi).
-#[inline]
-pub fn atan2(y: f32, x: f32) -> f32 {
-    let (ax, ay) = (x.abs(), y.abs());
-    let (lo, hi) = (ax.min(ay), ax.max(ay));
-    let t = if hi > 0.0 { lo / hi } else { 0.0 };
-    let mut a = atan_unit(t);
-    if ay > ax {
-        a = FRAC_PI_2 - a;
-    }
-    if x.is_sign_negative() {
-        a = PI - a;
-    }
-    let a = a.copysign(y);
-    if x.is_nan() || y.is_nan() {
-        f32::NAN
-    } else {
-        a
-    }
+#[inline(always)]
+pub fn atan2<T: Single>(y: T, x: T) -> T {
+    let s = T::of32;
+    let (ax, ay) = (abs(x), abs(y));
+    let (lo, hi) = (minimum(ax, ay), maximum(ax, ay));
+    let t = select(gt(hi, s(0.0)), lo / hi, s(0.0));
+    let a = atan_unit(t);
+    let a = select(gt(ay, ax), s(FRAC_PI_2) - a, a);
+    let x_negative = T::int_lt(x.to_bits(), T::int(0));
+    let a = select(x_negative, s(PI) - a, a);
+    let a = copysign(a, y);
+    select(is_nan(x) | is_nan(y), s(f32::NAN), a)
 }
 
 /// asin(x) for x in [0, 1].
-#[inline]
-fn asin_unit(x: f32) -> f32 {
-    let big = x > 0.5;
-    let z = if big { 0.5 * (1.0 - x) } else { x * x };
-    let s = if big { z.sqrt() } else { x };
-    let p = ((((4.216_319_904_8e-2 * z + 2.418_131_104_9e-2) * z + 4.547_002_599_8e-2) * z
-        + 7.495_300_268_6e-2)
+#[inline(always)]
+fn asin_unit<T: Single>(x: T) -> T {
+    let s = T::of32;
+    let big = gt(x, s(0.5));
+    let z = select(big, s(0.5) * (s(1.0) - x), x * x);
+    let r = select(big, sqrt(z), x);
+    let p = ((((s(4.216_319_904_8e-2) * z + s(2.418_131_104_9e-2)) * z + s(4.547_002_599_8e-2))
         * z
-        + 1.666_675_242_2e-1)
+        + s(7.495_300_268_6e-2))
         * z
-        * s
-        + s;
-    if big { FRAC_PI_2 - 2.0 * p } else { p }
+        + s(1.666_675_242_2e-1))
+        * z
+        * r
+        + r;
+    select(big, s(FRAC_PI_2) - s(2.0) * p, p)
 }
 
 /// asin(x) for x in [-1, 1] (NaN outside, as the C library).
-#[inline]
-pub fn asin(x: f32) -> f32 {
-    let r = asin_unit(x.abs()).copysign(x);
-    if x.abs() <= 1.0 { r } else { f32::NAN }
+#[inline(always)]
+pub fn asin<T: Single>(x: T) -> T {
+    let r = copysign(asin_unit(abs(x)), x);
+    select(le(abs(x), T::of32(1.0)), r, T::of32(f32::NAN))
 }
 
 /// acos(x) for x in [-1, 1] (NaN outside, as the C library).
-#[inline]
-pub fn acos(x: f32) -> f32 {
-    let a = FRAC_PI_2 - asin_unit(x.abs());
-    let r = if x < 0.0 { PI - a } else { a };
-    if x.abs() <= 1.0 { r } else { f32::NAN }
+#[inline(always)]
+pub fn acos<T: Single>(x: T) -> T {
+    let s = T::of32;
+    let a = s(FRAC_PI_2) - asin_unit(abs(x));
+    let r = select(lt(x, s(0.0)), s(PI) - a, a);
+    select(le(abs(x), s(1.0)), r, s(f32::NAN))
 }
 
 /// Bounds of [`exp`]: above, +inf (ln of the largest f32); below, 0 (under half the
@@ -144,296 +155,90 @@ const EXP_UNDER: f32 = -103.972_08;
 /// 2^n for an integer n in [-252, 254] as two normal factors (so that subnormal results
 /// are rounded once, in the last product).
 #[inline(always)]
-fn pow2_halves(n: i32) -> (f32, f32) {
+fn pow2_halves<T: Single>(n: T::Int) -> (T, T) {
     let n1 = n >> 1;
     let n2 = n - n1;
-    let f = |k: i32| f32::from_bits(((k + 127) as u32) << 23);
+    let f = |k: T::Int| T::from_bits((k + T::int(127)) << 23);
     (f(n1), f(n2))
 }
 
 /// e^x: Cephes `expf` (x = n ln 2 + r with ln 2 in two parts, a degree-6 polynomial in r,
 /// times 2^n); relative error under 1.5e-7 (tested), subnormal results included, +inf above
 /// ln(f32::MAX), 0 far below, NaN for NaN.
-#[inline]
-pub fn exp(x: f32) -> f32 {
-    let xc = x.clamp(-104.0, 88.8);
-    let n = (xc * std::f32::consts::LOG2_E + 0.5).floor();
-    let r = xc - n * 0.693_359_375 - n * -2.121_944_40e-4;
+#[inline(always)]
+pub fn exp<T: Single>(x: T) -> T {
+    let s = T::of32;
+    let xc = crate::math::clamp(x, s(-104.0), s(88.8));
+    let n = crate::math::floor(xc * s(std::f32::consts::LOG2_E) + s(0.5));
+    let r = xc - n * s(0.693_359_375) - n * s(-2.121_944_40e-4);
     let z = r * r;
-    let p = (((((1.987_569_150_0e-4 * r + 1.398_199_950_7e-3) * r + 8.333_451_907_3e-3) * r
-        + 4.166_579_589_4e-2)
+    let p = (((((s(1.987_569_150_0e-4) * r + s(1.398_199_950_7e-3)) * r + s(8.333_451_907_3e-3))
         * r
-        + 1.666_666_545_9e-1)
+        + s(4.166_579_589_4e-2))
         * r
-        + 5.000_000_120_1e-1)
+        + s(1.666_666_545_9e-1))
+        * r
+        + s(5.000_000_120_1e-1))
         * z
         + r
-        + 1.0;
-    let (s1, s2) = pow2_halves(n as i32);
+        + s(1.0);
+    // n is 0 for NaN (`trunc_int`), within [-150, 128] otherwise.
+    let (s1, s2) = pow2_halves::<T>(n.trunc_int());
     let y = p * s1 * s2;
-    if x > EXP_OVER {
-        f32::INFINITY
-    } else if x < EXP_UNDER {
-        0.0
-    } else {
-        y
-    }
+    let y = select(lt(x, s(EXP_UNDER)), s(0.0), y);
+    select(gt(x, s(EXP_OVER)), s(f32::INFINITY), y)
 }
 
 /// ln x: Cephes `logf` (x = m 2^e with m in [sqrt(1/2), sqrt(2)), a degree-9 polynomial in
 /// m - 1); absolute error under 1.2e-7 near 1 and relative error under 1.2e-7 elsewhere
 /// (tested), subnormal inputs included; -inf at 0, NaN below 0 and for NaN, +inf at +inf.
-#[inline]
-pub fn ln(x: f32) -> f32 {
-    let sub = x < f32::MIN_POSITIVE;
-    let xs = if sub { x * 8_388_608.0 } else { x };
+#[inline(always)]
+pub fn ln<T: Single>(x: T) -> T {
+    let s = T::of32;
+    let sub = lt(x, s(f32::MIN_POSITIVE));
+    let xs = select(sub, x * s(8_388_608.0), x);
     let bits = xs.to_bits();
-    let e = ((bits >> 23) & 0xff) as i32 - 126 - if sub { 23 } else { 0 };
+    // `mask_int(sub)` is -1 where set: 23 of it is the scaling's exponent.
+    let e = ((bits >> 23) & T::int(0xff)) - T::int(126) + T::mask_int(sub) * T::int(23);
     // The mantissa in [0.5, 1).
-    let m = f32::from_bits((bits & 0x807f_ffff) | 0x3f00_0000);
-    let small = m < std::f32::consts::FRAC_1_SQRT_2;
-    let e = e - small as i32;
-    let t = if small { m + m - 1.0 } else { m - 1.0 };
+    let m = T::from_bits((bits & T::int(0x807f_ffff_u32 as i32)) | T::int(0x3f00_0000));
+    let small = lt(m, s(std::f32::consts::FRAC_1_SQRT_2));
+    let e = e + T::mask_int(small);
+    let t = select(small, m + m - s(1.0), m - s(1.0));
     let z = t * t;
-    let y = ((((((((7.037_683_629_2e-2 * t - 1.151_461_031_0e-1) * t + 1.167_699_874_0e-1)
+    let y = ((((((((s(7.037_683_629_2e-2) * t - s(1.151_461_031_0e-1)) * t
+        + s(1.167_699_874_0e-1))
         * t
-        - 1.242_014_084_6e-1)
+        - s(1.242_014_084_6e-1))
         * t
-        + 1.424_932_278_7e-1)
+        + s(1.424_932_278_7e-1))
         * t
-        - 1.666_805_766_5e-1)
+        - s(1.666_805_766_5e-1))
         * t
-        + 2.000_071_476_5e-1)
+        + s(2.000_071_476_5e-1))
         * t
-        - 2.499_999_399_3e-1)
+        - s(2.499_999_399_3e-1))
         * t
-        + 3.333_333_117_4e-1)
+        + s(3.333_333_117_4e-1))
         * t
         * z;
-    let ef = e as f32;
-    let y = y + -2.121_944_40e-4 * ef;
-    let y = y + -0.5 * z;
-    let r = t + y + 0.693_359_375 * ef;
-    if x > 0.0 && x < f32::INFINITY {
-        r
-    } else if x == 0.0 {
-        f32::NEG_INFINITY
-    } else if x == f32::INFINITY {
-        x
-    } else {
-        f32::NAN
-    }
+    let ef = T::of_int(e);
+    let y = y + s(-2.121_944_40e-4) * ef;
+    let y = y + s(-0.5) * z;
+    let r = t + y + s(0.693_359_375) * ef;
+    let inf = s(f32::INFINITY);
+    let r = select(gt(x, s(0.0)) & lt(x, inf), r, s(f32::NAN));
+    let r = select(eq(x, s(0.0)), s(f32::NEG_INFINITY), r);
+    select(eq(x, inf), inf, r)
 }
 
 /// x^y for x >= 0 as e^(y ln x) ([`exp`], [`ln`]): 1 when y = 0, 0 or +inf at x = 0, NaN
 /// for x < 0. The relative error grows with |y ln x|: about 1e-7 (|y ln x| + 2), so under
 /// 1e-5 wherever the result is above 1e-38 (tested).
-#[inline]
-pub fn powf(x: f32, y: f32) -> f32 {
+#[inline(always)]
+pub fn powf<T: Single>(x: T, y: T) -> T {
     let r = exp(y * ln(x));
-    if y == 0.0 { 1.0 } else { r }
-}
-
-/// Lane forms of the functions above ([`sin_cos_moderate`], [`atan2`], [`acos`],
-/// [`asin`]) on `wide`'s AVX vectors: the same operations in the same order on each
-/// lane, so every lane's result equals the scalar function's bit for bit (tested below),
-/// and batched lookups agree exactly with one-at-a-time ones.
-pub mod xn {
-    use crate::simd::sel;
-    use crate::simd::{f32xn, i32xn, u32xn};
-    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
-
-    const SIGN: u32 = 0x8000_0000;
-
-    /// [`super::sin_cos_moderate`] per lane.
-    #[inline(always)]
-    pub fn sin_cos_moderate(x: f32xn) -> (f32xn, f32xn) {
-        let k = (x * f32xn::splat(std::f32::consts::FRAC_2_PI)).round_ties_even();
-        let r = ((x - k * f32xn::splat(1.570_312_5)) - k * f32xn::splat(4.837_512_969_970_703e-4))
-            - k * f32xn::splat(7.549_789_948_768_648e-8);
-        let z = r * r;
-        let s = r + r
-            * z
-            * ((f32xn::splat(-1.951_529_589_1e-4) * z + f32xn::splat(8.332_160_873_6e-3)) * z
-                - f32xn::splat(1.666_665_461_1e-1));
-        let c = f32xn::splat(1.0) - f32xn::splat(0.5) * z
-            + z * z
-                * ((f32xn::splat(2.443_315_711_809_948e-5) * z
-                    - f32xn::splat(1.388_731_625_493_765e-3))
-                    * z
-                    + f32xn::splat(4.166_664_568_298_827e-2));
-        // The quadrant; `k as i32` of the scalar form is 0 for NaN, and so is this.
-        let q: u32xn = wide::bytemuck::cast(k.trunc_int());
-        let odd = f32xn::from_bits((q & u32xn::splat(1)).simd_eq(u32xn::splat(1)));
-        let (s1, c1) = (sel(odd, c, s), sel(odd, s, c));
-        let neg_s = (q & u32xn::splat(2)) << 30;
-        let neg_c = ((q + u32xn::splat(1)) & u32xn::splat(2)) << 30;
-        (
-            f32xn::from_bits(s1.to_bits() ^ neg_s),
-            f32xn::from_bits(c1.to_bits() ^ neg_c),
-        )
-    }
-
-    #[inline(always)]
-    fn atan_unit(t: f32xn) -> f32xn {
-        let one = f32xn::splat(1.0);
-        let big = t.simd_gt(f32xn::splat(0.414_213_57));
-        let x = sel(big, (t - one) / (t + one), t);
-        let z = x * x;
-        let p = (((f32xn::splat(8.053_744_495_38e-2) * z - f32xn::splat(1.387_768_560_32e-1)) * z
-            + f32xn::splat(1.997_771_064_78e-1))
-            * z
-            - f32xn::splat(3.333_294_915_39e-1))
-            * z
-            * x
-            + x;
-        sel(big, p + f32xn::splat(FRAC_PI_4), p)
-    }
-
-    /// [`super::atan2`] per lane.
-    #[inline(always)]
-    pub fn atan2(y: f32xn, x: f32xn) -> f32xn {
-        let (ax, ay) = (x.abs(), y.abs());
-        let (lo, hi) = (ax.min(ay), ax.max(ay));
-        let zero = f32xn::splat(0.0);
-        let t = sel(hi.simd_gt(zero), lo / hi, zero);
-        let mut a = atan_unit(t);
-        a = sel(ay.simd_gt(ax), f32xn::splat(FRAC_PI_2) - a, a);
-        a = sel(x.is_sign_negative(), f32xn::splat(PI) - a, a);
-        let sign = u32xn::splat(SIGN);
-        let a = f32xn::from_bits((a.to_bits() & !sign) | (y.to_bits() & sign));
-        sel(x.is_nan() | y.is_nan(), f32xn::splat(f32::NAN), a)
-    }
-
-    #[inline(always)]
-    fn asin_unit(x: f32xn) -> f32xn {
-        let big = x.simd_gt(f32xn::splat(0.5));
-        let z = sel(big, f32xn::splat(0.5) * (f32xn::splat(1.0) - x), x * x);
-        let s = sel(big, z.sqrt(), x);
-        let p = ((((f32xn::splat(4.216_319_904_8e-2) * z + f32xn::splat(2.418_131_104_9e-2)) * z
-            + f32xn::splat(4.547_002_599_8e-2))
-            * z
-            + f32xn::splat(7.495_300_268_6e-2))
-            * z
-            + f32xn::splat(1.666_675_242_2e-1))
-            * z
-            * s
-            + s;
-        sel(big, f32xn::splat(FRAC_PI_2) - f32xn::splat(2.0) * p, p)
-    }
-
-    /// [`super::pow2_halves`] per lane.
-    #[inline(always)]
-    fn pow2_halves(n: i32xn) -> (f32xn, f32xn) {
-        let n1 = n >> 1;
-        let n2 = n - n1;
-        let f = |k: i32xn| f32xn::from_bits(wide::bytemuck::cast((k + i32xn::splat(127)) << 23));
-        (f(n1), f(n2))
-    }
-
-    /// [`super::exp`] per lane.
-    #[inline(always)]
-    pub fn exp(x: f32xn) -> f32xn {
-        let s = f32xn::splat;
-        let xc = crate::simd::clamp(x, -104.0, 88.8);
-        let n = (xc * s(std::f32::consts::LOG2_E) + s(0.5)).floor();
-        let r = xc - n * s(0.693_359_375) - n * s(-2.121_944_40e-4);
-        let z = r * r;
-        let p = (((((s(1.987_569_150_0e-4) * r + s(1.398_199_950_7e-3)) * r
-            + s(8.333_451_907_3e-3))
-            * r
-            + s(4.166_579_589_4e-2))
-            * r
-            + s(1.666_666_545_9e-1))
-            * r
-            + s(5.000_000_120_1e-1))
-            * z
-            + r
-            + s(1.0);
-        // `n as i32` of the scalar form is 0 for NaN, and so is this.
-        let (s1, s2) = pow2_halves(n.trunc_int());
-        let y = p * s1 * s2;
-        let y = sel(x.simd_lt(s(super::EXP_UNDER)), s(0.0), y);
-        sel(x.simd_gt(s(super::EXP_OVER)), s(f32::INFINITY), y)
-    }
-
-    /// [`super::ln`] per lane.
-    #[inline(always)]
-    pub fn ln(x: f32xn) -> f32xn {
-        let s = f32xn::splat;
-        let sub = x.simd_lt(s(f32::MIN_POSITIVE));
-        let xs = sel(sub, x * s(8_388_608.0), x);
-        let bits: i32xn = wide::bytemuck::cast(xs.to_bits());
-        let sub_i: i32xn = wide::bytemuck::cast(sub);
-        // `sub_i` is -1 where set: 23 of it is the scaling's exponent.
-        let e = ((bits >> 23) & i32xn::splat(0xff)) - i32xn::splat(126) + sub_i * i32xn::splat(23);
-        let m = f32xn::from_bits(
-            (xs.to_bits() & crate::simd::u32xn::splat(0x807f_ffff))
-                | crate::simd::u32xn::splat(0x3f00_0000),
-        );
-        let small = m.simd_lt(s(std::f32::consts::FRAC_1_SQRT_2));
-        let small_i: i32xn = wide::bytemuck::cast(small);
-        let e = e + small_i;
-        let t = sel(small, m + m - s(1.0), m - s(1.0));
-        let z = t * t;
-        let y = ((((((((s(7.037_683_629_2e-2) * t - s(1.151_461_031_0e-1)) * t
-            + s(1.167_699_874_0e-1))
-            * t
-            - s(1.242_014_084_6e-1))
-            * t
-            + s(1.424_932_278_7e-1))
-            * t
-            - s(1.666_805_766_5e-1))
-            * t
-            + s(2.000_071_476_5e-1))
-            * t
-            - s(2.499_999_399_3e-1))
-            * t
-            + s(3.333_333_117_4e-1))
-            * t
-            * z;
-        let ef = crate::simd::float_of(e);
-        let y = y + s(-2.121_944_40e-4) * ef;
-        let y = y + s(-0.5) * z;
-        let r = t + y + s(0.693_359_375) * ef;
-        let inf = s(f32::INFINITY);
-        let normal = x.simd_gt(s(0.0)) & x.simd_lt(inf);
-        let r = sel(normal, r, s(f32::NAN));
-        let r = sel(x.simd_eq(s(0.0)), s(f32::NEG_INFINITY), r);
-        sel(x.simd_eq(inf), inf, r)
-    }
-
-    /// [`super::powf`] per lane.
-    #[inline(always)]
-    pub fn powf(x: f32xn, y: f32xn) -> f32xn {
-        let r = exp(y * ln(x));
-        sel(y.simd_eq(f32xn::splat(0.0)), f32xn::splat(1.0), r)
-    }
-
-    /// [`super::asin`] per lane.
-    #[inline(always)]
-    pub fn asin(x: f32xn) -> f32xn {
-        let sign = u32xn::splat(SIGN);
-        let a = asin_unit(x.abs());
-        let r = f32xn::from_bits((a.to_bits() & !sign) | (x.to_bits() & sign));
-        sel(
-            x.abs().simd_le(f32xn::splat(1.0)),
-            r,
-            f32xn::splat(f32::NAN),
-        )
-    }
-
-    /// [`super::acos`] per lane.
-    #[inline(always)]
-    pub fn acos(x: f32xn) -> f32xn {
-        let a = f32xn::splat(FRAC_PI_2) - asin_unit(x.abs());
-        let r = sel(x.simd_lt(f32xn::splat(0.0)), f32xn::splat(PI) - a, a);
-        sel(
-            x.abs().simd_le(f32xn::splat(1.0)),
-            r,
-            f32xn::splat(f32::NAN),
-        )
-    }
+    select(eq(y, T::of32(0.0)), T::of32(1.0), r)
 }
 
 #[cfg(test)]
@@ -627,7 +432,7 @@ mod tests {
 
     /// The lane forms equal the scalar functions bit for bit.
     #[test]
-    fn lane_forms_equal_the_scalar_forms_bit_for_bit() {
+    fn lanes_equal_the_scalar_instantiation_bit_for_bit() {
         use crate::simd::f32xn;
         let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
         let mut xs: Vec<f32> = (0..=400_000)
@@ -663,14 +468,14 @@ mod tests {
             xa[..xc.len()].copy_from_slice(xc);
             ya[..yc.len()].copy_from_slice(yc);
             let (x, y) = (f32xn::new(xa), f32xn::new(ya));
-            let (s, c) = xn::sin_cos_moderate(x);
+            let (s, c) = sin_cos_moderate(x);
             let (s, c) = (s.to_array(), c.to_array());
-            let at = xn::atan2(y, x).to_array();
-            let ac = xn::acos(x).to_array();
-            let asn = xn::asin(x).to_array();
-            let ex = xn::exp(x * f32xn::splat(0.01)).to_array();
-            let lg = xn::ln(x).to_array();
-            let pw = xn::powf(x.abs(), y).to_array();
+            let at = atan2(y, x).to_array();
+            let ac = acos(x).to_array();
+            let asn = asin(x).to_array();
+            let ex = exp(x * f32xn::splat(0.01)).to_array();
+            let lg = ln(x).to_array();
+            let pw = powf(x.abs(), y).to_array();
             for i in 0..LANES {
                 if xa[i].abs() <= 1.0e4 {
                     let (se, ce) = sin_cos_moderate(xa[i]);

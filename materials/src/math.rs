@@ -3,13 +3,14 @@
 //! [`Num`], with masks and [`select`] in the manner of Dr.Jit's `dr::select` (Mitsuba 3
 //! writes each BSDF once over one `Float` type the same way). A formula over [`Num`] that
 //! branches computes both sides and selects, so its lanes give bit for bit what its scalar
-//! instantiation gives. The transcendental functions are `fastmath`'s in f32 and their lane
-//! forms in lanes (so that the two agree bit for bit), the C library's in f64. [`Real`] is
-//! the scalar subset (f32, f64) over num-traits' `Float`, and [`V3`] the one 3-vector.
+//! instantiation gives. The transcendental functions are `fastmath`'s in f32 and in lanes
+//! (written once over [`Single`], so that the two agree bit for bit), the C library's in
+//! f64. [`Real`] is the scalar subset (f32, f64) over num-traits' `Float`, and [`V3`] the
+//! one 3-vector.
 
 use crate::simd::{f32xn, i32xn};
 use num_traits::{Float, FloatConst};
-use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
+use std::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Shl, Shr, Sub};
 
 /// A number a formula is written over: one f32 or f64, or [`f32xn`] lanes. Comparisons give a
 /// [`Num::Mask`] (a bool, or a lane mask) that [`select`] reads; [`Num::Int`] is the index
@@ -40,7 +41,7 @@ pub trait Num:
     fn num_le(self, o: Self) -> Self::Mask;
     fn num_lt(self, o: Self) -> Self::Mask;
     fn num_eq(self, o: Self) -> Self::Mask;
-    /// e^x: [`crate::fastmath::exp`] in f32, its lane form in lanes, the C library's in f64.
+    /// e^x: [`crate::fastmath::exp`] in f32 and lanes, the C library's in f64.
     fn num_exp(self) -> Self;
     /// acos x, as [`Num::num_exp`]: [`crate::fastmath::acos`] in f32.
     fn num_acos(self) -> Self;
@@ -72,7 +73,15 @@ pub trait Num:
     /// `self * a + b` with one rounding (`f32::mul_add`; [`crate::simd::fmadd`] in lanes).
     fn num_mul_add(self, a: Self, b: Self) -> Self;
     /// An index per value (one i32, or [`crate::simd::i32xn`] lanes), for table lookups.
-    type Int: Copy + Add<Output = Self::Int> + Sub<Output = Self::Int> + Mul<Output = Self::Int>;
+    type Int: Copy
+        + Add<Output = Self::Int>
+        + Sub<Output = Self::Int>
+        + Mul<Output = Self::Int>
+        + BitAnd<Output = Self::Int>
+        + BitOr<Output = Self::Int>
+        + BitXor<Output = Self::Int>
+        + Shl<i32, Output = Self::Int>
+        + Shr<i32, Output = Self::Int>;
     /// The index `i` (in every lane).
     fn int(i: i32) -> Self::Int;
     /// The smaller index (per lane).
@@ -365,8 +374,8 @@ macro_rules! scalar_num {
         }
     };
 }
-// f32 (rendering) takes `fastmath`'s functions, whose lane forms the lane instantiation
-// uses, so that one value and lanes agree bit for bit; f64 (fitting) the C library's.
+// f32 (rendering) takes `fastmath`'s functions, which the lane instantiation also takes
+// (one code, so one value and lanes agree bit for bit); f64 (fitting) the C library's.
 scalar_num!(
     f32,
     exp: crate::fastmath::exp,
@@ -422,15 +431,15 @@ impl Num for f32xn {
     }
     #[inline(always)]
     fn num_exp(self) -> Self {
-        crate::fastmath::xn::exp(self)
+        crate::fastmath::exp(self)
     }
     #[inline(always)]
     fn num_acos(self) -> Self {
-        crate::fastmath::xn::acos(self)
+        crate::fastmath::acos(self)
     }
     #[inline(always)]
     fn num_powf(self, y: Self) -> Self {
-        crate::fastmath::xn::powf(self, y)
+        crate::fastmath::powf(self, y)
     }
     #[inline(always)]
     fn num_sqrt(self) -> Self {
@@ -446,19 +455,19 @@ impl Num for f32xn {
     }
     #[inline(always)]
     fn num_sin_cos(self) -> (Self, Self) {
-        crate::fastmath::xn::sin_cos_moderate(self)
+        crate::fastmath::sin_cos_moderate(self)
     }
     #[inline(always)]
     fn num_atan2(self, x: Self) -> Self {
-        crate::fastmath::xn::atan2(self, x)
+        crate::fastmath::atan2(self, x)
     }
     #[inline(always)]
     fn num_asin(self) -> Self {
-        crate::fastmath::xn::asin(self)
+        crate::fastmath::asin(self)
     }
     #[inline(always)]
     fn num_ln(self) -> Self {
-        crate::fastmath::xn::ln(self)
+        crate::fastmath::ln(self)
     }
     #[inline(always)]
     fn num_mul_add(self, a: Self, b: Self) -> Self {
@@ -536,6 +545,68 @@ impl Num for f32xn {
     #[inline(always)]
     fn mask_all(m: Self) -> bool {
         m.all()
+    }
+}
+
+/// Single precision, one value or lanes (f32, [`f32xn`]): what the approximations of
+/// [`crate::fastmath`] need beyond [`Num`], the bits of a value as an index (i32 or i32
+/// lanes, shifts arithmetic) and constants taken as f32 literals (no rounding through f64).
+pub trait Single: Num {
+    /// Every lane `x`.
+    fn of32(x: f32) -> Self;
+    /// Rounded to the nearest integer, ties to even.
+    fn round_ties_even(self) -> Self;
+    /// The bits of `self`, reinterpreted as an index.
+    fn to_bits(self) -> Self::Int;
+    /// The value of bits `i`.
+    fn from_bits(i: Self::Int) -> Self;
+    /// -1 where `m` holds, else 0 (per lane).
+    fn mask_int(m: Self::Mask) -> Self::Int;
+}
+
+impl Single for f32 {
+    #[inline(always)]
+    fn of32(x: f32) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn round_ties_even(self) -> Self {
+        f32::round_ties_even(self)
+    }
+    #[inline(always)]
+    fn to_bits(self) -> i32 {
+        f32::to_bits(self) as i32
+    }
+    #[inline(always)]
+    fn from_bits(i: i32) -> Self {
+        f32::from_bits(i as u32)
+    }
+    #[inline(always)]
+    fn mask_int(m: bool) -> i32 {
+        -(m as i32)
+    }
+}
+
+impl Single for f32xn {
+    #[inline(always)]
+    fn of32(x: f32) -> Self {
+        f32xn::splat(x)
+    }
+    #[inline(always)]
+    fn round_ties_even(self) -> Self {
+        f32xn::round_ties_even(self)
+    }
+    #[inline(always)]
+    fn to_bits(self) -> i32xn {
+        wide::bytemuck::cast(f32xn::to_bits(self))
+    }
+    #[inline(always)]
+    fn from_bits(i: i32xn) -> Self {
+        f32xn::from_bits(wide::bytemuck::cast(i))
+    }
+    #[inline(always)]
+    fn mask_int(m: Self) -> i32xn {
+        wide::bytemuck::cast(m)
     }
 }
 

@@ -15,8 +15,8 @@
 //! glam's `(x x' + y y') + z z'`, [`Vec3xN::normalize`] multiplies by `1 / length` as glam
 //! does, [`fmadd`] is fused in every build as `f32::mul_add` is, and [`RgbxN::luminance`]
 //! is [`Rgb::luminance`]. Results therefore do not depend on the lane count either. The
-//! lane forms of the transcendental approximations (`sin_cos`, `atan2`, `acos`, `asin`)
-//! live beside their scalar forms in [`crate::fastmath::xn`].
+//! transcendental approximations (`sin_cos`, `atan2`, `acos`, `asin`, `exp`, `ln`) are
+//! written once for both in [`crate::fastmath`].
 //!
 //! Contents: [`lanes`], [`padded`] and [`lanes_of`] (arrays of [`LANES`], written out so
 //! they inline), [`chunks_where`] (the queries a batched kernel works on, a lane vector at

@@ -38,7 +38,7 @@ use super::he_series;
 use super::he_shadowing;
 use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
 use super::microfacet::{Distribution, MIN_ROUGHNESS, beckmann_visible_pdf, visible};
-use crate::fastmath::{self, xn};
+use crate::fastmath;
 use crate::lobe::{self, Lobe, above, half_to_incident_pdf};
 use crate::math::{Real, V3, half};
 use crate::schema::{
@@ -265,7 +265,7 @@ impl He {
             let (_, n, e_per_vxy2) = consts[c];
             let (n, e) = (s(n), s(e_per_vxy2) * vxy2);
             let g = gs[c];
-            let rough = xn::exp(-e / g) / g;
+            let rough = fastmath::exp(-e / g) / g;
             let series = he_series::tabulated_xn(g, e);
             let sum = sel(
                 rough_only,

@@ -6,7 +6,7 @@
 
 use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
-use crate::fastmath::select;
+use crate::fastmath::select_branchless;
 use crate::sampling::warp::{
     cosine_hemisphere, cosine_hemisphere_pdf, square_to_cosine_hemisphere,
 };
@@ -33,7 +33,7 @@ impl Bsdf for Lambert {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         // Without a branch: light samples fall below the surface half the time, at random.
         let above = wo.z > 0.0 && wi.z > 0.0;
-        self.reflectance * select(above, FRAC_1_PI, 0.0)
+        self.reflectance * select_branchless(above, FRAC_1_PI, 0.0)
     }
 
     fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<BsdfSample> {
@@ -53,7 +53,7 @@ impl Bsdf for Lambert {
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        select(wo.z > 0.0 && wi.z > 0.0, cosine_hemisphere_pdf(wi.z), 0.0)
+        select_branchless(wo.z > 0.0 && wi.z > 0.0, cosine_hemisphere_pdf(wi.z), 0.0)
     }
 
     /// `LANES` pairs per SIMD warp, with `eval`'s and `pdf`'s operations.
