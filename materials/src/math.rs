@@ -562,6 +562,13 @@ pub trait Single: Num {
     fn from_bits(i: Self::Int) -> Self;
     /// -1 where `m` holds, else 0 (per lane).
     fn mask_int(m: Self::Mask) -> Self::Int;
+    /// `f` of each lane's `M` values, its `N` results in lanes: a step that only exists
+    /// one value at a time (a lookup in a scalar table, a per-lane solve in f64) inside a
+    /// formula written over lanes.
+    fn per_lane<const M: usize, const N: usize>(
+        x: [Self; M],
+        f: impl Fn([f32; M]) -> [f32; N],
+    ) -> [Self; N];
 }
 
 impl Single for f32 {
@@ -585,6 +592,13 @@ impl Single for f32 {
     fn mask_int(m: bool) -> i32 {
         -(m as i32)
     }
+    #[inline(always)]
+    fn per_lane<const M: usize, const N: usize>(
+        x: [f32; M],
+        f: impl Fn([f32; M]) -> [f32; N],
+    ) -> [f32; N] {
+        f(x)
+    }
 }
 
 impl Single for f32xn {
@@ -607,6 +621,15 @@ impl Single for f32xn {
     #[inline(always)]
     fn mask_int(m: Self) -> i32xn {
         wide::bytemuck::cast(m)
+    }
+    #[inline(always)]
+    fn per_lane<const M: usize, const N: usize>(
+        x: [Self; M],
+        f: impl Fn([f32; M]) -> [f32; N],
+    ) -> [Self; N] {
+        let x = x.map(|v| v.to_array());
+        let rows = crate::simd::lanes(|k| f(std::array::from_fn(|j| x[j][k])));
+        std::array::from_fn(|c| f32xn::new(crate::simd::lanes(|k| rows[k][c])))
     }
 }
 

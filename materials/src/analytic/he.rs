@@ -37,14 +37,14 @@ use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
 use super::he_shadowing;
 use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
-use super::microfacet::{Distribution, MIN_ROUGHNESS, beckmann_visible_pdf, visible};
+use super::microfacet::{MIN_ROUGHNESS, beckmann_visible_pdf, visible};
 use crate::fastmath;
-use crate::lobe::{self, Lobe, above, half_to_incident_pdf};
-use crate::math::{Real, V3, half};
+use crate::lobe::{self, Lobe, above};
+use crate::math::{Real, Single, V3, gt, half, is_finite, lt, maximum, minimum, select};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, LANES, MaskN, RgbxN, Vec3xN, f32xn, sel};
+use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn};
 use crate::{Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::sync::Arc;
@@ -52,7 +52,7 @@ use std::sync::Arc;
 /// Wavelengths of the R, G, B channels in micrometres (bbm's `Config::wavelength`).
 pub const WAVELENGTHS_UM: [f64; 3] = [0.645, 0.526, 0.444];
 
-/// Tested bound of the rendered lobe ([`He::value_xn`]) against the fitted one
+/// Tested bound of the rendered lobe ([`He::value_rendered`]) against the fitted one
 /// ([`He::value_tabulated`]), relative to the latter's value.
 pub const RENDER_ERROR_BOUND: f64 = 5e-4;
 
@@ -178,77 +178,37 @@ impl He {
         })
     }
 
-    /// [`He::value_xn`] of one pair, bit for bit a lane of it (the same operations in the
-    /// same order, on f32 scalars).
-    pub fn value_f32(&self, wo: Vec3, wi: Vec3) -> [f32; 3] {
-        let hv = wo + wi;
-        let l2 = (hv.x * hv.x + hv.y * hv.y) + hv.z * hv.z;
-        let h = hv * (1.0 / l2.sqrt());
-        let (co, ci) = (wo.z, wi.z);
-        let cd = (wi.x * h.x + wi.y * h.y) + wi.z * h.z;
-        let ch = h.z;
-        let ok = co > 0.0 && ci > 0.0 && l2 > 0.0 && l2.is_finite() && cd > 0.0 && ch > 0.0;
-        let fresnel = dielectric(self.eta as f32, cd);
-        let (shadow, sigma) =
-            he_shadowing::elevation_terms(self.sigma0 as f32, self.tau as f32, ci, co);
-        let g_geo = 4.0 * cd * cd / (ch * ch);
-        let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
-        let vxy2 = sx * sx + sy * sy;
-        let consts = self.channel_constants();
-        let gs = consts.map(|(k, _, _)| {
-            let k = k * sigma * (ci + co);
-            k * k
-        });
-        let g_min = crate::math::minimum(crate::math::minimum(gs[0], gs[1]), gs[2]);
-        let common = fresnel * shadow * g_geo / (std::f32::consts::PI * ci * co);
-        let w = g_min - 18.0;
-        std::array::from_fn(|c| {
-            let (_, n, e_per_vxy2) = consts[c];
-            let e = e_per_vxy2 * vxy2;
-            let g = gs[c];
-            let rough = || fastmath::exp(-e / g) / g;
-            let series = || he_series::tabulated_f32(g, e);
-            let sum = if g_min > 19.0 {
-                rough()
-            } else if g_min > 18.0 {
-                (1.0 - w) * series() + w * rough()
-            } else {
-                series()
-            };
-            let v = common * n * sum;
-            if ok && v.is_finite() {
-                crate::math::maximum(v, 0.0)
-            } else {
-                0.0
-            }
-        })
+    /// The lobe as rendered, per channel, one pair or lanes of pairs in f32:
+    /// [`He::value_tabulated`]'s terms in the same order, with the elevation terms from
+    /// [`he_shadowing`]'s universal tables (lane by lane) and the series from its f32 table
+    /// ([`he_series::tabulated_single`]); within [`RENDER_ERROR_BOUND`] of the fitted lobe
+    /// (tested). The tables replace the summed series (up to 64 exponentials per channel,
+    /// once the largest single cost of rendering He's fits) and four `erfc` and four `exp`
+    /// of the elevation terms.
+    pub fn value_rendered<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
+        self.value_at_half(wo, wi, lobe::half_where(wo, wi))
     }
 
-    /// The lobe as rendered, `LANES` pairs in SIMD lanes and in f32: [`He::value_tabulated`]'s
-    /// terms in the same order, with the elevation terms from [`he_shadowing`]'s universal
-    /// tables (lane by lane) and the series from its f32 table
-    /// ([`he_series::tabulated_xn`]); within [`RENDER_ERROR_BOUND`] of the fitted lobe
-    /// (tested).
-    pub fn value_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
-        self.value_xn_at_half(wo, wi, lobe::half_where(wo, wi))
-    }
-
-    /// [`He::value_xn`] with the half vectors (and where they exist) already found.
+    /// [`He::value_rendered`] with the half vectors (and where they exist) already found.
     #[inline(always)]
-    fn value_xn_at_half(&self, wo: Vec3xN, wi: Vec3xN, (h, has_half): (Vec3xN, MaskN)) -> RgbxN {
-        let s = f32xn::splat;
+    fn value_at_half<T: Single>(
+        &self,
+        wo: V3<T>,
+        wi: V3<T>,
+        (h, has_half): (V3<T>, T::Mask),
+    ) -> [T; 3] {
+        let s = T::of32;
         let zero = s(0.0);
         let (co, ci) = (wo.z, wi.z);
         let cd = wi.dot(h);
         let ch = h.z;
-        let ok = lobe::both_above(wo, wi) & has_half & cd.simd_gt(zero) & ch.simd_gt(zero);
+        let ok = lobe::both_above(wo, wi) & has_half & gt(cd, zero) & gt(ch, zero);
         let fresnel = Dielectric { eta: self.eta }.eval(cd);
-        let (ci_l, co_l) = (ci.to_array(), co.to_array());
-        let terms = simd::lanes(|k| {
-            he_shadowing::elevation_terms(self.sigma0 as f32, self.tau as f32, ci_l[k], co_l[k])
+        let (sigma0, tau) = (self.sigma0 as f32, self.tau as f32);
+        let [shadow, sigma] = T::per_lane([ci, co], |[ci, co]| {
+            let (shadow, sigma) = he_shadowing::elevation_terms(sigma0, tau, ci, co);
+            [shadow, sigma]
         });
-        let shadow = f32xn::new(terms.map(|t| t.0));
-        let sigma = f32xn::new(terms.map(|t| t.1));
         let g_geo = s(4.0) * cd * cd / (ch * ch);
         let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
         let vxy2 = sx * sx + sy * sy;
@@ -257,25 +217,58 @@ impl He {
             let k = s(k) * sigma * (ci + co);
             k * k
         });
-        let g_min = gs[0].min(gs[1]).min(gs[2]);
+        let g_min = minimum(minimum(gs[0], gs[1]), gs[2]);
         let common = fresnel * shadow * g_geo / (s(std::f32::consts::PI) * ci * co);
-        let (rough_only, blended) = (g_min.simd_gt(s(19.0)), g_min.simd_gt(s(18.0)));
+        let (rough_only, blended) = (gt(g_min, s(19.0)), gt(g_min, s(18.0)));
         let w = g_min - s(18.0);
-        let channel = |c: usize| {
+        std::array::from_fn(|c| {
             let (_, n, e_per_vxy2) = consts[c];
             let (n, e) = (s(n), s(e_per_vxy2) * vxy2);
             let g = gs[c];
             let rough = fastmath::exp(-e / g) / g;
-            let series = he_series::tabulated_xn(g, e);
-            let sum = sel(
-                rough_only,
-                rough,
-                sel(blended, (s(1.0) - w) * series + w * rough, series),
-            );
+            let series = he_series::tabulated_single(g, e);
+            let blend = (s(1.0) - w) * series + w * rough;
+            let sum = select(rough_only, rough, select(blended, blend, series));
             let v = common * n * sum;
-            sel(ok & v.is_finite(), v.max(zero), zero)
-        };
-        RgbxN::new(channel(0), channel(1), channel(2))
+            select(ok & is_finite(v), maximum(v, zero), zero)
+        })
+    }
+
+    /// The solid-angle density of [`He::draw`] at `wi` (one pair or lanes), the half
+    /// vectors (and where they exist) already found.
+    #[inline(always)]
+    fn density_at_half<T: Single>(
+        &self,
+        wo: V3<T>,
+        wi: V3<T>,
+        (h, has_half): (V3<T>, T::Mask),
+    ) -> T {
+        let [smooth, rough, w] = self.proposals(wo.z);
+        let p_h = w * beckmann_visible_pdf(smooth, wo, h)
+            + (T::of32(1.0) - w) * beckmann_visible_pdf(rough, wo, h);
+        let p = lobe::half_to_incident_pdf(p_h, wo.dot(h));
+        let ok = lobe::both_above(wo, wi) & has_half & is_finite(p);
+        select(ok, p, T::of32(0.0))
+    }
+
+    /// A direction for `wo` (one or lanes): the proposal chosen by `uc`, a Beckmann visible
+    /// normal of its roughness (Heitz and d'Eon 2014) and its mirror, and where that is a
+    /// sample.
+    #[inline(always)]
+    fn draw<T: Single>(&self, wo: V3<T>, ux: T, uy: T, uc: T) -> (V3<T>, T::Mask) {
+        let [smooth, rough, w] = self.proposals(wo.z);
+        let m = select(lt(uc, w), smooth, rough);
+        lobe::reflect_above(wo, visible::sample(m, m, wo, ux, uy))
+    }
+
+    /// [`He::proposal_mixture`] of each lane's `cos_o`, in f32: (smooth roughness, rough
+    /// roughness, the smooth one's share).
+    #[inline(always)]
+    fn proposals<T: Single>(&self, cos_o: T) -> [T; 3] {
+        T::per_lane([cos_o], |[co]| {
+            let ([smooth, rough], w) = self.proposal_mixture(co);
+            [smooth as f32, rough as f32, w as f32]
+        })
     }
 
     /// The lobe per channel, with the elevation factors from `terms(cos_i, cos_o)` (called
@@ -351,8 +344,8 @@ impl He {
     /// of the upper tail to heavy-tailed weights). The smooth proposal's share is the
     /// m = 1 term's part of the series' energy at g(wo, wo), kept within [0.05, 0.95] so
     /// that neither proposal is ever left out.
-    fn proposal_mixture(&self, wo: Vec3) -> ([f64; 2], f64) {
-        let co = wo.z.clamp(1e-4, 1.0) as f64;
+    fn proposal_mixture(&self, cos_o: f32) -> ([f64; 2], f64) {
+        let co = cos_o.clamp(1e-4, 1.0) as f64;
         // The m = 1 term is exp(-pi^2 tau^2 |(wi + wo)_xy|^2 / lambda^2): Beckmann's
         // exp(-tan^2 / m^2) with tan = |(wi + wo)_xy| / (cos_i + cos_o), so
         // m (cos_i + cos_o) = lambda / (pi tau) = a. The lobe's directions lie about half
@@ -384,12 +377,9 @@ impl Lobe for He {
         "he"
     }
 
-    /// [`He::value_f32`] (bit for bit a lane of [`Lobe::eval_pdf_xn`]): the series from
-    /// its table (the summed series cost up to 64 exponentials per channel and was the
-    /// largest single cost of rendering He's fits), the elevation terms from their
-    /// universal table (four `erfc` and four `exp` per call before, the next largest).
+    /// [`He::value_rendered`], bit for bit a lane of [`Lobe::eval_pdf_xn`].
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        Rgb::from(self.value_f32(wo, wi))
+        Rgb::from(self.value_rendered::<f32>(wo.into(), wi.into()))
     }
 
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
@@ -421,74 +411,31 @@ impl Lobe for He {
     }
 
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3> {
-        if wo.z <= 0.0 {
-            return None;
-        }
-        let ([a, b], w) = self.proposal_mixture(wo);
-        let m = if uc < w as f32 { a } else { b };
-        let h = Distribution::Beckmann { m }.sample_visible::<f32>(wo.into(), u.x, u.y);
-        let (wi, ok) = lobe::reflect_above(wo.into(), h);
+        let (wi, ok) = self.draw::<f32>(wo.into(), u.x, u.y, uc);
         ok.then(|| wi.into())
     }
 
-    /// [`He::sample`] in lanes: each lane's proposal (its roughness depends on `wo`) one
-    /// by one, the Beckmann visible normals and their mirrors a lane vector at a time.
     fn sample_xn(
         &self,
         wo: &[Vec3; LANES],
         u: &[Vec2; LANES],
         uc: &[f32; LANES],
     ) -> [Option<Vec3>; LANES] {
-        let m = simd::lanes(|i| {
-            let ([smooth, rough], w) = self.proposal_mixture(wo[i]);
-            (if uc[i] < w as f32 { smooth } else { rough }) as f32
-        });
         let [ux, uy] = simd::vec2s(u);
-        let m = f32xn::new(m);
-        let wo = Vec3xN::from_array(wo);
-        let (wi, ok) = lobe::reflect_above(wo, visible::sample(m, m, wo, ux, uy));
+        let (wi, ok) = self.draw(Vec3xN::from_array(wo), ux, uy, f32xn::new(*uc));
         wi.options(ok)
     }
 
-    /// The value in lanes ([`He::value_xn`]), `pdf` in lanes: each lane's proposal
-    /// roughnesses one by one, the two Beckmann densities a lane vector at a time (bit for bit
-    /// [`He::pdf`]).
+    /// The value and the density, sharing the half vector.
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let o = wo.to_array();
-        let (h, has_half) = lobe::half_where(wo, wi);
-        let f = self.value_xn_at_half(wo, wi, (h, has_half));
-        let zero = f32xn::splat(0.0);
-        let ok = lobe::both_above(wo, wi) & has_half;
-        // Each lane's two roughnesses and the smooth one's share.
-        let mix = simd::lanes(|k| self.proposal_mixture(o[k]));
-        let pdf_h = |j: usize| {
-            let m = f32xn::new(simd::lanes(|k| mix[k].0[j] as f32));
-            beckmann_visible_pdf(m, wo, h)
-        };
-        let w = f32xn::new(simd::lanes(|k| mix[k].1 as f32));
-        let p_h = w * pdf_h(0) + (f32xn::splat(1.0) - w) * pdf_h(1);
-        let p = lobe::half_to_incident_pdf(p_h, wo.dot(h));
-        let p = sel(ok & p.is_finite(), p, zero);
-        (f, p)
+        let h = lobe::half_where(wo, wi);
+        let [r, g, b] = self.value_at_half(wo, wi, h);
+        (RgbxN::new(r, g, b), self.density_at_half(wo, wi, h))
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let Some(h) = (wo + wi).try_normalize() else {
-            return 0.0;
-        };
-        let ([a, b], w) = self.proposal_mixture(wo);
-        let w = w as f32;
-        let (a, b) = (
-            Distribution::Beckmann { m: a },
-            Distribution::Beckmann { m: b },
-        );
-        let (wo3, h3) = (V3::from(wo), V3::from(h));
-        let p_h = w * a.pdf_visible(wo3, h3) + (1.0 - w) * b.pdf_visible(wo3, h3);
-        let p = half_to_incident_pdf(p_h, wo.dot(h));
-        if p.is_finite() { p } else { 0.0 }
+        let (wo, wi) = (V3::from(wo), V3::from(wi));
+        self.density_at_half(wo, wi, lobe::half_where(wo, wi))
     }
 
     fn flags(&self) -> Flags {
@@ -558,6 +505,7 @@ pub const MODEL: LobeModel = LobeModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::analytic::microfacet::Distribution;
 
     fn dir(theta: f64, phi: f64) -> V3<f64> {
         let (t, p) = (theta.to_radians(), phi.to_radians());
@@ -656,14 +604,7 @@ mod tests {
                             let (wi, wo) = (dir(ti, 0.0).into_f32(), dir(to, po).into_f32());
                             let f64_of = |v: V3<f32>| V3::new(v.x as f64, v.y as f64, v.z as f64);
                             let t = he.value_tabulated(f64_of(wo), f64_of(wi));
-                            let r = he
-                                .value_xn(
-                                    Vec3xN::splat(Vec3::from(wo)),
-                                    Vec3xN::splat(Vec3::from(wi)),
-                                )
-                                .lane(0)
-                                .to_array()
-                                .map(|v| v as f64);
+                            let r = he.value_rendered::<f32>(wo, wi).map(|v| v as f64);
                             for c in 0..3 {
                                 assert!(r[c].is_finite() && r[c] >= 0.0);
                                 if t[c] < 1e-12 {
@@ -720,10 +661,10 @@ mod tests {
                     3 => Vec3::new(0.0, 0.0, 1.0),
                     _ => d(&mut next),
                 });
-                let lanes = he.value_xn(Vec3xN::from_array(&wo), Vec3xN::from_array(&wi));
+                let lanes = he.value_rendered(Vec3xN::from_array(&wo), Vec3xN::from_array(&wi));
                 for k in 0..LANES {
-                    let one = he.value_f32(wo[k], wi[k]);
-                    let lane = lanes.lane(k).to_array();
+                    let one = he.value_rendered::<f32>(wo[k].into(), wi[k].into());
+                    let lane = lanes.map(|c| c.to_array()[k]);
                     for c in 0..3 {
                         assert_eq!(
                             one[c].to_bits(),

@@ -19,7 +19,7 @@
 //! the lobe's own peak at the same elevations (the specular direction, e = 0), which is
 //! how the Eq. (1) metric weighs it.
 
-use crate::simd::{self, f32xn, i32xn};
+use crate::math::{Single, le, maximum, select, sqrt};
 use std::ops::{Add, Mul, Neg, Sub};
 use std::sync::LazyLock;
 
@@ -112,7 +112,7 @@ where
     ]
 }
 
-/// The table in f32 for rendering ([`tabulated_xn`]): per node F and its derivatives
+/// The table in f32 for rendering ([`tabulated_single`]): per node F and its derivatives
 /// scaled by the steps, [F, G_STEP F_g, U_STEP F_u, G_STEP U_STEP F_gu], one 16-byte read.
 static TABLE32: LazyLock<Vec<[f32; 4]>> = LazyLock::new(|| {
     TABLE
@@ -130,89 +130,44 @@ static TABLE32: LazyLock<Vec<[f32; 4]>> = LazyLock::new(|| {
 });
 
 /// Builds the tables now if they are not built yet (they are otherwise built at the first
-/// [`tabulated`] or [`tabulated_xn`] call).
+/// [`tabulated`] or [`tabulated_single`] call).
 pub fn build_table() {
     LazyLock::force(&TABLE);
     LazyLock::force(&TABLE32);
 }
 
-/// [`tabulated_xn`] of one point, bit for bit a lane of it.
-#[inline]
-pub fn tabulated_f32(g: f32, e: f32) -> f32 {
-    let u = crate::math::maximum(e, 0.0).sqrt();
-    let (gs, us) = (g * (1.0 / G_STEP) as f32, u * (1.0 / U_STEP) as f32);
-    // The lanes' conversion: truncation, i32::MIN for NaN and out of range, then clamped.
-    let index = |x: f32, top: usize| {
-        let i = if !(-2147483648.0..2147483648.0).contains(&x) {
-            i32::MIN
-        } else {
-            x as i32
-        };
-        i.max(0).min(top as i32)
-    };
+/// S(g, e) from the f32 table, one value or lanes (the render path: within
+/// [`super::he::RENDER_ERROR_BOUND`] of the f64 lobe, tested there), for 0 <= g <=
+/// [`G_MAX`] and e >= 0, 0 for u = sqrt(e) >= [`U_MAX`]. Other values read a clamped cell of
+/// the table and get a finite value or NaN the caller discards (the lobe sums the series
+/// only where every channel's g is within the table).
+#[inline(always)]
+pub fn tabulated_single<T: Single>(g: T, e: T) -> T {
+    let s = T::of32;
+    let u = sqrt(maximum(e, s(0.0)));
+    let (gs, us) = (g * s((1.0 / G_STEP) as f32), u * s((1.0 / U_STEP) as f32));
+    let index =
+        |x: T, top: usize| T::int_min(T::int_max(x.trunc_int(), T::int(0)), T::int(top as i32));
     let (i, j) = (index(gs, G_NODES - 2), index(us, U_NODES - 2));
-    let consts = [1.0, 2.0, 3.0];
+    let consts = [s(1.0), s(2.0), s(3.0)];
     let (hg, hu) = (
-        hermite(gs - i as f32, consts),
-        hermite(us - j as f32, consts),
+        hermite(gs - T::of_int(i), consts),
+        hermite(us - T::of_int(j), consts),
     );
-    let k = i as usize * U_NODES + j as usize;
+    let k = i * T::int(U_NODES as i32) + j;
     let t = &*TABLE32;
-    let mut sum = 0.0f32;
+    let mut sum = s(0.0);
     for (di, (wg, wg_d)) in [(0, (hg[0], hg[1])), (1, (hg[2], hg[3]))] {
         for (dj, (wu, wu_d)) in [(0, (hu[0], hu[1])), (1, (hu[2], hu[3]))] {
-            let [f, f_g, f_u, f_gu] = t[k + di * U_NODES + dj];
-            sum += wg * (wu * f + wu_d * f_u) + wg_d * (wu * f_g + wu_d * f_gu);
-        }
-    }
-    let s = g * crate::math::maximum(sum, 0.0);
-    if u >= U_MAX as f32 { 0.0 } else { s }
-}
-
-/// [`tabulated`] in SIMD lanes and in f32 (the render path: within
-/// [`super::he::RENDER_ERROR_BOUND`] of the f64 lobe, tested there): S(g, e) for
-/// 0 <= g <= [`G_MAX`] and e >= 0, 0 for u = sqrt(e) >= [`U_MAX`]. Other lanes read a
-/// clamped cell of the table and get a finite value or NaN the caller discards (the lobe
-/// sums the series only where every channel's g is within the table).
-#[inline]
-pub fn tabulated_xn(g: f32xn, e: f32xn) -> f32xn {
-    let zero = f32xn::splat(0.0);
-    let u = e.max(zero).sqrt();
-    let (gs, us) = (
-        g * f32xn::splat((1.0 / G_STEP) as f32),
-        u * f32xn::splat((1.0 / U_STEP) as f32),
-    );
-    let index = |x: f32xn, top: usize| {
-        x.trunc_int()
-            .max(i32xn::splat(0))
-            .min(i32xn::splat(top as i32))
-    };
-    let (i, j) = (index(gs, G_NODES - 2), index(us, U_NODES - 2));
-    let (hg, hu) = (
-        hermite(
-            gs - crate::simd::float_of(i),
-            [1.0, 2.0, 3.0].map(f32xn::splat),
-        ),
-        hermite(
-            us - crate::simd::float_of(j),
-            [1.0, 2.0, 3.0].map(f32xn::splat),
-        ),
-    );
-    let k = (i * i32xn::splat(U_NODES as i32) + j).to_array();
-    let t = &*TABLE32;
-    let mut sum = zero;
-    for (di, (wg, wg_d)) in [(0, (hg[0], hg[1])), (1, (hg[2], hg[3]))] {
-        for (dj, (wu, wu_d)) in [(0, (hu[0], hu[1])), (1, (hu[2], hu[3]))] {
-            let offset = di * U_NODES + dj;
             // k <= (G_NODES - 2) U_NODES + U_NODES - 2 (clamped above), so k + offset is
             // within the table.
-            let [f, f_g, f_u, f_gu] =
-                simd::transpose4xn(&simd::lanes(|l| t[k[l] as usize + offset]));
-            sum += wg * (wu * f + wu_d * f_u) + wg_d * (wu * f_g + wu_d * f_gu);
+            let offset = T::int((di * U_NODES + dj) as i32);
+            let [f, f_g, f_u, f_gu] = T::gather_by(k + offset, |n| t[n]);
+            sum = sum + (wg * (wu * f + wu_d * f_u) + wg_d * (wu * f_g + wu_d * f_gu));
         }
     }
-    let s = g * sum.max(zero);
-    simd::sel(u.simd_ge(f32xn::splat(U_MAX as f32)), zero, s)
+    let v = g * maximum(sum, s(0.0));
+    select(le(s(U_MAX as f32), u), s(0.0), v)
 }
 
 /// S(g, e) from the table, for 0 <= g <= [`G_MAX`] (None outside, or for a non-finite
