@@ -7,7 +7,7 @@
 //! `f_r * cos(theta_i) / pdf` with the pdf in solid-angle measure. A BRDF is one-sided:
 //! when either direction is below the surface it evaluates to zero, as Mitsuba 3's BSDFs do.
 
-use crate::simd::{LANES, RgbxN, Vec3xN, f32xn};
+use crate::math::{Num, gt, is_finite};
 use glam::{Vec2, Vec3};
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Sub};
 
@@ -165,7 +165,7 @@ impl BsdfSample {
     /// The sample of a drawn `wi`: None below the surface, where the density `pdf()` is
     /// not positive, or where the weight `f() cos(theta_i) / pdf` is not finite (a
     /// direction drawn with a subnormal density: cos / pdf overflows); otherwise that
-    /// weight (both evaluated only when needed).
+    /// weight (both evaluated only when needed; [`BsdfSample::weight_where`]'s rule).
     pub fn finish(wi: Vec3, pdf: impl FnOnce() -> f32, f: impl FnOnce() -> Rgb) -> Option<Self> {
         if wi.z <= 0.0 {
             return None;
@@ -174,27 +174,25 @@ impl BsdfSample {
         if !(pdf > 0.0) {
             return None;
         }
-        let weight = f() * (wi.z / pdf);
-        weight.is_finite().then_some(BsdfSample { wi, weight, pdf })
+        let (weight, keep) = Self::weight_where(wi.z, pdf, f().to_array());
+        keep.then(|| BsdfSample {
+            wi,
+            weight: Rgb::from(weight),
+            pdf,
+        })
     }
 
-    /// [`BsdfSample::finish`] of `LANES` drawn directions with their densities and values,
-    /// lane by lane bit for bit the same (the same operations, the tests as one mask
+    /// The weight `f cos(theta_i) / pdf` of a drawn direction (cosine `wi_z`, density
+    /// `pdf`, value `f`) and where it makes a sample: above the surface, a positive density
+    /// and a finite weight. One rule for one sample and for lanes (the tests as one mask
     /// instead of a branch per lane, which batched sampling would mispredict).
-    #[inline]
-    pub fn finish_xn(wi: Vec3xN, pdf: f32xn, f: RgbxN) -> [Option<Self>; LANES] {
-        let zero = f32xn::splat(0.0);
-        let weight = f * (wi.z / pdf);
-        let keep = wi.z.simd_gt(zero) & pdf.simd_gt(zero) & weight.is_finite();
-        let keep = crate::simd::mask_bits(keep);
-        let (d, p) = (wi.to_array(), pdf.to_array());
-        crate::simd::lanes(|i| {
-            (keep >> i & 1 != 0).then(|| BsdfSample {
-                wi: d[i],
-                weight: weight.lane(i),
-                pdf: p[i],
-            })
-        })
+    #[inline(always)]
+    pub fn weight_where<T: Num>(wi_z: T, pdf: T, f: [T; 3]) -> ([T; 3], T::Mask) {
+        let scale = wi_z / pdf;
+        let weight = f.map(|c| c * scale);
+        let zero = T::of(0.0);
+        let finite = is_finite(weight[0]) & is_finite(weight[1]) & is_finite(weight[2]);
+        (weight, gt(wi_z, zero) & gt(pdf, zero) & finite)
     }
 }
 

@@ -8,7 +8,7 @@
 
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 use crate::lobe::Lobe;
-use crate::math::{Num, clamp, lt, maximum, select};
+use crate::math::{Num, clamp, gt, is_finite, lt, maximum, select};
 use crate::sampling::warp::{
     cosine_hemisphere, cosine_hemisphere_pdf, square_to_cosine_hemisphere,
 };
@@ -164,14 +164,7 @@ impl Bsdf for Composite {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let mut f = self.diffuse * FRAC_1_PI;
-        for (c, l) in &self.lobes {
-            let v = l.eval(wo, wi);
-            if v.is_finite() {
-                f += *c * v.map(|x| maximum(x, 0.0));
-            }
-        }
-        f
+        Rgb::from(self.mixed_value(|k| self.lobes[k].1.eval(wo, wi).to_array()))
     }
 
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
@@ -190,7 +183,7 @@ impl Bsdf for Composite {
     }
 
     /// The pairs above the surface a lane vector at a time: every lobe's
-    /// [`Lobe::eval_pdf_xn`] once per `LANES` pairs ([`Composite::mix_xn`]).
+    /// [`Lobe::eval_pdf_xn`] once per `LANES` pairs ([`Composite::mix_lanes`]).
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
@@ -207,7 +200,7 @@ impl Bsdf for Composite {
             let o = Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k]));
             let w = self.lane_weights(o.z);
             let i = Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k]));
-            let (v, p) = self.mix_xn(o, i, &w);
+            let (v, p) = self.mix_lanes(o, i, &w);
             // A pair whose components are all black has density 0.
             let p = sel(w.total.simd_gt(f32xn::splat(0.0)), p, f32xn::splat(0.0)).to_array();
             let v = v.to_array();
@@ -218,7 +211,7 @@ impl Bsdf for Composite {
     }
 
     /// Components chosen and sampled query by query, the mixture density and the value of
-    /// `LANES` sampled directions at a time ([`Composite::mix_xn`]).
+    /// `LANES` sampled directions at a time ([`Composite::mix_lanes`]).
     fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
@@ -315,10 +308,17 @@ impl Composite {
                 let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo[k]));
                 let w = self.lane_weights(f32xn::new(simd::lanes(|lane| o[lane].z)));
                 let d = Vec3xN::from_array(&d);
-                let (v, p) = self.mix_xn(Vec3xN::from_array(&o), d, &w);
-                let s = BsdfSample::finish_xn(d, p, v);
+                let (v, p) = self.mix_lanes(Vec3xN::from_array(&o), d, &w);
+                let (weight, keep) = BsdfSample::weight_where(d.z, p, [v.r, v.g, v.b]);
+                let keep = simd::mask_bits(keep);
+                let [r, g, b] = weight;
+                let (d, p, weight) = (d.to_array(), p.to_array(), RgbxN::new(r, g, b).to_array());
                 for (lane, &k) in idx.iter().enumerate() {
-                    out[k] = s[lane];
+                    out[k] = (keep >> lane & 1 != 0).then(|| BsdfSample {
+                        wi: d[lane],
+                        weight: weight[lane],
+                        pdf: p[lane],
+                    });
                 }
             },
         );
@@ -450,30 +450,71 @@ impl Composite {
     }
 
     /// [`Bsdf::eval`] and the mixture density ([`Composite::mixture_pdf`], before the test of
-    /// a positive total) of `LANES` pairs above the surface, lane by lane bit for bit: the
-    /// same sums in the same order, each lobe's value and density from its
-    /// [`Lobe::eval_pdf_xn`].
-    fn mix_xn(&self, wo: Vec3xN, wi: Vec3xN, w: &LaneWeights) -> (RgbxN, f32xn) {
-        let zero = f32xn::splat(0.0);
-        let mut f = RgbxN::splat(self.diffuse * FRAC_1_PI);
+    /// a positive total) of `LANES` pairs above the surface, lane by lane bit for bit: each
+    /// lobe's value and density from its [`Lobe::eval_pdf_xn`], mixed as one pair is
+    /// ([`Composite::mixed_value`], [`Composite::mixed_density`]).
+    fn mix_lanes(&self, wo: Vec3xN, wi: Vec3xN, w: &LaneWeights) -> (RgbxN, f32xn) {
+        let mut f = self.diffuse_value();
         let mut pdf = w.w[0] * cosine_hemisphere_pdf(wi.z);
         for (k, (c, l)) in self.lobes.iter().enumerate() {
             let (v, p) = l.eval_pdf_xn(wo, wi);
-            f = RgbxN::select(v.is_finite(), f + RgbxN::splat(*c) * v.max(0.0), f);
-            let wk = w.w[k + 1];
-            pdf = sel(wk.simd_gt(zero), pdf + wk * p, pdf);
+            add_lobe_value(&mut f, *c, [v.r, v.g, v.b]);
+            add_lobe_density(&mut pdf, w.w[k + 1], p);
         }
-        (f, pdf / w.total)
+        let [r, g, b] = f;
+        (RgbxN::new(r, g, b), pdf / w.total)
+    }
+
+    /// The mixture's value from its lobes' values `v(k)` (one pair or lanes).
+    #[inline(always)]
+    fn mixed_value<T: Num>(&self, v: impl Fn(usize) -> [T; 3]) -> [T; 3] {
+        let mut f = self.diffuse_value();
+        for (k, (c, _)) in self.lobes.iter().enumerate() {
+            add_lobe_value(&mut f, *c, v(k));
+        }
+        f
+    }
+
+    /// The diffuse term of the mixture's value, `diffuse / pi`.
+    #[inline(always)]
+    fn diffuse_value<T: Num>(&self) -> [T; 3] {
+        (self.diffuse * FRAC_1_PI)
+            .to_array()
+            .map(|x| T::of(x as f64))
+    }
+
+    /// The mixture's density from its lobes' densities `p(k)` and the component weights `w`
+    /// (summing to `total`), one pair or lanes.
+    #[inline(always)]
+    fn mixed_density<T: Num>(&self, wi_z: T, w: &[T], total: T, p: impl Fn(usize) -> T) -> T {
+        let mut pdf = w[0] * cosine_hemisphere_pdf(wi_z);
+        for k in 0..self.lobes.len() {
+            add_lobe_density(&mut pdf, w[k + 1], p(k));
+        }
+        pdf / total
     }
 
     #[inline]
     fn mixture_pdf(&self, wo: Vec3, wi: Vec3, w: &[f32], total: f32) -> f32 {
-        let mut pdf = w[0] * cosine_hemisphere_pdf(wi.z);
-        for (k, (_, l)) in self.lobes.iter().enumerate() {
-            if w[k + 1] > 0.0 {
-                pdf += w[k + 1] * l.pdf(wo, wi);
-            }
-        }
-        pdf / total
+        self.mixed_density(wi.z, w, total, |k| self.lobes[k].1.pdf(wo, wi))
     }
+}
+
+/// Adds a lobe of colour `c` and value `v` to the mixture's value `f` (one pair or
+/// lanes): `c max(v, 0)` where `v` is finite in every channel.
+#[inline(always)]
+fn add_lobe_value<T: Num>(f: &mut [T; 3], c: Rgb, v: [T; 3]) {
+    let finite = is_finite(v[0]) & is_finite(v[1]) & is_finite(v[2]);
+    let c = c.to_array();
+    for ch in 0..3 {
+        let added = f[ch] + T::of(c[ch] as f64) * maximum(v[ch], T::of(0.0));
+        f[ch] = select(finite, added, f[ch]);
+    }
+}
+
+/// Adds a lobe of weight `wk` and density `p` to the mixture's (unnormalized) density
+/// (one pair or lanes): the terms of positive weight.
+#[inline(always)]
+fn add_lobe_density<T: Num>(pdf: &mut T, wk: T, p: T) {
+    *pdf = select(gt(wk, T::of(0.0)), *pdf + wk * p, *pdf);
 }

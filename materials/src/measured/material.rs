@@ -10,6 +10,7 @@ use super::rgl::Rgl;
 use super::sampler::TabulatedSampler;
 use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::math::{Single, V3, maximum};
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
@@ -20,25 +21,42 @@ use std::any::Any;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// A loaded table: how to evaluate it.
+/// A loaded table: how to evaluate it (the form [`Measured`] holds; every
+/// [`TableLookup`] is one).
 pub trait Table: Send + Sync + std::fmt::Debug {
     /// f_r(wo, wi) in 1/sr (RGB), zero below the surface.
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
-    /// [`Table::eval`] of `LANES` pairs, each lane bit for bit the single call (the default
-    /// calls it lane by lane; tables with a SIMD lookup override it).
-    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
-        eval_lanes(|o, i| self.eval(o, i), wo, wi)
-    }
+    /// [`Table::eval`] of `LANES` pairs, each lane bit for bit the single call.
+    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN;
+    fn is_isotropic(&self) -> bool;
+    fn memory_bytes(&self) -> usize;
+}
+
+/// A table's lookup written once for one pair and for lanes of pairs; it gives the
+/// table's [`Table`] entry points.
+pub trait TableLookup: Send + Sync + std::fmt::Debug {
+    /// f_r(wo, wi) in 1/sr per channel, zero below the surface.
+    fn value<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3];
     fn is_isotropic(&self) -> bool {
         true
     }
     fn memory_bytes(&self) -> usize;
 }
 
-/// `eval` of `LANES` pairs, lane by lane.
-fn eval_lanes(eval: impl Fn(Vec3, Vec3) -> Rgb, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
-    let (o, i) = (wo.to_array(), wi.to_array());
-    RgbxN::from_array(&simd::lanes(|k| eval(o[k], i[k])))
+impl<L: TableLookup> Table for L {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        Rgb::from(self.value::<f32>(wo.into(), wi.into()))
+    }
+    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
+        let [r, g, b] = self.value(wo, wi);
+        RgbxN::new(r, g, b)
+    }
+    fn is_isotropic(&self) -> bool {
+        TableLookup::is_isotropic(self)
+    }
+    fn memory_bytes(&self) -> usize {
+        TableLookup::memory_bytes(self)
+    }
 }
 
 #[derive(Debug)]
@@ -47,24 +65,23 @@ struct MerlTable {
     interpolate: bool,
 }
 
-impl Table for MerlTable {
+impl TableLookup for MerlTable {
     fn memory_bytes(&self) -> usize {
         self.table.memory_bytes()
     }
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+    /// Trilinear ([`Merl::interpolate`]) or the nearest bin ([`Merl::lookup_nearest`], a
+    /// lane at a time).
+    fn value<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
         if self.interpolate {
-            self.table.lookup(wi, wo)
-        } else {
-            self.table.lookup_nearest(wi, wo)
+            return self.table.interpolate(wi, wo);
         }
-    }
-    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
-        if self.interpolate {
-            let [r, g, b] = self.table.interpolate(wi, wo);
-            RgbxN::new(r, g, b)
-        } else {
-            eval_lanes(|o, i| self.table.lookup_nearest(i, o), wo, wi)
-        }
+        T::per_lane(
+            [wo.x, wo.y, wo.z, wi.x, wi.y, wi.z],
+            |[ox, oy, oz, ix, iy, iz]| {
+                let (wo, wi) = (Vec3::new(ox, oy, oz), Vec3::new(ix, iy, iz));
+                self.table.lookup_nearest(wi, wo).to_array()
+            },
+        )
     }
 }
 
@@ -73,20 +90,16 @@ struct BinnedTable {
     table: Binned,
 }
 
-impl Table for BinnedTable {
+impl TableLookup for BinnedTable {
     fn memory_bytes(&self) -> usize {
         self.table.values.len() * std::mem::size_of::<Option<[f32; 3]>>()
     }
-    /// Negative bins (noise of a measurement, e.g. tabulated from an unclamped RGL file)
-    /// render as zero.
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+    /// The pair's bin ([`Binned::bin_value`]); negative bins (noise of a measurement, e.g.
+    /// tabulated from an unclamped RGL file) render as zero.
+    fn value<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
         self.table
-            .lookup_f32(wi, wo)
-            .map(|x| crate::math::maximum(x, 0.0))
-    }
-    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
-        let [r, g, b] = self.table.bin_value(wi, wo);
-        RgbxN::new(r, g, b).max(0.0)
+            .bin_value(wi, wo)
+            .map(|x| maximum(x, T::of32(0.0)))
     }
     fn is_isotropic(&self) -> bool {
         !self.table.anisotropic
