@@ -42,7 +42,7 @@ if [ "$(uname -m)" = "x86_64" ] && rustc --print cfg -C target-cpu=native | grep
     -p lobe-materials -p lobe-renderer -p lobe-tests --lib \
     --test wavefront --test envmap_sampling --test lights --test bsdfs --test determinism
 fi
-# The portable forms of the SIMD helpers (materials/src/simd.rs and fastmath::xn: what a
+# The portable forms of the SIMD helpers (materials/src/simd.rs and fastmath: what a
 # build for baseline x86-64 without AVX uses, RUSTFLAGS="-C target-cpu=x86-64"), tested
 # too.
 if [ "$(uname -m)" = "x86_64" ]; then
