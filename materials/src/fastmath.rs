@@ -430,7 +430,7 @@ mod tests {
         assert_eq!(powf(0.999, 1e9), 0.0);
     }
 
-    /// The lane forms equal the scalar functions bit for bit.
+    /// The lane instantiation of each function equals its scalar instantiation bit for bit.
     #[test]
     fn lanes_equal_the_scalar_instantiation_bit_for_bit() {
         use crate::simd::f32xn;

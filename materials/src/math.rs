@@ -54,7 +54,7 @@ pub trait Num:
     /// |x|.
     fn num_abs(self) -> Self;
     /// (sin x, cos x) for |x| up to a few pi: [`crate::fastmath::sin_cos_moderate`] in f32
-    /// (its lane form in lanes), the C library's in f64.
+    /// and lanes, the C library's in f64.
     fn num_sin_cos(self) -> (Self, Self);
     /// atan2(self, x) in [-pi, pi]: [`crate::fastmath::atan2`] in f32, the C library's
     /// in f64.
@@ -627,9 +627,26 @@ impl Single for f32xn {
         x: [Self; M],
         f: impl Fn([f32; M]) -> [f32; N],
     ) -> [Self; N] {
-        let x = x.map(|v| v.to_array());
-        let rows = crate::simd::lanes(|k| f(std::array::from_fn(|j| x[j][k])));
-        std::array::from_fn(|c| f32xn::new(crate::simd::lanes(|k| rows[k][c])))
+        let mut cols = [[0.0f32; crate::simd::LANES]; M];
+        for j in 0..M {
+            cols[j] = x[j].to_array();
+        }
+        let mut out = [[0.0f32; crate::simd::LANES]; N];
+        for k in 0..crate::simd::LANES {
+            let mut lane = [0.0f32; M];
+            for j in 0..M {
+                lane[j] = cols[j][k];
+            }
+            let r = f(lane);
+            for c in 0..N {
+                out[c][k] = r[c];
+            }
+        }
+        let mut v = [f32xn::splat(0.0); N];
+        for c in 0..N {
+            v[c] = f32xn::new(out[c]);
+        }
+        v
     }
 }
 

@@ -9,6 +9,7 @@
 
 use glam::Vec3;
 use lobe_materials::registry::Registry;
+use lobe_materials::soa::Vec3s;
 use lobe_materials::{Bsdf, Flags};
 use lobe_tests::bsdf_checks::*;
 use serde_json::{Value, json};
@@ -569,7 +570,8 @@ fn batched_sampling_equals_single_samples() {
         for (n, seed) in [(1usize, 0usize), (8, 3), (13, 5), (40, 7), (300, 11)] {
             let q = batch_inputs(n, seed);
             let mut out = vec![None; n];
-            case.bsdf.sample_many(&q.wo, &q.u, &q.uc, &mut out);
+            let wo = Vec3s::from_vecs(&q.wo);
+            case.bsdf.sample_many(wo.as_slice(), &q.u, &q.uc, &mut out);
             for (k, &got) in out.iter().enumerate() {
                 let one = case.bsdf.sample(q.wo[k], q.u[k], q.uc[k]);
                 assert_eq!(
@@ -607,7 +609,9 @@ fn batched_evaluation_equals_single_evaluations() {
             let q = batch_inputs(n, seed);
             let mut f = vec![lobe_materials::Rgb::ZERO; n];
             let mut pdf = vec![0.0f32; n];
-            case.bsdf.eval_pdf_many(&q.wo, &q.wi, &mut f, &mut pdf);
+            let (wo, wi) = (Vec3s::from_vecs(&q.wo), Vec3s::from_vecs(&q.wi));
+            case.bsdf
+                .eval_pdf_many(wo.as_slice(), wi.as_slice(), &mut f, &mut pdf);
             for k in 0..n {
                 let (wo, wi) = (q.wo[k], q.wi[k]);
                 let e = case.bsdf.eval(wo, wi);

@@ -40,7 +40,7 @@ use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
 use super::microfacet::{MIN_ROUGHNESS, beckmann_visible_pdf, visible};
 use crate::fastmath;
 use crate::lobe::{self, Lobe, above};
-use crate::math::{Real, Single, V3, gt, half, is_finite, lt, maximum, minimum, select};
+use crate::math::{Real, Single, V3, all, gt, half, is_finite, lt, maximum, minimum, select};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
@@ -221,17 +221,29 @@ impl He {
         let common = fresnel * shadow * g_geo / (s(std::f32::consts::PI) * ci * co);
         let (rough_only, blended) = (gt(g_min, s(19.0)), gt(g_min, s(18.0)));
         let w = g_min - s(18.0);
-        std::array::from_fn(|c| {
+        // The rough limit where some value takes it, the series where some value is below
+        // the rough regime (one query takes one, lanes where they disagree both).
+        let (any_rough, any_series) = (!all::<T>(!blended), !all::<T>(rough_only));
+        let channel = |c: usize| {
             let (_, n, e_per_vxy2) = consts[c];
             let (n, e) = (s(n), s(e_per_vxy2) * vxy2);
             let g = gs[c];
-            let rough = fastmath::exp(-e / g) / g;
-            let series = he_series::tabulated_single(g, e);
+            let rough = if any_rough {
+                fastmath::exp(-e / g) / g
+            } else {
+                zero
+            };
+            let series = if any_series {
+                he_series::tabulated_single(g, e)
+            } else {
+                zero
+            };
             let blend = (s(1.0) - w) * series + w * rough;
             let sum = select(rough_only, rough, select(blended, blend, series));
             let v = common * n * sum;
             select(ok & is_finite(v), maximum(v, zero), zero)
-        })
+        };
+        [channel(0), channel(1), channel(2)]
     }
 
     /// The solid-angle density of [`He::draw`] at `wi` (one pair or lanes), the half

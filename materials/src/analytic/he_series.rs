@@ -161,8 +161,8 @@ pub fn tabulated_single<T: Single>(g: T, e: T) -> T {
         for (dj, (wu, wu_d)) in [(0, (hu[0], hu[1])), (1, (hu[2], hu[3]))] {
             // k <= (G_NODES - 2) U_NODES + U_NODES - 2 (clamped above), so k + offset is
             // within the table.
-            let offset = T::int((di * U_NODES + dj) as i32);
-            let [f, f_g, f_u, f_gu] = T::gather_by(k + offset, |n| t[n]);
+            let node = k + T::int((di * U_NODES + dj) as i32);
+            let [f, f_g, f_u, f_gu] = T::gather4(t.as_flattened(), node * T::int(4));
             sum = sum + (wg * (wu * f + wu_d * f_u) + wg_d * (wu * f_g + wu_d * f_gu));
         }
     }

@@ -211,17 +211,9 @@ impl Binned {
         self.values[self.bin_of(wi, wo)].map_or(Rgb::ZERO, Rgb::from)
     }
 
-    /// [`Binned::lookup`] with f32 angles (rendering; lane for lane
-    /// [`Binned::bin_value`]).
-    pub fn lookup_f32(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        if !(wi.z > 0.0 && wo.z > 0.0) {
-            return Rgb::ZERO;
-        }
-        Rgb::from(self.bin_value::<f32>(wi.into(), wo.into()))
-    }
-
-    /// [`Binned::lookup_f32`] written once over [`Num`] (one pair, or lanes of pairs): the
-    /// bin of the pair's angles in f32, zero for an empty bin and below the surface.
+    /// [`Binned::lookup`] in f32 (rendering), written once over [`Num`] (one pair, or lanes
+    /// of pairs): the bin of the pair's angles in f32, zero for an empty bin and below the
+    /// surface.
     #[inline]
     pub fn bin_value<T: Num>(&self, wi: V3<T>, wo: V3<T>) -> [T; 3] {
         let s = T::of;
@@ -514,7 +506,7 @@ mod tests {
                 let [r, g, b] = t.bin_value(Vec3xN::from_array(&wi), Vec3xN::from_array(&wo));
                 let lanes = RgbxN::new(r, g, b);
                 for i in 0..LANES {
-                    let one = t.lookup_f32(wi[i], wo[i]);
+                    let one = Rgb::from(t.bin_value::<f32>(wi[i].into(), wo[i].into()));
                     let lane = lanes.lane(i);
                     assert_eq!(
                         [one.r, one.g, one.b].map(f32::to_bits),

@@ -279,9 +279,9 @@ impl Merl {
     }
 
     /// Trilinear lookup between bin centres (clamped in theta, periodic in phi_d),
-    /// renormalized over the corners that are not missing. In f32 throughout, for the
-    /// renderer: the bin coordinates come from [`bin_coords`], the corners' weights and
-    /// sums in f32; [`Merl::interpolate`] gives the same values a lane vector at a time.
+    /// renormalized over the corners that are not missing, in f32 throughout: the bin
+    /// coordinates from [`bin_coords`], the corners' weights and sums in f32
+    /// ([`Merl::interpolate`], which the renderer calls for one pair and for lanes).
     pub fn lookup(&self, wi: Vec3, wo: Vec3) -> Rgb {
         if !(wi.z > 0.0 && wo.z > 0.0) {
             return Rgb::ZERO;
