@@ -15,7 +15,7 @@ use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
-use crate::simd::{self, RgbxN, Vec3xN, f32xn};
+use crate::simd::{self, RgbxN, Vec3xN};
 use crate::soa::Vec3Slice;
 use glam::{Vec2, Vec3};
 use std::any::Any;
@@ -138,18 +138,16 @@ impl Measured {
     /// whose weight is not finite becomes `None` ([`BsdfSample::weight_where`]).
     fn weigh_samples(&self, wo: Vec3Slice, idx: &[usize], out: &mut [Option<BsdfSample>]) {
         let wi = Vec3xN::from_array(&simd::lanes_of(idx, |k| out[k].map_or(Vec3::Z, |s| s.wi)));
-        let pdf = f32xn::new(simd::lanes_of(idx, |k| out[k].map_or(1.0, |s| s.pdf)));
         let f = self.table.eval_xn(wo.lanes_of(idx), wi);
-        let (weight, keep) = BsdfSample::weight_where(wi.z, pdf, [f.r, f.g, f.b]);
-        let [r, g, b] = weight;
-        let (weight, keep) = (RgbxN::new(r, g, b).to_array(), simd::mask_bits(keep));
         for (lane, &k) in idx.iter().enumerate() {
-            out[k] = out[k]
-                .filter(|_| keep >> lane & 1 != 0)
-                .map(|s| BsdfSample {
-                    weight: weight[lane],
+            out[k] = out[k].and_then(|s| {
+                let v = f.lane(lane).to_array();
+                let (weight, keep) = BsdfSample::weight_where(s.wi.z, s.pdf, v);
+                keep.then(|| BsdfSample {
+                    weight: Rgb::from(weight),
                     ..s
-                });
+                })
+            });
         }
     }
 }
