@@ -12,7 +12,6 @@ use criterion::{Criterion, Throughput};
 use glam::{Vec2, Vec3};
 use lobe_materials::measured::tabulate::{Acquisition, binned_from, merl_from};
 use lobe_materials::registry::Registry;
-use lobe_materials::soa::Vec3s;
 use lobe_materials::{Bsdf, BsdfSample, Rgb};
 use serde_json::{Value, json};
 use std::hint::black_box;
@@ -194,11 +193,9 @@ fn bench_material(c: &mut Criterion, name: &str, m: &Arc<dyn Bsdf>, q: &Queries)
         })
     });
     let (mut f, mut pdf) = (vec![Rgb::ZERO; N], vec![0.0f32; N]);
-    let (wo_cols, wi_cols) = (Vec3s::from_vecs(&q.wo), Vec3s::from_vecs(&q.wi));
     g.bench_function("eval_pdf_many", |b| {
         b.iter(|| {
-            let (wo, wi) = (wo_cols.as_slice(), wi_cols.as_slice());
-            m.eval_pdf_many(black_box(wo), black_box(wi), &mut f, &mut pdf);
+            m.eval_pdf_many(black_box(&q.wo), black_box(&q.wi), &mut f, &mut pdf);
             black_box((&f, &pdf));
         })
     });
@@ -213,7 +210,7 @@ fn bench_material(c: &mut Criterion, name: &str, m: &Arc<dyn Bsdf>, q: &Queries)
     g.bench_function("sample_many", |b| {
         b.iter(|| {
             m.sample_many(
-                black_box(wo_cols.as_slice()),
+                black_box(&q.wo),
                 black_box(&q.u),
                 black_box(&q.uc),
                 &mut out,

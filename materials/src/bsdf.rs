@@ -8,7 +8,6 @@
 //! when either direction is below the surface it evaluates to zero, as Mitsuba 3's BSDFs do.
 
 use crate::math::{Num, gt, is_finite};
-use crate::soa::Vec3Slice;
 use glam::{Vec2, Vec3};
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Sub};
 
@@ -207,21 +206,20 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample>;
     /// Solid-angle density with which `sample` produces `wi`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
-    /// [`Bsdf::sample`] of many queries at once, `out[k]` for (`wo[k]`, `u[k]`, `uc[k]`;
-    /// the directions as struct-of-arrays columns, [`Vec3Slice`]), bit for bit the same: the renderer's wavefront integrator samples all hits on one
+    /// [`Bsdf::sample`] of many queries at once, `out[k]` for (`wo[k]`, `u[k]`, `uc[k]`),
+    /// bit for bit the same: the renderer's wavefront integrator samples all hits on one
     /// material in one call. Models may override it with a batched (SIMD) form.
-    fn sample_many(&self, wo: Vec3Slice, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
-        for (k, ((o, &u), &uc)) in out.iter_mut().zip(u).zip(uc).enumerate() {
-            *o = self.sample(wo.get(k), u, uc);
+    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+        for (((o, &wo), &u), &uc) in out.iter_mut().zip(wo).zip(u).zip(uc) {
+            *o = self.sample(wo, u, uc);
         }
     }
     /// [`Bsdf::eval`] and [`Bsdf::pdf`] of many direction pairs at once, `f[k]` and
-    /// `pdf[k]` for (`wo[k]`, `wi[k]`; columns, [`Vec3Slice`]), bit for bit the same: the renderer's wavefront
+    /// `pdf[k]` for (`wo[k]`, `wi[k]`), bit for bit the same: the renderer's wavefront
     /// integrator evaluates the light samples of all hits on one material in one call.
     /// Models may override it with a batched (SIMD) form.
-    fn eval_pdf_many(&self, wo: Vec3Slice, wi: Vec3Slice, f: &mut [Rgb], pdf: &mut [f32]) {
-        for (k, (f, pdf)) in f.iter_mut().zip(pdf.iter_mut()).enumerate() {
-            let (wo, wi) = (wo.get(k), wi.get(k));
+    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
+        for (((f, pdf), &wo), &wi) in f.iter_mut().zip(pdf.iter_mut()).zip(wo).zip(wi) {
             *f = self.eval(wo, wi);
             *pdf = self.pdf(wo, wi);
         }

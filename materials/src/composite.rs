@@ -13,7 +13,6 @@ use crate::sampling::warp::{
     cosine_hemisphere, cosine_hemisphere_pdf, square_to_cosine_hemisphere,
 };
 use crate::simd::{self, RgbxN, Vec3xN, f32xn, i32xn, sel};
-use crate::soa::Vec3Slice;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -185,23 +184,22 @@ impl Bsdf for Composite {
 
     /// The pairs above the surface a lane vector at a time: every lobe's
     /// [`Lobe::eval_pdf_xn`] once per `LANES` pairs ([`Composite::mix_lanes`]).
-    fn eval_pdf_many(&self, wo: Vec3Slice, wi: Vec3Slice, f: &mut [Rgb], pdf: &mut [f32]) {
+    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
         if self.lobes.len() > MAX_INLINE {
             for k in 0..n {
-                let (o, i) = (wo.get(k), wi.get(k));
-                (f[k], pdf[k]) = (self.eval(o, i), self.pdf(o, i));
+                (f[k], pdf[k]) = (self.eval(wo[k], wi[k]), self.pdf(wo[k], wi[k]));
             }
             return;
         }
         f.fill(Rgb::ZERO);
         pdf.fill(0.0);
-        let above = |k: usize| !(wo.z[k] <= 0.0 || wi.z[k] <= 0.0);
+        let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
         simd::chunks_where(n, above, |idx| {
-            let o = wo.lanes_of(idx);
+            let o = Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k]));
             let w = self.lane_weights(o.z);
-            let i = wi.lanes_of(idx);
+            let i = Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k]));
             let (v, p) = self.mix_lanes(o, i, &w);
             // A pair whose components are all black has density 0.
             let p = sel(w.total.simd_gt(f32xn::splat(0.0)), p, f32xn::splat(0.0)).to_array();
@@ -214,24 +212,19 @@ impl Bsdf for Composite {
 
     /// Components chosen and sampled query by query, the mixture density and the value of
     /// `LANES` sampled directions at a time ([`Composite::mix_lanes`]).
-    fn sample_many(&self, wo: Vec3Slice, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         if self.lobes.len() > MAX_INLINE {
             for k in 0..n {
-                out[k] = self.sample(wo.get(k), u[k], uc[k]);
+                out[k] = self.sample(wo[k], u[k], uc[k]);
             }
             return;
         }
         out.fill(None);
         for first in (0..n).step_by(SAMPLE_BLOCK) {
             let r = first..(first + SAMPLE_BLOCK).min(n);
-            self.sample_block(
-                wo.slice(r.clone()),
-                &u[r.clone()],
-                &uc[r.clone()],
-                &mut out[r],
-            );
+            self.sample_block(&wo[r.clone()], &u[r.clone()], &uc[r.clone()], &mut out[r]);
         }
     }
 
@@ -300,7 +293,7 @@ impl Composite {
     /// lane samples a lobe its query did not choose; last, the value and the mixture
     /// density of every drawn direction, a lane vector at a time. Queries whose weights sum to
     /// zero get None.
-    fn sample_block(&self, wo: Vec3Slice, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_block(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let m = wo.len();
         debug_assert!(m <= SAMPLE_BLOCK);
         let mut choice = [(NO_COMPONENT, 0.0f32); SAMPLE_BLOCK];
@@ -311,11 +304,11 @@ impl Composite {
             m,
             |k| wi[k].is_some(),
             |idx| {
-                let o = wo.lanes_of(idx);
-                let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo.get(k)));
-                let w = self.lane_weights(o.z);
+                let o = simd::lanes_of(idx, |k| wo[k]);
+                let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo[k]));
+                let w = self.lane_weights(f32xn::new(simd::lanes(|lane| o[lane].z)));
                 let d = Vec3xN::from_array(&d);
-                let (v, p) = self.mix_lanes(o, d, &w);
+                let (v, p) = self.mix_lanes(Vec3xN::from_array(&o), d, &w);
                 let (weight, keep) = BsdfSample::weight_where(d.z, p, [v.r, v.g, v.b]);
                 let keep = simd::mask_bits(keep);
                 let [r, g, b] = weight;
@@ -337,7 +330,7 @@ impl Composite {
     /// time; the diffuse component's direction is drawn on the way.
     fn choose_components(
         &self,
-        wo: Vec3Slice,
+        wo: &[Vec3],
         u: &[Vec2],
         uc: &[f32],
         choice: &mut [(usize, f32)],
@@ -345,9 +338,9 @@ impl Composite {
     ) {
         simd::chunks_where(
             wo.len(),
-            |k| !(wo.z[k] <= 0.0),
+            |k| !(wo[k].z <= 0.0),
             |idx| {
-                let w = self.lane_weights(f32xn::new(simd::lanes_of(idx, |k| wo.z[k])));
+                let w = self.lane_weights(f32xn::new(simd::lanes_of(idx, |k| wo[k].z)));
                 let lane_uc = f32xn::new(simd::lanes_of(idx, |k| uc[k]));
                 let (chosen, uc_rest) =
                     Self::choose(lane_uc, &w.w[..self.lobes.len() + 1], w.total);
@@ -375,7 +368,7 @@ impl Composite {
     /// query did not choose.
     fn sample_chosen_lobes(
         &self,
-        wo: Vec3Slice,
+        wo: &[Vec3],
         u: &[Vec2],
         choice: &[(usize, f32)],
         wi: &mut [Option<Vec3>],
@@ -401,7 +394,7 @@ impl Composite {
             }
             for (q, &k) in idx.iter().enumerate() {
                 let k = k as usize;
-                (batch_wo[q], batch_u[q], batch_uc[q]) = (wo.get(k), u[k], choice[k].1);
+                (batch_wo[q], batch_u[q], batch_uc[q]) = (wo[k], u[k], choice[k].1);
             }
             lobe.sample_batch(
                 &batch_wo[..len],

@@ -42,7 +42,6 @@ pub mod registry;
 pub mod sampling;
 pub mod schema;
 pub mod simd;
-pub mod soa;
 
 pub use bsdf::{Bsdf, BsdfSample, Flags, Rgb};
 pub use error::{FileError, ParamError};

@@ -9,7 +9,6 @@
 
 use glam::Vec3;
 use lobe_materials::registry::Registry;
-use lobe_materials::soa::Vec3s;
 use lobe_materials::{Bsdf, Flags};
 use lobe_tests::bsdf_checks::*;
 use serde_json::{Value, json};
@@ -570,8 +569,7 @@ fn batched_sampling_equals_single_samples() {
         for (n, seed) in [(1usize, 0usize), (8, 3), (13, 5), (40, 7), (300, 11)] {
             let q = batch_inputs(n, seed);
             let mut out = vec![None; n];
-            let wo = Vec3s::from_vecs(&q.wo);
-            case.bsdf.sample_many(wo.as_slice(), &q.u, &q.uc, &mut out);
+            case.bsdf.sample_many(&q.wo, &q.u, &q.uc, &mut out);
             for (k, &got) in out.iter().enumerate() {
                 let one = case.bsdf.sample(q.wo[k], q.u[k], q.uc[k]);
                 assert_eq!(
@@ -609,9 +607,7 @@ fn batched_evaluation_equals_single_evaluations() {
             let q = batch_inputs(n, seed);
             let mut f = vec![lobe_materials::Rgb::ZERO; n];
             let mut pdf = vec![0.0f32; n];
-            let (wo, wi) = (Vec3s::from_vecs(&q.wo), Vec3s::from_vecs(&q.wi));
-            case.bsdf
-                .eval_pdf_many(wo.as_slice(), wi.as_slice(), &mut f, &mut pdf);
+            case.bsdf.eval_pdf_many(&q.wo, &q.wi, &mut f, &mut pdf);
             for k in 0..n {
                 let (wo, wi) = (q.wo[k], q.wi[k]);
                 let e = case.bsdf.eval(wo, wi);

@@ -13,7 +13,6 @@ use crate::sampling::warp::{
 use crate::schema::{Bounds, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params};
 use crate::simd;
 use crate::simd::{LANES, f32xn};
-use crate::soa::Vec3Slice;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -58,26 +57,37 @@ impl Bsdf for Lambert {
     }
 
     /// `LANES` pairs per SIMD warp, with `eval`'s and `pdf`'s operations.
-    fn eval_pdf_many(&self, wo: Vec3Slice, wi: Vec3Slice, f: &mut [Rgb], pdf: &mut [f32]) {
+    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         assert!(wo.len() == f.len() && wi.len() == f.len() && pdf.len() == f.len());
         let zero = f32xn::splat(0.0);
         let inv_pi = f32xn::splat(FRAC_1_PI);
-        for (c, (fc, pc)) in f.chunks_mut(LANES).zip(pdf.chunks_mut(LANES)).enumerate() {
+        for (((oc, ic), fc), pc) in wo
+            .chunks(LANES)
+            .zip(wi.chunks(LANES))
+            .zip(f.chunks_mut(LANES))
+            .zip(pdf.chunks_mut(LANES))
+        {
             let n = fc.len();
-            let (zo, zi) = (wo.lanes_at(c * LANES).z, wi.lanes_at(c * LANES).z);
+            let zo = f32xn::new(simd::lanes(|i| oc[i.min(n - 1)].z));
+            let zi = f32xn::new(simd::lanes(|i| ic[i.min(n - 1)].z));
             let above = zo.simd_gt(zero) & zi.simd_gt(zero);
             let s = simd::sel(above, inv_pi, zero).to_array();
-            pc.copy_from_slice(&simd::sel(above, zi.max(zero) * inv_pi, zero).as_array()[..n]);
+            let p = simd::sel(above, zi.max(zero) * inv_pi, zero).to_array();
             for i in 0..n {
                 fc[i] = self.reflectance * s[i];
+                pc[i] = p[i];
             }
         }
     }
 
     /// `LANES` queries per SIMD warp ([`cosine_hemisphere`]).
-    fn sample_many(&self, wo: Vec3Slice, u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
         assert!(wo.len() == out.len() && u.len() == out.len());
-        for (c, (uc, oc)) in u.chunks(LANES).zip(out.chunks_mut(LANES)).enumerate() {
+        for ((wc, uc), oc) in wo
+            .chunks(LANES)
+            .zip(u.chunks(LANES))
+            .zip(out.chunks_mut(LANES))
+        {
             let n = oc.len();
             let uu = simd::lanes(|i| uc[i.min(n - 1)]);
             let [x, y, z] = cosine_hemisphere(
@@ -89,7 +99,7 @@ impl Bsdf for Lambert {
             let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
             for i in 0..n {
                 // The scalar form's tests, negated as written there (NaN goes through).
-                oc[i] = (!(wo.z[c * LANES + i] <= 0.0) && !(pdf[i] <= 0.0)).then(|| BsdfSample {
+                oc[i] = (!(wc[i].z <= 0.0) && !(pdf[i] <= 0.0)).then(|| BsdfSample {
                     wi: Vec3::new(x[i], y[i], z[i]),
                     weight: self.reflectance,
                     pdf: pdf[i],

@@ -16,7 +16,6 @@ use crate::registry::{
     Registry,
 };
 use crate::simd::{self, RgbxN, Vec3xN};
-use crate::soa::Vec3Slice;
 use glam::{Vec2, Vec3};
 use std::any::Any;
 use std::path::PathBuf;
@@ -135,10 +134,13 @@ impl Measured {
 
     /// Sets the weights `f cos / pdf` of the samples `out[k]` of `idx` (one to `LANES`, each
     /// holding its direction and density), their values from [`Table::eval_xn`]; a sample
-    /// whose weight is not finite becomes `None` ([`BsdfSample::weight_where`]).
-    fn weigh_samples(&self, wo: Vec3Slice, idx: &[usize], out: &mut [Option<BsdfSample>]) {
-        let wi = Vec3xN::from_array(&simd::lanes_of(idx, |k| out[k].map_or(Vec3::Z, |s| s.wi)));
-        let f = self.table.eval_xn(wo.lanes_of(idx), wi);
+    /// whose weight is not finite becomes `None` ([`BsdfSample::weight_where`], per lane).
+    fn weigh_samples(&self, wo: &[Vec3], idx: &[usize], out: &mut [Option<BsdfSample>]) {
+        let wi = |k: usize| out[k].map_or(Vec3::Z, |s| s.wi);
+        let f = self.table.eval_xn(
+            Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
+            Vec3xN::from_array(&simd::lanes_of(idx, wi)),
+        );
         for (lane, &k) in idx.iter().enumerate() {
             out[k] = out[k].and_then(|s| {
                 let v = f.lane(lane).to_array();
@@ -172,7 +174,7 @@ impl Bsdf for Measured {
     /// Directions and densities from the sampler one query at a time, then the values of
     /// the sampled directions a lane vector at a time ([`Table::eval_xn`]); bit for bit
     /// [`Measured::sample`] (a sample's value is only needed once its density is positive).
-    fn sample_many(&self, wo: Vec3Slice, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         // `LANES` queries at a time: directions one by one, their densities in lanes
@@ -182,13 +184,13 @@ impl Bsdf for Measured {
             let at = |i: usize| start + i.min(len - 1);
             let wi = simd::lanes(|i| {
                 (i < len)
-                    .then(|| self.sampler.sample(wo.get(at(i)), u[at(i)], uc[at(i)]))
+                    .then(|| self.sampler.sample(wo[at(i)], u[at(i)], uc[at(i)]))
                     .flatten()
             });
             let pdf = self
                 .sampler
                 .density(
-                    wo.lanes_at(start),
+                    Vec3xN::from_array(&simd::lanes(|i| wo[at(i)])),
                     Vec3xN::from_array(&simd::lanes(|i| wi[i].unwrap_or(Vec3::Z))),
                 )
                 .to_array();
@@ -215,20 +217,26 @@ impl Bsdf for Measured {
 
     /// The values of the pairs above the surface and the sampler's densities, `LANES` at a
     /// time ([`Table::eval_xn`], [`TabulatedSampler::density`]).
-    fn eval_pdf_many(&self, wo: Vec3Slice, wi: Vec3Slice, f: &mut [Rgb], pdf: &mut [f32]) {
+    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
         f.fill(Rgb::ZERO);
-        let above = |k: usize| !(wo.z[k] <= 0.0 || wi.z[k] <= 0.0);
+        let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
         simd::chunks_where(n, above, |idx| {
-            let v = self.table.eval_xn(wo.lanes_of(idx), wi.lanes_of(idx));
+            let v = self.table.eval_xn(
+                Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
+                Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k])),
+            );
             for (lane, &k) in idx.iter().enumerate() {
                 f[k] = v.lane(lane);
             }
         });
         for (start, chunk) in pdf.chunks_mut(simd::LANES).enumerate() {
-            let first = simd::LANES * start;
-            let p = self.sampler.density(wo.lanes_at(first), wi.lanes_at(first));
+            let at = |i: usize| simd::LANES * start + i.min(chunk.len() - 1);
+            let p = self.sampler.density(
+                Vec3xN::from_array(&simd::lanes(|i| wo[at(i)])),
+                Vec3xN::from_array(&simd::lanes(|i| wi[at(i)])),
+            );
             chunk.copy_from_slice(&p.to_array()[..chunk.len()]);
         }
     }
@@ -436,35 +444,36 @@ impl Bsdf for RglBsdf {
     }
 
     /// The pairs above the surface a lane vector at a time through [`Rgl::eval_projected_pdf`].
-    fn eval_pdf_many(&self, wo: Vec3Slice, wi: Vec3Slice, f: &mut [Rgb], pdf: &mut [f32]) {
+    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
         f.fill(Rgb::ZERO);
         pdf.fill(0.0);
-        let above = |k: usize| !(wo.z[k] <= 0.0 || wi.z[k] <= 0.0);
+        let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
         simd::chunks_where(n, above, |idx| {
-            let ([r, g, b], p) = self
-                .table
-                .eval_projected_pdf(wo.lanes_of(idx), wi.lanes_of(idx));
+            let ([r, g, b], p) = self.table.eval_projected_pdf(
+                Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
+                Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k])),
+            );
             let (v, p) = (RgbxN::new(r, g, b), p.to_array());
             for (lane, &k) in idx.iter().enumerate() {
-                f[k] = self.f(wi.get(k), v.lane(lane));
+                f[k] = self.f(wi[k], v.lane(lane));
                 pdf[k] = p[lane];
             }
         });
     }
 
     /// The queries above the surface a lane vector at a time ([`Rgl::sample_value`]).
-    fn sample_many(&self, wo: Vec3Slice, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         out.fill(None);
         simd::chunks_where(
             n,
-            |k| !(wo.z[k] <= 0.0),
+            |k| !(wo[k].z <= 0.0),
             |idx| {
                 let (wi, p, [r, g, b], ok) = self.table.sample_value(
-                    wo.lanes_of(idx),
+                    Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
                     simd::vec2s(&simd::lanes_of(idx, |k| u[k])),
                 );
                 let (v, p, ok) = (RgbxN::new(r, g, b), p.to_array(), simd::mask_bits(ok));

@@ -18,8 +18,7 @@ use glam::Vec3;
 use lobe_materials::Bsdf;
 use lobe_materials::frame::Frame;
 use lobe_materials::simd;
-use lobe_materials::simd::{LANES, Vec3xN, f32xn};
-use lobe_materials::soa::Vec3s;
+use lobe_materials::simd::{LANES, f32xn};
 
 impl Integrator {
     /// Radiance along a camera ray.
@@ -112,14 +111,14 @@ impl<'a> Shading<'a> {
 /// (shading normals `ns`, tangents `dpdu`, ray directions `d`), bit for bit the same: the
 /// arithmetic of [`Frame::from_normal_tangent`], `to_local` and `normalize` in SIMD lanes;
 /// lanes whose tangent is degenerate take the scalar fallback. Writes the frames' `s` and
-/// `t` (their `n` is `ns`) and the directions to the columns `out` (s, t, wo) from vector
-/// `first` on, as many lanes as the columns hold from there (three stores per column).
-pub(crate) fn shading_frames(
+/// `t` (their `n` is `ns`) and the directions of lanes `0..wo.len()` to `s`, `t` and `wo`.
+pub(crate) fn shading_xn(
     ns: [Vec3; LANES],
     dpdu: [Vec3; LANES],
     d: [Vec3; LANES],
-    first: usize,
-    [out_s, out_t, out_wo]: [&mut Vec3s; 3],
+    out_s: &mut [Vec3],
+    out_t: &mut [Vec3],
+    out_wo: &mut [Vec3],
 ) {
     let dot = simd::dot3;
     let (n, u, dir) = (simd::vec3s(&ns), simd::vec3s(&dpdu), simd::vec3s(&d));
@@ -139,16 +138,15 @@ pub(crate) fn shading_frames(
     let wl = [dot(w, s), dot(w, t), dot(w, n)];
     let inv = f32xn::splat(1.0) / dot(wl, wl).sqrt();
     let wl = [wl[0] * inv, wl[1] * inv, wl[2] * inv];
-    out_s.store_lanes(first, Vec3xN::from(s));
-    out_t.store_lanes(first, Vec3xN::from(t));
-    out_wo.store_lanes(first, Vec3xN::from(wl));
+    simd::write_vec3s(s, out_s);
+    simd::write_vec3s(t, out_t);
+    simd::write_vec3s(wl, out_wo);
     let l2 = len2.to_array();
-    for i in 0..(out_wo.len() - first).min(LANES) {
+    for i in 0..out_wo.len() {
         if !(l2[i] > 1e-12) || !l2[i].is_finite() {
             let frame = Frame::from_normal_tangent(ns[i], dpdu[i]);
-            out_s.set(first + i, frame.s);
-            out_t.set(first + i, frame.t);
-            out_wo.set(first + i, frame.to_local(-d[i]).normalize());
+            (out_s[i], out_t[i]) = (frame.s, frame.t);
+            out_wo[i] = frame.to_local(-d[i]).normalize();
         }
     }
 }
@@ -199,7 +197,7 @@ mod tests {
     /// `-d` bit for bit, including lanes with a degenerate tangent (zero, along the normal,
     /// NaN), which take the scalar fallback.
     #[test]
-    fn lane_shading_frames_are_bit_identical() {
+    fn shading_xn_is_bit_identical() {
         let v = |k: usize, a: f32| {
             let t = k as f32 * a;
             Vec3::new(t.sin(), (1.7 * t).cos(), (0.3 * t).sin() + 0.2).normalize()
@@ -213,16 +211,8 @@ mod tests {
                 _ => v(round * LANES + i, 1.31) * 3.0,
             });
             let d = simd::lanes(|i| -v(round * LANES + i, 0.53));
-            let [mut fs, mut ft, mut wo] = [(); 3].map(|_| Vec3s::default());
-            for c in [&mut fs, &mut ft, &mut wo] {
-                c.resize(LANES);
-            }
-            shading_frames(ns, dpdu, d, 0, [&mut fs, &mut ft, &mut wo]);
-            let (fs, ft, wo) = (
-                fs.as_slice().to_vecs(),
-                ft.as_slice().to_vecs(),
-                wo.as_slice().to_vecs(),
-            );
+            let [mut fs, mut ft, mut wo] = [[Vec3::ZERO; LANES]; 3];
+            shading_xn(ns, dpdu, d, &mut fs, &mut ft, &mut wo);
             for i in 0..LANES {
                 let f = Frame::from_normal_tangent(ns[i], dpdu[i]);
                 let w = f.to_local(-d[i]).normalize();

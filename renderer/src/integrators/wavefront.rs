@@ -26,7 +26,7 @@
 //! paths start together and each bounce moves them on by one, so they share their depth
 //! and their sampler dimension, drawn for all at once ([`Sampler::next_1d_lanes`]).
 
-use super::{shading_frames, shadow_ray};
+use super::{shading_xn, shadow_ray};
 use crate::Rgb;
 use crate::camera::Camera;
 use crate::geometry::{Interaction, Ray, spawn_ray};
@@ -41,7 +41,6 @@ use lobe_materials::grouping::group_stable;
 use lobe_materials::sampling::warp::power_heuristic;
 use lobe_materials::simd;
 use lobe_materials::simd::LANES;
-use lobe_materials::soa::{Vec3Slice, Vec3s};
 use lobe_materials::{Bsdf, BsdfSample};
 
 /// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
@@ -100,13 +99,13 @@ pub struct EscapedQueue {
 
 /// The hits that scatter (paths that go on), indexed like [`HitQueue::it`]: the tangents
 /// of their shading frames (the frame of hit h is `frame_s[h]`, `frame_t[h]` and the
-/// hit's `ns`: [`ScatterQueue::frame`]) and local outgoing directions, as x/y/z columns,
-/// this bounce's sampler values, and the hits grouped by material.
+/// hit's `ns`: [`ScatterQueue::frame`]), local outgoing directions, this bounce's sampler
+/// values, and the hits grouped by material.
 #[derive(Default)]
 pub struct ScatterQueue {
-    pub frame_s: Vec3s,
-    pub frame_t: Vec3s,
-    pub wo: Vec3s,
+    pub frame_s: Vec<Vec3>,
+    pub frame_t: Vec<Vec3>,
+    pub wo: Vec<Vec3>,
     pub sample_key: Vec<u64>,
     pub sample_index: Vec<u32>,
     pub light_uc: Vec<f32>,
@@ -117,11 +116,11 @@ pub struct ScatterQueue {
 }
 
 /// Light samples of the scattering hits, indexed like them ([`LightSamples`]: pdf 0 for
-/// none), then the local direction (x/y/z columns) and the BSDF's value and density there.
+/// none), then the local direction and the BSDF's value and density there.
 #[derive(Default)]
 pub struct LightSampleQueue {
     pub samples: LightSamples,
-    pub wi_local: Vec3s,
+    pub wi_local: Vec<Vec3>,
     pub f: Vec<Rgb>,
     pub bsdf_pdf: Vec<f32>,
     /// Requests grouped by light: hit indices, ordered by light, and where each light's
@@ -160,8 +159,8 @@ pub struct MaterialGroups {
     /// Per material group, its batch in the current call (`u32::MAX`: none).
     batch_of_group: Vec<u32>,
     /// Gathered inputs and outputs of one batch (when not contiguous).
-    wo: Vec3s,
-    wi: Vec3s,
+    wo: Vec<Vec3>,
+    wi: Vec<Vec3>,
     u: Vec<Vec2>,
     uc: Vec<f32>,
     f: Vec<Rgb>,
@@ -372,23 +371,27 @@ impl Wavefront {
     }
 
     /// Shading frames and outgoing directions of the scattering hits (a lane vector at a time in
-    /// SIMD lanes, into the queue's columns: [`shading_frames`]), the sampler dimensions of this bounce for all of them
+    /// SIMD lanes: [`shading_xn`]), the sampler dimensions of this bounce for all of them
     /// (light choice and point, BSDF lobe and direction), and the hits grouped by
     /// material.
     pub fn scatter_setup(&mut self, scene: &Scene, sampler: &mut Sampler) {
         let (h, s, p) = (&self.hits, &mut self.scatter, &self.paths);
         let m = h.it.len();
         for v in [&mut s.frame_s, &mut s.frame_t, &mut s.wo] {
-            v.resize(m);
+            v.resize(m, Vec3::ZERO);
         }
-        for (c, (ic, pc)) in h.it.chunks(LANES).zip(h.path.chunks(LANES)).enumerate() {
+        let chunks = (h.it.chunks(LANES).zip(h.path.chunks(LANES)))
+            .zip(s.frame_s.chunks_mut(LANES).zip(s.frame_t.chunks_mut(LANES)))
+            .zip(s.wo.chunks_mut(LANES));
+        for (((ic, pc), (fs, ft)), wo) in chunks {
             let n = ic.len();
-            shading_frames(
+            shading_xn(
                 simd::lanes(|k| ic[k.min(n - 1)].ns),
                 simd::lanes(|k| ic[k.min(n - 1)].dpdu),
                 simd::lanes(|k| p.ray[pc[k.min(n - 1)] as usize].d),
-                c * LANES,
-                [&mut s.frame_s, &mut s.frame_t, &mut s.wo],
+                fs,
+                ft,
+                wo,
             );
         }
         s.streams_of(p, &h.path);
@@ -450,12 +453,13 @@ impl Wavefront {
         let (s, q) = (&mut self.scatter, &mut self.lights);
         let m = s.wo.len();
         let its = &self.hits.it;
-        let wi = &q.samples.wi;
-        q.wi_local.fill_with(m, |h| s.frame(its, h).to_local(wi[h]));
+        q.wi_local.clear();
+        q.wi_local
+            .extend((0..m).map(|h| s.frame(its, h).to_local(q.samples.wi[h])));
         q.f.resize(m, Rgb::ZERO);
         q.bsdf_pdf.resize(m, 0.0);
-        let (wo, wi) = (s.wo.as_slice(), q.wi_local.as_slice());
-        s.groups.eval_pdf(scene, wo, wi, &mut q.f, &mut q.bsdf_pdf);
+        s.groups
+            .eval_pdf(scene, &s.wo, &q.wi_local, &mut q.f, &mut q.bsdf_pdf);
     }
 
     /// Light samples the BSDF reflects are tested for occlusion together; the unoccluded
@@ -469,9 +473,8 @@ impl Wavefront {
         sq.hit.resize(m, 0);
         sq.f.resize(m, Rgb::ZERO);
         let mut kept = 0;
-        for (h, ((&wi_z, &f), (&pdf, li))) in q
+        for (h, ((&wi, &f), (&pdf, li))) in q
             .wi_local
-            .z
             .iter()
             .zip(&q.f)
             .zip(ls.pdf.iter().zip(&ls.li))
@@ -480,7 +483,7 @@ impl Wavefront {
             if !(pdf > 0.0) || li.is_black() {
                 continue;
             }
-            let f = f * wi_z.max(0.0);
+            let f = f * wi.z.max(0.0);
             sq.hit[kept] = h as u32;
             sq.f[kept] = f;
             kept += !f.is_black() as usize;
@@ -517,9 +520,8 @@ impl Wavefront {
         let s = &mut self.scatter;
         self.bsdf_samples.clear();
         self.bsdf_samples.resize(s.wo.len(), None);
-        let wo = s.wo.as_slice();
         s.groups
-            .sample(scene, wo, &s.bsdf_u, &s.bsdf_uc, &mut self.bsdf_samples);
+            .sample(scene, &s.wo, &s.bsdf_u, &s.bsdf_uc, &mut self.bsdf_samples);
     }
 
     /// Paths whose BSDF sample carries throughput go on along it; then Russian roulette
@@ -571,11 +573,11 @@ impl Wavefront {
 
 impl ScatterQueue {
     /// The shading frame of hit `h` of `its`: the queue's tangents, the hit's normal.
-    #[inline(always)]
+    #[inline]
     fn frame(&self, its: &[Interaction], h: usize) -> Frame {
         Frame {
-            s: self.frame_s.get(h),
-            t: self.frame_t.get(h),
+            s: self.frame_s[h],
+            t: self.frame_t[h],
             n: its[h].ns,
         }
     }
@@ -651,25 +653,23 @@ impl MaterialGroups {
     fn eval_pdf(
         &mut self,
         scene: &Scene,
-        wo: Vec3Slice,
-        wi: Vec3Slice,
+        wo: &[Vec3],
+        wi: &[Vec3],
         f: &mut [Rgb],
         pdf: &mut [f32],
     ) {
         for &(a, b, shape) in &self.ranges {
             let bsdf = Self::material(scene, shape);
             if self.contiguous {
-                let (o, i) = (wo.slice(a..b), wi.slice(a..b));
-                bsdf.eval_pdf_many(o, i, &mut f[a..b], &mut pdf[a..b]);
+                bsdf.eval_pdf_many(&wo[a..b], &wi[a..b], &mut f[a..b], &mut pdf[a..b]);
                 continue;
             }
             let hits = &self.order[a..b];
-            self.wo.gather_from(wo, hits);
-            self.wi.gather_from(wi, hits);
+            gather(&mut self.wo, wo, hits);
+            gather(&mut self.wi, wi, hits);
             self.f.resize(hits.len(), Rgb::ZERO);
             self.pdf.resize(hits.len(), 0.0);
-            let (o, i) = (self.wo.as_slice(), self.wi.as_slice());
-            bsdf.eval_pdf_many(o, i, &mut self.f, &mut self.pdf);
+            bsdf.eval_pdf_many(&self.wo, &self.wi, &mut self.f, &mut self.pdf);
             for (j, &h) in hits.iter().enumerate() {
                 f[h as usize] = self.f[j];
                 pdf[h as usize] = self.pdf[j];
@@ -681,7 +681,7 @@ impl MaterialGroups {
     fn sample(
         &mut self,
         scene: &Scene,
-        wo: Vec3Slice,
+        wo: &[Vec3],
         u: &[Vec2],
         uc: &[f32],
         out: &mut [Option<BsdfSample>],
@@ -689,15 +689,15 @@ impl MaterialGroups {
         for &(a, b, shape) in &self.ranges {
             let bsdf = Self::material(scene, shape);
             if self.contiguous {
-                bsdf.sample_many(wo.slice(a..b), &u[a..b], &uc[a..b], &mut out[a..b]);
+                bsdf.sample_many(&wo[a..b], &u[a..b], &uc[a..b], &mut out[a..b]);
                 continue;
             }
             let hits = &self.order[a..b];
-            self.wo.gather_from(wo, hits);
+            gather(&mut self.wo, wo, hits);
             gather(&mut self.u, u, hits);
             gather(&mut self.uc, uc, hits);
             self.samples.resize(hits.len(), None);
-            bsdf.sample_many(self.wo.as_slice(), &self.u, &self.uc, &mut self.samples);
+            bsdf.sample_many(&self.wo, &self.u, &self.uc, &mut self.samples);
             for (j, &h) in hits.iter().enumerate() {
                 out[h as usize] = self.samples[j];
             }

@@ -37,7 +37,6 @@
 use lobe_materials::frame::Frame;
 use lobe_materials::sampling::mirror_cones;
 use lobe_materials::sampling::random::{hash, unit};
-use lobe_materials::soa::Vec3s;
 use lobe_materials::{Bsdf, Rgb};
 use lobe_renderer::camera::Camera;
 use lobe_renderer::compare::metrics;
@@ -217,8 +216,8 @@ fn point(k: usize, n: usize, shift: &[f64; 5]) -> [f64; 5] {
 #[derive(Default)]
 struct PixelSamples {
     batch: Vec<usize>,
-    wo: Vec3s,
-    wi: Vec3s,
+    wo: Vec<glam::Vec3>,
+    wi: Vec<glam::Vec3>,
     radiance: Vec<[f64; 3]>,
     /// n_map p_map + n_cone p_cone of each sample (the data's term is added once its
     /// density is evaluated).
@@ -267,8 +266,7 @@ impl Stage<'_> {
         let mut density = set.density.clone();
         let mut pdf = vec![0.0f32; n];
         for (r, rep) in reps.iter().enumerate() {
-            let (wo, wi) = (set.wo.as_slice(), set.wi.as_slice());
-            rep.eval_pdf_many(wo, wi, &mut f[r * n..(r + 1) * n], &mut pdf);
+            rep.eval_pdf_many(&set.wo, &set.wi, &mut f[r * n..(r + 1) * n], &mut pdf);
             let count = match r {
                 0 => counts[DATA],
                 _ => per_fit[r - 1],
@@ -282,7 +280,7 @@ impl Stage<'_> {
         // Per sample, the radiance over the density (the balance heuristic's weight).
         let lw: Vec<[f64; 3]> = (0..n)
             .map(|k| match density[k] > 0.0 {
-                true => set.radiance[k].map(|l| l * set.wi.z[k] as f64 / density[k]),
+                true => set.radiance[k].map(|l| l * set.wi[k].z as f64 / density[k]),
                 false => [0.0; 3],
             })
             .collect();
@@ -438,8 +436,8 @@ impl Stage<'_> {
                 continue;
             }
             set.batch.push(drawn.batch[k]);
-            set.wo.push(drawn.wo.get(k));
-            set.wi.push(drawn.wi.get(k));
+            set.wo.push(drawn.wo[k]);
+            set.wi.push(drawn.wi[k]);
             set.radiance.push([l.r as f64, l.g as f64, l.b as f64]);
             set.density.push(drawn.density[k] + n_map * p_env as f64);
         }
@@ -458,14 +456,11 @@ impl Stage<'_> {
         if picked.is_empty() {
             return Vec::new();
         }
-        let mut wos = Vec3s::default();
-        for h in picked {
-            wos.push(h.wo);
-        }
+        let wos: Vec<glam::Vec3> = picked.iter().map(|h| h.wo).collect();
         let u2: Vec<glam::Vec2> = picked.iter().map(|h| u_of(h)).collect();
         let ucs: Vec<f32> = picked.iter().map(|h| h.point[4] as f32).collect();
         let mut out = vec![None; picked.len()];
-        bsdf.sample_many(wos.as_slice(), &u2, &ucs, &mut out);
+        bsdf.sample_many(&wos, &u2, &ucs, &mut out);
         out
     }
 }
