@@ -311,12 +311,15 @@ impl Composite {
                 let (v, p) = self.mix_lanes(Vec3xN::from_array(&o), d, &w);
                 let (weight, keep) = BsdfSample::weight_where(d.z, p, [v.r, v.g, v.b]);
                 let keep = simd::mask_bits(keep);
-                let [r, g, b] = weight;
-                let (d, p, weight) = (d.to_array(), p.to_array(), RgbxN::new(r, g, b).to_array());
+                // Each sample from the lanes' floats (copies of 12-byte records through the
+                // stack stall on store forwarding).
+                let [wr, wg, wb] = weight.map(|c| c.to_array());
+                let [dx, dy, dz] = [d.x, d.y, d.z].map(|c| c.to_array());
+                let p = p.to_array();
                 for (lane, &k) in idx.iter().enumerate() {
                     out[k] = (keep >> lane & 1 != 0).then(|| BsdfSample {
-                        wi: d[lane],
-                        weight: weight[lane],
+                        wi: Vec3::new(dx[lane], dy[lane], dz[lane]),
+                        weight: Rgb::new(wr[lane], wg[lane], wb[lane]),
                         pdf: p[lane],
                     });
                 }
