@@ -5,7 +5,7 @@
 //! measure-zero set and exact to rounding. Spherical coordinates follow the usual physics
 //! convention: theta from +z, phi from +x toward +y.
 
-use crate::math::{Num, V3, copysign};
+use crate::math::{Arith, Num, V3, copysign, gt, is_finite, sqrt};
 use glam::Vec3;
 
 /// An orthonormal frame (s, t, n): `n` is the shading normal.
@@ -31,28 +31,53 @@ impl Frame {
     /// (the tangent direction anisotropic models use); falls back to `from_normal` when
     /// the tangent is degenerate.
     pub fn from_normal_tangent(n: Vec3, dpdu: Vec3) -> Self {
-        let s = dpdu - n * n.dot(dpdu);
-        let len2 = s.length_squared();
-        if !(len2 > 1e-12) || !len2.is_finite() {
+        let (s, t, usable) = tangent_axes(V3::from(n), V3::from(dpdu));
+        if !usable {
             return Self::from_normal(n);
         }
-        let s = s / len2.sqrt();
         Self {
-            s,
-            t: n.cross(s),
+            s: s.into(),
+            t: t.into(),
             n,
         }
     }
 
     #[inline]
     pub fn to_local(&self, v: Vec3) -> Vec3 {
-        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+        to_local(
+            V3::from(self.s),
+            V3::from(self.t),
+            V3::from(self.n),
+            V3::from(v),
+        )
+        .into()
     }
 
     #[inline]
     pub fn to_world(&self, v: Vec3) -> Vec3 {
         self.s * v.x + self.t * v.y + self.n * v.z
     }
+}
+
+/// The axes s and t of [`Frame::from_normal_tangent`], written once for one frame and for
+/// lanes of them: s is `dpdu` projected onto the plane of the unit normal `n` and divided
+/// by its length, t = n x s. The mask says where the projection is long enough to use
+/// (its squared length above 1e-12 and finite); elsewhere the frame is
+/// [`Frame::from_normal`]'s.
+#[inline(always)]
+pub fn tangent_axes<T: Arith>(n: V3<T>, dpdu: V3<T>) -> (V3<T>, V3<T>, T::Mask) {
+    let s = dpdu - n * n.dot(dpdu);
+    let len2 = s.length_squared();
+    let usable = gt(len2, T::of(1e-12f32 as f64)) & is_finite(len2);
+    let s = s / sqrt(len2);
+    (s, n.cross(s), usable)
+}
+
+/// `v` in the frame (s, t, n): its components along the three axes (glam's dot products),
+/// for one vector or lanes of them ([`Frame::to_local`]).
+#[inline(always)]
+pub fn to_local<T: Arith>(s: V3<T>, t: V3<T>, n: V3<T>, v: V3<T>) -> V3<T> {
+    V3::new(v.dot(s), v.dot(t), v.dot(n))
 }
 
 /// The tangent and bitangent of [`Frame::from_normal`] for a unit normal `n`, written once

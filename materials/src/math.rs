@@ -12,15 +12,18 @@ use crate::simd::{f32xn, i32xn};
 use num_traits::{Float, FloatConst};
 use std::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Shl, Shr, Sub};
 
-/// A number a formula is written over: one f32 or f64, or [`f32xn`] lanes. Comparisons give a
-/// [`Num::Mask`] (a bool, or a lane mask) that [`select`] reads; [`Num::Int`] is the index
-/// type of table lookups (i32, or i32 lanes), with gathers from f32 tables. The arithmetic
-/// methods carry a `num_` prefix so that they never shadow `Float`'s on a [`Real`]; formulas
-/// call the free functions ([`select`], [`minimum`], [`maximum`], [`le`], [`lt`], [`gt`],
-/// [`eq`], [`abs`], [`sqrt`], [`exp`], [`ln`], [`powf`], [`acos`], [`asin`], [`atan2`],
-/// [`sin_cos`], [`floor`], [`to_degrees`], [`copysign`], [`mul_add`], [`clamp`], [`all`])
-/// and the index methods (`T::int`, `T::gather`, ...) directly.
-pub trait Num:
+/// The arithmetic of a number: one f32 or f64, or lanes of f32 of either width `wide`
+/// offers on x86 (`f32x8`, `f32x16`; [`f32xn`] is one of them). Comparisons give an
+/// [`Arith::Mask`] (a bool, or a lane mask: all bits set where true) that [`select`] reads.
+/// The geometry kernels are written over it alone, since they serve two lane widths (one
+/// ray against a BVH8 leaf block of eight primitives, `f32x8`, and [`f32xn`] rays against
+/// one primitive); the models over [`Num`], which adds the elementary functions and table
+/// lookups. The methods carry a `num_` prefix so that they never shadow `Float`'s on a
+/// [`Real`]; formulas call the free functions ([`select`], [`minimum`], [`maximum`], [`le`],
+/// [`lt`], [`gt`], [`ge`], [`eq`], [`abs`], [`sqrt`], [`exp`], [`ln`], [`powf`], [`acos`],
+/// [`asin`], [`atan2`], [`sin_cos`], [`floor`], [`to_degrees`], [`copysign`], [`mul_add`],
+/// [`clamp`], [`all`]) and the index methods (`T::int`, `T::gather`, ...) directly.
+pub trait Arith:
     Copy
     + Add<Output = Self>
     + Sub<Output = Self>
@@ -41,18 +44,26 @@ pub trait Num:
     fn num_le(self, o: Self) -> Self::Mask;
     fn num_lt(self, o: Self) -> Self::Mask;
     fn num_eq(self, o: Self) -> Self::Mask;
-    /// e^x: [`crate::fastmath::exp`] in f32 and lanes, the C library's in f64.
-    fn num_exp(self) -> Self;
-    /// acos x, as [`Num::num_exp`]: [`crate::fastmath::acos`] in f32.
-    fn num_acos(self) -> Self;
-    /// x^y, as [`Num::num_exp`]: [`crate::fastmath::powf`] in f32.
-    fn num_powf(self, y: Self) -> Self;
     /// The square root (IEEE, as `f32::sqrt`).
     fn num_sqrt(self) -> Self;
     /// Neither infinite nor NaN.
     fn num_is_finite(self) -> Self::Mask;
     /// |x|.
     fn num_abs(self) -> Self;
+    /// Whether the condition holds everywhere (every lane).
+    fn mask_all(m: Self::Mask) -> bool;
+}
+
+/// A number a formula is written over: one f32 or f64, or [`f32xn`] lanes; [`Arith`]'s
+/// operations and the elementary functions, and [`Num::Int`], the index type of table
+/// lookups (i32, or i32 lanes), with gathers from f32 tables.
+pub trait Num: Arith {
+    /// e^x: [`crate::fastmath::exp`] in f32 and lanes, the C library's in f64.
+    fn num_exp(self) -> Self;
+    /// acos x, as [`Num::num_exp`]: [`crate::fastmath::acos`] in f32.
+    fn num_acos(self) -> Self;
+    /// x^y, as [`Num::num_exp`]: [`crate::fastmath::powf`] in f32.
+    fn num_powf(self, y: Self) -> Self;
     /// (sin x, cos x) for |x| up to a few pi: [`crate::fastmath::sin_cos_moderate`] in f32
     /// and lanes, the C library's in f64.
     fn num_sin_cos(self) -> (Self, Self);
@@ -106,55 +117,58 @@ pub trait Num:
     fn gather(table: &[f32], i: Self::Int) -> Self;
     /// `table[i..i + 4]` as four values (per lane): a node of a four-channel table.
     fn gather4(table: &[f32], i: Self::Int) -> [Self; 4];
-    /// Whether the condition holds everywhere (every lane).
-    fn mask_all(m: Self::Mask) -> bool;
 }
 
 /// `t` where `m` holds, else `f` (per lane).
 #[inline(always)]
-pub fn select<T: Num>(m: T::Mask, t: T, f: T) -> T {
+pub fn select<T: Arith>(m: T::Mask, t: T, f: T) -> T {
     T::num_select(m, t, f)
 }
 /// The smaller of `a` and `b` (per lane, `wide`'s rule in every form: `a` where `b` is NaN,
 /// else `b` where `a` is NaN or the two are equal).
 #[inline(always)]
-pub fn minimum<T: Num>(a: T, b: T) -> T {
+pub fn minimum<T: Arith>(a: T, b: T) -> T {
     a.num_min(b)
 }
 /// The larger of `a` and `b` (as [`minimum`]).
 #[inline(always)]
-pub fn maximum<T: Num>(a: T, b: T) -> T {
+pub fn maximum<T: Arith>(a: T, b: T) -> T {
     a.num_max(b)
 }
 /// `a <= b`.
 #[inline(always)]
-pub fn le<T: Num>(a: T, b: T) -> T::Mask {
+pub fn le<T: Arith>(a: T, b: T) -> T::Mask {
     a.num_le(b)
 }
 /// `a < b`.
 #[inline(always)]
-pub fn lt<T: Num>(a: T, b: T) -> T::Mask {
+pub fn lt<T: Arith>(a: T, b: T) -> T::Mask {
     a.num_lt(b)
 }
 /// `a > b`.
 #[inline(always)]
-pub fn gt<T: Num>(a: T, b: T) -> T::Mask {
+pub fn gt<T: Arith>(a: T, b: T) -> T::Mask {
     b.num_lt(a)
 }
-/// Neither infinite nor NaN ([`Num::num_is_finite`]).
+/// `a >= b`.
 #[inline(always)]
-pub fn is_finite<T: Num>(x: T) -> T::Mask {
+pub fn ge<T: Arith>(a: T, b: T) -> T::Mask {
+    b.num_le(a)
+}
+/// Neither infinite nor NaN ([`Arith::num_is_finite`]).
+#[inline(always)]
+pub fn is_finite<T: Arith>(x: T) -> T::Mask {
     x.num_is_finite()
 }
 /// `x` clamped to [`lo`, `hi`], NaN staying NaN (as `f32::clamp`).
 #[inline(always)]
-pub fn clamp<T: Num>(x: T, lo: T, hi: T) -> T {
+pub fn clamp<T: Arith>(x: T, lo: T, hi: T) -> T {
     let x = select(lt(x, lo), lo, x);
     select(gt(x, hi), hi, x)
 }
 /// |x|.
 #[inline(always)]
-pub fn abs<T: Num>(x: T) -> T {
+pub fn abs<T: Arith>(x: T) -> T {
     x.num_abs()
 }
 /// (sin x, cos x) ([`Num::num_sin_cos`]).
@@ -174,7 +188,7 @@ pub fn atan2<T: Num>(y: T, x: T) -> T {
 }
 /// `a == b`.
 #[inline(always)]
-pub fn eq<T: Num>(a: T, b: T) -> T::Mask {
+pub fn eq<T: Arith>(a: T, b: T) -> T::Mask {
     a.num_eq(b)
 }
 /// e^x ([`Num::num_exp`]).
@@ -187,9 +201,9 @@ pub fn exp<T: Num>(x: T) -> T {
 pub fn acos<T: Num>(x: T) -> T {
     x.num_acos()
 }
-/// The square root ([`Num::num_sqrt`]).
+/// The square root ([`Arith::num_sqrt`]).
 #[inline(always)]
-pub fn sqrt<T: Num>(x: T) -> T {
+pub fn sqrt<T: Arith>(x: T) -> T {
     x.num_sqrt()
 }
 /// x^y ([`Num::num_powf`]).
@@ -222,15 +236,15 @@ pub fn to_degrees<T: Num>(x: T) -> T {
 pub fn floor<T: Num>(x: T) -> T {
     x.num_floor()
 }
-/// Whether `m` holds in every lane ([`Num::mask_all`]).
+/// Whether `m` holds in every lane ([`Arith::mask_all`]).
 #[inline(always)]
-pub fn all<T: Num>(m: T::Mask) -> bool {
+pub fn all<T: Arith>(m: T::Mask) -> bool {
     T::mask_all(m)
 }
 
 macro_rules! scalar_num {
     ($t:ty, exp: $exp:path, powf: $powf:path, acos: $acos:path, sin_cos: $sin_cos:path, atan2: $atan2:path, asin: $asin:path, ln: $ln:path, degrees: $deg:expr) => {
-        impl Num for $t {
+        impl Arith for $t {
             type Mask = bool;
             #[inline(always)]
             fn of(x: f64) -> Self {
@@ -265,18 +279,6 @@ macro_rules! scalar_num {
                 self == o
             }
             #[inline(always)]
-            fn num_exp(self) -> Self {
-                $exp(self)
-            }
-            #[inline(always)]
-            fn num_acos(self) -> Self {
-                $acos(self)
-            }
-            #[inline(always)]
-            fn num_powf(self, y: Self) -> Self {
-                $powf(self, y)
-            }
-            #[inline(always)]
             fn num_sqrt(self) -> Self {
                 self.sqrt()
             }
@@ -287,6 +289,24 @@ macro_rules! scalar_num {
             #[inline(always)]
             fn num_abs(self) -> Self {
                 <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn mask_all(m: bool) -> bool {
+                m
+            }
+        }
+        impl Num for $t {
+            #[inline(always)]
+            fn num_exp(self) -> Self {
+                $exp(self)
+            }
+            #[inline(always)]
+            fn num_acos(self) -> Self {
+                $acos(self)
+            }
+            #[inline(always)]
+            fn num_powf(self, y: Self) -> Self {
+                $powf(self, y)
             }
             #[inline(always)]
             fn num_sin_cos(self) -> (Self, Self) {
@@ -367,10 +387,6 @@ macro_rules! scalar_num {
                 let r = &table[i..i + 4];
                 [r[0] as $t, r[1] as $t, r[2] as $t, r[3] as $t]
             }
-            #[inline(always)]
-            fn mask_all(m: bool) -> bool {
-                m
-            }
         }
     };
 }
@@ -399,36 +415,61 @@ scalar_num!(
     degrees: f64::to_degrees
 );
 
+// One code for both widths of lanes (the BVH8 leaf blocks are eight wide in every build).
+macro_rules! lane_arith {
+    ($($t:ty),*) => {$(
+        impl Arith for $t {
+            type Mask = $t;
+            #[inline(always)]
+            fn of(x: f64) -> Self {
+                <$t>::splat(x as f32)
+            }
+            #[inline(always)]
+            fn num_select(m: Self, t: Self, f: Self) -> Self {
+                wide::Select::<$t>::select(m, t, f)
+            }
+            #[inline(always)]
+            fn num_min(self, o: Self) -> Self {
+                self.min(o)
+            }
+            #[inline(always)]
+            fn num_max(self, o: Self) -> Self {
+                self.max(o)
+            }
+            #[inline(always)]
+            fn num_le(self, o: Self) -> Self {
+                self.simd_le(o)
+            }
+            #[inline(always)]
+            fn num_lt(self, o: Self) -> Self {
+                self.simd_lt(o)
+            }
+            #[inline(always)]
+            fn num_eq(self, o: Self) -> Self {
+                self.simd_eq(o)
+            }
+            #[inline(always)]
+            fn num_sqrt(self) -> Self {
+                self.sqrt()
+            }
+            #[inline(always)]
+            fn num_is_finite(self) -> Self {
+                <$t>::is_finite(self)
+            }
+            #[inline(always)]
+            fn num_abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn mask_all(m: Self) -> bool {
+                m.all()
+            }
+        }
+    )*};
+}
+lane_arith!(wide::f32x8, wide::f32x16);
+
 impl Num for f32xn {
-    type Mask = f32xn;
-    #[inline(always)]
-    fn of(x: f64) -> Self {
-        f32xn::splat(x as f32)
-    }
-    #[inline(always)]
-    fn num_select(m: Self, t: Self, f: Self) -> Self {
-        crate::simd::sel(m, t, f)
-    }
-    #[inline(always)]
-    fn num_min(self, o: Self) -> Self {
-        self.min(o)
-    }
-    #[inline(always)]
-    fn num_max(self, o: Self) -> Self {
-        self.max(o)
-    }
-    #[inline(always)]
-    fn num_le(self, o: Self) -> Self {
-        self.simd_le(o)
-    }
-    #[inline(always)]
-    fn num_lt(self, o: Self) -> Self {
-        self.simd_lt(o)
-    }
-    #[inline(always)]
-    fn num_eq(self, o: Self) -> Self {
-        self.simd_eq(o)
-    }
     #[inline(always)]
     fn num_exp(self) -> Self {
         crate::fastmath::exp(self)
@@ -440,18 +481,6 @@ impl Num for f32xn {
     #[inline(always)]
     fn num_powf(self, y: Self) -> Self {
         crate::fastmath::powf(self, y)
-    }
-    #[inline(always)]
-    fn num_sqrt(self) -> Self {
-        self.sqrt()
-    }
-    #[inline(always)]
-    fn num_is_finite(self) -> Self {
-        f32xn::is_finite(self)
-    }
-    #[inline(always)]
-    fn num_abs(self) -> Self {
-        f32xn::abs(self)
     }
     #[inline(always)]
     fn num_sin_cos(self) -> (Self, Self) {
@@ -541,10 +570,6 @@ impl Num for f32xn {
     fn num_copysign(self, sign: Self) -> Self {
         let bit = crate::simd::u32xn::splat(0x8000_0000);
         f32xn::from_bits((self.to_bits() & !bit) | (sign.to_bits() & bit))
-    }
-    #[inline(always)]
-    fn mask_all(m: Self) -> bool {
-        m.all()
     }
 }
 
@@ -689,8 +714,8 @@ impl Real for f64 {
     }
 }
 
-/// A 3-vector over a [`Num`]: one f32 or f64 vector, or [`crate::simd::Vec3xN`] (lanes of
-/// vectors, one component per register).
+/// A 3-vector over an [`Arith`]: one f32 or f64 vector, or lanes of vectors, one component
+/// per register ([`crate::simd::Vec3xN`], and the geometry kernels' rays and leaf blocks).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct V3<T> {
     pub x: T,
@@ -698,7 +723,7 @@ pub struct V3<T> {
     pub z: T,
 }
 
-impl<T: Num> V3<T> {
+impl<T: Arith> V3<T> {
     #[inline(always)]
     pub fn new(x: T, y: T, z: T) -> Self {
         Self { x, y, z }
@@ -757,28 +782,36 @@ impl<T: Real> V3<T> {
     }
 }
 
-impl<T: Num> Add for V3<T> {
+impl<T: Arith> Add for V3<T> {
     type Output = Self;
     #[inline(always)]
     fn add(self, o: Self) -> Self {
         Self::new(self.x + o.x, self.y + o.y, self.z + o.z)
     }
 }
-impl<T: Num> Sub for V3<T> {
+impl<T: Arith> Sub for V3<T> {
     type Output = Self;
     #[inline(always)]
     fn sub(self, o: Self) -> Self {
         Self::new(self.x - o.x, self.y - o.y, self.z - o.z)
     }
 }
-impl<T: Num> Mul<T> for V3<T> {
+impl<T: Arith> Mul<T> for V3<T> {
     type Output = Self;
     #[inline(always)]
     fn mul(self, s: T) -> Self {
         Self::new(self.x * s, self.y * s, self.z * s)
     }
 }
-impl<T: Num> Neg for V3<T> {
+impl<T: Arith> Div<T> for V3<T> {
+    type Output = Self;
+    /// Each component divided by `s` (as glam's `Vec3 / f32`).
+    #[inline(always)]
+    fn div(self, s: T) -> Self {
+        Self::new(self.x / s, self.y / s, self.z / s)
+    }
+}
+impl<T: Arith> Neg for V3<T> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {

@@ -24,13 +24,12 @@
 //! [`rows4`], [`vec2s`], [`vec3s`], [`write_vec3s`], [`arrays3`]), per-lane select and
 //! clamp ([`sel`], [`clamp`]), masks ([`MaskN`], [`mask_from_bools`], [`mask_bits`],
 //! [`ALL_LANES`]), [`gather`], [`float_of`], [`fmadd`], the small types [`Vec3xN`] and
-//! [`RgbxN`], and [`FloatLanes`] (the operations of kernels written for either vector
-//! width).
+//! [`RgbxN`]. The arithmetic of lanes of either width is [`crate::math::Arith`]'s.
 
 use crate::Rgb;
 use crate::math::V3;
 use glam::{Vec2, Vec3};
-use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
+use std::ops::Mul;
 
 #[cfg(target_feature = "avx512f")]
 mod width {
@@ -45,87 +44,6 @@ mod width {
     pub const LANES: usize = 8;
 }
 pub use width::{LANES, f32xn, i32xn, u32xn};
-
-/// An f32 vector of either width `wide` offers on x86 (`f32x8`, `f32x16`), with the
-/// operations of kernels that serve two batch shapes: the renderer's ray-primitive tests
-/// run [`LANES`] rays against one primitive ([`f32xn`]) and one ray against the eight
-/// primitives of a BVH8 leaf block (`wide::f32x8`), the same code for both. Comparisons
-/// return masks of the same type (all bits set where true), as `wide`'s do.
-pub trait FloatLanes:
-    Copy
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
-    + BitAnd<Output = Self>
-    + BitOr<Output = Self>
-    + Not<Output = Self>
-    + wide::Select<Self>
-{
-    /// `a == b` per lane, as a mask.
-    fn simd_eq(self, o: Self) -> Self;
-    /// `a < b` per lane, as a mask.
-    fn simd_lt(self, o: Self) -> Self;
-    /// `a <= b` per lane, as a mask.
-    fn simd_le(self, o: Self) -> Self;
-    /// `a > b` per lane, as a mask.
-    fn simd_gt(self, o: Self) -> Self;
-    /// `a >= b` per lane, as a mask.
-    fn simd_ge(self, o: Self) -> Self;
-    /// Every lane `x`.
-    fn splat(x: f32) -> Self;
-    /// Square root per lane (IEEE, as `f32::sqrt`).
-    fn sqrt(self) -> Self;
-    /// Absolute value per lane.
-    fn abs(self) -> Self;
-    /// Whether every lane of a mask is set.
-    fn all(self) -> bool;
-}
-
-macro_rules! float_lanes {
-    ($($t:ty),*) => {$(
-        impl FloatLanes for $t {
-            #[inline(always)]
-            fn simd_eq(self, o: Self) -> Self {
-                <$t>::simd_eq(self, o)
-            }
-            #[inline(always)]
-            fn simd_lt(self, o: Self) -> Self {
-                <$t>::simd_lt(self, o)
-            }
-            #[inline(always)]
-            fn simd_le(self, o: Self) -> Self {
-                <$t>::simd_le(self, o)
-            }
-            #[inline(always)]
-            fn simd_gt(self, o: Self) -> Self {
-                <$t>::simd_gt(self, o)
-            }
-            #[inline(always)]
-            fn simd_ge(self, o: Self) -> Self {
-                <$t>::simd_ge(self, o)
-            }
-            #[inline(always)]
-            fn splat(x: f32) -> Self {
-                <$t>::splat(x)
-            }
-            #[inline(always)]
-            fn sqrt(self) -> Self {
-                <$t>::sqrt(self)
-            }
-            #[inline(always)]
-            fn abs(self) -> Self {
-                <$t>::abs(self)
-            }
-            #[inline(always)]
-            fn all(self) -> bool {
-                <$t>::all(self)
-            }
-        }
-    )*};
-}
-float_lanes!(wide::f32x8, wide::f32x16);
 
 /// [`mask_bits`] of a mask with every lane set.
 pub const ALL_LANES: u32 = ((1u64 << LANES) - 1) as u32;
@@ -389,12 +307,6 @@ unsafe fn interleave3_avx512(v: [f32xn; 3], dst: &mut [Vec3]) {
 #[inline(always)]
 pub fn arrays3(v: [f32xn; 3]) -> [[f32; LANES]; 3] {
     [v[0].to_array(), v[1].to_array(), v[2].to_array()]
-}
-
-/// glam's `Vec3::dot` per lane: (a.x b.x + a.y b.y) + a.z b.z.
-#[inline(always)]
-pub fn dot3<T: Copy + Add<Output = T> + Mul<Output = T>>(a: [T; 3], b: [T; 3]) -> T {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// `if m { a } else { b }` per lane (`m` from a comparison), for vectors of any width.

@@ -3,7 +3,7 @@
 //! hits, and the batched forms of these queries that the wavefront integrator calls.
 
 use super::bvh8::Bvh8;
-use super::kernels::RayLanes;
+use super::kernels::{RayLanes, V3};
 use super::{Interaction, Mesh, Ray, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3};
 use lobe_materials::simd;
@@ -201,7 +201,7 @@ impl Geometry {
 
     /// [`Geometry::interaction`] of many hits, appended to `out` in order: hit (i, t, prim)
     /// of ray `rays[i]`. Hits on spheres are computed a lane vector at a time in SIMD lanes
-    /// ([`Sphere::surface_lanes`]: its square roots and divisions are a long dependency chain
+    /// ([`Sphere::surface_of`]: its square roots and divisions are a long dependency chain
     /// per hit), bit for bit the same; other hits one by one.
     pub fn interactions_many(
         &self,
@@ -251,18 +251,12 @@ impl Geometry {
             _ => unreachable!("sphere hits only"),
         });
         // Ray::at: o + d t.
-        let at = [o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t];
-        let (p, nrm, dpdu) = Sphere::surface_lanes(at, [cr[0], cr[1], cr[2]], cr[3]);
-        let (p, nrm, dpdu) = (
-            p.map(|v| v.to_array()),
-            nrm.map(|v| v.to_array()),
-            dpdu.map(|v| v.to_array()),
-        );
+        let (p, nrm, dpdu) = Sphere::surface_of(o + d * t, V3::new(cr[0], cr[1], cr[2]), cr[3]);
+        let (p, nrm, dpdu) = (p.to_array(), nrm.to_array(), dpdu.to_array());
         for (k, &h) in which.iter().enumerate() {
             let (_, t, prim) = hits[h];
             let shape = self.prims.get(prim).shape;
-            let v = |a: &[[f32; LANES]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
-            let nk = v(&nrm);
+            let nk = nrm[k];
             let oriented = if self.shapes[shape as usize].flip_normals {
                 -nk
             } else {
@@ -270,10 +264,10 @@ impl Geometry {
             };
             out[h] = Interaction {
                 t,
-                p: v(&p),
+                p: p[k],
                 ng: oriented,
                 ns: oriented,
-                dpdu: v(&dpdu),
+                dpdu: dpdu[k],
                 uv: Vec2::ZERO,
                 shape,
                 prim,
@@ -296,8 +290,8 @@ impl Geometry {
             [r.d.y, r.d.z, r.tmin, r.tmax]
         });
         let lanes = RayLanes {
-            o: [a[0], a[1], a[2]],
-            d: [a[3], b[0], b[1]],
+            o: V3::new(a[0], a[1], a[2]),
+            d: V3::new(a[3], b[0], b[1]),
             tmin: b[2],
             tmax: b[3],
         };

@@ -15,7 +15,7 @@
 //! bytes per leaf block, reported by [`Bvh8::memory_bytes`].
 
 use super::Ray;
-use super::kernels::{self, RayLanes};
+use super::kernels::{self, RayLanes, V3};
 use super::primitive::PrimSource;
 #[cfg(doc)]
 use super::{Rectangle, Sphere, Triangle};
@@ -23,12 +23,13 @@ use lobe_materials::simd::sel;
 use std::mem::MaybeUninit;
 use wide::{f32x8, u32x8};
 
-/// Lanes of a node or a leaf block.
-pub(super) const LANES: usize = 8;
+/// Children of a node, and primitives of a leaf block: eight f32 lanes (`f32x8`) in every
+/// build, whatever the lane count of the batched stages ([`lobe_materials::simd::LANES`]).
+pub(super) const WIDTH: usize = 8;
 /// Traversal stack entries: a node pops one entry and pushes at most eight, so a tree of
 /// depth d needs at most 7 d + 1; [`Bvh8::build`] refuses deeper trees.
 const STACK: usize = 256;
-pub(super) const MAX_DEPTH: usize = (STACK - 1) / (LANES - 1);
+pub(super) const MAX_DEPTH: usize = (STACK - 1) / (WIDTH - 1);
 
 /// Kind of a child reference (its top two bits); the other 30 bits are an index into
 /// `nodes` or into the block array of that kind.
@@ -48,7 +49,7 @@ const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32
 #[repr(C)]
 pub(super) struct Node {
     pub(super) bounds: [[f32x8; 2]; 3],
-    pub(super) child: [u32; LANES],
+    pub(super) child: [u32; WIDTH],
 }
 
 /// Up to eight triangles in lanes (vertex p0 and edges e1, e2 per axis) and their
@@ -56,16 +57,16 @@ pub(super) struct Node {
 #[derive(Clone, Copy)]
 #[repr(C)]
 pub(super) struct TriBlock {
-    pub(super) p0: [f32x8; 3],
-    pub(super) e1: [f32x8; 3],
-    pub(super) e2: [f32x8; 3],
+    pub(super) p0: V3<f32x8>,
+    pub(super) e1: V3<f32x8>,
+    pub(super) e2: V3<f32x8>,
     pub(super) id: u32x8,
 }
 
 #[derive(Clone, Copy)]
 #[repr(C)]
 pub(super) struct SphereBlock {
-    pub(super) center: [f32x8; 3],
+    pub(super) center: V3<f32x8>,
     pub(super) radius: f32x8,
     pub(super) id: u32x8,
 }
@@ -73,10 +74,10 @@ pub(super) struct SphereBlock {
 #[derive(Clone, Copy)]
 #[repr(C)]
 pub(super) struct RectBlock {
-    pub(super) corner: [f32x8; 3],
-    pub(super) n: [f32x8; 3],
-    pub(super) du: [f32x8; 3],
-    pub(super) dv: [f32x8; 3],
+    pub(super) corner: V3<f32x8>,
+    pub(super) n: V3<f32x8>,
+    pub(super) du: V3<f32x8>,
+    pub(super) dv: V3<f32x8>,
     pub(super) id: u32x8,
 }
 
@@ -135,8 +136,8 @@ impl BoxRay {
 
 /// A ray splatted into SIMD lanes for leaf tests, and the primitive it skips.
 struct LaneRay {
-    o: [f32x8; 3],
-    d: [f32x8; 3],
+    o: V3<f32x8>,
+    d: V3<f32x8>,
     tmin: f32x8,
     skip: u32x8,
 }
@@ -254,7 +255,7 @@ impl Bvh8 {
                 false => 0.0,
             }
         };
-        let lanes = |n: &Node, side: usize| -> [[f32; LANES]; 3] {
+        let lanes = |n: &Node, side: usize| -> [[f32; WIDTH]; 3] {
             std::array::from_fn(|a| n.bounds[a][side].to_array())
         };
         let Some(root) = self.nodes.first() else {
@@ -269,7 +270,7 @@ impl Bvh8 {
             .iter()
             .map(|n| {
                 let (lo, hi) = (lanes(n, 0), lanes(n, 1));
-                (0..LANES)
+                (0..WIDTH)
                     .map(|k| half_area(lo.map(|l| l[k]), hi.map(|h| h[k])))
                     .sum::<f64>()
             })

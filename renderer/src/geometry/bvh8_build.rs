@@ -2,7 +2,7 @@
 //! and Bittner, "Parallel Locally-Ordered Clustering for Bounding Volume Hierarchy
 //! Construction", 2018) over the primitives in Morton order, improved by obvhs's
 //! reinsertion pass, every subtree of at most eight primitives a leaf
-//! ([`leaves_of_lanes`]), collapsed top-down into eight-wide nodes: each node keeps opening
+//! ([`leaves_of_small_subtrees`]), collapsed top-down into eight-wide nodes: each node keeps opening
 //! the inner child of largest surface area until it has eight children (Wald et al. 2008,
 //! section 3), and the leaves among a node's children are packed into as few blocks of
 //! eight lanes as fit ([`pack`]: blocks held 5.9 triangles on average, 6.2 packed; the
@@ -16,9 +16,10 @@
 //! two copies of the leaf blocks. The tree is the same whatever the thread count.
 
 use super::bvh8::{
-    Bvh8, INDEX_MASK, INNER, KIND_SHIFT, LANES, MAX_DEPTH, Node, RECTANGLES, RectBlock, SPHERES,
-    SphereBlock, TRIANGLES, TriBlock,
+    Bvh8, INDEX_MASK, INNER, KIND_SHIFT, MAX_DEPTH, Node, RECTANGLES, RectBlock, SPHERES,
+    SphereBlock, TRIANGLES, TriBlock, WIDTH,
 };
+use super::kernels::V3;
 use super::ploc::{COARSE_SHIFT, MortonGrid, morton_sorted, ploc};
 use super::primitive::{PrimKind, PrimShape, PrimSource};
 use super::prims::Prims;
@@ -82,7 +83,7 @@ fn build_with(source: PrimSource, splits: Splits) -> Result<Bvh8, String> {
 /// lanes (triangles, spheres, rectangles).
 pub(super) struct Draft {
     nodes: Vec<Node>,
-    blocks: [Vec<[u32; LANES]>; 3],
+    blocks: [Vec<[u32; WIDTH]>; 3],
     depth: usize,
 }
 
@@ -91,12 +92,15 @@ impl Draft {
     /// mesh) on all cores, into arrays of their final size.
     pub(super) fn finish(self, source: PrimSource) -> Bvh8 {
         let [tris, spheres, rects] = self.blocks;
-        let v3 = |vs: [glam::Vec3; LANES]| [0, 1, 2].map(|a| f32x8::new(vs.map(|v| v[a])));
+        let v3 = |vs: [glam::Vec3; WIDTH]| {
+            let [x, y, z] = [0, 1, 2].map(|a| f32x8::new(vs.map(|v| v[a])));
+            V3::new(x, y, z)
+        };
         Bvh8 {
             nodes: self.nodes,
             tris: fetch(source, &tris, |s, id| {
                 // [p0, e1, e2][axis][lane], filled lane by lane.
-                let mut v = [[[0.0; LANES]; 3]; 3];
+                let mut v = [[[0.0; WIDTH]; 3]; 3];
                 for (lane, p) in s.iter().enumerate() {
                     let PrimShape::Triangle(t) = p else {
                         unreachable!("grouped by kind")
@@ -105,7 +109,10 @@ impl Draft {
                         (v[k][0][lane], v[k][1][lane], v[k][2][lane]) = (p.x, p.y, p.z);
                     }
                 }
-                let [p0, e1, e2] = v.map(|axes| axes.map(f32x8::new));
+                let [p0, e1, e2] = v.map(|axes| {
+                    let [x, y, z] = axes.map(f32x8::new);
+                    V3::new(x, y, z)
+                });
                 TriBlock { p0, e1, e2, id }
             }),
             spheres: fetch(source, &spheres, |s, id| {
@@ -146,7 +153,7 @@ impl Draft {
 
     /// The binary tree over the primitives `ids`, which are in the coarse Morton order of
     /// `grid` ([`morton_order`]; its leaves name them by their index into `source.prims`),
-    /// its subtrees of at most [`LANES`] primitives made leaves ([`leaves_of_lanes`]). The
+    /// its subtrees of at most [`WIDTH`] primitives made leaves ([`leaves_of_small_subtrees`]). The
     /// order is first refined to the grid's fine codes ([`refined_order`]), which PLOC
     /// needs: the coarse grid holds several primitives per cell.
     fn binary(
@@ -162,7 +169,7 @@ impl Draft {
         let sorted: Vec<Aabb> = order.iter().map(|&k| boxes[k as usize]).collect();
         drop(boxes);
         let mut bvh2 = binary_tree(&sorted, splits, suspect);
-        leaves_of_lanes(&mut bvh2);
+        leaves_of_small_subtrees(&mut bvh2);
         for p in &mut bvh2.primitive_indices {
             *p = ids[order[*p as usize] as usize];
         }
@@ -433,7 +440,7 @@ impl Draft {
                 .map(|(i, &c)| (i, bvh2.nodes[c].aabb().half_area()))
                 .filter(|&(i, _)| {
                     let l = bvh2.nodes[children[i]].first_index as usize;
-                    used - 1 + slots(l) + slots(l + 1) <= LANES
+                    used - 1 + slots(l) + slots(l + 1) <= WIDTH
                 })
                 .max_by(|a, b| a.1.total_cmp(&b.1));
             let Some((i, _)) = pick else {
@@ -492,7 +499,7 @@ impl Draft {
     fn empty_node() -> Node {
         Node {
             bounds: [[f32x8::splat(f32::INFINITY), f32x8::splat(f32::NEG_INFINITY)]; 3],
-            child: [0; LANES],
+            child: [0; WIDTH],
         }
     }
 
@@ -511,7 +518,7 @@ impl Draft {
     /// Records one leaf block of primitives of one kind (at most eight; unused lanes repeat
     /// the last primitive; [`Draft::finish`] fetches their data) and returns its reference.
     pub(super) fn leaf_block(&mut self, kind: u32, ids: &[u32]) -> u32 {
-        debug_assert!(!ids.is_empty() && ids.len() <= LANES);
+        debug_assert!(!ids.is_empty() && ids.len() <= WIDTH);
         let blocks = &mut self.blocks[kind as usize - 1];
         blocks.push(std::array::from_fn(|k| ids[k.min(ids.len() - 1)]));
         (kind << KIND_SHIFT) | (blocks.len() - 1) as u32
@@ -522,8 +529,8 @@ impl Draft {
 /// from its primitives' data and ids, on all cores into an array of its final size.
 fn fetch<B: Send>(
     source: PrimSource,
-    blocks: &[[u32; LANES]],
-    make: impl Fn([PrimShape; LANES], u32x8) -> B + Sync,
+    blocks: &[[u32; WIDTH]],
+    make: impl Fn([PrimShape; WIDTH], u32x8) -> B + Sync,
 ) -> Vec<B> {
     use rayon::prelude::*;
     blocks
@@ -550,7 +557,7 @@ fn pack(mut leaves: Vec<Leaf>) -> Vec<Leaf> {
     for leaf in leaves {
         let room = blocks
             .iter_mut()
-            .find(|b| b.kind == leaf.kind && b.ids.len() + leaf.ids.len() <= LANES);
+            .find(|b| b.kind == leaf.kind && b.ids.len() + leaf.ids.len() <= WIDTH);
         match room {
             Some(b) => {
                 b.ids.extend_from_slice(&leaf.ids);
@@ -664,17 +671,17 @@ fn median_splits(boxes: &[Aabb]) -> Bvh2 {
     }
 }
 
-/// Makes every subtree of `bvh2` that holds at most [`LANES`] primitives, and is not
+/// Makes every subtree of `bvh2` that holds at most [`WIDTH`] primitives, and is not
 /// inside a smaller such subtree, one leaf, its primitives in depth-first order (left
 /// first). A leaf block tests its eight lanes in one SIMD step, so such a leaf always costs
 /// less than the subtree: this is the SAH leaf collapse (as obvhs and madmann91's bvh run
-/// it) at a traversal cost of [`LANES`] or more, where every collapse pays. (At obvhs's
+/// it) at a traversal cost of [`WIDTH`] or more, where every collapse pays. (At obvhs's
 /// default cost of 3, for scalar leaves, the million-triangle bench's leaf blocks and nodes
 /// took 93 MB rather than 70, and its incoherent closest-hit queries were 20 % slower.)
 /// obvhs's collapse at cost 12 makes the same leaves; this one skips its copies of the
 /// whole tree (the 4M and 16M builds 5-9 % faster). The subtree's inner nodes stay in
 /// `bvh2.nodes`, unreachable.
-fn leaves_of_lanes(bvh2: &mut Bvh2) {
+fn leaves_of_small_subtrees(bvh2: &mut Bvh2) {
     if bvh2.nodes.is_empty() {
         return;
     }
@@ -683,7 +690,7 @@ fn leaves_of_lanes(bvh2: &mut Bvh2) {
     let nodes = &mut bvh2.nodes;
     // One post-order walk, left first: each subtree's primitives are appended to `indices`
     // in order, so they are the run from where they started (`start`, [`UNSEEN`] before
-    // the node's children are walked); a subtree of at most LANES becomes a leaf over its
+    // the node's children are walked); a subtree of at most WIDTH becomes a leaf over its
     // run. Inner nodes of a smaller subtree become leaves too, unreachable.
     const UNSEEN: u32 = u32::MAX;
     let mut stack = vec![(0usize, UNSEEN)];
@@ -697,7 +704,7 @@ fn leaves_of_lanes(bvh2: &mut Bvh2) {
         } else if start == UNSEEN {
             let l = n.first_index as usize;
             stack.extend([(i, first), (l + 1, UNSEEN), (l, UNSEEN)]);
-        } else if first - start <= LANES as u32 {
+        } else if first - start <= WIDTH as u32 {
             nodes[i].first_index = start;
             nodes[i].prim_count = first - start;
         }
@@ -835,7 +842,7 @@ mod tests {
             (4.0, 9.0),
             "the union of the boxes"
         );
-        assert!(blocks.iter().all(|b| b.ids.len() <= LANES));
+        assert!(blocks.iter().all(|b| b.ids.len() <= WIDTH));
     }
 
     /// The leaves reachable from the root, in depth-first order (left first), each as its
@@ -856,7 +863,7 @@ mod tests {
     }
 
     #[test]
-    fn leaves_of_lanes_are_the_sah_collapse_at_a_high_traversal_cost() {
+    fn leaves_of_small_subtrees_are_the_sah_collapse_at_a_high_traversal_cost() {
         // Boxes of different sizes scattered in a cube, so that subtrees of every size occur.
         let boxes: Vec<Aabb> = (0..5000u64)
             .map(|i| {
@@ -871,11 +878,11 @@ mod tests {
             .collect();
         let built = binary_tree(&boxes, Splits::Ploc, false);
         let (mut ours, mut theirs) = (built.clone(), built);
-        leaves_of_lanes(&mut ours);
-        obvhs::bvh2::leaf_collapser::collapse(&mut theirs, LANES as u32, 12.0);
+        leaves_of_small_subtrees(&mut ours);
+        obvhs::bvh2::leaf_collapser::collapse(&mut theirs, WIDTH as u32, 12.0);
         let got = leaves(&ours);
         assert_eq!(got, leaves(&theirs));
-        assert!(got.iter().all(|l| !l.is_empty() && l.len() <= LANES));
+        assert!(got.iter().all(|l| !l.is_empty() && l.len() <= WIDTH));
         let mut all: Vec<u32> = got.concat();
         all.sort_unstable();
         assert_eq!(all, (0..5000).collect::<Vec<u32>>());

@@ -5,8 +5,7 @@
 
 use super::Ray;
 use glam::{Vec2, Vec3};
-use lobe_materials::simd;
-use lobe_materials::simd::FloatLanes;
+use lobe_materials::math::{Arith, V3, gt, select, sqrt};
 use std::f32::consts::{PI, TAU};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -47,61 +46,44 @@ impl Sphere {
     }
 
     /// Hit point re-projected onto the surface, outward unit normal and tangent (along
-    /// increasing phi around +z, Mitsuba 3's dp/du).
+    /// increasing phi around +z, Mitsuba 3's dp/du): [`Sphere::surface_of`] of one point.
     #[inline]
     pub fn surface(&self, p_approx: Vec3) -> (Vec3, Vec3, Vec3) {
-        let mut local = p_approx - self.center;
-        let len = local.length();
-        if len > 0.0 {
-            local *= self.radius / len;
-        } else {
-            local = Vec3::new(0.0, 0.0, self.radius);
-        }
-        let n = (local / self.radius).normalize();
-        let p = self.center + local;
-        let dpdu = Vec3::new(-local.y, local.x, 0.0);
-        let dpdu = if dpdu.length_squared() > 0.0 {
-            dpdu.normalize()
-        } else {
-            Vec3::X
-        };
-        (p, n, dpdu)
+        let (p, n, dpdu) = Self::surface_of(V3::from(p_approx), V3::from(self.center), self.radius);
+        (p.into(), n.into(), dpdu.into())
     }
 
-    /// [`Sphere::surface`] of points on spheres in SIMD lanes (centres `c`, radii `r`, one
-    /// per lane), with the same operations: bit for bit the same.
+    /// The re-projected point, outward unit normal and tangent of points `p_approx` near
+    /// spheres of centres `c` and radii `r`, written once for one point (f32) and for
+    /// lanes of them (one sphere per lane). A point at the centre has no direction and
+    /// takes the +z pole; a point on the z axis has no tangent and takes +x.
     #[inline(always)]
-    pub fn surface_lanes<F: FloatLanes>(
-        p_approx: [F; 3],
-        c: [F; 3],
-        r: F,
-    ) -> ([F; 3], [F; 3], [F; 3]) {
-        let (zero, one) = (F::splat(0.0), F::splat(1.0));
-        let local = [p_approx[0] - c[0], p_approx[1] - c[1], p_approx[2] - c[2]];
-        let len = simd::dot3(local, local).sqrt();
+    pub fn surface_of<F: Arith>(p_approx: V3<F>, c: V3<F>, r: F) -> (V3<F>, V3<F>, V3<F>) {
+        let (zero, one) = (F::of(0.0), F::of(1.0));
+        let local = p_approx - c;
+        let len = sqrt(local.dot(local));
         // local *= radius / len where len > 0, else (0, 0, radius).
-        let pos = len.simd_gt(zero);
-        let k = r / len;
-        let local = [
-            simd::sel(pos, local[0] * k, zero),
-            simd::sel(pos, local[1] * k, zero),
-            simd::sel(pos, local[2] * k, r),
-        ];
+        let pos = gt(len, zero);
+        let scaled = local * (r / len);
+        let local = V3::new(
+            select(pos, scaled.x, zero),
+            select(pos, scaled.y, zero),
+            select(pos, scaled.z, r),
+        );
         // (local / radius).normalize(): times 1 / length.
-        let q = [local[0] / r, local[1] / r, local[2] / r];
-        let inv = one / simd::dot3(q, q).sqrt();
-        let n = [q[0] * inv, q[1] * inv, q[2] * inv];
-        let p = [c[0] + local[0], c[1] + local[1], c[2] + local[2]];
+        let q = V3::new(local.x / r, local.y / r, local.z / r);
+        let n = q * (one / sqrt(q.dot(q)));
+        let p = c + local;
         // dpdu = (-local.y, local.x, 0), normalized where not zero, else +x.
-        let u = [-local[1], local[0], zero];
-        let l2 = simd::dot3(u, u);
-        let some = l2.simd_gt(zero);
-        let inv = one / l2.sqrt();
-        let dpdu = [
-            simd::sel(some, u[0] * inv, one),
-            simd::sel(some, u[1] * inv, zero),
-            simd::sel(some, u[2] * inv, zero),
-        ];
+        let u = V3::new(-local.y, local.x, zero);
+        let l2 = u.dot(u);
+        let some = gt(l2, zero);
+        let inv = one / sqrt(l2);
+        let dpdu = V3::new(
+            select(some, u.x * inv, one),
+            select(some, u.y * inv, zero),
+            select(some, u.z * inv, zero),
+        );
         (p, n, dpdu)
     }
 
@@ -123,12 +105,12 @@ impl Sphere {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lobe_materials::simd::{LANES, f32xn};
+    use lobe_materials::simd::{self, LANES, Vec3xN, f32xn};
 
     /// The lane surface equals `surface` bit for bit, including points at the centre
     /// (no direction: the +z pole) and on the z axis (no tangent: +x).
     #[test]
-    fn surface_lanes_is_bit_identical() {
+    fn surface_in_lanes_is_bit_identical() {
         let spheres = [
             Sphere {
                 center: Vec3::new(0.3, -1.2, 2.0),
@@ -158,21 +140,16 @@ mod tests {
                     }
                 }
             });
-            let c = simd::vec3s(&simd::lanes(|k| s[k].center));
+            let c = Vec3xN::from_array(&simd::lanes(|k| s[k].center));
             let r = f32xn::new(simd::lanes(|k| s[k].radius));
-            let (pp, n, u) = Sphere::surface_lanes(simd::vec3s(&p), c, r);
-            let (pp, n, u) = (
-                pp.map(|v| v.to_array()),
-                n.map(|v| v.to_array()),
-                u.map(|v| v.to_array()),
-            );
+            let (pp, n, u) = Sphere::surface_of(Vec3xN::from_array(&p), c, r);
+            let (pp, n, u) = (pp.to_array(), n.to_array(), u.to_array());
             for k in 0..LANES {
                 let (ep, en, eu) = s[k].surface(p[k]);
-                let v = |a: &[[f32; LANES]; 3]| [a[0][k], a[1][k], a[2][k]].map(f32::to_bits);
                 let b = |w: Vec3| w.to_array().map(f32::to_bits);
-                assert_eq!(v(&pp), b(ep), "point, lane {k} of round {round}");
-                assert_eq!(v(&n), b(en), "normal, lane {k} of round {round}");
-                assert_eq!(v(&u), b(eu), "tangent, lane {k} of round {round}");
+                assert_eq!(b(pp[k]), b(ep), "point, lane {k} of round {round}");
+                assert_eq!(b(n[k]), b(en), "normal, lane {k} of round {round}");
+                assert_eq!(b(u[k]), b(eu), "tangent, lane {k} of round {round}");
             }
         }
     }

@@ -16,9 +16,9 @@ use crate::settings::Integrator;
 use crate::{Rgb, geometry::Ray, sampler::Sampler};
 use glam::Vec3;
 use lobe_materials::Bsdf;
-use lobe_materials::frame::Frame;
+use lobe_materials::frame::{Frame, tangent_axes, to_local};
 use lobe_materials::simd;
-use lobe_materials::simd::{LANES, f32xn};
+use lobe_materials::simd::{LANES, Vec3xN};
 
 impl Integrator {
     /// Radiance along a camera ray.
@@ -109,10 +109,10 @@ impl<'a> Shading<'a> {
 
 /// [`Shading::new`]'s frames and local outgoing directions for up to `LANES` hits at once
 /// (shading normals `ns`, tangents `dpdu`, ray directions `d`), bit for bit the same: the
-/// arithmetic of [`Frame::from_normal_tangent`], `to_local` and `normalize` in SIMD lanes;
-/// lanes whose tangent is degenerate take the scalar fallback. Writes the frames' `s` and
-/// `t` (their `n` is `ns`) and the directions of lanes `0..wo.len()` to `s`, `t` and `wo`.
-pub(crate) fn shading_xn(
+/// lane instantiation of [`tangent_axes`] and [`to_local`], normalized as glam does; lanes
+/// whose tangent is degenerate take the scalar fallback. Writes the frames' `s` and `t`
+/// (their `n` is `ns`) and the directions of lanes `0..wo.len()` to `s`, `t` and `wo`.
+pub(crate) fn shading_lanes(
     ns: [Vec3; LANES],
     dpdu: [Vec3; LANES],
     d: [Vec3; LANES],
@@ -120,30 +120,19 @@ pub(crate) fn shading_xn(
     out_t: &mut [Vec3],
     out_wo: &mut [Vec3],
 ) {
-    let dot = simd::dot3;
-    let (n, u, dir) = (simd::vec3s(&ns), simd::vec3s(&dpdu), simd::vec3s(&d));
-    // s = dpdu - n (n . dpdu), normalized by division; t = n x s (glam's cross).
-    let nd = dot(n, u);
-    let s = [u[0] - n[0] * nd, u[1] - n[1] * nd, u[2] - n[2] * nd];
-    let len2 = dot(s, s);
-    let len = len2.sqrt();
-    let s = [s[0] / len, s[1] / len, s[2] / len];
-    let t = [
-        n[1] * s[2] - s[1] * n[2],
-        n[2] * s[0] - s[2] * n[0],
-        n[0] * s[1] - s[0] * n[1],
-    ];
-    // wo = to_local(-d), normalized as glam does (times 1 / length).
-    let w = [-dir[0], -dir[1], -dir[2]];
-    let wl = [dot(w, s), dot(w, t), dot(w, n)];
-    let inv = f32xn::splat(1.0) / dot(wl, wl).sqrt();
-    let wl = [wl[0] * inv, wl[1] * inv, wl[2] * inv];
-    simd::write_vec3s(s, out_s);
-    simd::write_vec3s(t, out_t);
-    simd::write_vec3s(wl, out_wo);
-    let l2 = len2.to_array();
+    let (n, u, dir) = (
+        Vec3xN::from_array(&ns),
+        Vec3xN::from_array(&dpdu),
+        Vec3xN::from_array(&d),
+    );
+    let (s, t, usable) = tangent_axes(n, u);
+    let wo = to_local(s, t, n, -dir).unit();
+    simd::write_vec3s(s.into(), out_s);
+    simd::write_vec3s(t.into(), out_t);
+    simd::write_vec3s(wo.into(), out_wo);
+    let usable = simd::mask_bits(usable);
     for i in 0..out_wo.len() {
-        if !(l2[i] > 1e-12) || !l2[i].is_finite() {
+        if usable >> i & 1 == 0 {
             let frame = Frame::from_normal_tangent(ns[i], dpdu[i]);
             (out_s[i], out_t[i]) = (frame.s, frame.t);
             out_wo[i] = frame.to_local(-d[i]).normalize();
@@ -197,7 +186,7 @@ mod tests {
     /// `-d` bit for bit, including lanes with a degenerate tangent (zero, along the normal,
     /// NaN), which take the scalar fallback.
     #[test]
-    fn shading_xn_is_bit_identical() {
+    fn shading_lanes_is_bit_identical() {
         let v = |k: usize, a: f32| {
             let t = k as f32 * a;
             Vec3::new(t.sin(), (1.7 * t).cos(), (0.3 * t).sin() + 0.2).normalize()
@@ -212,7 +201,7 @@ mod tests {
             });
             let d = simd::lanes(|i| -v(round * LANES + i, 0.53));
             let [mut fs, mut ft, mut wo] = [[Vec3::ZERO; LANES]; 3];
-            shading_xn(ns, dpdu, d, &mut fs, &mut ft, &mut wo);
+            shading_lanes(ns, dpdu, d, &mut fs, &mut ft, &mut wo);
             for i in 0..LANES {
                 let f = Frame::from_normal_tangent(ns[i], dpdu[i]);
                 let w = f.to_local(-d[i]).normalize();

@@ -26,7 +26,7 @@
 //! paths start together and each bounce moves them on by one, so they share their depth
 //! and their sampler dimension, drawn for all at once ([`Sampler::next_1d_lanes`]).
 
-use super::{shading_xn, shadow_ray};
+use super::{shading_lanes, shadow_ray};
 use crate::Rgb;
 use crate::camera::Camera;
 use crate::geometry::{Interaction, Ray, spawn_ray};
@@ -371,7 +371,7 @@ impl Wavefront {
     }
 
     /// Shading frames and outgoing directions of the scattering hits (a lane vector at a time in
-    /// SIMD lanes: [`shading_xn`]), the sampler dimensions of this bounce for all of them
+    /// SIMD lanes: [`shading_lanes`]), the sampler dimensions of this bounce for all of them
     /// (light choice and point, BSDF lobe and direction), and the hits grouped by
     /// material.
     pub fn scatter_setup(&mut self, scene: &Scene, sampler: &mut Sampler) {
@@ -385,7 +385,7 @@ impl Wavefront {
             .zip(s.wo.chunks_mut(LANES));
         for (((ic, pc), (fs, ft)), wo) in chunks {
             let n = ic.len();
-            shading_xn(
+            shading_lanes(
                 simd::lanes(|k| ic[k.min(n - 1)].ns),
                 simd::lanes(|k| ic[k.min(n - 1)].dpdu),
                 simd::lanes(|k| p.ray[pc[k.min(n - 1)] as usize].d),
