@@ -12,6 +12,7 @@
 
 use crate::geometry::Ray;
 use glam::{Mat4, Vec2, Vec3};
+use lobe_materials::math::{Arith, V3, sqrt};
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, f32xn};
 
@@ -129,13 +130,8 @@ impl Camera {
                 aspect,
                 near_clip,
             } => {
-                let x = (1.0 - 2.0 * s.x) * tan_half;
-                let y = (1.0 - 2.0 * s.y) * tan_half / aspect;
-                // Camera-space direction (x, y, 1): its length sets the near-plane distance.
-                let len = (x * x + y * y + 1.0).sqrt();
-                let d = to_world.transform_vector3(Vec3::new(x, y, 1.0)).normalize();
-                let o = to_world.w_axis.truncate();
-                Ray::new(o + d * (near_clip * len), d)
+                let (o, d) = perspective_ray(to_world, *tan_half, *aspect, *near_clip, s.x, s.y);
+                Ray::new(o.into(), d.into())
             }
             Camera::Orthographic {
                 to_world,
@@ -197,48 +193,48 @@ impl Camera {
             out.extend(jitter.iter().map(|&j| self.ray((pixel + j) * inv)));
             return;
         };
-        let one = f32xn::splat(1.0);
-        let two = f32xn::splat(2.0);
-        let tan_half = f32xn::splat(*tan_half);
-        let o = to_world.w_axis.truncate();
-        let axis = |c: usize| {
-            [
-                f32xn::splat(to_world.x_axis[c]),
-                f32xn::splat(to_world.y_axis[c]),
-                f32xn::splat(to_world.z_axis[c]),
-            ]
-        };
-        let m = [axis(0), axis(1), axis(2)];
         for jc in jitter.chunks(LANES) {
             let n = jc.len();
             let j = simd::lanes(|i| jc[i.min(n - 1)]);
-            let sx =
-                (f32xn::splat(pixel.x) + f32xn::new(simd::lanes(|i| j[i].x))) * f32xn::splat(inv.x);
-            let sy =
-                (f32xn::splat(pixel.y) + f32xn::new(simd::lanes(|i| j[i].y))) * f32xn::splat(inv.y);
-            let x = (one - two * sx) * tan_half;
-            let y = (one - two * sy) * tan_half / f32xn::splat(*aspect);
-            let len = (x * x + y * y + one).sqrt();
-            // glam's Mat4::transform_vector3 then Vec3::normalize, per lane.
-            let t = |r: &[f32xn; 3]| r[1] * y + r[0] * x + r[2];
-            let d = [t(&m[0]), t(&m[1]), t(&m[2])];
-            let inv_len = one / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let d = [d[0] * inv_len, d[1] * inv_len, d[2] * inv_len];
-            let s = f32xn::splat(*near_clip) * len;
-            let org = [
-                f32xn::splat(o.x) + d[0] * s,
-                f32xn::splat(o.y) + d[1] * s,
-                f32xn::splat(o.z) + d[2] * s,
-            ];
-            let (d, org) = (simd::arrays3(d), simd::arrays3(org));
+            let film = |p: f32, j: [f32; LANES], inv: f32| {
+                (f32xn::splat(p) + f32xn::new(j)) * f32xn::splat(inv)
+            };
+            let sx = film(pixel.x, simd::lanes(|i| j[i].x), inv.x);
+            let sy = film(pixel.y, simd::lanes(|i| j[i].y), inv.y);
+            let (o, d) = perspective_ray(to_world, *tan_half, *aspect, *near_clip, sx, sy);
+            let (o, d) = (simd::arrays3(o.into()), simd::arrays3(d.into()));
             out.extend((0..n).map(|i| {
                 Ray::new(
-                    Vec3::new(org[0][i], org[1][i], org[2][i]),
+                    Vec3::new(o[0][i], o[1][i], o[2][i]),
                     Vec3::new(d[0][i], d[1][i], d[2][i]),
                 )
             }));
         }
     }
+}
+
+/// The origin and unit direction of a perspective camera's ray through film position
+/// (`sx`, `sy`), written once for one ray and lanes of them: the camera-space direction
+/// (x, y, 1), whose length sets the near-plane distance, turned to world space as glam's
+/// `Mat4::transform_vector3` does (the y term, then x, then z) and normalized.
+#[inline(always)]
+fn perspective_ray<T: Arith>(
+    to_world: &Mat4,
+    tan_half: f32,
+    aspect: f32,
+    near_clip: f32,
+    sx: T,
+    sy: T,
+) -> (V3<T>, V3<T>) {
+    let of = |v: f32| T::of(v as f64);
+    let axis = |a: glam::Vec4| V3::new(of(a.x), of(a.y), of(a.z));
+    let (one, two) = (T::of(1.0), T::of(2.0));
+    let x = (one - two * sx) * of(tan_half);
+    let y = (one - two * sy) * of(tan_half) / of(aspect);
+    let len = sqrt(x * x + y * y + one);
+    let d = axis(to_world.y_axis) * y + axis(to_world.x_axis) * x + axis(to_world.z_axis);
+    let d = d.unit();
+    (axis(to_world.w_axis) + d * (of(near_clip) * len), d)
 }
 
 #[cfg(test)]
@@ -291,7 +287,27 @@ mod tests {
         assert_eq!(cams[0].project(Vec3::new(0.3, 1.0, 9.0)), None);
     }
 
-    /// The batched rays (`LANES` perspective rays per SIMD op) equal `ray` bit for bit.
+    /// The perspective ray in glam's operations, as the formula reads: the generic form
+    /// must give it bit for bit.
+    fn glam_ray(cam: &Camera, s: Vec2) -> Ray {
+        let Camera::Perspective {
+            to_world,
+            tan_half,
+            aspect,
+            near_clip,
+        } = cam
+        else {
+            return cam.ray(s);
+        };
+        let x = (1.0 - 2.0 * s.x) * tan_half;
+        let y = (1.0 - 2.0 * s.y) * tan_half / aspect;
+        let len = (x * x + y * y + 1.0).sqrt();
+        let d = to_world.transform_vector3(Vec3::new(x, y, 1.0)).normalize();
+        Ray::new(to_world.w_axis.truncate() + d * (near_clip * len), d)
+    }
+
+    /// The batched rays (`LANES` perspective rays per SIMD op) equal `ray` bit for bit, and
+    /// both equal the formula in glam's operations.
     #[test]
     fn batched_rays_equal_single_rays() {
         let m = look_at(Vec3::new(0.3, 1.0, 5.0), Vec3::new(0.1, -0.2, 0.0), Vec3::Y).unwrap();
@@ -321,11 +337,9 @@ mod tests {
                     cam.rays_many(pixel, &jitter, inv, &mut out);
                     assert_eq!(out.len(), n);
                     for (r, &j) in out.iter().zip(&jitter) {
-                        assert_eq!(
-                            bits(r),
-                            bits(&cam.ray((pixel + j) * inv)),
-                            "{cam:?} {pixel} {j}"
-                        );
+                        let one = cam.ray((pixel + j) * inv);
+                        assert_eq!(bits(r), bits(&one), "{cam:?} {pixel} {j}");
+                        assert_eq!(bits(&one), bits(&glam_ray(cam, (pixel + j) * inv)));
                     }
                 }
             }

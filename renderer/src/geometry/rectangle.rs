@@ -3,6 +3,7 @@
 
 use super::Ray;
 use glam::{Mat4, Vec2, Vec3};
+use lobe_materials::math::{Arith, V3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rectangle {
@@ -91,7 +92,15 @@ impl Rectangle {
     }
 
     pub fn point(&self, uv: Vec2) -> Vec3 {
-        self.corner + self.eu * uv.x + self.ev * uv.y
+        self.point_of(uv.x, uv.y).into()
+    }
+
+    /// The point at (u, v) of [0, 1]^2, `corner + eu u + ev v`, for one point and lanes of
+    /// them.
+    #[inline(always)]
+    pub fn point_of<T: Arith>(&self, u: T, v: T) -> V3<T> {
+        let of = |w: Vec3| V3::new(T::of(w.x as f64), T::of(w.y as f64), T::of(w.z as f64));
+        of(self.corner) + of(self.eu) * u + of(self.ev) * v
     }
 
     pub fn area(&self) -> f32 {

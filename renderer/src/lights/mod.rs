@@ -14,6 +14,7 @@ use crate::geometry::{Interaction, Rectangle, Sphere, Triangle};
 pub use envmap::EnvMap;
 use glam::{Vec2, Vec3};
 use lobe_materials::frame::Frame;
+use lobe_materials::math::{Arith, V3, abs, gt, le, select, sqrt};
 use lobe_materials::sampling::cdf::Discrete1D;
 use lobe_materials::sampling::warp::{
     UNIFORM_SPHERE_PDF, square_to_uniform_cone, square_to_uniform_sphere,
@@ -221,18 +222,12 @@ impl Light {
             }),
             Light::Area { shape, radiance } => {
                 let (q, n, pdf) = shape.sample(p, u)?;
-                let d = q - p;
-                let dist2 = d.length_squared();
+                let (wi, dist2, lit) = toward_emitter(V3::from(p), V3::from(q), V3::from(n));
                 if !(dist2 > 0.0) || !(pdf > 0.0) {
                     return None;
                 }
-                let wi = d / dist2.sqrt();
-                // One-sided emission toward -wi.
-                let li = if n.dot(-wi) > 0.0 {
-                    *radiance
-                } else {
-                    Rgb::ZERO
-                };
+                let wi = wi.into();
+                let li = if lit { *radiance } else { Rgb::ZERO };
                 Some(LightSample {
                     wi,
                     li,
@@ -284,9 +279,9 @@ impl Light {
     }
 }
 
-/// [`Light::sample_li`] of a rectangle emitter for many points, a lane vector at a time in SIMD
-/// lanes with the scalar form's operations ([`Rectangle::point`], the conversion of the
-/// uniform area density to solid angle, the one-sided emission test), bit for bit the same.
+/// [`Light::sample_li`] of a rectangle emitter for many points, a lane vector at a time: the
+/// lane instantiations of [`Rectangle::point_of`], [`area_to_solid_angle`] and
+/// [`toward_emitter`], bit for bit the same.
 fn sample_rectangle_many(
     rect: &Rectangle,
     flip: bool,
@@ -298,11 +293,6 @@ fn sample_rectangle_many(
     let zero = f32xn::splat(0.0);
     let n = Vec3xN::splat(if flip { -rect.n } else { rect.n });
     let area_pdf = f32xn::splat(1.0 / rect.area());
-    let (corner, eu, ev) = (
-        Vec3xN::splat(rect.corner),
-        Vec3xN::splat(rect.eu),
-        Vec3xN::splat(rect.ev),
-    );
     for (c, uc) in u.chunks(LANES).enumerate() {
         let first = LANES * c;
         let len = uc.len();
@@ -312,20 +302,10 @@ fn sample_rectangle_many(
             f32xn::new(simd::lanes(|i| uu[i].y)),
         );
         let pp = Vec3xN::from_array(&simd::lanes(|i| p(first + i.min(len - 1))));
-        // Rectangle::point: corner + eu u + ev v.
-        let q = corner + eu * ux + ev * uy;
-        // area_to_solid_angle(p, q, n, 1 / area).
-        let d = q - pp;
-        let dist2 = d.length_squared();
-        let cos = (n.dot(d) / dist2.sqrt()).abs();
-        let bad = cos.simd_le(zero) | !dist2.simd_gt(zero);
-        let pdf = simd::sel(bad, zero, area_pdf * dist2 / cos);
-        // sample_li: a sample where dist2 > 0 and pdf > 0, lit where n . -wi > 0.
+        let q = rect.point_of(ux, uy);
+        let pdf = area_to_solid_angle(pp, q, n, area_pdf);
+        let (wi, dist2, lit) = toward_emitter(pp, q, n);
         let ok = dist2.simd_gt(zero) & pdf.simd_gt(zero);
-        // d / |d|, a division per component as glam's `Vec3 / f32`.
-        let dist = dist2.sqrt();
-        let wi = Vec3xN::new(d.x / dist, d.y / dist, d.z / dist);
-        let lit = n.dot(-wi).simd_gt(zero);
         let (ok, lit, pdf) = (simd::mask_bits(ok), simd::mask_bits(lit), pdf.to_array());
         let (wi, q) = (wi.to_array(), q.to_array());
         for i in 0..len {
@@ -344,14 +324,36 @@ fn sample_rectangle_many(
     }
 }
 
-fn area_to_solid_angle(p: Vec3, q: Vec3, n: Vec3, area_pdf: f32) -> f32 {
+/// The solid-angle density at `p` of a point `q` (normal `n`) drawn with area density
+/// `area_pdf`: `area_pdf dist^2 / |cos|`, zero where the cosine or the distance vanishes;
+/// for one point and lanes of them.
+#[inline(always)]
+fn area_to_solid_angle<T: Arith>(p: V3<T>, q: V3<T>, n: V3<T>, area_pdf: T) -> T {
+    let zero = T::of(0.0);
     let d = q - p;
     let dist2 = d.length_squared();
-    let cos = (n.dot(d) / dist2.sqrt()).abs();
-    if cos <= 0.0 || !(dist2 > 0.0) {
-        return 0.0;
-    }
-    area_pdf * dist2 / cos
+    let cos = abs(n.dot(d) / sqrt(dist2));
+    select(
+        le(cos, zero) | !gt(dist2, zero),
+        zero,
+        area_pdf * dist2 / cos,
+    )
+}
+
+/// The unit direction from `p` to an emitter's point `q` (a division per component, as
+/// glam's `Vec3 / f32`), the squared distance, and whether the emitter's one-sided normal
+/// `n` faces `p` (emission toward -wi); for one point and lanes of them.
+#[inline(always)]
+fn toward_emitter<T: Arith>(p: V3<T>, q: V3<T>, n: V3<T>) -> (V3<T>, T, T::Mask) {
+    let d = q - p;
+    let dist2 = d.length_squared();
+    let wi = d / sqrt(dist2);
+    (wi, dist2, gt(n.dot(-wi), T::of(0.0)))
+}
+
+/// [`area_to_solid_angle`] of one point.
+fn area_to_solid_angle_at(p: Vec3, q: Vec3, n: Vec3, area_pdf: f32) -> f32 {
+    area_to_solid_angle(V3::from(p), V3::from(q), V3::from(n), area_pdf)
 }
 
 impl AreaShape {
@@ -410,7 +412,7 @@ impl AreaShape {
                     _ => {
                         let n = square_to_uniform_sphere(u);
                         let q = sphere.center + n * sphere.radius;
-                        let pdf = area_to_solid_angle(p, q, n, 1.0 / sphere.area());
+                        let pdf = area_to_solid_angle_at(p, q, n, 1.0 / sphere.area());
                         Some((q, n * sign, pdf))
                     }
                 }
@@ -418,14 +420,14 @@ impl AreaShape {
             AreaShape::Rectangle { rect, flip } => {
                 let q = rect.point(u);
                 let n = if *flip { -rect.n } else { rect.n };
-                Some((q, n, area_to_solid_angle(p, q, n, 1.0 / rect.area())))
+                Some((q, n, area_to_solid_angle_at(p, q, n, 1.0 / rect.area())))
             }
             AreaShape::Mesh { tris, cdf, area } => {
                 let (i, _, ux) = cdf.sample(u.x);
                 let (tri, n) = &tris[i];
                 let b = square_to_uniform_triangle(Vec2::new(ux, u.y));
                 let q = tri.point(b);
-                Some((q, *n, area_to_solid_angle(p, q, *n, 1.0 / area)))
+                Some((q, *n, area_to_solid_angle_at(p, q, *n, 1.0 / area)))
             }
         }
     }
@@ -435,10 +437,10 @@ impl AreaShape {
         match self {
             AreaShape::Sphere { sphere, .. } => match Self::sphere_cone(sphere, p) {
                 Some((cos_max, _)) if cos_max < 0.99999 => uniform_cone_pdf(cos_max),
-                _ => area_to_solid_angle(p, q, n, 1.0 / sphere.area()),
+                _ => area_to_solid_angle_at(p, q, n, 1.0 / sphere.area()),
             },
-            AreaShape::Rectangle { rect, .. } => area_to_solid_angle(p, q, n, 1.0 / rect.area()),
-            AreaShape::Mesh { area, .. } => area_to_solid_angle(p, q, n, 1.0 / area),
+            AreaShape::Rectangle { rect, .. } => area_to_solid_angle_at(p, q, n, 1.0 / rect.area()),
+            AreaShape::Mesh { area, .. } => area_to_solid_angle_at(p, q, n, 1.0 / area),
         }
     }
 }
