@@ -5,7 +5,7 @@
 # Shirley for black-obsidian and red-specular-plastic, whose published He fits have
 # eta = 1, i.e. no specular reflection at all), fitted with
 # four models under each metric (the image metric under builtin:studio and builtin:sunset),
-# rendered and compared under two held-out maps (courtyard, interior).
+# compared by their image errors under two held-out maps (courtyard, interior).
 #
 #   bash scripts/fit-metrics-experiment.sh [WORK_DIR]     (default /tmp/lobe-metric-study)
 #
@@ -27,4 +27,4 @@ nice -n 10 "$lobe" fit compare-metrics "$data"/rgl/*.bsdf "$work"/tables/*.binar
     --models cook-torrance,ward,lafortune,blinn-phong \
     --metrics eq1,log,cube-root,image \
     --test-env "$data/envmaps/courtyard.exr" --test-env "$data/envmaps/interior.exr" \
-    --resolution 2 --size 128 --spp 64 -o "$work/out"
+    --resolution 2 --size 128 --spp 256 -o "$work/out"

@@ -408,29 +408,6 @@ fn draw_polar<DB: DrawingBackend>(
     Ok(())
 }
 
-/// A unit sphere under the environment map `env` (a file, relative to the working folder,
-/// or builtin:studio) seen from 4.5 units down +z with a 30-degree field of view, `size`
-/// pixels square at `spp` samples per pixel (seed 0; path tracing, 3 bounces): the
-/// study's stage for Figures 3 and 6. Its material is set per render
-/// (`scene.shapes[0].material`).
-pub fn sphere_scene(env: &str, size: u32, spp: u32) -> Result<lobe_renderer::scene::Scene, Error> {
-    let here = std::env::current_dir().unwrap_or_default();
-    let scene_v = serde_json::json!({
-        "camera": {"type": "perspective", "fov": 30, "origin": [0, 0, 4.5], "target": [0, 0, 0], "up": [0, 1, 0]},
-        "film": {"width": size, "height": size},
-        "sampler": {"spp": spp, "seed": 0},
-        "integrator": {"type": "path", "max_depth": 3},
-        "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}],
-        "lights": [{"type": "envmap", "file": env}]
-    });
-    lobe_renderer::scene::from_value(
-        &scene_v,
-        "spheres",
-        &here,
-        &lobe_renderer::scene::LoadOptions::with_builtins(),
-    )
-}
-
 /// Figures 3 and 6 with their errors: the unit sphere of [`crate::sphere_errors::Stage`]
 /// under the map `env` (a file or builtin:studio), one column per item (`items[0]` the
 /// measured data): its name centred, its picture (`tile` pixels, the exposure at which

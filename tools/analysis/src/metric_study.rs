@@ -1,22 +1,25 @@
 //! Which fitting metric gives the fits that look right (`lobe fit compare-metrics`): the
 //! study's future work (Ngan et al. 2005 section 7, "a perceptually-based metric would
 //! improve the visual quality of the fits") as an experiment. Every material is fitted with
-//! every model under each metric ([`lobe_materials::fit::metric`]); then each fit and the
-//! measured material are rendered on a sphere ([`crate::figures::sphere_scene`]) under
-//! environment maps the image metric did not fit under, and compared (RMSE, FLIP;
-//! `lobe_renderer::compare`). Fits are kept as reports in `DIR/fits/` (resumable: an
-//! existing report is not refitted), the table in `DIR/metrics.csv` and `DIR/metrics.md`.
+//! every model under each metric ([`lobe_materials::fit::metric`]); then the images of each
+//! fit and of the measured material on a sphere under environment maps the image metric
+//! did not fit under are compared by [`crate::sphere_errors::estimate`]: all of them from
+//! the same samples (common random numbers), each fit's RMSE against the data's image with
+//! its 95 % interval and without the noise's bias, its FLIP, and the map's noise floor. A
+//! metric wins a case only where its RMSE interval lies below every other metric's. Fits
+//! are kept as reports in `DIR/fits/` (resumable: an existing report is not refitted), the
+//! table in `DIR/metrics.csv` and `DIR/metrics.md`.
 
-use crate::figures::sphere_scene;
 use crate::fitting::{FitOptions, data_material_desc, fit_material_with, stem};
+use crate::sphere_errors::{ErrorSettings, Stage, estimate};
+use lobe_materials::Bsdf;
 use lobe_materials::fit::dataset::Dataset;
 use lobe_materials::fit::report::{self, FitReport};
 use lobe_materials::fit::{Metric, Stop};
 use lobe_materials::registry::Registry;
 use lobe_renderer::Error;
-use lobe_renderer::compare::metrics;
-use lobe_renderer::render::{RenderOptions, render};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// What the experiment fits and renders.
 #[derive(Clone, Debug)]
@@ -29,7 +32,8 @@ pub struct MetricStudyConfig {
     pub metrics: Vec<Metric>,
     /// The maps the renders are compared under (not those the image metric fitted under).
     pub test_envs: Vec<String>,
-    /// Render size (pixels square) and samples per pixel (every render has seed 0).
+    /// Image size (pixels square) and the most samples per pixel (mean over the image) of
+    /// the error estimate.
     pub size: u32,
     pub spp: u32,
     /// Output folder.
@@ -45,8 +49,13 @@ pub struct Row {
     pub env: String,
     /// Eq. (1) error, normalized (section 4.1).
     pub eq1_normalized: f64,
+    /// Image RMSE against the data's image (noise bias removed) and its 95 % interval.
     pub rmse: f64,
+    pub ci95: [f64; 2],
     pub flip: f64,
+    /// The largest noise of any fit's difference image under this map (the same for every
+    /// row of the material and map).
+    pub noise_floor: f64,
 }
 
 fn check(config: &MetricStudyConfig) -> Result<(), Error> {
@@ -123,7 +132,7 @@ fn fitted(
 
 /// Runs the experiment: fits every file under every metric (reusing reports already in
 /// `out/fits`), then renders and compares under each test map; `progress` hears a line per
-/// step. Rows in the order material, test map, model, metric.
+/// step. Rows in the order material, test map, metric, model.
 pub fn run(
     registry: &Registry,
     config: &MetricStudyConfig,
@@ -144,28 +153,44 @@ pub fn run(
         let measured = registry
             .create(&data_material_desc(path)?, "data")
             .map_err(|e| Error::file(path.display(), e.to_string()))?;
+        let mut fits: Vec<(Metric, &str, f64, Arc<dyn Bsdf>)> = Vec::new();
+        for (metric, r) in &reports {
+            for (model, fit) in &r.models {
+                let m = registry
+                    .create(&fit.material, model)
+                    .map_err(|e| Error::Other(e.to_string()))?;
+                fits.push((*metric, model, fit.error_normalized, m));
+            }
+        }
+        let reps: Vec<&dyn Bsdf> = std::iter::once(measured.as_ref())
+            .chain(fits.iter().map(|f| f.3.as_ref()))
+            .collect();
+        let material = stem(path);
         for env in &config.test_envs {
-            progress(&format!("{}: rendering under {env}", path.display()));
-            let mut scene = sphere_scene(env, config.size, config.spp)?;
-            scene.shapes[0].material = measured.clone();
-            let (reference, _) = render(&scene, &RenderOptions::default())?;
-            for (metric, r) in &reports {
-                for (model, fit) in &r.models {
-                    scene.shapes[0].material = registry
-                        .create(&fit.material, model)
-                        .map_err(|e| Error::Other(e.to_string()))?;
-                    let (img, _) = render(&scene, &RenderOptions::default())?;
-                    let (m, _) = metrics(&img, &reference, 0.0)?;
-                    rows.push(Row {
-                        material: r.material.clone(),
-                        model: model.clone(),
-                        metric: *metric,
-                        env: stem_of(env),
-                        eq1_normalized: fit.error_normalized,
-                        rmse: m.rmse,
-                        flip: m.flip,
-                    });
-                }
+            progress(&format!("{}: images under {env}", path.display()));
+            let map = crate::fit_images::FitEnvironment::load(env)?;
+            let stage = Stage::sphere(&map.0, config.size);
+            let settings = ErrorSettings {
+                pilot_spp: (config.spp as usize).min(64),
+                max_spp: config.spp as usize,
+                ..ErrorSettings::default()
+            };
+            let est = estimate(&stage, &reps, &settings)?;
+            for ((metric, model, eq1, _), e) in fits.iter().zip(&est.errors[1..]) {
+                rows.push(Row {
+                    material: material.clone(),
+                    model: model.to_string(),
+                    metric: *metric,
+                    env: stem_of(env),
+                    eq1_normalized: *eq1,
+                    rmse: e.rmse,
+                    ci95: e.ci95,
+                    flip: e.flip,
+                    noise_floor: est.noise_floor,
+                });
+            }
+            if stop() {
+                return Err(Error::Other("interrupted".into()));
             }
         }
     }
@@ -174,7 +199,9 @@ pub fn run(
 
 /// Per metric: the mean of RMSE and FLIP relative to the Eq. (1) fit of the same material,
 /// model and map (the geometric mean of the ratios), and how often it gave the lowest of
-/// the metrics' values (wins; ties count for each).
+/// the metrics' values: for RMSE only where its interval lies wholly below every other
+/// metric's (a win the noise cannot have made), for FLIP, which has no interval, the
+/// lowest value (ties count for each).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Summary {
     pub metric: Metric,
@@ -210,7 +237,10 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                     le += (r.eq1_normalized / base.eq1_normalized).ln();
                     n += 1;
                 }
-                rw += usize::from(g.iter().all(|o| r.rmse <= o.rmse));
+                rw += usize::from(
+                    g.iter()
+                        .all(|o| std::ptr::eq(*o, *r) || r.ci95[1] < o.ci95[0]),
+                );
                 fw += usize::from(g.iter().all(|o| r.flip <= o.flip));
             }
             let mean = |s: f64| {
@@ -235,22 +265,33 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
 
 /// The rows as CSV.
 pub fn csv(rows: &[Row]) -> String {
-    let mut s = String::from("material,model,metric,env,eq1_normalized,rmse,flip\n");
+    let mut s = String::from(
+        "material,model,metric,env,eq1_normalized,rmse,rmse_ci95_lo,rmse_ci95_hi,flip,noise_floor\n",
+    );
     for r in rows {
         s += &format!(
-            "{},{},{},{},{:.6e},{:.6e},{:.6e}\n",
-            r.material, r.model, r.metric, r.env, r.eq1_normalized, r.rmse, r.flip
+            "{},{},{},{},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e}\n",
+            r.material,
+            r.model,
+            r.metric,
+            r.env,
+            r.eq1_normalized,
+            r.rmse,
+            r.ci95[0],
+            r.ci95[1],
+            r.flip,
+            r.noise_floor
         );
     }
     s
 }
 
-/// The summary and, per material and model, the RMSE and FLIP of each metric's fit
-/// (averaged over the test maps), as Markdown.
+/// The summary and, per material, map and model, each metric's fit's RMSE with its 95 %
+/// interval and FLIP, under a line giving the map's noise floor, as Markdown.
 pub fn markdown(rows: &[Row]) -> String {
     let sum = summarize(rows);
     let mut s = String::from(
-        "| metric | RMSE / eq1's (geo. mean) | FLIP / eq1's | Eq. (1) error / eq1's | lowest RMSE | lowest FLIP | cases |\n|---|---|---|---|---|---|---|\n",
+        "| metric | RMSE / eq1's (geo. mean) | FLIP / eq1's | Eq. (1) error / eq1's | lowest RMSE (intervals separate) | lowest FLIP | cases |\n|---|---|---|---|---|---|---|\n",
     );
     for m in &sum {
         s += &format!(
@@ -259,35 +300,51 @@ pub fn markdown(rows: &[Row]) -> String {
         );
     }
     let metrics: Vec<Metric> = sum.iter().map(|m| m.metric).collect();
-    s += &format!(
-        "\n| material | model | {} |\n|---|---|{}\n",
+    let header = format!(
+        "| model | {} |\n|---|{}\n",
         metrics
             .iter()
-            .map(|m| format!("{m} RMSE / FLIP"))
+            .map(|m| format!("{m}: RMSE [95 %] / FLIP"))
             .collect::<Vec<_>>()
             .join(" | "),
         "---|".repeat(metrics.len())
     );
-    let mut keys: Vec<(String, String)> = Vec::new();
+    let mut cases: Vec<(&str, &str)> = Vec::new();
     for r in rows {
-        let k = (r.material.clone(), r.model.clone());
-        if !keys.contains(&k) {
-            keys.push(k);
+        if !cases.contains(&(&r.material, &r.env)) {
+            cases.push((&r.material, &r.env));
         }
     }
-    for (mat, model) in keys {
-        s += &format!("| {mat} | {model} |");
-        for &metric in &metrics {
-            let v: Vec<&Row> = rows
-                .iter()
-                .filter(|r| r.material == mat && r.model == model && r.metric == metric)
-                .collect();
-            let n = v.len().max(1) as f64;
-            let rmse = v.iter().map(|r| r.rmse).sum::<f64>() / n;
-            let flip = v.iter().map(|r| r.flip).sum::<f64>() / n;
-            s += &format!(" {rmse:.4} / {flip:.4} |");
+    for (mat, env) in cases {
+        let here: Vec<&Row> = rows
+            .iter()
+            .filter(|r| r.material == mat && r.env == env)
+            .collect();
+        s += &format!(
+            "\n{mat} under {env} (noise floor {:.2e}):\n\n{header}",
+            here[0].noise_floor
+        );
+        let mut models: Vec<&str> = Vec::new();
+        for r in &here {
+            if !models.contains(&r.model.as_str()) {
+                models.push(&r.model);
+            }
         }
-        s.push('\n');
+        for model in models {
+            s += &format!("| {model} |");
+            for &metric in &metrics {
+                match here.iter().find(|r| r.model == model && r.metric == metric) {
+                    Some(r) => {
+                        s += &format!(
+                            " {:.4} [{:.4}, {:.4}] / {:.4} |",
+                            r.rmse, r.ci95[0], r.ci95[1], r.flip
+                        )
+                    }
+                    None => s += " |",
+                }
+            }
+            s.push('\n');
+        }
     }
     s
 }
@@ -314,37 +371,57 @@ mod tests {
             env: "e".into(),
             eq1_normalized: 0.1,
             rmse,
+            ci95: [0.9 * rmse, 1.1 * rmse],
             flip,
+            noise_floor: 1e-3,
         }
     }
 
     #[test]
     fn the_summary_relates_each_metric_to_eq1_and_counts_wins() {
-        let rows = [
+        let mut rows = vec![
             row("ward", Metric::Eq1, 0.2, 0.1),
             row("ward", Metric::Log, 0.1, 0.2),
             row("he", Metric::Eq1, 0.4, 0.1),
             row("he", Metric::Log, 0.1, 0.1),
+            row("lafortune", Metric::Eq1, 0.3, 0.2),
+            row("lafortune", Metric::Log, 0.25, 0.3),
         ];
+        // Lafortune's intervals overlap: no metric wins that case on RMSE.
+        rows[5].ci95 = [0.2, 0.31];
         let s = summarize(&rows);
         assert_eq!(s[0].metric, Metric::Eq1);
         assert_eq!(
             (s[0].rmse_ratio, s[0].rmse_wins, s[0].flip_wins),
-            (1.0, 0, 2)
+            (1.0, 0, 3)
         );
         assert_eq!(s[1].metric, Metric::Log);
-        // Ratios 0.5 and 0.25: geometric mean 0.3536.
-        assert!((s[1].rmse_ratio - 0.125f64.sqrt()).abs() < 1e-12);
-        assert!((s[1].flip_ratio - 2f64.sqrt()).abs() < 1e-12);
-        assert_eq!((s[1].rmse_wins, s[1].flip_wins, s[1].cases), (2, 1, 2));
+        // Ratios 0.5, 0.25 and 0.8333: geometric mean (0.5 * 0.25 * 0.8333)^(1/3).
+        let expected = (0.5f64 * 0.25 * (0.25 / 0.3)).cbrt();
+        assert!((s[1].rmse_ratio - expected).abs() < 1e-12);
+        assert!((s[1].flip_ratio - (2.0f64 * 1.5).cbrt()).abs() < 1e-12);
+        assert_eq!((s[1].rmse_wins, s[1].flip_wins, s[1].cases), (2, 1, 3));
         let md = markdown(&rows);
         assert!(
-            md.contains("| log | 0.354 | 1.414 | 1.000 | 2 | 1 | 2 |"),
+            md.contains(&format!(
+                "| log | {expected:.3} | 1.442 | 1.000 | 2 | 1 | 3 |"
+            )),
             "{md}"
         );
+        assert!(md.contains("m under e (noise floor 1.00e-3):"), "{md}");
         assert!(
-            md.contains("| m | he | 0.4000 / 0.1000 | 0.1000 / 0.1000 |"),
+            md.contains(
+                "| he | 0.4000 [0.3600, 0.4400] / 0.1000 | 0.1000 [0.0900, 0.1100] / 0.1000 |"
+            ),
             "{md}"
+        );
+        let csv = csv(&rows);
+        assert!(
+            csv.lines().nth(1)
+                == Some(
+                    "m,ward,eq1,e,1.000000e-1,2.000000e-1,1.800000e-1,2.200000e-1,1.000000e-1,1.000000e-3"
+                ),
+            "{csv}"
         );
     }
 }

@@ -82,8 +82,9 @@ enum FitSub {
         output: PathBuf,
     },
     /// Which metric's fits render closest to the data: fits each file with each metric
-    /// (reports kept in OUT/fits, reused when rerun), renders a sphere of every fit and of
-    /// the data under held-out maps and writes RMSE and FLIP to OUT/metrics.{csv,md}.
+    /// (reports kept in OUT/fits, reused when rerun), then estimates the image error of every
+    /// fit on a sphere under held-out maps (all images from the same samples) and writes
+    /// RMSE with its 95 % interval, FLIP and the noise floor to OUT/metrics.{csv,md}.
     CompareMetrics(Box<CompareMetricsArgs>),
 }
 
@@ -107,11 +108,12 @@ struct CompareMetricsArgs {
     /// Bin size in degrees of isotropic data.
     #[arg(long, default_value_t = 2.0, value_parser = finite::<f64>)]
     resolution: f64,
-    /// Render size in pixels.
+    /// Image size in pixels.
     #[arg(long, default_value_t = 128)]
     size: u32,
-    /// Samples per pixel of every render.
-    #[arg(long, default_value_t = 64)]
+    /// The most samples per pixel of the error estimate (mean over the image; spent where
+    /// the fits' differences are noisy).
+    #[arg(long, default_value_t = 256)]
     spp: u32,
     /// Output folder.
     #[arg(long, short)]

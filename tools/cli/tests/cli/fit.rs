@@ -351,9 +351,10 @@ fn fit_select_picks_the_cheapest_model_within_tolerance() {
     );
 }
 
-/// `lobe fit compare-metrics`: every metric's fit of every model, rendered under the
-/// held-out map against the data's own render; a model fits its own data best; the fits
-/// are kept and reused when rerun; bad options are one-line errors.
+/// `lobe fit compare-metrics`: every metric's fit of every model, its image error under the
+/// held-out map against the data's image with an interval and the noise floor; a model fits
+/// its own data best, with intervals that separate; the fits are kept and reused when
+/// rerun; bad options are one-line errors.
 #[test]
 fn fit_compare_metrics_renders_each_metrics_fits_against_the_data() {
     let dir = tempfile::tempdir().unwrap();
@@ -417,12 +418,27 @@ fn fit_compare_metrics_renders_each_metrics_fits_against_the_data() {
     };
     for metric in ["eq1", "log"] {
         for (material, own, other) in [("w", "ward", "blinn-phong"), ("b", "blinn-phong", "ward")] {
-            // Eq. (1) error (column 4) near zero for the data's own model; its render
-            // closer to the data's (RMSE, column 5) than the other model's.
+            // Eq. (1) error (column 4) near zero for the data's own model; its image
+            // closer to the data's (RMSE, column 5) than the other model's, the intervals
+            // (columns 6, 7) apart; a positive noise floor (column 9) below the other
+            // model's error.
             assert!(value(material, own, metric, 4) < 1e-3, "{csv}");
             assert!(value(material, other, metric, 4) > 1e-2, "{csv}");
             assert!(
-                value(material, own, metric, 5) < value(material, other, metric, 5),
+                value(material, own, metric, 7) < value(material, other, metric, 6),
+                "{csv}"
+            );
+            for model in [own, other] {
+                let (lo, e, hi) = (
+                    value(material, model, metric, 6),
+                    value(material, model, metric, 5),
+                    value(material, model, metric, 7),
+                );
+                assert!(lo <= e && e <= hi, "{csv}");
+            }
+            let floor = value(material, own, metric, 9);
+            assert!(
+                floor > 0.0 && floor < value(material, other, metric, 5),
                 "{csv}"
             );
         }
