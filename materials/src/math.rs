@@ -5,8 +5,9 @@
 //! branches computes both sides and selects, so its lanes give bit for bit what its scalar
 //! instantiation gives. The transcendental functions are `fastmath`'s in f32 and in lanes
 //! (written once over [`Single`], so that the two agree bit for bit), the C library's in
-//! f64. [`Real`] is the scalar subset (f32, f64) over num-traits' `Float`, and [`V3`] the
-//! one 3-vector.
+//! f64. Its arithmetic, comparisons and `select` are [`Arith`], which lanes of either width
+//! (`f32x8`, `f32x16`) also implement, for the geometry kernels that serve both. [`Real`] is
+//! the scalar subset (f32, f64) over num-traits' `Float`, and [`V3`] the one 3-vector.
 
 use crate::simd::{f32xn, i32xn};
 use num_traits::{Float, FloatConst};

@@ -2,8 +2,8 @@
 //! and Bittner, "Parallel Locally-Ordered Clustering for Bounding Volume Hierarchy
 //! Construction", 2018) over the primitives in Morton order, improved by obvhs's
 //! reinsertion pass, every subtree of at most eight primitives a leaf
-//! ([`leaves_of_small_subtrees`]), collapsed top-down into eight-wide nodes: each node keeps opening
-//! the inner child of largest surface area until it has eight children (Wald et al. 2008,
+//! ([`leaves_of_small_subtrees`]), collapsed top-down into eight-wide nodes: each node keeps
+//! opening the inner child of largest surface area until it has eight children (Wald et al. 2008,
 //! section 3), and the leaves among a node's children are packed into as few blocks of
 //! eight lanes as fit ([`pack`]: blocks held 5.9 triangles on average, 6.2 packed; the
 //! 4M-triangle bench's leaf blocks 216 -> 205 MB).

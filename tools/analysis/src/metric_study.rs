@@ -10,6 +10,7 @@
 //! are kept as reports in `DIR/fits/` (resumable: an existing report is not refitted), the
 //! table in `DIR/metrics.csv` and `DIR/metrics.md`.
 
+use crate::fit_images::FitEnvironment;
 use crate::fitting::{FitOptions, data_material_desc, fit_material_with, stem};
 use crate::sphere_errors::{ErrorSettings, Stage, estimate};
 use lobe_materials::Bsdf;
@@ -21,7 +22,7 @@ use lobe_renderer::Error;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// What the experiment fits and renders.
+/// What the experiment fits and compares.
 #[derive(Clone, Debug)]
 pub struct MetricStudyConfig {
     /// Measured files (MERL, binned, RGL).
@@ -30,7 +31,7 @@ pub struct MetricStudyConfig {
     pub fit: FitOptions,
     /// The metrics compared.
     pub metrics: Vec<Metric>,
-    /// The maps the renders are compared under (not those the image metric fitted under).
+    /// The maps the images are compared under (not those the image metric fitted under).
     pub test_envs: Vec<String>,
     /// Image size (pixels square) and the most samples per pixel (mean over the image) of
     /// the error estimate.
@@ -75,6 +76,12 @@ fn check(config: &MetricStudyConfig) -> Result<(), Error> {
     {
         return Err(Error::Other(format!(
             "--test-env {e}: is also a map the image metric fits under; expected held-out maps"
+        )));
+    }
+    if !(16..=2048).contains(&config.size) || config.spp == 0 {
+        return Err(Error::Other(format!(
+            "--size {} / --spp {}: expected 16 to 2048 pixels and at least one sample",
+            config.size, config.spp
         )));
     }
     if config.test_envs.is_empty() || config.metrics.is_empty() || config.data.is_empty() {
@@ -131,8 +138,8 @@ fn fitted(
 }
 
 /// Runs the experiment: fits every file under every metric (reusing reports already in
-/// `out/fits`), then renders and compares under each test map; `progress` hears a line per
-/// step. Rows in the order material, test map, metric, model.
+/// `out/fits`), then estimates every fit's image error under each test map; `progress`
+/// hears a line per step. Rows in the order material, test map, metric, model.
 pub fn run(
     registry: &Registry,
     config: &MetricStudyConfig,
@@ -140,6 +147,11 @@ pub fn run(
     progress: &dyn Fn(&str),
 ) -> Result<Vec<Row>, Error> {
     check(config)?;
+    let maps = config
+        .test_envs
+        .iter()
+        .map(|e| Ok((e.as_str(), FitEnvironment::load(e)?)))
+        .collect::<Result<Vec<_>, Error>>()?;
     let mut rows = Vec::new();
     for path in &config.data {
         let mut reports = Vec::new();
@@ -153,42 +165,11 @@ pub fn run(
         let measured = registry
             .create(&data_material_desc(path)?, "data")
             .map_err(|e| Error::file(path.display(), e.to_string()))?;
-        let mut fits: Vec<(Metric, &str, f64, Arc<dyn Bsdf>)> = Vec::new();
-        for (metric, r) in &reports {
-            for (model, fit) in &r.models {
-                let m = registry
-                    .create(&fit.material, model)
-                    .map_err(|e| Error::Other(e.to_string()))?;
-                fits.push((*metric, model, fit.error_normalized, m));
-            }
-        }
-        let reps: Vec<&dyn Bsdf> = std::iter::once(measured.as_ref())
-            .chain(fits.iter().map(|f| f.3.as_ref()))
-            .collect();
-        let material = stem(path);
-        for env in &config.test_envs {
+        for (env, map) in &maps {
             progress(&format!("{}: images under {env}", path.display()));
-            let map = crate::fit_images::FitEnvironment::load(env)?;
             let stage = Stage::sphere(&map.0, config.size);
-            let settings = ErrorSettings {
-                pilot_spp: (config.spp as usize).min(64),
-                max_spp: config.spp as usize,
-                ..ErrorSettings::default()
-            };
-            let est = estimate(&stage, &reps, &settings)?;
-            for ((metric, model, eq1, _), e) in fits.iter().zip(&est.errors[1..]) {
-                rows.push(Row {
-                    material: material.clone(),
-                    model: model.to_string(),
-                    metric: *metric,
-                    env: stem_of(env),
-                    eq1_normalized: *eq1,
-                    rmse: e.rmse,
-                    ci95: e.ci95,
-                    flip: e.flip,
-                    noise_floor: est.noise_floor,
-                });
-            }
+            let data = (stem(path), &measured, reports.as_slice());
+            rows.extend(image_errors(registry, config, &stage, data, env)?);
             if stop() {
                 return Err(Error::Other("interrupted".into()));
             }
@@ -197,11 +178,55 @@ pub fn run(
     Ok(rows)
 }
 
+/// The rows of one material under one map: the image error of each fit of `reports` (each
+/// metric's) against the data's image, all from one [`estimate`] on `stage`.
+fn image_errors(
+    registry: &Registry,
+    config: &MetricStudyConfig,
+    stage: &Stage<'_>,
+    (material, measured, reports): (String, &Arc<dyn Bsdf>, &[(Metric, FitReport)]),
+    env: &str,
+) -> Result<Vec<Row>, Error> {
+    let mut fits: Vec<(Metric, &str, f64, Arc<dyn Bsdf>)> = Vec::new();
+    for (metric, r) in reports {
+        for (model, fit) in &r.models {
+            let m = registry
+                .create(&fit.material, model)
+                .map_err(|e| Error::Other(e.to_string()))?;
+            fits.push((*metric, model, fit.error_normalized, m));
+        }
+    }
+    let reps: Vec<&dyn Bsdf> = std::iter::once(measured.as_ref())
+        .chain(fits.iter().map(|f| f.3.as_ref()))
+        .collect();
+    let settings = ErrorSettings {
+        pilot_spp: (config.spp as usize).min(64),
+        max_spp: config.spp as usize,
+        ..ErrorSettings::default()
+    };
+    let est = estimate(stage, &reps, &settings)?;
+    Ok(fits
+        .iter()
+        .zip(&est.errors[1..])
+        .map(|(&(metric, model, eq1, _), e)| Row {
+            material: material.clone(),
+            model: model.to_string(),
+            metric,
+            env: stem_of(env),
+            eq1_normalized: eq1,
+            rmse: e.rmse,
+            ci95: e.ci95,
+            flip: e.flip,
+            noise_floor: est.noise_floor,
+        })
+        .collect())
+}
+
 /// Per metric: the mean of RMSE and FLIP relative to the Eq. (1) fit of the same material,
-/// model and map (the geometric mean of the ratios), and how often it gave the lowest of
-/// the metrics' values: for RMSE only where its interval lies wholly below every other
-/// metric's (a win the noise cannot have made), for FLIP, which has no interval, the
-/// lowest value (ties count for each).
+/// model and map (the geometric mean of the ratios, [`GeoMean`]), and how often it gave
+/// the lowest of the metrics' values: for RMSE only where its interval lies wholly below
+/// every other metric's (a win the noise cannot have made), for FLIP, which has no
+/// interval, the lowest value (ties count for each).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Summary {
     pub metric: Metric,
@@ -227,15 +252,15 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
         .iter()
         .map(|&metric| {
             let mine: Vec<&Row> = rows.iter().filter(|r| r.metric == metric).collect();
-            let (mut lr, mut lf, mut le, mut n) = (0.0, 0.0, 0.0, 0usize);
+            let (mut lr, mut lf, mut le) =
+                (GeoMean::default(), GeoMean::default(), GeoMean::default());
             let (mut rw, mut fw) = (0, 0);
             for r in &mine {
                 let g = group(r);
                 if let Some(base) = g.iter().find(|o| o.metric == Metric::Eq1) {
-                    lr += (r.rmse / base.rmse).ln();
-                    lf += (r.flip / base.flip).ln();
-                    le += (r.eq1_normalized / base.eq1_normalized).ln();
-                    n += 1;
+                    lr.add(r.rmse / base.rmse);
+                    lf.add(r.flip / base.flip);
+                    le.add(r.eq1_normalized / base.eq1_normalized);
                 }
                 rw += usize::from(
                     g.iter()
@@ -243,24 +268,41 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
                 );
                 fw += usize::from(g.iter().all(|o| r.flip <= o.flip));
             }
-            let mean = |s: f64| {
-                if n > 0 {
-                    (s / n as f64).exp()
-                } else {
-                    f64::NAN
-                }
-            };
             Summary {
                 metric,
-                rmse_ratio: mean(lr),
-                flip_ratio: mean(lf),
-                eq1_ratio: mean(le),
+                rmse_ratio: lr.value(),
+                flip_ratio: lf.value(),
+                eq1_ratio: le.value(),
                 rmse_wins: rw,
                 flip_wins: fw,
                 cases: mine.len(),
             }
         })
         .collect()
+}
+
+/// The geometric mean of ratios, leaving out those that are not positive and finite (an
+/// error the estimate found to be zero, below its noise, has no ratio); NaN when none is.
+#[derive(Default)]
+struct GeoMean {
+    log_sum: f64,
+    n: usize,
+}
+
+impl GeoMean {
+    fn add(&mut self, ratio: f64) {
+        if ratio.is_finite() && ratio > 0.0 {
+            self.log_sum += ratio.ln();
+            self.n += 1;
+        }
+    }
+
+    fn value(&self) -> f64 {
+        match self.n {
+            0 => f64::NAN,
+            n => (self.log_sum / n as f64).exp(),
+        }
+    }
 }
 
 /// The rows as CSV.
@@ -423,5 +465,19 @@ mod tests {
                 ),
             "{csv}"
         );
+    }
+
+    /// An error the estimate puts at zero has no ratio: it is left out of the mean rather
+    /// than making it NaN or infinite.
+    #[test]
+    fn a_zero_error_leaves_its_ratio_out_of_the_mean() {
+        let rows = [
+            row("ward", Metric::Eq1, 0.0, 0.1),
+            row("ward", Metric::Log, 0.1, 0.1),
+            row("he", Metric::Eq1, 0.2, 0.1),
+            row("he", Metric::Log, 0.1, 0.1),
+        ];
+        let s = summarize(&rows);
+        assert_eq!((s[0].rmse_ratio, s[1].rmse_ratio), (1.0, 0.5));
     }
 }

@@ -81,7 +81,7 @@ enum FitSub {
         #[arg(long, short)]
         output: PathBuf,
     },
-    /// Which metric's fits render closest to the data: fits each file with each metric
+    /// Which metric's fits look closest to the data: fits each file with each metric
     /// (reports kept in OUT/fits, reused when rerun), then estimates the image error of every
     /// fit on a sphere under held-out maps (all images from the same samples) and writes
     /// RMSE with its 95 % interval, FLIP and the noise floor to OUT/metrics.{csv,md}.

@@ -356,7 +356,7 @@ fn fit_select_picks_the_cheapest_model_within_tolerance() {
 /// its own data best, with intervals that separate; the fits are kept and reused when
 /// rerun; bad options are one-line errors.
 #[test]
-fn fit_compare_metrics_renders_each_metrics_fits_against_the_data() {
+fn fit_compare_metrics_estimates_each_fits_image_error_against_the_data() {
     let dir = tempfile::tempdir().unwrap();
     let ward = dir.path().join("w.bin");
     let blinn = dir.path().join("b.bin");
