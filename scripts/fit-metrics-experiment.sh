@@ -10,7 +10,7 @@
 #   bash scripts/fit-metrics-experiment.sh [WORK_DIR]     (default /tmp/lobe-metric-study)
 #
 # Uses the built binary (cargo build --release -p lobe-cli first). Resumable: reports in
-# WORK_DIR/out/fits are reused. Takes about an hour on 2 cores.
+# WORK_DIR/out/fits are reused. Takes about 15 minutes on 2 cores.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 lobe="$root/target/release/lobe"
