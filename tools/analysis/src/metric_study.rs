@@ -165,11 +165,12 @@ pub fn run(
         let measured = registry
             .create(&data_material_desc(path)?, "data")
             .map_err(|e| Error::file(path.display(), e.to_string()))?;
+        let fits = fit_materials(registry, &reports)?;
         for (env, map) in &maps {
             progress(&format!("{}: images under {env}", path.display()));
             let stage = Stage::sphere(&map.0, config.size);
-            let data = (stem(path), &measured, reports.as_slice());
-            rows.extend(image_errors(registry, config, &stage, data, env)?);
+            let data = (stem(path), &measured, fits.as_slice());
+            rows.extend(image_errors(config, &stage, data, env)?);
             if stop() {
                 return Err(Error::Other("interrupted".into()));
             }
@@ -178,24 +179,34 @@ pub fn run(
     Ok(rows)
 }
 
-/// The rows of one material under one map: the image error of each fit of `reports` (each
-/// metric's) against the data's image, all from one [`estimate`] on `stage`.
-fn image_errors(
+/// Each fit of `reports` as a material: its metric, model, Eq. (1) error and BSDF.
+type FitMaterial<'r> = (Metric, &'r str, f64, Arc<dyn Bsdf>);
+
+/// The materials of every fit of `reports` (each metric's), made once per data file.
+fn fit_materials<'r>(
     registry: &Registry,
-    config: &MetricStudyConfig,
-    stage: &Stage<'_>,
-    (material, measured, reports): (String, &Arc<dyn Bsdf>, &[(Metric, FitReport)]),
-    env: &str,
-) -> Result<Vec<Row>, Error> {
-    let mut fits: Vec<(Metric, &str, f64, Arc<dyn Bsdf>)> = Vec::new();
+    reports: &'r [(Metric, FitReport)],
+) -> Result<Vec<FitMaterial<'r>>, Error> {
+    let mut fits = Vec::new();
     for (metric, r) in reports {
         for (model, fit) in &r.models {
             let m = registry
                 .create(&fit.material, model)
                 .map_err(|e| Error::Other(e.to_string()))?;
-            fits.push((*metric, model, fit.error_normalized, m));
+            fits.push((*metric, model.as_str(), fit.error_normalized, m));
         }
     }
+    Ok(fits)
+}
+
+/// The rows of one material under one map: the image error of each of its `fits` against
+/// the data's image, all from one [`estimate`] on `stage`.
+fn image_errors(
+    config: &MetricStudyConfig,
+    stage: &Stage<'_>,
+    (material, measured, fits): (String, &Arc<dyn Bsdf>, &[FitMaterial<'_>]),
+    env: &str,
+) -> Result<Vec<Row>, Error> {
     let reps: Vec<&dyn Bsdf> = std::iter::once(measured.as_ref())
         .chain(fits.iter().map(|f| f.3.as_ref()))
         .collect();
