@@ -224,6 +224,15 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
             *pdf = self.pdf(wo, wi);
         }
     }
+    /// [`Bsdf::eval`] of many direction pairs at once, `f[k]` for (`wo[k]`, `wi[k]`), bit
+    /// for bit the values [`Bsdf::eval_pdf_many`] gives, for callers that need no density
+    /// (the image estimators' representations that draw no samples of their own). The
+    /// default calls [`Bsdf::eval_pdf_many`]; models whose density costs a share of the
+    /// evaluation override it.
+    fn eval_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb]) {
+        let mut pdf = vec![0.0; f.len()];
+        self.eval_pdf_many(wo, wi, f, &mut pdf);
+    }
     fn flags(&self) -> Flags;
     /// Registry name of the model, for reports.
     fn name(&self) -> &str;

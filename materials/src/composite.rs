@@ -195,17 +195,38 @@ impl Bsdf for Composite {
         }
         f.fill(Rgb::ZERO);
         pdf.fill(0.0);
-        let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
-        simd::chunks_where(n, above, |idx| {
-            let o = Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k]));
+        pairs_above(wo, wi, |idx, o, i| {
             let w = self.lane_weights(o.z);
-            let i = Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k]));
             let (v, p) = self.mix_lanes(o, i, &w);
             // A pair whose components are all black has density 0.
             let p = sel(w.total.simd_gt(f32xn::splat(0.0)), p, f32xn::splat(0.0)).to_array();
             let v = v.to_array();
             for (lane, &k) in idx.iter().enumerate() {
                 (f[k], pdf[k]) = (v[lane], p[lane]);
+            }
+        });
+    }
+
+    /// The values of [`Bsdf::eval_pdf_many`] alone: every lobe's [`Lobe::eval_xn`] once per
+    /// `LANES` pairs above the surface, mixed as there.
+    fn eval_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb]) {
+        let n = f.len();
+        assert!(wo.len() == n && wi.len() == n);
+        if self.lobes.len() > MAX_INLINE {
+            for k in 0..n {
+                f[k] = self.eval(wo[k], wi[k]);
+            }
+            return;
+        }
+        f.fill(Rgb::ZERO);
+        pairs_above(wo, wi, |idx, o, i| {
+            let [r, g, b] = self.mixed_value(|k| {
+                let v = self.lobes[k].1.eval_xn(o, i);
+                [v.r, v.g, v.b]
+            });
+            let v = RgbxN::new(r, g, b).to_array();
+            for (lane, &k) in idx.iter().enumerate() {
+                f[k] = v[lane];
             }
         });
     }
@@ -505,6 +526,19 @@ impl Composite {
     fn mixture_pdf(&self, wo: Vec3, wi: Vec3, w: &[f32], total: f32) -> f32 {
         self.mixed_density(wi.z, w, total, |k| self.lobes[k].1.pdf(wo, wi))
     }
+}
+
+/// Calls `each(idx, wo, wi)` with the pairs `idx` of (`wo`, `wi`) where both lie above the
+/// surface, `LANES` at a time in SIMD lanes (the last chunk's lanes past its length copies
+/// of its last pair).
+#[inline(always)]
+fn pairs_above(wo: &[Vec3], wi: &[Vec3], mut each: impl FnMut(&[usize], Vec3xN, Vec3xN)) {
+    let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
+    simd::chunks_where(wo.len(), above, |idx| {
+        let o = Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k]));
+        let i = Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k]));
+        each(idx, o, i)
+    });
 }
 
 /// Adds a lobe of colour `c` and value `v` to the mixture's value `f` (one pair or

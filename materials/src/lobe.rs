@@ -49,6 +49,12 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
             f32xn::new(lanes(|k| self.pdf(o[k], i[k]))),
         )
     }
+    /// The value of [`Lobe::eval_pdf_xn`] alone (bit for bit), for batched calls that need
+    /// no density ([`crate::Bsdf::eval_many`]). The default drops the density; a
+    /// [`GenericLobe`] evaluates its value only.
+    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
+        self.eval_pdf_xn(wo, wi).0
+    }
     /// [`Lobe::sample`] of `LANES` queries, each lane bit for bit the scalar call (the
     /// batched sampling of [`crate::composite::Composite`]). The default samples lane by
     /// lane; tabulated lobes override it with their lane samplers.
@@ -116,7 +122,7 @@ pub trait GenericLobe {
     fn draw<T: Num>(&self, wo: V3<T>, ux: T, uy: T, uc: T) -> (V3<T>, T::Mask);
 }
 
-/// Implements [`Lobe`]'s `eval`, `eval_f64`, `pdf`, `sample`, `eval_pdf_xn` and `sample_xn`
+/// Implements [`Lobe`]'s `eval`, `eval_f64`, `pdf`, `sample`, `eval_pdf_xn`, `eval_xn` and `sample_xn`
 /// inside an `impl Lobe` block of a type that implements [`GenericLobe`].
 #[macro_export]
 macro_rules! impl_lobe_forms {
@@ -156,6 +162,15 @@ macro_rules! impl_lobe_forms {
             let v = $crate::lobe::GenericLobe::value(self, wo, wi);
             let p = $crate::lobe::GenericLobe::density(self, wo, wi);
             ($crate::simd::RgbxN::new(v, v, v), p)
+        }
+        #[inline]
+        fn eval_xn(
+            &self,
+            wo: $crate::simd::Vec3xN,
+            wi: $crate::simd::Vec3xN,
+        ) -> $crate::simd::RgbxN {
+            let v = $crate::lobe::GenericLobe::value(self, wo, wi);
+            $crate::simd::RgbxN::new(v, v, v)
         }
         #[inline]
         fn sample_xn(

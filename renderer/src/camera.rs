@@ -14,7 +14,7 @@ use crate::geometry::Ray;
 use glam::{Mat4, Vec2, Vec3};
 use lobe_materials::math::{Arith, V3, sqrt};
 use lobe_materials::simd;
-use lobe_materials::simd::{LANES, f32xn};
+use lobe_materials::simd::{LANES, Vec3xN, f32xn};
 
 /// The axis along which a perspective field of view is measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -180,19 +180,9 @@ impl Camera {
     }
 
     /// [`Camera::ray`] of the film positions `(pixel + j) * inv` for each `j` in
-    /// `jitter`, appended to `out`, bit for bit the same: perspective rays a lane vector at a time
-    /// in SIMD lanes with the scalar form's operations.
+    /// `jitter`, appended to `out`, bit for bit the same: a lane vector at a time
+    /// ([`Camera::ray_lanes`]).
     pub fn rays_many(&self, pixel: Vec2, jitter: &[Vec2], inv: Vec2, out: &mut Vec<Ray>) {
-        let Camera::Perspective {
-            to_world,
-            tan_half,
-            aspect,
-            near_clip,
-        } = self
-        else {
-            out.extend(jitter.iter().map(|&j| self.ray((pixel + j) * inv)));
-            return;
-        };
         for jc in jitter.chunks(LANES) {
             let n = jc.len();
             let j = simd::lanes(|i| jc[i.min(n - 1)]);
@@ -201,7 +191,7 @@ impl Camera {
             };
             let sx = film(pixel.x, simd::lanes(|i| j[i].x), inv.x);
             let sy = film(pixel.y, simd::lanes(|i| j[i].y), inv.y);
-            let (o, d) = perspective_ray(to_world, *tan_half, *aspect, *near_clip, sx, sy);
+            let (o, d) = self.ray_lanes(sx, sy);
             let (o, d) = (simd::arrays3(o.into()), simd::arrays3(d.into()));
             out.extend((0..n).map(|i| {
                 Ray::new(
@@ -210,6 +200,28 @@ impl Camera {
                 )
             }));
         }
+    }
+
+    /// The origins and unit directions of [`Camera::ray`] at the film positions (`sx`,
+    /// `sy`) of `LANES` lanes, lane k bit for bit `ray((sx[k], sy[k]))`'s: perspective rays
+    /// with the scalar form's operations in SIMD lanes, others lane by lane.
+    #[inline]
+    pub fn ray_lanes(&self, sx: f32xn, sy: f32xn) -> (Vec3xN, Vec3xN) {
+        if let Camera::Perspective {
+            to_world,
+            tan_half,
+            aspect,
+            near_clip,
+        } = self
+        {
+            return perspective_ray(to_world, *tan_half, *aspect, *near_clip, sx, sy);
+        }
+        let (x, y) = (sx.to_array(), sy.to_array());
+        let rays = simd::lanes(|k| self.ray(Vec2::new(x[k], y[k])));
+        (
+            Vec3xN::from_array(&rays.map(|r| r.o)),
+            Vec3xN::from_array(&rays.map(|r| r.d)),
+        )
     }
 }
 

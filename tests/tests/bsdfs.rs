@@ -597,9 +597,10 @@ fn batched_sampling_equals_single_samples() {
 }
 
 /// `eval_pdf_many` (the wavefront integrator's batched next-event call) returns `eval`
-/// and `pdf` of each pair bit for bit, for every material kind, with directions below, at
-/// and above the horizon, grazing, equal and mirrored, the zero vector, and batch lengths
-/// that leave SIMD lanes empty; every value is finite.
+/// and `pdf` of each pair bit for bit, and `eval_many` (the value alone) the same values,
+/// for every material kind, with directions below, at and above the horizon, grazing,
+/// equal and mirrored, the zero vector, and batch lengths that leave SIMD lanes empty;
+/// every value is finite.
 #[test]
 fn batched_evaluation_equals_single_evaluations() {
     for case in cases().iter().chain(measured_cases()) {
@@ -608,6 +609,8 @@ fn batched_evaluation_equals_single_evaluations() {
             let mut f = vec![lobe_materials::Rgb::ZERO; n];
             let mut pdf = vec![0.0f32; n];
             case.bsdf.eval_pdf_many(&q.wo, &q.wi, &mut f, &mut pdf);
+            let mut values = vec![lobe_materials::Rgb::splat(f32::NAN); n];
+            case.bsdf.eval_many(&q.wo, &q.wi, &mut values);
             for k in 0..n {
                 let (wo, wi) = (q.wo[k], q.wi[k]);
                 let e = case.bsdf.eval(wo, wi);
@@ -616,6 +619,13 @@ fn batched_evaluation_equals_single_evaluations() {
                     [f[k].r, f[k].g, f[k].b, pdf[k]].map(f32::to_bits),
                     [e.r, e.g, e.b, p].map(f32::to_bits),
                     "{}: wo {wo:?}, wi {wi:?}",
+                    case.name,
+                );
+                let v = values[k];
+                assert_eq!(
+                    [v.r, v.g, v.b].map(f32::to_bits),
+                    [e.r, e.g, e.b].map(f32::to_bits),
+                    "{}: eval_many at wo {wo:?}, wi {wi:?}",
                     case.name,
                 );
                 assert!(

@@ -445,6 +445,11 @@ impl Lobe for He {
         (RgbxN::new(r, g, b), self.density_at_half(wo, wi, h))
     }
 
+    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
+        let [r, g, b] = self.value_at_half(wo, wi, lobe::half_where(wo, wi));
+        RgbxN::new(r, g, b)
+    }
+
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let (wo, wi) = (V3::from(wo), V3::from(wi));
         self.density_at_half(wo, wi, lobe::half_where(wo, wi))

@@ -83,10 +83,11 @@ impl Lobe for SampledMicrofacet {
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let h = Self::half(wo, wi);
         let p_h = self.table.p(h.x, h.y);
-        let v = self
-            .table
-            .rho_at(wo, wi, h, p_h, f32xn::splat(self.f0 as f32));
-        (RgbxN::new(v, v, v), self.density(wo, wi, h, p_h))
+        (self.value_at(wo, wi, h, p_h), self.density(wo, wi, h, p_h))
+    }
+    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
+        let h = Self::half(wo, wi);
+        self.value_at(wo, wi, h, self.table.p(h.x, h.y))
     }
     fn flags(&self) -> Flags {
         Flags::RECIPROCAL | Flags::GLOSSY
@@ -97,6 +98,16 @@ impl Lobe for SampledMicrofacet {
 }
 
 impl SampledMicrofacet {
+    /// The generator's value ([`Table::rho_at`]) of `LANES` pairs of half vector `h`, where
+    /// the table's p(h) is `p_h`.
+    #[inline(always)]
+    fn value_at(&self, wo: Vec3xN, wi: Vec3xN, h: Vec3xN, p_h: f32xn) -> RgbxN {
+        let v = self
+            .table
+            .rho_at(wo, wi, h, p_h, f32xn::splat(self.f0 as f32));
+        RgbxN::new(v, v, v)
+    }
+
     /// The unit half vector of `wo` and `wi`, zero where there is none.
     #[inline(always)]
     fn half(wo: Vec3xN, wi: Vec3xN) -> Vec3xN {

@@ -34,13 +34,16 @@
 //! Errors under [`ErrorSettings::negligible`] of the image's RMS are below what a display
 //! shows and are exempt from these targets.
 
-use lobe_materials::frame::Frame;
+use lobe_materials::frame::{self, Frame};
+use lobe_materials::math::V3;
 use lobe_materials::sampling::mirror_cones;
 use lobe_materials::sampling::random::{hash, unit};
+use lobe_materials::simd::{self, LANES, f32xn};
 use lobe_materials::{Bsdf, Rgb};
 use lobe_renderer::camera::Camera;
 use lobe_renderer::compare::metrics;
 use lobe_renderer::film::Image;
+use lobe_renderer::geometry::kernels::{self, RayLanes};
 use lobe_renderer::geometry::sphere::Sphere;
 use lobe_renderer::lights::envmap::EnvMap;
 use rayon::prelude::*;
@@ -224,6 +227,15 @@ struct PixelSamples {
     density: Vec<f64>,
 }
 
+/// A camera sample of a pixel: its batch, strategy, index in its strategy's point set and
+/// point.
+struct Drawn {
+    batch: usize,
+    strategy: usize,
+    member: usize,
+    point: [f64; 5],
+}
+
 /// A sample that hit the sphere, before its direction: its batch, strategy ([`MAP`],
 /// [`DATA`], [`CONES`] or [`FITS`]), point, and the local frame's outgoing direction and mirror
 /// direction.
@@ -266,11 +278,16 @@ impl Stage<'_> {
         let mut density = set.density.clone();
         let mut pdf = vec![0.0f32; n];
         for (r, rep) in reps.iter().enumerate() {
-            rep.eval_pdf_many(&set.wo, &set.wi, &mut f[r * n..(r + 1) * n], &mut pdf);
             let count = match r {
                 0 => counts[DATA],
                 _ => per_fit[r - 1],
             } as f64;
+            // A fit that draws none of this pixel's samples adds nothing to their density.
+            if count == 0.0 {
+                rep.eval_many(&set.wo, &set.wi, &mut f[r * n..(r + 1) * n]);
+                continue;
+            }
+            rep.eval_pdf_many(&set.wo, &set.wi, &mut f[r * n..(r + 1) * n], &mut pdf);
             for (d, &p) in density.iter_mut().zip(&pdf) {
                 if p.is_finite() && p > 0.0 {
                     *d += count * p as f64;
@@ -307,6 +324,8 @@ impl Stage<'_> {
     /// The camera samples of pixel (x, y) that hit the sphere; those that miss add the
     /// map's radiance to their batch's `background`. Each strategy's samples are a
     /// low-discrepancy set of their own, so that every strategy covers the whole pixel.
+    /// The points are drawn first; their rays, hits and frames then follow in SIMD lanes
+    /// ([`Stage::hits_of`]).
     fn hits(
         &self,
         (x, y): (u32, u32),
@@ -316,46 +335,95 @@ impl Stage<'_> {
     ) -> Vec<Hit> {
         let pixel_id = y as u64 * self.width as u64 + x as u64;
         let counts = strategy_counts(per_batch);
-        let mut hits = Vec::with_capacity(per_batch * batches);
-        for (batch, bg) in background.iter_mut().enumerate() {
+        let mut drawn = Vec::with_capacity(per_batch * batches);
+        for batch in 0..batches {
             let key = hash(hash(seed, pixel_id), batch as u64);
             let shift: [f64; 5] = std::array::from_fn(|i| unit(hash(hash(key, i as u64), 17)));
             let samples = (0..counts.len()).flat_map(|j| (0..counts[j]).map(move |i| (j, i)));
-            for (strategy, i) in samples {
-                let point = point(i, counts[strategy], &shift);
-                let film = glam::Vec2::new(
-                    (x as f64 + point[0]) as f32 / self.width as f32,
-                    (y as f64 + point[1]) as f32 / self.height as f32,
-                );
-                let ray = self.camera.ray(film);
-                let t = self.sphere.intersect(&ray);
-                if !t.is_finite() {
-                    let l = self.env.eval(ray.d.normalize());
-                    add(
-                        bg,
-                        [l.r as f64, l.g as f64, l.b as f64],
-                        1.0 / per_batch as f64,
-                    );
-                    continue;
-                }
-                let (_, n, dpdu) = self.sphere.surface(ray.o + ray.d * t);
-                let frame = Frame::from_normal_tangent(n, dpdu);
-                let wo = frame.to_local(-ray.d).normalize();
-                if wo.z > 0.0 {
-                    let mirror = glam::DVec3::new(-wo.x as f64, -wo.y as f64, wo.z as f64);
-                    hits.push(Hit {
-                        batch,
-                        strategy,
-                        member: i,
-                        point,
-                        frame,
-                        wo,
-                        mirror,
-                    });
-                }
-            }
+            drawn.extend(samples.map(|(strategy, i)| Drawn {
+                batch,
+                strategy,
+                member: i,
+                point: point(i, counts[strategy], &shift),
+            }));
+        }
+        let mut hits = Vec::with_capacity(drawn.len());
+        for chunk in drawn.chunks(LANES) {
+            self.hits_of((x, y), chunk, per_batch, background, &mut hits);
         }
         hits
+    }
+
+    /// [`Stage::hits`] of up to `LANES` drawn samples of pixel (x, y), in SIMD lanes:
+    /// the camera rays ([`Camera::ray_lanes`]), their distances to the sphere
+    /// ([`kernels::sphere`]), the surface and the shading frame there, each lane bit for bit
+    /// the scalar forms ([`Camera::ray`], [`Sphere::intersect`], [`Sphere::surface`],
+    /// [`Frame::from_normal_tangent`]).
+    fn hits_of(
+        &self,
+        (x, y): (u32, u32),
+        chunk: &[Drawn],
+        per_batch: usize,
+        background: &mut [[f64; 3]],
+        hits: &mut Vec<Hit>,
+    ) {
+        let n = chunk.len();
+        let film = |c: usize, at: u32, size: u32| {
+            f32xn::new(simd::lanes(|k| {
+                (at as f64 + chunk[k.min(n - 1)].point[c]) as f32 / size as f32
+            }))
+        };
+        let (o, d) = self
+            .camera
+            .ray_lanes(film(0, x, self.width), film(1, y, self.height));
+        let of = |v: glam::Vec3| V3::new(f32xn::splat(v.x), f32xn::splat(v.y), f32xn::splat(v.z));
+        let (center, radius) = (of(self.sphere.center), f32xn::splat(self.sphere.radius));
+        let rays = RayLanes {
+            o,
+            d,
+            tmin: f32xn::splat(0.0),
+            tmax: f32xn::splat(f32::INFINITY),
+        };
+        let t = kernels::sphere(&rays, center, radius);
+        let (_, normal, dpdu) = Sphere::surface_of(o + d * t, center, radius);
+        let (s, tt, usable) = frame::tangent_axes(normal, dpdu);
+        let wo = frame::to_local(s, tt, normal, -d).unit();
+        let usable = simd::mask_bits(usable);
+        let t = t.to_array();
+        let [d, normal, s, tt, wo] = [d, normal, s, tt, wo].map(|v| v.to_array());
+        for (k, drawn) in chunk.iter().enumerate() {
+            if !t[k].is_finite() {
+                let l = self.env.eval(d[k].normalize());
+                let l = [l.r as f64, l.g as f64, l.b as f64];
+                add(&mut background[drawn.batch], l, 1.0 / per_batch as f64);
+                continue;
+            }
+            let (frame, wo) = match usable >> k & 1 != 0 {
+                true => (
+                    Frame {
+                        s: s[k],
+                        t: tt[k],
+                        n: normal[k],
+                    },
+                    wo[k],
+                ),
+                false => {
+                    let f = Frame::from_normal(normal[k]);
+                    (f, f.to_local(-d[k]).normalize())
+                }
+            };
+            if wo.z > 0.0 {
+                hits.push(Hit {
+                    batch: drawn.batch,
+                    strategy: drawn.strategy,
+                    member: drawn.member,
+                    point: drawn.point,
+                    frame,
+                    wo,
+                    mirror: glam::DVec3::new(-wo.x as f64, -wo.y as f64, wo.z as f64),
+                });
+            }
+        }
     }
 
     /// The directions of `hits` (the map's samples drawn together, in SIMD lanes), their
