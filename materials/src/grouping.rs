@@ -20,6 +20,16 @@ pub fn group_stable(
             starts[k + 1] += 1;
         }
     }
+    // One key takes every query (one material, one light, one lobe): the order is the
+    // identity, written without the scatter's chain through the cursor.
+    if let Some(k) = (0..keys).find(|&k| starts[k + 1] == n).filter(|_| n > 0) {
+        for (i, o) in order[..n].iter_mut().enumerate() {
+            *o = i as u32;
+        }
+        starts[..=k].fill(0);
+        starts[k + 1..].fill(n);
+        return;
+    }
     for k in 1..=keys {
         starts[k] += starts[k - 1];
     }
@@ -48,6 +58,11 @@ mod tests {
         group_stable(keys.len(), |i| keys[i], &mut starts, &mut order);
         assert_eq!(starts, [0, 2, 3, 5]);
         assert_eq!(&order[..5], &[2, 5, 4, 0, 3]);
+        // One key takes every query: the identity.
+        let one = [Some(1); 5];
+        group_stable(one.len(), |i| one[i], &mut starts, &mut order);
+        assert_eq!(starts, [0, 0, 5, 5]);
+        assert_eq!(&order[..5], &[0, 1, 2, 3, 4]);
         // No queries: every group empty.
         group_stable(0, |i| keys[i], &mut starts, &mut order);
         assert_eq!(starts, [0; 4]);
