@@ -368,8 +368,15 @@ impl Composite {
                 let lane_uc = f32xn::new(simd::lanes_of(idx, |k| uc[k]));
                 let (chosen, uc_rest) =
                     Self::choose(lane_uc, &w.w[..self.lobes.len() + 1], w.total);
-                let [ux, uy] = simd::vec2s(&simd::lanes_of(idx, |k| u[k]));
-                let diffuse = simd::arrays3(cosine_hemisphere(ux, uy));
+                // Without diffuse weight no query chooses the diffuse component: its
+                // directions are not drawn.
+                let diffuse = match self.diffuse.luminance() > 0.0 {
+                    true => {
+                        let [ux, uy] = simd::vec2s(&simd::lanes_of(idx, |k| u[k]));
+                        simd::arrays3(cosine_hemisphere(ux, uy))
+                    }
+                    false => [[0.0; simd::LANES]; 3],
+                };
                 let (total, chosen, uc_rest) =
                     (w.total.to_array(), chosen.to_array(), uc_rest.to_array());
                 // Without a branch on the choice, a coin flip between components.
