@@ -536,8 +536,8 @@ impl Composite {
 }
 
 /// Calls `each(idx, wo, wi)` with the pairs `idx` of (`wo`, `wi`) where both lie above the
-/// surface, `LANES` at a time in SIMD lanes (the last chunk's lanes past its length copies
-/// of its last pair).
+/// surface, `LANES` at a time in SIMD lanes (the last chunk's lanes past its length are
+/// copies of its last pair).
 #[inline(always)]
 fn pairs_above(wo: &[Vec3], wi: &[Vec3], mut each: impl FnMut(&[usize], Vec3xN, Vec3xN)) {
     let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);

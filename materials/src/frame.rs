@@ -73,6 +73,17 @@ pub fn tangent_axes<T: Arith>(n: V3<T>, dpdu: V3<T>) -> (V3<T>, V3<T>, T::Mask) 
     (s, n.cross(s), usable)
 }
 
+/// The axes s and t of [`Frame::from_normal_tangent`] for normals `n` and tangents `dpdu`,
+/// the unit outgoing direction `-d` of rays of direction `d` in that frame (normalized as
+/// glam does), and the mask of [`tangent_axes`] (elsewhere the frame is
+/// [`Frame::from_normal`]'s, which the caller takes): a hit's shading frame and `wo`,
+/// written once for one hit and lanes of them.
+#[inline(always)]
+pub fn shading_axes<T: Arith>(n: V3<T>, dpdu: V3<T>, d: V3<T>) -> (V3<T>, V3<T>, V3<T>, T::Mask) {
+    let (s, t, usable) = tangent_axes(n, dpdu);
+    (s, t, to_local(s, t, n, -d).unit(), usable)
+}
+
 /// `v` in the frame (s, t, n): its components along the three axes (glam's dot products),
 /// for one vector or lanes of them ([`Frame::to_local`]).
 #[inline(always)]

@@ -122,8 +122,8 @@ pub trait GenericLobe {
     fn draw<T: Num>(&self, wo: V3<T>, ux: T, uy: T, uc: T) -> (V3<T>, T::Mask);
 }
 
-/// Implements [`Lobe`]'s `eval`, `eval_f64`, `pdf`, `sample`, `eval_pdf_xn`, `eval_xn` and `sample_xn`
-/// inside an `impl Lobe` block of a type that implements [`GenericLobe`].
+/// Implements [`Lobe`]'s `eval`, `eval_f64`, `pdf`, `sample`, `eval_pdf_xn`, `eval_xn` and
+/// `sample_xn` inside an `impl Lobe` block of a type that implements [`GenericLobe`].
 #[macro_export]
 macro_rules! impl_lobe_forms {
     () => {

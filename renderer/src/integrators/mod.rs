@@ -16,7 +16,7 @@ use crate::settings::Integrator;
 use crate::{Rgb, geometry::Ray, sampler::Sampler};
 use glam::Vec3;
 use lobe_materials::Bsdf;
-use lobe_materials::frame::{Frame, tangent_axes, to_local};
+use lobe_materials::frame::{Frame, shading_axes};
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, Vec3xN};
 
@@ -109,7 +109,7 @@ impl<'a> Shading<'a> {
 
 /// [`Shading::new`]'s frames and local outgoing directions for up to `LANES` hits at once
 /// (shading normals `ns`, tangents `dpdu`, ray directions `d`), bit for bit the same: the
-/// lane instantiation of [`tangent_axes`] and [`to_local`], normalized as glam does; lanes
+/// lane instantiation of [`shading_axes`]; lanes
 /// whose tangent is degenerate take the scalar fallback. Writes the frames' `s` and `t`
 /// (their `n` is `ns`) and the directions of lanes `0..wo.len()` to `s`, `t` and `wo`.
 pub(crate) fn shading_lanes(
@@ -125,8 +125,7 @@ pub(crate) fn shading_lanes(
         Vec3xN::from_array(&dpdu),
         Vec3xN::from_array(&d),
     );
-    let (s, t, usable) = tangent_axes(n, u);
-    let wo = to_local(s, t, n, -dir).unit();
+    let (s, t, wo, usable) = shading_axes(n, u, dir);
     simd::write_vec3s(s.into(), out_s);
     simd::write_vec3s(t.into(), out_t);
     simd::write_vec3s(wo.into(), out_wo);

@@ -35,7 +35,6 @@
 //! shows and are exempt from these targets.
 
 use lobe_materials::frame::{self, Frame};
-use lobe_materials::math::V3;
 use lobe_materials::sampling::mirror_cones;
 use lobe_materials::sampling::random::{hash, unit};
 use lobe_materials::simd::{self, LANES, f32xn};
@@ -242,7 +241,8 @@ struct Drawn {
 struct Hit {
     batch: usize,
     strategy: usize,
-    /// Its index in its strategy's point set (which fit a [`FITS`] sample draws from).
+    /// Its index in its strategy's point set (which fit a [`FITS`] sample draws from:
+    /// [`fit_of`]).
     member: usize,
     point: [f64; 5],
     frame: Frame,
@@ -264,7 +264,9 @@ impl Stage<'_> {
     ) -> Vec<[f64; 3]> {
         let mut background = vec![[0.0; 3]; batches];
         let hits = self.hits((x, y), (per_batch, batches), seed, &mut background);
-        let set = self.directions(reps, hits, per_batch);
+        let fits = reps.len() - 1;
+        let rotation = fit_rotation(seed, self.pixel_id((x, y)), fits);
+        let set = self.directions(reps, hits, (per_batch, rotation));
         let n = set.wi.len();
         let mut values = vec![[0.0f64; 3]; reps.len() * batches];
         for row in values.chunks_mut(batches) {
@@ -273,7 +275,7 @@ impl Stage<'_> {
         // Every representation's values, and the data's and the fits' shares of the
         // density: n_data p_data + sum over fits of n_j p_j.
         let counts = strategy_counts(per_batch);
-        let per_fit = fit_counts(counts[FITS], reps.len() - 1);
+        let per_fit = fit_counts(counts[FITS], fits, rotation);
         let mut f = vec![Rgb::splat(0.0); n * reps.len()];
         let mut density = set.density.clone();
         let mut pdf = vec![0.0f32; n];
@@ -333,7 +335,22 @@ impl Stage<'_> {
         seed: u64,
         background: &mut [[f64; 3]],
     ) -> Vec<Hit> {
-        let pixel_id = y as u64 * self.width as u64 + x as u64;
+        let drawn = self.drawn((x, y), (per_batch, batches), seed);
+        let mut hits = Vec::with_capacity(drawn.len());
+        for chunk in drawn.chunks(LANES) {
+            self.hits_of((x, y), chunk, per_batch, background, &mut hits);
+        }
+        hits
+    }
+
+    /// The camera samples of pixel (x, y), batch by batch, each strategy's in turn.
+    fn drawn(
+        &self,
+        (x, y): (u32, u32),
+        (per_batch, batches): (usize, usize),
+        seed: u64,
+    ) -> Vec<Drawn> {
+        let pixel_id = self.pixel_id((x, y));
         let counts = strategy_counts(per_batch);
         let mut drawn = Vec::with_capacity(per_batch * batches);
         for batch in 0..batches {
@@ -347,11 +364,7 @@ impl Stage<'_> {
                 point: point(i, counts[strategy], &shift),
             }));
         }
-        let mut hits = Vec::with_capacity(drawn.len());
-        for chunk in drawn.chunks(LANES) {
-            self.hits_of((x, y), chunk, per_batch, background, &mut hits);
-        }
-        hits
+        drawn
     }
 
     /// [`Stage::hits`] of up to `LANES` drawn samples of pixel (x, y), in SIMD lanes:
@@ -376,8 +389,8 @@ impl Stage<'_> {
         let (o, d) = self
             .camera
             .ray_lanes(film(0, x, self.width), film(1, y, self.height));
-        let of = |v: glam::Vec3| V3::new(f32xn::splat(v.x), f32xn::splat(v.y), f32xn::splat(v.z));
-        let (center, radius) = (of(self.sphere.center), f32xn::splat(self.sphere.radius));
+        let center = kernels::splat3(self.sphere.center);
+        let radius = f32xn::splat(self.sphere.radius);
         let rays = RayLanes {
             o,
             d,
@@ -386,8 +399,7 @@ impl Stage<'_> {
         };
         let t = kernels::sphere(&rays, center, radius);
         let (_, normal, dpdu) = Sphere::surface_of(o + d * t, center, radius);
-        let (s, tt, usable) = frame::tangent_axes(normal, dpdu);
-        let wo = frame::to_local(s, tt, normal, -d).unit();
+        let (s, tt, wo, usable) = frame::shading_axes(normal, dpdu, d);
         let usable = simd::mask_bits(usable);
         let t = t.to_array();
         let [d, normal, s, tt, wo] = [d, normal, s, tt, wo].map(|v| v.to_array());
@@ -428,7 +440,13 @@ impl Stage<'_> {
 
     /// The directions of `hits` (the map's samples drawn together, in SIMD lanes), their
     /// radiance and the map's and cones' share of their density (looked up together).
-    fn directions(&self, reps: &[&dyn Bsdf], hits: Vec<Hit>, per_batch: usize) -> PixelSamples {
+    /// The fits' own samples go to the fits from the pixel's `rotation` on ([`fit_of`]).
+    fn directions(
+        &self,
+        reps: &[&dyn Bsdf],
+        hits: Vec<Hit>,
+        (per_batch, rotation): (usize, usize),
+    ) -> PixelSamples {
         let counts = strategy_counts(per_batch);
         let u_of = |h: &Hit| {
             glam::Vec2::new(
@@ -459,7 +477,7 @@ impl Stage<'_> {
         let mut of_fits: Vec<Vec<&Hit>> = vec![Vec::new(); fits];
         if fits > 0 {
             for h in hits.iter().filter(|h| h.strategy == FITS) {
-                of_fits[h.member % fits].push(h);
+                of_fits[fit_of(h.member, rotation, fits)].push(h);
             }
         }
         let mut from_fits: Vec<_> = of_fits
@@ -476,7 +494,10 @@ impl Stage<'_> {
                     _ => None,
                 },
                 DATA => from_data.next().flatten().map(|s| s.wi),
-                FITS if fits > 0 => from_fits[h.member % fits].next().flatten().map(|s| s.wi),
+                FITS if fits > 0 => from_fits[fit_of(h.member, rotation, fits)]
+                    .next()
+                    .flatten()
+                    .map(|s| s.wi),
                 FITS => None,
                 _ => {
                     let e = mirror_cones::EXPONENTS[((h.point[4] * 4.0) as usize).min(3)];
@@ -514,6 +535,11 @@ impl Stage<'_> {
 }
 
 impl Stage<'_> {
+    /// The row-major index of pixel (x, y), which keys its random numbers.
+    fn pixel_id(&self, (x, y): (u32, u32)) -> u64 {
+        y as u64 * self.width as u64 + x as u64
+    }
+
     /// The samples `bsdf` draws for the hits `picked`, in their order (None where it
     /// draws none), in one batched call (none for no hits).
     fn bsdf_samples(
@@ -544,26 +570,40 @@ const CONES: usize = 2;
 const FITS: usize = 3;
 
 /// How many of a batch's `per_batch` samples (a multiple of 4) each strategy takes: half
-/// the map's, a quarter the data's, a sixteenth the fits' (at least one from 8 samples
-/// on, none below) and the rest the cones'. (Under the sunset map the fits' share took
-/// builtin-gold's noise floor from 2.5 to 0.28 times its smallest error; an eighth, or
-/// taken from the map's half, raised the other floors by 5-15 %.) The pilot pass's 8 per
-/// batch take one fit sample, so that the variances the next pass is planned from come
-/// from the strategies that pass uses: without it the plan over-predicted the noise where
-/// a fit's own samples matter, and the default study's noise floors were 1-25 % higher
-/// (colodur_napoli under studio 0.117 of its smallest error, against 0.089).
+/// the map's, a quarter the data's, a sixteenth the fits' (at least one from 8 samples a
+/// batch on, none below) and the rest the cones'. (Under the sunset map the fits' share
+/// took builtin-gold's noise floor from 2.5 to 0.28 times its smallest error; an eighth,
+/// or taken from the map's half, raised the other floors by 5-15 %.) A pilot pass of 8 to
+/// 15 samples a batch (the study's 64 spp in 8 batches) thus takes one fit sample, so that
+/// the variances the next pass is planned from come from the strategies that pass uses.
 fn strategy_counts(per_batch: usize) -> [usize; 4] {
     let quarter = per_batch / 4;
     let fits = (per_batch / 16).max(usize::from(per_batch >= 8));
     [per_batch / 2, quarter, quarter - fits, fits]
 }
 
-/// How many of the `n` samples of the [`FITS`] strategy each of `fits` fits draws: the
-/// set's member k is fit k mod `fits`'s.
-fn fit_counts(n: usize, fits: usize) -> Vec<usize> {
+/// How many of a batch's `n` samples of the [`FITS`] strategy each of `fits` fits draws,
+/// the members rotated by `rotation` ([`fit_of`]).
+fn fit_counts(n: usize, fits: usize, rotation: usize) -> Vec<usize> {
     (0..fits)
-        .map(|j| n / fits + usize::from(j < n % fits))
+        .map(|j| n / fits + usize::from((j + fits - rotation) % fits < n % fits))
         .collect()
+}
+
+/// The fit that member `k` of a batch's [`FITS`] set draws from, the fits in turn from
+/// the pixel's `rotation` on: where a batch has fewer such samples than there are fits
+/// (as in the pilot pass), each pixel's go to other fits, and every fit takes its share
+/// over the image.
+fn fit_of(k: usize, rotation: usize, fits: usize) -> usize {
+    (k + rotation) % fits.max(1)
+}
+
+/// The rotation of the [`FITS`] set's members in pixel `pixel_id` ([`fit_of`]): a
+/// function of the seed and the pixel alone, the same in all its batches, so that the
+/// counts of every fit are fixed before a sample is drawn (as the balance heuristic
+/// requires) and equal across the batches.
+fn fit_rotation(seed: u64, pixel_id: u64, fits: usize) -> usize {
+    (hash(hash(seed, pixel_id), 29) % fits.max(1) as u64) as usize
 }
 
 /// The sum of `f * lw` over samples, skipping any whose product is not finite; four
@@ -1094,6 +1134,70 @@ mod tests {
             floor: 4.0,
             ceiling: 1e6,
         }
+    }
+
+    /// The lane hits equal the scalar chain they replace (camera ray, sphere distance,
+    /// surface, shading frame, normalized local `-d`) bit for bit, for a perspective and
+    /// an orthographic camera, over pixels that cover the sphere, its silhouette and the
+    /// background; the misses are exactly the samples whose scalar ray misses.
+    #[test]
+    fn lane_hits_equal_the_scalar_chain() {
+        use lobe_renderer::scene::builtin_images::studio_environment;
+        let env = EnvMap::new(&studio_environment(32, 16), 1.0, glam::Mat3::IDENTITY);
+        let perspective = Stage::sphere(&env, 24);
+        let orthographic = Stage {
+            camera: Camera::Orthographic {
+                to_world: glam::Mat4::from_translation(glam::Vec3::new(0.1, -0.2, -4.0)),
+                scale: 1.2,
+                aspect: 1.0,
+                near_clip: 0.0,
+            },
+            ..Stage::sphere(&env, 24)
+        };
+        let mut checked = [0usize; 2];
+        for stage in [&perspective, &orthographic] {
+            for (x, y) in (0..24).flat_map(|y| (0..24).map(move |x| (x, y))) {
+                let drawn = stage.drawn((x, y), (8, 2), 5);
+                let mut bg = [[0.0; 3]; 2];
+                let hits = stage.hits((x, y), (8, 2), 5, &mut bg);
+                let mut expected = Vec::new();
+                for d in &drawn {
+                    let film = glam::Vec2::new(
+                        (x as f64 + d.point[0]) as f32 / stage.width as f32,
+                        (y as f64 + d.point[1]) as f32 / stage.height as f32,
+                    );
+                    let ray = stage.camera.ray(film);
+                    let t = stage.sphere.intersect(&ray);
+                    checked[usize::from(t.is_finite())] += 1;
+                    if !t.is_finite() {
+                        continue;
+                    }
+                    let (_, n, dpdu) = stage.sphere.surface(ray.o + ray.d * t);
+                    let frame = Frame::from_normal_tangent(n, dpdu);
+                    let wo = frame.to_local(-ray.d).normalize();
+                    if wo.z > 0.0 {
+                        expected.push((d.point, frame, wo));
+                    }
+                }
+                assert_eq!(hits.len(), expected.len(), "pixel ({x}, {y})");
+                let bits = |v: glam::Vec3| v.to_array().map(f32::to_bits);
+                for (h, (point, frame, wo)) in hits.iter().zip(&expected) {
+                    assert_eq!(h.point, *point);
+                    for (a, b) in [
+                        (h.frame.s, frame.s),
+                        (h.frame.t, frame.t),
+                        (h.frame.n, frame.n),
+                    ] {
+                        assert_eq!(bits(a), bits(b), "pixel ({x}, {y})");
+                    }
+                    assert_eq!(bits(h.wo), bits(*wo), "pixel ({x}, {y})");
+                }
+            }
+        }
+        assert!(
+            checked.iter().all(|&c| c > 1000),
+            "misses and hits: {checked:?}"
+        );
     }
 
     #[test]
