@@ -185,50 +185,13 @@ impl Bsdf for Composite {
     /// The pairs above the surface a lane vector at a time: every lobe's
     /// [`Lobe::eval_pdf_xn`] once per `LANES` pairs ([`Composite::mix_lanes`]).
     fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
-        let n = f.len();
-        assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
-        if self.lobes.len() > MAX_INLINE {
-            for k in 0..n {
-                (f[k], pdf[k]) = (self.eval(wo[k], wi[k]), self.pdf(wo[k], wi[k]));
-            }
-            return;
-        }
-        f.fill(Rgb::ZERO);
-        pdf.fill(0.0);
-        pairs_above(wo, wi, |idx, o, i| {
-            let w = self.lane_weights(o.z);
-            let (v, p) = self.mix_lanes(o, i, &w);
-            // A pair whose components are all black has density 0.
-            let p = sel(w.total.simd_gt(f32xn::splat(0.0)), p, f32xn::splat(0.0)).to_array();
-            let v = v.to_array();
-            for (lane, &k) in idx.iter().enumerate() {
-                (f[k], pdf[k]) = (v[lane], p[lane]);
-            }
-        });
+        self.evaluate(wo, wi, f, Some(pdf));
     }
 
     /// The values of [`Bsdf::eval_pdf_many`] alone: every lobe's [`Lobe::eval_xn`] once per
     /// `LANES` pairs above the surface, mixed as there.
     fn eval_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb]) {
-        let n = f.len();
-        assert!(wo.len() == n && wi.len() == n);
-        if self.lobes.len() > MAX_INLINE {
-            for k in 0..n {
-                f[k] = self.eval(wo[k], wi[k]);
-            }
-            return;
-        }
-        f.fill(Rgb::ZERO);
-        pairs_above(wo, wi, |idx, o, i| {
-            let [r, g, b] = self.mixed_value(|k| {
-                let v = self.lobes[k].1.eval_xn(o, i);
-                [v.r, v.g, v.b]
-            });
-            let v = RgbxN::new(r, g, b).to_array();
-            for (lane, &k) in idx.iter().enumerate() {
-                f[k] = v[lane];
-            }
-        });
+        self.evaluate(wo, wi, f, None);
     }
 
     /// Components chosen and sampled query by query, the mixture density and the value of
@@ -268,6 +231,54 @@ impl Bsdf for Composite {
 }
 
 impl Composite {
+    /// [`Bsdf::eval_pdf_many`] (or, without `pdf`, its values alone): the pairs above the
+    /// surface a lane vector at a time, every lobe once per `LANES` pairs.
+    #[inline(always)]
+    fn evaluate(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], mut pdf: Option<&mut [f32]>) {
+        let n = f.len();
+        assert!(wo.len() == n && wi.len() == n);
+        assert!(pdf.as_ref().is_none_or(|p| p.len() == n));
+        if self.lobes.len() > MAX_INLINE {
+            for k in 0..n {
+                f[k] = self.eval(wo[k], wi[k]);
+                if let Some(pdf) = pdf.as_deref_mut() {
+                    pdf[k] = self.pdf(wo[k], wi[k]);
+                }
+            }
+            return;
+        }
+        f.fill(Rgb::ZERO);
+        if let Some(pdf) = pdf.as_deref_mut() {
+            pdf.fill(0.0);
+        }
+        pairs_above(wo, wi, |idx, o, i| {
+            let v = match pdf.as_deref_mut() {
+                Some(pdf) => {
+                    let w = self.lane_weights(o.z);
+                    let (v, p) = self.mix_lanes(o, i, &w);
+                    // A pair whose components are all black has density 0.
+                    let zero = f32xn::splat(0.0);
+                    let p = sel(w.total.simd_gt(zero), p, zero).to_array();
+                    for (lane, &k) in idx.iter().enumerate() {
+                        pdf[k] = p[lane];
+                    }
+                    v
+                }
+                None => {
+                    let [r, g, b] = self.mixed_value(|k| {
+                        let v = self.lobes[k].1.eval_xn(o, i);
+                        [v.r, v.g, v.b]
+                    });
+                    RgbxN::new(r, g, b)
+                }
+            };
+            let v = v.to_array();
+            for (lane, &k) in idx.iter().enumerate() {
+                f[k] = v[lane];
+            }
+        });
+    }
+
     /// Runs `f` with the component probabilities for `wo` (on the stack for up to
     /// [`MAX_INLINE`] lobes); None when every component is black.
     fn with_weights<R>(&self, wo: Vec3, f: impl FnOnce(&[f32], f32) -> Option<R>) -> Option<R> {

@@ -109,9 +109,9 @@ impl<'a> Shading<'a> {
 
 /// [`Shading::new`]'s frames and local outgoing directions for up to `LANES` hits at once
 /// (shading normals `ns`, tangents `dpdu`, ray directions `d`), bit for bit the same: the
-/// lane instantiation of [`shading_axes`]; lanes
-/// whose tangent is degenerate take the scalar fallback. Writes the frames' `s` and `t`
-/// (their `n` is `ns`) and the directions of lanes `0..wo.len()` to `s`, `t` and `wo`.
+/// lane instantiation of [`shading_axes`]; lanes whose tangent is degenerate take the
+/// scalar fallback. Writes the frames' `s` and `t` (their `n` is `ns`) and the directions
+/// of lanes `0..wo.len()` to `s`, `t` and `wo`.
 pub(crate) fn shading_lanes(
     ns: [Vec3; LANES],
     dpdu: [Vec3; LANES],

@@ -226,8 +226,10 @@ struct PixelSamples {
     density: Vec<f64>,
 }
 
-/// A camera sample of a pixel: its batch, strategy, index in its strategy's point set and
-/// point.
+/// A camera sample of a pixel: its batch, strategy ([`MAP`], [`DATA`], [`CONES`] or
+/// [`FITS`]), index in its strategy's point set (which fit a [`FITS`] sample draws from:
+/// [`fit_of`]) and point.
+#[derive(Clone, Copy)]
 struct Drawn {
     batch: usize,
     strategy: usize,
@@ -235,16 +237,10 @@ struct Drawn {
     point: [f64; 5],
 }
 
-/// A sample that hit the sphere, before its direction: its batch, strategy ([`MAP`],
-/// [`DATA`], [`CONES`] or [`FITS`]), point, and the local frame's outgoing direction and mirror
-/// direction.
+/// A sample that hit the sphere, before its direction: the camera sample, and the local
+/// frame's outgoing direction and mirror direction.
 struct Hit {
-    batch: usize,
-    strategy: usize,
-    /// Its index in its strategy's point set (which fit a [`FITS`] sample draws from:
-    /// [`fit_of`]).
-    member: usize,
-    point: [f64; 5],
+    sample: Drawn,
     frame: Frame,
     wo: glam::Vec3,
     mirror: glam::DVec3,
@@ -426,10 +422,7 @@ impl Stage<'_> {
             };
             if wo.z > 0.0 {
                 hits.push(Hit {
-                    batch: drawn.batch,
-                    strategy: drawn.strategy,
-                    member: drawn.member,
-                    point: drawn.point,
+                    sample: *drawn,
                     frame,
                     wo,
                     mirror: glam::DVec3::new(-wo.x as f64, -wo.y as f64, wo.z as f64),
@@ -450,13 +443,13 @@ impl Stage<'_> {
         let counts = strategy_counts(per_batch);
         let u_of = |h: &Hit| {
             glam::Vec2::new(
-                (h.point[2] as f32).min(1.0 - f32::EPSILON),
-                (h.point[3] as f32).min(1.0 - f32::EPSILON),
+                (h.sample.point[2] as f32).min(1.0 - f32::EPSILON),
+                (h.sample.point[3] as f32).min(1.0 - f32::EPSILON),
             )
         };
         let us: Vec<glam::Vec2> = hits
             .iter()
-            .filter(|h| h.strategy == MAP)
+            .filter(|h| h.sample.strategy == MAP)
             .map(u_of)
             .collect();
         let m = us.len();
@@ -469,15 +462,15 @@ impl Stage<'_> {
         let mut from_map = map_dirs.into_iter().zip(pdf);
         // The data's samples drawn together too (a batched form where the model has one),
         // and each fit's.
-        let of_data: Vec<&Hit> = hits.iter().filter(|h| h.strategy == DATA).collect();
+        let of_data: Vec<&Hit> = hits.iter().filter(|h| h.sample.strategy == DATA).collect();
         let mut from_data = Self::bsdf_samples(reps[0], &of_data, u_of).into_iter();
         // Each fit's samples, the hits sorted to their fits in one pass (none in a pass
         // too small for the fits' share).
         let fits = reps.len() - 1;
         let mut of_fits: Vec<Vec<&Hit>> = vec![Vec::new(); fits];
         if fits > 0 {
-            for h in hits.iter().filter(|h| h.strategy == FITS) {
-                of_fits[fit_of(h.member, rotation, fits)].push(h);
+            for h in hits.iter().filter(|h| h.sample.strategy == FITS) {
+                of_fits[fit_of(h.sample.member, rotation, fits)].push(h);
             }
         }
         let mut from_fits: Vec<_> = of_fits
@@ -488,26 +481,29 @@ impl Stage<'_> {
         let mut drawn = PixelSamples::default();
         let mut world = Vec::with_capacity(hits.len());
         for h in &hits {
-            let wi = match h.strategy {
+            let wi = match h.sample.strategy {
                 MAP => match from_map.next() {
                     Some((d, p)) if p > 0.0 => Some(h.frame.to_local(d).normalize()),
                     _ => None,
                 },
                 DATA => from_data.next().flatten().map(|s| s.wi),
-                FITS if fits > 0 => from_fits[fit_of(h.member, rotation, fits)]
+                FITS if fits > 0 => from_fits[fit_of(h.sample.member, rotation, fits)]
                     .next()
                     .flatten()
                     .map(|s| s.wi),
                 FITS => None,
                 _ => {
-                    let e = mirror_cones::EXPONENTS[((h.point[4] * 4.0) as usize).min(3)];
-                    Some(mirror_cones::sample(h.mirror, e, [h.point[2], h.point[3]]).as_vec3())
+                    let e = mirror_cones::EXPONENTS[((h.sample.point[4] * 4.0) as usize).min(3)];
+                    Some(
+                        mirror_cones::sample(h.mirror, e, [h.sample.point[2], h.sample.point[3]])
+                            .as_vec3(),
+                    )
                 }
             };
             let Some(wi) = wi.filter(|wi| wi.z > 0.0) else {
                 continue;
             };
-            drawn.batch.push(h.batch);
+            drawn.batch.push(h.sample.batch);
             drawn.wo.push(h.wo);
             drawn.wi.push(wi);
             drawn
@@ -552,7 +548,7 @@ impl Stage<'_> {
         }
         let wos: Vec<glam::Vec3> = picked.iter().map(|h| h.wo).collect();
         let u2: Vec<glam::Vec2> = picked.iter().map(|h| u_of(h)).collect();
-        let ucs: Vec<f32> = picked.iter().map(|h| h.point[4] as f32).collect();
+        let ucs: Vec<f32> = picked.iter().map(|h| h.sample.point[4] as f32).collect();
         let mut out = vec![None; picked.len()];
         bsdf.sample_many(&wos, &u2, &ucs, &mut out);
         out
@@ -1182,7 +1178,7 @@ mod tests {
                 assert_eq!(hits.len(), expected.len(), "pixel ({x}, {y})");
                 let bits = |v: glam::Vec3| v.to_array().map(f32::to_bits);
                 for (h, (point, frame, wo)) in hits.iter().zip(&expected) {
-                    assert_eq!(h.point, *point);
+                    assert_eq!(h.sample.point, *point);
                     for (a, b) in [
                         (h.frame.s, frame.s),
                         (h.frame.t, frame.t),
