@@ -12,7 +12,7 @@ use criterion::{Criterion, Throughput};
 use glam::{Vec2, Vec3};
 use lobe_materials::measured::tabulate::{Acquisition, binned_from, merl_from};
 use lobe_materials::registry::Registry;
-use lobe_materials::{Bsdf, BsdfSample, Rgb};
+use lobe_materials::{Bsdf, BsdfSample, Rgb, Vec3s};
 use serde_json::{Value, json};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -193,9 +193,10 @@ fn bench_material(c: &mut Criterion, name: &str, m: &Arc<dyn Bsdf>, q: &Queries)
         })
     });
     let (mut f, mut pdf) = (vec![Rgb::ZERO; N], vec![0.0f32; N]);
+    let (wo, wi) = (Vec3s::from(&q.wo[..]), Vec3s::from(&q.wi[..]));
     g.bench_function("eval_pdf_many", |b| {
         b.iter(|| {
-            m.eval_pdf_many(black_box(&q.wo), black_box(&q.wi), &mut f, &mut pdf);
+            m.eval_pdf_many(black_box(wo.cols()), black_box(wi.cols()), &mut f, &mut pdf);
             black_box((&f, &pdf));
         })
     });
@@ -210,7 +211,7 @@ fn bench_material(c: &mut Criterion, name: &str, m: &Arc<dyn Bsdf>, q: &Queries)
     g.bench_function("sample_many", |b| {
         b.iter(|| {
             m.sample_many(
-                black_box(&q.wo),
+                black_box(wo.cols()),
                 black_box(&q.u),
                 black_box(&q.uc),
                 &mut out,

@@ -7,6 +7,7 @@
 //! `f_r * cos(theta_i) / pdf` with the pdf in solid-angle measure. A BRDF is one-sided:
 //! when either direction is below the surface it evaluates to zero, as Mitsuba 3's BSDFs do.
 
+use crate::columns::Vec3Cols;
 use crate::math::{Num, gt, is_finite};
 use glam::{Vec2, Vec3};
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Sub};
@@ -209,8 +210,9 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
     /// [`Bsdf::sample`] of many queries at once, `out[k]` for (`wo[k]`, `u[k]`, `uc[k]`),
     /// bit for bit the same: the renderer's wavefront integrator samples all hits on one
     /// material in one call. Models may override it with a batched (SIMD) form.
-    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
-        for (((o, &wo), &u), &uc) in out.iter_mut().zip(wo).zip(u).zip(uc) {
+    /// The directions come as columns ([`Vec3Cols`], the queues' struct-of-arrays form).
+    fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+        for (((o, wo), &u), &uc) in out.iter_mut().zip(wo.iter()).zip(u).zip(uc) {
             *o = self.sample(wo, u, uc);
         }
     }
@@ -218,8 +220,13 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
     /// `pdf[k]` for (`wo[k]`, `wi[k]`), bit for bit the same: the renderer's wavefront
     /// integrator evaluates the light samples of all hits on one material in one call.
     /// Models may override it with a batched (SIMD) form.
-    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
-        for (((f, pdf), &wo), &wi) in f.iter_mut().zip(pdf.iter_mut()).zip(wo).zip(wi) {
+    fn eval_pdf_many(&self, wo: Vec3Cols, wi: Vec3Cols, f: &mut [Rgb], pdf: &mut [f32]) {
+        for (((f, pdf), wo), wi) in f
+            .iter_mut()
+            .zip(pdf.iter_mut())
+            .zip(wo.iter())
+            .zip(wi.iter())
+        {
             *f = self.eval(wo, wi);
             *pdf = self.pdf(wo, wi);
         }
@@ -229,7 +236,7 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
     /// (the image estimators' representations that draw no samples of their own). The
     /// default calls [`Bsdf::eval_pdf_many`]; models whose density costs a share of the
     /// evaluation override it.
-    fn eval_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb]) {
+    fn eval_many(&self, wo: Vec3Cols, wi: Vec3Cols, f: &mut [Rgb]) {
         let mut pdf = vec![0.0; f.len()];
         self.eval_pdf_many(wo, wi, f, &mut pdf);
     }

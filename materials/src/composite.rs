@@ -7,6 +7,7 @@
 //! (one-sample MIS with the balance heuristic), so every component's sampler helps.
 
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::columns::Vec3Cols;
 use crate::lobe::Lobe;
 use crate::math::{Num, all, clamp, gt, is_finite, le, lt, maximum, select};
 use crate::sampling::warp::{
@@ -184,31 +185,36 @@ impl Bsdf for Composite {
 
     /// The pairs above the surface a lane vector at a time: every lobe's
     /// [`Lobe::eval_pdf_xn`] once per `LANES` pairs ([`Composite::mix_lanes`]).
-    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
+    fn eval_pdf_many(&self, wo: Vec3Cols, wi: Vec3Cols, f: &mut [Rgb], pdf: &mut [f32]) {
         self.evaluate(wo, wi, f, Some(pdf));
     }
 
     /// The values of [`Bsdf::eval_pdf_many`] alone: every lobe's [`Lobe::eval_xn`] once per
     /// `LANES` pairs above the surface, mixed as there.
-    fn eval_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb]) {
+    fn eval_many(&self, wo: Vec3Cols, wi: Vec3Cols, f: &mut [Rgb]) {
         self.evaluate(wo, wi, f, None);
     }
 
     /// Components chosen and sampled query by query, the mixture density and the value of
     /// `LANES` sampled directions at a time ([`Composite::mix_lanes`]).
-    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         if self.lobes.len() > MAX_INLINE {
             for k in 0..n {
-                out[k] = self.sample(wo[k], u[k], uc[k]);
+                out[k] = self.sample(wo.get(k), u[k], uc[k]);
             }
             return;
         }
         out.fill(None);
         for first in (0..n).step_by(SAMPLE_BLOCK) {
             let r = first..(first + SAMPLE_BLOCK).min(n);
-            self.sample_block(&wo[r.clone()], &u[r.clone()], &uc[r.clone()], &mut out[r]);
+            self.sample_block(
+                wo.slice(r.clone()),
+                &u[r.clone()],
+                &uc[r.clone()],
+                &mut out[r],
+            );
         }
     }
 
@@ -234,15 +240,15 @@ impl Composite {
     /// [`Bsdf::eval_pdf_many`] (or, without `pdf`, its values alone): the pairs above the
     /// surface a lane vector at a time, every lobe once per `LANES` pairs.
     #[inline(always)]
-    fn evaluate(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], mut pdf: Option<&mut [f32]>) {
+    fn evaluate(&self, wo: Vec3Cols, wi: Vec3Cols, f: &mut [Rgb], mut pdf: Option<&mut [f32]>) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n);
         assert!(pdf.as_ref().is_none_or(|p| p.len() == n));
         if self.lobes.len() > MAX_INLINE {
             for k in 0..n {
-                f[k] = self.eval(wo[k], wi[k]);
+                f[k] = self.eval(wo.get(k), wi.get(k));
                 if let Some(pdf) = pdf.as_deref_mut() {
-                    pdf[k] = self.pdf(wo[k], wi[k]);
+                    pdf[k] = self.pdf(wo.get(k), wi.get(k));
                 }
             }
             return;
@@ -325,7 +331,7 @@ impl Composite {
     /// lane samples a lobe its query did not choose; last, the value and the mixture
     /// density of every drawn direction, a lane vector at a time. Queries whose weights sum to
     /// zero get None.
-    fn sample_block(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_block(&self, wo: Vec3Cols, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let m = wo.len();
         debug_assert!(m <= SAMPLE_BLOCK);
         let mut choice = [(NO_COMPONENT, 0.0f32); SAMPLE_BLOCK];
@@ -336,11 +342,11 @@ impl Composite {
             m,
             |k| wi[k].is_some(),
             |idx| {
-                let o = simd::lanes_of(idx, |k| wo[k]);
-                let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo[k]));
-                let w = self.lane_weights(f32xn::new(simd::lanes(|lane| o[lane].z)));
+                let o = wo.lanes_of(idx);
+                let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo.get(k)));
+                let w = self.lane_weights(o.z);
                 let d = Vec3xN::from_array(&d);
-                let (v, p) = self.mix_lanes(Vec3xN::from_array(&o), d, &w);
+                let (v, p) = self.mix_lanes(o, d, &w);
                 let (weight, keep) = BsdfSample::weight_where(d.z, p, [v.r, v.g, v.b]);
                 let keep = simd::mask_bits(keep);
                 // Each sample from the lanes' floats (copies of 12-byte records through the
@@ -365,7 +371,7 @@ impl Composite {
     /// time; the diffuse component's direction is drawn on the way.
     fn choose_components(
         &self,
-        wo: &[Vec3],
+        wo: Vec3Cols,
         u: &[Vec2],
         uc: &[f32],
         choice: &mut [(usize, f32)],
@@ -373,9 +379,9 @@ impl Composite {
     ) {
         simd::chunks_where(
             wo.len(),
-            |k| !(wo[k].z <= 0.0),
+            |k| !(wo.z[k] <= 0.0),
             |idx| {
-                let w = self.lane_weights(f32xn::new(simd::lanes_of(idx, |k| wo[k].z)));
+                let w = self.lane_weights(f32xn::new(simd::lanes_of(idx, |k| wo.z[k])));
                 let lane_uc = f32xn::new(simd::lanes_of(idx, |k| uc[k]));
                 let (chosen, uc_rest) =
                     Self::choose(lane_uc, &w.w[..self.lobes.len() + 1], w.total);
@@ -410,7 +416,7 @@ impl Composite {
     /// query did not choose.
     fn sample_chosen_lobes(
         &self,
-        wo: &[Vec3],
+        wo: Vec3Cols,
         u: &[Vec2],
         choice: &[(usize, f32)],
         wi: &mut [Option<Vec3>],
@@ -436,7 +442,7 @@ impl Composite {
             }
             for (q, &k) in idx.iter().enumerate() {
                 let k = k as usize;
-                (batch_wo[q], batch_u[q], batch_uc[q]) = (wo[k], u[k], choice[k].1);
+                (batch_wo[q], batch_u[q], batch_uc[q]) = (wo.get(k), u[k], choice[k].1);
             }
             lobe.sample_batch(
                 &batch_wo[..len],
@@ -550,12 +556,10 @@ impl Composite {
 /// surface, `LANES` at a time in SIMD lanes (the last chunk's lanes past its length are
 /// copies of its last pair).
 #[inline(always)]
-fn pairs_above(wo: &[Vec3], wi: &[Vec3], mut each: impl FnMut(&[usize], Vec3xN, Vec3xN)) {
-    let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
+fn pairs_above(wo: Vec3Cols, wi: Vec3Cols, mut each: impl FnMut(&[usize], Vec3xN, Vec3xN)) {
+    let above = |k: usize| !(wo.z[k] <= 0.0 || wi.z[k] <= 0.0);
     simd::chunks_where(wo.len(), above, |idx| {
-        let o = Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k]));
-        let i = Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k]));
-        each(idx, o, i)
+        each(idx, wo.lanes_of(idx), wi.lanes_of(idx))
     });
 }
 

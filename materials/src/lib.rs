@@ -23,6 +23,7 @@
 pub mod analytic;
 pub mod bsdf;
 pub mod builtin;
+pub mod columns;
 pub mod composite;
 pub mod error;
 pub mod fastmath;
@@ -44,6 +45,7 @@ pub mod schema;
 pub mod simd;
 
 pub use bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+pub use columns::{Vec3Cols, Vec3s};
 pub use error::{FileError, ParamError};
 /// The vector types of the public interface (re-exported for the exported macros).
 pub use glam;

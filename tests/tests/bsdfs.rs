@@ -9,7 +9,7 @@
 
 use glam::Vec3;
 use lobe_materials::registry::Registry;
-use lobe_materials::{Bsdf, Flags};
+use lobe_materials::{Bsdf, Flags, Vec3s};
 use lobe_tests::bsdf_checks::*;
 use serde_json::{Value, json};
 use std::sync::Arc;
@@ -569,7 +569,8 @@ fn batched_sampling_equals_single_samples() {
         for (n, seed) in [(1usize, 0usize), (8, 3), (13, 5), (40, 7), (300, 11)] {
             let q = batch_inputs(n, seed);
             let mut out = vec![None; n];
-            case.bsdf.sample_many(&q.wo, &q.u, &q.uc, &mut out);
+            let wo = Vec3s::from(&q.wo[..]);
+            case.bsdf.sample_many(wo.cols(), &q.u, &q.uc, &mut out);
             for (k, &got) in out.iter().enumerate() {
                 let one = case.bsdf.sample(q.wo[k], q.u[k], q.uc[k]);
                 assert_eq!(
@@ -608,9 +609,11 @@ fn batched_evaluation_equals_single_evaluations() {
             let q = batch_inputs(n, seed);
             let mut f = vec![lobe_materials::Rgb::ZERO; n];
             let mut pdf = vec![0.0f32; n];
-            case.bsdf.eval_pdf_many(&q.wo, &q.wi, &mut f, &mut pdf);
+            let (wo, wi) = (Vec3s::from(&q.wo[..]), Vec3s::from(&q.wi[..]));
+            case.bsdf
+                .eval_pdf_many(wo.cols(), wi.cols(), &mut f, &mut pdf);
             let mut values = vec![lobe_materials::Rgb::splat(f32::NAN); n];
-            case.bsdf.eval_many(&q.wo, &q.wi, &mut values);
+            case.bsdf.eval_many(wo.cols(), wi.cols(), &mut values);
             for k in 0..n {
                 let (wo, wi) = (q.wo[k], q.wi[k]);
                 let e = case.bsdf.eval(wo, wi);

@@ -6,6 +6,7 @@
 
 use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::columns::Vec3Cols;
 use crate::fastmath::select_branchless;
 use crate::sampling::warp::{
     cosine_hemisphere, cosine_hemisphere_pdf, square_to_cosine_hemisphere,
@@ -57,19 +58,19 @@ impl Bsdf for Lambert {
     }
 
     /// `LANES` pairs per SIMD warp, with `eval`'s and `pdf`'s operations.
-    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
+    fn eval_pdf_many(&self, wo: Vec3Cols, wi: Vec3Cols, f: &mut [Rgb], pdf: &mut [f32]) {
         assert!(wo.len() == f.len() && wi.len() == f.len() && pdf.len() == f.len());
         let zero = f32xn::splat(0.0);
         let inv_pi = f32xn::splat(FRAC_1_PI);
-        for (((oc, ic), fc), pc) in wo
-            .chunks(LANES)
-            .zip(wi.chunks(LANES))
-            .zip(f.chunks_mut(LANES))
-            .zip(pdf.chunks_mut(LANES))
+        for (((oc, ic), fc), pc) in
+            wo.z.chunks(LANES)
+                .zip(wi.z.chunks(LANES))
+                .zip(f.chunks_mut(LANES))
+                .zip(pdf.chunks_mut(LANES))
         {
             let n = fc.len();
-            let zo = f32xn::new(simd::lanes(|i| oc[i.min(n - 1)].z));
-            let zi = f32xn::new(simd::lanes(|i| ic[i.min(n - 1)].z));
+            let zo = f32xn::new(simd::padded(oc));
+            let zi = f32xn::new(simd::padded(ic));
             let above = zo.simd_gt(zero) & zi.simd_gt(zero);
             let s = simd::sel(above, inv_pi, zero).to_array();
             let p = simd::sel(above, zi.max(zero) * inv_pi, zero).to_array();
@@ -81,12 +82,12 @@ impl Bsdf for Lambert {
     }
 
     /// `LANES` queries per SIMD warp ([`cosine_hemisphere`]).
-    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
         assert!(wo.len() == out.len() && u.len() == out.len());
-        for ((wc, uc), oc) in wo
-            .chunks(LANES)
-            .zip(u.chunks(LANES))
-            .zip(out.chunks_mut(LANES))
+        for ((wc, uc), oc) in
+            wo.z.chunks(LANES)
+                .zip(u.chunks(LANES))
+                .zip(out.chunks_mut(LANES))
         {
             let n = oc.len();
             let uu = simd::lanes(|i| uc[i.min(n - 1)]);
@@ -99,7 +100,7 @@ impl Bsdf for Lambert {
             let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
             for i in 0..n {
                 // The scalar form's tests, negated as written there (NaN goes through).
-                oc[i] = (!(wc[i].z <= 0.0) && !(pdf[i] <= 0.0)).then(|| BsdfSample {
+                oc[i] = (!(wc[i] <= 0.0) && !(pdf[i] <= 0.0)).then(|| BsdfSample {
                     wi: Vec3::new(x[i], y[i], z[i]),
                     weight: self.reflectance,
                     pdf: pdf[i],

@@ -10,6 +10,7 @@ use super::rgl::Rgl;
 use super::sampler::TabulatedSampler;
 use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::columns::Vec3Cols;
 use crate::math::{Single, V3, maximum};
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
@@ -135,10 +136,10 @@ impl Measured {
     /// Sets the weights `f cos / pdf` of the samples `out[k]` of `idx` (one to `LANES`, each
     /// holding its direction and density), their values from [`Table::eval_xn`]; a sample
     /// whose weight is not finite becomes `None` ([`BsdfSample::weight_where`], per lane).
-    fn weigh_samples(&self, wo: &[Vec3], idx: &[usize], out: &mut [Option<BsdfSample>]) {
+    fn weigh_samples(&self, wo: Vec3Cols, idx: &[usize], out: &mut [Option<BsdfSample>]) {
         let wi = |k: usize| out[k].map_or(Vec3::Z, |s| s.wi);
         let f = self.table.eval_xn(
-            Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
+            wo.lanes_of(idx),
             Vec3xN::from_array(&simd::lanes_of(idx, wi)),
         );
         for (lane, &k) in idx.iter().enumerate() {
@@ -174,7 +175,7 @@ impl Bsdf for Measured {
     /// Directions and densities from the sampler one query at a time, then the values of
     /// the sampled directions a lane vector at a time ([`Table::eval_xn`]); bit for bit
     /// [`Measured::sample`] (a sample's value is only needed once its density is positive).
-    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         // `LANES` queries at a time: directions one by one, their densities in lanes
@@ -184,13 +185,13 @@ impl Bsdf for Measured {
             let at = |i: usize| start + i.min(len - 1);
             let wi = simd::lanes(|i| {
                 (i < len)
-                    .then(|| self.sampler.sample(wo[at(i)], u[at(i)], uc[at(i)]))
+                    .then(|| self.sampler.sample(wo.get(at(i)), u[at(i)], uc[at(i)]))
                     .flatten()
             });
             let pdf = self
                 .sampler
                 .density(
-                    Vec3xN::from_array(&simd::lanes(|i| wo[at(i)])),
+                    wo.load(start),
                     Vec3xN::from_array(&simd::lanes(|i| wi[i].unwrap_or(Vec3::Z))),
                 )
                 .to_array();
@@ -217,26 +218,20 @@ impl Bsdf for Measured {
 
     /// The values of the pairs above the surface and the sampler's densities, `LANES` at a
     /// time ([`Table::eval_xn`], [`TabulatedSampler::density`]).
-    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
+    fn eval_pdf_many(&self, wo: Vec3Cols, wi: Vec3Cols, f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
         f.fill(Rgb::ZERO);
-        let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
+        let above = |k: usize| !(wo.z[k] <= 0.0 || wi.z[k] <= 0.0);
         simd::chunks_where(n, above, |idx| {
-            let v = self.table.eval_xn(
-                Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
-                Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k])),
-            );
+            let v = self.table.eval_xn(wo.lanes_of(idx), wi.lanes_of(idx));
             for (lane, &k) in idx.iter().enumerate() {
                 f[k] = v.lane(lane);
             }
         });
         for (start, chunk) in pdf.chunks_mut(simd::LANES).enumerate() {
-            let at = |i: usize| simd::LANES * start + i.min(chunk.len() - 1);
-            let p = self.sampler.density(
-                Vec3xN::from_array(&simd::lanes(|i| wo[at(i)])),
-                Vec3xN::from_array(&simd::lanes(|i| wi[at(i)])),
-            );
+            let first = simd::LANES * start;
+            let p = self.sampler.density(wo.load(first), wi.load(first));
             chunk.copy_from_slice(&p.to_array()[..chunk.len()]);
         }
     }
@@ -444,36 +439,35 @@ impl Bsdf for RglBsdf {
     }
 
     /// The pairs above the surface a lane vector at a time through [`Rgl::eval_projected_pdf`].
-    fn eval_pdf_many(&self, wo: &[Vec3], wi: &[Vec3], f: &mut [Rgb], pdf: &mut [f32]) {
+    fn eval_pdf_many(&self, wo: Vec3Cols, wi: Vec3Cols, f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
         f.fill(Rgb::ZERO);
         pdf.fill(0.0);
-        let above = |k: usize| !(wo[k].z <= 0.0 || wi[k].z <= 0.0);
+        let above = |k: usize| !(wo.z[k] <= 0.0 || wi.z[k] <= 0.0);
         simd::chunks_where(n, above, |idx| {
-            let ([r, g, b], p) = self.table.eval_projected_pdf(
-                Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
-                Vec3xN::from_array(&simd::lanes_of(idx, |k| wi[k])),
-            );
+            let ([r, g, b], p) = self
+                .table
+                .eval_projected_pdf(wo.lanes_of(idx), wi.lanes_of(idx));
             let (v, p) = (RgbxN::new(r, g, b), p.to_array());
             for (lane, &k) in idx.iter().enumerate() {
-                f[k] = self.f(wi[k], v.lane(lane));
+                f[k] = self.f(wi.get(k), v.lane(lane));
                 pdf[k] = p[lane];
             }
         });
     }
 
     /// The queries above the surface a lane vector at a time ([`Rgl::sample_value`]).
-    fn sample_many(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         out.fill(None);
         simd::chunks_where(
             n,
-            |k| !(wo[k].z <= 0.0),
+            |k| !(wo.z[k] <= 0.0),
             |idx| {
                 let (wi, p, [r, g, b], ok) = self.table.sample_value(
-                    Vec3xN::from_array(&simd::lanes_of(idx, |k| wo[k])),
+                    wo.lanes_of(idx),
                     simd::vec2s(&simd::lanes_of(idx, |k| u[k])),
                 );
                 let (v, p, ok) = (RgbxN::new(r, g, b), p.to_array(), simd::mask_bits(ok));

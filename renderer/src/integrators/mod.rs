@@ -15,10 +15,10 @@ use crate::scene::Scene;
 use crate::settings::Integrator;
 use crate::{Rgb, geometry::Ray, sampler::Sampler};
 use glam::Vec3;
-use lobe_materials::Bsdf;
 use lobe_materials::frame::{Frame, shading_axes};
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, Vec3xN};
+use lobe_materials::{Bsdf, Vec3s};
 
 impl Integrator {
     /// Radiance along a camera ray.
@@ -107,34 +107,31 @@ impl<'a> Shading<'a> {
     }
 }
 
-/// [`Shading::new`]'s frames and local outgoing directions for up to `LANES` hits at once
+/// [`Shading::new`]'s frames and local outgoing directions for `LANES` hits at once
 /// (shading normals `ns`, tangents `dpdu`, ray directions `d`), bit for bit the same: the
 /// lane instantiation of [`shading_axes`]; lanes whose tangent is degenerate take the
 /// scalar fallback. Writes the frames' `s` and `t` (their `n` is `ns`) and the directions
-/// of lanes `0..wo.len()` to `s`, `t` and `wo`.
+/// of lanes `0..min(LANES, len - first)` to elements `first..` of the columns `out`
+/// (`[s, t, wo]`, equally long), three plain stores each.
 pub(crate) fn shading_lanes(
-    ns: [Vec3; LANES],
-    dpdu: [Vec3; LANES],
-    d: [Vec3; LANES],
-    out_s: &mut [Vec3],
-    out_t: &mut [Vec3],
-    out_wo: &mut [Vec3],
+    ns: Vec3xN,
+    dpdu: Vec3xN,
+    d: Vec3xN,
+    first: usize,
+    out: [&mut Vec3s; 3],
 ) {
-    let (n, u, dir) = (
-        Vec3xN::from_array(&ns),
-        Vec3xN::from_array(&dpdu),
-        Vec3xN::from_array(&d),
-    );
-    let (s, t, wo, usable) = shading_axes(n, u, dir);
-    simd::write_vec3s(s.into(), out_s);
-    simd::write_vec3s(t.into(), out_t);
-    simd::write_vec3s(wo.into(), out_wo);
+    let (s, t, wo, usable) = shading_axes(ns, dpdu, d);
+    let [out_s, out_t, out_wo] = out;
+    out_s.cols_mut().store(first, s);
+    out_t.cols_mut().store(first, t);
+    out_wo.cols_mut().store(first, wo);
     let usable = simd::mask_bits(usable);
-    for i in 0..out_wo.len() {
+    for i in 0..(out_wo.len() - first).min(LANES) {
         if usable >> i & 1 == 0 {
-            let frame = Frame::from_normal_tangent(ns[i], dpdu[i]);
-            (out_s[i], out_t[i]) = (frame.s, frame.t);
-            out_wo[i] = frame.to_local(-d[i]).normalize();
+            let frame = Frame::from_normal_tangent(ns.lane(i), dpdu.lane(i));
+            out_s.set(first + i, frame.s);
+            out_t.set(first + i, frame.t);
+            out_wo.set(first + i, frame.to_local(-d.lane(i)).normalize());
         }
     }
 }
@@ -199,20 +196,30 @@ mod tests {
                 _ => v(round * LANES + i, 1.31) * 3.0,
             });
             let d = simd::lanes(|i| -v(round * LANES + i, 0.53));
-            let [mut fs, mut ft, mut wo] = [[Vec3::ZERO; LANES]; 3];
-            shading_lanes(ns, dpdu, d, &mut fs, &mut ft, &mut wo);
+            let [mut fs, mut ft, mut wo] = [(); 3].map(|_| Vec3s::zeros(LANES + 1));
+            let lanes = |v: &[Vec3; LANES]| Vec3xN::from_array(v);
+            let first = round % 2;
+            let out = [&mut fs, &mut ft, &mut wo];
+            shading_lanes(lanes(&ns), lanes(&dpdu), lanes(&d), first, out);
+            let untouched = if first == 0 { LANES } else { 0 };
+            assert_eq!(wo.get(untouched), Vec3::ZERO, "LANES vectors from first");
+            let (fs, ft, wo) = (fs.cols().slice(first..first + LANES), ft.cols(), wo.cols());
+            let (ft, wo) = (
+                ft.slice(first..first + LANES),
+                wo.slice(first..first + LANES),
+            );
             for i in 0..LANES {
                 let f = Frame::from_normal_tangent(ns[i], dpdu[i]);
                 let w = f.to_local(-d[i]).normalize();
                 let bits =
                     |f: &Frame, w: Vec3| [f.s, f.t, f.n, w].map(|v| v.to_array().map(f32::to_bits));
                 let frame = Frame {
-                    s: fs[i],
-                    t: ft[i],
+                    s: fs.get(i),
+                    t: ft.get(i),
                     n: ns[i],
                 };
                 assert_eq!(
-                    bits(&frame, wo[i]),
+                    bits(&frame, wo.get(i)),
                     bits(&f, w),
                     "lane {i} of round {round}"
                 );

@@ -36,12 +36,12 @@ use crate::lights::LightSamples;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
-use lobe_materials::frame::Frame;
+use lobe_materials::frame::{self, Frame};
 use lobe_materials::grouping::group_stable;
 use lobe_materials::sampling::warp::power_heuristic;
 use lobe_materials::simd;
-use lobe_materials::simd::LANES;
-use lobe_materials::{Bsdf, BsdfSample};
+use lobe_materials::simd::{LANES, Vec3xN};
+use lobe_materials::{Bsdf, BsdfSample, Vec3Cols, Vec3s};
 
 /// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
 /// long before; this only guards against pathological scenes).
@@ -103,9 +103,9 @@ pub struct EscapedQueue {
 /// values, and the hits grouped by material.
 #[derive(Default)]
 pub struct ScatterQueue {
-    pub frame_s: Vec<Vec3>,
-    pub frame_t: Vec<Vec3>,
-    pub wo: Vec<Vec3>,
+    pub frame_s: Vec3s,
+    pub frame_t: Vec3s,
+    pub wo: Vec3s,
     pub sample_key: Vec<u64>,
     pub sample_index: Vec<u32>,
     pub light_uc: Vec<f32>,
@@ -120,7 +120,7 @@ pub struct ScatterQueue {
 #[derive(Default)]
 pub struct LightSampleQueue {
     pub samples: LightSamples,
-    pub wi_local: Vec<Vec3>,
+    pub wi_local: Vec3s,
     pub f: Vec<Rgb>,
     pub bsdf_pdf: Vec<f32>,
     /// Requests grouped by light: hit indices, ordered by light, and where each light's
@@ -159,8 +159,8 @@ pub struct MaterialGroups {
     /// Per material group, its batch in the current call (`u32::MAX`: none).
     batch_of_group: Vec<u32>,
     /// Gathered inputs and outputs of one batch (when not contiguous).
-    wo: Vec<Vec3>,
-    wi: Vec<Vec3>,
+    wo: Vec3s,
+    wi: Vec3s,
     u: Vec<Vec2>,
     uc: Vec<f32>,
     f: Vec<Rgb>,
@@ -378,20 +378,17 @@ impl Wavefront {
         let (h, s, p) = (&self.hits, &mut self.scatter, &self.paths);
         let m = h.it.len();
         for v in [&mut s.frame_s, &mut s.frame_t, &mut s.wo] {
-            v.resize(m, Vec3::ZERO);
+            v.resize(m);
         }
-        let chunks = (h.it.chunks(LANES).zip(h.path.chunks(LANES)))
-            .zip(s.frame_s.chunks_mut(LANES).zip(s.frame_t.chunks_mut(LANES)))
-            .zip(s.wo.chunks_mut(LANES));
-        for (((ic, pc), (fs, ft)), wo) in chunks {
-            let n = ic.len();
+        for first in (0..m).step_by(LANES) {
+            let at = |k: usize| first + k.min(m - first - 1);
+            let it = |k: usize| &h.it[at(k)];
             shading_lanes(
-                simd::lanes(|k| ic[k.min(n - 1)].ns),
-                simd::lanes(|k| ic[k.min(n - 1)].dpdu),
-                simd::lanes(|k| p.ray[pc[k.min(n - 1)] as usize].d),
-                fs,
-                ft,
-                wo,
+                Vec3xN::from_array(&simd::lanes(|k| it(k).ns)),
+                Vec3xN::from_array(&simd::lanes(|k| it(k).dpdu)),
+                Vec3xN::from_array(&simd::lanes(|k| p.ray[h.path[at(k)] as usize].d)),
+                first,
+                [&mut s.frame_s, &mut s.frame_t, &mut s.wo],
             );
         }
         s.streams_of(p, &h.path);
@@ -453,13 +450,20 @@ impl Wavefront {
         let (s, q) = (&mut self.scatter, &mut self.lights);
         let m = s.wo.len();
         let its = &self.hits.it;
-        q.wi_local.clear();
-        q.wi_local
-            .extend((0..m).map(|h| s.frame(its, h).to_local(q.samples.wi[h])));
+        q.wi_local.resize(m);
+        // The frames' tangents straight from their columns, a lane vector at a time.
+        let (fs, ft) = (s.frame_s.cols(), s.frame_t.cols());
+        for first in (0..m).step_by(LANES) {
+            let at = |k: usize| first + k.min(m - first - 1);
+            let n = Vec3xN::from_array(&simd::lanes(|k| its[at(k)].ns));
+            let wi = Vec3xN::from_array(&simd::lanes(|k| q.samples.wi[at(k)]));
+            let local = frame::to_local(fs.load(first), ft.load(first), n, wi);
+            q.wi_local.cols_mut().store(first, local);
+        }
         q.f.resize(m, Rgb::ZERO);
         q.bsdf_pdf.resize(m, 0.0);
-        s.groups
-            .eval_pdf(scene, &s.wo, &q.wi_local, &mut q.f, &mut q.bsdf_pdf);
+        let (wo, wi) = (s.wo.cols(), q.wi_local.cols());
+        s.groups.eval_pdf(scene, wo, wi, &mut q.f, &mut q.bsdf_pdf);
     }
 
     /// Light samples the BSDF reflects are tested for occlusion together; the unoccluded
@@ -473,8 +477,10 @@ impl Wavefront {
         sq.hit.resize(m, 0);
         sq.f.resize(m, Rgb::ZERO);
         let mut kept = 0;
-        for (h, ((&wi, &f), (&pdf, li))) in q
+        for (h, ((&wi_z, &f), (&pdf, li))) in q
             .wi_local
+            .cols()
+            .z
             .iter()
             .zip(&q.f)
             .zip(ls.pdf.iter().zip(&ls.li))
@@ -483,7 +489,7 @@ impl Wavefront {
             if !(pdf > 0.0) || li.is_black() {
                 continue;
             }
-            let f = f * wi.z.max(0.0);
+            let f = f * wi_z.max(0.0);
             sq.hit[kept] = h as u32;
             sq.f[kept] = f;
             kept += !f.is_black() as usize;
@@ -520,8 +526,13 @@ impl Wavefront {
         let s = &mut self.scatter;
         self.bsdf_samples.clear();
         self.bsdf_samples.resize(s.wo.len(), None);
-        s.groups
-            .sample(scene, &s.wo, &s.bsdf_u, &s.bsdf_uc, &mut self.bsdf_samples);
+        s.groups.sample(
+            scene,
+            s.wo.cols(),
+            &s.bsdf_u,
+            &s.bsdf_uc,
+            &mut self.bsdf_samples,
+        );
     }
 
     /// Paths whose BSDF sample carries throughput go on along it; then Russian roulette
@@ -573,11 +584,11 @@ impl Wavefront {
 
 impl ScatterQueue {
     /// The shading frame of hit `h` of `its`: the queue's tangents, the hit's normal.
-    #[inline]
+    #[inline(always)]
     fn frame(&self, its: &[Interaction], h: usize) -> Frame {
         Frame {
-            s: self.frame_s[h],
-            t: self.frame_t[h],
+            s: self.frame_s.get(h),
+            t: self.frame_t.get(h),
             n: its[h].ns,
         }
     }
@@ -653,23 +664,25 @@ impl MaterialGroups {
     fn eval_pdf(
         &mut self,
         scene: &Scene,
-        wo: &[Vec3],
-        wi: &[Vec3],
+        wo: Vec3Cols,
+        wi: Vec3Cols,
         f: &mut [Rgb],
         pdf: &mut [f32],
     ) {
         for &(a, b, shape) in &self.ranges {
             let bsdf = Self::material(scene, shape);
             if self.contiguous {
-                bsdf.eval_pdf_many(&wo[a..b], &wi[a..b], &mut f[a..b], &mut pdf[a..b]);
+                let (o, i) = (wo.slice(a..b), wi.slice(a..b));
+                bsdf.eval_pdf_many(o, i, &mut f[a..b], &mut pdf[a..b]);
                 continue;
             }
             let hits = &self.order[a..b];
-            gather(&mut self.wo, wo, hits);
-            gather(&mut self.wi, wi, hits);
+            self.wo.gather_from(wo, hits);
+            self.wi.gather_from(wi, hits);
             self.f.resize(hits.len(), Rgb::ZERO);
             self.pdf.resize(hits.len(), 0.0);
-            bsdf.eval_pdf_many(&self.wo, &self.wi, &mut self.f, &mut self.pdf);
+            let (o, i) = (self.wo.cols(), self.wi.cols());
+            bsdf.eval_pdf_many(o, i, &mut self.f, &mut self.pdf);
             for (j, &h) in hits.iter().enumerate() {
                 f[h as usize] = self.f[j];
                 pdf[h as usize] = self.pdf[j];
@@ -681,7 +694,7 @@ impl MaterialGroups {
     fn sample(
         &mut self,
         scene: &Scene,
-        wo: &[Vec3],
+        wo: Vec3Cols,
         u: &[Vec2],
         uc: &[f32],
         out: &mut [Option<BsdfSample>],
@@ -689,15 +702,15 @@ impl MaterialGroups {
         for &(a, b, shape) in &self.ranges {
             let bsdf = Self::material(scene, shape);
             if self.contiguous {
-                bsdf.sample_many(&wo[a..b], &u[a..b], &uc[a..b], &mut out[a..b]);
+                bsdf.sample_many(wo.slice(a..b), &u[a..b], &uc[a..b], &mut out[a..b]);
                 continue;
             }
             let hits = &self.order[a..b];
-            gather(&mut self.wo, wo, hits);
+            self.wo.gather_from(wo, hits);
             gather(&mut self.u, u, hits);
             gather(&mut self.uc, uc, hits);
             self.samples.resize(hits.len(), None);
-            bsdf.sample_many(&self.wo, &self.u, &self.uc, &mut self.samples);
+            bsdf.sample_many(self.wo.cols(), &self.u, &self.uc, &mut self.samples);
             for (j, &h) in hits.iter().enumerate() {
                 out[h as usize] = self.samples[j];
             }

@@ -38,7 +38,7 @@ use lobe_materials::frame::{self, Frame};
 use lobe_materials::sampling::mirror_cones;
 use lobe_materials::sampling::random::{hash, unit};
 use lobe_materials::simd::{self, LANES, f32xn};
-use lobe_materials::{Bsdf, Rgb};
+use lobe_materials::{Bsdf, Rgb, Vec3s};
 use lobe_renderer::camera::Camera;
 use lobe_renderer::compare::metrics;
 use lobe_renderer::film::Image;
@@ -218,8 +218,8 @@ fn point(k: usize, n: usize, shift: &[f64; 5]) -> [f64; 5] {
 #[derive(Default)]
 struct PixelSamples {
     batch: Vec<usize>,
-    wo: Vec<glam::Vec3>,
-    wi: Vec<glam::Vec3>,
+    wo: Vec3s,
+    wi: Vec3s,
     radiance: Vec<[f64; 3]>,
     /// n_map p_map + n_cone p_cone of each sample (the data's term is added once its
     /// density is evaluated).
@@ -282,10 +282,11 @@ impl Stage<'_> {
             } as f64;
             // A fit that draws none of this pixel's samples adds nothing to their density.
             if count == 0.0 {
-                rep.eval_many(&set.wo, &set.wi, &mut f[r * n..(r + 1) * n]);
+                rep.eval_many(set.wo.cols(), set.wi.cols(), &mut f[r * n..(r + 1) * n]);
                 continue;
             }
-            rep.eval_pdf_many(&set.wo, &set.wi, &mut f[r * n..(r + 1) * n], &mut pdf);
+            let (wo, wi) = (set.wo.cols(), set.wi.cols());
+            rep.eval_pdf_many(wo, wi, &mut f[r * n..(r + 1) * n], &mut pdf);
             for (d, &p) in density.iter_mut().zip(&pdf) {
                 if p.is_finite() && p > 0.0 {
                     *d += count * p as f64;
@@ -295,7 +296,7 @@ impl Stage<'_> {
         // Per sample, the radiance over the density (the balance heuristic's weight).
         let lw: Vec<[f64; 3]> = (0..n)
             .map(|k| match density[k] > 0.0 {
-                true => set.radiance[k].map(|l| l * set.wi[k].z as f64 / density[k]),
+                true => set.radiance[k].map(|l| l * set.wi.cols().z[k] as f64 / density[k]),
                 false => [0.0; 3],
             })
             .collect();
@@ -521,8 +522,8 @@ impl Stage<'_> {
                 continue;
             }
             set.batch.push(drawn.batch[k]);
-            set.wo.push(drawn.wo[k]);
-            set.wi.push(drawn.wi[k]);
+            set.wo.push(drawn.wo.get(k));
+            set.wi.push(drawn.wi.get(k));
             set.radiance.push([l.r as f64, l.g as f64, l.b as f64]);
             set.density.push(drawn.density[k] + n_map * p_env as f64);
         }
@@ -546,11 +547,11 @@ impl Stage<'_> {
         if picked.is_empty() {
             return Vec::new();
         }
-        let wos: Vec<glam::Vec3> = picked.iter().map(|h| h.wo).collect();
+        let wos: Vec3s = picked.iter().map(|h| h.wo).collect();
         let u2: Vec<glam::Vec2> = picked.iter().map(|h| u_of(h)).collect();
         let ucs: Vec<f32> = picked.iter().map(|h| h.sample.point[4] as f32).collect();
         let mut out = vec![None; picked.len()];
-        bsdf.sample_many(&wos, &u2, &ucs, &mut out);
+        bsdf.sample_many(wos.cols(), &u2, &ucs, &mut out);
         out
     }
 }

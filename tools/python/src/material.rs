@@ -14,7 +14,7 @@ use glam::{Vec2, Vec3};
 use lobe_materials::frame::spherical_direction;
 use lobe_materials::registry::{BuildContext, Registry};
 use lobe_materials::sampling::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
-use lobe_materials::{Bsdf, BsdfSample, Rgb};
+use lobe_materials::{Bsdf, BsdfSample, Rgb, Vec3s};
 use lobe_renderer::Error;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -65,7 +65,8 @@ fn pairs<'a>(
     Ok((o, i))
 }
 
-fn vec3s(s: &[f32]) -> Vec<Vec3> {
+/// Rows of 3 floats as the batched calls' columns.
+fn vec3s(s: &[f32]) -> Vec3s {
     s.chunks_exact(3).map(Vec3::from_slice).collect()
 }
 
@@ -78,7 +79,7 @@ fn eval_pdf(b: &dyn Bsdf, wo: &[f32], wi: &[f32]) -> (Vec<f32>, Vec<f32>) {
         .zip(wo.par_chunks(3 * CHUNK).zip(wi.par_chunks(3 * CHUNK)))
         .for_each(|((f, pdf), (wo, wi))| {
             let mut rgb = vec![Rgb::ZERO; pdf.len()];
-            b.eval_pdf_many(&vec3s(wo), &vec3s(wi), &mut rgb, pdf);
+            b.eval_pdf_many(vec3s(wo).cols(), vec3s(wi).cols(), &mut rgb, pdf);
             for (o, c) in f.chunks_exact_mut(3).zip(&rgb) {
                 o.copy_from_slice(&c.to_array());
             }
@@ -137,7 +138,7 @@ fn sample(b: &dyn Bsdf, wo: &[f32], u: &[f32], uc: &[f32]) -> Samples {
         .for_each(|((((wi, weight), (pdf, valid)), (wo, u)), uc)| {
             let u: Vec<Vec2> = u.chunks_exact(2).map(Vec2::from_slice).collect();
             let mut out: Vec<Option<BsdfSample>> = vec![None; uc.len()];
-            b.sample_many(&vec3s(wo), &u, uc, &mut out);
+            b.sample_many(vec3s(wo).cols(), &u, uc, &mut out);
             for (k, o) in out.iter().enumerate() {
                 if let Some(o) = o {
                     wi[3 * k..3 * k + 3].copy_from_slice(&o.wi.to_array());
