@@ -240,7 +240,19 @@ pub struct Vec3ColsMut<'a> {
     pub z: &'a mut [f32],
 }
 
-impl Vec3ColsMut<'_> {
+impl<'a> Vec3ColsMut<'a> {
+    /// The view of three columns.
+    ///
+    /// # Panics
+    /// When their lengths differ.
+    pub fn new(x: &'a mut [f32], y: &'a mut [f32], z: &'a mut [f32]) -> Self {
+        assert!(
+            x.len() == y.len() && x.len() == z.len(),
+            "columns of equal length"
+        );
+        Self { x, y, z }
+    }
+
     pub fn len(&self) -> usize {
         self.x.len()
     }

@@ -7,7 +7,7 @@
 //! (one-sample MIS with the balance heuristic), so every component's sampler helps.
 
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
-use crate::columns::Vec3Cols;
+use crate::columns::{Vec3Cols, Vec3ColsMut};
 use crate::lobe::Lobe;
 use crate::math::{Num, all, clamp, gt, is_finite, le, lt, maximum, select};
 use crate::sampling::warp::{
@@ -158,6 +158,45 @@ const NO_COMPONENT: usize = usize::MAX;
 struct LaneWeights {
     w: [f32xn; MAX_INLINE + 1],
     total: f32xn,
+}
+
+/// The directions of a block's queries as x, y and z columns (on the stack), and which
+/// queries drew one.
+struct BlockDirections {
+    xyz: [[f32; SAMPLE_BLOCK]; 3],
+    drawn: [bool; SAMPLE_BLOCK],
+}
+
+impl BlockDirections {
+    fn new() -> Self {
+        Self {
+            xyz: [[0.0; SAMPLE_BLOCK]; 3],
+            drawn: [false; SAMPLE_BLOCK],
+        }
+    }
+
+    #[inline(always)]
+    fn get(&self, k: usize) -> Vec3 {
+        Vec3::new(self.xyz[0][k], self.xyz[1][k], self.xyz[2][k])
+    }
+
+    #[inline(always)]
+    fn set(&mut self, k: usize, v: Vec3) {
+        (self.xyz[0][k], self.xyz[1][k], self.xyz[2][k]) = (v.x, v.y, v.z);
+    }
+
+    /// The first `n` directions.
+    fn cols(&self, n: usize) -> Vec3Cols<'_> {
+        let [x, y, z] = &self.xyz;
+        Vec3Cols::new(&x[..n], &y[..n], &z[..n])
+    }
+
+    /// The first `n` directions and flags, to be written.
+    fn cols_mut(&mut self, n: usize) -> (Vec3ColsMut<'_>, &mut [bool]) {
+        let [x, y, z] = &mut self.xyz;
+        let cols = Vec3ColsMut::new(&mut x[..n], &mut y[..n], &mut z[..n]);
+        (cols, &mut self.drawn[..n])
+    }
 }
 
 impl Bsdf for Composite {
@@ -335,17 +374,16 @@ impl Composite {
         let m = wo.len();
         debug_assert!(m <= SAMPLE_BLOCK);
         let mut choice = [(NO_COMPONENT, 0.0f32); SAMPLE_BLOCK];
-        let mut wi = [None::<Vec3>; SAMPLE_BLOCK];
-        self.choose_components(wo, u, uc, &mut choice[..m], &mut wi[..m]);
-        self.sample_chosen_lobes(wo, u, &choice[..m], &mut wi[..m]);
+        let mut wi = BlockDirections::new();
+        self.choose_components(wo, u, uc, &mut choice[..m], &mut wi);
+        self.sample_chosen_lobes(wo, u, &choice[..m], &mut wi);
+        let (drawn, wi) = (&wi.drawn, wi.cols(m));
         simd::chunks_where(
             m,
-            |k| wi[k].is_some(),
+            |k| drawn[k],
             |idx| {
-                let o = wo.lanes_of(idx);
-                let d = simd::lanes_of(idx, |k| wi[k].unwrap_or(wo.get(k)));
+                let (o, d) = (wo.lanes_of(idx), wi.lanes_of(idx));
                 let w = self.lane_weights(o.z);
-                let d = Vec3xN::from_array(&d);
                 let (v, p) = self.mix_lanes(o, d, &w);
                 let (weight, keep) = BsdfSample::weight_where(d.z, p, [v.r, v.g, v.b]);
                 let keep = simd::mask_bits(keep);
@@ -375,7 +413,7 @@ impl Composite {
         u: &[Vec2],
         uc: &[f32],
         choice: &mut [(usize, f32)],
-        wi: &mut [Option<Vec3>],
+        wi: &mut BlockDirections,
     ) {
         simd::chunks_where(
             wo.len(),
@@ -404,8 +442,10 @@ impl Composite {
                         NO_COMPONENT
                     };
                     choice[k] = (c, uc_rest[lane]);
-                    let [x, y, z] = diffuse.map(|c| c[lane]);
-                    wi[k] = (c == 0).then_some(Vec3::new(x, y, z));
+                    for (col, d) in wi.xyz.iter_mut().zip(&diffuse) {
+                        col[k] = d[lane];
+                    }
+                    wi.drawn[k] = c == 0;
                 }
             },
         );
@@ -419,7 +459,7 @@ impl Composite {
         wo: Vec3Cols,
         u: &[Vec2],
         choice: &[(usize, f32)],
-        wi: &mut [Option<Vec3>],
+        wi: &mut BlockDirections,
     ) {
         let mut order = [0u32; SAMPLE_BLOCK];
         let mut starts = [0usize; MAX_INLINE + 1];
@@ -430,10 +470,10 @@ impl Composite {
             c => Some(c - 1),
         };
         crate::grouping::group_stable(choice.len(), lobe_of, starts, &mut order);
-        let mut batch_wo = [Vec3::ZERO; SAMPLE_BLOCK];
+        let mut batch_wo = BlockDirections::new();
         let mut batch_u = [Vec2::ZERO; SAMPLE_BLOCK];
         let mut batch_uc = [0.0f32; SAMPLE_BLOCK];
-        let mut batch_wi = [None::<Vec3>; SAMPLE_BLOCK];
+        let mut batch_wi = BlockDirections::new();
         for (j, (_, lobe)) in self.lobes.iter().enumerate() {
             let idx = &order[starts[j]..starts[j + 1]];
             let len = idx.len();
@@ -442,16 +482,21 @@ impl Composite {
             }
             for (q, &k) in idx.iter().enumerate() {
                 let k = k as usize;
-                (batch_wo[q], batch_u[q], batch_uc[q]) = (wo.get(k), u[k], choice[k].1);
+                batch_wo.set(q, wo.get(k));
+                (batch_u[q], batch_uc[q]) = (u[k], choice[k].1);
             }
+            let (wi_cols, drawn) = batch_wi.cols_mut(len);
             lobe.sample_batch(
-                &batch_wo[..len],
+                batch_wo.cols(len),
                 &batch_u[..len],
                 &batch_uc[..len],
-                &mut batch_wi[..len],
+                wi_cols,
+                drawn,
             );
             for (q, &k) in idx.iter().enumerate() {
-                wi[k as usize] = batch_wi[q];
+                let k = k as usize;
+                wi.set(k, batch_wi.get(q));
+                wi.drawn[k] = batch_wi.drawn[q];
             }
         }
     }

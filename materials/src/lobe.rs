@@ -9,8 +9,11 @@
 //! [`impl_lobe_forms!`] (a model with only a generic value uses [`impl_lobe_eval!`]).
 //! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
 
+use crate::columns::{Vec3Cols, Vec3ColsMut};
 use crate::math::{Num, Real, V3, gt, is_finite, le, maximum, select, sin_cos, sqrt};
-use crate::simd::{LANES, RgbxN, Vec3xN, f32xn, lanes, padded};
+use crate::simd::{
+    LANES, MaskN, RgbxN, Vec3xN, f32xn, lanes, mask_bits, mask_from_bools, padded, vec2s,
+};
 use crate::{Flags, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 
@@ -55,33 +58,46 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
         self.eval_pdf_xn(wo, wi).0
     }
-    /// [`Lobe::sample`] of `LANES` queries, each lane bit for bit the scalar call (the
-    /// batched sampling of [`crate::composite::Composite`]). The default samples lane by
-    /// lane; tabulated lobes override it with their lane samplers.
-    fn sample_xn(
-        &self,
-        wo: &[Vec3; LANES],
-        u: &[Vec2; LANES],
-        uc: &[f32; LANES],
-    ) -> [Option<Vec3>; LANES] {
-        lanes(|k| self.sample(wo[k], u[k], uc[k]))
+    /// [`Lobe::sample`] of `LANES` queries (lane k: `wo.lane(k)`, `u[0]` and `u[1]`'s lane
+    /// k, `uc`'s lane k), each lane bit for bit the scalar call: the directions, and the
+    /// mask of the lanes that drew one (the scalar call's `Some`; elsewhere the direction
+    /// means nothing). The batched sampling of [`crate::composite::Composite`]. The default
+    /// samples lane by lane; a [`GenericLobe`] gets it from [`impl_lobe_forms!`].
+    fn sample_xn(&self, wo: Vec3xN, u: [f32xn; 2], uc: f32xn) -> (Vec3xN, MaskN) {
+        let (o, [ux, uy], uc) = (wo.to_array(), u.map(|c| c.to_array()), uc.to_array());
+        let s = lanes(|k| self.sample(o[k], Vec2::new(ux[k], uy[k]), uc[k]));
+        (
+            Vec3xN::from_array(&lanes(|k| s[k].unwrap_or(Vec3::ZERO))),
+            mask_from_bools(lanes(|k| s[k].is_some())),
+        )
     }
-    /// [`Lobe::sample`] of every query of a batch (`out[k]` for `wo[k]`, `u[k]`,
-    /// `uc[k]`), each bit for bit the scalar call: the queries of a
-    /// [`crate::composite::Composite`] block that chose this lobe. The default calls
-    /// [`Lobe::sample_xn`] a lane vector at a time; lobes whose sampler is a long
-    /// dependency chain override it to overlap two lane vectors.
-    fn sample_batch(&self, wo: &[Vec3], u: &[Vec2], uc: &[f32], out: &mut [Option<Vec3>]) {
-        let n = out.len();
-        assert!(wo.len() == n && u.len() == n && uc.len() == n);
+    /// [`Lobe::sample`] of every query of a batch (direction `wi` k and `drawn[k]` for
+    /// `wo` k, `u[k]`, `uc[k]`; the directions as columns), each bit for bit the scalar
+    /// call: the queries of a [`crate::composite::Composite`] block that chose this lobe.
+    /// The default calls [`Lobe::sample_xn`] a lane vector at a time; lobes whose sampler
+    /// is a long dependency chain override it to overlap two lane vectors.
+    fn sample_batch(
+        &self,
+        wo: Vec3Cols,
+        u: &[Vec2],
+        uc: &[f32],
+        mut wi: Vec3ColsMut,
+        drawn: &mut [bool],
+    ) {
+        let n = drawn.len();
+        assert!(wo.len() == n && u.len() == n && uc.len() == n && wi.len() == n);
         for first in (0..n).step_by(LANES) {
             let r = first..(first + LANES).min(n);
-            let s = self.sample_xn(
-                &padded(&wo[r.clone()]),
-                &padded(&u[r.clone()]),
-                &padded(&uc[r.clone()]),
+            let (d, ok) = self.sample_xn(
+                wo.load(first),
+                vec2s(&padded(&u[r.clone()])),
+                f32xn::new(padded(&uc[r.clone()])),
             );
-            out[r.clone()].copy_from_slice(&s[..r.len()]);
+            wi.store(first, d);
+            let ok = mask_bits(ok);
+            for (lane, k) in r.enumerate() {
+                drawn[k] = ok >> lane & 1 != 0;
+            }
         }
     }
     fn flags(&self) -> Flags;
@@ -175,15 +191,11 @@ macro_rules! impl_lobe_forms {
         #[inline]
         fn sample_xn(
             &self,
-            wo: &[$crate::glam::Vec3; $crate::simd::LANES],
-            u: &[$crate::glam::Vec2; $crate::simd::LANES],
-            uc: &[f32; $crate::simd::LANES],
-        ) -> [Option<$crate::glam::Vec3>; $crate::simd::LANES] {
-            let [ux, uy] = $crate::simd::vec2s(u);
-            let wo = $crate::simd::Vec3xN::from_array(wo);
-            let uc = $crate::simd::f32xn::new(*uc);
-            let (wi, ok) = $crate::lobe::GenericLobe::draw(self, wo, ux, uy, uc);
-            wi.options(ok)
+            wo: $crate::simd::Vec3xN,
+            u: [$crate::simd::f32xn; 2],
+            uc: $crate::simd::f32xn,
+        ) -> ($crate::simd::Vec3xN, $crate::simd::MaskN) {
+            $crate::lobe::GenericLobe::draw(self, wo, u[0], u[1], uc)
         }
     };
 }

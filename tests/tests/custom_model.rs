@@ -154,7 +154,12 @@ fn the_lane_forms_of_a_model_written_once_equal_its_scalar_forms() {
     let (f, p) = lobe.eval_pdf_xn(Vec3xN::from_array(&wo), Vec3xN::from_array(&wi));
     let u: [Vec2; LANES] = lanes(|k| Vec2::new(k as f32 / LANES as f32, 0.77 - 0.04 * k as f32));
     let uc = [0.5; LANES];
-    let drawn = lobe.sample_xn(&wo, &u, &uc);
+    let (d, ok) = lobe.sample_xn(
+        Vec3xN::from_array(&wo),
+        lobe_materials::simd::vec2s(&u),
+        lobe_materials::simd::f32xn::new(uc),
+    );
+    let drawn = d.options(ok);
     let (f, p) = (f.to_array(), p.to_array());
     let mut lit = 0;
     for k in 0..LANES {

@@ -44,7 +44,7 @@ use crate::math::{Real, Single, V3, all, gt, half, is_finite, lt, maximum, minim
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn};
+use crate::simd::{MaskN, RgbxN, Vec3xN, f32xn};
 use crate::{Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::sync::Arc;
@@ -427,15 +427,8 @@ impl Lobe for He {
         ok.then(|| wi.into())
     }
 
-    fn sample_xn(
-        &self,
-        wo: &[Vec3; LANES],
-        u: &[Vec2; LANES],
-        uc: &[f32; LANES],
-    ) -> [Option<Vec3>; LANES] {
-        let [ux, uy] = simd::vec2s(u);
-        let (wi, ok) = self.draw(Vec3xN::from_array(wo), ux, uy, f32xn::new(*uc));
-        wi.options(ok)
+    fn sample_xn(&self, wo: Vec3xN, u: [f32xn; 2], uc: f32xn) -> (Vec3xN, MaskN) {
+        self.draw(wo, u[0], u[1], uc)
     }
 
     /// The value and the density, sharing the half vector.
@@ -523,6 +516,7 @@ pub const MODEL: LobeModel = LobeModel {
 mod tests {
     use super::*;
     use crate::analytic::microfacet::Distribution;
+    use crate::simd::LANES;
 
     fn dir(theta: f64, phi: f64) -> V3<f64> {
         let (t, p) = (theta.to_radians(), phi.to_radians());

@@ -6,6 +6,7 @@
 
 use super::synthetic::Shape;
 use super::table::{DEFAULT_RES, Table};
+use crate::columns::{Vec3Cols, Vec3ColsMut};
 use crate::composite::Composite;
 use crate::lobe::{self, Lobe};
 use crate::math::V3;
@@ -13,7 +14,7 @@ use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
     Registry,
 };
-use crate::simd::{self, LANES, RgbxN, Vec3xN, f32xn, sel};
+use crate::simd::{self, LANES, MaskN, RgbxN, Vec3xN, f32xn, sel};
 use crate::{Bsdf, Flags, ParamError, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 use std::path::PathBuf;
@@ -39,35 +40,49 @@ impl Lobe for SampledMicrofacet {
     }
     /// Lane 0 of [`SampledMicrofacet::sample_xn`]: one sampler for both.
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3> {
-        self.sample_xn(&[wo; LANES], &[u; LANES], &[uc; LANES])[0]
+        let u = [f32xn::splat(u.x), f32xn::splat(u.y)];
+        let (wi, ok) = self.sample_xn(Vec3xN::splat(wo), u, f32xn::splat(uc));
+        (simd::mask_bits(ok) & 1 != 0).then(|| wi.lane(0))
     }
     /// Half vectors visible from `wo` ([`Table::sample_visible`]), reflected.
-    fn sample_xn(
-        &self,
-        wo: &[Vec3; LANES],
-        u: &[Vec2; LANES],
-        _uc: &[f32; LANES],
-    ) -> [Option<Vec3>; LANES] {
+    fn sample_xn(&self, wo: Vec3xN, u: [f32xn; 2], _uc: f32xn) -> (Vec3xN, MaskN) {
         let [s] = self.sample_groups([wo], [u]);
         s
     }
     /// Two lane vectors at a time, side by side ([`Table::sample_visible`]); a last
     /// lone lane vector alone.
-    fn sample_batch(&self, wo: &[Vec3], u: &[Vec2], _uc: &[f32], out: &mut [Option<Vec3>]) {
-        let n = out.len();
-        assert!(wo.len() == n && u.len() == n);
+    fn sample_batch(
+        &self,
+        wo: Vec3Cols,
+        u: &[Vec2],
+        _uc: &[f32],
+        mut wi: Vec3ColsMut,
+        drawn: &mut [bool],
+    ) {
+        let n = drawn.len();
+        assert!(wo.len() == n && u.len() == n && wi.len() == n);
+        let mut put = |first: usize, (d, ok): (Vec3xN, MaskN)| {
+            wi.store(first, d);
+            let ok = simd::mask_bits(ok);
+            for (lane, k) in (first..(first + LANES).min(n)).enumerate() {
+                drawn[k] = ok >> lane & 1 != 0;
+            }
+        };
+        let us = |r: std::ops::Range<usize>| simd::vec2s(&simd::padded(&u[r]));
         for first in (0..n).step_by(2 * LANES) {
             let end = (first + 2 * LANES).min(n);
             let mid = (first + LANES).min(end);
-            let (wo0, u0) = (simd::padded(&wo[first..mid]), simd::padded(&u[first..mid]));
             if mid == end {
-                let [s] = self.sample_groups([&wo0], [&u0]);
-                out[first..mid].copy_from_slice(&s[..mid - first]);
+                let [s] = self.sample_groups([wo.load(first)], [us(first..mid)]);
+                put(first, s);
             } else {
-                let (wo1, u1) = (simd::padded(&wo[mid..end]), simd::padded(&u[mid..end]));
-                let [s0, s1] = self.sample_groups([&wo0, &wo1], [&u0, &u1]);
-                out[first..mid].copy_from_slice(&s0[..mid - first]);
-                out[mid..end].copy_from_slice(&s1[..end - mid]);
+                let (wo2, u2) = (
+                    [wo.load(first), wo.load(mid)],
+                    [us(first..mid), us(mid..end)],
+                );
+                let [s0, s1] = self.sample_groups(wo2, u2);
+                put(first, s0);
+                put(mid, s1);
             }
         }
     }
@@ -128,18 +143,16 @@ impl SampledMicrofacet {
     #[inline(always)]
     fn sample_groups<const N: usize>(
         &self,
-        wo: [&[Vec3; LANES]; N],
-        u: [&[Vec2; LANES]; N],
-    ) -> [[Option<Vec3>; LANES]; N] {
-        let wo = wo.map(Vec3xN::from_array);
-        let xy = u.map(simd::vec2s);
+        wo: [Vec3xN; N],
+        xy: [[f32xn; 2]; N],
+    ) -> [(Vec3xN, MaskN); N] {
         let h = self
             .table
             .sample_visible(wo, xy.map(|[x, _]| x), xy.map(|[_, y]| y));
         std::array::from_fn(|g| {
             let (h, drawn) = h[g];
             let (wi, ok) = lobe::reflect_above(wo[g], h);
-            wi.options(drawn & ok)
+            (wi, drawn & ok)
         })
     }
 }
