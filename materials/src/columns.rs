@@ -72,13 +72,44 @@ impl Vec3s {
     /// Vector `i`.
     #[inline(always)]
     pub fn get(&self, i: usize) -> Vec3 {
-        Vec3::new(self.x[i], self.y[i], self.z[i])
+        self.cols().get(i)
     }
 
     /// Sets vector `i`.
     #[inline(always)]
     pub fn set(&mut self, i: usize, v: Vec3) {
-        (self.x[i], self.y[i], self.z[i]) = (v.x, v.y, v.z);
+        self.cols_mut().set(i, v);
+    }
+
+    /// Sets vector `i` without a bounds check (as [`Vec3s::get_unchecked`]).
+    ///
+    /// # Safety
+    /// `i < self.len()`.
+    #[inline(always)]
+    pub unsafe fn set_unchecked(&mut self, i: usize, v: Vec3) {
+        // SAFETY: the caller's.
+        unsafe {
+            *self.x.get_unchecked_mut(i) = v.x;
+            *self.y.get_unchecked_mut(i) = v.y;
+            *self.z.get_unchecked_mut(i) = v.z;
+        }
+    }
+
+    /// Vector `i` without a bounds check, for containers of several columns that check one
+    /// bound for all.
+    ///
+    /// # Safety
+    /// `i < self.len()`.
+    #[inline(always)]
+    pub unsafe fn get_unchecked(&self, i: usize) -> Vec3 {
+        // SAFETY: the caller's.
+        unsafe {
+            Vec3::new(
+                *self.x.get_unchecked(i),
+                *self.y.get_unchecked(i),
+                *self.z.get_unchecked(i),
+            )
+        }
     }
 
     /// A view of all the vectors.
@@ -146,12 +177,13 @@ impl Extend<Vec3> for Vec3s {
     }
 }
 
-/// A view of 3-vectors stored as equal-length x, y and z column slices.
+/// A view of 3-vectors stored as equal-length x, y and z column slices (the fields are
+/// private so that the lengths stay equal: element access checks one bound).
 #[derive(Clone, Copy, Debug)]
 pub struct Vec3Cols<'a> {
-    pub x: &'a [f32],
-    pub y: &'a [f32],
-    pub z: &'a [f32],
+    x: &'a [f32],
+    y: &'a [f32],
+    z: &'a [f32],
 }
 
 impl<'a> Vec3Cols<'a> {
@@ -176,10 +208,31 @@ impl<'a> Vec3Cols<'a> {
         self.x.is_empty()
     }
 
-    /// Vector `i`.
+    /// The x column.
+    #[inline(always)]
+    pub fn x(&self) -> &'a [f32] {
+        self.x
+    }
+
+    /// The y column.
+    #[inline(always)]
+    pub fn y(&self) -> &'a [f32] {
+        self.y
+    }
+
+    /// The z column.
+    #[inline(always)]
+    pub fn z(&self) -> &'a [f32] {
+        self.z
+    }
+
+    /// Vector `i`, with one bounds check.
     #[inline(always)]
     pub fn get(&self, i: usize) -> Vec3 {
-        Vec3::new(self.x[i], self.y[i], self.z[i])
+        let x = self.x[i];
+        // SAFETY: the columns have equal lengths (checked where the view is made, and its
+        // fields are private), and `i` is within x's.
+        unsafe { Vec3::new(x, *self.y.get_unchecked(i), *self.z.get_unchecked(i)) }
     }
 
     /// The vectors of `r`.
@@ -232,12 +285,13 @@ impl<'a> From<&'a Vec3s> for Vec3Cols<'a> {
     }
 }
 
-/// A mutable view of 3-vectors stored as equal-length x, y and z column slices.
+/// A mutable view of 3-vectors stored as equal-length x, y and z column slices (private,
+/// as [`Vec3Cols`]'s).
 #[derive(Debug)]
 pub struct Vec3ColsMut<'a> {
-    pub x: &'a mut [f32],
-    pub y: &'a mut [f32],
-    pub z: &'a mut [f32],
+    x: &'a mut [f32],
+    y: &'a mut [f32],
+    z: &'a mut [f32],
 }
 
 impl<'a> Vec3ColsMut<'a> {
@@ -261,10 +315,15 @@ impl<'a> Vec3ColsMut<'a> {
         self.x.is_empty()
     }
 
-    /// Sets vector `i`.
+    /// Sets vector `i`, with one bounds check.
     #[inline(always)]
     pub fn set(&mut self, i: usize, v: Vec3) {
-        (self.x[i], self.y[i], self.z[i]) = (v.x, v.y, v.z);
+        self.x[i] = v.x;
+        // SAFETY: as in `Vec3Cols::get`.
+        unsafe {
+            *self.y.get_unchecked_mut(i) = v.y;
+            *self.z.get_unchecked_mut(i) = v.z;
+        }
     }
 
     /// The vectors of `r`.

@@ -417,9 +417,9 @@ impl Composite {
     ) {
         simd::chunks_where(
             wo.len(),
-            |k| !(wo.z[k] <= 0.0),
+            |k| !(wo.z()[k] <= 0.0),
             |idx| {
-                let w = self.lane_weights(f32xn::new(simd::lanes_of(idx, |k| wo.z[k])));
+                let w = self.lane_weights(f32xn::new(simd::lanes_of(idx, |k| wo.z()[k])));
                 let lane_uc = f32xn::new(simd::lanes_of(idx, |k| uc[k]));
                 let (chosen, uc_rest) =
                     Self::choose(lane_uc, &w.w[..self.lobes.len() + 1], w.total);
@@ -602,7 +602,7 @@ impl Composite {
 /// copies of its last pair).
 #[inline(always)]
 fn pairs_above(wo: Vec3Cols, wi: Vec3Cols, mut each: impl FnMut(&[usize], Vec3xN, Vec3xN)) {
-    let above = |k: usize| !(wo.z[k] <= 0.0 || wi.z[k] <= 0.0);
+    let above = |k: usize| !(wo.z()[k] <= 0.0 || wi.z()[k] <= 0.0);
     simd::chunks_where(wo.len(), above, |idx| {
         each(idx, wo.lanes_of(idx), wi.lanes_of(idx))
     });

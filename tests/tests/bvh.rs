@@ -412,9 +412,10 @@ fn batched_queries_equal_single_ones(g: &Geometry, rays: &[Ray]) {
         .enumerate()
         .filter_map(|(i, c)| c.map(|(t, p)| (i as u32, t, p)))
         .collect();
-    let mut its = Vec::new();
+    let mut its = lobe_renderer::geometry::Interactions::default();
     g.interactions_many(rays, &hits, &mut its);
     assert_eq!(its.len(), hits.len());
+    let its: Vec<_> = (0..its.len()).map(|h| its.get(h)).collect();
     let bits = |it: &lobe_renderer::geometry::Interaction| {
         let mut v = vec![it.t.to_bits(), it.shape, it.prim];
         for w in [it.p, it.ng, it.ns, it.dpdu, it.exit] {

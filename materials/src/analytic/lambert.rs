@@ -62,11 +62,12 @@ impl Bsdf for Lambert {
         assert!(wo.len() == f.len() && wi.len() == f.len() && pdf.len() == f.len());
         let zero = f32xn::splat(0.0);
         let inv_pi = f32xn::splat(FRAC_1_PI);
-        for (((oc, ic), fc), pc) in
-            wo.z.chunks(LANES)
-                .zip(wi.z.chunks(LANES))
-                .zip(f.chunks_mut(LANES))
-                .zip(pdf.chunks_mut(LANES))
+        for (((oc, ic), fc), pc) in wo
+            .z()
+            .chunks(LANES)
+            .zip(wi.z().chunks(LANES))
+            .zip(f.chunks_mut(LANES))
+            .zip(pdf.chunks_mut(LANES))
         {
             let n = fc.len();
             let zo = f32xn::new(simd::padded(oc));
@@ -84,10 +85,11 @@ impl Bsdf for Lambert {
     /// `LANES` queries per SIMD warp ([`cosine_hemisphere`]).
     fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
         assert!(wo.len() == out.len() && u.len() == out.len());
-        for ((wc, uc), oc) in
-            wo.z.chunks(LANES)
-                .zip(u.chunks(LANES))
-                .zip(out.chunks_mut(LANES))
+        for ((wc, uc), oc) in wo
+            .z()
+            .chunks(LANES)
+            .zip(u.chunks(LANES))
+            .zip(out.chunks_mut(LANES))
         {
             let n = oc.len();
             let uu = simd::lanes(|i| uc[i.min(n - 1)]);

@@ -222,7 +222,7 @@ impl Bsdf for Measured {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
         f.fill(Rgb::ZERO);
-        let above = |k: usize| !(wo.z[k] <= 0.0 || wi.z[k] <= 0.0);
+        let above = |k: usize| !(wo.z()[k] <= 0.0 || wi.z()[k] <= 0.0);
         simd::chunks_where(n, above, |idx| {
             let v = self.table.eval_xn(wo.lanes_of(idx), wi.lanes_of(idx));
             for (lane, &k) in idx.iter().enumerate() {
@@ -444,7 +444,7 @@ impl Bsdf for RglBsdf {
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
         f.fill(Rgb::ZERO);
         pdf.fill(0.0);
-        let above = |k: usize| !(wo.z[k] <= 0.0 || wi.z[k] <= 0.0);
+        let above = |k: usize| !(wo.z()[k] <= 0.0 || wi.z()[k] <= 0.0);
         simd::chunks_where(n, above, |idx| {
             let ([r, g, b], p) = self
                 .table
@@ -464,7 +464,7 @@ impl Bsdf for RglBsdf {
         out.fill(None);
         simd::chunks_where(
             n,
-            |k| !(wo.z[k] <= 0.0),
+            |k| !(wo.z()[k] <= 0.0),
             |idx| {
                 let (wi, p, [r, g, b], ok) = self.table.sample_value(
                     wo.lanes_of(idx),

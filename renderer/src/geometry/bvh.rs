@@ -4,7 +4,7 @@
 
 use super::bvh8::Bvh8;
 use super::kernels::{RayLanes, V3};
-use super::{Interaction, Mesh, Ray, Rectangle, Sphere, Triangle};
+use super::{Interaction, Interactions, Mesh, Ray, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3};
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, f32xn, u32xn};
@@ -207,11 +207,10 @@ impl Geometry {
         &self,
         rays: &[Ray],
         hits: &[(u32, f32, u32)],
-        out: &mut Vec<Interaction>,
+        out: &mut Interactions,
     ) {
         let first = out.len();
-        out.resize(first + hits.len(), Interaction::ZERO);
-        let out = &mut out[first..];
+        out.resize(first + hits.len());
         let mut spheres = [0usize; LANES];
         let mut n = 0;
         for (h, &(i, t, prim)) in hits.iter().enumerate() {
@@ -220,26 +219,29 @@ impl Geometry {
                 spheres[n] = h;
                 n += 1;
                 if n == LANES {
-                    self.sphere_interactions(rays, hits, &spheres, out);
+                    self.sphere_interactions(rays, hits, &spheres, first, out);
                     n = 0;
                 }
             } else {
-                self.interaction_of(&rays[i as usize], t, prim, primitive, &mut out[h]);
+                let mut it = Interaction::ZERO;
+                self.interaction_of(&rays[i as usize], t, prim, primitive, &mut it);
+                out.set(first + h, &it);
             }
         }
         if n > 0 {
-            self.sphere_interactions(rays, hits, &spheres[..n], out);
+            self.sphere_interactions(rays, hits, &spheres[..n], first, out);
         }
     }
 
-    /// The interactions of up to `LANES` hits `which` (indices into `hits` and `out`), all
-    /// on spheres, in SIMD lanes.
+    /// The interactions of up to `LANES` hits `which` (indices into `hits`; into `out` from
+    /// `first`), all on spheres, in SIMD lanes.
     fn sphere_interactions(
         &self,
         rays: &[Ray],
         hits: &[(u32, f32, u32)],
         which: &[usize],
-        out: &mut [Interaction],
+        first: usize,
+        out: &mut Interactions,
     ) {
         let n = which.len();
         let hit = |k: usize| hits[which[k.min(n - 1)]];
@@ -262,7 +264,7 @@ impl Geometry {
             } else {
                 nk
             };
-            out[h] = Interaction {
+            let it = Interaction {
                 t,
                 p: p[k],
                 ng: oriented,
@@ -273,6 +275,7 @@ impl Geometry {
                 prim,
                 exit: nk,
             };
+            out.set(first + h, &it);
         }
     }
 
@@ -341,10 +344,8 @@ impl Geometry {
         it
     }
 
-    /// [`Geometry::interaction`] written field by field into `it` (every field is set):
-    /// [`Geometry::interactions_many`] fills its list in place this way, with no copy of
-    /// a whole record through the stack. Inlined (spheres and rectangles here; triangles out of
-    /// line).
+    /// [`Geometry::interaction`] written field by field into `it` (every field is set).
+    /// Inlined (spheres and rectangles here; triangles out of line).
     #[inline(always)]
     pub fn interaction_into(&self, ray: &Ray, t: f32, prim: u32, it: &mut Interaction) {
         self.interaction_of(ray, t, prim, self.prims.get(prim), it);

@@ -29,7 +29,7 @@
 use super::{shading_lanes, shadow_ray};
 use crate::Rgb;
 use crate::camera::Camera;
-use crate::geometry::{Interaction, Ray, spawn_ray};
+use crate::geometry::{Interactions, Ray, spawn_ray};
 #[cfg(doc)]
 use crate::lights::Light;
 use crate::lights::LightSamples;
@@ -85,7 +85,7 @@ pub struct HitQueue {
     pub path: Vec<u32>,
     pub closest: Vec<Option<(f32, u32)>>,
     pub hits: Vec<(u32, f32, u32)>,
-    pub it: Vec<Interaction>,
+    pub it: Interactions,
 }
 
 /// Paths whose ray left the scene, their directions, and an infinite light's value and
@@ -350,11 +350,12 @@ impl Wavefront {
     pub fn emission(&mut self, scene: &Scene) {
         let sel_pdf = select_pdf(scene);
         let p = &mut self.paths;
-        for (&i, it) in self.hits.path.iter().zip(&self.hits.it) {
-            let Some(k) = scene.shapes[it.shape as usize].light else {
+        let its = &self.hits.it;
+        for (h, (&i, &shape)) in self.hits.path.iter().zip(its.shape()).enumerate() {
+            let Some(k) = scene.shapes[shape as usize].light else {
                 continue;
             };
-            let i = i as usize;
+            let (i, it) = (i as usize, &its.get(h));
             let light = &scene.lights[k as usize];
             let le = light.le_area(it, -p.ray[i].d);
             if le.is_black() {
@@ -380,12 +381,12 @@ impl Wavefront {
         for v in [&mut s.frame_s, &mut s.frame_t, &mut s.wo] {
             v.resize(m);
         }
+        let (ns, dpdu) = (h.it.ns(), h.it.dpdu());
         for first in (0..m).step_by(LANES) {
             let at = |k: usize| first + k.min(m - first - 1);
-            let it = |k: usize| &h.it[at(k)];
             shading_lanes(
-                Vec3xN::from_array(&simd::lanes(|k| it(k).ns)),
-                Vec3xN::from_array(&simd::lanes(|k| it(k).dpdu)),
+                ns.load(first),
+                dpdu.load(first),
                 Vec3xN::from_array(&simd::lanes(|k| p.ray[h.path[at(k)] as usize].d)),
                 first,
                 [&mut s.frame_s, &mut s.frame_t, &mut s.wo],
@@ -401,7 +402,7 @@ impl Wavefront {
         sampler.next_2d_lanes(keys, idx, &mut s.light_u);
         sampler.next_1d_lanes(keys, idx, &mut s.bsdf_uc);
         sampler.next_2d_lanes(keys, idx, &mut s.bsdf_u);
-        s.groups.build(scene, &h.it);
+        s.groups.build(scene, h.it.shape());
     }
 
     /// One light sample per scattering hit: the light chosen uniformly by the hit's
@@ -425,7 +426,7 @@ impl Wavefront {
         let light_of = |h: usize| Some(choice(s.light_uc[h]));
         group_stable(m, light_of, &mut q.starts, &mut q.order);
         if let Some(k) = (0..n_lights).find(|&k| q.starts[k + 1] - q.starts[k] == m) {
-            scene.lights[k].sample_li_many(|h| its[h].p, &s.light_u, &mut q.samples);
+            scene.lights[k].sample_li_many(|h| its.p().get(h), &s.light_u, &mut q.samples);
             return;
         }
         for k in 0..n_lights {
@@ -435,7 +436,7 @@ impl Wavefront {
             }
             q.u.clear();
             q.u.extend(hits.iter().map(|&h| s.light_u[h as usize]));
-            let point = |j: usize| its[hits[j] as usize].p;
+            let point = |j: usize| its.p().get(hits[j] as usize);
             scene.lights[k].sample_li_many(point, &q.u, &mut q.batch);
             for (j, &h) in hits.iter().enumerate() {
                 q.samples.copy_from(h as usize, &q.batch, j);
@@ -455,7 +456,7 @@ impl Wavefront {
         let (fs, ft) = (s.frame_s.cols(), s.frame_t.cols());
         for first in (0..m).step_by(LANES) {
             let at = |k: usize| first + k.min(m - first - 1);
-            let n = Vec3xN::from_array(&simd::lanes(|k| its[at(k)].ns));
+            let n = its.ns().load(first);
             let wi = Vec3xN::from_array(&simd::lanes(|k| q.samples.wi[at(k)]));
             let local = frame::to_local(fs.load(first), ft.load(first), n, wi);
             q.wi_local.cols_mut().store(first, local);
@@ -480,7 +481,7 @@ impl Wavefront {
         for (h, ((&wi_z, &f), (&pdf, li))) in q
             .wi_local
             .cols()
-            .z
+            .z()
             .iter()
             .zip(&q.f)
             .zip(ls.pdf.iter().zip(&ls.li))
@@ -499,7 +500,7 @@ impl Wavefront {
         sq.ray.clear();
         sq.ray.extend(sq.hit.iter().map(|&h| {
             let h = h as usize;
-            shadow_ray(&self.hits.it[h], ls.wi[h], ls.at[h])
+            shadow_ray(&self.hits.it.get(h), ls.wi[h], ls.at[h])
         }));
         sq.occluded.clear();
         scene.geometry.occluded_many(&sq.ray, &mut sq.occluded);
@@ -545,7 +546,7 @@ impl Wavefront {
             let Some(bs) = bs else {
                 continue;
             };
-            let it = &its[h];
+            let it = &its.get(h);
             let frame = s.frame(its, h);
             let v = &mut p.vars[i as usize];
             v.beta *= bs.weight;
@@ -585,11 +586,11 @@ impl Wavefront {
 impl ScatterQueue {
     /// The shading frame of hit `h` of `its`: the queue's tangents, the hit's normal.
     #[inline(always)]
-    fn frame(&self, its: &[Interaction], h: usize) -> Frame {
+    fn frame(&self, its: &Interactions, h: usize) -> Frame {
         Frame {
             s: self.frame_s.get(h),
             t: self.frame_t.get(h),
-            n: its[h].ns,
+            n: its.ns().get(h),
         }
     }
 
@@ -614,20 +615,20 @@ fn select_pdf(scene: &Scene) -> f32 {
 }
 
 impl MaterialGroups {
-    /// Groups the hits `its` by material (shapes sharing a material share its batch):
+    /// Groups the hits (the shapes they hit, `shapes`) by material (shapes sharing a material share its batch):
     /// each hit's material group ([`crate::scene::ShapeInfo::material_group`]) given a
     /// batch in order of first appearance, then a stable counting sort. When the hits
     /// already come grouped (scenes of one material), the batches read the queues in
     /// place.
-    fn build(&mut self, scene: &Scene, its: &[Interaction]) {
+    fn build(&mut self, scene: &Scene, shapes: &[u32]) {
         self.key.clear();
         // The batch of each material group seen in the last call back to none.
         for &(group, _) in &self.distinct {
             self.batch_of_group[group as usize] = u32::MAX;
         }
         self.distinct.clear();
-        for it in its {
-            let group = scene.shapes[it.shape as usize].material_group as usize;
+        for &shape in shapes {
+            let group = scene.shapes[shape as usize].material_group as usize;
             if group >= self.batch_of_group.len() {
                 self.batch_of_group.resize(group + 1, u32::MAX);
             }
@@ -635,15 +636,15 @@ impl MaterialGroups {
             if g == u32::MAX as usize {
                 g = self.distinct.len();
                 self.batch_of_group[group] = g as u32;
-                self.distinct.push((group as u32, it.shape));
+                self.distinct.push((group as u32, shape));
             }
             self.key.push(g);
         }
-        self.order.resize(its.len(), 0);
+        self.order.resize(shapes.len(), 0);
         self.starts.resize(self.distinct.len() + 1, 0);
         let key = &self.key;
         group_stable(
-            its.len(),
+            shapes.len(),
             |h| Some(key[h]),
             &mut self.starts,
             &mut self.order,

@@ -296,7 +296,7 @@ impl Stage<'_> {
         // Per sample, the radiance over the density (the balance heuristic's weight).
         let lw: Vec<[f64; 3]> = (0..n)
             .map(|k| match density[k] > 0.0 {
-                true => set.radiance[k].map(|l| l * set.wi.cols().z[k] as f64 / density[k]),
+                true => set.radiance[k].map(|l| l * set.wi.cols().z()[k] as f64 / density[k]),
                 false => [0.0; 3],
             })
             .collect();
