@@ -57,23 +57,27 @@ fn bench(c: &mut Criterion) {
         let mut g = c.benchmark_group(format!("envmap {name}"));
         g.throughput(Throughput::Elements((CALLS * BATCH) as u64));
         let (mut wi, mut li, mut pdf) = (
-            vec![Vec3::ZERO; BATCH],
+            lobe_materials::Vec3s::zeros(BATCH),
             vec![Rgb::ZERO; BATCH],
             vec![0.0f32; BATCH],
         );
         g.bench_function("sample_many", |b| {
             b.iter(|| {
                 for u in us.chunks(BATCH) {
-                    env.sample_many(black_box(u), &mut wi, &mut li, &mut pdf);
+                    env.sample_many(black_box(u), wi.cols_mut(), &mut li, &mut pdf);
                 }
                 black_box(pdf[0])
             })
         });
         let mut out = vec![(Rgb::ZERO, 0.0f32); BATCH];
+        let dir_batches: Vec<lobe_materials::Vec3s> = dirs
+            .chunks(BATCH)
+            .map(lobe_materials::Vec3s::from)
+            .collect();
         g.bench_function("eval_pdf_many", |b| {
             b.iter(|| {
-                for d in dirs.chunks(BATCH) {
-                    env.eval_pdf_many(black_box(d), &mut out);
+                for d in &dir_batches {
+                    env.eval_pdf_many(black_box(d.cols()), &mut out);
                 }
                 black_box(out[0].1)
             })

@@ -265,8 +265,10 @@ fn batched_lookups_equal_single_ones() {
                 us[1] = Vec2::new(1.0 - f32::EPSILON / 2.0, 1.0 - f32::EPSILON / 2.0);
                 us[2] = Vec2::new(0.5, 0.0);
             }
-            let (mut wi, mut li, mut pdf) = (vec![Vec3::ZERO; n], vec![Rgb::ZERO; n], vec![0.0; n]);
-            e.sample_many(&us, &mut wi, &mut li, &mut pdf);
+            let mut wi = lobe_materials::Vec3s::zeros(n);
+            let (mut li, mut pdf) = (vec![Rgb::ZERO; n], vec![0.0; n]);
+            e.sample_many(&us, wi.cols_mut(), &mut li, &mut pdf);
+            let wi = wi.to_vec();
             for i in 0..n {
                 let (ew, el, ep) = e.sample(us[i]).unwrap_or((Vec3::ZERO, Rgb::ZERO, 0.0));
                 assert_eq!(
@@ -290,7 +292,7 @@ fn batched_lookups_equal_single_ones() {
                 dirs[2] = Vec3::new(0.0, 0.0, 1.0);
             }
             let mut out = vec![(Rgb::ZERO, 0.0); n];
-            e.eval_pdf_many(&dirs, &mut out);
+            e.eval_pdf_many(lobe_materials::Vec3s::from(&dirs[..]).cols(), &mut out);
             for i in 0..n {
                 let (el, ep) = e.eval_pdf(dirs[i]);
                 assert_eq!(

@@ -229,7 +229,7 @@ fn batched_light_samples_equal_single_ones() {
                     None => assert_eq!(out.pdf[k], 0.0, "{name}, point {k}: no sample"),
                     Some(ls) => {
                         let bits = |v: Vec3| v.to_array().map(f32::to_bits);
-                        assert_eq!(bits(out.wi[k]), bits(ls.wi), "{name}, point {k}");
+                        assert_eq!(bits(out.wi.get(k)), bits(ls.wi), "{name}, point {k}");
                         assert_eq!(out.li[k], ls.li, "{name}, point {k}");
                         assert_eq!(out.pdf[k].to_bits(), ls.pdf.to_bits(), "{name}, point {k}");
                         assert_eq!(out.delta[k], ls.delta, "{name}, point {k}");

@@ -93,7 +93,7 @@ pub struct HitQueue {
 #[derive(Default)]
 pub struct EscapedQueue {
     pub path: Vec<u32>,
-    pub dir: Vec<Vec3>,
+    pub dir: Vec3s,
     pub le_pdf: Vec<(Rgb, f32)>,
 }
 
@@ -329,7 +329,7 @@ impl Wavefront {
             let light = &scene.lights[k as usize];
             e.le_pdf.clear();
             e.le_pdf.resize(e.dir.len(), (Rgb::ZERO, 0.0));
-            light.le_pdf_infinite_many(&e.dir, &mut e.le_pdf);
+            light.le_pdf_infinite_many(e.dir.cols(), &mut e.le_pdf);
             for (&i, &(le, pdf)) in e.path.iter().zip(&e.le_pdf) {
                 if le.is_black() {
                     continue;
@@ -452,12 +452,11 @@ impl Wavefront {
         let m = s.wo.len();
         let its = &self.hits.it;
         q.wi_local.resize(m);
-        // The frames' tangents straight from their columns, a lane vector at a time.
+        // Frames, normals and directions straight from their columns, a lane vector at a time.
         let (fs, ft) = (s.frame_s.cols(), s.frame_t.cols());
         for first in (0..m).step_by(LANES) {
-            let at = |k: usize| first + k.min(m - first - 1);
             let n = its.ns().load(first);
-            let wi = Vec3xN::from_array(&simd::lanes(|k| q.samples.wi[at(k)]));
+            let wi = q.samples.wi.cols().load(first);
             let local = frame::to_local(fs.load(first), ft.load(first), n, wi);
             q.wi_local.cols_mut().store(first, local);
         }
@@ -500,7 +499,7 @@ impl Wavefront {
         sq.ray.clear();
         sq.ray.extend(sq.hit.iter().map(|&h| {
             let h = h as usize;
-            shadow_ray(&self.hits.it.get(h), ls.wi[h], ls.at[h])
+            shadow_ray(&self.hits.it.get(h), ls.wi.get(h), ls.at[h])
         }));
         sq.occluded.clear();
         scene.geometry.occluded_many(&sq.ray, &mut sq.occluded);

@@ -28,6 +28,7 @@ use crate::Rgb;
 use crate::error::{Error, Result};
 use crate::image_io::{RgbImage, read_rgb_image_windows};
 use glam::{Mat3, Vec2, Vec3};
+use lobe_materials::columns::{Vec3Cols, Vec3ColsMut};
 use lobe_materials::math::{
     Num, V3, acos, atan2, clamp, floor, gt, le, lt, maximum, minimum, select, sin_cos, sqrt,
 };
@@ -227,11 +228,10 @@ impl EnvMap {
     /// [`EnvMap::eval_pdf`] of many directions, `out[i]` for `dirs[i]`, bit for bit the
     /// same: a lane vector at a time, so that the independent texel reads of `LANES`
     /// lookups overlap and the arithmetic runs once per `LANES` directions.
-    pub fn eval_pdf_many(&self, dirs: &[Vec3], out: &mut [(Rgb, f32)]) {
+    pub fn eval_pdf_many(&self, dirs: Vec3Cols, out: &mut [(Rgb, f32)]) {
         assert_eq!(dirs.len(), out.len());
-        for (dc, oc) in dirs.chunks(LANES).zip(out.chunks_mut(LANES)) {
-            let d = Vec3xN::from_array(&simd::padded(dc));
-            let ([r, g, b], pdf) = self.radiance_pdf(d);
+        for (c, oc) in out.chunks_mut(LANES).enumerate() {
+            let ([r, g, b], pdf) = self.radiance_pdf(dirs.load(LANES * c));
             let radiance = RgbxN::new(r, g, b);
             let pdf = pdf.to_array();
             for (i, o) in oc.iter_mut().enumerate() {
@@ -244,7 +244,7 @@ impl EnvMap {
     /// lanes as [`EnvMap::eval_pdf_many`]: for `us[i]`, the direction `wi[i]`, radiance
     /// `li[i]` and pdf `pdf[i]`, or a pdf of 0 (and zero direction and radiance) where
     /// `sample` gives None.
-    pub fn sample_many(&self, us: &[Vec2], wi: &mut [Vec3], li: &mut [Rgb], pdf: &mut [f32]) {
+    pub fn sample_many(&self, us: &[Vec2], mut wi: Vec3ColsMut, li: &mut [Rgb], pdf: &mut [f32]) {
         assert!(us.len() == wi.len() && us.len() == li.len() && us.len() == pdf.len());
         let zero = f32xn::splat(0.0);
         // Two lane vectors of points at a time: two groups descend the hierarchy side by side
@@ -271,13 +271,12 @@ impl EnvMap {
                 let (d, radiance, p, valid) = self.sample_in_cell(as_int(cx), as_int(cy), rx, ry);
                 // Invalid lanes get a zero direction, radiance and pdf.
                 let keep = |v: f32xn| simd::sel(valid, v, zero);
-                let [dx, dy, dz] = simd::arrays3([d.x, d.y, d.z].map(keep));
                 let [r, gr, b] = simd::arrays3(radiance.map(keep));
                 let p = keep(p).to_array();
                 let base = LANES * (GROUPS * c2 + g);
+                wi.store(base, Vec3xN::new(keep(d.x), keep(d.y), keep(d.z)));
                 for i in 0..uc.len() {
                     let o = base + i;
-                    wi[o] = Vec3::new(dx[i], dy[i], dz[i]);
                     li[o] = Rgb::new(r[i], gr[i], b[i]);
                     pdf[o] = p[i];
                 }

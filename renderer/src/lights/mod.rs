@@ -22,6 +22,7 @@ use lobe_materials::sampling::warp::{
 };
 use lobe_materials::simd::{self, Vec3xN};
 use lobe_materials::simd::{LANES, f32xn};
+use lobe_materials::{Vec3Cols, Vec3s};
 
 /// Emitting geometry of an area light.
 #[derive(Clone, Debug)]
@@ -82,7 +83,7 @@ pub struct LightSample {
 /// point on the light with its normal ([`LightSample::p`]).
 #[derive(Clone, Debug, Default)]
 pub struct LightSamples {
-    pub wi: Vec<Vec3>,
+    pub wi: Vec3s,
     pub li: Vec<Rgb>,
     pub pdf: Vec<f32>,
     pub delta: Vec<bool>,
@@ -93,7 +94,7 @@ impl LightSamples {
     /// `n` entries, all "no sample".
     pub fn reset(&mut self, n: usize) {
         self.wi.clear();
-        self.wi.resize(n, Vec3::ZERO);
+        self.wi.resize(n);
         self.li.clear();
         self.li.resize(n, Rgb::ZERO);
         self.pdf.clear();
@@ -107,7 +108,7 @@ impl LightSamples {
     /// Sets entry `k` to a sample.
     #[inline]
     pub fn set(&mut self, k: usize, ls: &LightSample) {
-        self.wi[k] = ls.wi;
+        self.wi.set(k, ls.wi);
         self.li[k] = ls.li;
         self.pdf[k] = ls.pdf;
         self.delta[k] = ls.delta;
@@ -117,7 +118,7 @@ impl LightSamples {
     /// Copies entry `from` of `src` to entry `k`.
     #[inline]
     pub fn copy_from(&mut self, k: usize, src: &LightSamples, from: usize) {
-        self.wi[k] = src.wi[from];
+        self.wi.set(k, src.wi.get(from));
         self.li[k] = src.li[from];
         self.pdf[k] = src.pdf[from];
         self.delta[k] = src.delta[from];
@@ -134,7 +135,7 @@ impl Light {
         out.reset(u.len());
         match self {
             Light::Env(env) => {
-                env.sample_many(u, &mut out.wi, &mut out.li, &mut out.pdf);
+                env.sample_many(u, out.wi.cols_mut(), &mut out.li, &mut out.pdf);
                 return;
             }
             Light::Area {
@@ -155,11 +156,11 @@ impl Light {
 
     /// [`Light::le_pdf_infinite`] of many directions, the same values (environment maps
     /// in SIMD lanes: [`EnvMap::eval_pdf_many`]).
-    pub fn le_pdf_infinite_many(&self, dirs: &[Vec3], out: &mut [(Rgb, f32)]) {
+    pub fn le_pdf_infinite_many(&self, dirs: Vec3Cols, out: &mut [(Rgb, f32)]) {
         match self {
             Light::Env(env) => env.eval_pdf_many(dirs, out),
             _ => {
-                for (o, &d) in out.iter_mut().zip(dirs) {
+                for (o, d) in out.iter_mut().zip(dirs.iter()) {
                     *o = self.le_pdf_infinite(d);
                 }
             }
@@ -311,7 +312,7 @@ fn sample_rectangle_many(
         for i in 0..len {
             if ok & (1 << i) != 0 {
                 let k = first + i;
-                out.wi[k] = wi[i];
+                out.wi.set(k, wi[i]);
                 out.li[k] = if lit & (1 << i) != 0 {
                     radiance
                 } else {

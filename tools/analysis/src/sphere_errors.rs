@@ -454,13 +454,11 @@ impl Stage<'_> {
             .map(u_of)
             .collect();
         let m = us.len();
-        let (mut map_dirs, mut li, mut pdf) = (
-            vec![glam::Vec3::ZERO; m],
-            vec![Rgb::splat(0.0); m],
-            vec![0.0; m],
-        );
-        self.env.sample_many(&us, &mut map_dirs, &mut li, &mut pdf);
-        let mut from_map = map_dirs.into_iter().zip(pdf);
+        let (mut map_dirs, mut li, mut pdf) =
+            (Vec3s::zeros(m), vec![Rgb::splat(0.0); m], vec![0.0; m]);
+        self.env
+            .sample_many(&us, map_dirs.cols_mut(), &mut li, &mut pdf);
+        let mut from_map = map_dirs.cols().iter().zip(pdf);
         // The data's samples drawn together too (a batched form where the model has one),
         // and each fit's.
         let of_data: Vec<&Hit> = hits.iter().filter(|h| h.sample.strategy == DATA).collect();
@@ -480,7 +478,7 @@ impl Stage<'_> {
             .map(|(j, of_j)| Self::bsdf_samples(reps[1 + j], of_j, u_of).into_iter())
             .collect();
         let mut drawn = PixelSamples::default();
-        let mut world = Vec::with_capacity(hits.len());
+        let mut world = Vec3s::new();
         for h in &hits {
             let wi = match h.sample.strategy {
                 MAP => match from_map.next() {
@@ -513,7 +511,7 @@ impl Stage<'_> {
             world.push(h.frame.to_world(wi).normalize());
         }
         let mut looked_up = vec![(Rgb::splat(0.0), 0.0f32); world.len()];
-        self.env.eval_pdf_many(&world, &mut looked_up);
+        self.env.eval_pdf_many(world.cols(), &mut looked_up);
         // Samples where the map is black add nothing: dropped before the evaluations.
         let n_map = counts[MAP] as f64;
         let mut set = PixelSamples::default();
