@@ -20,8 +20,9 @@
 //!
 //! Contents: [`lanes`], [`padded`] and [`lanes_of`] (arrays of [`LANES`], written out so
 //! they inline), [`chunks_where`] (the queries a batched kernel works on, a lane vector at
-//! a time), transposes of records into lane vectors and back ([`transpose4xn`],
-//! [`rows4`], [`vec2s`], [`vec3s`], [`write_vec3s`], [`arrays3`]), per-lane select and
+//! a time), transposes of records into lane vectors (the batched queues hold their
+//! vectors as columns instead, [`crate::columns`]: [`transpose4xn`],
+//! [`rows4`], [`vec2s`], [`vec3s`], [`arrays3`]), per-lane select and
 //! clamp ([`sel`], [`clamp`]), masks ([`MaskN`], [`mask_from_bools`], [`mask_bits`],
 //! [`ALL_LANES`]), [`gather`], [`float_of`], [`fmadd`], the small types [`Vec3xN`] and
 //! [`RgbxN`]. The arithmetic of lanes of either width is [`crate::math::Arith`]'s.
@@ -227,80 +228,6 @@ pub fn vec3s(v: &[Vec3; LANES]) -> [f32xn; 3] {
 #[inline(always)]
 pub fn vec2s(v: &[Vec2; LANES]) -> [f32xn; 2] {
     [f32xn::new(lanes(|i| v[i].x)), f32xn::new(lanes(|i| v[i].y))]
-}
-
-/// Writes the vectors of lanes `0..dst.len()` (at most `LANES`) of x, y and z components
-/// `v` to `dst`, vector i from lane i: the inverse of [`vec3s`], straight into a queue.
-/// With AVX-512, six two-source permutes and three (masked) stores; a per-lane loop is
-/// what the compiler turns into nine scatters, which Zen 4 runs slowly.
-#[inline(always)]
-pub fn write_vec3s(v: [f32xn; 3], dst: &mut [Vec3]) {
-    assert!(dst.len() <= LANES, "at most LANES vectors");
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
-    {
-        // SAFETY: only needs AVX-512F, which this build enables (the cfg above).
-        unsafe { interleave3_avx512(v, dst) }
-    }
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
-    {
-        let [x, y, z] = arrays3(v);
-        for (i, d) in dst.iter_mut().enumerate() {
-            *d = Vec3::new(x[i], y[i], z[i]);
-        }
-    }
-}
-
-/// The permute indices of [`interleave3_avx512`]: for the 16 floats of output register
-/// `r` (floats `16 r..16 r + 16` of the 48 of sixteen `Vec3`s, float g being component
-/// g % 3 of vector g / 3), the first permute (`second == false`) takes x (index `vector`)
-/// or y (`16 + vector`); the second keeps those (index `j`) and takes z (`16 + vector`).
-#[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
-const fn interleave3_index(r: usize, second: bool) -> [i32; 16] {
-    let mut idx = [0i32; 16];
-    let mut j = 0;
-    while j < 16 {
-        let g = 16 * r + j;
-        let (vector, component) = ((g / 3) as i32, g % 3);
-        idx[j] = match (second, component) {
-            (false, 0) => vector,
-            (false, 1) => 16 + vector,
-            (false, _) => 0,
-            (true, 2) => 16 + vector,
-            (true, _) => j as i32,
-        };
-        j += 1;
-    }
-    idx
-}
-
-/// [`write_vec3s`] with AVX-512F.
-#[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
-#[target_feature(enable = "avx512f")]
-unsafe fn interleave3_avx512(v: [f32xn; 3], dst: &mut [Vec3]) {
-    use std::arch::x86_64::{__m512, __m512i, _mm512_mask_storeu_ps, _mm512_permutex2var_ps};
-    const _: () = assert!(std::mem::size_of::<[Vec3; 2]>() == 6 * 4);
-    const IDX: [[[i32; 16]; 2]; 3] = [
-        [interleave3_index(0, false), interleave3_index(0, true)],
-        [interleave3_index(1, false), interleave3_index(1, true)],
-        [interleave3_index(2, false), interleave3_index(2, true)],
-    ];
-    let floats = 3 * dst.len().min(LANES);
-    let out = dst.as_mut_ptr().cast::<f32>();
-    // SAFETY: `f32xn` is `wide::f32x16`, 16 f32 as `__m512`, and `[i32; 16]` is 64 bytes
-    // as `__m512i`; `dst` is `3 dst.len()` contiguous f32 (Vec3 is three f32, `repr(C)`),
-    // and each store's mask keeps it to floats below that.
-    unsafe {
-        let [x, y, z] = v.map(|c| std::mem::transmute::<f32xn, __m512>(c));
-        for (r, [first, second]) in IDX.iter().enumerate() {
-            let valid = floats.saturating_sub(16 * r).min(16);
-            let mask = ((1u32 << valid) - 1) as u16;
-            let first = std::mem::transmute::<[i32; 16], __m512i>(*first);
-            let second = std::mem::transmute::<[i32; 16], __m512i>(*second);
-            let xy = _mm512_permutex2var_ps(x, first, y);
-            let xyz = _mm512_permutex2var_ps(xy, second, z);
-            _mm512_mask_storeu_ps(out.add(16 * r), mask, xyz);
-        }
-    }
 }
 
 /// The components of [`vec3s`] back as arrays (`[x, y, z]`, `LANES` lanes each).
@@ -541,34 +468,6 @@ mod tests {
         (0..v.len())
             .map(|k| Vec3::new(v[k], v[(k * 7 + 3) % v.len()], v[(k * 13 + 5) % v.len()]))
             .collect()
-    }
-
-    #[test]
-    fn write_vec3s_is_the_inverse_of_vec3s() {
-        let v = vecs();
-        for chunk in v.chunks(LANES) {
-            let mut back = [Vec3::splat(-7.0); LANES];
-            write_vec3s(vec3s(&padded(chunk)), &mut back[..chunk.len()]);
-            for (i, b) in back.iter().enumerate() {
-                let (b, a) = (b.to_array(), chunk.get(i).map(|a| a.to_array()));
-                let expected = a.unwrap_or([-7.0; 3]);
-                assert!((0..3).all(|k| same(b[k], expected[k])), "lane {i}: {b:?}");
-            }
-        }
-        // Every length writes exactly its lanes and nothing past them.
-        let [x, y, z] = [0.0, 100.0, 200.0].map(|o| f32xn::new(lanes(|i| o + i as f32)));
-        for n in 0..=LANES {
-            let mut out = [Vec3::splat(-1.0); LANES + 1];
-            write_vec3s([x, y, z], &mut out[..n]);
-            for (i, v) in out.iter().enumerate() {
-                let expected = if i < n {
-                    Vec3::new(i as f32, 100.0 + i as f32, 200.0 + i as f32)
-                } else {
-                    Vec3::splat(-1.0)
-                };
-                assert_eq!(*v, expected, "length {n}, lane {i}");
-            }
-        }
     }
 
     #[test]
