@@ -55,11 +55,11 @@ impl Vec3s {
         self.z.resize(n, 0.0);
     }
 
-    /// Shortens to at most `n` vectors.
-    pub fn truncate(&mut self, n: usize) {
-        self.x.truncate(n);
-        self.y.truncate(n);
-        self.z.truncate(n);
+    /// Room for `n` more vectors.
+    pub fn reserve(&mut self, n: usize) {
+        self.x.reserve(n);
+        self.y.reserve(n);
+        self.z.reserve(n);
     }
 
     #[inline]
@@ -133,7 +133,17 @@ impl Vec3s {
     }
 
     /// Replaces the contents by `src`'s vectors `idx[0]`, `idx[1]`, ...
+    ///
+    /// # Panics
+    /// When an index is out of range (before any column changes, so that they stay equally
+    /// long).
     pub fn gather_from(&mut self, src: Vec3Cols, idx: &[u32]) {
+        let max = idx.iter().copied().max().unwrap_or(0) as usize;
+        assert!(
+            idx.is_empty() || max < src.len(),
+            "index {max} of {}",
+            src.len()
+        );
         for (dst, src) in [
             (&mut self.x, src.x),
             (&mut self.y, src.y),
@@ -167,10 +177,7 @@ impl FromIterator<Vec3> for Vec3s {
 impl Extend<Vec3> for Vec3s {
     fn extend<I: IntoIterator<Item = Vec3>>(&mut self, iter: I) {
         let iter = iter.into_iter();
-        let n = iter.size_hint().0;
-        self.x.reserve(n);
-        self.y.reserve(n);
-        self.z.reserve(n);
+        self.reserve(iter.size_hint().0);
         for v in iter {
             self.push(v);
         }
@@ -208,19 +215,7 @@ impl<'a> Vec3Cols<'a> {
         self.x.is_empty()
     }
 
-    /// The x column.
-    #[inline(always)]
-    pub fn x(&self) -> &'a [f32] {
-        self.x
-    }
-
-    /// The y column.
-    #[inline(always)]
-    pub fn y(&self) -> &'a [f32] {
-        self.y
-    }
-
-    /// The z column.
+    /// The z column (the one the batched kernels test for directions above the surface).
     #[inline(always)]
     pub fn z(&self) -> &'a [f32] {
         self.z
@@ -267,7 +262,8 @@ impl<'a> Vec3Cols<'a> {
     /// Vectors `idx[i]` in lane i for one to [`LANES`] strictly increasing indices (as
     /// [`simd::chunks_where`] gives them; past their end, the last repeated, as
     /// [`simd::lanes_of`]): three plain loads when they are `LANES` consecutive ones, else
-    /// three gathers.
+    /// three gathers. Increasing indices are a precondition (checked in debug builds only):
+    /// the test for a consecutive run looks at the first and last index alone.
     #[inline(always)]
     pub fn lanes_of(&self, idx: &[usize]) -> Vec3xN {
         debug_assert!(idx.windows(2).all(|w| w[0] < w[1]), "increasing indices");

@@ -88,22 +88,35 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
         assert!(wo.len() == n && u.len() == n && uc.len() == n && wi.len() == n);
         for first in (0..n).step_by(LANES) {
             let r = first..(first + LANES).min(n);
-            let (d, ok) = self.sample_xn(
+            let drawn_lanes = self.sample_xn(
                 wo.load(first),
                 vec2s(&padded(&u[r.clone()])),
-                f32xn::new(padded(&uc[r.clone()])),
+                f32xn::new(padded(&uc[r])),
             );
-            wi.store(first, d);
-            let ok = mask_bits(ok);
-            for (lane, k) in r.enumerate() {
-                drawn[k] = ok >> lane & 1 != 0;
-            }
+            store_drawn(drawn_lanes, first, &mut wi, drawn);
         }
     }
     fn flags(&self) -> Flags;
     /// Bytes this lobe holds (its tables, if any).
     fn memory_bytes(&self) -> usize {
         std::mem::size_of_val(self)
+    }
+}
+
+/// Writes a lane vector of sampled directions and the mask of lanes that drew one
+/// ([`Lobe::sample_xn`]'s) to elements `first..` of `wi` and `drawn` (the lanes that fit).
+#[inline(always)]
+pub fn store_drawn(
+    (d, ok): (Vec3xN, MaskN),
+    first: usize,
+    wi: &mut Vec3ColsMut,
+    drawn: &mut [bool],
+) {
+    wi.store(first, d);
+    let ok = mask_bits(ok);
+    let n = (drawn.len() - first).min(LANES);
+    for (lane, flag) in drawn[first..first + n].iter_mut().enumerate() {
+        *flag = ok >> lane & 1 != 0;
     }
 }
 

@@ -20,9 +20,9 @@
 //!
 //! Contents: [`lanes`], [`padded`] and [`lanes_of`] (arrays of [`LANES`], written out so
 //! they inline), [`chunks_where`] (the queries a batched kernel works on, a lane vector at
-//! a time), transposes of records into lane vectors (the batched queues hold their
-//! vectors as columns instead, [`crate::columns`]: [`transpose4xn`],
-//! [`rows4`], [`vec2s`], [`vec3s`], [`arrays3`]), per-lane select and
+//! a time), transposes of records into lane vectors and back ([`transpose4xn`], [`rows4`],
+//! [`vec2s`], [`vec3s`], [`arrays3`]; the batched queues hold their vectors as columns,
+//! [`crate::columns`], which lane vectors load and store directly), per-lane select and
 //! clamp ([`sel`], [`clamp`]), masks ([`MaskN`], [`mask_from_bools`], [`mask_bits`],
 //! [`ALL_LANES`]), [`gather`], [`float_of`], [`fmadd`], the small types [`Vec3xN`] and
 //! [`RgbxN`]. The arithmetic of lanes of either width is [`crate::math::Arith`]'s.
@@ -352,13 +352,6 @@ impl Vec3xN {
     #[inline(always)]
     pub fn select(m: MaskN, a: Self, b: Self) -> Self {
         Self::new(sel(m, a.x, b.x), sel(m, a.y, b.y), sel(m, a.z, b.z))
-    }
-
-    /// The lanes as options: `Some` where `m` is set.
-    #[inline(always)]
-    pub fn options(self, m: MaskN) -> [Option<Vec3>; LANES] {
-        let (bits, v) = (mask_bits(m), self.to_array());
-        lanes(|i| (bits >> i & 1 != 0).then_some(v[i]))
     }
 }
 

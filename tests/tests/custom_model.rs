@@ -159,7 +159,8 @@ fn the_lane_forms_of_a_model_written_once_equal_its_scalar_forms() {
         lobe_materials::simd::vec2s(&u),
         lobe_materials::simd::f32xn::new(uc),
     );
-    let drawn = d.options(ok);
+    let (ok, d) = (lobe_materials::simd::mask_bits(ok), d.to_array());
+    let drawn: [Option<Vec3>; LANES] = lanes(|k| (ok >> k & 1 != 0).then_some(d[k]));
     let (f, p) = (f.to_array(), p.to_array());
     let mut lit = 0;
     for k in 0..LANES {

@@ -61,13 +61,7 @@ impl Lobe for SampledMicrofacet {
     ) {
         let n = drawn.len();
         assert!(wo.len() == n && u.len() == n && wi.len() == n);
-        let mut put = |first: usize, (d, ok): (Vec3xN, MaskN)| {
-            wi.store(first, d);
-            let ok = simd::mask_bits(ok);
-            for (lane, k) in (first..(first + LANES).min(n)).enumerate() {
-                drawn[k] = ok >> lane & 1 != 0;
-            }
-        };
+        let mut put = |first: usize, s| lobe::store_drawn(s, first, &mut wi, drawn);
         let us = |r: std::ops::Range<usize>| simd::vec2s(&simd::padded(&u[r]));
         for first in (0..n).step_by(2 * LANES) {
             let end = (first + 2 * LANES).min(n);

@@ -340,18 +340,13 @@ impl Geometry {
     #[inline]
     pub fn interaction(&self, ray: &Ray, t: f32, prim: u32) -> Interaction {
         let mut it = Interaction::ZERO;
-        self.interaction_into(ray, t, prim, &mut it);
+        self.interaction_of(ray, t, prim, self.prims.get(prim), &mut it);
         it
     }
 
-    /// [`Geometry::interaction`] written field by field into `it` (every field is set).
-    /// Inlined (spheres and rectangles here; triangles out of line).
-    #[inline(always)]
-    pub fn interaction_into(&self, ray: &Ray, t: f32, prim: u32, it: &mut Interaction) {
-        self.interaction_of(ray, t, prim, self.prims.get(prim), it);
-    }
-
-    /// [`Geometry::interaction_into`] of primitive `prim`, already looked up as `primitive`.
+    /// [`Geometry::interaction`] of primitive `prim`, already looked up as `primitive`,
+    /// written field by field into `it` (every field is set). Inlined (spheres and
+    /// rectangles here; triangles out of line).
     #[inline(always)]
     fn interaction_of(
         &self,

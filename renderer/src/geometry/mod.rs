@@ -10,6 +10,7 @@
 pub mod bvh;
 pub mod bvh8;
 mod bvh8_build;
+mod interactions;
 pub mod kernels;
 pub mod mesh;
 mod ploc;
@@ -19,9 +20,9 @@ pub mod rectangle;
 pub mod sphere;
 
 use glam::{Vec2, Vec3};
-use lobe_materials::{Vec3Cols, Vec3s};
 
 pub use bvh::Geometry;
+pub use interactions::Interactions;
 pub use mesh::{Mesh, Triangle};
 pub use rectangle::Rectangle;
 pub use sphere::Sphere;
@@ -84,7 +85,8 @@ pub struct Interaction {
 }
 
 impl Interaction {
-    /// All zero: a slot that [`Geometry::interaction_into`] fills.
+    /// All zero: the record [`Geometry::interaction`] fills, and what new rows of
+    /// [`Interactions`] read as.
     pub const ZERO: Self = Self {
         t: 0.0,
         p: Vec3::ZERO,
@@ -104,115 +106,6 @@ impl Interaction {
             self.prim
         } else {
             Ray::NO_SKIP
-        }
-    }
-}
-
-/// The interactions of a batch of hits as columns (struct of arrays, pbrt-v4's
-/// `SOA<SurfaceInteraction>`): each field of [`Interaction`] its own array, its vectors
-/// x, y and z columns ([`Vec3s`]), so that the lane stages load a lane vector of normals
-/// or tangents with plain loads, and a stage that reads one field streams one array. The
-/// columns are private and always equally long, so [`Interactions::get`] checks one bound.
-#[derive(Clone, Debug, Default)]
-pub struct Interactions {
-    t: Vec<f32>,
-    p: Vec3s,
-    ng: Vec3s,
-    ns: Vec3s,
-    dpdu: Vec3s,
-    uv: Vec<Vec2>,
-    shape: Vec<u32>,
-    prim: Vec<u32>,
-    exit: Vec3s,
-}
-
-impl Interactions {
-    pub fn len(&self) -> usize {
-        self.t.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.t.is_empty()
-    }
-
-    /// Shortens or lengthens to `n` interactions (new ones [`Interaction::ZERO`]).
-    pub fn resize(&mut self, n: usize) {
-        self.t.resize(n, 0.0);
-        for v in [
-            &mut self.p,
-            &mut self.ng,
-            &mut self.ns,
-            &mut self.dpdu,
-            &mut self.exit,
-        ] {
-            v.resize(n);
-        }
-        self.uv.resize(n, Vec2::ZERO);
-        self.shape.resize(n, 0);
-        self.prim.resize(n, 0);
-    }
-
-    /// Removes every interaction, keeping the capacity.
-    pub fn clear(&mut self) {
-        self.resize(0);
-    }
-
-    /// The hit points.
-    pub fn p(&self) -> Vec3Cols<'_> {
-        self.p.cols()
-    }
-
-    /// The shading normals.
-    pub fn ns(&self) -> Vec3Cols<'_> {
-        self.ns.cols()
-    }
-
-    /// The tangents along u.
-    pub fn dpdu(&self) -> Vec3Cols<'_> {
-        self.dpdu.cols()
-    }
-
-    /// The shapes hit.
-    pub fn shape(&self) -> &[u32] {
-        &self.shape
-    }
-
-    /// Interaction `h` as a record, with one bounds check (inlined, a caller's unused
-    /// fields are not loaded).
-    #[inline(always)]
-    pub fn get(&self, h: usize) -> Interaction {
-        assert!(h < self.len(), "interaction {h} of {}", self.len());
-        // SAFETY: every column is `self.len()` long (`resize` is the only change of length).
-        unsafe {
-            Interaction {
-                t: *self.t.get_unchecked(h),
-                p: self.p.get_unchecked(h),
-                ng: self.ng.get_unchecked(h),
-                ns: self.ns.get_unchecked(h),
-                dpdu: self.dpdu.get_unchecked(h),
-                uv: *self.uv.get_unchecked(h),
-                shape: *self.shape.get_unchecked(h),
-                prim: *self.prim.get_unchecked(h),
-                exit: self.exit.get_unchecked(h),
-            }
-        }
-    }
-
-    /// Sets interaction `h`, with one bounds check.
-    #[inline(always)]
-    pub fn set(&mut self, h: usize, it: &Interaction) {
-        assert!(h < self.len(), "interaction {h} of {}", self.len());
-        // SAFETY: as in `get`.
-        unsafe {
-            *self.t.get_unchecked_mut(h) = it.t;
-            self.p.set_unchecked(h, it.p);
-            self.ng.set_unchecked(h, it.ng);
-            self.ns.set_unchecked(h, it.ns);
-            self.dpdu.set_unchecked(h, it.dpdu);
-            *self.uv.get_unchecked_mut(h) = it.uv;
-            *self.shape.get_unchecked_mut(h) = it.shape;
-            *self.prim.get_unchecked_mut(h) = it.prim;
-            self.exit.set_unchecked(h, it.exit);
         }
     }
 }
@@ -279,47 +172,6 @@ pub fn spawn_ray_to(it: &Interaction, target: Vec3, target_n: Option<Vec3>) -> R
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Every field of an interaction set in the columns reads back the same, and resizing
-    /// keeps the ones that stay.
-    #[test]
-    fn interactions_columns_hold_every_field() {
-        let it = |k: usize| {
-            let v = |a: f32| Vec3::new(a, a + 0.5, a - 2.0) * k as f32;
-            Interaction {
-                t: k as f32 + 0.25,
-                p: v(1.0),
-                ng: v(2.0),
-                ns: v(3.0),
-                dpdu: v(4.0),
-                uv: Vec2::new(k as f32, 0.5),
-                shape: k as u32,
-                prim: 7 * k as u32,
-                exit: v(5.0),
-            }
-        };
-        let fields = |i: &Interaction| {
-            let mut f = vec![i.t.to_bits(), i.shape, i.prim];
-            for w in [i.p, i.ng, i.ns, i.dpdu, i.exit] {
-                f.extend(w.to_array().map(f32::to_bits));
-            }
-            f.extend(i.uv.to_array().map(f32::to_bits));
-            f
-        };
-        let mut its = Interactions::default();
-        its.resize(5);
-        for k in 0..5 {
-            its.set(k, &it(k));
-        }
-        its.resize(3);
-        its.resize(4);
-        for k in 0..3 {
-            assert_eq!(fields(&its.get(k)), fields(&it(k)));
-        }
-        assert_eq!(fields(&its.get(3)), fields(&Interaction::ZERO));
-        assert_eq!(its.ns().get(2), it(2).ns);
-        assert_eq!(its.shape(), &[0, 1, 2, 0]);
-    }
 
     /// Wächter and Binder's offset written per component (the paper's form).
     fn offset_reference(p: Vec3, n: Vec3) -> Vec3 {

@@ -203,11 +203,7 @@ mod tests {
             shading_lanes(lanes(&ns), lanes(&dpdu), lanes(&d), first, out);
             let untouched = if first == 0 { LANES } else { 0 };
             assert_eq!(wo.get(untouched), Vec3::ZERO, "LANES vectors from first");
-            let (fs, ft, wo) = (fs.cols().slice(first..first + LANES), ft.cols(), wo.cols());
-            let (ft, wo) = (
-                ft.slice(first..first + LANES),
-                wo.slice(first..first + LANES),
-            );
+            let [fs, ft, wo] = [&fs, &ft, &wo].map(|v| v.cols().slice(first..first + LANES));
             for i in 0..LANES {
                 let f = Frame::from_normal_tangent(ns[i], dpdu[i]);
                 let w = f.to_local(-d[i]).normalize();

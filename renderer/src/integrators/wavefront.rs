@@ -98,9 +98,9 @@ pub struct EscapedQueue {
 }
 
 /// The hits that scatter (paths that go on), indexed like [`HitQueue::it`]: the tangents
-/// of their shading frames (the frame of hit h is `frame_s[h]`, `frame_t[h]` and the
-/// hit's `ns`: [`ScatterQueue::frame`]), local outgoing directions, this bounce's sampler
-/// values, and the hits grouped by material.
+/// of their shading frames (the frame of hit h is element h of `frame_s` and `frame_t`
+/// and the hit's `ns`: [`ScatterQueue::frame`]), local outgoing directions (columns, as
+/// the tangents), this bounce's sampler values, and the hits grouped by material.
 #[derive(Default)]
 pub struct ScatterQueue {
     pub frame_s: Vec3s,
@@ -614,8 +614,8 @@ fn select_pdf(scene: &Scene) -> f32 {
 }
 
 impl MaterialGroups {
-    /// Groups the hits (the shapes they hit, `shapes`) by material (shapes sharing a material share its batch):
-    /// each hit's material group ([`crate::scene::ShapeInfo::material_group`]) given a
+    /// Groups the hits by material, given the shapes they hit (shapes sharing a material
+    /// share its batch): each hit's material group ([`crate::scene::ShapeInfo::material_group`]) given a
     /// batch in order of first appearance, then a stable counting sort. When the hits
     /// already come grouped (scenes of one material), the batches read the queues in
     /// place.

@@ -479,6 +479,7 @@ impl Stage<'_> {
             .collect();
         let mut drawn = PixelSamples::default();
         let mut world = Vec3s::new();
+        world.reserve(hits.len());
         for h in &hits {
             let wi = match h.sample.strategy {
                 MAP => match from_map.next() {
