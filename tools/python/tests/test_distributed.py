@@ -7,6 +7,7 @@ import os
 import signal
 import threading
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -31,7 +32,14 @@ def client():
     c = distributed.Client(cluster)
     yield c
     c.close()
-    cluster.close()
+    try:
+        cluster.close()
+    except KeyError as e:
+        # distributed's SpecCluster can race at close: the event that a worker left names one
+        # its `scheduler_info` has not recorded (the one the nanny restarted after the
+        # killed-worker test), and `_update_worker_status` raises KeyError. It surfaces after
+        # the workers and the scheduler are closed, so the cluster is down all the same.
+        warnings.warn(f"LocalCluster.close raced on worker {e}")
 
 
 def write_binned(path, material, n=(10, 20)):
