@@ -106,7 +106,7 @@ fn planned_passes_cover_the_true_error_and_move_samples_to_the_highlight() {
     // where the difference is noisy (the highlight), well above the mean.
     let (truth, runs) = trials((64, 512));
     for e in &runs {
-        assert_eq!(e.passes, 2, "a second pass was planned");
+        assert!(e.passes >= 2, "a pass was planned");
         assert!(
             e.spp <= 512 && e.spp_max > 4 * e.spp,
             "{} / {}",
@@ -254,5 +254,27 @@ fn a_fit_lobe_the_data_never_samples_is_still_estimated_with_little_noise() {
         assert!(!e.negligible, "{e:?}");
         // 0.09 in each run; 0.5 without the fits' share.
         assert!(e.noise < 0.15 * e.rmse, "seed {seed}: {e:?}");
+    }
+}
+
+/// A pass planned to meet the noise target (a budget it does not need) meets it without
+/// taking several times the samples it needs: the plan extrapolates the pilot's noise at
+/// the rate the low-discrepancy batches converge at, not at independent samples' `n^-1`
+/// (which came out 1.8-2.3x under the target on the RGL materials, 3-5x the samples).
+#[test]
+fn a_planned_pass_meets_its_noise_target_with_the_samples_it_needs() {
+    let env = studio();
+    let stage = Stage::sphere(&env, 32);
+    let reps = pair();
+    for seed in 0..6 {
+        let e = run_adaptive(&stage, &reps, (64, 1 << 14), seed);
+        let ratio = e.noise_floor / e.errors[1].rmse;
+        // The plan aims at 0.1 / 1.2 of the error; 0.06 is twice the samples that needs.
+        assert!(
+            e.passes == 2 && e.noise_target_met && ratio > 0.06,
+            "seed {seed}: {} passes, {} spp, noise floor {ratio} of the error",
+            e.passes,
+            e.spp
+        );
     }
 }
