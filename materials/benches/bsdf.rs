@@ -194,6 +194,7 @@ fn bench_material(c: &mut Criterion, name: &str, m: &Arc<dyn Bsdf>, q: &Queries)
     });
     let (mut f, mut pdf) = (vec![Rgb::ZERO; N], vec![0.0f32; N]);
     let (wo, wi) = (Vec3s::from(&q.wo[..]), Vec3s::from(&q.wi[..]));
+    let u = lobe_materials::Vec2s::from(&q.u[..]);
     g.bench_function("eval_pdf_many", |b| {
         b.iter(|| {
             m.eval_pdf_many(black_box(wo.cols()), black_box(wi.cols()), &mut f, &mut pdf);
@@ -212,7 +213,7 @@ fn bench_material(c: &mut Criterion, name: &str, m: &Arc<dyn Bsdf>, q: &Queries)
         b.iter(|| {
             m.sample_many(
                 black_box(wo.cols()),
-                black_box(&q.u),
+                black_box(u.cols()),
                 black_box(&q.uc),
                 &mut out,
             );

@@ -7,7 +7,7 @@
 //! `f_r * cos(theta_i) / pdf` with the pdf in solid-angle measure. A BRDF is one-sided:
 //! when either direction is below the surface it evaluates to zero, as Mitsuba 3's BSDFs do.
 
-use crate::columns::Vec3Cols;
+use crate::columns::{Vec2Cols, Vec3Cols};
 use crate::math::{Num, gt, is_finite};
 use glam::{Vec2, Vec3};
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Sub};
@@ -210,9 +210,10 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
     /// [`Bsdf::sample`] of many queries at once, `out[k]` for (`wo[k]`, `u[k]`, `uc[k]`),
     /// bit for bit the same: the renderer's wavefront integrator samples all hits on one
     /// material in one call. Models may override it with a batched (SIMD) form.
-    /// The directions come as columns ([`Vec3Cols`], the queues' struct-of-arrays form).
-    fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
-        for (((o, wo), &u), &uc) in out.iter_mut().zip(wo.iter()).zip(u).zip(uc) {
+    /// The directions and sample points come as columns ([`Vec3Cols`], [`Vec2Cols`], the
+    /// queues' struct-of-arrays form).
+    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
+        for (((o, wo), u), &uc) in out.iter_mut().zip(wo.iter()).zip(u.iter()).zip(uc) {
             *o = self.sample(wo, u, uc);
         }
     }

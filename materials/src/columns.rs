@@ -1,32 +1,108 @@
-//! Struct-of-arrays storage of 3-vectors: x, y and z in three columns, the form of lobe's
-//! batched queues (pbrt-v4's `workitems.soa`, where a `Vector3f` field of a work queue is
-//! three arrays). A lane vector of consecutive elements is three plain loads and one store
-//! is three plain stores, so the lane kernels that read and write the queues
-//! ([`crate::Bsdf::eval_pdf_many`], the renderer's shading frames) transpose nothing; a
-//! chosen subset of them is three gathers.
+//! Struct-of-arrays storage of small vectors: a 3-vector's x, y and z (a 2D sample
+//! point's x and y) in columns, the form of lobe's batched queues (pbrt-v4's
+//! `workitems.soa`, where a `Vector3f` field of a work queue is three arrays). A lane
+//! vector of consecutive elements is one plain load per column and a store one plain store
+//! per column, so the lane kernels that read and write the queues
+//! ([`crate::Bsdf::eval_pdf_many`], [`crate::Bsdf::sample_many`], the renderer's shading
+//! frames and samplers) transpose nothing; a chosen subset of them is one gather per column.
 //!
-//! [`Vec3s`] owns the columns; [`Vec3Cols`] and [`Vec3ColsMut`] are views of equal-length
-//! column slices (a batch's range of a queue), which the batched entry points take.
+//! [`Columns`] owns the columns ([`Vec3s`], [`Vec2s`]); [`Cols`] and [`ColsMut`] are views
+//! of equal-length column slices (a batch's range of a queue), which the batched entry
+//! points take ([`Vec3Cols`], [`Vec2Cols`]). One generic code serves every width: a
+//! [`Record`] says how an element and a lane vector of them split into components.
 
 use crate::simd::{self, LANES, Vec3xN, f32xn};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
+use std::marker::PhantomData;
 use std::ops::Range;
 
-/// 3-vectors as x, y and z columns of equal length.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Vec3s {
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
+/// An element of [`Columns`]: `N` f32 components, and its lane vector (`LANES` elements,
+/// one register per component).
+pub trait Record<const N: usize>: Copy {
+    /// `LANES` elements as `N` registers.
+    type Lanes: Copy;
+    fn components(self) -> [f32; N];
+    fn from_components(c: [f32; N]) -> Self;
+    fn from_lanes(c: [f32xn; N]) -> Self::Lanes;
+    fn to_lanes(v: Self::Lanes) -> [f32xn; N];
 }
 
-impl Vec3s {
-    /// No vectors.
+impl Record<3> for Vec3 {
+    type Lanes = Vec3xN;
+    #[inline(always)]
+    fn components(self) -> [f32; 3] {
+        self.to_array()
+    }
+    #[inline(always)]
+    fn from_components(c: [f32; 3]) -> Self {
+        Vec3::from_array(c)
+    }
+    #[inline(always)]
+    fn from_lanes([x, y, z]: [f32xn; 3]) -> Vec3xN {
+        Vec3xN::new(x, y, z)
+    }
+    #[inline(always)]
+    fn to_lanes(v: Vec3xN) -> [f32xn; 3] {
+        [v.x, v.y, v.z]
+    }
+}
+
+impl Record<2> for Vec2 {
+    type Lanes = [f32xn; 2];
+    #[inline(always)]
+    fn components(self) -> [f32; 2] {
+        self.to_array()
+    }
+    #[inline(always)]
+    fn from_components(c: [f32; 2]) -> Self {
+        Vec2::from_array(c)
+    }
+    #[inline(always)]
+    fn from_lanes(c: [f32xn; 2]) -> [f32xn; 2] {
+        c
+    }
+    #[inline(always)]
+    fn to_lanes(v: [f32xn; 2]) -> [f32xn; 2] {
+        v
+    }
+}
+
+/// Elements `T` as `N` f32 columns of equal length.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Columns<T, const N: usize> {
+    c: [Vec<f32>; N],
+    _t: PhantomData<T>,
+}
+
+/// 3-vectors as x, y and z columns.
+pub type Vec3s = Columns<Vec3, 3>;
+/// 2D points (sample points) as x and y columns.
+pub type Vec2s = Columns<Vec2, 2>;
+/// A view of [`Vec3s`] columns.
+pub type Vec3Cols<'a> = Cols<'a, Vec3, 3>;
+/// A mutable view of [`Vec3s`] columns.
+pub type Vec3ColsMut<'a> = ColsMut<'a, Vec3, 3>;
+/// A view of [`Vec2s`] columns.
+pub type Vec2Cols<'a> = Cols<'a, Vec2, 2>;
+/// A mutable view of [`Vec2s`] columns.
+pub type Vec2ColsMut<'a> = ColsMut<'a, Vec2, 2>;
+
+impl<T: Record<N>, const N: usize> Default for Columns<T, N> {
+    fn default() -> Self {
+        Self {
+            c: std::array::from_fn(|_| Vec::new()),
+            _t: PhantomData,
+        }
+    }
+}
+
+impl<T: Record<N>, const N: usize> Columns<T, N> {
+    /// No elements.
     pub fn new() -> Self {
         Self::default()
     }
 
-    /// `n` zero vectors.
+    /// `n` zero elements.
     pub fn zeros(n: usize) -> Self {
         let mut v = Self::new();
         v.resize(n);
@@ -34,148 +110,130 @@ impl Vec3s {
     }
 
     pub fn len(&self) -> usize {
-        self.x.len()
+        self.c[0].len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.x.is_empty()
+        self.c[0].is_empty()
     }
 
-    /// Removes every vector, keeping the columns' capacity.
+    /// Removes every element, keeping the columns' capacity.
     pub fn clear(&mut self) {
-        self.x.clear();
-        self.y.clear();
-        self.z.clear();
+        self.c.iter_mut().for_each(Vec::clear);
     }
 
-    /// Shortens or lengthens to `n` vectors, new ones zero.
+    /// Shortens or lengthens to `n` elements, new ones zero.
     pub fn resize(&mut self, n: usize) {
-        self.x.resize(n, 0.0);
-        self.y.resize(n, 0.0);
-        self.z.resize(n, 0.0);
+        self.c.iter_mut().for_each(|c| c.resize(n, 0.0));
     }
 
-    /// Room for `n` more vectors.
+    /// Room for `n` more elements.
     pub fn reserve(&mut self, n: usize) {
-        self.x.reserve(n);
-        self.y.reserve(n);
-        self.z.reserve(n);
+        self.c.iter_mut().for_each(|c| c.reserve(n));
     }
 
     #[inline]
-    pub fn push(&mut self, v: Vec3) {
-        self.x.push(v.x);
-        self.y.push(v.y);
-        self.z.push(v.z);
+    pub fn push(&mut self, v: T) {
+        for (c, x) in self.c.iter_mut().zip(v.components()) {
+            c.push(x);
+        }
     }
 
-    /// Vector `i`.
+    /// Element `i`.
     #[inline(always)]
-    pub fn get(&self, i: usize) -> Vec3 {
+    pub fn get(&self, i: usize) -> T {
         self.cols().get(i)
     }
 
-    /// Sets vector `i`.
+    /// Sets element `i`.
     #[inline(always)]
-    pub fn set(&mut self, i: usize, v: Vec3) {
+    pub fn set(&mut self, i: usize, v: T) {
         self.cols_mut().set(i, v);
     }
 
-    /// Sets vector `i` without a bounds check (as [`Vec3s::get_unchecked`]).
+    /// Sets element `i` without a bounds check (as [`Columns::get_unchecked`]).
     ///
     /// # Safety
     /// `i < self.len()`.
     #[inline(always)]
-    pub unsafe fn set_unchecked(&mut self, i: usize, v: Vec3) {
-        // SAFETY: the caller's.
-        unsafe {
-            *self.x.get_unchecked_mut(i) = v.x;
-            *self.y.get_unchecked_mut(i) = v.y;
-            *self.z.get_unchecked_mut(i) = v.z;
+    pub unsafe fn set_unchecked(&mut self, i: usize, v: T) {
+        for (c, x) in self.c.iter_mut().zip(v.components()) {
+            // SAFETY: the caller's.
+            unsafe { *c.get_unchecked_mut(i) = x };
         }
     }
 
-    /// Vector `i` without a bounds check, for containers of several columns that check one
-    /// bound for all.
+    /// Element `i` without a bounds check, for containers of several columns that check
+    /// one bound for all.
     ///
     /// # Safety
     /// `i < self.len()`.
     #[inline(always)]
-    pub unsafe fn get_unchecked(&self, i: usize) -> Vec3 {
+    pub unsafe fn get_unchecked(&self, i: usize) -> T {
         // SAFETY: the caller's.
-        unsafe {
-            Vec3::new(
-                *self.x.get_unchecked(i),
-                *self.y.get_unchecked(i),
-                *self.z.get_unchecked(i),
-            )
-        }
+        T::from_components(std::array::from_fn(|k| unsafe {
+            *self.c[k].get_unchecked(i)
+        }))
     }
 
-    /// A view of all the vectors.
+    /// A view of all the elements.
     #[inline(always)]
-    pub fn cols(&self) -> Vec3Cols<'_> {
-        Vec3Cols {
-            x: &self.x,
-            y: &self.y,
-            z: &self.z,
+    pub fn cols(&self) -> Cols<'_, T, N> {
+        Cols {
+            c: std::array::from_fn(|k| &self.c[k][..]),
+            _t: PhantomData,
         }
     }
 
-    /// A mutable view of all the vectors.
+    /// A mutable view of all the elements.
     #[inline(always)]
-    pub fn cols_mut(&mut self) -> Vec3ColsMut<'_> {
-        Vec3ColsMut {
-            x: &mut self.x,
-            y: &mut self.y,
-            z: &mut self.z,
+    pub fn cols_mut(&mut self) -> ColsMut<'_, T, N> {
+        ColsMut {
+            c: self.c.each_mut().map(|c| &mut c[..]),
+            _t: PhantomData,
         }
     }
 
-    /// Replaces the contents by `src`'s vectors `idx[0]`, `idx[1]`, ...
+    /// Replaces the contents by `src`'s elements `idx[0]`, `idx[1]`, ...
     ///
     /// # Panics
     /// When an index is out of range (before any column changes, so that they stay equally
     /// long).
-    pub fn gather_from(&mut self, src: Vec3Cols, idx: &[u32]) {
+    pub fn gather_from(&mut self, src: Cols<T, N>, idx: &[u32]) {
         let max = idx.iter().copied().max().unwrap_or(0) as usize;
         assert!(
             idx.is_empty() || max < src.len(),
             "index {max} of {}",
             src.len()
         );
-        for (dst, src) in [
-            (&mut self.x, src.x),
-            (&mut self.y, src.y),
-            (&mut self.z, src.z),
-        ] {
+        for (dst, src) in self.c.iter_mut().zip(src.c) {
             dst.clear();
             dst.extend(idx.iter().map(|&i| src[i as usize]));
         }
     }
 
-    /// The vectors as records (for tests and reports).
-    pub fn to_vec(&self) -> Vec<Vec3> {
+    /// The elements as records (for tests and reports).
+    pub fn to_vec(&self) -> Vec<T> {
         self.cols().iter().collect()
     }
 }
 
-impl From<&[Vec3]> for Vec3s {
-    fn from(v: &[Vec3]) -> Self {
+impl<T: Record<N>, const N: usize> From<&[T]> for Columns<T, N> {
+    fn from(v: &[T]) -> Self {
         v.iter().copied().collect()
     }
 }
 
-impl FromIterator<Vec3> for Vec3s {
-    fn from_iter<I: IntoIterator<Item = Vec3>>(iter: I) -> Self {
+impl<T: Record<N>, const N: usize> FromIterator<T> for Columns<T, N> {
+    fn from_iter<I: IntoIterator<Item = T>>(iter: I) -> Self {
         let mut out = Self::new();
         out.extend(iter);
         out
     }
 }
 
-impl Extend<Vec3> for Vec3s {
-    fn extend<I: IntoIterator<Item = Vec3>>(&mut self, iter: I) {
+impl<T: Record<N>, const N: usize> Extend<T> for Columns<T, N> {
+    fn extend<I: IntoIterator<Item = T>>(&mut self, iter: I) {
         let iter = iter.into_iter();
         self.reserve(iter.size_hint().0);
         for v in iter {
@@ -184,164 +242,188 @@ impl Extend<Vec3> for Vec3s {
     }
 }
 
-/// A view of 3-vectors stored as equal-length x, y and z column slices (the fields are
-/// private so that the lengths stay equal: element access checks one bound).
-#[derive(Clone, Copy, Debug)]
-pub struct Vec3Cols<'a> {
-    x: &'a [f32],
-    y: &'a [f32],
-    z: &'a [f32],
+/// A view of elements stored as `N` equal-length column slices (the fields are private so
+/// that the lengths stay equal: element access checks one bound).
+#[derive(Debug)]
+pub struct Cols<'a, T, const N: usize> {
+    c: [&'a [f32]; N],
+    _t: PhantomData<T>,
 }
 
-impl<'a> Vec3Cols<'a> {
+impl<T, const N: usize> Clone for Cols<'_, T, N> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T, const N: usize> Copy for Cols<'_, T, N> {}
+
+impl<'a> Cols<'a, Vec3, 3> {
     /// The view of three columns.
     ///
     /// # Panics
     /// When their lengths differ.
     pub fn new(x: &'a [f32], y: &'a [f32], z: &'a [f32]) -> Self {
-        assert!(
-            x.len() == y.len() && x.len() == z.len(),
-            "columns of equal length"
-        );
-        Self { x, y, z }
-    }
-
-    #[inline(always)]
-    pub fn len(&self) -> usize {
-        self.x.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.x.is_empty()
+        Self::of([x, y, z])
     }
 
     /// The z column (the one the batched kernels test for directions above the surface).
     #[inline(always)]
     pub fn z(&self) -> &'a [f32] {
-        self.z
+        self.c[2]
+    }
+}
+
+impl<'a, T: Record<N>, const N: usize> Cols<'a, T, N> {
+    /// The view of `N` columns.
+    ///
+    /// # Panics
+    /// When their lengths differ.
+    pub fn of(c: [&'a [f32]; N]) -> Self {
+        assert!(
+            c.iter().all(|x| x.len() == c[0].len()),
+            "columns of equal length"
+        );
+        Self { c, _t: PhantomData }
     }
 
-    /// Vector `i`, with one bounds check.
     #[inline(always)]
-    pub fn get(&self, i: usize) -> Vec3 {
-        let x = self.x[i];
+    pub fn len(&self) -> usize {
+        self.c[0].len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.c[0].is_empty()
+    }
+
+    /// Element `i`, with one bounds check.
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> T {
+        assert!(i < self.len(), "index {i} of {}", self.len());
         // SAFETY: the columns have equal lengths (checked where the view is made, and its
-        // fields are private), and `i` is within x's.
-        unsafe { Vec3::new(x, *self.y.get_unchecked(i), *self.z.get_unchecked(i)) }
+        // fields are private), and `i` is within them.
+        T::from_components(std::array::from_fn(|k| unsafe {
+            *self.c[k].get_unchecked(i)
+        }))
     }
 
-    /// The vectors of `r`.
+    /// The elements of `r`.
     #[inline(always)]
-    pub fn slice(&self, r: Range<usize>) -> Vec3Cols<'a> {
-        Vec3Cols {
-            x: &self.x[r.clone()],
-            y: &self.y[r.clone()],
-            z: &self.z[r],
+    pub fn slice(&self, r: Range<usize>) -> Cols<'a, T, N> {
+        Cols {
+            c: self.c.map(|c| &c[r.clone()]),
+            _t: PhantomData,
         }
     }
 
-    /// The vectors in order.
-    pub fn iter(&self) -> impl Iterator<Item = Vec3> + 'a {
-        let (x, y, z) = (self.x, self.y, self.z);
-        (0..x.len()).map(move |i| Vec3::new(x[i], y[i], z[i]))
+    /// The elements in order.
+    pub fn iter(&self) -> impl Iterator<Item = T> + 'a {
+        let c = self.c;
+        (0..c[0].len()).map(move |i| T::from_components(std::array::from_fn(|k| c[k][i])))
     }
 
-    /// Vectors `first..first + LANES` in lanes, three plain loads (past the end, the last
-    /// vector repeated, as [`simd::padded`]).
+    /// Elements `first..first + LANES` in lanes, one plain load per column (past the end,
+    /// the last element repeated, as [`simd::padded`]).
     #[inline(always)]
-    pub fn load(&self, first: usize) -> Vec3xN {
+    pub fn load(&self, first: usize) -> T::Lanes {
         let n = self.len() - first;
         if n >= LANES {
             let col = |c: &[f32]| f32xn::new(c[first..first + LANES].try_into().expect("LANES"));
-            return Vec3xN::new(col(self.x), col(self.y), col(self.z));
+            return T::from_lanes(self.c.map(col));
         }
-        let col = |c: &[f32]| f32xn::new(simd::padded(&c[first..]));
-        Vec3xN::new(col(self.x), col(self.y), col(self.z))
+        T::from_lanes(self.c.map(|c| f32xn::new(simd::padded(&c[first..]))))
     }
 
-    /// Vectors `idx[i]` in lane i for one to [`LANES`] strictly increasing indices (as
+    /// Elements `idx[i]` in lane i for one to [`LANES`] strictly increasing indices (as
     /// [`simd::chunks_where`] gives them; past their end, the last repeated, as
-    /// [`simd::lanes_of`]): three plain loads when they are `LANES` consecutive ones, else
-    /// three gathers. Increasing indices are a precondition (checked in debug builds only):
-    /// the test for a consecutive run looks at the first and last index alone.
+    /// [`simd::lanes_of`]): one plain load per column when they are `LANES` consecutive
+    /// ones, else one gather per column. Increasing indices are a precondition (checked in
+    /// debug builds only): the test for a consecutive run looks at the first and last
+    /// index alone.
     #[inline(always)]
-    pub fn lanes_of(&self, idx: &[usize]) -> Vec3xN {
+    pub fn lanes_of(&self, idx: &[usize]) -> T::Lanes {
         debug_assert!(idx.windows(2).all(|w| w[0] < w[1]), "increasing indices");
         if idx.len() == LANES && idx[LANES - 1] - idx[0] == LANES - 1 {
             return self.load(idx[0]);
         }
-        let col = |c: &[f32]| f32xn::new(simd::lanes_of(idx, |k| c[k]));
-        Vec3xN::new(col(self.x), col(self.y), col(self.z))
+        T::from_lanes(self.c.map(|c| f32xn::new(simd::lanes_of(idx, |k| c[k]))))
     }
 }
 
-impl<'a> From<&'a Vec3s> for Vec3Cols<'a> {
-    fn from(v: &'a Vec3s) -> Self {
+impl<'a, T: Record<N>, const N: usize> From<&'a Columns<T, N>> for Cols<'a, T, N> {
+    fn from(v: &'a Columns<T, N>) -> Self {
         v.cols()
     }
 }
 
-/// A mutable view of 3-vectors stored as equal-length x, y and z column slices (private,
-/// as [`Vec3Cols`]'s).
+/// A mutable view of elements stored as `N` equal-length column slices (private, as
+/// [`Cols`]'s).
 #[derive(Debug)]
-pub struct Vec3ColsMut<'a> {
-    x: &'a mut [f32],
-    y: &'a mut [f32],
-    z: &'a mut [f32],
+pub struct ColsMut<'a, T, const N: usize> {
+    c: [&'a mut [f32]; N],
+    _t: PhantomData<T>,
 }
 
-impl<'a> Vec3ColsMut<'a> {
+impl<'a> ColsMut<'a, Vec3, 3> {
     /// The view of three columns.
     ///
     /// # Panics
     /// When their lengths differ.
     pub fn new(x: &'a mut [f32], y: &'a mut [f32], z: &'a mut [f32]) -> Self {
-        assert!(
-            x.len() == y.len() && x.len() == z.len(),
-            "columns of equal length"
-        );
-        Self { x, y, z }
+        Self::of([x, y, z])
+    }
+}
+
+impl<'a, T: Record<N>, const N: usize> ColsMut<'a, T, N> {
+    /// The view of `N` columns.
+    ///
+    /// # Panics
+    /// When their lengths differ.
+    pub fn of(c: [&'a mut [f32]; N]) -> Self {
+        let n = c[0].len();
+        assert!(c.iter().all(|x| x.len() == n), "columns of equal length");
+        Self { c, _t: PhantomData }
     }
 
     pub fn len(&self) -> usize {
-        self.x.len()
+        self.c[0].len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.x.is_empty()
+        self.c[0].is_empty()
     }
 
-    /// Sets vector `i`, with one bounds check.
+    /// Sets element `i`, with one bounds check.
     #[inline(always)]
-    pub fn set(&mut self, i: usize, v: Vec3) {
-        self.x[i] = v.x;
-        // SAFETY: as in `Vec3Cols::get`.
-        unsafe {
-            *self.y.get_unchecked_mut(i) = v.y;
-            *self.z.get_unchecked_mut(i) = v.z;
+    pub fn set(&mut self, i: usize, v: T) {
+        assert!(i < self.len(), "index {i} of {}", self.len());
+        for (c, x) in self.c.iter_mut().zip(v.components()) {
+            // SAFETY: as in `Cols::get`.
+            unsafe { *c.get_unchecked_mut(i) = x };
         }
     }
 
-    /// The vectors of `r`.
+    /// The columns, to be written element by element (their lengths cannot change).
     #[inline(always)]
-    pub fn slice(&mut self, r: Range<usize>) -> Vec3ColsMut<'_> {
-        Vec3ColsMut {
-            x: &mut self.x[r.clone()],
-            y: &mut self.y[r.clone()],
-            z: &mut self.z[r],
+    pub fn columns(&mut self) -> [&mut [f32]; N] {
+        self.c.each_mut().map(|c| &mut **c)
+    }
+
+    /// The elements of `r`.
+    #[inline(always)]
+    pub fn slice(&mut self, r: Range<usize>) -> ColsMut<'_, T, N> {
+        ColsMut {
+            c: self.c.each_mut().map(|c| &mut c[r.clone()]),
+            _t: PhantomData,
         }
     }
 
-    /// Writes lanes `0..min(LANES, len - first)` of `v` to vectors `first..`, three plain
-    /// stores (the inverse of [`Vec3Cols::load`]).
+    /// Writes lanes `0..min(LANES, len - first)` of `v` to elements `first..`, one plain
+    /// store per column (the inverse of [`Cols::load`]).
     #[inline(always)]
-    pub fn store(&mut self, first: usize, v: Vec3xN) {
+    pub fn store(&mut self, first: usize, v: T::Lanes) {
         let n = (self.len() - first).min(LANES);
-        for (dst, c) in [
-            (&mut *self.x, v.x),
-            (&mut *self.y, v.y),
-            (&mut *self.z, v.z),
-        ] {
+        for (dst, c) in self.c.iter_mut().zip(T::to_lanes(v)) {
             dst[first..first + n].copy_from_slice(&c.as_array()[..n]);
         }
     }
@@ -403,6 +485,31 @@ mod tests {
         m.cols_mut().slice(2..4).set(1, Vec3::ONE);
         assert_eq!(m.get(3), Vec3::ONE);
         assert_eq!(m.get(2), v[2]);
+    }
+
+    /// Sample points as two columns: the same load, gather and store.
+    #[test]
+    fn points_load_gather_and_store_as_two_columns() {
+        let v: Vec<Vec2> = (0..2 * LANES + 3)
+            .map(|i| Vec2::new(i as f32 / 64.0, 1.0 - i as f32 / 128.0))
+            .collect();
+        let n = v.len();
+        let cols = Vec2s::from(&v[..]);
+        let mut back = Vec2s::zeros(n);
+        for first in (0..n).step_by(LANES) {
+            let [x, y] = cols.cols().load(first);
+            for i in 0..LANES {
+                let want = v[(first + i).min(n - 1)];
+                assert_eq!((x.as_array()[i], y.as_array()[i]), (want.x, want.y));
+            }
+            back.cols_mut().store(first, [x, y]);
+        }
+        assert_eq!(back, cols);
+        let [x, _] = cols.cols().lanes_of(&[1, 4]);
+        assert_eq!(x.as_array()[..3], [v[1].x, v[4].x, v[4].x]);
+        let mut g = Vec2s::new();
+        g.gather_from(cols.cols(), &[5, 0]);
+        assert_eq!(g.to_vec(), vec![v[5], v[0]]);
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! (one-sample MIS with the balance heuristic), so every component's sampler helps.
 
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
-use crate::columns::{Vec3Cols, Vec3ColsMut};
+use crate::columns::{Vec2Cols, Vec3Cols, Vec3ColsMut};
 use crate::lobe::Lobe;
 use crate::math::{Num, all, clamp, gt, is_finite, le, lt, maximum, select};
 use crate::sampling::warp::{
@@ -236,12 +236,12 @@ impl Bsdf for Composite {
 
     /// Components chosen and sampled query by query, the mixture density and the value of
     /// `LANES` sampled directions at a time ([`Composite::mix_lanes`]).
-    fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         if self.lobes.len() > MAX_INLINE {
             for k in 0..n {
-                out[k] = self.sample(wo.get(k), u[k], uc[k]);
+                out[k] = self.sample(wo.get(k), u.get(k), uc[k]);
             }
             return;
         }
@@ -250,7 +250,7 @@ impl Bsdf for Composite {
             let r = first..(first + SAMPLE_BLOCK).min(n);
             self.sample_block(
                 wo.slice(r.clone()),
-                &u[r.clone()],
+                u.slice(r.clone()),
                 &uc[r.clone()],
                 &mut out[r],
             );
@@ -370,7 +370,7 @@ impl Composite {
     /// lane samples a lobe its query did not choose; last, the value and the mixture
     /// density of every drawn direction, a lane vector at a time. Queries whose weights sum to
     /// zero get None.
-    fn sample_block(&self, wo: Vec3Cols, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_block(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let m = wo.len();
         debug_assert!(m <= SAMPLE_BLOCK);
         let mut choice = [(NO_COMPONENT, 0.0f32); SAMPLE_BLOCK];
@@ -410,7 +410,7 @@ impl Composite {
     fn choose_components(
         &self,
         wo: Vec3Cols,
-        u: &[Vec2],
+        u: Vec2Cols,
         uc: &[f32],
         choice: &mut [(usize, f32)],
         wi: &mut BlockDirections,
@@ -427,7 +427,7 @@ impl Composite {
                 // directions are not drawn.
                 let diffuse = match self.diffuse.luminance() > 0.0 {
                     true => {
-                        let [ux, uy] = simd::vec2s(&simd::lanes_of(idx, |k| u[k]));
+                        let [ux, uy] = u.lanes_of(idx);
                         simd::arrays3(cosine_hemisphere(ux, uy))
                     }
                     false => [[0.0; simd::LANES]; 3],
@@ -457,7 +457,7 @@ impl Composite {
     fn sample_chosen_lobes(
         &self,
         wo: Vec3Cols,
-        u: &[Vec2],
+        u: Vec2Cols,
         choice: &[(usize, f32)],
         wi: &mut BlockDirections,
     ) {
@@ -471,7 +471,7 @@ impl Composite {
         };
         crate::grouping::group_stable(choice.len(), lobe_of, starts, &mut order);
         let mut batch_wo = BlockDirections::new();
-        let mut batch_u = [Vec2::ZERO; SAMPLE_BLOCK];
+        let mut batch_u = [[0.0f32; SAMPLE_BLOCK]; 2];
         let mut batch_uc = [0.0f32; SAMPLE_BLOCK];
         let mut batch_wi = BlockDirections::new();
         for (j, (_, lobe)) in self.lobes.iter().enumerate() {
@@ -483,12 +483,13 @@ impl Composite {
             for (q, &k) in idx.iter().enumerate() {
                 let k = k as usize;
                 batch_wo.set(q, wo.get(k));
-                (batch_u[q], batch_uc[q]) = (u[k], choice[k].1);
+                let uk = u.get(k);
+                (batch_u[0][q], batch_u[1][q], batch_uc[q]) = (uk.x, uk.y, choice[k].1);
             }
             let (wi_cols, drawn) = batch_wi.cols_mut(len);
             lobe.sample_batch(
                 batch_wo.cols(len),
-                &batch_u[..len],
+                Vec2Cols::of([&batch_u[0][..len], &batch_u[1][..len]]),
                 &batch_uc[..len],
                 wi_cols,
                 drawn,

@@ -45,7 +45,7 @@ pub mod schema;
 pub mod simd;
 
 pub use bsdf::{Bsdf, BsdfSample, Flags, Rgb};
-pub use columns::{Vec3Cols, Vec3s};
+pub use columns::{Vec2Cols, Vec2s, Vec3Cols, Vec3s};
 pub use error::{FileError, ParamError};
 /// The vector types of the public interface (re-exported for the exported macros).
 pub use glam;

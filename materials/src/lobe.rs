@@ -9,11 +9,9 @@
 //! [`impl_lobe_forms!`] (a model with only a generic value uses [`impl_lobe_eval!`]).
 //! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
 
-use crate::columns::{Vec3Cols, Vec3ColsMut};
+use crate::columns::{Vec2Cols, Vec3Cols, Vec3ColsMut};
 use crate::math::{Num, Real, V3, gt, is_finite, le, maximum, select, sin_cos, sqrt};
-use crate::simd::{
-    LANES, MaskN, RgbxN, Vec3xN, f32xn, lanes, mask_bits, mask_from_bools, padded, vec2s,
-};
+use crate::simd::{LANES, MaskN, RgbxN, Vec3xN, f32xn, lanes, mask_bits, mask_from_bools, padded};
 use crate::{Flags, Rgb};
 use glam::{DVec3, Vec2, Vec3};
 
@@ -79,7 +77,7 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     fn sample_batch(
         &self,
         wo: Vec3Cols,
-        u: &[Vec2],
+        u: Vec2Cols,
         uc: &[f32],
         mut wi: Vec3ColsMut,
         drawn: &mut [bool],
@@ -88,11 +86,8 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
         assert!(wo.len() == n && u.len() == n && uc.len() == n && wi.len() == n);
         for first in (0..n).step_by(LANES) {
             let r = first..(first + LANES).min(n);
-            let drawn_lanes = self.sample_xn(
-                wo.load(first),
-                vec2s(&padded(&u[r.clone()])),
-                f32xn::new(padded(&uc[r])),
-            );
+            let drawn_lanes =
+                self.sample_xn(wo.load(first), u.load(first), f32xn::new(padded(&uc[r])));
             store_drawn(drawn_lanes, first, &mut wi, drawn);
         }
     }

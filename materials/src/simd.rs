@@ -21,7 +21,7 @@
 //! Contents: [`lanes`], [`padded`] and [`lanes_of`] (arrays of [`LANES`], written out so
 //! they inline), [`chunks_where`] (the queries a batched kernel works on, a lane vector at
 //! a time), transposes of records into lane vectors and back ([`transpose4xn`], [`rows4`],
-//! [`vec2s`], [`vec3s`], [`arrays3`]; the batched queues hold their vectors as columns,
+//! [`vec3s`], [`arrays3`]; the batched queues hold their vectors and sample points as columns,
 //! [`crate::columns`], which lane vectors load and store directly), per-lane select and
 //! clamp ([`sel`], [`clamp`]), masks ([`MaskN`], [`mask_from_bools`], [`mask_bits`],
 //! [`ALL_LANES`]), [`gather`], [`float_of`], [`fmadd`], the small types [`Vec3xN`] and
@@ -29,7 +29,7 @@
 
 use crate::Rgb;
 use crate::math::V3;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use std::ops::Mul;
 
 #[cfg(target_feature = "avx512f")]
@@ -222,12 +222,6 @@ pub fn vec3s(v: &[Vec3; LANES]) -> [f32xn; 3] {
         f32xn::new(lanes(|i| v[i].y)),
         f32xn::new(lanes(|i| v[i].z)),
     ]
-}
-
-/// `LANES` 2D points as their x and y components in two SIMD registers.
-#[inline(always)]
-pub fn vec2s(v: &[Vec2; LANES]) -> [f32xn; 2] {
-    [f32xn::new(lanes(|i| v[i].x)), f32xn::new(lanes(|i| v[i].y))]
 }
 
 /// The components of [`vec3s`] back as arrays (`[x, y, z]`, `LANES` lanes each).

@@ -41,7 +41,7 @@ fn bench(c: &mut Criterion) {
             .wrapping_add(1442695040888963407);
         (s >> 40) as f32 / (1u64 << 24) as f32
     };
-    let us: Vec<Vec2> = (0..CALLS * BATCH)
+    let us: lobe_materials::Vec2s = (0..CALLS * BATCH)
         .map(|_| Vec2::new(rnd(), rnd()))
         .collect();
     let dirs: Vec<Vec3> = (0..CALLS * BATCH)
@@ -63,7 +63,8 @@ fn bench(c: &mut Criterion) {
         );
         g.bench_function("sample_many", |b| {
             b.iter(|| {
-                for u in us.chunks(BATCH) {
+                for first in (0..us.len()).step_by(BATCH) {
+                    let u = us.cols().slice(first..(first + BATCH).min(us.len()));
                     env.sample_many(black_box(u), wi.cols_mut(), &mut li, &mut pdf);
                 }
                 black_box(pdf[0])

@@ -12,6 +12,7 @@
 
 use crate::geometry::Ray;
 use glam::{Mat4, Vec2, Vec3};
+use lobe_materials::Vec2Cols;
 use lobe_materials::math::{Arith, V3, sqrt};
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, Vec3xN, f32xn};
@@ -182,15 +183,13 @@ impl Camera {
     /// [`Camera::ray`] of the film positions `(pixel + j) * inv` for each `j` in
     /// `jitter`, appended to `out`, bit for bit the same: a lane vector at a time
     /// ([`Camera::ray_lanes`]).
-    pub fn rays_many(&self, pixel: Vec2, jitter: &[Vec2], inv: Vec2, out: &mut Vec<Ray>) {
-        for jc in jitter.chunks(LANES) {
-            let n = jc.len();
-            let j = simd::lanes(|i| jc[i.min(n - 1)]);
-            let film = |p: f32, j: [f32; LANES], inv: f32| {
-                (f32xn::splat(p) + f32xn::new(j)) * f32xn::splat(inv)
-            };
-            let sx = film(pixel.x, simd::lanes(|i| j[i].x), inv.x);
-            let sy = film(pixel.y, simd::lanes(|i| j[i].y), inv.y);
+    pub fn rays_many(&self, pixel: Vec2, jitter: Vec2Cols, inv: Vec2, out: &mut Vec<Ray>) {
+        for first in (0..jitter.len()).step_by(LANES) {
+            let n = (jitter.len() - first).min(LANES);
+            let [jx, jy] = jitter.load(first);
+            let film = |p: f32, j: f32xn, inv: f32| (f32xn::splat(p) + j) * f32xn::splat(inv);
+            let sx = film(pixel.x, jx, inv.x);
+            let sy = film(pixel.y, jy, inv.y);
             let (o, d) = self.ray_lanes(sx, sy);
             let (o, d) = (simd::arrays3(o.into()), simd::arrays3(d.into()));
             out.extend((0..n).map(|i| {
@@ -346,7 +345,8 @@ mod tests {
                 let inv = Vec2::new(1.0 / 384.0, 1.0 / 160.0);
                 for pixel in [Vec2::ZERO, Vec2::new(17.0, 93.0), Vec2::new(383.0, 159.0)] {
                     let mut out = Vec::new();
-                    cam.rays_many(pixel, &jitter, inv, &mut out);
+                    let columns = lobe_materials::Vec2s::from(&jitter[..]);
+                    cam.rays_many(pixel, columns.cols(), inv, &mut out);
                     assert_eq!(out.len(), n);
                     for (r, &j) in out.iter().zip(&jitter) {
                         let one = cam.ray((pixel + j) * inv);

@@ -17,6 +17,7 @@
 //! scenes; Owen's faster asymptotic convergence wins on some scenes from 256 spp.
 
 use glam::Vec2;
+use lobe_materials::columns::Vec2ColsMut;
 use lobe_materials::simd::LANES;
 
 /// 64-bit finalizer of MurmurHash3 / SplitMix64: a well-mixed hash of its input.
@@ -36,15 +37,23 @@ fn hash3(a: u64, b: u64, c: u64) -> u64 {
 }
 
 /// One dimension of samples `idx` of one pixel, whose hash for that dimension is `h`:
-/// their shuffled indices, then `value` of each.
+/// their shuffled indices, then each component `c` of their values (`value(c, h, j)`)
+/// written to column `c` of `out` (a run per column, so that the writes vectorize).
 #[inline(always)]
-fn run_lanes<T>(h: u64, spp: u32, idx: &[u32], out: &mut [T], value: impl Fn(u64, u32) -> T) {
+fn run_lanes<const N: usize>(
+    (h, spp): (u64, u32),
+    idx: &[u32],
+    value: impl Fn(usize, u64, u32) -> f32,
+    out: &mut [&mut [f32]; N],
+) {
     let mut perm = [0u32; LANE_CHUNK];
-    for (ic, oc) in idx.chunks(LANE_CHUNK).zip(out.chunks_mut(LANE_CHUNK)) {
+    for (ic, first) in idx.chunks(LANE_CHUNK).zip((0..).step_by(LANE_CHUNK)) {
         let perm = &mut perm[..ic.len()];
         permute_lanes(ic, spp, h as u32, perm);
-        for (o, &j) in oc.iter_mut().zip(perm.iter()) {
-            *o = value(h, j);
+        for (c, col) in out.iter_mut().enumerate() {
+            for (o, &j) in col[first..first + perm.len()].iter_mut().zip(perm.iter()) {
+                *o = value(c, h, j);
+            }
         }
     }
 }
@@ -338,30 +347,33 @@ impl Sampler {
     /// run of samples of one pixel and the rest vectorizes.
     pub fn next_1d_lanes(&mut self, keys: &[u64], idx: &[u32], out: &mut [f32]) {
         match self.scramble {
-            Scramble::Xor => self.lanes(keys, idx, out, value_1d::<false>),
-            Scramble::Owen => self.lanes(keys, idx, out, value_1d::<true>),
+            Scramble::Xor => self.lanes(keys, idx, component::<false>, [out]),
+            Scramble::Owen => self.lanes(keys, idx, component::<true>, [out]),
         }
     }
 
-    /// [`Sampler::next_2d`] for many samples at once (see [`Sampler::next_1d_lanes`]).
-    pub fn next_2d_lanes(&mut self, keys: &[u64], idx: &[u32], out: &mut [Vec2]) {
+    /// [`Sampler::next_2d`] for many samples at once (see [`Sampler::next_1d_lanes`]),
+    /// into columns.
+    pub fn next_2d_lanes(&mut self, keys: &[u64], idx: &[u32], mut out: Vec2ColsMut) {
+        let columns = out.columns();
         match self.scramble {
-            Scramble::Xor => self.lanes(keys, idx, out, value_2d::<false>),
-            Scramble::Owen => self.lanes(keys, idx, out, value_2d::<true>),
+            Scramble::Xor => self.lanes(keys, idx, component::<false>, columns),
+            Scramble::Owen => self.lanes(keys, idx, component::<true>, columns),
         }
     }
 
-    /// One dimension for the samples (`keys`, `idx`): per run of equal keys (the samples
-    /// of one pixel), the dimension's hash once, then [`run_lanes`].
+    /// One dimension for the samples (`keys`, `idx`), its `N` components into the columns
+    /// `out`: per run of equal keys (the samples of one pixel), the dimension's hash once,
+    /// then [`run_lanes`].
     #[inline(always)]
-    fn lanes<T>(
+    fn lanes<const N: usize>(
         &mut self,
         keys: &[u64],
         idx: &[u32],
-        out: &mut [T],
-        value: impl Fn(u64, u32) -> T + Copy,
+        value: impl Fn(usize, u64, u32) -> f32 + Copy,
+        mut out: [&mut [f32]; N],
     ) {
-        assert!(keys.len() == idx.len() && idx.len() == out.len());
+        assert!(keys.len() == idx.len() && out.iter().all(|c| c.len() == idx.len()));
         let dim = self.dim;
         self.dim += 1;
         let mut start = 0;
@@ -370,7 +382,8 @@ impl Sampler {
             let len = keys[start..].iter().position(|&k| k != key);
             let end = len.map_or(keys.len(), |l| start + l);
             let h = hash_of_dimension(key, dim);
-            run_lanes(h, self.spp, &idx[start..end], &mut out[start..end], value);
+            let mut run = out.each_mut().map(|c| &mut c[start..end]);
+            run_lanes((h, self.spp), &idx[start..end], value, &mut run);
             start = end;
         }
     }
@@ -396,18 +409,29 @@ impl Sampler {
     }
 }
 
+/// Component `c` (0 or 1) of the value of shuffled sample index `j` in the dimension
+/// (pair) with hash `h`: a 1D value is component 0.
+#[inline(always)]
+fn component<const OWEN: bool>(c: usize, h: u64, j: u32) -> f32 {
+    match c {
+        0 => to_unit(scrambled::<OWEN>(sobol0_reversed(j), (h >> 32) as u32)),
+        _ => {
+            let seed = (h as u32).rotate_left(16) ^ 0x5bd1e995;
+            to_unit(scrambled::<OWEN>(sobol1_reversed(j), seed))
+        }
+    }
+}
+
 /// The 1D value of shuffled sample index `j` in the dimension with hash `h`.
 #[inline(always)]
 fn value_1d<const OWEN: bool>(h: u64, j: u32) -> f32 {
-    to_unit(scrambled::<OWEN>(sobol0_reversed(j), (h >> 32) as u32))
+    component::<OWEN>(0, h, j)
 }
 
 /// The 2D value of shuffled sample index `j` in the dimension pair with hash `h`.
 #[inline(always)]
 fn value_2d<const OWEN: bool>(h: u64, j: u32) -> Vec2 {
-    let s0 = scrambled::<OWEN>(sobol0_reversed(j), (h >> 32) as u32);
-    let s1 = scrambled::<OWEN>(sobol1_reversed(j), (h as u32).rotate_left(16) ^ 0x5bd1e995);
-    Vec2::new(to_unit(s0), to_unit(s1))
+    Vec2::new(component::<OWEN>(0, h, j), component::<OWEN>(1, h, j))
 }
 
 #[cfg(test)]
@@ -468,10 +492,10 @@ mod tests {
                         assert_eq!(s.next_1d().to_bits(), o.to_bits(), "spp {spp} step {step}");
                     }
                 } else {
-                    let mut out = vec![Vec2::ZERO; idx.len()];
-                    batch.next_2d_lanes(&keys, &idx, &mut out);
-                    for (s, o) in singles.iter_mut().zip(&out) {
-                        assert_eq!(s.next_2d(), *o, "spp {spp} step {step}");
+                    let mut out = lobe_materials::Vec2s::zeros(idx.len());
+                    batch.next_2d_lanes(&keys, &idx, out.cols_mut());
+                    for (s, o) in singles.iter_mut().zip(out.to_vec()) {
+                        assert_eq!(s.next_2d(), o, "spp {spp} step {step}");
                     }
                 }
             }

@@ -570,7 +570,8 @@ fn batched_sampling_equals_single_samples() {
             let q = batch_inputs(n, seed);
             let mut out = vec![None; n];
             let wo = Vec3s::from(&q.wo[..]);
-            case.bsdf.sample_many(wo.cols(), &q.u, &q.uc, &mut out);
+            let u = lobe_materials::Vec2s::from(&q.u[..]);
+            case.bsdf.sample_many(wo.cols(), u.cols(), &q.uc, &mut out);
             for (k, &got) in out.iter().enumerate() {
                 let one = case.bsdf.sample(q.wo[k], q.u[k], q.uc[k]);
                 assert_eq!(

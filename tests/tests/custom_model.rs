@@ -156,7 +156,7 @@ fn the_lane_forms_of_a_model_written_once_equal_its_scalar_forms() {
     let uc = [0.5; LANES];
     let (d, ok) = lobe.sample_xn(
         Vec3xN::from_array(&wo),
-        lobe_materials::simd::vec2s(&u),
+        lobe_materials::Vec2s::from(&u[..]).cols().load(0),
         lobe_materials::simd::f32xn::new(uc),
     );
     let (ok, d) = (lobe_materials::simd::mask_bits(ok), d.to_array());

@@ -267,7 +267,8 @@ fn batched_lookups_equal_single_ones() {
             }
             let mut wi = lobe_materials::Vec3s::zeros(n);
             let (mut li, mut pdf) = (vec![Rgb::ZERO; n], vec![0.0; n]);
-            e.sample_many(&us, wi.cols_mut(), &mut li, &mut pdf);
+            let u = lobe_materials::Vec2s::from(&us[..]);
+            e.sample_many(u.cols(), wi.cols_mut(), &mut li, &mut pdf);
             let wi = wi.to_vec();
             for i in 0..n {
                 let (ew, el, ep) = e.sample(us[i]).unwrap_or((Vec3::ZERO, Rgb::ZERO, 0.0));

@@ -6,7 +6,7 @@
 
 use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
-use crate::columns::Vec3Cols;
+use crate::columns::{Vec2Cols, Vec3Cols};
 use crate::fastmath::select_branchless;
 use crate::sampling::warp::{
     cosine_hemisphere, cosine_hemisphere_pdf, square_to_cosine_hemisphere,
@@ -83,20 +83,12 @@ impl Bsdf for Lambert {
     }
 
     /// `LANES` queries per SIMD warp ([`cosine_hemisphere`]).
-    fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], _uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, _uc: &[f32], out: &mut [Option<BsdfSample>]) {
         assert!(wo.len() == out.len() && u.len() == out.len());
-        for ((wc, uc), oc) in wo
-            .z()
-            .chunks(LANES)
-            .zip(u.chunks(LANES))
-            .zip(out.chunks_mut(LANES))
-        {
+        for (first, (wc, oc)) in wo.z().chunks(LANES).zip(out.chunks_mut(LANES)).enumerate() {
             let n = oc.len();
-            let uu = simd::lanes(|i| uc[i.min(n - 1)]);
-            let [x, y, z] = cosine_hemisphere(
-                f32xn::new(simd::lanes(|i| uu[i].x)),
-                f32xn::new(simd::lanes(|i| uu[i].y)),
-            );
+            let [ux, uy] = u.load(first * LANES);
+            let [x, y, z] = cosine_hemisphere(ux, uy);
             // cosine_hemisphere_pdf, per lane.
             let pdf = (z.max(f32xn::splat(0.0)) * f32xn::splat(FRAC_1_PI)).to_array();
             let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());

@@ -10,7 +10,7 @@ use super::rgl::Rgl;
 use super::sampler::TabulatedSampler;
 use crate::ParamError;
 use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
-use crate::columns::Vec3Cols;
+use crate::columns::{Vec2Cols, Vec3Cols};
 use crate::math::{Single, V3, maximum};
 use crate::registry::{
     Bounds, BuildContext, DefaultValue, ModelSchema, ParamKind, ParamRole, ParamSpec, Params,
@@ -175,7 +175,7 @@ impl Bsdf for Measured {
     /// Directions and densities from the sampler one query at a time, then the values of
     /// the sampled directions a lane vector at a time ([`Table::eval_xn`]); bit for bit
     /// [`Measured::sample`] (a sample's value is only needed once its density is positive).
-    fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         // `LANES` queries at a time: directions one by one, their densities in lanes
@@ -183,9 +183,11 @@ impl Bsdf for Measured {
         for start in (0..n).step_by(simd::LANES) {
             let len = (n - start).min(simd::LANES);
             let at = |i: usize| start + i.min(len - 1);
+            let [ux, uy] = u.load(start).map(|c| c.to_array());
             let wi = simd::lanes(|i| {
+                let u = Vec2::new(ux[i], uy[i]);
                 (i < len)
-                    .then(|| self.sampler.sample(wo.get(at(i)), u[at(i)], uc[at(i)]))
+                    .then(|| self.sampler.sample(wo.get(at(i)), u, uc[at(i)]))
                     .flatten()
             });
             let pdf = self
@@ -458,7 +460,7 @@ impl Bsdf for RglBsdf {
     }
 
     /// The queries above the surface a lane vector at a time ([`Rgl::sample_value`]).
-    fn sample_many(&self, wo: Vec3Cols, u: &[Vec2], uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         out.fill(None);
@@ -466,10 +468,8 @@ impl Bsdf for RglBsdf {
             n,
             |k| !(wo.z()[k] <= 0.0),
             |idx| {
-                let (wi, p, [r, g, b], ok) = self.table.sample_value(
-                    wo.lanes_of(idx),
-                    simd::vec2s(&simd::lanes_of(idx, |k| u[k])),
-                );
+                let (wi, p, [r, g, b], ok) =
+                    self.table.sample_value(wo.lanes_of(idx), u.lanes_of(idx));
                 let (v, p, ok) = (RgbxN::new(r, g, b), p.to_array(), simd::mask_bits(ok));
                 for (lane, &k) in idx.iter().enumerate() {
                     if ok >> lane & 1 == 1 {

@@ -6,7 +6,7 @@
 
 use super::synthetic::Shape;
 use super::table::{DEFAULT_RES, Table};
-use crate::columns::{Vec3Cols, Vec3ColsMut};
+use crate::columns::{Vec2Cols, Vec3Cols, Vec3ColsMut};
 use crate::composite::Composite;
 use crate::lobe::{self, Lobe};
 use crate::math::V3;
@@ -54,7 +54,7 @@ impl Lobe for SampledMicrofacet {
     fn sample_batch(
         &self,
         wo: Vec3Cols,
-        u: &[Vec2],
+        u: Vec2Cols,
         _uc: &[f32],
         mut wi: Vec3ColsMut,
         drawn: &mut [bool],
@@ -62,18 +62,14 @@ impl Lobe for SampledMicrofacet {
         let n = drawn.len();
         assert!(wo.len() == n && u.len() == n && wi.len() == n);
         let mut put = |first: usize, s| lobe::store_drawn(s, first, &mut wi, drawn);
-        let us = |r: std::ops::Range<usize>| simd::vec2s(&simd::padded(&u[r]));
         for first in (0..n).step_by(2 * LANES) {
             let end = (first + 2 * LANES).min(n);
             let mid = (first + LANES).min(end);
             if mid == end {
-                let [s] = self.sample_groups([wo.load(first)], [us(first..mid)]);
+                let [s] = self.sample_groups([wo.load(first)], [u.load(first)]);
                 put(first, s);
             } else {
-                let (wo2, u2) = (
-                    [wo.load(first), wo.load(mid)],
-                    [us(first..mid), us(mid..end)],
-                );
+                let (wo2, u2) = ([wo.load(first), wo.load(mid)], [u.load(first), u.load(mid)]);
                 let [s0, s1] = self.sample_groups(wo2, u2);
                 put(first, s0);
                 put(mid, s1);

@@ -41,7 +41,7 @@ use lobe_materials::grouping::group_stable;
 use lobe_materials::sampling::warp::power_heuristic;
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, Vec3xN};
-use lobe_materials::{Bsdf, BsdfSample, Vec3Cols, Vec3s};
+use lobe_materials::{Bsdf, BsdfSample, Vec2Cols, Vec2s, Vec3Cols, Vec3s};
 
 /// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
 /// long before; this only guards against pathological scenes).
@@ -109,9 +109,9 @@ pub struct ScatterQueue {
     pub sample_key: Vec<u64>,
     pub sample_index: Vec<u32>,
     pub light_uc: Vec<f32>,
-    pub light_u: Vec<Vec2>,
+    pub light_u: Vec2s,
     pub bsdf_uc: Vec<f32>,
-    pub bsdf_u: Vec<Vec2>,
+    pub bsdf_u: Vec2s,
     pub groups: MaterialGroups,
 }
 
@@ -128,7 +128,7 @@ pub struct LightSampleQueue {
     /// results.
     order: Vec<u32>,
     starts: Vec<usize>,
-    u: Vec<Vec2>,
+    u: Vec2s,
     batch: LightSamples,
 }
 
@@ -161,7 +161,7 @@ pub struct MaterialGroups {
     /// Gathered inputs and outputs of one batch (when not contiguous).
     wo: Vec3s,
     wi: Vec3s,
-    u: Vec<Vec2>,
+    u: Vec2s,
     uc: Vec<f32>,
     f: Vec<Rgb>,
     pdf: Vec<f32>,
@@ -175,7 +175,7 @@ pub struct CameraQueue {
     pub key: Vec<u64>,
     pub index: Vec<u32>,
     pub ray: Vec<Ray>,
-    jitter: Vec<Vec2>,
+    jitter: Vec2s,
 }
 
 impl CameraQueue {
@@ -203,11 +203,12 @@ impl CameraQueue {
         self.index.extend(first..first + count);
         self.key
             .extend(std::iter::repeat_n(sampler.key(), count as usize));
-        self.jitter.resize(count as usize, Vec2::ZERO);
-        sampler.next_2d_lanes(&self.key[start..], &self.index[start..], &mut self.jitter);
+        self.jitter.resize(count as usize);
+        let (keys, idx) = (&self.key[start..], &self.index[start..]);
+        sampler.next_2d_lanes(keys, idx, self.jitter.cols_mut());
         camera.rays_many(
             Vec2::new(pixel.0 as f32, pixel.1 as f32),
-            &self.jitter,
+            self.jitter.cols(),
             inv_res,
             &mut self.ray,
         );
@@ -394,14 +395,14 @@ impl Wavefront {
         }
         s.streams_of(p, &h.path);
         s.light_uc.resize(m, 0.0);
-        s.light_u.resize(m, Vec2::ZERO);
+        s.light_u.resize(m);
         s.bsdf_uc.resize(m, 0.0);
-        s.bsdf_u.resize(m, Vec2::ZERO);
+        s.bsdf_u.resize(m);
         let (keys, idx) = (&s.sample_key, &s.sample_index);
         sampler.next_1d_lanes(keys, idx, &mut s.light_uc);
-        sampler.next_2d_lanes(keys, idx, &mut s.light_u);
+        sampler.next_2d_lanes(keys, idx, s.light_u.cols_mut());
         sampler.next_1d_lanes(keys, idx, &mut s.bsdf_uc);
-        sampler.next_2d_lanes(keys, idx, &mut s.bsdf_u);
+        sampler.next_2d_lanes(keys, idx, s.bsdf_u.cols_mut());
         s.groups.build(scene, h.it.shape());
     }
 
@@ -426,7 +427,7 @@ impl Wavefront {
         let light_of = |h: usize| Some(choice(s.light_uc[h]));
         group_stable(m, light_of, &mut q.starts, &mut q.order);
         if let Some(k) = (0..n_lights).find(|&k| q.starts[k + 1] - q.starts[k] == m) {
-            scene.lights[k].sample_li_many(|h| its.p().get(h), &s.light_u, &mut q.samples);
+            scene.lights[k].sample_li_many(|h| its.p().get(h), s.light_u.cols(), &mut q.samples);
             return;
         }
         for k in 0..n_lights {
@@ -434,10 +435,9 @@ impl Wavefront {
             if hits.is_empty() {
                 continue;
             }
-            q.u.clear();
-            q.u.extend(hits.iter().map(|&h| s.light_u[h as usize]));
+            q.u.gather_from(s.light_u.cols(), hits);
             let point = |j: usize| its.p().get(hits[j] as usize);
-            scene.lights[k].sample_li_many(point, &q.u, &mut q.batch);
+            scene.lights[k].sample_li_many(point, q.u.cols(), &mut q.batch);
             for (j, &h) in hits.iter().enumerate() {
                 q.samples.copy_from(h as usize, &q.batch, j);
             }
@@ -529,7 +529,7 @@ impl Wavefront {
         s.groups.sample(
             scene,
             s.wo.cols(),
-            &s.bsdf_u,
+            s.bsdf_u.cols(),
             &s.bsdf_uc,
             &mut self.bsdf_samples,
         );
@@ -695,22 +695,22 @@ impl MaterialGroups {
         &mut self,
         scene: &Scene,
         wo: Vec3Cols,
-        u: &[Vec2],
+        u: Vec2Cols,
         uc: &[f32],
         out: &mut [Option<BsdfSample>],
     ) {
         for &(a, b, shape) in &self.ranges {
             let bsdf = Self::material(scene, shape);
             if self.contiguous {
-                bsdf.sample_many(wo.slice(a..b), &u[a..b], &uc[a..b], &mut out[a..b]);
+                bsdf.sample_many(wo.slice(a..b), u.slice(a..b), &uc[a..b], &mut out[a..b]);
                 continue;
             }
             let hits = &self.order[a..b];
             self.wo.gather_from(wo, hits);
-            gather(&mut self.u, u, hits);
+            self.u.gather_from(u, hits);
             gather(&mut self.uc, uc, hits);
             self.samples.resize(hits.len(), None);
-            bsdf.sample_many(self.wo.cols(), &self.u, &self.uc, &mut self.samples);
+            bsdf.sample_many(self.wo.cols(), self.u.cols(), &self.uc, &mut self.samples);
             for (j, &h) in hits.iter().enumerate() {
                 out[h as usize] = self.samples[j];
             }

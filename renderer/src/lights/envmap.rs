@@ -28,7 +28,7 @@ use crate::Rgb;
 use crate::error::{Error, Result};
 use crate::image_io::{RgbImage, read_rgb_image_windows};
 use glam::{Mat3, Vec2, Vec3};
-use lobe_materials::columns::{Vec3Cols, Vec3ColsMut};
+use lobe_materials::columns::{Vec2Cols, Vec3Cols, Vec3ColsMut};
 use lobe_materials::math::{
     Num, V3, acos, atan2, clamp, floor, gt, le, lt, maximum, minimum, select, sin_cos, sqrt,
 };
@@ -244,28 +244,30 @@ impl EnvMap {
     /// lanes as [`EnvMap::eval_pdf_many`]: for `us[i]`, the direction `wi[i]`, radiance
     /// `li[i]` and pdf `pdf[i]`, or a pdf of 0 (and zero direction and radiance) where
     /// `sample` gives None.
-    pub fn sample_many(&self, us: &[Vec2], mut wi: Vec3ColsMut, li: &mut [Rgb], pdf: &mut [f32]) {
+    pub fn sample_many(&self, us: Vec2Cols, mut wi: Vec3ColsMut, li: &mut [Rgb], pdf: &mut [f32]) {
         assert!(us.len() == wi.len() && us.len() == li.len() && us.len() == pdf.len());
         let zero = f32xn::splat(0.0);
         // Two lane vectors of points at a time: two groups descend the hierarchy side by side
         // (two independent dependency chains the core overlaps; three or four groups
         // measured no faster), then each goes on alone.
         const GROUPS: usize = 2;
-        for (c2, uc2) in us.chunks(LANES * GROUPS).enumerate() {
-            let group = |uc: &[Vec2]| simd::vec2s(&simd::padded(&uc[..uc.len().min(LANES)]));
-            let [x0, y0] = group(uc2);
-            let cells = match uc2.get(LANES..) {
-                Some(rest) if !rest.is_empty() => {
-                    let [x1, y1] = group(rest);
+        let n = us.len();
+        for (c2, first) in (0..n).step_by(LANES * GROUPS).enumerate() {
+            let [x0, y0] = us.load(first);
+            let cells = match first + LANES < n {
+                true => {
+                    let [x1, y1] = us.load(first + LANES);
                     self.cells.sample_groups([x0, x1], [y0, y1])
                 }
                 // A lone group descends alone.
-                _ => {
+                false => {
                     let [c] = self.cells.sample_groups([x0], [y0]);
                     [c, c]
                 }
             };
-            for (g, uc) in uc2.chunks(LANES).enumerate() {
+            let end = (first + LANES * GROUPS).min(n);
+            for (g, start) in (first..end).step_by(LANES).enumerate() {
+                let len = (end - start).min(LANES);
                 let (cx, cy, rx, ry) = cells[g];
                 let as_int = |c: u32xn| i32xn::new(c.to_array().map(|v| v as i32));
                 let (d, radiance, p, valid) = self.sample_in_cell(as_int(cx), as_int(cy), rx, ry);
@@ -275,7 +277,7 @@ impl EnvMap {
                 let p = keep(p).to_array();
                 let base = LANES * (GROUPS * c2 + g);
                 wi.store(base, Vec3xN::new(keep(d.x), keep(d.y), keep(d.z)));
-                for i in 0..uc.len() {
+                for i in 0..len {
                     let o = base + i;
                     li[o] = Rgb::new(r[i], gr[i], b[i]);
                     pdf[o] = p[i];

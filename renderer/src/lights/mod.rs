@@ -22,7 +22,7 @@ use lobe_materials::sampling::warp::{
 };
 use lobe_materials::simd::{self, Vec3xN};
 use lobe_materials::simd::{LANES, f32xn};
-use lobe_materials::{Vec3Cols, Vec3s};
+use lobe_materials::{Vec2Cols, Vec3Cols, Vec3s};
 
 /// Emitting geometry of an area light.
 #[derive(Clone, Debug)]
@@ -131,7 +131,7 @@ impl Light {
     /// `u.len()` entries), the same values: environment maps, which do not depend on the
     /// point, sample the whole batch in SIMD lanes ([`EnvMap::sample_many`]), other lights
     /// one point at a time.
-    pub fn sample_li_many(&self, p: impl Fn(usize) -> Vec3, u: &[Vec2], out: &mut LightSamples) {
+    pub fn sample_li_many(&self, p: impl Fn(usize) -> Vec3, u: Vec2Cols, out: &mut LightSamples) {
         out.reset(u.len());
         match self {
             Light::Env(env) => {
@@ -147,7 +147,7 @@ impl Light {
             }
             _ => {}
         }
-        for (k, &u) in u.iter().enumerate() {
+        for (k, u) in u.iter().enumerate() {
             if let Some(ls) = self.sample_li(p(k), u) {
                 out.set(k, &ls);
             }
@@ -288,20 +288,15 @@ fn sample_rectangle_many(
     flip: bool,
     radiance: Rgb,
     p: impl Fn(usize) -> Vec3,
-    u: &[Vec2],
+    u: Vec2Cols,
     out: &mut LightSamples,
 ) {
     let zero = f32xn::splat(0.0);
     let n = Vec3xN::splat(if flip { -rect.n } else { rect.n });
     let area_pdf = f32xn::splat(1.0 / rect.area());
-    for (c, uc) in u.chunks(LANES).enumerate() {
-        let first = LANES * c;
-        let len = uc.len();
-        let uu = simd::padded(uc);
-        let (ux, uy) = (
-            f32xn::new(simd::lanes(|i| uu[i].x)),
-            f32xn::new(simd::lanes(|i| uu[i].y)),
-        );
+    for first in (0..u.len()).step_by(LANES) {
+        let len = (u.len() - first).min(LANES);
+        let [ux, uy] = u.load(first);
         let pp = Vec3xN::from_array(&simd::lanes(|i| p(first + i.min(len - 1))));
         let q = rect.point_of(ux, uy);
         let pdf = area_to_solid_angle(pp, q, n, area_pdf);

@@ -39,7 +39,7 @@ use lobe_materials::frame::{self, Frame};
 use lobe_materials::sampling::mirror_cones;
 use lobe_materials::sampling::random::{hash, unit};
 use lobe_materials::simd::{self, LANES, f32xn};
-use lobe_materials::{Bsdf, Rgb, Vec3s};
+use lobe_materials::{Bsdf, Rgb, Vec2s, Vec3s};
 use lobe_renderer::camera::Camera;
 use lobe_renderer::compare::metrics;
 use lobe_renderer::film::Image;
@@ -449,7 +449,7 @@ impl Stage<'_> {
                 (h.sample.point[3] as f32).min(1.0 - f32::EPSILON),
             )
         };
-        let us: Vec<glam::Vec2> = hits
+        let us: Vec2s = hits
             .iter()
             .filter(|h| h.sample.strategy == MAP)
             .map(u_of)
@@ -458,7 +458,7 @@ impl Stage<'_> {
         let (mut map_dirs, mut li, mut pdf) =
             (Vec3s::zeros(m), vec![Rgb::splat(0.0); m], vec![0.0; m]);
         self.env
-            .sample_many(&us, map_dirs.cols_mut(), &mut li, &mut pdf);
+            .sample_many(us.cols(), map_dirs.cols_mut(), &mut li, &mut pdf);
         let mut from_map = map_dirs.cols().iter().zip(pdf);
         // The data's samples drawn together too (a batched form where the model has one),
         // and each fit's.
@@ -548,10 +548,10 @@ impl Stage<'_> {
             return Vec::new();
         }
         let wos: Vec3s = picked.iter().map(|h| h.wo).collect();
-        let u2: Vec<glam::Vec2> = picked.iter().map(|h| u_of(h)).collect();
+        let u2: Vec2s = picked.iter().map(|h| u_of(h)).collect();
         let ucs: Vec<f32> = picked.iter().map(|h| h.sample.point[4] as f32).collect();
         let mut out = vec![None; picked.len()];
-        bsdf.sample_many(wos.cols(), &u2, &ucs, &mut out);
+        bsdf.sample_many(wos.cols(), u2.cols(), &ucs, &mut out);
         out
     }
 }
