@@ -199,6 +199,7 @@ impl<T: Record<N>, const N: usize> Columns<T, N> {
     /// # Panics
     /// When an index is out of range (before any column changes, so that they stay equally
     /// long).
+    #[inline]
     pub fn gather_from(&mut self, src: Cols<T, N>, idx: &[u32]) {
         let max = idx.iter().copied().max().unwrap_or(0) as usize;
         assert!(
@@ -208,7 +209,11 @@ impl<T: Record<N>, const N: usize> Columns<T, N> {
         );
         for (dst, src) in self.c.iter_mut().zip(src.c) {
             dst.clear();
-            dst.extend(idx.iter().map(|&i| src[i as usize]));
+            // SAFETY: every index is under the source's length (checked above).
+            dst.extend(
+                idx.iter()
+                    .map(|&i| unsafe { *src.get_unchecked(i as usize) }),
+            );
         }
     }
 
@@ -424,7 +429,11 @@ impl<'a, T: Record<N>, const N: usize> ColsMut<'a, T, N> {
     pub fn store(&mut self, first: usize, v: T::Lanes) {
         let n = (self.len() - first).min(LANES);
         for (dst, c) in self.c.iter_mut().zip(T::to_lanes(v)) {
-            dst[first..first + n].copy_from_slice(&c.as_array()[..n]);
+            // A whole lane vector is one fixed-size copy (a vector store, not a call).
+            match n == LANES {
+                true => dst[first..first + LANES].copy_from_slice(c.as_array()),
+                false => dst[first..first + n].copy_from_slice(&c.as_array()[..n]),
+            }
         }
     }
 }

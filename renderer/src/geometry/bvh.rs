@@ -199,8 +199,9 @@ impl Geometry {
         }
     }
 
-    /// [`Geometry::interaction`] of many hits, appended to `out` in order: hit (i, t, prim)
-    /// of ray `rays[i]`. Hits on spheres are computed a lane vector at a time in SIMD lanes
+    /// [`Geometry::interaction`] of many hits, in order, into `out`: hit (i, t, prim) of ray
+    /// `rays[i]`. `out` is resized to the hits' count and its old contents overwritten (a
+    /// reused queue is not zeroed first). Hits on spheres are computed a lane vector at a time in SIMD lanes
     /// ([`Sphere::surface_of`]: its square roots and divisions are a long dependency chain
     /// per hit), bit for bit the same; other hits one by one.
     pub fn interactions_many(
@@ -209,8 +210,7 @@ impl Geometry {
         hits: &[(u32, f32, u32)],
         out: &mut Interactions,
     ) {
-        let first = out.len();
-        out.resize(first + hits.len());
+        out.resize(hits.len());
         let mut spheres = [0usize; LANES];
         let mut n = 0;
         for (h, &(i, t, prim)) in hits.iter().enumerate() {
@@ -219,17 +219,17 @@ impl Geometry {
                 spheres[n] = h;
                 n += 1;
                 if n == LANES {
-                    self.sphere_interactions(rays, hits, &spheres, first, out);
+                    self.sphere_interactions(rays, hits, &spheres, out);
                     n = 0;
                 }
             } else {
                 let mut it = Interaction::ZERO;
                 self.interaction_of(&rays[i as usize], t, prim, primitive, &mut it);
-                out.set(first + h, &it);
+                out.set(h, &it);
             }
         }
         if n > 0 {
-            self.sphere_interactions(rays, hits, &spheres[..n], first, out);
+            self.sphere_interactions(rays, hits, &spheres[..n], out);
         }
     }
 
@@ -240,7 +240,6 @@ impl Geometry {
         rays: &[Ray],
         hits: &[(u32, f32, u32)],
         which: &[usize],
-        first: usize,
         out: &mut Interactions,
     ) {
         let n = which.len();
@@ -275,7 +274,7 @@ impl Geometry {
                 prim,
                 exit: nk,
             };
-            out.set(first + h, &it);
+            out.set(h, &it);
         }
     }
 

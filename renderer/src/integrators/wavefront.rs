@@ -310,7 +310,6 @@ impl Wavefront {
                 None => self.escaped.path.push(i),
             }
         }
-        h.it.clear();
         scene
             .geometry
             .interactions_many(&self.paths.ray, &h.hits, &mut h.it);
