@@ -85,9 +85,9 @@ impl Bsdf for Lambert {
     /// `LANES` queries per SIMD warp ([`cosine_hemisphere`]).
     fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, _uc: &[f32], out: &mut [Option<BsdfSample>]) {
         assert!(wo.len() == out.len() && u.len() == out.len());
-        for (first, (wc, oc)) in wo.z().chunks(LANES).zip(out.chunks_mut(LANES)).enumerate() {
+        for (chunk, (wc, oc)) in wo.z().chunks(LANES).zip(out.chunks_mut(LANES)).enumerate() {
             let n = oc.len();
-            let [ux, uy] = u.load(first * LANES);
+            let [ux, uy] = u.load(chunk * LANES);
             let [x, y, z] = cosine_hemisphere(ux, uy);
             // cosine_hemisphere_pdf, per lane.
             let pdf = (z.max(f32xn::splat(0.0)) * f32xn::splat(FRAC_1_PI)).to_array();

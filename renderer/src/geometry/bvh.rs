@@ -201,9 +201,9 @@ impl Geometry {
 
     /// [`Geometry::interaction`] of many hits, in order, into `out`: hit (i, t, prim) of ray
     /// `rays[i]`. `out` is resized to the hits' count and its old contents overwritten (a
-    /// reused queue is not zeroed first). Hits on spheres are computed a lane vector at a time in SIMD lanes
-    /// ([`Sphere::surface_of`]: its square roots and divisions are a long dependency chain
-    /// per hit), bit for bit the same; other hits one by one.
+    /// reused queue is not zeroed first). Hits on spheres are computed a lane vector at a
+    /// time in SIMD lanes ([`Sphere::surface_of`]: its square roots and divisions are a long
+    /// dependency chain per hit), bit for bit the same; other hits one by one.
     pub fn interactions_many(
         &self,
         rays: &[Ray],
@@ -233,8 +233,8 @@ impl Geometry {
         }
     }
 
-    /// The interactions of up to `LANES` hits `which` (indices into `hits`; into `out` from
-    /// `first`), all on spheres, in SIMD lanes.
+    /// The interactions of up to `LANES` hits `which` (indices into `hits` and `out`), all on
+    /// spheres, in SIMD lanes.
     fn sphere_interactions(
         &self,
         rays: &[Ray],

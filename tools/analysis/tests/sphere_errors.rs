@@ -101,9 +101,10 @@ fn intervals_cover_the_true_error_at_their_stated_rate() {
 
 #[test]
 fn planned_passes_cover_the_true_error_and_move_samples_to_the_highlight() {
-    // A pilot pass, then a pass whose samples follow the pilot's noise: the reported pass
-    // is independent of the plan, so its intervals keep their rate; the samples gather
-    // where the difference is noisy (the highlight), well above the mean.
+    // A pilot pass, then passes whose samples follow the last pass's noise (a third where
+    // the second misses its targets): the reported pass is independent of the plan, so its
+    // intervals keep their rate; the samples gather where the difference is noisy (the
+    // highlight), well above the mean.
     let (truth, runs) = trials((64, 512));
     for e in &runs {
         assert!(e.passes >= 2, "a pass was planned");
