@@ -52,11 +52,6 @@ impl Interactions {
         self.prim.resize(n, 0);
     }
 
-    /// Removes every interaction, keeping the capacity.
-    pub fn clear(&mut self) {
-        self.resize(0);
-    }
-
     /// The hit points.
     pub fn p(&self) -> Vec3Cols<'_> {
         self.p.cols()

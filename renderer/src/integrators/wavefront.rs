@@ -614,10 +614,10 @@ fn select_pdf(scene: &Scene) -> f32 {
 
 impl MaterialGroups {
     /// Groups the hits by material, given the shapes they hit (shapes sharing a material
-    /// share its batch): each hit's material group ([`crate::scene::ShapeInfo::material_group`]) given a
-    /// batch in order of first appearance, then a stable counting sort. When the hits
-    /// already come grouped (scenes of one material), the batches read the queues in
-    /// place.
+    /// share its batch): each hit's material group
+    /// ([`crate::scene::ShapeInfo::material_group`]) given a batch in order of first
+    /// appearance, then a stable counting sort. When the hits already come grouped (scenes
+    /// of one material), the batches read the queues in place.
     fn build(&mut self, scene: &Scene, shapes: &[u32]) {
         self.key.clear();
         // The batch of each material group seen in the last call back to none.

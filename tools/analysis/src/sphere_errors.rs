@@ -877,11 +877,11 @@ pub fn estimate(
 /// samples is `a n^-b`, with `a` its weighted variance summed over the fits, and the
 /// samples go in proportion to `a^(1 / (1 + b))` (the allocation that minimises the
 /// weighted sum of their noise for a budget; the square root at `b = 1`), widened by a 3x3
-/// maximum so that a hot spot seen in one pixel covers its neighbours. The weights are raised, a few rounds,
-/// for the fits whose predicted noise is the largest, so that the largest (the noise
-/// floor) is what falls. Scaled so that the noise floor meets its target (a tenth of the
-/// smallest non-negligible error) within a mean of [`ErrorSettings::max_spp`] per pixel.
-/// None when no fit is non-negligible.
+/// maximum so that a hot spot seen in one pixel covers its neighbours. The weights are
+/// raised, a few rounds, for the fits whose predicted noise is the largest, so that the
+/// largest (the noise floor) is what falls. Scaled so that the noise floor meets its target
+/// (a tenth of the smallest non-negligible error) within a mean of
+/// [`ErrorSettings::max_spp`] per pixel. None when no fit is non-negligible.
 fn allocate(
     stage: &Stage<'_>,
     (sample_variance, measured_at): (&[f32], &[usize]),
@@ -921,8 +921,8 @@ fn allocate(
 /// batch, a planned pass's measured noise floor matched the plan at 1.5 on vch_golden_yellow
 /// (studio) and cc_ibiza_sunset (sunset), at 1.3 on paper_white (studio), whose pass at 1.5
 /// missed its target; planned at `n^-1` it came out 1.8-2.3x below it (its mean square
-/// 3-5x below, 2.5-2.9x the samples needed). 1.25 stays under every measured rate; a pass that still misses is followed by
-/// one planned from its own variances.
+/// 3-5x below, 2.5-2.9x the samples needed). 1.25 stays under every measured rate; a pass
+/// that still misses is followed by one planned from its own variances.
 const RQMC_EXPONENT: f64 = 1.25;
 
 /// What [`allocate`] plans from: the film, the last pass's one-sample variances and the
