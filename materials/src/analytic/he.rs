@@ -205,10 +205,7 @@ impl He {
         let ok = lobe::both_above(wo, wi) & has_half & gt(cd, zero) & gt(ch, zero);
         let fresnel = Dielectric { eta: self.eta }.eval(cd);
         let (sigma0, tau) = (self.sigma0 as f32, self.tau as f32);
-        let [shadow, sigma] = T::per_lane([ci, co], |[ci, co]| {
-            let (shadow, sigma) = he_shadowing::elevation_terms(sigma0, tau, ci, co);
-            [shadow, sigma]
-        });
+        let (shadow, sigma) = he_shadowing::elevation_terms(sigma0, tau, ci, co);
         let g_geo = s(4.0) * cd * cd / (ch * ch);
         let (sx, sy) = (wi.x + wo.x, wi.y + wo.y);
         let vxy2 = sx * sx + sy * sy;

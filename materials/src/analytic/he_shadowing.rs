@@ -20,7 +20,7 @@
 //! four `exp` per call before). Fitting keeps the f64 forms of `he.rs`; the render's lobe
 //! is within [`super::he::RENDER_ERROR_BOUND`] of them (tested).
 
-use crate::math::Real;
+use crate::math::{Real, Single, all, ge, le, lt, maximum, select, sqrt};
 use std::sync::LazyLock;
 
 /// Nodes of the table over v = s / (1 + s) in [0, 1].
@@ -44,10 +44,10 @@ pub fn shadowing(s: f64) -> f64 {
     ((1.0 - 0.5 * e) / (1.0 + lambda)).clamp(0.0, 1.0)
 }
 
-/// (S, erfc) at every node.
-static TABLE: LazyLock<Vec<[f32; 2]>> = LazyLock::new(|| {
+/// (S, erfc) at every node, interleaved: node k's S at 2k, its erfc at 2k + 1.
+static TABLE: LazyLock<Vec<f32>> = LazyLock::new(|| {
     (0..NODES)
-        .map(|k| {
+        .flat_map(|k| {
             let v = k as f64 / (NODES - 1) as f64;
             if k == NODES - 1 {
                 return [1.0, 0.0];
@@ -64,31 +64,34 @@ pub fn build_table() {
     LazyLock::force(&ROUGHNESS);
 }
 
-/// (S(s), erfc(s)) from the table, for s >= 0 (+inf allowed; NaN reads as s = inf).
-#[inline]
-pub fn lookup(s: f32) -> (f32, f32) {
-    let v = if s < f32::INFINITY {
-        (s / (1.0 + s)).max(0.0)
-    } else {
-        1.0
-    };
-    let x = v * (NODES - 1) as f32;
-    let k = (x as usize).min(NODES - 2);
-    let t = x - k as f32;
-    let (a, b) = (TABLE[k], TABLE[k + 1]);
-    (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
+/// (S(s), erfc(s)) from the table, for s >= 0 (+inf allowed; NaN reads as s = inf); one
+/// value or lanes.
+#[inline(always)]
+pub fn lookup<T: Single>(s: T) -> (T, T) {
+    let c = T::of32;
+    let v = select(
+        lt(s, c(f32::INFINITY)),
+        maximum(s / (c(1.0) + s), c(0.0)),
+        c(1.0),
+    );
+    let x = v * c((NODES - 1) as f32);
+    let k = T::int_min(x.trunc_int(), T::int(NODES as i32 - 2));
+    let t = x - T::of_int(k);
+    let [a0, a1, b0, b1] = T::gather4(&TABLE, k << 1);
+    (a0 + t * (b0 - a0), a1 + t * (b1 - a1))
 }
 
 /// The elevation terms of the render path for one material: (S(theta_i) S(theta_o),
-/// sigma(theta_i, theta_o)) at cos theta_i = `ci`, cos theta_o = `co` (both in (0, 1]).
-#[inline]
-pub fn elevation_terms(sigma0: f32, tau: f32, ci: f32, co: f32) -> (f32, f32) {
+/// sigma(theta_i, theta_o)) at cos theta_i = `ci`, cos theta_o = `co` (both in (0, 1]); one
+/// pair or lanes.
+#[inline(always)]
+pub fn elevation_terms<T: Single>(sigma0: f32, tau: f32, ci: T, co: T) -> (T, T) {
     if sigma0 <= f32::EPSILON {
-        return (1.0, 0.0);
+        return (T::of32(1.0), T::of32(0.0));
     }
     let (s_i, k_i) = direction_terms(sigma0, tau, ci);
     let (s_o, k_o) = direction_terms(sigma0, tau, co);
-    (s_i * s_o, sigma0 * roughness_factor(k_i + k_o))
+    (s_i * s_o, T::of32(sigma0) * roughness_factor(k_i + k_o))
 }
 
 /// sigma(theta, theta), the effective roughness with both directions at cos theta = `c`
@@ -103,18 +106,20 @@ pub fn self_roughness(sigma0: f32, tau: f32, c: f32) -> f32 {
     sigma0 * roughness_factor(k + k)
 }
 
-/// (S, K) of one direction at cos theta = `c`: s = tau cot(theta) / (2 sigma0),
+/// (S, K) of one direction at cos theta = `c` (one or lanes): s = tau cot(theta) / (2 sigma0),
 /// K = tan(theta) erfc(s) (0 at normal incidence, where he.rs's forms cut off at
 /// tan(theta) <= 1e-7 too). `sigma0` must be above `f32::EPSILON`.
-#[inline]
-pub fn direction_terms(sigma0: f32, tau: f32, c: f32) -> (f32, f32) {
-    let sin = (1.0 - c * c).max(0.0).sqrt();
-    if sin <= 1e-7 {
-        return (1.0, 0.0);
-    }
+#[inline(always)]
+pub fn direction_terms<T: Single>(sigma0: f32, tau: f32, c: T) -> (T, T) {
+    let (zero, one) = (T::of32(0.0), T::of32(1.0));
+    let sin = sqrt(maximum(one - c * c, zero));
     let tan = sin / c;
-    let (shadow, erfc) = lookup(tau / (2.0 * sigma0) / tan);
-    (shadow, tan * erfc)
+    let (shadow, erfc) = lookup(T::of32(tau / (2.0 * sigma0)) / tan);
+    let normal = le(sin, T::of32(1e-7));
+    (
+        select(normal, one, shadow),
+        select(normal, zero, tan * erfc),
+    )
 }
 
 /// 1 / sqrt(1 + x^2) where x exp(x^2 / 2) = f0 = k / sqrt(8 pi), by bbm's four Newton
@@ -153,30 +158,37 @@ static ROUGHNESS: LazyLock<Vec<f32>> = LazyLock::new(|| {
         .collect()
 });
 
-/// [`roughness_factor_newton`] in f32 from its table: the float's exponent and top mantissa
-/// bits pick the node (nodes linear in k within each 256th of an octave, so the bits' rest
-/// is the interpolation weight). Below the table the factor is 1 (within 1e-15), above it
-/// (k > 1e30, a hair from grazing) the f64 steps; 0 for an infinite k (at grazing).
-#[inline]
-pub fn roughness_factor(k: f32) -> f32 {
-    let lo = 2f32.powi(K_OCTAVE_MIN);
-    if !(k >= lo) {
-        return 1.0;
-    }
-    let shift = 23 - K_NODE_BITS;
-    let node = (k.to_bits() >> shift) as i64 - (((127 + K_OCTAVE_MIN) as i64) << K_NODE_BITS);
+/// [`roughness_factor_newton`] in f32 from its table (one value or lanes): the float's
+/// exponent and top mantissa bits pick the node (nodes linear in k within each 256th of an
+/// octave, so the bits' rest is the interpolation weight). Below the table the factor is 1
+/// (within 1e-15), above it (k > 1e30, a hair from grazing) the f64 steps; 0 for an infinite
+/// k (at grazing).
+#[inline(always)]
+pub fn roughness_factor<T: Single>(k: T) -> T {
+    let c = T::of32;
+    let shift = (23 - K_NODE_BITS) as i32;
     let table = &*ROUGHNESS;
-    if node as usize >= table.len() - 1 {
+    let last = table.len() as i32 - 1;
+    let bits = k.to_bits();
+    let node = (bits >> shift) - T::int((127 + K_OCTAVE_MIN) << K_NODE_BITS);
+    let below = !ge(k, c(2f32.powi(K_OCTAVE_MIN)));
+    let inside = T::int_lt(node, T::int(last));
+    let at = T::int_min(T::int_max(node, T::int(0)), T::int(last - 1));
+    let t = T::of_int(bits & T::int((1 << shift) - 1)) / c((1u32 << shift) as f32);
+    let (a, b) = (T::gather(table, at), T::gather(table, at + T::int(1)));
+    let factor = a + t * (b - a);
+    let factor = match all::<T>(inside | below) {
+        true => factor,
         // Only within a hair of grazing (or infinite at it).
-        return if k.is_finite() {
-            roughness_factor_newton(k as f64) as f32
-        } else {
-            0.0
-        };
-    }
-    let node = node as usize;
-    let t = (k.to_bits() & ((1 << shift) - 1)) as f32 / (1u32 << shift) as f32;
-    table[node] + t * (table[node + 1] - table[node])
+        false => {
+            let [beyond] = T::per_lane([k], |[k]| match k.is_finite() {
+                true => [roughness_factor_newton(k as f64) as f32],
+                false => [0.0],
+            });
+            select(inside, factor, beyond)
+        }
+    };
+    select(below, c(1.0), factor)
 }
 
 #[cfg(test)]
@@ -205,7 +217,7 @@ mod tests {
             worst.1
         );
         // Limits: fully shadowed at s = 0, unshadowed for s = inf (and NaN).
-        assert_eq!(lookup(0.0), (0.0, 1.0));
+        assert_eq!(lookup(0.0f32), (0.0, 1.0));
         assert_eq!(lookup(f32::INFINITY), (1.0, 0.0));
         assert_eq!(lookup(f32::NAN), (1.0, 0.0));
     }
@@ -221,8 +233,66 @@ mod tests {
             worst = worst.max((got - want).abs() / want);
         }
         assert!(worst <= 2e-5, "worst relative error {worst:e}");
-        assert_eq!(roughness_factor(0.0), 1.0);
+        assert_eq!(roughness_factor(0.0f32), 1.0);
         assert_eq!(roughness_factor(f32::INFINITY), 0.0);
         assert_eq!(roughness_factor(f32::NAN), 1.0);
+    }
+
+    #[test]
+    fn lanes_equal_the_scalar_terms_bit_for_bit() {
+        use crate::simd::{LANES, f32xn};
+        let ks = [
+            0.0,
+            -1.0,
+            1e-30,
+            1e-7,
+            0.3,
+            1.0,
+            7.5,
+            1e10,
+            3e30,
+            1e38,
+            f32::INFINITY,
+            f32::NAN,
+        ];
+        let cs = [
+            1.0,
+            1.0 - 1e-7,
+            0.999,
+            0.5,
+            0.1,
+            1e-4,
+            1e-7,
+            0.0,
+            0.7,
+            0.2,
+            0.05,
+            0.9,
+        ];
+        for first in (0..ks.len()).step_by(LANES) {
+            let lane = |v: &[f32]| f32xn::new(crate::simd::lanes(|j| v[(first + j) % v.len()]));
+            let r = roughness_factor(lane(&ks)).to_array();
+            let (sh, kk) = direction_terms(0.3, 2.0, lane(&cs));
+            let (e_s, e_k) = elevation_terms(0.3, 2.0, lane(&cs), lane(&cs[1..]));
+            for j in 0..LANES {
+                let (k, c, c2) = (
+                    ks[(first + j) % ks.len()],
+                    cs[(first + j) % cs.len()],
+                    cs[1..][(first + j) % (cs.len() - 1)],
+                );
+                assert_eq!(r[j].to_bits(), roughness_factor(k).to_bits(), "k {k}");
+                let (s1, k1) = direction_terms(0.3, 2.0, c);
+                assert_eq!(
+                    (sh.to_array()[j].to_bits(), kk.to_array()[j].to_bits()),
+                    (s1.to_bits(), k1.to_bits()),
+                    "c {c}"
+                );
+                let (s2, k2) = elevation_terms(0.3, 2.0, c, c2);
+                assert_eq!(
+                    (e_s.to_array()[j].to_bits(), e_k.to_array()[j].to_bits()),
+                    (s2.to_bits(), k2.to_bits())
+                );
+            }
+        }
     }
 }

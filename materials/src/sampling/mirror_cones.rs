@@ -12,7 +12,11 @@ pub const EXPONENTS: [f64; 4] = [8.0, 64.0, 512.0, 4096.0];
 
 /// The mixture's solid-angle density at unit direction `d` (each cone e: (e + 1) / 2pi
 /// cos^e around the unit `mirror`, equally weighted). Each power is the previous one
-/// raised to the 8th by three squarings.
+/// raised to the 8th by three squarings; once a power is below 1e-30 the higher ones are
+/// dropped: each is under 2^-53 of the term before it, so the sum is the same (and where
+/// cos itself is below 1e-30 they are under 1e-237), and no squaring passes through the
+/// subnormals (an assist of about a hundred cycles on x86, where most directions of an
+/// image estimate lie far from the mirror).
 pub fn pdf(mirror: DVec3, d: DVec3) -> f64 {
     let eighth = |x: f64| {
         let x2 = x * x;
@@ -22,6 +26,9 @@ pub fn pdf(mirror: DVec3, d: DVec3) -> f64 {
     let mut p = mirror.dot(d).max(0.0);
     let mut sum = 0.0;
     for e in EXPONENTS {
+        if p < 1e-30 {
+            break;
+        }
         p = eighth(p);
         sum += (e + 1.0) / (2.0 * PI) * p;
     }
@@ -62,5 +69,39 @@ mod tests {
             })
             .sum();
         assert!((sum - 1.0).abs() < 2e-3, "{sum}");
+    }
+
+    #[test]
+    fn dropping_the_vanishing_powers_leaves_the_density_unchanged() {
+        let every_power = |mirror: DVec3, d: DVec3| {
+            let mut p = mirror.dot(d).max(0.0);
+            let mut sum = 0.0;
+            for e in EXPONENTS {
+                p = p.powi(8);
+                sum += (e + 1.0) / (2.0 * PI) * p;
+            }
+            sum / EXPONENTS.len() as f64
+        };
+        let mirror = DVec3::new(0.3, -0.2, 0.9).normalize();
+        let mut checked = 0;
+        for i in 0..200_000 {
+            // Directions by a Fibonacci spiral over the sphere, most far from the mirror.
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / 200_000.0;
+            let phi = i as f64 * 2.399_963_229_728_653;
+            let r = (1.0 - z * z).sqrt();
+            let d = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+            if mirror.dot(d) >= 1e-30 {
+                let (got, want) = (pdf(mirror, d), every_power(mirror, d));
+                assert!(
+                    (got - want).abs() <= 1e-15 * want,
+                    "{d}: {got:e} against {want:e}"
+                );
+                checked += 1;
+            }
+        }
+        assert!(
+            checked > 90_000,
+            "{checked} directions above the mirror's horizon"
+        );
     }
 }

@@ -227,6 +227,22 @@ struct PixelSamples {
     density: Vec<f64>,
 }
 
+impl PixelSamples {
+    /// Room for `n` samples (a pixel's are pushed one by one; growing the vectors sample by
+    /// sample cost a reallocation per doubling per pixel).
+    fn with_capacity(n: usize) -> Self {
+        let mut s = Self {
+            batch: Vec::with_capacity(n),
+            radiance: Vec::with_capacity(n),
+            density: Vec::with_capacity(n),
+            ..Self::default()
+        };
+        s.wo.reserve(n);
+        s.wi.reserve(n);
+        s
+    }
+}
+
 /// A camera sample of a pixel: its batch, strategy ([`MAP`], [`DATA`], [`CONES`] or
 /// [`FITS`]), index in its strategy's point set (which fit a [`FITS`] sample draws from:
 /// [`fit_of`]) and point.
@@ -478,7 +494,7 @@ impl Stage<'_> {
             .enumerate()
             .map(|(j, of_j)| Self::bsdf_samples(reps[1 + j], of_j, u_of).into_iter())
             .collect();
-        let mut drawn = PixelSamples::default();
+        let mut drawn = PixelSamples::with_capacity(hits.len());
         let mut world = Vec3s::new();
         world.reserve(hits.len());
         for h in &hits {
@@ -516,7 +532,7 @@ impl Stage<'_> {
         self.env.eval_pdf_many(world.cols(), &mut looked_up);
         // Samples where the map is black add nothing: dropped before the evaluations.
         let n_map = counts[MAP] as f64;
-        let mut set = PixelSamples::default();
+        let mut set = PixelSamples::with_capacity(looked_up.len());
         for (k, (l, p_env)) in looked_up.into_iter().enumerate() {
             if !(l.r > 0.0 || l.g > 0.0 || l.b > 0.0) {
                 continue;
