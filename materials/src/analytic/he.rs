@@ -180,7 +180,7 @@ impl He {
 
     /// The lobe as rendered, per channel, one pair or lanes of pairs in f32:
     /// [`He::value_tabulated`]'s terms in the same order, with the elevation terms from
-    /// [`he_shadowing`]'s universal tables (lane by lane) and the series from its f32 table
+    /// [`he_shadowing`]'s universal tables (in lanes) and the series from its f32 table
     /// ([`he_series::tabulated_single`]); within [`RENDER_ERROR_BOUND`] of the fitted lobe
     /// (tested). The tables replace the summed series (up to 64 exponentials per channel,
     /// once the largest single cost of rendering He's fits) and four `erfc` and four `exp`
