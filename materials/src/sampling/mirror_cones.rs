@@ -15,8 +15,8 @@ pub const EXPONENTS: [f64; 4] = [8.0, 64.0, 512.0, 4096.0];
 /// raised to the 8th by three squarings; once a power is below 1e-30 the higher ones are
 /// dropped: each is under 2^-53 of the term before it, so the sum is the same bit for bit
 /// (where cos itself is below 1e-30 the density is 0, where it was under 1e-237), and no
-/// squaring passes through the subnormals (an assist of about a hundred cycles on x86, where most directions of an
-/// image estimate lie far from the mirror).
+/// squaring passes through the subnormals (an assist of about a hundred cycles on x86,
+/// where most directions of an image estimate lie far from the mirror).
 pub fn pdf(mirror: DVec3, d: DVec3) -> f64 {
     let eighth = |x: f64| {
         let x2 = x * x;
