@@ -31,7 +31,7 @@
 //! samplers (Heitz and d'Eon 2014) with alpha = lambda_G / (2 pi tau cos_o) (the diffraction
 //! width of the smooth regime, which widens in angle at grazing) and alpha = 2 sigma(wo, wo) / tau (the rough regime, where the lobe
 //! is Cook-Torrance with that Beckmann alpha), weighted by the diffraction term's share of
-//! the series' energy at `wo` ([`He::proposal_mixture`]).
+//! the series' energy at `wo` ([`He::proposals`]).
 
 use super::common::{DIFFUSE, SPECULAR, lobe_param};
 use super::he_series;
@@ -40,7 +40,7 @@ use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
 use super::microfacet::{MIN_ROUGHNESS, beckmann_visible_pdf, visible};
 use crate::fastmath;
 use crate::lobe::{self, Lobe, above};
-use crate::math::{Real, Single, V3, all, gt, half, is_finite, lt, maximum, minimum, select};
+use crate::math::{Real, Single, V3, all, gt, half, is_finite, lt, maximum, minimum, select, sqrt};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
@@ -270,14 +270,53 @@ impl He {
         lobe::reflect_above(wo, visible::sample(m, m, wo, ux, uy))
     }
 
-    /// [`He::proposal_mixture`] of each lane's `cos_o`, in f32: (smooth roughness, rough
-    /// roughness, the smooth one's share).
+    /// The proposals' roughnesses (smooth, rough) and the smooth one's share of the
+    /// samples at `wo` (one or lanes, written once). The series is a Poisson mixture over m
+    /// of lobes whose energy goes as the Poisson weight g^m e^-g / m!, the term m a lobe
+    /// sqrt(m) times as wide as the m = 1 term, the diffraction lobe the smooth proposal
+    /// follows. The rough proposal takes the width of the term one standard deviation above
+    /// the Poisson mean, m = g + sqrt(g) + 1: 2 sigma / tau sqrt(1 + 1 / sqrt(g) + 1 / g),
+    /// the rough limit 2 sigma / tau as g grows (with that limit itself the proposal left the
+    /// wider terms of the upper tail to heavy-tailed weights). The smooth proposal's share is
+    /// the m = 1 term's part of the series' energy at g(wo, wo), g e^-g / (1 - e^-g), kept
+    /// within [0.05, 0.95] so that neither proposal is ever left out (so only g in about
+    /// [0.1, 4.5] needs the share's exact value: no cancellation in f32 matters).
     #[inline(always)]
     fn proposals<T: Single>(&self, cos_o: T) -> [T; 3] {
-        T::per_lane([cos_o], |[co]| {
-            let ([smooth, rough], w) = self.proposal_mixture(co);
-            [smooth as f32, rough as f32, w as f32]
-        })
+        let c = T::of32;
+        let clamp = |x: T, lo: T, hi: T| minimum(maximum(x, lo), hi);
+        let co = clamp(cos_o, c(1e-4), c(1.0));
+        // The m = 1 term is exp(-pi^2 tau^2 |(wi + wo)_xy|^2 / lambda^2): Beckmann's
+        // exp(-tan^2 / m^2) with tan = |(wi + wo)_xy| / (cos_i + cos_o), so
+        // m (cos_i + cos_o) = lambda / (pi tau) = a. The lobe's directions lie about half
+        // its width above the mirror direction (which matters at grazing wo, where the
+        // horizon cuts the lobe's lower half): cos_i ~ cos_o + m / 2, and
+        // m = a / (2 cos_o + m / 2), whose positive root is
+        // 2 a / (2 cos_o + sqrt(4 cos_o^2 + 2 a)).
+        let a = c((WAVELENGTHS_UM[1] / (std::f64::consts::PI * self.tau)) as f32);
+        let root = sqrt(c(4.0) * co * co + c(2.0) * a);
+        let smooth = clamp(
+            c(2.0) * a / (c(2.0) * co + root),
+            c(MIN_ROUGHNESS as f32),
+            c(2.0),
+        );
+        let sigma0 = self.sigma0 as f32;
+        let sigma = match sigma0 <= f32::EPSILON {
+            true => c(0.0),
+            false => {
+                let (_, k) = he_shadowing::direction_terms(sigma0, self.tau as f32, co);
+                c(sigma0) * he_shadowing::roughness_factor(k + k)
+            }
+        };
+        let k = c((4.0 * std::f64::consts::PI / WAVELENGTHS_UM[1]) as f32) * sigma * co;
+        let g = k * k;
+        let live = gt(g, c(1e-12));
+        let widened =
+            c((2.0 / self.tau) as f32) * sigma * sqrt(c(1.0) + c(1.0) / sqrt(g) + c(1.0) / g);
+        let rough = clamp(select(live, widened, smooth), smooth, c(2.0));
+        let e = fastmath::exp(-g);
+        let first = select(live, g * e / (c(1.0) - e), c(1.0));
+        [smooth, rough, clamp(first, c(0.05), c(0.95))]
     }
 
     /// The lobe per channel, with the elevation factors from `terms(cos_i, cos_o)` (called
@@ -341,43 +380,6 @@ impl He {
             };
         }
         out
-    }
-
-    /// The proposals' roughnesses (smooth, rough) and the smooth one's share of the
-    /// samples at `wo`. The series is a Poisson mixture over m of lobes whose energy goes
-    /// as the Poisson weight g^m e^-g / m!, the term m a lobe sqrt(m) times as wide as the
-    /// m = 1 term, the diffraction lobe the smooth proposal follows. The rough proposal
-    /// takes the width of the term one standard deviation above the Poisson mean,
-    /// m = g + sqrt(g) + 1: 2 sigma / tau sqrt(1 + 1 / sqrt(g) + 1 / g), the rough limit
-    /// 2 sigma / tau as g grows (with that limit itself the proposal left the wider terms
-    /// of the upper tail to heavy-tailed weights). The smooth proposal's share is the
-    /// m = 1 term's part of the series' energy at g(wo, wo), kept within [0.05, 0.95] so
-    /// that neither proposal is ever left out.
-    fn proposal_mixture(&self, cos_o: f32) -> ([f64; 2], f64) {
-        let co = cos_o.clamp(1e-4, 1.0) as f64;
-        // The m = 1 term is exp(-pi^2 tau^2 |(wi + wo)_xy|^2 / lambda^2): Beckmann's
-        // exp(-tan^2 / m^2) with tan = |(wi + wo)_xy| / (cos_i + cos_o), so
-        // m (cos_i + cos_o) = lambda / (pi tau) = a. The lobe's directions lie about half
-        // its width above the mirror direction (which matters at grazing wo, where the
-        // horizon cuts the lobe's lower half): cos_i ~ cos_o + m / 2, and
-        // m = a / (2 cos_o + m / 2), whose positive root is
-        // 2 a / (2 cos_o + sqrt(4 cos_o^2 + 2 a)).
-        let a = WAVELENGTHS_UM[1] / (std::f64::consts::PI * self.tau);
-        let smooth =
-            (2.0 * a / (2.0 * co + (4.0 * co * co + 2.0 * a).sqrt())).clamp(MIN_ROUGHNESS, 2.0);
-        let sigma = he_shadowing::self_roughness(self.sigma0 as f32, self.tau as f32, co as f32);
-        let k = 2.0 * std::f64::consts::PI / WAVELENGTHS_UM[1] * sigma as f64 * 2.0 * co;
-        let g = k * k;
-        let rough = match g > 1e-12 {
-            true => 2.0 * sigma as f64 / self.tau * (1.0 + 1.0 / g.sqrt() + 1.0 / g).sqrt(),
-            false => smooth,
-        };
-        let rough = rough.clamp(smooth, 2.0);
-        let first = match g > 1e-12 {
-            true => g * (-g).exp() / -(-g).exp_m1(),
-            false => 1.0,
-        };
-        ([smooth, rough], first.clamp(0.05, 0.95))
     }
 }
 
