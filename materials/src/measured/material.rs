@@ -70,19 +70,12 @@ impl TableLookup for MerlTable {
     fn memory_bytes(&self) -> usize {
         self.table.memory_bytes()
     }
-    /// Trilinear ([`Merl::interpolate`]) or the nearest bin ([`Merl::lookup_nearest`], a
-    /// lane at a time).
+    /// Trilinear ([`Merl::interpolate`]) or the nearest bin ([`Merl::nearest`]).
     fn value<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
-        if self.interpolate {
-            return self.table.interpolate(wi, wo);
+        match self.interpolate {
+            true => self.table.interpolate(wi, wo),
+            false => self.table.nearest(wi, wo),
         }
-        T::per_lane(
-            [wo.x, wo.y, wo.z, wi.x, wi.y, wi.z],
-            |[ox, oy, oz, ix, iy, iz]| {
-                let (wo, wi) = (Vec3::new(ox, oy, oz), Vec3::new(ix, iy, iz));
-                self.table.lookup_nearest(wi, wo).to_array()
-            },
-        )
     }
 }
 

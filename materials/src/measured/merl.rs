@@ -273,9 +273,28 @@ impl Merl {
         (v[0] >= 0.0).then(|| Rgb::from(v))
     }
 
-    /// Nearest-bin lookup; zero below the surface or for a missing sample.
+    /// Nearest-bin lookup; zero below the surface or for a missing sample
+    /// ([`Merl::nearest`] of one pair).
     pub fn lookup_nearest(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        self.measured(wi, wo).unwrap_or(Rgb::ZERO)
+        Rgb::from(self.nearest::<f32>(wi.into(), wo.into()))
+    }
+
+    /// The value of the bin that holds the pair (bin k spans [k, k + 1) of
+    /// [`bin_coords`], the coordinates [`Merl::interpolate`] uses), written once over [`Num`]
+    /// (one pair, or lanes of pairs): zero below the surface or for a missing sample.
+    #[inline]
+    pub fn nearest<T: Num>(&self, wi: V3<T>, wo: V3<T>) -> [T; 3] {
+        let s = T::of;
+        let above = gt(wi.z, s(0.0)) & gt(wo.z, s(0.0));
+        let [a, b, c] = bin_coords(wi, wo);
+        // Clamped (NaN coordinates to bin 0), so every index is inside the table.
+        let bin = |x: T, n: usize| clamp(floor(x), s(0.0), s((n - 1) as f64)).trunc_int();
+        let row = bin(a, RES_THETA_H) * T::int(RES_THETA_D as i32) + bin(b, RES_THETA_D);
+        let at = (row * T::int(RES_PHI_D as i32) + bin(c, RES_PHI_D)) * T::int(3);
+        let flat = self.data.as_flattened();
+        let v = [0, 1, 2].map(|k| T::gather(flat, at + T::int(k)));
+        let keep = above & le(s(0.0), v[0]);
+        v.map(|x| select(keep, x, s(0.0)))
     }
 
     /// Trilinear lookup between bin centres (clamped in theta, periodic in phi_d),
@@ -347,6 +366,61 @@ mod tests {
             assert_eq!(((a as usize), (b as usize), (c as usize)), (ith, itd, ipd));
             let [a, b, c] = bin_coords(V3::from(wi), V3::from(wo));
             assert_eq!(((a as usize), (b as usize), (c as usize)), (ith, itd, ipd));
+        }
+    }
+
+    /// The nearest lookup reads the bin that holds the pair (each bin's value its index
+    /// here), zero below the surface or where a bin is missing, and lanes read what one
+    /// pair does, bit for bit (NaN and infinite directions included).
+    #[test]
+    fn the_nearest_bin_is_the_one_that_holds_the_pair() {
+        use crate::simd::{LANES, Vec3xN};
+        let mut data: Vec<[f32; 3]> = (0..SAMPLES).map(|i| [i as f32, 1.0, 2.0]).collect();
+        data[index(37, 3, 121)] = [-1.0; 3];
+        let t = Merl { data };
+        for &(ith, itd, ipd) in &[(0, 0, 0), (10, 45, 90), (60, 20, 179), (37, 3, 121)] {
+            let u = (ith as f64 + 0.5) / 90.0;
+            let (wi, wo) = from_half_diff(
+                u * u * FRAC_PI_2,
+                0.3,
+                (itd as f64 + 0.5) / 90.0 * FRAC_PI_2,
+                (ipd as f64 + 0.5) / 180.0 * PI,
+            );
+            let want = match (ith, itd, ipd) {
+                (37, 3, 121) => 0.0,
+                _ => index(ith, itd, ipd) as f32,
+            };
+            assert_eq!(
+                t.lookup_nearest(wi, wo).r,
+                want,
+                "bin ({ith}, {itd}, {ipd})"
+            );
+        }
+        let below = t.lookup_nearest(Vec3::new(0.0, 0.6, -0.8), Vec3::Z);
+        assert_eq!(below.to_array(), [0.0; 3]);
+        let odd = [f32::NAN, f32::INFINITY, -0.0, 1e-30, -1.0];
+        let pairs: Vec<(Vec3, Vec3)> = (0..4 * LANES)
+            .map(|k| {
+                let f = |m: usize| ((k * m + 3) % 97) as f32 / 48.0 - 1.0;
+                let wi = Vec3::new(f(31), f(17), f(7).abs());
+                let wo = Vec3::new(f(13), f(29), f(11));
+                match k % 7 {
+                    0 => (Vec3::new(odd[k % 5], 0.1, 0.5), wo),
+                    1 => (wi, Vec3::new(0.2, odd[(k + 2) % 5], odd[k % 5])),
+                    _ => (wi, wo),
+                }
+            })
+            .collect();
+        for chunk in pairs.chunks(LANES) {
+            let lanes = |f: fn(&(Vec3, Vec3)) -> Vec3| {
+                Vec3xN::from_array(&crate::simd::lanes(|k| f(&chunk[k])))
+            };
+            let v = t.nearest(lanes(|p| p.0), lanes(|p| p.1));
+            for (k, (wi, wo)) in chunk.iter().enumerate() {
+                let one = t.lookup_nearest(*wi, *wo).to_array();
+                let got = v.map(|c| c.to_array()[k]);
+                assert_eq!(got.map(f32::to_bits), one.map(f32::to_bits), "{wi} {wo}");
+            }
         }
     }
 
