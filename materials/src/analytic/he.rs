@@ -276,11 +276,11 @@ impl He {
     /// sqrt(m) times as wide as the m = 1 term, the diffraction lobe the smooth proposal
     /// follows. The rough proposal takes the width of the term one standard deviation above
     /// the Poisson mean, m = g + sqrt(g) + 1: 2 sigma / tau sqrt(1 + 1 / sqrt(g) + 1 / g),
-    /// the rough limit 2 sigma / tau as g grows (with that limit itself the proposal left the
-    /// wider terms of the upper tail to heavy-tailed weights). The smooth proposal's share is
-    /// the m = 1 term's part of the series' energy at g(wo, wo), g e^-g / (1 - e^-g), kept
-    /// within [0.05, 0.95] so that neither proposal is ever left out (so only g in about
-    /// [0.1, 4.5] needs the share's exact value: no cancellation in f32 matters).
+    /// the rough limit 2 sigma / tau as g grows (the limit alone would leave the wider terms
+    /// of the upper tail to heavy-tailed weights). The smooth proposal's share is the m = 1
+    /// term's part of the series' energy at g(wo, wo), g e^-g / (1 - e^-g), kept within
+    /// [0.05, 0.95] so that neither proposal is ever left out; it is computed only where it
+    /// is under the upper bound (g above 0.1), where 1 - e^-g does not cancel in f32.
     #[inline(always)]
     fn proposals<T: Single>(&self, cos_o: T) -> [T; 3] {
         let c = T::of32;
@@ -300,22 +300,17 @@ impl He {
             c(MIN_ROUGHNESS as f32),
             c(2.0),
         );
-        let sigma0 = self.sigma0 as f32;
-        let sigma = match sigma0 <= f32::EPSILON {
-            true => c(0.0),
-            false => {
-                let (_, k) = he_shadowing::direction_terms(sigma0, self.tau as f32, co);
-                c(sigma0) * he_shadowing::roughness_factor(k + k)
-            }
-        };
+        let sigma = he_shadowing::self_roughness(self.sigma0 as f32, self.tau as f32, co);
         let k = c((4.0 * std::f64::consts::PI / WAVELENGTHS_UM[1]) as f32) * sigma * co;
         let g = k * k;
         let live = gt(g, c(1e-12));
         let widened =
             c((2.0 / self.tau) as f32) * sigma * sqrt(c(1.0) + c(1.0) / sqrt(g) + c(1.0) / g);
         let rough = clamp(select(live, widened, smooth), smooth, c(2.0));
+        // The share is over 0.95 (the clamp) up to g = 0.102; above 0.1, 1 - e^-g keeps its
+        // digits in f32.
         let e = fastmath::exp(-g);
-        let first = select(live, g * e / (c(1.0) - e), c(1.0));
+        let first = select(gt(g, c(0.1)), g * e / (c(1.0) - e), c(1.0));
         [smooth, rough, clamp(first, c(0.05), c(0.95))]
     }
 

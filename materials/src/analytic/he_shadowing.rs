@@ -95,15 +95,15 @@ pub fn elevation_terms<T: Single>(sigma0: f32, tau: f32, ci: T, co: T) -> (T, T)
 }
 
 /// sigma(theta, theta), the effective roughness with both directions at cos theta = `c`
-/// ([`elevation_terms`]' second term, one direction's terms found once): the width of He's
-/// rough sampling proposal.
-#[inline]
-pub fn self_roughness(sigma0: f32, tau: f32, c: f32) -> f32 {
+/// (one or lanes; [`elevation_terms`]' second term, one direction's terms found once): the
+/// width of He's rough sampling proposal.
+#[inline(always)]
+pub fn self_roughness<T: Single>(sigma0: f32, tau: f32, c: T) -> T {
     if sigma0 <= f32::EPSILON {
-        return 0.0;
+        return T::of32(0.0);
     }
     let (_, k) = direction_terms(sigma0, tau, c);
-    sigma0 * roughness_factor(k + k)
+    T::of32(sigma0) * roughness_factor(k + k)
 }
 
 /// (S, K) of one direction at cos theta = `c` (one or lanes): s = tau cot(theta) / (2 sigma0),

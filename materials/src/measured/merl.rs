@@ -11,10 +11,10 @@
 //! (the measurement had none, e.g. within 3 degrees of retro-reflection).
 //!
 //! In memory the table is f32 RGB (17.5 MB). Lookups are nearest (the bin) or trilinear
-//! between bin centres (periodic in phi_d), skipping missing corners. The trilinear lookup
-//! the renderer uses runs in f32 without trigonometric rotations ([`bin_coords`]), one pair
-//! at a time or `LANES` ([`Merl::interpolate`], the batched evaluation of the `merl` material);
-//! fitting and the nearest-bin lookup keep the f64 angles of [`half_diff`].
+//! between bin centres (periodic in phi_d), skipping missing corners. Both lookups the
+//! renderer uses run in f32 without trigonometric rotations ([`bin_coords`]), one pair at a
+//! time or `LANES` ([`Merl::interpolate`], [`Merl::nearest`]: the batched evaluation of the
+//! `merl` material); fitting ([`Merl::measured`]) keeps the f64 angles of [`half_diff`].
 
 use crate::Rgb;
 use crate::error::FileError;
@@ -387,14 +387,11 @@ mod tests {
                 (ipd as f64 + 0.5) / 180.0 * PI,
             );
             let want = match (ith, itd, ipd) {
-                (37, 3, 121) => 0.0,
-                _ => index(ith, itd, ipd) as f32,
+                (37, 3, 121) => [0.0; 3],
+                _ => [index(ith, itd, ipd) as f32, 1.0, 2.0],
             };
-            assert_eq!(
-                t.lookup_nearest(wi, wo).r,
-                want,
-                "bin ({ith}, {itd}, {ipd})"
-            );
+            let got = t.lookup_nearest(wi, wo).to_array();
+            assert_eq!(got, want, "bin ({ith}, {itd}, {ipd})");
         }
         let below = t.lookup_nearest(Vec3::new(0.0, 0.6, -0.8), Vec3::Z);
         assert_eq!(below.to_array(), [0.0; 3]);
