@@ -10,7 +10,7 @@
 //! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
 
 use crate::columns::{Vec2Cols, Vec3Cols, Vec3ColsMut};
-use crate::math::{Num, Real, V3, gt, is_finite, le, maximum, select, sin_cos, sqrt};
+use crate::math::{Num, Real, Single, V3, gt, is_finite, le, maximum, select, sin_cos, sqrt};
 use crate::simd::{LANES, MaskN, RgbxN, Vec3xN, f32xn, lanes, mask_bits, mask_from_bools, padded};
 use crate::{Flags, Rgb};
 use glam::{DVec3, Vec2, Vec3};
@@ -144,28 +144,62 @@ pub trait GenericLobe {
     /// A direction for `wo` from a 2D uniform (`ux`, `uy`) and a 1D uniform `uc`, and
     /// where it is one (above the surface, for `wo` above it).
     fn draw<T: Num>(&self, wo: V3<T>, ux: T, uy: T, uc: T) -> (V3<T>, T::Mask);
+    /// The value per channel (the same in each): the form [`SingleLobe::channels`] has.
+    #[inline(always)]
+    fn channels<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
+        [self.value(wo, wi); 3]
+    }
+    /// [`GenericLobe::channels`] and [`GenericLobe::density`].
+    #[inline(always)]
+    fn channels_density<T: Num>(&self, wo: V3<T>, wi: V3<T>) -> ([T; 3], T) {
+        (self.channels(wo, wi), self.density(wo, wi))
+    }
 }
 
-/// Implements [`Lobe`]'s `eval`, `eval_f64`, `pdf`, `sample`, `eval_pdf_xn`, `eval_xn` and
-/// `sample_xn` inside an `impl Lobe` block of a type that implements [`GenericLobe`].
+/// A lobe whose rendered forms are written once over [`Single`] (f32 and lanes) with a
+/// value per channel (He et al.'s wave-optics terms depend on each channel's wavelength),
+/// and whose f64 value (for fitting) is its own: `impl_lobe_forms!(single)` instantiates
+/// its f32 and lane entry points of [`Lobe`], which agree bit for bit, and the model
+/// writes `eval_f64`.
+pub trait SingleLobe {
+    /// The lobe value (1/sr, no cosine) per channel, zero below the surface.
+    fn channels<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3];
+    /// [`SingleLobe::channels`] and [`SingleLobe::density`] (a model may share their
+    /// common terms), each bit for bit its own call.
+    fn channels_density<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> ([T; 3], T) {
+        (self.channels(wo, wi), self.density(wo, wi))
+    }
+    /// Solid-angle density of [`SingleLobe::draw`]'s direction, zero where it draws none.
+    fn density<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> T;
+    /// A direction for `wo` from a 2D uniform (`ux`, `uy`) and a 1D uniform `uc`, and
+    /// where it is one.
+    fn draw<T: Single>(&self, wo: V3<T>, ux: T, uy: T, uc: T) -> (V3<T>, T::Mask);
+}
+
+/// Implements [`Lobe`]'s entry points inside an `impl Lobe` block from the forms written
+/// once: `impl_lobe_forms!()` for a [`GenericLobe`] (`eval`, `eval_f64`, `pdf`, `sample`,
+/// `eval_pdf_xn`, `eval_xn`, `sample_xn`), `impl_lobe_forms!(single)` for a
+/// [`SingleLobe`] (all but `eval_f64`).
 #[macro_export]
 macro_rules! impl_lobe_forms {
     () => {
         #[inline]
-        fn eval(&self, wo: $crate::glam::Vec3, wi: $crate::glam::Vec3) -> $crate::Rgb {
-            $crate::Rgb::splat($crate::lobe::GenericLobe::value::<f32>(
-                self,
-                wo.into(),
-                wi.into(),
-            ))
-        }
-        #[inline]
         fn eval_f64(&self, wo: $crate::glam::DVec3, wi: $crate::glam::DVec3) -> [f64; 3] {
             [$crate::lobe::GenericLobe::value::<f64>(self, wo.into(), wi.into()); 3]
         }
+        $crate::impl_lobe_forms!(@rendered $crate::lobe::GenericLobe);
+    };
+    (single) => {
+        $crate::impl_lobe_forms!(@rendered $crate::lobe::SingleLobe);
+    };
+    (@rendered $form:path) => {
+        #[inline]
+        fn eval(&self, wo: $crate::glam::Vec3, wi: $crate::glam::Vec3) -> $crate::Rgb {
+            $crate::Rgb::from(<Self as $form>::channels::<f32>(self, wo.into(), wi.into()))
+        }
         #[inline]
         fn pdf(&self, wo: $crate::glam::Vec3, wi: $crate::glam::Vec3) -> f32 {
-            $crate::lobe::GenericLobe::density::<f32>(self, wo.into(), wi.into())
+            <Self as $form>::density::<f32>(self, wo.into(), wi.into())
         }
         #[inline]
         fn sample(
@@ -174,7 +208,7 @@ macro_rules! impl_lobe_forms {
             u: $crate::glam::Vec2,
             uc: f32,
         ) -> Option<$crate::glam::Vec3> {
-            let (wi, ok) = $crate::lobe::GenericLobe::draw::<f32>(self, wo.into(), u.x, u.y, uc);
+            let (wi, ok) = <Self as $form>::draw::<f32>(self, wo.into(), u.x, u.y, uc);
             ok.then(|| wi.into())
         }
         #[inline]
@@ -183,9 +217,8 @@ macro_rules! impl_lobe_forms {
             wo: $crate::simd::Vec3xN,
             wi: $crate::simd::Vec3xN,
         ) -> ($crate::simd::RgbxN, $crate::simd::f32xn) {
-            let v = $crate::lobe::GenericLobe::value(self, wo, wi);
-            let p = $crate::lobe::GenericLobe::density(self, wo, wi);
-            ($crate::simd::RgbxN::new(v, v, v), p)
+            let ([r, g, b], p) = <Self as $form>::channels_density(self, wo, wi);
+            ($crate::simd::RgbxN::new(r, g, b), p)
         }
         #[inline]
         fn eval_xn(
@@ -193,8 +226,8 @@ macro_rules! impl_lobe_forms {
             wo: $crate::simd::Vec3xN,
             wi: $crate::simd::Vec3xN,
         ) -> $crate::simd::RgbxN {
-            let v = $crate::lobe::GenericLobe::value(self, wo, wi);
-            $crate::simd::RgbxN::new(v, v, v)
+            let [r, g, b] = <Self as $form>::channels(self, wo, wi);
+            $crate::simd::RgbxN::new(r, g, b)
         }
         #[inline]
         fn sample_xn(
@@ -203,7 +236,7 @@ macro_rules! impl_lobe_forms {
             u: [$crate::simd::f32xn; 2],
             uc: $crate::simd::f32xn,
         ) -> ($crate::simd::Vec3xN, $crate::simd::MaskN) {
-            $crate::lobe::GenericLobe::draw(self, wo, u[0], u[1], uc)
+            <Self as $form>::draw(self, wo, u[0], u[1], uc)
         }
     };
 }

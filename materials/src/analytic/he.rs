@@ -39,14 +39,13 @@ use super::he_shadowing;
 use super::microfacet::fresnel::{Fresnel::Dielectric, dielectric};
 use super::microfacet::{MIN_ROUGHNESS, beckmann_visible_pdf, visible};
 use crate::fastmath;
-use crate::lobe::{self, Lobe, above};
+use crate::lobe::{self, Lobe, SingleLobe, above};
 use crate::math::{Real, Single, V3, all, gt, half, is_finite, lt, maximum, minimum, select, sqrt};
 use crate::schema::{
     Bounds, FitGroup, FitRange, FitVariant, LobeModel, ModelSchema, Params, PublishedFit,
 };
-use crate::simd::{MaskN, RgbxN, Vec3xN, f32xn};
-use crate::{Flags, ParamError, Rgb};
-use glam::{DVec3, Vec2, Vec3};
+use crate::{Flags, ParamError};
+use glam::DVec3;
 use std::sync::Arc;
 
 /// Wavelengths of the R, G, B channels in micrometres (bbm's `Config::wavelength`).
@@ -260,16 +259,6 @@ impl He {
         select(ok, p, T::of32(0.0))
     }
 
-    /// A direction for `wo` (one or lanes): the proposal chosen by `uc`, a Beckmann visible
-    /// normal of its roughness (Heitz and d'Eon 2014) and its mirror, and where that is a
-    /// sample.
-    #[inline(always)]
-    fn draw<T: Single>(&self, wo: V3<T>, ux: T, uy: T, uc: T) -> (V3<T>, T::Mask) {
-        let [smooth, rough, w] = self.proposals(wo.z);
-        let m = select(lt(uc, w), smooth, rough);
-        lobe::reflect_above(wo, visible::sample(m, m, wo, ux, uy))
-    }
-
     /// The proposals' roughnesses (smooth, rough) and the smooth one's share of the
     /// samples at `wo` (one or lanes, written once). The series is a Poisson mixture over m
     /// of lobes whose energy goes as the Poisson weight g^m e^-g / m!, the term m a lobe
@@ -383,11 +372,6 @@ impl Lobe for He {
         "he"
     }
 
-    /// [`He::value_rendered`], bit for bit a lane of [`Lobe::eval_pdf_xn`].
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        Rgb::from(self.value_rendered::<f32>(wo.into(), wi.into()))
-    }
-
     fn eval_f64(&self, wo: DVec3, wi: DVec3) -> [f64; 3] {
         self.value_tabulated(wo.into(), wi.into())
     }
@@ -416,34 +400,43 @@ impl Lobe for He {
         }
     }
 
-    fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<Vec3> {
-        let (wi, ok) = self.draw::<f32>(wo.into(), u.x, u.y, uc);
-        ok.then(|| wi.into())
-    }
-
-    fn sample_xn(&self, wo: Vec3xN, u: [f32xn; 2], uc: f32xn) -> (Vec3xN, MaskN) {
-        self.draw(wo, u[0], u[1], uc)
-    }
-
-    /// The value and the density, sharing the half vector.
-    fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
-        let h = lobe::half_where(wo, wi);
-        let [r, g, b] = self.value_at_half(wo, wi, h);
-        (RgbxN::new(r, g, b), self.density_at_half(wo, wi, h))
-    }
-
-    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
-        let [r, g, b] = self.value_at_half(wo, wi, lobe::half_where(wo, wi));
-        RgbxN::new(r, g, b)
-    }
-
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let (wo, wi) = (V3::from(wo), V3::from(wi));
-        self.density_at_half(wo, wi, lobe::half_where(wo, wi))
-    }
+    crate::impl_lobe_forms!(single);
 
     fn flags(&self) -> Flags {
         Flags::ISOTROPIC | Flags::RECIPROCAL | Flags::GLOSSY
+    }
+}
+
+/// The rendered lobe ([`He::value_rendered`]) and its sampler, in f32 and lanes.
+impl SingleLobe for He {
+    #[inline(always)]
+    fn channels<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
+        self.value_rendered(wo, wi)
+    }
+
+    /// The value and the density, sharing the half vector.
+    #[inline(always)]
+    fn channels_density<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> ([T; 3], T) {
+        let h = lobe::half_where(wo, wi);
+        (
+            self.value_at_half(wo, wi, h),
+            self.density_at_half(wo, wi, h),
+        )
+    }
+
+    #[inline(always)]
+    fn density<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> T {
+        self.density_at_half(wo, wi, lobe::half_where(wo, wi))
+    }
+
+    /// A direction for `wo` (one or lanes): the proposal chosen by `uc`, a Beckmann visible
+    /// normal of its roughness (Heitz and d'Eon 2014) and its mirror, and where that is a
+    /// sample.
+    #[inline(always)]
+    fn draw<T: Single>(&self, wo: V3<T>, ux: T, uy: T, uc: T) -> (V3<T>, T::Mask) {
+        let [smooth, rough, w] = self.proposals(wo.z);
+        let m = select(lt(uc, w), smooth, rough);
+        lobe::reflect_above(wo, visible::sample(m, m, wo, ux, uy))
     }
 }
 
@@ -510,7 +503,8 @@ pub const MODEL: LobeModel = LobeModel {
 mod tests {
     use super::*;
     use crate::analytic::microfacet::Distribution;
-    use crate::simd::LANES;
+    use crate::simd::{LANES, Vec3xN};
+    use glam::Vec3;
 
     fn dir(theta: f64, phi: f64) -> V3<f64> {
         let (t, p) = (theta.to_radians(), phi.to_radians());

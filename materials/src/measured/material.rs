@@ -22,81 +22,59 @@ use std::any::Any;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// A loaded table: how to evaluate it (the form [`Measured`] holds; every
-/// [`TableLookup`] is one).
-pub trait Table: Send + Sync + std::fmt::Debug {
-    /// f_r(wo, wi) in 1/sr (RGB), zero below the surface.
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
-    /// [`Table::eval`] of `LANES` pairs, each lane bit for bit the single call.
-    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN;
-    fn is_isotropic(&self) -> bool;
-    fn memory_bytes(&self) -> usize;
+/// A loaded table, looked up by one generic function for one pair and for lanes of
+/// pairs ([`MeasuredTable::value`]); a new tabulated format is one more variant.
+#[derive(Debug)]
+pub enum MeasuredTable {
+    /// A MERL table, trilinear ([`Merl::interpolate`]) or by nearest bin
+    /// ([`Merl::nearest`]).
+    Merl { table: Merl, interpolate: bool },
+    /// The study's binned 4D data, empty bins filled ([`Binned::bin_value`]).
+    Binned(Binned),
 }
 
-/// A table's lookup written once for one pair and for lanes of pairs; it gives the
-/// table's [`Table`] entry points.
-pub trait TableLookup: Send + Sync + std::fmt::Debug {
-    /// f_r(wo, wi) in 1/sr per channel, zero below the surface.
-    fn value<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3];
-    fn is_isotropic(&self) -> bool {
-        true
+impl MeasuredTable {
+    /// f_r(wo, wi) in 1/sr per channel (one pair or lanes), zero below the surface;
+    /// negative bins of binned data (noise of a measurement, e.g. tabulated from an
+    /// unclamped RGL file) render as zero.
+    #[inline]
+    pub fn value<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
+        match self {
+            Self::Merl {
+                table,
+                interpolate: true,
+            } => table.interpolate(wi, wo),
+            Self::Merl {
+                table,
+                interpolate: false,
+            } => table.nearest(wi, wo),
+            Self::Binned(table) => table.bin_value(wi, wo).map(|x| maximum(x, T::of32(0.0))),
+        }
     }
-    fn memory_bytes(&self) -> usize;
-}
 
-impl<L: TableLookup> Table for L {
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+    /// [`MeasuredTable::value`] of one pair.
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         Rgb::from(self.value::<f32>(wo.into(), wi.into()))
     }
-    fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
+
+    /// [`MeasuredTable::value`] of `LANES` pairs.
+    fn eval_lanes(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
         let [r, g, b] = self.value(wo, wi);
         RgbxN::new(r, g, b)
     }
-    fn is_isotropic(&self) -> bool {
-        TableLookup::is_isotropic(self)
-    }
-    fn memory_bytes(&self) -> usize {
-        TableLookup::memory_bytes(self)
-    }
-}
 
-#[derive(Debug)]
-struct MerlTable {
-    table: Merl,
-    interpolate: bool,
-}
-
-impl TableLookup for MerlTable {
-    fn memory_bytes(&self) -> usize {
-        self.table.memory_bytes()
-    }
-    /// Trilinear ([`Merl::interpolate`]) or the nearest bin ([`Merl::nearest`]).
-    fn value<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
-        match self.interpolate {
-            true => self.table.interpolate(wi, wo),
-            false => self.table.nearest(wi, wo),
+    pub fn is_isotropic(&self) -> bool {
+        match self {
+            Self::Merl { .. } => true,
+            Self::Binned(table) => !table.anisotropic,
         }
     }
-}
 
-#[derive(Debug)]
-struct BinnedTable {
-    table: Binned,
-}
-
-impl TableLookup for BinnedTable {
-    fn memory_bytes(&self) -> usize {
-        self.table.values.len() * std::mem::size_of::<Option<[f32; 3]>>()
-    }
-    /// The pair's bin ([`Binned::bin_value`]); negative bins (noise of a measurement, e.g.
-    /// tabulated from an unclamped RGL file) render as zero.
-    fn value<T: Single>(&self, wo: V3<T>, wi: V3<T>) -> [T; 3] {
-        self.table
-            .bin_value(wi, wo)
-            .map(|x| maximum(x, T::of32(0.0)))
-    }
-    fn is_isotropic(&self) -> bool {
-        !self.table.anisotropic
+    pub fn memory_bytes(&self) -> usize {
+        match self {
+            Self::Merl { table, .. } => table.memory_bytes(),
+            Self::Binned(table) => table.values.len() * std::mem::size_of::<Option<[f32; 3]>>(),
+        }
     }
 }
 
@@ -104,12 +82,12 @@ impl TableLookup for BinnedTable {
 #[derive(Debug, Clone)]
 pub struct Measured {
     name: &'static str,
-    table: Arc<dyn Table>,
+    table: Arc<MeasuredTable>,
     sampler: Arc<TabulatedSampler>,
 }
 
 impl Measured {
-    pub fn new(name: &'static str, table: Arc<dyn Table>) -> Self {
+    pub fn new(name: &'static str, table: Arc<MeasuredTable>) -> Self {
         TABLES_BUILT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let t = table.clone();
         let sampler = Arc::new(TabulatedSampler::new(move |wo, wi| {
@@ -122,16 +100,12 @@ impl Measured {
         }
     }
 
-    pub fn table(&self) -> &Arc<dyn Table> {
-        &self.table
-    }
-
     /// Sets the weights `f cos / pdf` of the samples `out[k]` of `idx` (one to `LANES`, each
-    /// holding its direction and density), their values from [`Table::eval_xn`]; a sample
+    /// holding its direction and density), their values from [`MeasuredTable::value`]; a sample
     /// whose weight is not finite becomes `None` ([`BsdfSample::weight_where`], per lane).
     fn weigh_samples(&self, wo: Vec3Cols, idx: &[usize], out: &mut [Option<BsdfSample>]) {
         let wi = |k: usize| out[k].map_or(Vec3::Z, |s| s.wi);
-        let f = self.table.eval_xn(
+        let f = self.table.eval_lanes(
             wo.lanes_of(idx),
             Vec3xN::from_array(&simd::lanes_of(idx, wi)),
         );
@@ -166,7 +140,7 @@ impl Bsdf for Measured {
     }
 
     /// Directions and densities from the sampler one query at a time, then the values of
-    /// the sampled directions a lane vector at a time ([`Table::eval_xn`]); bit for bit
+    /// the sampled directions a lane vector at a time ([`MeasuredTable::value`]); bit for bit
     /// [`Measured::sample`] (a sample's value is only needed once its density is positive).
     fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
         let n = out.len();
@@ -212,14 +186,14 @@ impl Bsdf for Measured {
     }
 
     /// The values of the pairs above the surface and the sampler's densities, `LANES` at a
-    /// time ([`Table::eval_xn`], [`TabulatedSampler::density`]).
+    /// time ([`MeasuredTable::value`], [`TabulatedSampler::density`]).
     fn eval_pdf_many(&self, wo: Vec3Cols, wi: Vec3Cols, f: &mut [Rgb], pdf: &mut [f32]) {
         let n = f.len();
         assert!(wo.len() == n && wi.len() == n && pdf.len() == n);
         f.fill(Rgb::ZERO);
         let above = |k: usize| !(wo.z()[k] <= 0.0 || wi.z()[k] <= 0.0);
         simd::chunks_where(n, above, |idx| {
-            let v = self.table.eval_xn(wo.lanes_of(idx), wi.lanes_of(idx));
+            let v = self.table.eval_lanes(wo.lanes_of(idx), wi.lanes_of(idx));
             for (lane, &k) in idx.iter().enumerate() {
                 f[k] = v.lane(lane);
             }
@@ -330,7 +304,7 @@ fn build_merl(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamErro
             .map_err(|e| ParamError::new(format!("{}.file", p.path), e.to_string()))?;
         Ok(Measured::new(
             "merl",
-            Arc::new(MerlTable { table, interpolate }),
+            Arc::new(MeasuredTable::Merl { table, interpolate }),
         ))
     })
 }
@@ -355,9 +329,7 @@ fn build_binned(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamEr
         }
         Ok(Measured::new(
             "binned",
-            Arc::new(BinnedTable {
-                table: table.filled_copy(),
-            }),
+            Arc::new(MeasuredTable::Binned(table.filled_copy())),
         ))
     })
 }
