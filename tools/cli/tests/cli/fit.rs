@@ -351,6 +351,54 @@ fn fit_select_picks_the_cheapest_model_within_tolerance() {
     );
 }
 
+/// `fit compare-metrics`' metrics.csv of the Ward and Blinn-Phong data ("w", "b") under
+/// sunset, both models, metrics eq1 and log: each data's own model has a vanishing Eq. (1)
+/// error and an image error whose interval lies below the other model's; every interval
+/// holds its estimate; the noise floor is positive and below the other model's error.
+fn assert_each_data_fits_its_own_model_best(csv: &str) {
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    // 2 materials x 2 metrics x 2 models under 1 map.
+    assert_eq!(rows.len(), 8, "{csv}");
+    let value = |material: &str, model: &str, metric: &str, col: usize| -> f64 {
+        let r = rows
+            .iter()
+            .find(|r| r[0] == material && r[1] == model && r[2] == metric && r[3] == "sunset")
+            .unwrap_or_else(|| panic!("{material} {model} {metric} missing: {csv}"));
+        r[col].parse().unwrap()
+    };
+    for metric in ["eq1", "log"] {
+        for (material, own, other) in [("w", "ward", "blinn-phong"), ("b", "blinn-phong", "ward")] {
+            // Eq. (1) error (column 4) near zero for the data's own model; its image
+            // closer to the data's (RMSE, column 5) than the other model's, the intervals
+            // (columns 6, 7) apart; a positive noise floor (column 9) below the other
+            // model's error.
+            assert!(value(material, own, metric, 4) < 1e-3, "{csv}");
+            assert!(value(material, other, metric, 4) > 1e-2, "{csv}");
+            assert!(
+                value(material, own, metric, 7) < value(material, other, metric, 6),
+                "{csv}"
+            );
+            for model in [own, other] {
+                let (lo, e, hi) = (
+                    value(material, model, metric, 6),
+                    value(material, model, metric, 5),
+                    value(material, model, metric, 7),
+                );
+                assert!(lo <= e && e <= hi, "{csv}");
+            }
+            let floor = value(material, own, metric, 9);
+            assert!(
+                floor > 0.0 && floor < value(material, other, metric, 5),
+                "{csv}"
+            );
+        }
+    }
+}
+
 /// `lobe fit compare-metrics`: every metric's fit of every model, its image error under the
 /// held-out map against the data's image with an interval and the noise floor; a model fits
 /// its own data best, with intervals that separate; the fits are kept and reused when
@@ -402,47 +450,7 @@ fn fit_compare_metrics_estimates_each_fits_image_error_against_the_data() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
-    let rows: Vec<Vec<&str>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').collect())
-        .collect();
-    // 2 materials x 2 metrics x 2 models under 1 map.
-    assert_eq!(rows.len(), 8, "{csv}");
-    let value = |material: &str, model: &str, metric: &str, col: usize| -> f64 {
-        let r = rows
-            .iter()
-            .find(|r| r[0] == material && r[1] == model && r[2] == metric && r[3] == "sunset")
-            .unwrap_or_else(|| panic!("{material} {model} {metric} missing: {csv}"));
-        r[col].parse().unwrap()
-    };
-    for metric in ["eq1", "log"] {
-        for (material, own, other) in [("w", "ward", "blinn-phong"), ("b", "blinn-phong", "ward")] {
-            // Eq. (1) error (column 4) near zero for the data's own model; its image
-            // closer to the data's (RMSE, column 5) than the other model's, the intervals
-            // (columns 6, 7) apart; a positive noise floor (column 9) below the other
-            // model's error.
-            assert!(value(material, own, metric, 4) < 1e-3, "{csv}");
-            assert!(value(material, other, metric, 4) > 1e-2, "{csv}");
-            assert!(
-                value(material, own, metric, 7) < value(material, other, metric, 6),
-                "{csv}"
-            );
-            for model in [own, other] {
-                let (lo, e, hi) = (
-                    value(material, model, metric, 6),
-                    value(material, model, metric, 5),
-                    value(material, model, metric, 7),
-                );
-                assert!(lo <= e && e <= hi, "{csv}");
-            }
-            let floor = value(material, own, metric, 9);
-            assert!(
-                floor > 0.0 && floor < value(material, other, metric, 5),
-                "{csv}"
-            );
-        }
-    }
+    assert_each_data_fits_its_own_model_best(&csv);
     let md = std::fs::read_to_string(out.join("metrics.md")).unwrap();
     assert!(
         md.contains("| eq1 | 1.000 |") && md.contains("| log |"),
