@@ -12,7 +12,7 @@ use criterion::{Criterion, Throughput};
 use glam::{Vec2, Vec3};
 use lobe_materials::measured::tabulate::{Acquisition, binned_from, merl_from};
 use lobe_materials::registry::Registry;
-use lobe_materials::{Bsdf, BsdfSample, Rgb, Vec3s};
+use lobe_materials::{Bsdf, BsdfSamples, Rgb, Vec3s};
 use serde_json::{Value, json};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -208,14 +208,14 @@ fn bench_material(c: &mut Criterion, name: &str, m: &Arc<dyn Bsdf>, q: &Queries)
             }
         })
     });
-    let mut out: Vec<Option<BsdfSample>> = vec![None; N];
+    let mut out = BsdfSamples::new(N);
     g.bench_function("sample_many", |b| {
         b.iter(|| {
             m.sample_many(
                 black_box(wo.cols()),
                 black_box(u.cols()),
                 black_box(&q.uc),
-                &mut out,
+                out.as_mut(),
             );
             black_box(&out);
         })

@@ -7,10 +7,10 @@
 //! `f_r * cos(theta_i) / pdf` with the pdf in solid-angle measure. A BRDF is one-sided:
 //! when either direction is below the surface it evaluates to zero, as Mitsuba 3's BSDFs do.
 
-use crate::columns::{Vec2Cols, Vec3Cols};
+use crate::columns::{Vec2Cols, Vec3Cols, Vec3ColsMut, Vec3s};
 use crate::math::{Num, gt, is_finite};
 use glam::{Vec2, Vec3};
-use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Sub};
+use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Range, Sub};
 
 /// Linear Rec.709 RGB triple.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -197,6 +197,116 @@ impl BsdfSample {
     }
 }
 
+/// The samples of a batch ([`Bsdf::sample_many`]'s output) as columns, as the wavefront's
+/// other queues hold theirs: entry k is a sample where its density is set and "no sample"
+/// where the density is 0 (a sample's density is never 0 nor negative:
+/// [`BsdfSample::finish`]).
+#[derive(Clone, Debug, Default)]
+pub struct BsdfSamples {
+    wi: Vec3s,
+    weight: Vec<Rgb>,
+    pdf: Vec<f32>,
+}
+
+impl BsdfSamples {
+    /// `n` entries, all "no sample".
+    pub fn new(n: usize) -> Self {
+        let mut s = Self::default();
+        s.reset(n);
+        s
+    }
+
+    /// Makes the columns `n` entries long, all "no sample".
+    pub fn reset(&mut self, n: usize) {
+        self.wi.clear();
+        self.wi.resize(n);
+        self.weight.clear();
+        self.weight.resize(n, Rgb::ZERO);
+        self.pdf.clear();
+        self.pdf.resize(n, 0.0);
+    }
+
+    pub fn len(&self) -> usize {
+        self.pdf.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pdf.is_empty()
+    }
+
+    /// Entry `k`: its sample, or None.
+    #[inline]
+    pub fn get(&self, k: usize) -> Option<BsdfSample> {
+        (!(self.pdf[k] <= 0.0)).then(|| BsdfSample {
+            wi: self.wi.get(k),
+            weight: self.weight[k],
+            pdf: self.pdf[k],
+        })
+    }
+
+    /// Every entry in order.
+    pub fn iter(&self) -> impl Iterator<Item = Option<BsdfSample>> + '_ {
+        (0..self.len()).map(|k| self.get(k))
+    }
+
+    /// The columns to write ([`Bsdf::sample_many`]).
+    pub fn as_mut(&mut self) -> BsdfSamplesMut<'_> {
+        BsdfSamplesMut {
+            wi: self.wi.cols_mut(),
+            weight: &mut self.weight,
+            pdf: &mut self.pdf,
+        }
+    }
+}
+
+/// [`BsdfSamples`]' columns (or a range of them), borrowed to be written.
+pub struct BsdfSamplesMut<'a> {
+    wi: Vec3ColsMut<'a>,
+    weight: &'a mut [Rgb],
+    pdf: &'a mut [f32],
+}
+
+impl BsdfSamplesMut<'_> {
+    pub fn len(&self) -> usize {
+        self.pdf.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pdf.is_empty()
+    }
+
+    /// Sets entry `k` to `s` (None: no sample).
+    #[inline]
+    pub fn set(&mut self, k: usize, s: Option<BsdfSample>) {
+        let s = s.unwrap_or(BsdfSample {
+            wi: Vec3::ZERO,
+            weight: Rgb::ZERO,
+            pdf: 0.0,
+        });
+        self.wi.set(k, s.wi);
+        self.weight[k] = s.weight;
+        self.pdf[k] = s.pdf;
+    }
+
+    /// Sets every entry to "no sample".
+    pub fn clear(&mut self) {
+        for c in self.wi.columns() {
+            c.fill(0.0);
+        }
+        self.weight.fill(Rgb::ZERO);
+        self.pdf.fill(0.0);
+    }
+
+    /// Entries `r`.
+    pub fn slice(&mut self, r: Range<usize>) -> BsdfSamplesMut<'_> {
+        BsdfSamplesMut {
+            wi: self.wi.slice(r.clone()),
+            weight: &mut self.weight[r.clone()],
+            pdf: &mut self.pdf[r],
+        }
+    }
+}
+
 /// The plugin interface every BRDF implements. See the module docs for conventions.
 pub trait Bsdf: Send + Sync + std::fmt::Debug {
     /// f_r(wo, wi) in 1/sr, without the cosine factor; zero below the surface.
@@ -207,14 +317,16 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample>;
     /// Solid-angle density with which `sample` produces `wi`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
-    /// [`Bsdf::sample`] of many queries at once, `out[k]` for (`wo[k]`, `u[k]`, `uc[k]`),
-    /// bit for bit the same: the renderer's wavefront integrator samples all hits on one
-    /// material in one call. Models may override it with a batched (SIMD) form.
-    /// The directions and sample points come as columns ([`Vec3Cols`], [`Vec2Cols`], the
-    /// queues' struct-of-arrays form).
-    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
-        for (((o, wo), u), &uc) in out.iter_mut().zip(wo.iter()).zip(u.iter()).zip(uc) {
-            *o = self.sample(wo, u, uc);
+    /// [`Bsdf::sample`] of many queries at once, entry k of `out` for (`wo[k]`, `u[k]`,
+    /// `uc[k]`), bit for bit the same: the renderer's wavefront integrator samples all hits
+    /// on one material in one call. Models may override it with a batched (SIMD) form.
+    /// The directions and sample points come as columns ([`Vec3Cols`], [`Vec2Cols`]) and
+    /// the samples go to columns ([`BsdfSamplesMut`]): the queues' struct-of-arrays form.
+    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], mut out: BsdfSamplesMut) {
+        let n = out.len();
+        assert!(wo.len() == n && u.len() == n && uc.len() == n);
+        for (k, &uc) in uc.iter().enumerate() {
+            out.set(k, self.sample(wo.get(k), u.get(k), uc));
         }
     }
     /// [`Bsdf::eval`] and [`Bsdf::pdf`] of many direction pairs at once, `f[k]` and

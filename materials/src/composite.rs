@@ -6,7 +6,7 @@
 //! cos(theta_o) when the material is built), samples it, and reports the mixture density
 //! (one-sample MIS with the balance heuristic), so every component's sampler helps.
 
-use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::bsdf::{Bsdf, BsdfSample, BsdfSamplesMut, Flags, Rgb};
 use crate::columns::{Vec2Cols, Vec3Cols, Vec3ColsMut};
 use crate::lobe::Lobe;
 use crate::math::{Num, all, clamp, gt, is_finite, le, lt, maximum, select};
@@ -236,23 +236,23 @@ impl Bsdf for Composite {
 
     /// Components chosen and sampled query by query, the mixture density and the value of
     /// `LANES` sampled directions at a time ([`Composite::mix_lanes`]).
-    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], mut out: BsdfSamplesMut) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         if self.lobes.len() > MAX_INLINE {
-            for k in 0..n {
-                out[k] = self.sample(wo.get(k), u.get(k), uc[k]);
+            for (k, &uc) in uc.iter().enumerate() {
+                out.set(k, self.sample(wo.get(k), u.get(k), uc));
             }
             return;
         }
-        out.fill(None);
+        out.clear();
         for first in (0..n).step_by(SAMPLE_BLOCK) {
             let r = first..(first + SAMPLE_BLOCK).min(n);
             self.sample_block(
                 wo.slice(r.clone()),
                 u.slice(r.clone()),
                 &uc[r.clone()],
-                &mut out[r],
+                out.slice(r),
             );
         }
     }
@@ -363,14 +363,14 @@ impl Composite {
         }
     }
 
-    /// [`Bsdf::sample_many`] of at most [`SAMPLE_BLOCK`] queries (`out` all None), each
+    /// [`Bsdf::sample_many`] of at most [`SAMPLE_BLOCK`] queries (`out` all "no sample"), each
     /// bit for bit [`Bsdf::sample`]: every query above the surface chooses its component
     /// as the scalar call does (weights a lane vector at a time), then the queries that chose
     /// each lobe are sampled together, a lane vector at a time ([`Lobe::sample_xn`]), so that no
     /// lane samples a lobe its query did not choose; last, the value and the mixture
     /// density of every drawn direction, a lane vector at a time. Queries whose weights sum to
     /// zero get None.
-    fn sample_block(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_block(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], mut out: BsdfSamplesMut) {
         let m = wo.len();
         debug_assert!(m <= SAMPLE_BLOCK);
         let mut choice = [(NO_COMPONENT, 0.0f32); SAMPLE_BLOCK];
@@ -393,11 +393,14 @@ impl Composite {
                 let [dx, dy, dz] = [d.x, d.y, d.z].map(|c| c.to_array());
                 let p = p.to_array();
                 for (lane, &k) in idx.iter().enumerate() {
-                    out[k] = (keep >> lane & 1 != 0).then(|| BsdfSample {
-                        wi: Vec3::new(dx[lane], dy[lane], dz[lane]),
-                        weight: Rgb::new(wr[lane], wg[lane], wb[lane]),
-                        pdf: p[lane],
-                    });
+                    if keep >> lane & 1 != 0 {
+                        let s = BsdfSample {
+                            wi: Vec3::new(dx[lane], dy[lane], dz[lane]),
+                            weight: Rgb::new(wr[lane], wg[lane], wb[lane]),
+                            pdf: p[lane],
+                        };
+                        out.set(k, Some(s));
+                    }
                 }
             },
         );

@@ -44,7 +44,7 @@ pub mod sampling;
 pub mod schema;
 pub mod simd;
 
-pub use bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+pub use bsdf::{Bsdf, BsdfSample, BsdfSamples, BsdfSamplesMut, Flags, Rgb};
 pub use columns::{Vec2Cols, Vec2s, Vec3Cols, Vec3s};
 pub use error::{FileError, ParamError};
 /// The vector types of the public interface (re-exported for the exported macros).

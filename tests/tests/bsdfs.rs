@@ -568,11 +568,12 @@ fn batched_sampling_equals_single_samples() {
     for case in all.iter().chain(measured_cases()) {
         for (n, seed) in [(1usize, 0usize), (8, 3), (13, 5), (40, 7), (300, 11)] {
             let q = batch_inputs(n, seed);
-            let mut out = vec![None; n];
+            let mut out = lobe_materials::BsdfSamples::new(n);
             let wo = Vec3s::from(&q.wo[..]);
             let u = lobe_materials::Vec2s::from(&q.u[..]);
-            case.bsdf.sample_many(wo.cols(), u.cols(), &q.uc, &mut out);
-            for (k, &got) in out.iter().enumerate() {
+            case.bsdf
+                .sample_many(wo.cols(), u.cols(), &q.uc, out.as_mut());
+            for (k, got) in out.iter().enumerate() {
                 let one = case.bsdf.sample(q.wo[k], q.u[k], q.uc[k]);
                 assert_eq!(
                     bits(got),

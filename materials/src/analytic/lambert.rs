@@ -5,7 +5,7 @@
 //! Parameters: `reflectance` (RGB albedo, each channel in [0, 1]).
 
 use crate::ParamError;
-use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::bsdf::{Bsdf, BsdfSample, BsdfSamplesMut, Flags, Rgb};
 use crate::columns::{Vec2Cols, Vec3Cols};
 use crate::fastmath::select_branchless;
 use crate::sampling::warp::{
@@ -83,22 +83,27 @@ impl Bsdf for Lambert {
     }
 
     /// `LANES` queries per SIMD warp ([`cosine_hemisphere`]).
-    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, _uc: &[f32], out: &mut [Option<BsdfSample>]) {
-        assert!(wo.len() == out.len() && u.len() == out.len());
-        for (chunk, (wc, oc)) in wo.z().chunks(LANES).zip(out.chunks_mut(LANES)).enumerate() {
-            let n = oc.len();
-            let [ux, uy] = u.load(chunk * LANES);
+    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, _uc: &[f32], mut out: BsdfSamplesMut) {
+        let n = out.len();
+        assert!(wo.len() == n && u.len() == n);
+        for first in (0..n).step_by(LANES) {
+            let [ux, uy] = u.load(first);
             let [x, y, z] = cosine_hemisphere(ux, uy);
             // cosine_hemisphere_pdf, per lane.
             let pdf = (z.max(f32xn::splat(0.0)) * f32xn::splat(FRAC_1_PI)).to_array();
             let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
-            for i in 0..n {
+            for i in 0..(n - first).min(LANES) {
+                let k = first + i;
                 // The scalar form's tests, negated as written there (NaN goes through).
-                oc[i] = (!(wc[i] <= 0.0) && !(pdf[i] <= 0.0)).then(|| BsdfSample {
-                    wi: Vec3::new(x[i], y[i], z[i]),
-                    weight: self.reflectance,
-                    pdf: pdf[i],
-                });
+                let drawn = !(wo.z()[k] <= 0.0) && !(pdf[i] <= 0.0);
+                out.set(
+                    k,
+                    drawn.then(|| BsdfSample {
+                        wi: Vec3::new(x[i], y[i], z[i]),
+                        weight: self.reflectance,
+                        pdf: pdf[i],
+                    }),
+                );
             }
         }
     }

@@ -9,7 +9,7 @@ use super::merl::Merl;
 use super::rgl::Rgl;
 use super::sampler::TabulatedSampler;
 use crate::ParamError;
-use crate::bsdf::{Bsdf, BsdfSample, Flags, Rgb};
+use crate::bsdf::{Bsdf, BsdfSample, BsdfSamplesMut, Flags, Rgb};
 use crate::columns::{Vec2Cols, Vec3Cols};
 use crate::math::{Single, V3, maximum};
 use crate::registry::{
@@ -100,24 +100,31 @@ impl Measured {
         }
     }
 
-    /// Sets the weights `f cos / pdf` of the samples `out[k]` of `idx` (one to `LANES`, each
-    /// holding its direction and density), their values from [`MeasuredTable::value`]; a sample
-    /// whose weight is not finite becomes `None` ([`BsdfSample::weight_where`], per lane).
-    fn weigh_samples(&self, wo: Vec3Cols, idx: &[usize], out: &mut [Option<BsdfSample>]) {
-        let wi = |k: usize| out[k].map_or(Vec3::Z, |s| s.wi);
+    /// The samples of the directions `wi[i]` with densities `pdf[i]` drawn for queries
+    /// `first + i` (`i` in `drawn`, one to `LANES` of them) to `out`: their values a lane
+    /// vector at a time ([`MeasuredTable::value`]), their weights `f cos / pdf`, and "no
+    /// sample" where a weight is not finite ([`BsdfSample::weight_where`], per lane).
+    fn weigh_samples(
+        &self,
+        wo: Vec3Cols,
+        first: usize,
+        (drawn, wi, pdf): (&[usize], &[Vec3; simd::LANES], &[f32; simd::LANES]),
+        out: &mut BsdfSamplesMut,
+    ) {
+        let idx: [usize; simd::LANES] = simd::lanes(|l| first + drawn[l.min(drawn.len() - 1)]);
         let f = self.table.eval_lanes(
-            wo.lanes_of(idx),
-            Vec3xN::from_array(&simd::lanes_of(idx, wi)),
+            wo.lanes_of(&idx[..drawn.len()]),
+            Vec3xN::from_array(&simd::lanes(|l| wi[drawn[l.min(drawn.len() - 1)]])),
         );
-        for (lane, &k) in idx.iter().enumerate() {
-            out[k] = out[k].and_then(|s| {
-                let v = f.lane(lane).to_array();
-                let (weight, keep) = BsdfSample::weight_where(s.wi.z, s.pdf, v);
-                keep.then(|| BsdfSample {
-                    weight: Rgb::from(weight),
-                    ..s
-                })
-            });
+        for (lane, &i) in drawn.iter().enumerate() {
+            let v = f.lane(lane).to_array();
+            let (weight, keep) = BsdfSample::weight_where(wi[i].z, pdf[i], v);
+            let s = BsdfSample {
+                wi: wi[i],
+                weight: Rgb::from(weight),
+                pdf: pdf[i],
+            };
+            out.set(first + i, keep.then_some(s));
         }
     }
 }
@@ -142,7 +149,7 @@ impl Bsdf for Measured {
     /// Directions and densities from the sampler one query at a time, then the values of
     /// the sampled directions a lane vector at a time ([`MeasuredTable::value`]); bit for bit
     /// [`Measured::sample`] (a sample's value is only needed once its density is positive).
-    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], mut out: BsdfSamplesMut) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
         // `LANES` queries at a time: directions one by one, their densities in lanes
@@ -157,30 +164,22 @@ impl Bsdf for Measured {
                     .then(|| self.sampler.sample(wo.get(at(i)), u, uc[at(i)]))
                     .flatten()
             });
+            let dirs = simd::lanes(|i| wi[i].unwrap_or(Vec3::Z));
             let pdf = self
                 .sampler
-                .density(
-                    wo.load(start),
-                    Vec3xN::from_array(&simd::lanes(|i| wi[i].unwrap_or(Vec3::Z))),
-                )
+                .density(wo.load(start), Vec3xN::from_array(&dirs))
                 .to_array();
-            let mut pending = [0usize; simd::LANES];
+            let mut drawn = [0usize; simd::LANES];
             let mut kept = 0;
             for i in 0..len {
-                out[start + i] = wi[i].and_then(|wi| {
-                    (pdf[i] > 0.0).then_some(BsdfSample {
-                        wi,
-                        weight: Rgb::ZERO,
-                        pdf: pdf[i],
-                    })
-                });
-                if out[start + i].is_some() {
-                    pending[kept] = start + i;
+                out.set(start + i, None);
+                if wi[i].is_some() && pdf[i] > 0.0 {
+                    drawn[kept] = i;
                     kept += 1;
                 }
             }
             if kept > 0 {
-                self.weigh_samples(wo, &pending[..kept], out);
+                self.weigh_samples(wo, start, (&drawn[..kept], &dirs, &pdf), &mut out);
             }
         }
     }
@@ -425,10 +424,10 @@ impl Bsdf for RglBsdf {
     }
 
     /// The queries above the surface a lane vector at a time ([`Rgl::sample_value`]).
-    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], out: &mut [Option<BsdfSample>]) {
+    fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], mut out: BsdfSamplesMut) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);
-        out.fill(None);
+        out.clear();
         simd::chunks_where(
             n,
             |k| !(wo.z()[k] <= 0.0),
@@ -438,7 +437,7 @@ impl Bsdf for RglBsdf {
                 let (v, p, ok) = (RgbxN::new(r, g, b), p.to_array(), simd::mask_bits(ok));
                 for (lane, &k) in idx.iter().enumerate() {
                     if ok >> lane & 1 == 1 {
-                        out[k] = self.finish(wi.lane(lane), v.lane(lane), p[lane]);
+                        out.set(k, self.finish(wi.lane(lane), v.lane(lane), p[lane]));
                     }
                 }
             },

@@ -41,7 +41,7 @@ use lobe_materials::grouping::group_stable;
 use lobe_materials::sampling::warp::power_heuristic;
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, Vec3xN};
-use lobe_materials::{Bsdf, BsdfSample, Vec2Cols, Vec2s, Vec3Cols, Vec3s};
+use lobe_materials::{Bsdf, BsdfSamples, BsdfSamplesMut, Vec2Cols, Vec2s, Vec3Cols, Vec3s};
 
 /// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
 /// long before; this only guards against pathological scenes).
@@ -165,7 +165,7 @@ pub struct MaterialGroups {
     uc: Vec<f32>,
     f: Vec<Rgb>,
     pdf: Vec<f32>,
-    samples: Vec<Option<BsdfSample>>,
+    samples: BsdfSamples,
 }
 
 /// The camera stage's queue: the sampler streams (pixel keys and sample indices), film
@@ -226,7 +226,7 @@ pub struct Wavefront {
     pub scatter: ScatterQueue,
     pub lights: LightSampleQueue,
     pub shadow: ShadowQueue,
-    pub bsdf_samples: Vec<Option<BsdfSample>>,
+    pub bsdf_samples: BsdfSamples,
     /// Depth shared by all live paths.
     depth: u32,
 }
@@ -523,14 +523,13 @@ impl Wavefront {
     /// BSDF samples of every scattering hit, one batched call per material.
     pub fn bsdf_samples(&mut self, scene: &Scene) {
         let s = &mut self.scatter;
-        self.bsdf_samples.clear();
-        self.bsdf_samples.resize(s.wo.len(), None);
+        self.bsdf_samples.reset(s.wo.len());
         s.groups.sample(
             scene,
             s.wo.cols(),
             s.bsdf_u.cols(),
             &s.bsdf_uc,
-            &mut self.bsdf_samples,
+            self.bsdf_samples.as_mut(),
         );
     }
 
@@ -696,22 +695,27 @@ impl MaterialGroups {
         wo: Vec3Cols,
         u: Vec2Cols,
         uc: &[f32],
-        out: &mut [Option<BsdfSample>],
+        mut out: BsdfSamplesMut,
     ) {
         for &(a, b, shape) in &self.ranges {
             let bsdf = Self::material(scene, shape);
             if self.contiguous {
-                bsdf.sample_many(wo.slice(a..b), u.slice(a..b), &uc[a..b], &mut out[a..b]);
+                bsdf.sample_many(wo.slice(a..b), u.slice(a..b), &uc[a..b], out.slice(a..b));
                 continue;
             }
             let hits = &self.order[a..b];
             self.wo.gather_from(wo, hits);
             self.u.gather_from(u, hits);
             gather(&mut self.uc, uc, hits);
-            self.samples.resize(hits.len(), None);
-            bsdf.sample_many(self.wo.cols(), self.u.cols(), &self.uc, &mut self.samples);
+            self.samples.reset(hits.len());
+            bsdf.sample_many(
+                self.wo.cols(),
+                self.u.cols(),
+                &self.uc,
+                self.samples.as_mut(),
+            );
             for (j, &h) in hits.iter().enumerate() {
-                out[h as usize] = self.samples[j];
+                out.set(h as usize, self.samples.get(j));
             }
         }
     }

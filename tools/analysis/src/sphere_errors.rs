@@ -566,9 +566,9 @@ impl Stage<'_> {
         let wos: Vec3s = picked.iter().map(|h| h.wo).collect();
         let u2: Vec2s = picked.iter().map(|h| u_of(h)).collect();
         let ucs: Vec<f32> = picked.iter().map(|h| h.sample.point[4] as f32).collect();
-        let mut out = vec![None; picked.len()];
-        bsdf.sample_many(wos.cols(), u2.cols(), &ucs, &mut out);
-        out
+        let mut out = lobe_materials::BsdfSamples::new(picked.len());
+        bsdf.sample_many(wos.cols(), u2.cols(), &ucs, out.as_mut());
+        out.iter().collect()
     }
 }
 

@@ -14,7 +14,7 @@ use glam::{Vec2, Vec3};
 use lobe_materials::frame::spherical_direction;
 use lobe_materials::registry::{BuildContext, Registry};
 use lobe_materials::sampling::warp::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
-use lobe_materials::{Bsdf, BsdfSample, Rgb, Vec2s, Vec3s};
+use lobe_materials::{Bsdf, BsdfSamples, Rgb, Vec2s, Vec3s};
 use lobe_renderer::Error;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -137,8 +137,8 @@ fn sample(b: &dyn Bsdf, wo: &[f32], u: &[f32], uc: &[f32]) -> Samples {
         .zip(uc.par_chunks(CHUNK))
         .for_each(|((((wi, weight), (pdf, valid)), (wo, u)), uc)| {
             let u: Vec2s = u.chunks_exact(2).map(Vec2::from_slice).collect();
-            let mut out: Vec<Option<BsdfSample>> = vec![None; uc.len()];
-            b.sample_many(vec3s(wo).cols(), u.cols(), uc, &mut out);
+            let mut out = BsdfSamples::new(uc.len());
+            b.sample_many(vec3s(wo).cols(), u.cols(), uc, out.as_mut());
             for (k, o) in out.iter().enumerate() {
                 if let Some(o) = o {
                     wi[3 * k..3 * k + 3].copy_from_slice(&o.wi.to_array());
