@@ -336,9 +336,9 @@ fn build_binned(p: &Params, ctx: &BuildContext) -> Result<Arc<dyn Bsdf>, ParamEr
 /// An RGL material: Mitsuba's `measured` evaluation and sampling (the table's own
 /// luminance and visible-normal warps, nothing mixed in). The luminance warp is made from
 /// the same measurement as the colour table, so it reaches every direction the material
-/// reflects into; a 10 % cosine-sampling mixture that used to guard against directions it
-/// might miss cost 13 % more squared error per sample than Mitsuba's render on the
-/// golden-yellow bunny (docs/performance.md) and bought nothing measurable.
+/// reflects into. A 10 % cosine-sampling mixture, as a guard against directions it might
+/// miss, costs 13 % more squared error per sample than Mitsuba's render on the
+/// golden-yellow bunny (docs/performance.md) and buys nothing measurable.
 #[derive(Debug, Clone)]
 pub struct RglBsdf {
     table: Arc<Rgl>,
