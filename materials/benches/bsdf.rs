@@ -215,7 +215,7 @@ fn bench_material(c: &mut Criterion, name: &str, m: &Arc<dyn Bsdf>, q: &Queries)
                 black_box(wo.cols()),
                 black_box(u.cols()),
                 black_box(&q.uc),
-                out.as_mut(),
+                out.cols_mut(),
             );
             black_box(&out);
         })

@@ -198,9 +198,8 @@ impl BsdfSample {
 }
 
 /// The samples of a batch ([`Bsdf::sample_many`]'s output) as columns, as the wavefront's
-/// other queues hold theirs: entry k is a sample where its density is set and "no sample"
-/// where the density is 0 (a sample's density is never 0 nor negative:
-/// [`BsdfSample::finish`]).
+/// other queues hold theirs: entry k is "no sample" where its density is 0 (or negative),
+/// and a sample otherwise (a sample's density is positive, or NaN: [`Bsdf::sample`]).
 #[derive(Clone, Debug, Default)]
 pub struct BsdfSamples {
     wi: Vec3s,
@@ -250,7 +249,7 @@ impl BsdfSamples {
     }
 
     /// The columns to write ([`Bsdf::sample_many`]).
-    pub fn as_mut(&mut self) -> BsdfSamplesMut<'_> {
+    pub fn cols_mut(&mut self) -> BsdfSamplesMut<'_> {
         BsdfSamplesMut {
             wi: self.wi.cols_mut(),
             weight: &mut self.weight,
@@ -275,9 +274,14 @@ impl BsdfSamplesMut<'_> {
         self.pdf.is_empty()
     }
 
-    /// Sets entry `k` to `s` (None: no sample).
+    /// Sets entry `k` to `s` (None: no sample). A sample's density must be positive or NaN
+    /// ([`Bsdf::sample`]), or it would read back as no sample.
     #[inline]
     pub fn set(&mut self, k: usize, s: Option<BsdfSample>) {
+        debug_assert!(
+            s.is_none_or(|s| !(s.pdf <= 0.0)),
+            "a sample of density {s:?}"
+        );
         let s = s.unwrap_or(BsdfSample {
             wi: Vec3::ZERO,
             weight: Rgb::ZERO,
@@ -313,7 +317,8 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
     /// Samples `wi` given `wo`, a 2D uniform sample `u` and a 1D sample `uc` that chooses
     /// between components. `None` when no direction can be produced (e.g. `wo` below the
-    /// surface).
+    /// surface) or its density is not positive: a sample's `pdf` is positive (or NaN, from
+    /// NaN inputs), never 0 or negative ([`BsdfSample::finish`] checks it).
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample>;
     /// Solid-angle density with which `sample` produces `wi`.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
@@ -322,6 +327,7 @@ pub trait Bsdf: Send + Sync + std::fmt::Debug {
     /// on one material in one call. Models may override it with a batched (SIMD) form.
     /// The directions and sample points come as columns ([`Vec3Cols`], [`Vec2Cols`]) and
     /// the samples go to columns ([`BsdfSamplesMut`]): the queues' struct-of-arrays form.
+    /// Every entry of `out` is written (no sample where the scalar call gives None).
     fn sample_many(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], mut out: BsdfSamplesMut) {
         let n = out.len();
         assert!(wo.len() == n && u.len() == n && uc.len() == n);

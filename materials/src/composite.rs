@@ -369,7 +369,7 @@ impl Composite {
     /// each lobe are sampled together, a lane vector at a time ([`Lobe::sample_xn`]), so that no
     /// lane samples a lobe its query did not choose; last, the value and the mixture
     /// density of every drawn direction, a lane vector at a time. Queries whose weights sum to
-    /// zero get None.
+    /// zero stay "no sample".
     fn sample_block(&self, wo: Vec3Cols, u: Vec2Cols, uc: &[f32], mut out: BsdfSamplesMut) {
         let m = wo.len();
         debug_assert!(m <= SAMPLE_BLOCK);

@@ -6,7 +6,9 @@
 //! channel; so a lobe value is an RGB triple (equal channels for the others). A model writes
 //! its value, sampler density and sampler once over [`Num`] ([`GenericLobe`]) and gets the
 //! f32 and lane entry points for rendering and the f64 value for fitting through
-//! [`impl_lobe_forms!`] (a model with only a generic value uses [`impl_lobe_eval!`]).
+//! [`impl_lobe_forms!`]; a model whose rendered form is its own (He et al.'s, from f32
+//! tables) writes it once over [`Single`] ([`SingleLobe`], `impl_lobe_forms!(single)`). A
+//! model with only a generic value uses [`impl_lobe_eval!`].
 //! Directions follow [`crate::bsdf`]: local frame, both pointing away from the surface.
 
 use crate::columns::{Vec2Cols, Vec3Cols, Vec3ColsMut};
@@ -41,7 +43,8 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     /// [`Lobe::eval`] and [`Lobe::pdf`] of `LANES` pairs (lane k: `wo.lane(k)`,
     /// `wi.lane(k)`), each lane bit for bit the scalar calls: the batched calls of the
     /// materials made of lobes ([`crate::composite::Composite`]). The default calls the
-    /// scalar forms lane by lane; a [`GenericLobe`] gets it from [`impl_lobe_forms!`].
+    /// scalar forms lane by lane; a [`GenericLobe`] or [`SingleLobe`] gets it from
+    /// [`impl_lobe_forms!`].
     fn eval_pdf_xn(&self, wo: Vec3xN, wi: Vec3xN) -> (RgbxN, f32xn) {
         let (o, i) = (wo.to_array(), wi.to_array());
         let f = lanes(|k| self.eval(o[k], i[k]));
@@ -52,7 +55,7 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     }
     /// The value of [`Lobe::eval_pdf_xn`] alone (bit for bit), for batched calls that need
     /// no density ([`crate::Bsdf::eval_many`]). The default drops the density; a
-    /// [`GenericLobe`] evaluates its value only.
+    /// [`GenericLobe`] or [`SingleLobe`] evaluates its value only.
     fn eval_xn(&self, wo: Vec3xN, wi: Vec3xN) -> RgbxN {
         self.eval_pdf_xn(wo, wi).0
     }
@@ -60,7 +63,8 @@ pub trait Lobe: Send + Sync + std::fmt::Debug {
     /// k, `uc`'s lane k), each lane bit for bit the scalar call: the directions, and the
     /// mask of the lanes that drew one (the scalar call's `Some`; elsewhere the direction
     /// means nothing). The batched sampling of [`crate::composite::Composite`]. The default
-    /// samples lane by lane; a [`GenericLobe`] gets it from [`impl_lobe_forms!`].
+    /// samples lane by lane; a [`GenericLobe`] or [`SingleLobe`] gets it from
+    /// [`impl_lobe_forms!`].
     fn sample_xn(&self, wo: Vec3xN, u: [f32xn; 2], uc: f32xn) -> (Vec3xN, MaskN) {
         let (o, [ux, uy], uc) = (wo.to_array(), u.map(|c| c.to_array()), uc.to_array());
         let s = lanes(|k| self.sample(o[k], Vec2::new(ux[k], uy[k]), uc[k]));
@@ -185,7 +189,7 @@ macro_rules! impl_lobe_forms {
     () => {
         #[inline]
         fn eval_f64(&self, wo: $crate::glam::DVec3, wi: $crate::glam::DVec3) -> [f64; 3] {
-            [$crate::lobe::GenericLobe::value::<f64>(self, wo.into(), wi.into()); 3]
+            <Self as $crate::lobe::GenericLobe>::channels::<f64>(self, wo.into(), wi.into())
         }
         $crate::impl_lobe_forms!(@rendered $crate::lobe::GenericLobe);
     };

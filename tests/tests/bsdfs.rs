@@ -568,11 +568,20 @@ fn batched_sampling_equals_single_samples() {
     for case in all.iter().chain(measured_cases()) {
         for (n, seed) in [(1usize, 0usize), (8, 3), (13, 5), (40, 7), (300, 11)] {
             let q = batch_inputs(n, seed);
+            // Every entry holds a sample before the call: one left unwritten fails.
             let mut out = lobe_materials::BsdfSamples::new(n);
+            let stale = lobe_materials::BsdfSample {
+                wi: Vec3::new(0.6, 0.0, 0.8),
+                weight: lobe_materials::Rgb::splat(7.0),
+                pdf: 3.0,
+            };
+            for k in 0..n {
+                out.cols_mut().set(k, Some(stale));
+            }
             let wo = Vec3s::from(&q.wo[..]);
             let u = lobe_materials::Vec2s::from(&q.u[..]);
             case.bsdf
-                .sample_many(wo.cols(), u.cols(), &q.uc, out.as_mut());
+                .sample_many(wo.cols(), u.cols(), &q.uc, out.cols_mut());
             for (k, got) in out.iter().enumerate() {
                 let one = case.bsdf.sample(q.wo[k], q.u[k], q.uc[k]);
                 assert_eq!(

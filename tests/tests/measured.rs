@@ -256,7 +256,7 @@ fn tabulated_sampling_is_exact_and_beats_cosine_sampling() {
         fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<lobe_materials::BsdfSample> {
             let wi = lobe_materials::sampling::warp::square_to_cosine_hemisphere(u);
             let pdf = wi.z / std::f32::consts::PI;
-            (wo.z > 0.0).then(|| lobe_materials::BsdfSample {
+            (wo.z > 0.0 && pdf > 0.0).then(|| lobe_materials::BsdfSample {
                 wi,
                 weight: self.0.eval(wo, wi) * (wi.z / pdf),
                 pdf,

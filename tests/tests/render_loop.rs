@@ -27,10 +27,11 @@ impl Bsdf for HalfNan {
     }
     fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<BsdfSample> {
         let wi = lobe_materials::sampling::warp::square_to_cosine_hemisphere(u);
-        (wo.z > 0.0).then(|| BsdfSample {
+        let pdf = wi.z / std::f32::consts::PI;
+        (wo.z > 0.0 && pdf > 0.0).then(|| BsdfSample {
             wi,
             weight: self.eval(wo, wi) * std::f32::consts::PI,
-            pdf: wi.z / std::f32::consts::PI,
+            pdf,
         })
     }
     fn pdf(&self, _wo: Vec3, wi: Vec3) -> f32 {

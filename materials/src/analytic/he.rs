@@ -242,7 +242,7 @@ impl He {
         [channel(0), channel(1), channel(2)]
     }
 
-    /// The solid-angle density of [`He::draw`] at `wi` (one pair or lanes), the half
+    /// The solid-angle density of [`SingleLobe::draw`] at `wi` (one pair or lanes), the half
     /// vectors (and where they exist) already found.
     #[inline(always)]
     fn density_at_half<T: Single>(

@@ -108,13 +108,14 @@ impl Measured {
         &self,
         wo: Vec3Cols,
         first: usize,
-        (drawn, wi, pdf): (&[usize], &[Vec3; simd::LANES], &[f32; simd::LANES]),
+        drawn: &[usize],
+        (wi, pdf): (&[Vec3; simd::LANES], &[f32; simd::LANES]),
         out: &mut BsdfSamplesMut,
     ) {
-        let idx: [usize; simd::LANES] = simd::lanes(|l| first + drawn[l.min(drawn.len() - 1)]);
+        let queries: [usize; simd::LANES] = simd::lanes(|l| first + drawn[l.min(drawn.len() - 1)]);
         let f = self.table.eval_lanes(
-            wo.lanes_of(&idx[..drawn.len()]),
-            Vec3xN::from_array(&simd::lanes(|l| wi[drawn[l.min(drawn.len() - 1)]])),
+            wo.lanes_of(&queries[..drawn.len()]),
+            Vec3xN::from_array(&simd::lanes_of(drawn, |i| wi[i])),
         );
         for (lane, &i) in drawn.iter().enumerate() {
             let v = f.lane(lane).to_array();
@@ -179,7 +180,7 @@ impl Bsdf for Measured {
                 }
             }
             if kept > 0 {
-                self.weigh_samples(wo, start, (&drawn[..kept], &dirs, &pdf), &mut out);
+                self.weigh_samples(wo, start, &drawn[..kept], (&dirs, &pdf), &mut out);
             }
         }
     }

@@ -529,7 +529,7 @@ impl Wavefront {
             s.wo.cols(),
             s.bsdf_u.cols(),
             &s.bsdf_uc,
-            self.bsdf_samples.as_mut(),
+            self.bsdf_samples.cols_mut(),
         );
     }
 
@@ -712,7 +712,7 @@ impl MaterialGroups {
                 self.wo.cols(),
                 self.u.cols(),
                 &self.uc,
-                self.samples.as_mut(),
+                self.samples.cols_mut(),
             );
             for (j, &h) in hits.iter().enumerate() {
                 out.set(h as usize, self.samples.get(j));

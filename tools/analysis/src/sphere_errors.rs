@@ -567,7 +567,7 @@ impl Stage<'_> {
         let u2: Vec2s = picked.iter().map(|h| u_of(h)).collect();
         let ucs: Vec<f32> = picked.iter().map(|h| h.sample.point[4] as f32).collect();
         let mut out = lobe_materials::BsdfSamples::new(picked.len());
-        bsdf.sample_many(wos.cols(), u2.cols(), &ucs, out.as_mut());
+        bsdf.sample_many(wos.cols(), u2.cols(), &ucs, out.cols_mut());
         out.iter().collect()
     }
 }

@@ -138,7 +138,7 @@ fn sample(b: &dyn Bsdf, wo: &[f32], u: &[f32], uc: &[f32]) -> Samples {
         .for_each(|((((wi, weight), (pdf, valid)), (wo, u)), uc)| {
             let u: Vec2s = u.chunks_exact(2).map(Vec2::from_slice).collect();
             let mut out = BsdfSamples::new(uc.len());
-            b.sample_many(vec3s(wo).cols(), u.cols(), uc, out.as_mut());
+            b.sample_many(vec3s(wo).cols(), u.cols(), uc, out.cols_mut());
             for (k, o) in out.iter().enumerate() {
                 if let Some(o) = o {
                     wi[3 * k..3 * k + 3].copy_from_slice(&o.wi.to_array());
