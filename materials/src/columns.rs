@@ -217,6 +217,13 @@ impl<T: Record<N>, const N: usize> Columns<T, N> {
         }
     }
 
+    /// Appends `src`'s elements, one slice copy per column.
+    pub fn extend_from_cols(&mut self, src: Cols<T, N>) {
+        for (dst, src) in self.c.iter_mut().zip(src.c) {
+            dst.extend_from_slice(src);
+        }
+    }
+
     /// The elements as records (for tests and reports).
     pub fn to_vec(&self) -> Vec<T> {
         self.cols().iter().collect()
@@ -270,6 +277,18 @@ impl<'a> Cols<'a, Vec3, 3> {
     /// When their lengths differ.
     pub fn new(x: &'a [f32], y: &'a [f32], z: &'a [f32]) -> Self {
         Self::of([x, y, z])
+    }
+
+    /// The x column.
+    #[inline(always)]
+    pub fn x(&self) -> &'a [f32] {
+        self.c[0]
+    }
+
+    /// The y column.
+    #[inline(always)]
+    pub fn y(&self) -> &'a [f32] {
+        self.c[1]
     }
 
     /// The z column (the one the batched kernels test for directions above the surface).

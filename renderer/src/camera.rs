@@ -10,7 +10,7 @@
 //! the near-clip plane. The orthographic camera sees camera-space x in [-scale, scale]
 //! and y in [-scale / aspect, scale / aspect].
 
-use crate::geometry::Ray;
+use crate::geometry::{Ray, Rays};
 use glam::{Mat4, Vec2, Vec3};
 use lobe_materials::Vec2Cols;
 use lobe_materials::math::{Arith, V3, sqrt};
@@ -183,7 +183,7 @@ impl Camera {
     /// [`Camera::ray`] of the film positions `(pixel + j) * inv` for each `j` in
     /// `jitter`, appended to `out`, bit for bit the same: a lane vector at a time
     /// ([`Camera::ray_lanes`]).
-    pub fn rays_many(&self, pixel: Vec2, jitter: Vec2Cols, inv: Vec2, out: &mut Vec<Ray>) {
+    pub fn rays_many(&self, pixel: Vec2, jitter: Vec2Cols, inv: Vec2, out: &mut Rays) {
         for first in (0..jitter.len()).step_by(LANES) {
             let n = (jitter.len() - first).min(LANES);
             let [jx, jy] = jitter.load(first);
@@ -191,13 +191,7 @@ impl Camera {
             let sx = film(pixel.x, jx, inv.x);
             let sy = film(pixel.y, jy, inv.y);
             let (o, d) = self.ray_lanes(sx, sy);
-            let (o, d) = (simd::arrays3(o.into()), simd::arrays3(d.into()));
-            out.extend((0..n).map(|i| {
-                Ray::new(
-                    Vec3::new(o[0][i], o[1][i], o[2][i]),
-                    Vec3::new(d[0][i], d[1][i], d[2][i]),
-                )
-            }));
+            out.push_lanes(o, d, n);
         }
     }
 
@@ -344,13 +338,15 @@ mod tests {
                     .collect();
                 let inv = Vec2::new(1.0 / 384.0, 1.0 / 160.0);
                 for pixel in [Vec2::ZERO, Vec2::new(17.0, 93.0), Vec2::new(383.0, 159.0)] {
-                    let mut out = Vec::new();
+                    let mut out = Rays::new();
                     let columns = lobe_materials::Vec2s::from(&jitter[..]);
                     cam.rays_many(pixel, columns.cols(), inv, &mut out);
                     assert_eq!(out.len(), n);
-                    for (r, &j) in out.iter().zip(&jitter) {
+                    for (k, &j) in jitter.iter().enumerate() {
                         let one = cam.ray((pixel + j) * inv);
-                        assert_eq!(bits(r), bits(&one), "{cam:?} {pixel} {j}");
+                        let r = out.get(k);
+                        assert_eq!(bits(&r), bits(&one), "{cam:?} {pixel} {j}");
+                        assert_eq!(r.skip, one.skip);
                         assert_eq!(bits(&one), bits(&glam_ray(cam, (pixel + j) * inv)));
                     }
                 }

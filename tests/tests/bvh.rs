@@ -5,7 +5,7 @@
 use glam::{Mat4, Vec3};
 use lobe_renderer::geometry::bvh::ShapeGeom;
 use lobe_renderer::geometry::primitive::{PrimKind, PrimShape, Primitive};
-use lobe_renderer::geometry::{Geometry, Mesh, Ray, Rectangle, Sphere, Triangle};
+use lobe_renderer::geometry::{Geometry, Mesh, Ray, Rays, Rectangle, Sphere, Triangle};
 
 struct Lcg(u64);
 impl Lcg {
@@ -386,21 +386,34 @@ fn rays_near_the_origin(g: &Geometry, r: &mut Lcg) -> Vec<Ray> {
 }
 
 /// `closest_many`, `interactions_many` and `occluded_many` answer bit for bit as the
-/// single queries, for batches of 1, 7, 8, 9 and all the rays.
-fn batched_queries_equal_single_ones(g: &Geometry, rays: &[Ray]) {
+/// single queries, for batches of 1, 7, 8, 9 and all the rays (in columns, [`Rays`],
+/// which hold each ray bit for bit).
+fn batched_queries_equal_single_ones(g: &Geometry, records: &[Ray]) {
+    let rays: Rays = records.iter().copied().collect();
+    let bits = |r: &Ray| {
+        let v = [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax];
+        (v.map(f32::to_bits), r.skip)
+    };
+    assert_eq!(rays.len(), records.len());
+    for (i, r) in records.iter().enumerate() {
+        assert_eq!(bits(&rays.get(i)), bits(r), "ray {i} in columns");
+    }
+    let rays = &rays;
     for len in [1usize, 7, 8, 9, 203] {
-        let idx: Vec<u32> = (0..len as u32).rev().collect();
-        let mut out = Vec::new();
-        g.closest_many(rays, &idx, &mut out);
-        assert_eq!(out.len(), len);
-        for (k, &i) in idx.iter().enumerate() {
-            let e = g.closest(&rays[i as usize]);
-            assert_eq!(
-                out[k].map(|(t, p)| (t.to_bits(), p)),
-                e.map(|(t, p)| (t.to_bits(), p)),
-                "ray {i}: {:?}",
-                rays[i as usize]
-            );
+        // Consecutive rays (plain loads from the columns), and rays spread over all of
+        // them (gathers), both in increasing order as the wavefront's active paths are.
+        let n = records.len();
+        let spread = (0..len).map(|k| (k * n / len + n / (2 * len)) as u32);
+        for idx in [(0..len as u32).collect::<Vec<_>>(), spread.collect()] {
+            closest_many_equals_closest(g, records, rays, &idx);
+        }
+        // Occlusion of the first `len` rays: full lane vectors and a padded tail.
+        let first: Rays = records[..len].iter().copied().collect();
+        let mut occluded = Vec::new();
+        g.occluded_many(&first, &mut occluded);
+        assert_eq!(occluded.len(), len);
+        for (ray, &o) in records.iter().zip(&occluded) {
+            assert_eq!(o, g.occluded(ray), "occluded_many on {ray:?}");
         }
     }
     // interactions_many: every field of every hit's interaction, bit for bit.
@@ -425,20 +438,35 @@ fn batched_queries_equal_single_ones(g: &Geometry, rays: &[Ray]) {
         v
     };
     for (it, &(i, t, prim)) in its.iter().zip(&hits) {
-        let e = g.interaction(&rays[i as usize], t, prim);
+        let e = g.interaction(&records[i as usize], t, prim);
         assert_eq!(bits(it), bits(&e), "ray {i}");
     }
-    let mut occluded = Vec::new();
-    g.occluded_many(rays, &mut occluded);
-    assert_eq!(occluded.len(), rays.len());
-    for (ray, &o) in rays.iter().zip(&occluded) {
-        assert_eq!(o, g.occluded(ray), "occluded_many on {ray:?}");
-    }
-    let hits = rays.iter().filter(|ray| g.closest(ray).is_some()).count();
+    let hits = records
+        .iter()
+        .filter(|ray| g.closest(ray).is_some())
+        .count();
     assert!(
         hits > 20 && hits < 190,
         "{hits} hits: the rays should both hit and miss"
     );
+}
+
+/// `closest_many` of the rays `idx` (increasing) of `rays` answers bit for bit as `closest`
+/// of each of `records` (the same rays).
+fn closest_many_equals_closest(g: &Geometry, records: &[Ray], rays: &Rays, idx: &[u32]) {
+    assert!(idx.windows(2).all(|w| w[0] < w[1]), "increasing indices");
+    let mut out = Vec::new();
+    g.closest_many(rays, idx, &mut out);
+    assert_eq!(out.len(), idx.len());
+    for (k, &i) in idx.iter().enumerate() {
+        let e = g.closest(&records[i as usize]);
+        assert_eq!(
+            out[k].map(|(t, p)| (t.to_bits(), p)),
+            e.map(|(t, p)| (t.to_bits(), p)),
+            "ray {i}: {:?}",
+            records[i as usize]
+        );
+    }
 }
 
 /// A BVH's SAH cost is the tests a ray expects: over spheres that all share one box every

@@ -5,6 +5,7 @@
 
 use glam::Vec2;
 use lobe_renderer::Rgb;
+use lobe_renderer::geometry::Rays;
 use lobe_renderer::integrators::Wavefront;
 use lobe_renderer::sampler::Sampler;
 use lobe_renderer::scene::{LoadOptions, Scene, from_value, load};
@@ -49,10 +50,11 @@ fn check(scene: &Scene, batch: usize) {
         {
             // A sampler at the dimension after the camera's (of whichever pixel).
             let mut sampler = base.clone();
+            let r: Rays = r.iter().copied().collect();
             scene
                 .settings
                 .integrator
-                .li_many(scene, r, k, idx, &mut sampler, o, &mut ws);
+                .li_many(scene, &r, k, idx, &mut sampler, o, &mut ws);
         }
         for (((x, a), b), s) in scalar.iter().zip(&many).zip(&indices) {
             assert_eq!(

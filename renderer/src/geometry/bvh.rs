@@ -3,8 +3,8 @@
 //! hits, and the batched forms of these queries that the wavefront integrator calls.
 
 use super::bvh8::Bvh8;
-use super::kernels::{RayLanes, V3};
-use super::{Interaction, Interactions, Mesh, Ray, Rectangle, Sphere, Triangle};
+use super::kernels::V3;
+use super::{Interaction, Interactions, Mesh, Ray, Rays, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3};
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, f32xn, u32xn};
@@ -148,18 +148,18 @@ impl Geometry {
         }
     }
 
-    /// [`Geometry::closest`] of the rays `rays[i]` for each `i` in `idx`, appended to
-    /// `out`, bit for bit the same. With a BVH, ray by ray ([`Bvh8::closest`]); small
-    /// scenes test `LANES` rays at a time against each primitive in SIMD lanes
-    /// ([`kernels`]).
-    pub fn closest_many(&self, rays: &[Ray], idx: &[u32], out: &mut Vec<Option<(f32, u32)>>) {
+    /// [`Geometry::closest`] of the rays `rays[i]` for each `i` in `idx` (increasing),
+    /// appended to `out`, bit for bit the same. With a BVH, ray by ray ([`Bvh8::closest`]);
+    /// small scenes test `LANES` rays at a time against each primitive in SIMD lanes
+    /// ([`kernels`]), loaded from the columns ([`Rays::lanes_of`]).
+    pub fn closest_many(&self, rays: &Rays, idx: &[u32], out: &mut Vec<Option<(f32, u32)>>) {
         if let Some(bvh) = &self.bvh {
-            out.extend(idx.iter().map(|&i| bvh.closest(&rays[i as usize])));
+            out.extend(idx.iter().map(|&i| bvh.closest(&rays.get(i as usize))));
             return;
         }
         for ic in idx.chunks(LANES) {
             let n = ic.len();
-            let (mut lanes, skip) = Self::ray_lanes(|k| &rays[ic[k.min(n - 1)] as usize]);
+            let (mut lanes, skip) = rays.lanes_of(ic);
             let mut best = u32xn::splat(u32::MAX);
             for j in 0..self.prims.len() {
                 let t = self.shape_of(j as u32).intersect_lanes(&lanes);
@@ -176,15 +176,15 @@ impl Geometry {
 
     /// [`Geometry::occluded`] of each ray, appended to `out`, the same answers: ray by ray
     /// through the BVH, or in small scenes `LANES` rays at a time per primitive in SIMD lanes
-    /// (as [`Geometry::closest_many`]).
-    pub fn occluded_many(&self, rays: &[Ray], out: &mut Vec<bool>) {
+    /// (as [`Geometry::closest_many`]), loaded from the rays' columns.
+    pub fn occluded_many(&self, rays: &Rays, out: &mut Vec<bool>) {
         if let Some(bvh) = &self.bvh {
-            out.extend(rays.iter().map(|r| bvh.occluded(r)));
+            out.extend((0..rays.len()).map(|i| bvh.occluded(&rays.get(i))));
             return;
         }
-        for rc in rays.chunks(LANES) {
-            let n = rc.len();
-            let (lanes, skip) = Self::ray_lanes(|k| &rc[k.min(n - 1)]);
+        for first in (0..rays.len()).step_by(LANES) {
+            let n = (rays.len() - first).min(LANES);
+            let (lanes, skip) = rays.lanes(first);
             let mut hit = f32xn::splat(0.0);
             for j in 0..self.prims.len() {
                 let t = self.shape_of(j as u32).intersect_lanes(&lanes);
@@ -204,12 +204,7 @@ impl Geometry {
     /// reused queue is not zeroed first). Hits on spheres are computed a lane vector at a
     /// time in SIMD lanes ([`Sphere::surface_of`]: its square roots and divisions are a long
     /// dependency chain per hit), bit for bit the same; other hits one by one.
-    pub fn interactions_many(
-        &self,
-        rays: &[Ray],
-        hits: &[(u32, f32, u32)],
-        out: &mut Interactions,
-    ) {
+    pub fn interactions_many(&self, rays: &Rays, hits: &[(u32, f32, u32)], out: &mut Interactions) {
         out.resize(hits.len());
         let mut spheres = [0usize; LANES];
         let mut n = 0;
@@ -224,7 +219,7 @@ impl Geometry {
                 }
             } else {
                 let mut it = Interaction::ZERO;
-                self.interaction_of(&rays[i as usize], t, prim, primitive, &mut it);
+                self.interaction_of(&rays.get(i as usize), t, prim, primitive, &mut it);
                 out.set(h, &it);
             }
         }
@@ -237,14 +232,14 @@ impl Geometry {
     /// spheres, in SIMD lanes.
     fn sphere_interactions(
         &self,
-        rays: &[Ray],
+        rays: &Rays,
         hits: &[(u32, f32, u32)],
         which: &[usize],
         out: &mut Interactions,
     ) {
         let n = which.len();
         let hit = |k: usize| hits[which[k.min(n - 1)]];
-        let (lanes, _) = Self::ray_lanes(|k| &rays[hit(k).0 as usize]);
+        let (lanes, _) = rays.lanes_at(|k| hit(k).0 as usize);
         let (o, d) = (lanes.o, lanes.d);
         let t = f32xn::new(simd::lanes(|k| hit(k).1));
         let cr = simd::rows4(|k| match &self.prims.get(hit(k).2).kind {
@@ -276,28 +271,6 @@ impl Geometry {
             };
             out.set(h, &it);
         }
-    }
-
-    /// [`LANES`] rays in SIMD lanes, `ray(k)` in lane k, and their skipped primitives. A
-    /// ray's first 32 bytes are two rows of four floats (o, d.x and d.y, d.z, tmin, tmax),
-    /// read as two transposes ([`simd::rows4`]).
-    #[inline(always)]
-    fn ray_lanes<'a>(ray: impl Fn(usize) -> &'a Ray) -> (RayLanes<f32xn>, u32xn) {
-        let a = simd::rows4(|k| {
-            let r = ray(k);
-            [r.o.x, r.o.y, r.o.z, r.d.x]
-        });
-        let b = simd::rows4(|k| {
-            let r = ray(k);
-            [r.d.y, r.d.z, r.tmin, r.tmax]
-        });
-        let lanes = RayLanes {
-            o: V3::new(a[0], a[1], a[2]),
-            d: V3::new(a[3], b[0], b[1]),
-            tmin: b[2],
-            tmax: b[3],
-        };
-        (lanes, u32xn::new(simd::lanes(|k| ray(k).skip)))
     }
 
     /// Closest hit with its local geometry.
@@ -381,7 +354,7 @@ impl Geometry {
                 it.exit = Vec3::ZERO;
             }
             PrimShape::Triangle(tri) => {
-                let (pos, ng, ns, dpdu, uv) = self.triangle_geometry(ray, tri, sg);
+                let (pos, ng, ns, dpdu, uv) = self.triangle_geometry(ray.o, ray.d, tri, sg);
                 it.p = pos;
                 it.ng = orient(ng);
                 it.ns = orient(ns);
@@ -393,11 +366,13 @@ impl Geometry {
     }
 
     /// Position, geometric and shading normals, tangent and texture coordinates of a hit
-    /// on a mesh triangle.
+    /// on a mesh triangle by the ray from `o` along `d` (passed by value: the ray may be
+    /// one just read from columns, [`super::Rays::get`]).
     #[inline(never)]
     fn triangle_geometry(
         &self,
-        ray: &Ray,
+        o: Vec3,
+        d: Vec3,
         tri: &Triangle,
         sg: ShapeGeom,
     ) -> (Vec3, Vec3, Vec3, Vec3, Vec2) {
@@ -405,7 +380,7 @@ impl Geometry {
             .intersect_bary(&Ray {
                 tmin: f32::NEG_INFINITY,
                 tmax: f32::INFINITY,
-                ..*ray
+                ..Ray::new(o, d)
             })
             .map(|(_, b)| b)
             .unwrap_or(Vec2::splat(1.0 / 3.0));

@@ -300,6 +300,8 @@ impl Bvh8 {
     }
 
     /// Closest hit (t, primitive index) within the ray's range, skipping `ray.skip`.
+    /// Inlined, so that a ray read from columns ([`super::Rays::get`]) stays in registers.
+    #[inline(always)]
     pub fn closest(&self, ray: &Ray) -> Option<(f32, u32)> {
         let boxes = BoxRay::new(ray);
         let lanes = LaneRay::new(ray);
@@ -368,7 +370,9 @@ impl Bvh8 {
         sp
     }
 
-    /// Whether anything not skipped blocks the ray within (tmin, tmax).
+    /// Whether anything not skipped blocks the ray within (tmin, tmax). Inlined, as
+    /// [`Bvh8::closest`].
+    #[inline(always)]
     pub fn occluded(&self, ray: &Ray) -> bool {
         let boxes = BoxRay::new(ray);
         let lanes = LaneRay::new(ray);

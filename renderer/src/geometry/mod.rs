@@ -16,6 +16,7 @@ pub mod mesh;
 mod ploc;
 pub mod primitive;
 pub mod prims;
+mod rays;
 pub mod rectangle;
 pub mod sphere;
 
@@ -24,13 +25,12 @@ use glam::{Vec2, Vec3};
 pub use bvh::Geometry;
 pub use interactions::Interactions;
 pub use mesh::{Mesh, Triangle};
+pub use rays::Rays;
 pub use rectangle::Rectangle;
 pub use sphere::Sphere;
 
-/// A ray with a parametric range (tmin, tmax). `repr(C)`: the SIMD batch queries read
-/// o, d, tmin and tmax as two rows of four floats.
+/// A ray with a parametric range (tmin, tmax); queues of them are [`Rays`] (columns).
 #[derive(Clone, Copy, Debug)]
-#[repr(C)]
 pub struct Ray {
     pub o: Vec3,
     pub d: Vec3,
@@ -111,7 +111,7 @@ impl Interaction {
 }
 
 /// Origin of a ray leaving `p` on the side of `n` (Wächter and Binder 2019).
-#[inline]
+#[inline(always)]
 pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
     use wide::bytemuck::cast;
     use wide::{f32x4, i32x4};
@@ -136,7 +136,7 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
 }
 
 /// A ray leaving the surface point `it` in direction `d` (world space, any length).
-#[inline]
+#[inline(always)]
 pub fn spawn_ray(it: &Interaction, d: Vec3) -> Ray {
     let n = if d.dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
     Ray {
@@ -147,7 +147,7 @@ pub fn spawn_ray(it: &Interaction, d: Vec3) -> Ray {
 
 /// A shadow ray from surface point `it` to the point `target`; `target_n`, when given,
 /// is the geometric normal there, used to pull the end point off that surface too.
-#[inline]
+#[inline(always)]
 pub fn spawn_ray_to(it: &Interaction, target: Vec3, target_n: Option<Vec3>) -> Ray {
     let d0 = target - it.p;
     let n = if d0.dot(it.ng) >= 0.0 { it.ng } else { -it.ng };

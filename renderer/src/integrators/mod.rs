@@ -13,7 +13,11 @@ use crate::geometry::{Interaction, spawn_ray, spawn_ray_to};
 use crate::lights::LightSample;
 use crate::scene::Scene;
 use crate::settings::Integrator;
-use crate::{Rgb, geometry::Ray, sampler::Sampler};
+use crate::{
+    Rgb,
+    geometry::{Ray, Rays},
+    sampler::Sampler,
+};
 use glam::Vec3;
 use lobe_materials::frame::{Frame, shading_axes};
 use lobe_materials::simd;
@@ -46,7 +50,7 @@ impl Integrator {
     pub fn li_many(
         &self,
         scene: &Scene,
-        rays: &[Ray],
+        rays: &Rays,
         keys: &[u64],
         indices: &[u32],
         sampler: &mut Sampler,
@@ -61,8 +65,8 @@ impl Integrator {
                 scene, rays, keys, indices, sampler, max_depth, rr_depth, out,
             ),
             Integrator::Direct { .. } => {
-                for (((o, &ray), &k), &i) in out.iter_mut().zip(rays).zip(keys).zip(indices) {
-                    *o = self.li(scene, ray, &mut sampler.with_sample(k, i));
+                for (j, ((o, &k), &i)) in out.iter_mut().zip(keys).zip(indices).enumerate() {
+                    *o = self.li(scene, rays.get(j), &mut sampler.with_sample(k, i));
                 }
             }
         }
@@ -166,7 +170,7 @@ pub(crate) fn unoccluded(scene: &Scene, it: &Interaction, ls: &LightSample) -> b
 
 /// The shadow ray from `it` toward direction `wi`, up to the light point `at` (a point and
 /// its normal, zero for none; None: at infinity), as [`LightSample::p`].
-#[inline]
+#[inline(always)]
 pub(crate) fn shadow_ray(it: &Interaction, wi: Vec3, at: Option<(Vec3, Vec3)>) -> Ray {
     match at {
         Some((q, n)) => spawn_ray_to(it, q, if n == Vec3::ZERO { None } else { Some(n) }),

@@ -29,7 +29,7 @@
 use super::{shading_lanes, shadow_ray};
 use crate::Rgb;
 use crate::camera::Camera;
-use crate::geometry::{Interactions, Ray, spawn_ray};
+use crate::geometry::{Interactions, Rays, spawn_ray};
 #[cfg(doc)]
 use crate::lights::Light;
 use crate::lights::LightSamples;
@@ -40,7 +40,7 @@ use lobe_materials::frame::{self, Frame};
 use lobe_materials::grouping::group_stable;
 use lobe_materials::sampling::warp::power_heuristic;
 use lobe_materials::simd;
-use lobe_materials::simd::{LANES, Vec3xN};
+use lobe_materials::simd::LANES;
 use lobe_materials::{Bsdf, BsdfSamples, BsdfSamplesMut, Vec2Cols, Vec2s, Vec3Cols, Vec3s};
 
 /// Hard cap on path length when `max_depth` is unbounded (Russian roulette ends paths
@@ -53,7 +53,7 @@ pub const DEPTH_CAP: u32 = 1 << 16;
 /// ([`Sampler::key_of`]) and its sample index within the pixel.
 #[derive(Default)]
 pub struct Paths {
-    pub ray: Vec<Ray>,
+    pub ray: Rays,
     pub vars: Vec<PathVars>,
     pub key: Vec<u64>,
     pub index: Vec<u32>,
@@ -138,7 +138,7 @@ pub struct LightSampleQueue {
 pub struct ShadowQueue {
     pub hit: Vec<u32>,
     pub f: Vec<Rgb>,
-    pub ray: Vec<Ray>,
+    pub ray: Rays,
     pub occluded: Vec<bool>,
 }
 
@@ -174,7 +174,7 @@ pub struct MaterialGroups {
 pub struct CameraQueue {
     pub key: Vec<u64>,
     pub index: Vec<u32>,
-    pub ray: Vec<Ray>,
+    pub ray: Rays,
     jitter: Vec2s,
 }
 
@@ -239,7 +239,7 @@ impl Wavefront {
     pub fn trace(
         &mut self,
         scene: &Scene,
-        rays: &[Ray],
+        rays: &Rays,
         keys: &[u64],
         indices: &[u32],
         sampler: &mut Sampler,
@@ -271,11 +271,10 @@ impl Wavefront {
         }
     }
 
-    fn start(&mut self, rays: &[Ray], keys: &[u64], indices: &[u32], max_depth: u32) {
+    fn start(&mut self, rays: &Rays, keys: &[u64], indices: &[u32], max_depth: u32) {
         let n = rays.len();
         let p = &mut self.paths;
-        p.ray.clear();
-        p.ray.extend_from_slice(rays);
+        p.ray.copy_from(rays);
         p.key.clear();
         p.key.extend_from_slice(keys);
         p.index.clear();
@@ -322,8 +321,7 @@ impl Wavefront {
             return;
         }
         let p = &mut self.paths;
-        e.dir.clear();
-        e.dir.extend(e.path.iter().map(|&i| p.ray[i as usize].d));
+        e.dir.gather_from(p.ray.dirs(), &e.path);
         let sel_pdf = select_pdf(scene);
         for &k in &scene.infinite_lights {
             let light = &scene.lights[k as usize];
@@ -357,7 +355,7 @@ impl Wavefront {
             };
             let (i, it) = (i as usize, &its.get(h));
             let light = &scene.lights[k as usize];
-            let le = light.le_area(it, -p.ray[i].d);
+            let le = light.le_area(it, -p.ray.dirs().get(i));
             if le.is_black() {
                 continue;
             }
@@ -383,11 +381,12 @@ impl Wavefront {
         }
         let (ns, dpdu) = (h.it.ns(), h.it.dpdu());
         for first in (0..m).step_by(LANES) {
-            let at = |k: usize| first + k.min(m - first - 1);
+            let n = (m - first).min(LANES);
+            let paths: [usize; LANES] = simd::lanes(|k| h.path[first + k.min(n - 1)] as usize);
             shading_lanes(
                 ns.load(first),
                 dpdu.load(first),
-                Vec3xN::from_array(&simd::lanes(|k| p.ray[h.path[at(k)] as usize].d)),
+                p.ray.dirs().lanes_of(&paths[..n]),
                 first,
                 [&mut s.frame_s, &mut s.frame_t, &mut s.wo],
             );
@@ -495,11 +494,12 @@ impl Wavefront {
         }
         sq.hit.truncate(kept);
         sq.f.truncate(kept);
-        sq.ray.clear();
-        sq.ray.extend(sq.hit.iter().map(|&h| {
+        sq.ray.resize(sq.hit.len());
+        for (j, &h) in sq.hit.iter().enumerate() {
             let h = h as usize;
-            shadow_ray(&self.hits.it.get(h), ls.wi.get(h), ls.at[h])
-        }));
+            let ray = shadow_ray(&self.hits.it.get(h), ls.wi.get(h), ls.at[h]);
+            sq.ray.set(j, ray);
+        }
         sq.occluded.clear();
         scene.geometry.occluded_many(&sq.ray, &mut sq.occluded);
         let sel_pdf = select_pdf(scene);
@@ -552,7 +552,7 @@ impl Wavefront {
             }
             v.prev_pdf = bs.pdf;
             v.prev_p = it.p;
-            p.ray[i as usize] = spawn_ray(it, frame.to_world(bs.wi));
+            p.ray.set(i as usize, spawn_ray(it, frame.to_world(bs.wi)));
             self.next.push(i);
         }
         self.depth += 1;
