@@ -262,7 +262,7 @@ fn spawned_rays_skip_only_what_they_cannot_hit() {
     );
 }
 
-/// `closest_many` and `occluded_many` (eight rays per SIMD sphere test in small scenes of
+/// `closest_many` and `occluded_many` (`LANES` rays per SIMD sphere test in small scenes of
 /// spheres, ray by ray otherwise) return `closest` (bit for bit) and `occluded` of each
 /// ray: rays from outside, inside and on the spheres, with finite and infinite ranges,
 /// skipped primitives, and partial batches; on scenes of spheres, on a small scene of
@@ -400,11 +400,17 @@ fn batched_queries_equal_single_ones(g: &Geometry, records: &[Ray]) {
     }
     let rays = &rays;
     for len in [1usize, 7, 8, 9, 203] {
-        // Consecutive rays (plain loads from the columns), and rays spread over all of
-        // them (gathers), both in increasing order as the wavefront's active paths are.
+        // Consecutive rays (plain loads from the columns), rays spread over all of them
+        // (gathers), runs broken by gaps at unaligned places, as the wavefront's active
+        // paths are after some end (full chunks of both kinds), and a reversed run.
         let n = records.len();
-        let spread = (0..len).map(|k| (k * n / len + n / (2 * len)) as u32);
-        for idx in [(0..len as u32).collect::<Vec<_>>(), spread.collect()] {
+        let consecutive: Vec<u32> = (0..len as u32).collect();
+        let spread: Vec<u32> = (0..len)
+            .map(|k| (k * n / len + n / (2 * len)) as u32)
+            .collect();
+        let gaps: Vec<u32> = (0..n as u32).filter(|i| i % 11 != 3).take(len).collect();
+        let reversed: Vec<u32> = consecutive.iter().rev().copied().collect();
+        for idx in [consecutive, spread, gaps, reversed] {
             closest_many_equals_closest(g, records, rays, &idx);
         }
         // Occlusion of the first `len` rays: full lane vectors and a padded tail.
@@ -451,10 +457,9 @@ fn batched_queries_equal_single_ones(g: &Geometry, records: &[Ray]) {
     );
 }
 
-/// `closest_many` of the rays `idx` (increasing) of `rays` answers bit for bit as `closest`
+/// `closest_many` of the rays `idx` of `rays` answers bit for bit as `closest`
 /// of each of `records` (the same rays).
 fn closest_many_equals_closest(g: &Geometry, records: &[Ray], rays: &Rays, idx: &[u32]) {
-    assert!(idx.windows(2).all(|w| w[0] < w[1]), "increasing indices");
     let mut out = Vec::new();
     g.closest_many(rays, idx, &mut out);
     assert_eq!(out.len(), idx.len());

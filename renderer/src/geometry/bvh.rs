@@ -148,13 +148,16 @@ impl Geometry {
         }
     }
 
-    /// [`Geometry::closest`] of the rays `rays[i]` for each `i` in `idx` (increasing),
-    /// appended to `out`, bit for bit the same. With a BVH, ray by ray ([`Bvh8::closest`]);
+    /// [`Geometry::closest`] of ray `i` of `rays` for each `i` in `idx`, appended to `out`,
+    /// bit for bit the same. With a BVH, ray by ray ([`Bvh8::closest`]);
     /// small scenes test `LANES` rays at a time against each primitive in SIMD lanes
     /// ([`kernels`]), loaded from the columns ([`Rays::lanes_of`]).
     pub fn closest_many(&self, rays: &Rays, idx: &[u32], out: &mut Vec<Option<(f32, u32)>>) {
         if let Some(bvh) = &self.bvh {
-            out.extend(idx.iter().map(|&i| bvh.closest(&rays.get(i as usize))));
+            out.extend(
+                idx.iter()
+                    .map(|&i| bvh.closest_inlined(&rays.get(i as usize))),
+            );
             return;
         }
         for ic in idx.chunks(LANES) {
@@ -179,7 +182,7 @@ impl Geometry {
     /// (as [`Geometry::closest_many`]), loaded from the rays' columns.
     pub fn occluded_many(&self, rays: &Rays, out: &mut Vec<bool>) {
         if let Some(bvh) = &self.bvh {
-            out.extend((0..rays.len()).map(|i| bvh.occluded(&rays.get(i))));
+            out.extend((0..rays.len()).map(|i| bvh.occluded_inlined(&rays.get(i))));
             return;
         }
         for first in (0..rays.len()).step_by(LANES) {
@@ -200,7 +203,7 @@ impl Geometry {
     }
 
     /// [`Geometry::interaction`] of many hits, in order, into `out`: hit (i, t, prim) of ray
-    /// `rays[i]`. `out` is resized to the hits' count and its old contents overwritten (a
+    /// i of `rays`. `out` is resized to the hits' count and its old contents overwritten (a
     /// reused queue is not zeroed first). Hits on spheres are computed a lane vector at a
     /// time in SIMD lanes ([`Sphere::surface_of`]: its square roots and divisions are a long
     /// dependency chain per hit), bit for bit the same; other hits one by one.

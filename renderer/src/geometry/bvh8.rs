@@ -300,9 +300,15 @@ impl Bvh8 {
     }
 
     /// Closest hit (t, primitive index) within the ray's range, skipping `ray.skip`.
-    /// Inlined, so that a ray read from columns ([`super::Rays::get`]) stays in registers.
-    #[inline(always)]
     pub fn closest(&self, ray: &Ray) -> Option<(f32, u32)> {
+        self.closest_inlined(ray)
+    }
+
+    /// [`Bvh8::closest`], inlined into the batched query, so that a ray read from columns
+    /// ([`super::Rays::get`]) stays in registers (by reference, after its nine scalar
+    /// stores, it stalls on store forwarding).
+    #[inline(always)]
+    pub(super) fn closest_inlined(&self, ray: &Ray) -> Option<(f32, u32)> {
         let boxes = BoxRay::new(ray);
         let lanes = LaneRay::new(ray);
         let mut tmax = ray.tmax;
@@ -370,10 +376,14 @@ impl Bvh8 {
         sp
     }
 
-    /// Whether anything not skipped blocks the ray within (tmin, tmax). Inlined, as
-    /// [`Bvh8::closest`].
-    #[inline(always)]
+    /// Whether anything not skipped blocks the ray within (tmin, tmax).
     pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_inlined(ray)
+    }
+
+    /// [`Bvh8::occluded`], inlined into the batched query (as [`Bvh8::closest_inlined`]).
+    #[inline(always)]
+    pub(super) fn occluded_inlined(&self, ray: &Ray) -> bool {
         let boxes = BoxRay::new(ray);
         let lanes = LaneRay::new(ray);
         let tmax = f32x8::splat(ray.tmax);

@@ -13,7 +13,9 @@ use glam::Vec3;
 use lobe_materials::simd::{self, LANES, Vec3xN, f32xn, u32xn};
 use lobe_materials::{Vec3Cols, Vec3s};
 
-/// Rays in columns, all equally long (private fields; every change keeps them so).
+/// Rays in columns, all equally long (private fields; every change keeps them so, and
+/// changes `skip` last, so that `skip` is never longer than another column: the bound that
+/// [`Rays::get`], [`Rays::set`] and [`Rays::lanes_at`] check).
 #[derive(Clone, Debug, Default)]
 pub struct Rays {
     o: Vec3s,
@@ -119,7 +121,7 @@ impl Rays {
     /// one plain store per column.
     #[inline]
     pub fn push_lanes(&mut self, o: Vec3xN, d: Vec3xN, n: usize) {
-        debug_assert!(n <= LANES);
+        assert!(n <= LANES, "{n} rays from one lane vector");
         let first = self.len();
         self.resize(first + n);
         self.o.cols_mut().store(first, o);
@@ -140,16 +142,21 @@ impl Rays {
         (lanes, u32xn::new(load(&self.skip, first)))
     }
 
-    /// Rays `idx[0]`, `idx[1]`, ... in lanes (past the end of `idx`, one to [`LANES`]
-    /// indices, the last repeated) and their skipped primitives: [`Rays::lanes`] when they
-    /// are `LANES` consecutive rays (the first and last index tell, so the indices must
-    /// increase), else [`Rays::lanes_at`].
+    /// Rays `idx[0]`, `idx[1]`, ... in lanes (one to [`LANES`] indices, in any order; past
+    /// the end of `idx`, the last repeated) and their skipped primitives: [`Rays::lanes`]
+    /// when they are `LANES` consecutive rays (one lane compare tells), else
+    /// [`Rays::lanes_at`].
     #[inline(always)]
     pub fn lanes_of(&self, idx: &[u32]) -> (RayLanes<f32xn>, u32xn) {
         let n = idx.len();
-        debug_assert!(idx.windows(2).all(|w| w[0] < w[1]), "increasing indices");
-        if n == LANES && (idx[LANES - 1] - idx[0]) as usize == LANES - 1 {
-            return self.lanes(idx[0] as usize);
+        assert!((1..=LANES).contains(&n), "1 to LANES rays, not {n}");
+        if let Ok(run) = <[u32; LANES]>::try_from(idx) {
+            let iota = u32xn::new(simd::lanes(|k| k as u32));
+            let first = idx[0] as usize;
+            let consecutive = (u32xn::new(run) - u32xn::splat(idx[0])).simd_eq(iota).all();
+            if consecutive && first + LANES <= self.len() {
+                return self.lanes(first);
+            }
         }
         self.lanes_at(|k| idx[k.min(n - 1)] as usize)
     }
@@ -254,8 +261,13 @@ mod tests {
             }
         }
         let consecutive: Vec<u32> = (4..4 + LANES as u32).collect();
-        let spread: Vec<u32> = (0..5).map(|k| 3 * k + 1).collect();
-        for idx in [&consecutive[..], &spread[..]] {
+        let short: Vec<u32> = (0..5).map(|k| 3 * k + 1).collect();
+        let gathered: Vec<u32> = (0..LANES as u32).map(|k| 2 * k + 1).collect();
+        // Consecutive but for one swapped pair: the first and last index alone would say
+        // "a run".
+        let mut swapped = consecutive.clone();
+        swapped.swap(1, 2);
+        for idx in [&consecutive[..], &short[..], &gathered[..], &swapped[..]] {
             let l = rays.lanes_of(idx);
             for k in 0..LANES {
                 let i = idx[k.min(idx.len() - 1)] as usize;
@@ -269,10 +281,21 @@ mod tests {
         assert_eq!(copy.len(), n);
         assert_eq!(bits(&copy.get(2)), bits(&ray(42)));
         assert_eq!(bits(&copy.get(n - 1)), bits(&ray(n - 1)));
-        let mut camera = Rays::new();
-        let (o, d) = (Vec3xN::splat(Vec3::X), Vec3xN::splat(Vec3::Z));
-        camera.push_lanes(o, d, 3);
-        assert_eq!(camera.len(), 3);
-        assert_eq!(bits(&camera.get(2)), bits(&Ray::new(Vec3::X, Vec3::Z)));
+        // The camera's appends: distinct lanes, at offsets that are not multiples of LANES.
+        let mut camera: Rays = (0..2).map(ray).collect();
+        let lanes_from = |at: usize| {
+            let v = |f: fn(&Ray) -> Vec3| Vec3xN::from_array(&simd::lanes(|k| f(&ray(at + k))));
+            (v(|r| r.o), v(|r| r.d))
+        };
+        for n in [3, 5, LANES] {
+            let at = camera.len();
+            let (o, d) = lanes_from(at);
+            camera.push_lanes(o, d, n);
+            assert_eq!(camera.len(), at + n);
+            for i in at..at + n {
+                let want = Ray::new(ray(i).o, ray(i).d);
+                assert_eq!(bits(&camera.get(i)), bits(&want), "ray {i}");
+            }
+        }
     }
 }
