@@ -148,21 +148,17 @@ impl Geometry {
         }
     }
 
-    /// [`Geometry::closest`] of ray `i` of `rays` for each `i` in `idx`, appended to `out`,
-    /// bit for bit the same. With a BVH, ray by ray ([`Bvh8::closest`]);
-    /// small scenes test `LANES` rays at a time against each primitive in SIMD lanes
-    /// ([`kernels`]), loaded from the columns ([`Rays::lanes_of`]).
-    pub fn closest_many(&self, rays: &Rays, idx: &[u32], out: &mut Vec<Option<(f32, u32)>>) {
+    /// [`Geometry::closest`] of each ray, appended to `out`, bit for bit the same. With a
+    /// BVH, ray by ray ([`Bvh8::closest`]); small scenes test `LANES` rays at a time
+    /// against each primitive in SIMD lanes ([`kernels`]), loaded from the rays' columns.
+    pub fn closest_many(&self, rays: &Rays, out: &mut Vec<Option<(f32, u32)>>) {
         if let Some(bvh) = &self.bvh {
-            out.extend(
-                idx.iter()
-                    .map(|&i| bvh.closest_inlined(&rays.get(i as usize))),
-            );
+            out.extend((0..rays.len()).map(|i| bvh.closest_inlined(&rays.get(i))));
             return;
         }
-        for ic in idx.chunks(LANES) {
-            let n = ic.len();
-            let (mut lanes, skip) = rays.lanes_of(ic);
+        for first in (0..rays.len()).step_by(LANES) {
+            let n = (rays.len() - first).min(LANES);
+            let (mut lanes, skip) = rays.lanes(first);
             let mut best = u32xn::splat(u32::MAX);
             for j in 0..self.prims.len() {
                 let t = self.shape_of(j as u32).intersect_lanes(&lanes);
@@ -179,7 +175,7 @@ impl Geometry {
 
     /// [`Geometry::occluded`] of each ray, appended to `out`, the same answers: ray by ray
     /// through the BVH, or in small scenes `LANES` rays at a time per primitive in SIMD lanes
-    /// (as [`Geometry::closest_many`]), loaded from the rays' columns.
+    /// (as [`Geometry::closest_many`]).
     pub fn occluded_many(&self, rays: &Rays, out: &mut Vec<bool>) {
         if let Some(bvh) = &self.bvh {
             out.extend((0..rays.len()).map(|i| bvh.occluded_inlined(&rays.get(i))));

@@ -1,11 +1,12 @@
 //! Rays as struct-of-arrays columns, the form of the wavefront's ray queues (pbrt-v4's
 //! `RayWorkItem` queues in `src/pbrt/wavefront/workitems.soa`): origins and directions as
-//! x/y/z columns ([`Vec3s`]), ranges and skipped primitives as columns of their own. A
-//! lane vector of consecutive rays is one plain load per column ([`Rays::lanes`]), a
-//! chosen subset one gather per column ([`Rays::lanes_at`]), and the camera writes its
-//! rays a lane vector at a time ([`Rays::push_lanes`]), so no stage transposes ray
-//! records; the BVH, which traverses one ray at a time, reads one ray's nine values
-//! ([`Rays::get`]).
+//! x/y/z columns ([`Vec3s`]), ranges and skipped primitives as columns of their own. The
+//! wavefront keeps the live paths' rays in order, compacted each bounce, so the geometry's
+//! batched queries load a lane vector of consecutive rays with one plain load per column
+//! ([`Rays::lanes`]); a chosen subset (the hits on spheres) is one gather per column
+//! ([`Rays::lanes_at`]), and the camera writes its rays a lane vector at a time
+//! ([`Rays::push_lanes`]), so no stage transposes ray records. The BVH, which traverses
+//! one ray at a time, reads one ray's nine values ([`Rays::get`]).
 
 use super::Ray;
 use super::kernels::{RayLanes, V3};
@@ -96,6 +97,15 @@ impl Rays {
         self.skip.resize(n, open.skip);
     }
 
+    /// Keeps the first `n` rays (all, when there are no more).
+    pub fn truncate(&mut self, n: usize) {
+        self.o.resize(n.min(self.len()));
+        self.d.resize(n.min(self.len()));
+        self.tmin.truncate(n);
+        self.tmax.truncate(n);
+        self.skip.truncate(n);
+    }
+
     /// Replaces the contents by `src`'s rays.
     pub fn copy_from(&mut self, src: &Rays) {
         self.clear();
@@ -140,25 +150,6 @@ impl Rays {
             tmax: f32xn::new(load(&self.tmax, first)),
         };
         (lanes, u32xn::new(load(&self.skip, first)))
-    }
-
-    /// Rays `idx[0]`, `idx[1]`, ... in lanes (one to [`LANES`] indices, in any order; past
-    /// the end of `idx`, the last repeated) and their skipped primitives: [`Rays::lanes`]
-    /// when they are `LANES` consecutive rays (one lane compare tells), else
-    /// [`Rays::lanes_at`].
-    #[inline(always)]
-    pub fn lanes_of(&self, idx: &[u32]) -> (RayLanes<f32xn>, u32xn) {
-        let n = idx.len();
-        assert!((1..=LANES).contains(&n), "1 to LANES rays, not {n}");
-        if let Ok(run) = <[u32; LANES]>::try_from(idx) {
-            let iota = u32xn::new(simd::lanes(|k| k as u32));
-            let first = idx[0] as usize;
-            let consecutive = (u32xn::new(run) - u32xn::splat(idx[0])).simd_eq(iota).all();
-            if consecutive && first + LANES <= self.len() {
-                return self.lanes(first);
-            }
-        }
-        self.lanes_at(|k| idx[k.min(n - 1)] as usize)
     }
 
     /// Rays `ray(0)`, ..., `ray(LANES - 1)` in lanes and their skipped primitives, one
@@ -260,17 +251,11 @@ mod tests {
                 assert_eq!(bits(&lane(&l, k)), bits(&ray((first + k).min(n - 1))));
             }
         }
-        let consecutive: Vec<u32> = (4..4 + LANES as u32).collect();
-        let short: Vec<u32> = (0..5).map(|k| 3 * k + 1).collect();
-        let gathered: Vec<u32> = (0..LANES as u32).map(|k| 2 * k + 1).collect();
-        // Consecutive but for one swapped pair: the first and last index alone would say
-        // "a run".
-        let mut swapped = consecutive.clone();
-        swapped.swap(1, 2);
-        for idx in [&consecutive[..], &short[..], &gathered[..], &swapped[..]] {
-            let l = rays.lanes_of(idx);
+        let (short, gathered) = ([1, 4, 7, 10, 13], simd::lanes(|k| 2 * k + 1));
+        for idx in [&short[..], &gathered[..]] {
+            let l = rays.lanes_at(|k| idx[k.min(idx.len() - 1)]);
             for k in 0..LANES {
-                let i = idx[k.min(idx.len() - 1)] as usize;
+                let i = idx[k.min(idx.len() - 1)];
                 assert_eq!(bits(&lane(&l, k)), bits(&ray(i)), "lane {k} of {idx:?}");
             }
         }
@@ -279,8 +264,10 @@ mod tests {
         copy.copy_from(&rays);
         copy.set(2, ray(42));
         assert_eq!(copy.len(), n);
+        copy.truncate(n - 1);
+        assert_eq!(copy.len(), n - 1);
         assert_eq!(bits(&copy.get(2)), bits(&ray(42)));
-        assert_eq!(bits(&copy.get(n - 1)), bits(&ray(n - 1)));
+        assert_eq!(bits(&copy.get(n - 2)), bits(&ray(n - 2)));
         // The camera's appends: distinct lanes, at offsets that are not multiples of LANES.
         let mut camera: Rays = (0..2).map(ray).collect();
         let lanes_from = |at: usize| {

@@ -47,10 +47,12 @@ use lobe_materials::{Bsdf, BsdfSamples, BsdfSamplesMut, Vec2Cols, Vec2s, Vec3Col
 /// long before; this only guards against pathological scenes).
 pub const DEPTH_CAP: u32 = 1 << 16;
 
-/// The state of every path of the wavefront, indexed by path: its ray, its other
-/// variables (one record per path: the stages reach paths through the queues' indices,
-/// and one record is one cache line), and its sampler stream: its pixel's key
-/// ([`Sampler::key_of`]) and its sample index within the pixel.
+/// The state of the wavefront's paths: the rays of the live ones, in the order of
+/// [`Wavefront::active`] (ray j is path `active[j]`'s, so the geometry's batched queries
+/// read them as consecutive columns), and, indexed by path, its other variables (one
+/// record per path: the stages reach paths through the queues' indices, and one record is
+/// one cache line) and its sampler stream: its pixel's key ([`Sampler::key_of`]) and its
+/// sample index within the pixel.
 #[derive(Default)]
 pub struct Paths {
     pub ray: Rays,
@@ -78,8 +80,8 @@ impl PathVars {
     };
 }
 
-/// The closest hits of a bounce: path, and its hit's distance, primitive and local
-/// geometry.
+/// The closest hits of a bounce: path, and its ray's index in [`Paths::ray`], hit distance,
+/// primitive and local geometry.
 #[derive(Default)]
 pub struct HitQueue {
     pub path: Vec<u32>,
@@ -221,6 +223,8 @@ pub struct Wavefront {
     pub paths: Paths,
     pub active: Vec<u32>,
     pub next: Vec<u32>,
+    /// The hit each path of `next` leaves from.
+    next_hit: Vec<u32>,
     pub hits: HitQueue,
     pub escaped: EscapedQueue,
     pub scatter: ScatterQueue,
@@ -285,6 +289,8 @@ impl Wavefront {
         self.active.clear();
         if max_depth > 0 {
             self.active.extend(0..n as u32);
+        } else {
+            p.ray.clear();
         }
     }
 
@@ -294,19 +300,23 @@ impl Wavefront {
     pub fn intersect(&mut self, scene: &Scene) {
         let h = &mut self.hits;
         h.closest.clear();
-        scene
-            .geometry
-            .closest_many(&self.paths.ray, &self.active, &mut h.closest);
+        let rays = &self.paths.ray;
+        scene.geometry.closest_many(rays, &mut h.closest);
         h.hits.clear();
         h.path.clear();
-        self.escaped.path.clear();
-        for (&i, c) in self.active.iter().zip(&h.closest) {
+        let e = &mut self.escaped;
+        e.path.clear();
+        e.dir.clear();
+        for (j, (&i, c)) in self.active.iter().zip(&h.closest).enumerate() {
             match *c {
                 Some((t, prim)) => {
-                    h.hits.push((i, t, prim));
+                    h.hits.push((j as u32, t, prim));
                     h.path.push(i);
                 }
-                None => self.escaped.path.push(i),
+                None => {
+                    e.path.push(i);
+                    e.dir.push(rays.dirs().get(j));
+                }
             }
         }
         scene
@@ -321,7 +331,6 @@ impl Wavefront {
             return;
         }
         let p = &mut self.paths;
-        e.dir.gather_from(p.ray.dirs(), &e.path);
         let sel_pdf = select_pdf(scene);
         for &k in &scene.infinite_lights {
             let light = &scene.lights[k as usize];
@@ -355,7 +364,8 @@ impl Wavefront {
             };
             let (i, it) = (i as usize, &its.get(h));
             let light = &scene.lights[k as usize];
-            let le = light.le_area(it, -p.ray.dirs().get(i));
+            let ray = self.hits.hits[h].0 as usize;
+            let le = light.le_area(it, -p.ray.dirs().get(ray));
             if le.is_black() {
                 continue;
             }
@@ -382,11 +392,11 @@ impl Wavefront {
         let (ns, dpdu) = (h.it.ns(), h.it.dpdu());
         for first in (0..m).step_by(LANES) {
             let n = (m - first).min(LANES);
-            let paths: [usize; LANES] = simd::lanes(|k| h.path[first + k.min(n - 1)] as usize);
+            let rays: [usize; LANES] = simd::lanes(|k| h.hits[first + k.min(n - 1)].0 as usize);
             shading_lanes(
                 ns.load(first),
                 dpdu.load(first),
-                p.ray.dirs().lanes_of(&paths[..n]),
+                p.ray.dirs().lanes_of(&rays[..n]),
                 first,
                 [&mut s.frame_s, &mut s.frame_t, &mut s.wo],
             );
@@ -534,49 +544,69 @@ impl Wavefront {
     }
 
     /// Paths whose BSDF sample carries throughput go on along it; then Russian roulette
-    /// (one sampler dimension for all, since they share their depth).
+    /// (one sampler dimension for all, since they share their depth); then the rays of the
+    /// paths that go on, in their order, become [`Paths::ray`] (none is made for a path
+    /// that roulette ends).
     pub fn spawn(&mut self, sampler: &mut Sampler, rr_depth: u32) {
         let p = &mut self.paths;
         self.next.clear();
-        let (its, s) = (&self.hits.it, &self.scatter);
+        self.next_hit.clear();
+        let its = &self.hits.it;
         for (h, (bs, &i)) in self.bsdf_samples.iter().zip(&self.hits.path).enumerate() {
             let Some(bs) = bs else {
                 continue;
             };
-            let it = &its.get(h);
-            let frame = s.frame(its, h);
             let v = &mut p.vars[i as usize];
             v.beta *= bs.weight;
             if v.beta.is_black() || !v.beta.is_finite() {
                 continue;
             }
             v.prev_pdf = bs.pdf;
-            v.prev_p = it.p;
-            p.ray.set(i as usize, spawn_ray(it, frame.to_world(bs.wi)));
+            v.prev_p = its.p().get(h);
             self.next.push(i);
+            self.next_hit.push(h as u32);
         }
         self.depth += 1;
         if self.depth >= rr_depth && !self.next.is_empty() {
-            let s = &mut self.scatter;
-            s.streams_of(p, &self.next);
-            let n = self.next.len();
-            s.light_uc.resize(n, 0.0);
-            sampler.next_1d_lanes(&s.sample_key, &s.sample_index, &mut s.light_uc[..n]);
-            let mut kept = 0;
-            for j in 0..n {
-                let i = self.next[j];
-                let v = &mut p.vars[i as usize];
-                let q = v.beta.max_component().min(0.95);
-                if s.light_uc[j] >= q {
-                    continue;
-                }
-                v.beta = v.beta / q;
-                self.next[kept] = i;
-                kept += 1;
-            }
-            self.next.truncate(kept);
+            self.russian_roulette(sampler);
+        }
+        let (its, s, rays) = (&self.hits.it, &self.scatter, &mut self.paths.ray);
+        rays.resize(self.next_hit.len());
+        for (j, &h) in self.next_hit.iter().enumerate() {
+            let h = h as usize;
+            let wi = self
+                .bsdf_samples
+                .get(h)
+                .expect("a path goes on by its sample")
+                .wi;
+            rays.set(j, spawn_ray(&its.get(h), s.frame(its, h).to_world(wi)));
         }
         std::mem::swap(&mut self.active, &mut self.next);
+    }
+
+    /// Russian roulette on the paths of `next`: each goes on with probability its
+    /// throughput's largest component (at most 0.95), its throughput divided by it.
+    fn russian_roulette(&mut self, sampler: &mut Sampler) {
+        let (p, s) = (&mut self.paths, &mut self.scatter);
+        s.streams_of(p, &self.next);
+        let n = self.next.len();
+        s.light_uc.resize(n, 0.0);
+        sampler.next_1d_lanes(&s.sample_key, &s.sample_index, &mut s.light_uc[..n]);
+        let mut kept = 0;
+        for j in 0..n {
+            let i = self.next[j];
+            let v = &mut p.vars[i as usize];
+            let q = v.beta.max_component().min(0.95);
+            if s.light_uc[j] >= q {
+                continue;
+            }
+            v.beta = v.beta / q;
+            self.next[kept] = i;
+            self.next_hit[kept] = self.next_hit[j];
+            kept += 1;
+        }
+        self.next.truncate(kept);
+        self.next_hit.truncate(kept);
     }
 }
 
