@@ -262,8 +262,8 @@ fn spawned_rays_skip_only_what_they_cannot_hit() {
     );
 }
 
-/// `closest_many` and `occluded_many` (`LANES` rays per SIMD sphere test in small scenes of
-/// spheres, ray by ray otherwise) return `closest` (bit for bit) and `occluded` of each
+/// `closest_many` and `occluded_many` (`LANES` rays per SIMD test in small scenes, ray by
+/// ray through the BVH otherwise) return `closest` (bit for bit) and `occluded` of each
 /// ray: rays from outside, inside and on the spheres, with finite and infinite ranges,
 /// skipped primitives, and partial batches; on scenes of spheres, on a small scene of
 /// triangles, spheres and rectangles (exhaustive tests in ray lanes), and on a large one
@@ -400,7 +400,8 @@ fn batched_queries_equal_single_ones(g: &Geometry, records: &[Ray]) {
     }
     let rays = &rays;
     for len in [1usize, 7, 8, 9, 203] {
-        // Batches of rays from all over the set, in order and reversed.
+        // Batches of 1, 7, 8, 9 and 203 rays (full lane vectors and padded tails) from
+        // all over the set, in order and reversed.
         let n = records.len();
         let spread: Vec<u32> = (0..len)
             .map(|k| (k * n / len + n / (2 * len)) as u32)

@@ -150,7 +150,8 @@ impl Geometry {
 
     /// [`Geometry::closest`] of each ray, appended to `out`, bit for bit the same. With a
     /// BVH, ray by ray ([`Bvh8::closest`]); small scenes test `LANES` rays at a time
-    /// against each primitive in SIMD lanes ([`kernels`]), loaded from the rays' columns.
+    /// against each primitive in SIMD lanes ([`super::kernels`]), loaded from the rays'
+    /// columns.
     pub fn closest_many(&self, rays: &Rays, out: &mut Vec<Option<(f32, u32)>>) {
         if let Some(bvh) = &self.bvh {
             out.extend((0..rays.len()).map(|i| bvh.closest_inlined(&rays.get(i))));

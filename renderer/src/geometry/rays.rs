@@ -97,15 +97,6 @@ impl Rays {
         self.skip.resize(n, open.skip);
     }
 
-    /// Keeps the first `n` rays (all, when there are no more).
-    pub fn truncate(&mut self, n: usize) {
-        self.o.resize(n.min(self.len()));
-        self.d.resize(n.min(self.len()));
-        self.tmin.truncate(n);
-        self.tmax.truncate(n);
-        self.skip.truncate(n);
-    }
-
     /// Replaces the contents by `src`'s rays.
     pub fn copy_from(&mut self, src: &Rays) {
         self.clear();
@@ -235,8 +226,8 @@ mod tests {
     }
 
     /// Every way of reading rays from the columns gives each ray bit for bit: one ray,
-    /// consecutive lane vectors (with a padded tail), chosen subsets, and rays the camera
-    /// appended a lane vector at a time.
+    /// consecutive lane vectors (with a padded tail), chosen subsets, copies, replaced and
+    /// appended rays, and rays the camera appended a lane vector at a time.
     #[test]
     fn columns_hold_each_ray() {
         let n = 3 * LANES + 5;
@@ -264,10 +255,12 @@ mod tests {
         copy.copy_from(&rays);
         copy.set(2, ray(42));
         assert_eq!(copy.len(), n);
-        copy.truncate(n - 1);
-        assert_eq!(copy.len(), n - 1);
         assert_eq!(bits(&copy.get(2)), bits(&ray(42)));
-        assert_eq!(bits(&copy.get(n - 2)), bits(&ray(n - 2)));
+        assert_eq!(bits(&copy.get(n - 1)), bits(&ray(n - 1)));
+        copy.resize(n - 1);
+        copy.push(ray(77));
+        assert_eq!(copy.len(), n);
+        assert_eq!(bits(&copy.get(n - 1)), bits(&ray(77)));
         // The camera's appends: distinct lanes, at offsets that are not multiples of LANES.
         let mut camera: Rays = (0..2).map(ray).collect();
         let lanes_from = |at: usize| {

@@ -8,14 +8,14 @@
 //! |---|---|---|
 //! | [`CameraQueue::push_pixel`] | camera, sampler | camera rays |
 //! | [`Wavefront::intersect`] | active paths' rays | [`HitQueue`], [`EscapedQueue`] |
-//! | [`Wavefront::escaped`] | escaped rays | radiance of infinite lights |
+//! | [`Wavefront::escaped`] | escaped paths' directions | radiance of infinite lights |
 //! | [`Wavefront::emission`] | hits | radiance of area lights hit |
 //! | [`Wavefront::scatter_setup`] | hits that go on | [`ScatterQueue`]: frames, sampler values, material groups |
 //! | [`Wavefront::light_samples`] | scatter queue | [`LightSampleQueue`] (one batch per light) |
 //! | [`Wavefront::bsdf_eval`] | light samples | BSDF values and pdfs (one batch per material) |
 //! | [`Wavefront::shadow_rays`] | light samples | [`ShadowQueue`], radiance of unoccluded samples |
 //! | [`Wavefront::bsdf_samples`] | scatter queue | BSDF samples (one batch per material) |
-//! | [`Wavefront::spawn`] | BSDF samples | next bounce's rays, Russian roulette |
+//! | [`Wavefront::spawn`] | BSDF samples | Russian roulette, then the next bounce's rays in order |
 //!
 //! Each path makes exactly the operations of the scalar [`path::li`](super::path::li) in
 //! the same order (the same sampler dimensions and the same sums), so the two agree bit
@@ -49,10 +49,10 @@ pub const DEPTH_CAP: u32 = 1 << 16;
 
 /// The state of the wavefront's paths: the rays of the live ones, in the order of
 /// [`Wavefront::active`] (ray j is path `active[j]`'s, so the geometry's batched queries
-/// read them as consecutive columns), and, indexed by path, its other variables (one
-/// record per path: the stages reach paths through the queues' indices, and one record is
-/// one cache line) and its sampler stream: its pixel's key ([`Sampler::key_of`]) and its
-/// sample index within the pixel.
+/// read them as consecutive columns); and, indexed by path, each path's other variables
+/// (one record per path: the stages reach paths through the queues' indices, and one
+/// record is one cache line) and its sampler stream: its pixel's key
+/// ([`Sampler::key_of`]) and its sample index within the pixel.
 #[derive(Default)]
 pub struct Paths {
     pub ray: Rays,
@@ -80,17 +80,22 @@ impl PathVars {
     };
 }
 
-/// The closest hits of a bounce: path, and its ray's index in [`Paths::ray`], hit distance,
-/// primitive and local geometry.
+/// The closest hits of a bounce.
 #[derive(Default)]
 pub struct HitQueue {
+    /// Per hit h, its path.
     pub path: Vec<u32>,
+    /// Per ray j of [`Paths::ray`], its closest hit (distance, primitive), misses included.
     pub closest: Vec<Option<(f32, u32)>>,
+    /// Per hit h, (j, t, prim): the index of its ray in [`Paths::ray`] (a queue position,
+    /// not a path; increasing in h), its distance and primitive.
     pub hits: Vec<(u32, f32, u32)>,
+    /// Per hit h, its local geometry.
     pub it: Interactions,
 }
 
-/// Paths whose ray left the scene, their directions, and an infinite light's value and
+/// Paths whose ray left the scene, their directions (copied as the paths are sorted out:
+/// [`Wavefront::spawn`] overwrites the ray queue), and an infinite light's value and
 /// density there.
 #[derive(Default)]
 pub struct EscapedQueue {
@@ -221,7 +226,9 @@ impl CameraQueue {
 #[derive(Default)]
 pub struct Wavefront {
     pub paths: Paths,
+    /// The live paths; ray j of [`Paths::ray`] is path `active[j]`'s.
     pub active: Vec<u32>,
+    /// The paths [`Wavefront::spawn`] keeps, swapped into `active`.
     pub next: Vec<u32>,
     /// The hit each path of `next` leaves from.
     next_hit: Vec<u32>,
@@ -296,8 +303,13 @@ impl Wavefront {
 
     /// Closest hits of the active paths, split into hits (with their local geometry,
     /// computed in a second pass so that neither waits on the other's long dependency
-    /// chains) and escaped rays.
+    /// chains) and escaped paths with their directions.
     pub fn intersect(&mut self, scene: &Scene) {
+        debug_assert_eq!(
+            self.paths.ray.len(),
+            self.active.len(),
+            "a ray per live path"
+        );
         let h = &mut self.hits;
         h.closest.clear();
         let rays = &self.paths.ray;
@@ -392,6 +404,8 @@ impl Wavefront {
         let (ns, dpdu) = (h.it.ns(), h.it.dpdu());
         for first in (0..m).step_by(LANES) {
             let n = (m - first).min(LANES);
+            // The hits' ray indices increase (as `lanes_of` requires): `intersect` sorts
+            // the hits out in ray order.
             let rays: [usize; LANES] = simd::lanes(|k| h.hits[first + k.min(n - 1)].0 as usize);
             shading_lanes(
                 ns.load(first),
@@ -584,8 +598,10 @@ impl Wavefront {
         std::mem::swap(&mut self.active, &mut self.next);
     }
 
-    /// Russian roulette on the paths of `next`: each goes on with probability its
-    /// throughput's largest component (at most 0.95), its throughput divided by it.
+    /// Russian roulette on the paths of `next` (and their hits in `next_hit`, filtered
+    /// with them): one sampler dimension drawn for their streams in order, and each goes on
+    /// with probability its throughput's largest component (at most 0.95), its throughput
+    /// divided by it.
     fn russian_roulette(&mut self, sampler: &mut Sampler) {
         let (p, s) = (&mut self.paths, &mut self.scatter);
         s.streams_of(p, &self.next);
