@@ -97,14 +97,9 @@ impl Rays {
         self.skip.resize(n, open.skip);
     }
 
-    /// Replaces the contents by `src`'s rays.
+    /// Replaces the contents by `src`'s rays, one slice copy per column.
     pub fn copy_from(&mut self, src: &Rays) {
         self.clear();
-        self.extend_from(src);
-    }
-
-    /// Appends `src`'s rays.
-    pub fn extend_from(&mut self, src: &Rays) {
         self.o.extend_from_cols(src.o.cols());
         self.d.extend_from_cols(src.d.cols());
         self.tmin.extend_from_slice(&src.tmin);
@@ -183,12 +178,6 @@ impl FromIterator<Ray> for Rays {
         let mut rays = Rays::new();
         iter.into_iter().for_each(|r| rays.push(r));
         rays
-    }
-}
-
-impl Extend<Ray> for Rays {
-    fn extend<I: IntoIterator<Item = Ray>>(&mut self, iter: I) {
-        iter.into_iter().for_each(|r| self.push(r));
     }
 }
 

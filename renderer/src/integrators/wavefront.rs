@@ -285,7 +285,6 @@ impl Wavefront {
     fn start(&mut self, rays: &Rays, keys: &[u64], indices: &[u32], max_depth: u32) {
         let n = rays.len();
         let p = &mut self.paths;
-        p.ray.copy_from(rays);
         p.key.clear();
         p.key.extend_from_slice(keys);
         p.index.clear();
@@ -294,10 +293,10 @@ impl Wavefront {
         p.vars.resize(n, PathVars::START);
         self.depth = 0;
         self.active.clear();
+        p.ray.clear();
         if max_depth > 0 {
             self.active.extend(0..n as u32);
-        } else {
-            p.ray.clear();
+            p.ray.copy_from(rays);
         }
     }
 
