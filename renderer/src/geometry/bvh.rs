@@ -334,8 +334,11 @@ impl Geometry {
         it.t = t;
         it.shape = shape;
         it.prim = prim;
-        match &self.source().shape_of_primitive(primitive) {
-            PrimShape::Sphere(s) => {
+        // Matched on the primitive's kind, the rectangle read in place: the by-value copy of
+        // [`PrimSource::shape_of_primitive`] is stored to the stack and read back by loads
+        // that straddle its stores, which stalls store forwarding on every hit.
+        match primitive.kind {
+            PrimKind::Sphere(s) => {
                 let (pos, n, dpdu) = s.surface(ray.at(t));
                 it.p = pos;
                 it.ng = orient(n);
@@ -344,7 +347,8 @@ impl Geometry {
                 it.uv = Vec2::ZERO;
                 it.exit = n;
             }
-            PrimShape::Rectangle(r) => {
+            PrimKind::Rectangle(r) => {
+                let r = &self.rects[r as usize];
                 let uv = r.uv(ray.at(t));
                 it.p = r.point(uv);
                 it.ng = orient(r.n);
@@ -353,8 +357,9 @@ impl Geometry {
                 it.uv = uv;
                 it.exit = Vec3::ZERO;
             }
-            PrimShape::Triangle(tri) => {
-                let (pos, ng, ns, dpdu, uv) = self.triangle_geometry(ray.o, ray.d, tri, sg);
+            PrimKind::Triangle { mesh, index } => {
+                let tri = Triangle::new(mesh, &self.meshes[mesh as usize], index);
+                let (pos, ng, ns, dpdu, uv) = self.triangle_geometry(ray.o, ray.d, &tri, sg);
                 it.p = pos;
                 it.ng = orient(ng);
                 it.ns = orient(ns);
