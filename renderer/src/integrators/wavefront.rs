@@ -94,12 +94,13 @@ pub struct HitQueue {
     pub it: Interactions,
 }
 
-/// Paths whose ray left the scene, their directions (copied as the paths are sorted out:
-/// [`Wavefront::spawn`] overwrites the ray queue), and an infinite light's value and
-/// density there.
+/// Paths whose ray left the scene, their rays' positions in [`Paths::ray`], their
+/// directions (gathered once the paths are sorted out: [`Wavefront::spawn`] overwrites
+/// the ray queue), and an infinite light's value and density there.
 #[derive(Default)]
 pub struct EscapedQueue {
     pub path: Vec<u32>,
+    pub ray: Vec<u32>,
     pub dir: Vec3s,
     pub le_pdf: Vec<(Rgb, f32)>,
 }
@@ -317,7 +318,7 @@ impl Wavefront {
         h.path.clear();
         let e = &mut self.escaped;
         e.path.clear();
-        e.dir.clear();
+        e.ray.clear();
         for (j, (&i, c)) in self.active.iter().zip(&h.closest).enumerate() {
             match *c {
                 Some((t, prim)) => {
@@ -326,10 +327,11 @@ impl Wavefront {
                 }
                 None => {
                     e.path.push(i);
-                    e.dir.push(rays.dirs().get(j));
+                    e.ray.push(j as u32);
                 }
             }
         }
+        e.dir.gather_from(rays.dirs(), &e.ray);
         scene
             .geometry
             .interactions_many(&self.paths.ray, &h.hits, &mut h.it);
