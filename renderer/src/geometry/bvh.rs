@@ -318,7 +318,10 @@ impl Geometry {
 
     /// [`Geometry::interaction`] of primitive `prim`, already looked up as `primitive`,
     /// written field by field into `it` (every field is set). Inlined (spheres and
-    /// rectangles here; triangles out of line).
+    /// rectangles here; triangles out of line). It matches on the primitive's kind and
+    /// reads a rectangle in place: the by-value copy of [`PrimSource::shape_of_primitive`]
+    /// is stored to the stack and read back by loads that straddle its stores, which
+    /// stalls store forwarding on every rectangle hit.
     #[inline(always)]
     fn interaction_of(
         &self,
@@ -334,9 +337,6 @@ impl Geometry {
         it.t = t;
         it.shape = shape;
         it.prim = prim;
-        // Matched on the primitive's kind, the rectangle read in place: the by-value copy of
-        // [`PrimSource::shape_of_primitive`] is stored to the stack and read back by loads
-        // that straddle its stores, which stalls store forwarding on every hit.
         match primitive.kind {
             PrimKind::Sphere(s) => {
                 let (pos, n, dpdu) = s.surface(ray.at(t));

@@ -94,14 +94,19 @@ pub struct HitQueue {
     pub it: Interactions,
 }
 
-/// Paths whose ray left the scene, their rays' positions in [`Paths::ray`], their
-/// directions (gathered once the paths are sorted out: [`Wavefront::spawn`] overwrites
-/// the ray queue), and an infinite light's value and density there.
+/// Paths whose ray left the scene, their directions, and an infinite light's value and
+/// density there.
 #[derive(Default)]
 pub struct EscapedQueue {
+    /// The escaped paths.
     pub path: Vec<u32>,
-    pub ray: Vec<u32>,
+    /// Per escaped path, the index of its ray in [`Paths::ray`] (a queue position, not a
+    /// path).
+    pub ray_index: Vec<u32>,
+    /// Per escaped path, its ray's direction, gathered once the paths are sorted out
+    /// ([`Wavefront::spawn`] overwrites the ray queue).
     pub dir: Vec3s,
+    /// Per escaped path, an infinite light's radiance and density along `dir`.
     pub le_pdf: Vec<(Rgb, f32)>,
 }
 
@@ -318,7 +323,7 @@ impl Wavefront {
         h.path.clear();
         let e = &mut self.escaped;
         e.path.clear();
-        e.ray.clear();
+        e.ray_index.clear();
         for (j, (&i, c)) in self.active.iter().zip(&h.closest).enumerate() {
             match *c {
                 Some((t, prim)) => {
@@ -327,11 +332,11 @@ impl Wavefront {
                 }
                 None => {
                     e.path.push(i);
-                    e.ray.push(j as u32);
+                    e.ray_index.push(j as u32);
                 }
             }
         }
-        e.dir.gather_from(rays.dirs(), &e.ray);
+        e.dir.gather_from(rays.dirs(), &e.ray_index);
         scene
             .geometry
             .interactions_many(&self.paths.ray, &h.hits, &mut h.it);
