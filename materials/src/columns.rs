@@ -358,16 +358,17 @@ impl<'a, T: Record<N>, const N: usize> Cols<'a, T, N> {
         T::from_lanes(self.c.map(|c| f32xn::new(simd::padded(&c[first..]))))
     }
 
-    /// Elements `idx[i]` in lane i for one to [`LANES`] strictly increasing indices (as
-    /// [`simd::chunks_where`] gives them; past their end, the last repeated, as
-    /// [`simd::lanes_of`]): one plain load per column when they are `LANES` consecutive
-    /// ones, else one gather per column. Increasing indices are a precondition (checked in
-    /// debug builds only): the test for a consecutive run looks at the first and last
-    /// index alone.
+    /// Elements `idx[i]` in lane i for one to [`LANES`] indices in any order (past their
+    /// end, the last repeated, as [`simd::lanes_of`]): one plain load per column when they
+    /// are `LANES` consecutive ones (the ends tested first, then every index in one
+    /// branch-free pass), else one gather per column.
     #[inline(always)]
     pub fn lanes_of(&self, idx: &[usize]) -> T::Lanes {
-        debug_assert!(idx.windows(2).all(|w| w[0] < w[1]), "increasing indices");
-        if idx.len() == LANES && idx[LANES - 1] - idx[0] == LANES - 1 {
+        let consecutive = |run: bool, (i, &k): (usize, &usize)| run & (k.wrapping_sub(i) == idx[0]);
+        if idx.len() == LANES
+            && idx[LANES - 1].wrapping_sub(idx[0]) == LANES - 1
+            && idx.iter().enumerate().fold(true, consecutive)
+        {
             return self.load(idx[0]);
         }
         T::from_lanes(self.c.map(|c| f32xn::new(simd::lanes_of(idx, |k| c[k]))))
@@ -495,10 +496,14 @@ mod tests {
         for i in 0..LANES {
             assert_eq!(lanes.lane(i), v[idx[i.min(2)]]);
         }
-        // LANES consecutive indices (loaded), and LANES with a gap (gathered).
+        // LANES consecutive indices (loaded); LANES with a gap, and LANES that span a run's
+        // first and last index but with a pair swapped (gathered).
+        let mut swapped = simd::lanes(|i| 7 + i);
+        swapped.swap(1, 2);
         for idx in [
             simd::lanes(|i| 7 + i),
             simd::lanes(|i| 7 + i + (i > 0) as usize),
+            swapped,
         ] {
             let lanes = cols.cols().lanes_of(&idx);
             for i in 0..LANES {
