@@ -222,7 +222,8 @@ fn batched_light_samples_equal_single_ones() {
     for (name, light) in &all {
         for len in [53, 8, 5, 1] {
             let u = lobe_materials::Vec2s::from(&us[..len]);
-            light.sample_li_many(|k| points[k], u.cols(), &mut out);
+            let p = lobe_materials::Vec3s::from(&points[..len]);
+            light.sample_li_many(p.cols(), u.cols(), &mut out);
             assert_eq!(out.pdf.len(), len);
             for k in 0..len {
                 let one = light.sample_li(points[k], us[k]);

@@ -141,6 +141,7 @@ pub struct LightSampleQueue {
     /// results.
     order: Vec<u32>,
     starts: Vec<usize>,
+    p: Vec3s,
     u: Vec2s,
     batch: LightSamples,
 }
@@ -410,8 +411,8 @@ impl Wavefront {
         let (ns, dpdu) = (h.it.ns(), h.it.dpdu());
         for first in (0..m).step_by(LANES) {
             let n = (m - first).min(LANES);
-            // The hits' ray indices increase (as `lanes_of` requires): `intersect` sorts
-            // the hits out in ray order.
+            // The hits' ray indices increase (`intersect` sorts the hits out in ray order),
+            // so a chunk where every ray hit is one plain load per column.
             let rays: [usize; LANES] = simd::lanes(|k| h.hits[first + k.min(n - 1)].0 as usize);
             shading_lanes(
                 ns.load(first),
@@ -455,7 +456,7 @@ impl Wavefront {
         let light_of = |h: usize| Some(choice(s.light_uc[h]));
         group_stable(m, light_of, &mut q.starts, &mut q.order);
         if let Some(k) = (0..n_lights).find(|&k| q.starts[k + 1] - q.starts[k] == m) {
-            scene.lights[k].sample_li_many(|h| its.p().get(h), s.light_u.cols(), &mut q.samples);
+            scene.lights[k].sample_li_many(its.p(), s.light_u.cols(), &mut q.samples);
             return;
         }
         for k in 0..n_lights {
@@ -463,9 +464,9 @@ impl Wavefront {
             if hits.is_empty() {
                 continue;
             }
+            q.p.gather_from(its.p(), hits);
             q.u.gather_from(s.light_u.cols(), hits);
-            let point = |j: usize| its.p().get(hits[j] as usize);
-            scene.lights[k].sample_li_many(point, q.u.cols(), &mut q.batch);
+            scene.lights[k].sample_li_many(q.p.cols(), q.u.cols(), &mut q.batch);
             for (j, &h) in hits.iter().enumerate() {
                 q.samples.copy_from(h as usize, &q.batch, j);
             }

@@ -127,11 +127,15 @@ impl LightSamples {
 }
 
 impl Light {
-    /// [`Light::sample_li`] of the points `p(k)` with samples `u[k]` into `out` (reset to
+    /// [`Light::sample_li`] of the points `p[k]` with samples `u[k]` into `out` (reset to
     /// `u.len()` entries), the same values: environment maps, which do not depend on the
-    /// point, sample the whole batch in SIMD lanes ([`EnvMap::sample_many`]), other lights
-    /// one point at a time.
-    pub fn sample_li_many(&self, p: impl Fn(usize) -> Vec3, u: Vec2Cols, out: &mut LightSamples) {
+    /// point, sample the whole batch in SIMD lanes ([`EnvMap::sample_many`]), as do
+    /// rectangles (points loaded from their columns); other lights one point at a time.
+    ///
+    /// # Panics
+    /// When `p` and `u` differ in length.
+    pub fn sample_li_many(&self, p: Vec3Cols, u: Vec2Cols, out: &mut LightSamples) {
+        assert_eq!(p.len(), u.len(), "a point per light sample");
         out.reset(u.len());
         match self {
             Light::Env(env) => {
@@ -147,8 +151,8 @@ impl Light {
             }
             _ => {}
         }
-        for (k, u) in u.iter().enumerate() {
-            if let Some(ls) = self.sample_li(p(k), u) {
+        for (k, (p, u)) in p.iter().zip(u.iter()).enumerate() {
+            if let Some(ls) = self.sample_li(p, u) {
                 out.set(k, &ls);
             }
         }
@@ -287,7 +291,7 @@ fn sample_rectangle_many(
     rect: &Rectangle,
     flip: bool,
     radiance: Rgb,
-    p: impl Fn(usize) -> Vec3,
+    p: Vec3Cols,
     u: Vec2Cols,
     out: &mut LightSamples,
 ) {
@@ -297,7 +301,7 @@ fn sample_rectangle_many(
     for first in (0..u.len()).step_by(LANES) {
         let len = (u.len() - first).min(LANES);
         let [ux, uy] = u.load(first);
-        let pp = Vec3xN::from_array(&simd::lanes(|i| p(first + i.min(len - 1))));
+        let pp = p.load(first);
         let q = rect.point_of(ux, uy);
         let pdf = area_to_solid_angle(pp, q, n, area_pdf);
         let (wi, dist2, lit) = toward_emitter(pp, q, n);
