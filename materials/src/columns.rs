@@ -365,7 +365,9 @@ impl<'a, T: Record<N>, const N: usize> Cols<'a, T, N> {
     #[inline(always)]
     pub fn lanes_of(&self, idx: &[usize]) -> T::Lanes {
         let consecutive = |run: bool, (i, &k): (usize, &usize)| run & (k.wrapping_sub(i) == idx[0]);
+        // A run past the end goes to the gather, which refuses it (the load would pad).
         if idx.len() == LANES
+            && idx[LANES - 1] < self.len()
             && idx[LANES - 1].wrapping_sub(idx[0]) == LANES - 1
             && idx.iter().enumerate().fold(true, consecutive)
         {
