@@ -272,7 +272,7 @@ fn render_tile(
         radiance.resize(camera.index.len(), Rgb::ZERO);
         let (rays, keys, indices) = (&camera.ray, &camera.key, &camera.index);
         scene.settings.integrator.li_many(
-            scene,
+            &scene.world,
             rays,
             keys,
             indices,
@@ -372,10 +372,10 @@ impl TileRun {
             samples: scene.settings.width as u64 * scene.settings.height as u64 * spp as u64,
             nonfinite_dropped: self.dropped,
             threads: self.threads,
-            primitives: scene.geometry.prims.len(),
-            bvh_bytes: scene.geometry.bvh_memory_bytes(),
-            bvh_sah_cost: scene.geometry.bvh_sah_cost(),
-            primitive_bytes: scene.geometry.primitive_memory_bytes(),
+            primitives: scene.world.geometry.prims.len(),
+            bvh_bytes: scene.world.geometry.bvh_memory_bytes(),
+            bvh_sah_cost: scene.world.geometry.bvh_sah_cost(),
+            primitive_bytes: scene.world.geometry.primitive_memory_bytes(),
             load: scene.load_times,
         }
     }

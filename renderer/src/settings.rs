@@ -1,8 +1,9 @@
 //! Render settings: what one render of a scene does (the scene file's `film`, `sampler` and
 //! `integrator`, docs/scene-format.md), apart from the world it renders (shapes, lights,
-//! materials, camera: [`crate::scene::Scene`]). Callers override them after loading (the
-//! CLI's `--spp`, `--seed`, film size); the integrators read them and the scene loader
-//! fills them, so neither depends on the other through them.
+//! materials: [`crate::scene::World`]); a [`crate::scene::Scene`] holds both, with its
+//! camera. Callers override them after loading (the CLI's `--spp`, `--seed`, film size);
+//! the render loop reads them and the scene loader fills them, so neither depends on the
+//! other through them.
 
 use crate::sampler::Scramble;
 

@@ -107,7 +107,7 @@ fn furnace_albedo_half_renders_half_on_the_sphere() {
                     f - glam::Vec2::new(0.125 / 48.0, 0.125 / 48.0),
                 ];
                 for c in corners {
-                    if s.geometry.intersect(&s.camera.ray(c)).is_some() {
+                    if s.world.geometry.intersect(&s.camera.ray(c)).is_some() {
                         hits += 1;
                     }
                 }

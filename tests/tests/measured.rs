@@ -309,7 +309,7 @@ fn scenes_load_tables_lazily() {
     // shapes, one named and one inline, share one table is counted in lazy_build.rs, whose
     // process-wide build counter no other test moves.)
     let s = load(scene(json!([{"type": "sphere", "material": "table"}, {"type": "sphere", "center": [2, 0, 0], "material": {"type": "merl", "file": "t.binary"}}]))).unwrap();
-    assert_eq!(s.shapes.len(), 2);
+    assert_eq!(s.world.shapes.len(), 2);
     let e = match load(scene(json!([{"type": "sphere", "material": "unused"}]))) {
         Ok(_) => panic!("a missing table was accepted"),
         Err(e) => e.to_string(),

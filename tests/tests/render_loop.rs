@@ -59,7 +59,7 @@ fn scene() -> lobe_renderer::scene::Scene {
 #[test]
 fn non_finite_samples_are_dropped_and_counted() {
     let mut s = scene();
-    s.shapes[0].material = Arc::new(HalfNan);
+    s.world.shapes[0].material = Arc::new(HalfNan);
     let (img, stats) = render(&s, &RenderOptions::default()).unwrap();
     assert!(
         stats.nonfinite_dropped > 0,

@@ -347,7 +347,7 @@ fn named_materials_may_be_composites_and_names_are_unique() {
     v["materials"] = json!({"two-coat": two_coat});
     v["shapes"][0]["material"] = json!("two-coat");
     let scene = from_value(&v, "c.json", tmp.path(), &LoadOptions::with_builtins()).unwrap();
-    assert_eq!(scene.shapes[0].material.name(), "composite");
+    assert_eq!(scene.world.shapes[0].material.name(), "composite");
     // A bad lobe of a named composite is named by its path.
     v["materials"]["two-coat"]["lobes"][1]["m"] = json!(-1);
     let e = error_of(v);
@@ -591,10 +591,10 @@ fn gltf_camera_and_node_transforms_are_used() {
     assert!((pitch + 12.0).abs() < 0.1, "pitch {pitch}");
     // The floor quad is scaled by 3 (node) x 1.5 (stage): it spans x in [-4.5, 4.5].
     let down = lobe_renderer::geometry::Ray::new(glam::Vec3::new(4.4, 5.0, 0.0), glam::Vec3::NEG_Y);
-    assert!(scene.geometry.intersect(&down).is_some());
+    assert!(scene.world.geometry.intersect(&down).is_some());
     let outside =
         lobe_renderer::geometry::Ray::new(glam::Vec3::new(4.6, 5.0, 0.0), glam::Vec3::NEG_Y);
-    assert!(scene.geometry.intersect(&outside).is_none());
+    assert!(scene.world.geometry.intersect(&outside).is_none());
 }
 
 #[test]
@@ -662,6 +662,11 @@ fn shapes_sharing_a_material_share_its_group() {
     ]);
     let dir = lobe_tests::workspace().join("scenes");
     let scene = from_value(&v, "groups.json", &dir, &LoadOptions::with_builtins()).unwrap();
-    let groups: Vec<u32> = scene.shapes.iter().map(|s| s.material_group).collect();
+    let groups: Vec<u32> = scene
+        .world
+        .shapes
+        .iter()
+        .map(|s| s.material_group)
+        .collect();
     assert_eq!(groups, [0, 1, 0, 2, 1]);
 }

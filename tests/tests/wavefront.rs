@@ -38,7 +38,7 @@ fn check(scene: &Scene, batch: usize) {
                 keys.push(base.key());
                 indices.push(s);
                 let mut own = base.clone();
-                scalar.push((x, scene.settings.integrator.li(scene, ray, &mut own)));
+                scalar.push((x, scene.settings.integrator.li(&scene.world, ray, &mut own)));
             }
         }
         let mut many = vec![Rgb::ZERO; rays.len()];
@@ -54,7 +54,7 @@ fn check(scene: &Scene, batch: usize) {
             scene
                 .settings
                 .integrator
-                .li_many(scene, &r, k, idx, &mut sampler, o, &mut ws);
+                .li_many(&scene.world, &r, k, idx, &mut sampler, o, &mut ws);
         }
         for (((x, a), b), s) in scalar.iter().zip(&many).zip(&indices) {
             assert_eq!(

@@ -7,42 +7,42 @@ use super::{Shading, sample_one_light, unoccluded};
 use crate::Rgb;
 use crate::geometry::{Ray, spawn_ray};
 use crate::sampler::Sampler;
-use crate::scene::Scene;
+use crate::scene::World;
 use lobe_materials::sampling::warp::power_heuristic;
 
 pub fn li(
-    scene: &Scene,
+    world: &World,
     ray: Ray,
     sampler: &mut Sampler,
     emitter_samples: u32,
     bsdf_samples: u32,
 ) -> Rgb {
     let mut l = Rgb::ZERO;
-    let Some(it) = scene.geometry.intersect(&ray) else {
-        for &k in &scene.infinite_lights {
-            l += scene.lights[k as usize].le_infinite(ray.d);
+    let Some(it) = world.geometry.intersect(&ray) else {
+        for &k in &world.infinite_lights {
+            l += world.lights[k as usize].le_infinite(ray.d);
         }
         return l;
     };
-    let shape = &scene.shapes[it.shape as usize];
+    let shape = &world.shapes[it.shape as usize];
     if let Some(k) = shape.light {
-        l += scene.lights[k as usize].le_area(&it, -ray.d);
+        l += world.lights[k as usize].le_area(&it, -ray.d);
     }
-    let sh = Shading::new(scene, &it, ray.d);
+    let sh = Shading::new(world, &it, ray.d);
     let total = (emitter_samples + bsdf_samples) as f32;
     let frac_em = emitter_samples as f32 / total;
     let frac_bsdf = bsdf_samples as f32 / total;
-    let sel_pdf = if scene.lights.is_empty() {
+    let sel_pdf = if world.lights.is_empty() {
         0.0
     } else {
-        1.0 / scene.lights.len() as f32
+        1.0 / world.lights.len() as f32
     };
 
     for _ in 0..emitter_samples {
-        if let Some((ls, sel)) = sample_one_light(scene, it.p, sampler) {
+        if let Some((ls, sel)) = sample_one_light(world, it.p, sampler) {
             let wi = sh.frame.to_local(ls.wi);
             let f = sh.bsdf.eval(sh.wo, wi) * wi.z.max(0.0);
-            if !f.is_black() && unoccluded(scene, &it, &ls) {
+            if !f.is_black() && unoccluded(world, &it, &ls) {
                 let light_pdf = ls.pdf * sel;
                 let w = if ls.delta {
                     1.0
@@ -68,16 +68,16 @@ pub fn li(
                 l += bs.weight * le * (w / bsdf_samples as f32);
             }
         };
-        match scene.geometry.intersect(&r) {
+        match world.geometry.intersect(&r) {
             None => {
-                for &k in &scene.infinite_lights {
-                    let (le, pdf) = scene.lights[k as usize].le_pdf_infinite(wi);
+                for &k in &world.infinite_lights {
+                    let (le, pdf) = world.lights[k as usize].le_pdf_infinite(wi);
                     add(le, sel_pdf * pdf);
                 }
             }
             Some(hit) => {
-                if let Some(k) = scene.shapes[hit.shape as usize].light {
-                    let light = &scene.lights[k as usize];
+                if let Some(k) = world.shapes[hit.shape as usize].light {
+                    let light = &world.lights[k as usize];
                     add(
                         light.le_area(&hit, -wi),
                         sel_pdf * light.pdf_area(it.p, &hit),

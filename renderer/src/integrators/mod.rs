@@ -11,7 +11,7 @@ pub use wavefront::Wavefront;
 
 use crate::geometry::{Interaction, spawn_ray, spawn_ray_to};
 use crate::lights::LightSample;
-use crate::scene::Scene;
+use crate::scene::World;
 use crate::settings::Integrator;
 use crate::{
     Rgb,
@@ -27,16 +27,16 @@ use lobe_materials::{Bsdf, Vec3s};
 impl Integrator {
     /// Radiance along a camera ray.
     #[inline]
-    pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler) -> Rgb {
+    pub fn li(&self, world: &World, ray: Ray, sampler: &mut Sampler) -> Rgb {
         match *self {
             Integrator::Path {
                 max_depth,
                 rr_depth,
-            } => path::li(scene, ray, sampler, max_depth, rr_depth),
+            } => path::li(world, ray, sampler, max_depth, rr_depth),
             Integrator::Direct {
                 emitter_samples,
                 bsdf_samples,
-            } => direct::li(scene, ray, sampler, emitter_samples, bsdf_samples),
+            } => direct::li(world, ray, sampler, emitter_samples, bsdf_samples),
         }
     }
 
@@ -49,7 +49,7 @@ impl Integrator {
     #[allow(clippy::too_many_arguments)] // the scalar `li`'s arguments, plus the batch's
     pub fn li_many(
         &self,
-        scene: &Scene,
+        world: &World,
         rays: &Rays,
         keys: &[u64],
         indices: &[u32],
@@ -62,11 +62,11 @@ impl Integrator {
                 max_depth,
                 rr_depth,
             } => wf.trace(
-                scene, rays, keys, indices, sampler, max_depth, rr_depth, out,
+                world, rays, keys, indices, sampler, max_depth, rr_depth, out,
             ),
             Integrator::Direct { .. } => {
                 for (j, ((o, &k), &i)) in out.iter_mut().zip(keys).zip(indices).enumerate() {
-                    *o = self.li(scene, rays.get(j), &mut sampler.with_sample(k, i));
+                    *o = self.li(world, rays.get(j), &mut sampler.with_sample(k, i));
                 }
             }
         }
@@ -100,11 +100,11 @@ pub(crate) struct Shading<'a> {
 
 impl<'a> Shading<'a> {
     #[inline]
-    pub fn new(scene: &'a Scene, it: &Interaction, ray_d: Vec3) -> Self {
+    pub fn new(world: &'a World, it: &Interaction, ray_d: Vec3) -> Self {
         let frame = Frame::from_normal_tangent(it.ns, it.dpdu);
         let wo = frame.to_local(-ray_d).normalize();
         Self {
-            bsdf: scene.shapes[it.shape as usize].material.as_ref(),
+            bsdf: world.shapes[it.shape as usize].material.as_ref(),
             frame,
             wo,
         }
@@ -144,18 +144,18 @@ pub(crate) fn shading_lanes(
 /// the light's index and the selection probability, or None.
 #[inline]
 pub(crate) fn sample_one_light(
-    scene: &Scene,
+    world: &World,
     p: Vec3,
     sampler: &mut Sampler,
 ) -> Option<(LightSample, f32)> {
-    let n = scene.lights.len();
+    let n = world.lights.len();
     let uc = sampler.next_1d();
     let u = sampler.next_2d();
     if n == 0 {
         return None;
     }
     let idx = ((uc * n as f32) as usize).min(n - 1);
-    let ls = scene.lights[idx].sample_li(p, u)?;
+    let ls = world.lights[idx].sample_li(p, u)?;
     if ls.li.is_black() || !(ls.pdf > 0.0) {
         return None;
     }
@@ -164,8 +164,8 @@ pub(crate) fn sample_one_light(
 
 /// True when the light sample `ls` is visible from `it`.
 #[inline]
-pub(crate) fn unoccluded(scene: &Scene, it: &Interaction, ls: &LightSample) -> bool {
-    !scene.geometry.occluded(&shadow_ray(it, ls.wi, ls.p))
+pub(crate) fn unoccluded(world: &World, it: &Interaction, ls: &LightSample) -> bool {
+    !world.geometry.occluded(&shadow_ray(it, ls.wi, ls.p))
 }
 
 /// The shadow ray from `it` toward direction `wi`, up to the light point `at` (a point and

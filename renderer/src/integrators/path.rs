@@ -14,13 +14,13 @@ use super::{Shading, sample_one_light, unoccluded};
 use crate::Rgb;
 use crate::geometry::{Ray, spawn_ray};
 use crate::sampler::Sampler;
-use crate::scene::Scene;
+use crate::scene::World;
 use glam::Vec3;
 use lobe_materials::sampling::warp::power_heuristic;
 
 /// Radiance along `ray`, one path at a time (the reference form).
 pub fn li(
-    scene: &Scene,
+    world: &World,
     mut ray: Ray,
     sampler: &mut Sampler,
     max_depth: Option<u32>,
@@ -32,18 +32,18 @@ pub fn li(
     let mut depth = 0u32;
     let mut prev_pdf = 0.0f32;
     let mut prev_p = Vec3::ZERO;
-    let sel_pdf = if scene.lights.is_empty() {
+    let sel_pdf = if world.lights.is_empty() {
         0.0
     } else {
-        1.0 / scene.lights.len() as f32
+        1.0 / world.lights.len() as f32
     };
     if max_depth == 0 {
         return l;
     }
     loop {
-        let Some(it) = scene.geometry.intersect(&ray) else {
-            for &k in &scene.infinite_lights {
-                let light = &scene.lights[k as usize];
+        let Some(it) = world.geometry.intersect(&ray) else {
+            for &k in &world.infinite_lights {
+                let light = &world.lights[k as usize];
                 let (le, pdf) = light.le_pdf_infinite(ray.d);
                 if le.is_black() {
                     continue;
@@ -57,9 +57,9 @@ pub fn li(
             }
             break;
         };
-        let shape = &scene.shapes[it.shape as usize];
+        let shape = &world.shapes[it.shape as usize];
         if let Some(k) = shape.light {
-            let light = &scene.lights[k as usize];
+            let light = &world.lights[k as usize];
             let le = light.le_area(&it, -ray.d);
             if !le.is_black() {
                 let w = if depth == 0 {
@@ -73,12 +73,12 @@ pub fn li(
         if depth + 1 >= max_depth {
             break;
         }
-        let sh = Shading::new(scene, &it, ray.d);
+        let sh = Shading::new(world, &it, ray.d);
         // Next-event estimation.
-        if let Some((ls, sel)) = sample_one_light(scene, it.p, sampler) {
+        if let Some((ls, sel)) = sample_one_light(world, it.p, sampler) {
             let wi = sh.frame.to_local(ls.wi);
             let f = sh.bsdf.eval(sh.wo, wi) * wi.z.max(0.0);
-            if !f.is_black() && unoccluded(scene, &it, &ls) {
+            if !f.is_black() && unoccluded(world, &it, &ls) {
                 let light_pdf = ls.pdf * sel;
                 let w = if ls.delta {
                     1.0

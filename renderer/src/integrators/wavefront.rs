@@ -34,7 +34,7 @@ use crate::geometry::{Interactions, Rays, spawn_ray};
 use crate::lights::Light;
 use crate::lights::LightSamples;
 use crate::sampler::Sampler;
-use crate::scene::Scene;
+use crate::scene::World;
 use glam::{Vec2, Vec3};
 use lobe_materials::frame::{self, Frame};
 use lobe_materials::grouping::group_stable;
@@ -256,7 +256,7 @@ impl Wavefront {
     #[allow(clippy::too_many_arguments)] // the scalar `li`'s arguments, plus the batch's
     pub fn trace(
         &mut self,
-        scene: &Scene,
+        world: &World,
         rays: &Rays,
         keys: &[u64],
         indices: &[u32],
@@ -270,18 +270,18 @@ impl Wavefront {
         let max_depth = max_depth.unwrap_or(DEPTH_CAP).min(DEPTH_CAP);
         self.start(rays, keys, indices, max_depth);
         while !self.active.is_empty() {
-            self.intersect(scene);
-            self.escaped(scene);
-            self.emission(scene);
+            self.intersect(world);
+            self.escaped(world);
+            self.emission(world);
             let goes_on = self.depth + 1 < max_depth;
             if !goes_on || self.hits.it.is_empty() {
                 break;
             }
-            self.scatter_setup(scene, sampler);
-            self.light_samples(scene);
-            self.bsdf_eval(scene);
-            self.shadow_rays(scene);
-            self.bsdf_samples(scene);
+            self.scatter_setup(world, sampler);
+            self.light_samples(world);
+            self.bsdf_eval(world);
+            self.shadow_rays(world);
+            self.bsdf_samples(world);
             self.spawn(sampler, rr_depth);
         }
         for (o, v) in out.iter_mut().zip(&self.paths.vars) {
@@ -310,7 +310,7 @@ impl Wavefront {
     /// Closest hits of the active paths, split into hits (with their local geometry,
     /// computed in a second pass so that neither waits on the other's long dependency
     /// chains) and escaped paths with their directions.
-    pub fn intersect(&mut self, scene: &Scene) {
+    pub fn intersect(&mut self, world: &World) {
         debug_assert_eq!(
             self.paths.ray.len(),
             self.active.len(),
@@ -319,7 +319,7 @@ impl Wavefront {
         let h = &mut self.hits;
         h.closest.clear();
         let rays = &self.paths.ray;
-        scene.geometry.closest_many(rays, &mut h.closest);
+        world.geometry.closest_many(rays, &mut h.closest);
         h.hits.clear();
         h.path.clear();
         let e = &mut self.escaped;
@@ -338,21 +338,21 @@ impl Wavefront {
             }
         }
         e.dir.gather_from(rays.dirs(), &e.ray_index);
-        scene
+        world
             .geometry
             .interactions_many(&self.paths.ray, &h.hits, &mut h.it);
     }
 
     /// Escaped paths gather the infinite lights, each light's values in one batch.
-    pub fn escaped(&mut self, scene: &Scene) {
+    pub fn escaped(&mut self, world: &World) {
         let e = &mut self.escaped;
         if e.path.is_empty() {
             return;
         }
         let p = &mut self.paths;
-        let sel_pdf = select_pdf(scene);
-        for &k in &scene.infinite_lights {
-            let light = &scene.lights[k as usize];
+        let sel_pdf = select_pdf(world);
+        for &k in &world.infinite_lights {
+            let light = &world.lights[k as usize];
             e.le_pdf.clear();
             e.le_pdf.resize(e.dir.len(), (Rgb::ZERO, 0.0));
             light.le_pdf_infinite_many(e.dir.cols(), &mut e.le_pdf);
@@ -373,16 +373,16 @@ impl Wavefront {
 
     /// Hits on emitters add their emission (MIS-weighted against light sampling after
     /// the first bounce).
-    pub fn emission(&mut self, scene: &Scene) {
-        let sel_pdf = select_pdf(scene);
+    pub fn emission(&mut self, world: &World) {
+        let sel_pdf = select_pdf(world);
         let p = &mut self.paths;
         let its = &self.hits.it;
         for (h, (&i, &shape)) in self.hits.path.iter().zip(its.shape()).enumerate() {
-            let Some(k) = scene.shapes[shape as usize].light else {
+            let Some(k) = world.shapes[shape as usize].light else {
                 continue;
             };
             let (i, it) = (i as usize, &its.get(h));
-            let light = &scene.lights[k as usize];
+            let light = &world.lights[k as usize];
             let ray = self.hits.hits[h].0 as usize;
             let le = light.le_area(it, -p.ray.dirs().get(ray));
             if le.is_black() {
@@ -402,7 +402,7 @@ impl Wavefront {
     /// SIMD lanes: [`shading_lanes`]), the sampler dimensions of this bounce for all of them
     /// (light choice and point, BSDF lobe and direction), and the hits grouped by
     /// material.
-    pub fn scatter_setup(&mut self, scene: &Scene, sampler: &mut Sampler) {
+    pub fn scatter_setup(&mut self, world: &World, sampler: &mut Sampler) {
         let (h, s, p) = (&self.hits, &mut self.scatter, &self.paths);
         let m = h.it.len();
         for v in [&mut s.frame_s, &mut s.frame_t, &mut s.wo] {
@@ -432,18 +432,18 @@ impl Wavefront {
         sampler.next_2d_lanes(keys, idx, s.light_u.cols_mut());
         sampler.next_1d_lanes(keys, idx, &mut s.bsdf_uc);
         sampler.next_2d_lanes(keys, idx, s.bsdf_u.cols_mut());
-        s.groups.build(scene, h.it.shape());
+        s.groups.build(world, h.it.shape());
     }
 
     /// One light sample per scattering hit: the light chosen uniformly by the hit's
     /// light-choice value, the requests to each light sampled in one batch
     /// ([`Light::sample_li_many`]; when one light takes every request, as in scenes of one
     /// light, the queue itself is the batch).
-    pub fn light_samples(&mut self, scene: &Scene) {
+    pub fn light_samples(&mut self, world: &World) {
         let (s, q) = (&self.scatter, &mut self.lights);
         let m = self.hits.it.len();
         q.samples.reset(m);
-        let n_lights = scene.lights.len();
+        let n_lights = world.lights.len();
         if n_lights == 0 {
             return;
         }
@@ -456,7 +456,7 @@ impl Wavefront {
         let light_of = |h: usize| Some(choice(s.light_uc[h]));
         group_stable(m, light_of, &mut q.starts, &mut q.order);
         if let Some(k) = (0..n_lights).find(|&k| q.starts[k + 1] - q.starts[k] == m) {
-            scene.lights[k].sample_li_many(its.p(), s.light_u.cols(), &mut q.samples);
+            world.lights[k].sample_li_many(its.p(), s.light_u.cols(), &mut q.samples);
             return;
         }
         for k in 0..n_lights {
@@ -466,7 +466,7 @@ impl Wavefront {
             }
             q.p.gather_from(its.p(), hits);
             q.u.gather_from(s.light_u.cols(), hits);
-            scene.lights[k].sample_li_many(q.p.cols(), q.u.cols(), &mut q.batch);
+            world.lights[k].sample_li_many(q.p.cols(), q.u.cols(), &mut q.batch);
             for (j, &h) in hits.iter().enumerate() {
                 q.samples.copy_from(h as usize, &q.batch, j);
             }
@@ -476,7 +476,7 @@ impl Wavefront {
     /// The BSDF's value and density at every light sample, one batched call per material
     /// (for hits without a sample, pdf 0, the direction is whatever the buffer held: their
     /// values are not used).
-    pub fn bsdf_eval(&mut self, scene: &Scene) {
+    pub fn bsdf_eval(&mut self, world: &World) {
         let (s, q) = (&mut self.scatter, &mut self.lights);
         let m = s.wo.len();
         let its = &self.hits.it;
@@ -492,7 +492,7 @@ impl Wavefront {
         q.f.resize(m, Rgb::ZERO);
         q.bsdf_pdf.resize(m, 0.0);
         let (wo, wi) = (s.wo.cols(), q.wi_local.cols());
-        s.groups.eval_pdf(scene, wo, wi, &mut q.f, &mut q.bsdf_pdf);
+        s.groups.eval_pdf(world, wo, wi, &mut q.f, &mut q.bsdf_pdf);
     }
 
     /// Light samples the BSDF reflects are tested for occlusion together; the unoccluded
@@ -500,7 +500,7 @@ impl Wavefront {
     /// positive, its radiance and the reflected value are not black; these are kept by a
     /// branch-free compaction (whether a light sample lies above the surface is a coin
     /// flip a branch would mispredict).
-    pub fn shadow_rays(&mut self, scene: &Scene) {
+    pub fn shadow_rays(&mut self, world: &World) {
         let (ls, q, sq) = (&self.lights.samples, &self.lights, &mut self.shadow);
         let m = q.wi_local.len();
         sq.hit.resize(m, 0);
@@ -532,8 +532,8 @@ impl Wavefront {
             sq.ray.set(j, ray);
         }
         sq.occluded.clear();
-        scene.geometry.occluded_many(&sq.ray, &mut sq.occluded);
-        let sel_pdf = select_pdf(scene);
+        world.geometry.occluded_many(&sq.ray, &mut sq.occluded);
+        let sel_pdf = select_pdf(world);
         let p = &mut self.paths;
         for ((&h, &f), &occluded) in sq.hit.iter().zip(&sq.f).zip(&sq.occluded) {
             if occluded {
@@ -552,11 +552,11 @@ impl Wavefront {
     }
 
     /// BSDF samples of every scattering hit, one batched call per material.
-    pub fn bsdf_samples(&mut self, scene: &Scene) {
+    pub fn bsdf_samples(&mut self, world: &World) {
         let s = &mut self.scatter;
         self.bsdf_samples.reset(s.wo.len());
         s.groups.sample(
-            scene,
+            world,
             s.wo.cols(),
             s.bsdf_u.cols(),
             &s.bsdf_uc,
@@ -656,11 +656,11 @@ impl ScatterQueue {
 }
 
 /// Probability of choosing each light (uniform selection, Mitsuba's), 0 without lights.
-fn select_pdf(scene: &Scene) -> f32 {
-    if scene.lights.is_empty() {
+fn select_pdf(world: &World) -> f32 {
+    if world.lights.is_empty() {
         0.0
     } else {
-        1.0 / scene.lights.len() as f32
+        1.0 / world.lights.len() as f32
     }
 }
 
@@ -670,7 +670,7 @@ impl MaterialGroups {
     /// ([`crate::scene::ShapeInfo::material_group`]) given a batch in order of first
     /// appearance, then a stable counting sort. When the hits already come grouped (scenes
     /// of one material), the batches read the queues in place.
-    fn build(&mut self, scene: &Scene, shapes: &[u32]) {
+    fn build(&mut self, world: &World, shapes: &[u32]) {
         self.key.clear();
         // The batch of each material group seen in the last call back to none.
         for &(group, _) in &self.distinct {
@@ -678,7 +678,7 @@ impl MaterialGroups {
         }
         self.distinct.clear();
         for &shape in shapes {
-            let group = scene.shapes[shape as usize].material_group as usize;
+            let group = world.shapes[shape as usize].material_group as usize;
             if group >= self.batch_of_group.len() {
                 self.batch_of_group.resize(group + 1, u32::MAX);
             }
@@ -707,21 +707,21 @@ impl MaterialGroups {
         self.contiguous = self.order.iter().enumerate().all(|(j, &h)| j == h as usize);
     }
 
-    fn material(scene: &Scene, shape: u32) -> &dyn Bsdf {
-        scene.shapes[shape as usize].material.as_ref()
+    fn material(world: &World, shape: u32) -> &dyn Bsdf {
+        world.shapes[shape as usize].material.as_ref()
     }
 
     /// [`Bsdf::eval_pdf_many`] of every hit, one call per material.
     fn eval_pdf(
         &mut self,
-        scene: &Scene,
+        world: &World,
         wo: Vec3Cols,
         wi: Vec3Cols,
         f: &mut [Rgb],
         pdf: &mut [f32],
     ) {
         for &(a, b, shape) in &self.ranges {
-            let bsdf = Self::material(scene, shape);
+            let bsdf = Self::material(world, shape);
             if self.contiguous {
                 let (o, i) = (wo.slice(a..b), wi.slice(a..b));
                 bsdf.eval_pdf_many(o, i, &mut f[a..b], &mut pdf[a..b]);
@@ -744,14 +744,14 @@ impl MaterialGroups {
     /// [`Bsdf::sample_many`] of every hit, one call per material.
     fn sample(
         &mut self,
-        scene: &Scene,
+        world: &World,
         wo: Vec3Cols,
         u: Vec2Cols,
         uc: &[f32],
         mut out: BsdfSamplesMut,
     ) {
         for &(a, b, shape) in &self.ranges {
-            let bsdf = Self::material(scene, shape);
+            let bsdf = Self::material(world, shape);
             if self.contiguous {
                 bsdf.sample_many(wo.slice(a..b), u.slice(a..b), &uc[a..b], out.slice(a..b));
                 continue;

@@ -19,6 +19,9 @@ pub mod obj;
 pub mod ply;
 mod shapes;
 pub mod transform;
+mod world;
+
+pub use world::{ShapeInfo, World};
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
@@ -36,18 +39,6 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// A shape's material and, if it emits, its light.
-#[derive(Clone, Debug)]
-pub struct ShapeInfo {
-    pub material: Arc<dyn Bsdf>,
-    /// The number of this shape's material among the scene's distinct materials (shapes
-    /// sharing one material, the same `Arc`, share the number; numbered in order of first
-    /// appearance): the key the wavefront groups hits by.
-    pub material_group: u32,
-    /// Index into [`Scene::lights`] of this shape's area light.
-    pub light: Option<u32>,
-}
-
 /// A loaded scene, ready to render.
 pub struct Scene {
     /// The scene file (for messages and the statistics sidecar).
@@ -55,11 +46,8 @@ pub struct Scene {
     pub camera: Camera,
     /// The film, sampler and integrator the file asks for.
     pub settings: RenderSettings,
-    pub geometry: Geometry,
-    pub shapes: Vec<ShapeInfo>,
-    pub lights: Vec<Light>,
-    /// Indices of environment-like lights (env maps, constant), evaluated on escape.
-    pub infinite_lights: Vec<u32>,
+    /// The shapes and lights.
+    pub world: World,
     /// The digest of the scene description and the folder its paths resolve against
     /// ([`lobe_materials::key`]; the files it names are not read into it).
     pub description_digest: String,
@@ -331,10 +319,12 @@ pub fn from_value(v: &Value, file: &str, base: &Path, opts: &LoadOptions) -> Res
             exposure,
             integrator,
         },
-        geometry,
-        shapes: shapes.shapes,
-        lights,
-        infinite_lights,
+        world: World {
+            geometry,
+            shapes: shapes.shapes,
+            lights,
+            infinite_lights,
+        },
         description_digest: lobe_materials::key::KeyBuilder::new("scene")
             .json("scene", v)
             .text("base", &base.display().to_string())

@@ -131,7 +131,7 @@ pub fn measure(scene: &mut Scene, b: &Arc<dyn Bsdf>, converged: &Image) -> Resul
     let target = downsample(converged, k);
     scene.settings.width = fw / k;
     scene.settings.height = fh / k;
-    scene.shapes[0].material = b.clone();
+    scene.world.shapes[0].material = b.clone();
     let mut points = Vec::new();
     for &spp in &CURVE_SPP {
         scene.settings.spp = spp;

@@ -191,7 +191,7 @@ fn images_agree_with_the_path_tracer() {
                 &lobe_renderer::scene::LoadOptions::with_builtins(),
             )
             .unwrap();
-            scene.shapes[0].material = data.clone();
+            scene.world.shapes[0].material = data.clone();
             lobe_renderer::render::render(&scene, &Default::default())
                 .unwrap()
                 .0
