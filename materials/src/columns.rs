@@ -362,11 +362,15 @@ impl<'a, T: Record<N>, const N: usize> Cols<'a, T, N> {
     /// end, the last repeated, as [`simd::lanes_of`]): one plain load per column when they
     /// are `LANES` consecutive ones (the ends tested first, then every index in one
     /// branch-free pass), else one gather per column.
+    ///
+    /// # Panics
+    /// When an index is out of range.
     #[inline(always)]
     pub fn lanes_of(&self, idx: &[usize]) -> T::Lanes {
         let consecutive = |run: bool, (i, &k): (usize, &usize)| run & (k.wrapping_sub(i) == idx[0]);
         // A run past the end goes to the gather, which refuses it (the load would pad).
         if idx.len() == LANES
+            && idx[0] < self.len()
             && idx[LANES - 1] < self.len()
             && idx[LANES - 1].wrapping_sub(idx[0]) == LANES - 1
             && idx.iter().enumerate().fold(true, consecutive)
@@ -520,6 +524,14 @@ mod tests {
         m.cols_mut().slice(2..4).set(1, Vec3::ONE);
         assert_eq!(m.get(3), Vec3::ONE);
         assert_eq!(m.get(2), v[2]);
+    }
+
+    /// A run of consecutive indices past the end is refused, not padded.
+    #[test]
+    #[should_panic]
+    fn a_run_past_the_end_is_refused() {
+        let cols = Vec3s::from(&vectors(40)[..]);
+        cols.cols().lanes_of(&simd::lanes(|i| 40 - LANES / 2 + i));
     }
 
     /// Sample points as two columns: the same load, gather and store.

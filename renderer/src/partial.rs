@@ -13,7 +13,7 @@
 //! most one f32 step and is equal in the great majority of pixels (measured in
 //! docs/distributed.md). One part over all samples is the whole render bit for bit.
 //!
-//! A part is identified by its scene's key ([`crate::scene::Scene::content_key`]: the
+//! A part is identified by its scene's key ([`crate::scene::Scene::render_key`]: the
 //! digest of the scene description and its folder, with the sample count, seed, scrambling
 //! and film size), which a merge checks. The file format (`.lobepart`): the line
 //! `lobe-partial-render 1`, one line of JSON (width, height, spp, first, last, key,

@@ -46,7 +46,7 @@ pub struct Scene {
     pub camera: Camera,
     /// The film, sampler and integrator the file asks for.
     pub settings: RenderSettings,
-    /// The shapes and lights.
+    /// The geometry and BVH, shapes and lights (what the integrators read).
     pub world: World,
     /// The digest of the scene description and the folder its paths resolve against
     /// ([`lobe_materials::key`]; the files it names are not read into it).
