@@ -32,11 +32,7 @@ pub fn li(
     let total = (emitter_samples + bsdf_samples) as f32;
     let frac_em = emitter_samples as f32 / total;
     let frac_bsdf = bsdf_samples as f32 / total;
-    let sel_pdf = if world.lights.is_empty() {
-        0.0
-    } else {
-        1.0 / world.lights.len() as f32
-    };
+    let sel_pdf = world.light_select_pdf();
 
     for _ in 0..emitter_samples {
         if let Some((ls, sel)) = sample_one_light(world, it.p, sampler) {

@@ -159,7 +159,7 @@ pub(crate) fn sample_one_light(
     if ls.li.is_black() || !(ls.pdf > 0.0) {
         return None;
     }
-    Some((ls, 1.0 / n as f32))
+    Some((ls, world.light_select_pdf()))
 }
 
 /// True when the light sample `ls` is visible from `it`.

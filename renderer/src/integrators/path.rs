@@ -32,11 +32,7 @@ pub fn li(
     let mut depth = 0u32;
     let mut prev_pdf = 0.0f32;
     let mut prev_p = Vec3::ZERO;
-    let sel_pdf = if world.lights.is_empty() {
-        0.0
-    } else {
-        1.0 / world.lights.len() as f32
-    };
+    let sel_pdf = world.light_select_pdf();
     if max_depth == 0 {
         return l;
     }

@@ -350,7 +350,7 @@ impl Wavefront {
             return;
         }
         let p = &mut self.paths;
-        let sel_pdf = select_pdf(world);
+        let sel_pdf = world.light_select_pdf();
         for &k in &world.infinite_lights {
             let light = &world.lights[k as usize];
             e.le_pdf.clear();
@@ -374,7 +374,7 @@ impl Wavefront {
     /// Hits on emitters add their emission (MIS-weighted against light sampling after
     /// the first bounce).
     pub fn emission(&mut self, world: &World) {
-        let sel_pdf = select_pdf(world);
+        let sel_pdf = world.light_select_pdf();
         let p = &mut self.paths;
         let its = &self.hits.it;
         for (h, (&i, &shape)) in self.hits.path.iter().zip(its.shape()).enumerate() {
@@ -533,7 +533,7 @@ impl Wavefront {
         }
         sq.occluded.clear();
         world.geometry.occluded_many(&sq.ray, &mut sq.occluded);
-        let sel_pdf = select_pdf(world);
+        let sel_pdf = world.light_select_pdf();
         let p = &mut self.paths;
         for ((&h, &f), &occluded) in sq.hit.iter().zip(&sq.f).zip(&sq.occluded) {
             if occluded {
@@ -652,15 +652,6 @@ impl ScatterQueue {
         self.sample_index.clear();
         self.sample_index
             .extend(paths.iter().map(|&i| p.index[i as usize]));
-    }
-}
-
-/// Probability of choosing each light (uniform selection, Mitsuba's), 0 without lights.
-fn select_pdf(world: &World) -> f32 {
-    if world.lights.is_empty() {
-        0.0
-    } else {
-        1.0 / world.lights.len() as f32
     }
 }
 

@@ -18,6 +18,17 @@ pub struct World {
     pub infinite_lights: Vec<u32>,
 }
 
+impl World {
+    /// Probability of choosing each light (uniform selection, Mitsuba's), 0 without lights.
+    pub fn light_select_pdf(&self) -> f32 {
+        if self.lights.is_empty() {
+            0.0
+        } else {
+            1.0 / self.lights.len() as f32
+        }
+    }
+}
+
 /// A shape's material and, if it emits, its light.
 #[derive(Clone, Debug)]
 pub struct ShapeInfo {
