@@ -1025,22 +1025,29 @@ impl Plan {
     }
 
     /// Each fit's predicted mean square noise (per pixel and channel) under `counts`, each
-    /// pixel's falling from its measured samples at the rate `exponent` (the
-    /// fits on all cores, each summed in pixel order: the same sums for any thread count).
+    /// pixel's falling from its measured samples at the rate `exponent`. One sweep over the
+    /// pixels in order with every fit's sum carried along (the variances are pixel-major,
+    /// so they are read once), the same sums for any thread count; a pixel whose count is
+    /// its predecessor's reuses its decay `c^-exponent`.
     fn noise(&self, counts: &[f64]) -> Vec<f64> {
+        if self.fits == 0 {
+            return Vec::new();
+        }
         let n = 3.0 * counts.len() as f64;
-        let decay: Vec<f64> = counts.iter().map(|c| c.powf(-self.exponent)).collect();
-        (0..self.fits)
-            .into_par_iter()
-            .map(|r| {
-                decay
-                    .iter()
-                    .enumerate()
-                    .map(|(i, d)| self.at_one_sample[i * self.fits + r] * d)
-                    .sum::<f64>()
-                    / n
-            })
-            .collect()
+        let mut last = (f64::NAN, 0.0);
+        let mut sums = vec![0.0; self.fits];
+        for (&c, a) in counts
+            .iter()
+            .zip(self.at_one_sample.chunks_exact(self.fits))
+        {
+            if c != last.0 {
+                last = (c, c.powf(-self.exponent));
+            }
+            for (s, x) in sums.iter_mut().zip(a) {
+                *s += x * last.1;
+            }
+        }
+        sums.into_iter().map(|s| s / n).collect()
     }
 
     /// The counts of the smallest scale of `shape` whose worst predicted noise meets
