@@ -31,13 +31,41 @@ impl Gram {
     /// Adds one sample: basis values `f` (n of them), target `r`, weight `w`.
     #[inline]
     pub fn add(&mut self, f: &[f64], r: f64, w: f64) {
-        for j in 0..self.n {
-            self.b[j] += w * f[j] * r;
-            for k in 0..self.n {
-                self.a[j][k] += w * f[j] * f[k];
-            }
+        let mut basis = [0.0; 3];
+        basis[..self.n].copy_from_slice(&f[..self.n]);
+        self.add_all(std::iter::once((basis, r, w)));
+    }
+
+    /// Adds samples (basis values, of which the first n count; target; weight) in order:
+    /// the sums of [`Gram::add`] one sample at a time, held in locals of the basis count's
+    /// fixed size for the whole run. (Accumulated through memory with a run-time count, the
+    /// sums would go through masked stores, which the next sample's loads cannot forward
+    /// from: every sample would wait for the last one's stores.)
+    pub fn add_all(&mut self, samples: impl IntoIterator<Item = ([f64; 3], f64, f64)>) {
+        match self.n {
+            0 => self.add_all_of::<0>(samples),
+            1 => self.add_all_of::<1>(samples),
+            2 => self.add_all_of::<2>(samples),
+            _ => self.add_all_of::<3>(samples),
         }
-        self.c += w * r * r;
+    }
+
+    #[inline(always)]
+    fn add_all_of<const N: usize>(
+        &mut self,
+        samples: impl IntoIterator<Item = ([f64; 3], f64, f64)>,
+    ) {
+        let (mut a, mut b, mut c) = (self.a, self.b, self.c);
+        for (f, r, w) in samples {
+            for j in 0..N {
+                b[j] += w * f[j] * r;
+                for k in 0..N {
+                    a[j][k] += w * f[j] * f[k];
+                }
+            }
+            c += w * r * r;
+        }
+        (self.a, self.b, self.c) = (a, b, c);
     }
 
     pub fn merge(mut self, o: &Gram) -> Gram {

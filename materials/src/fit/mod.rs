@@ -88,16 +88,14 @@ fn grams(data: &Dataset, lobes: &[Arc<dyn Lobe>]) -> [Gram; 3] {
                     v[k] = *b;
                 }
             }
-            for (s, v) in chunk.iter().zip(&values) {
-                let mut f = [[FRAC_1_PI; 3]; 3];
-                for k in 0..lobes.len() {
-                    for c in 0..3 {
-                        f[c][k + 1] = if v[k][c].is_finite() { v[k][c] } else { 0.0 };
+            for (c, gc) in g.iter_mut().enumerate() {
+                gc.add_all(chunk.iter().zip(&values).map(|(s, v)| {
+                    let mut f = [FRAC_1_PI; 3];
+                    for k in 0..lobes.len() {
+                        f[k + 1] = if v[k][c].is_finite() { v[k][c] } else { 0.0 };
                     }
-                }
-                for c in 0..3 {
-                    g[c].add(&f[c][..n], s.value[c], s.weight * s.cos2);
-                }
+                    (f, s.value[c], s.weight * s.cos2)
+                }));
             }
             g
         })
