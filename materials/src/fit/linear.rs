@@ -28,44 +28,58 @@ impl Gram {
         }
     }
 
-    /// Adds one sample: basis values `f` (n of them), target `r`, weight `w`.
+    /// Adds one sample: basis values `f` (at least n of them; n at most 3), target `r`,
+    /// weight `w`.
     #[inline]
     pub fn add(&mut self, f: &[f64], r: f64, w: f64) {
         let mut basis = [0.0; 3];
         basis[..self.n].copy_from_slice(&f[..self.n]);
-        self.add_all(std::iter::once((basis, r, w)));
+        match self.n {
+            0 => self.accumulate::<0>(&basis, r, w),
+            1 => self.accumulate::<1>(&basis, r, w),
+            2 => self.accumulate::<2>(&basis, r, w),
+            3 => self.accumulate::<3>(&basis, r, w),
+            n => panic!("a Gram of {n} unknowns; at most 3"),
+        }
     }
 
     /// Adds samples (basis values, of which the first n count; target; weight) in order:
-    /// the sums of [`Gram::add`] one sample at a time, held in locals of the basis count's
-    /// fixed size for the whole run. (Accumulated through memory with a run-time count, the
-    /// sums would go through masked stores, which the next sample's loads cannot forward
-    /// from: every sample would wait for the last one's stores.)
+    /// the sums of [`Gram::add`] one sample at a time, kept in a local copy for the run
+    /// (the compiler holds it in registers: with a fixed count no sum goes through memory,
+    /// where a masked store would keep the next sample's load waiting).
     pub fn add_all(&mut self, samples: impl IntoIterator<Item = ([f64; 3], f64, f64)>) {
         match self.n {
-            0 => self.add_all_of::<0>(samples),
-            1 => self.add_all_of::<1>(samples),
-            2 => self.add_all_of::<2>(samples),
-            _ => self.add_all_of::<3>(samples),
+            0 => self.accumulate_all::<0>(samples),
+            1 => self.accumulate_all::<1>(samples),
+            2 => self.accumulate_all::<2>(samples),
+            3 => self.accumulate_all::<3>(samples),
+            n => panic!("a Gram of {n} unknowns; at most 3"),
         }
     }
 
+    /// [`Gram::add_all`] of a Gram of `N` unknowns.
     #[inline(always)]
-    fn add_all_of<const N: usize>(
+    fn accumulate_all<const N: usize>(
         &mut self,
         samples: impl IntoIterator<Item = ([f64; 3], f64, f64)>,
     ) {
-        let (mut a, mut b, mut c) = (self.a, self.b, self.c);
+        let mut sums = *self;
         for (f, r, w) in samples {
-            for j in 0..N {
-                b[j] += w * f[j] * r;
-                for k in 0..N {
-                    a[j][k] += w * f[j] * f[k];
-                }
-            }
-            c += w * r * r;
+            sums.accumulate::<N>(&f, r, w);
         }
-        (self.a, self.b, self.c) = (a, b, c);
+        *self = sums;
+    }
+
+    /// The normal equations' terms of one sample, for `N` unknowns.
+    #[inline(always)]
+    fn accumulate<const N: usize>(&mut self, f: &[f64; 3], r: f64, w: f64) {
+        for j in 0..N {
+            self.b[j] += w * f[j] * r;
+            for k in 0..N {
+                self.a[j][k] += w * f[j] * f[k];
+            }
+        }
+        self.c += w * r * r;
     }
 
     pub fn merge(mut self, o: &Gram) -> Gram {
@@ -164,5 +178,48 @@ mod tests {
         }
         let (x, res) = g.solve_nonnegative();
         assert!(x[1] == 0.0 && x[0] > 1.0 && res > 0.0, "{x:?}");
+    }
+
+    /// `add_all` and `add` are the sums of the normal equations' terms in sample order, bit
+    /// for bit, for every count of unknowns.
+    #[test]
+    fn sums_are_the_terms_in_sample_order() {
+        let sample = |k: usize| {
+            let t = k as f64;
+            (
+                [(t * 0.7).sin(), 1.0 / (1.0 + t), (t * 0.13).cos() * 1e3],
+                t.sqrt() - 2.0,
+                0.5 + t,
+            )
+        };
+        for n in 0..=3 {
+            let (mut a, mut b, mut c) = ([[0.0f64; 3]; 3], [0.0f64; 3], 0.0f64);
+            for (f, r, w) in (0..200).map(sample) {
+                for j in 0..n {
+                    b[j] += w * f[j] * r;
+                    for k in 0..n {
+                        a[j][k] += w * f[j] * f[k];
+                    }
+                }
+                c += w * r * r;
+            }
+            let (mut all, mut one) = (Gram::new(n), Gram::new(n));
+            all.add_all((0..200).map(sample));
+            (0..200)
+                .map(sample)
+                .for_each(|(f, r, w)| one.add(&f[..n], r, w));
+            for g in [all, one] {
+                let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&g.a.concat()), bits(&a.concat()), "n {n}");
+                assert_eq!(bits(&g.b), bits(&b), "n {n}");
+                assert_eq!(g.c.to_bits(), c.to_bits(), "n {n}");
+            }
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "at most 3")]
+    fn a_fourth_unknown_is_refused() {
+        Gram::new(4).add_all([([1.0; 3], 1.0, 1.0)]);
     }
 }

@@ -234,6 +234,62 @@ pub fn fit_material(
     fit_material_with(registry, (name, source), (data, None), opts, stop, on_model)
 }
 
+/// One model's fit, from the optimum of the model it contains when given.
+type FitOne<'a> = dyn Fn(&ModelSpec, Option<&FitResult>) -> Result<FitResult, Error> + Sync + 'a;
+
+/// Fits the `chosen` models in waves, the models of a wave in parallel: a model that
+/// contains another of them (anisotropic Ward contains Ward) waits for that one's wave and
+/// starts from its optimum; one whose contained model is not chosen fits that model for
+/// the purpose. Every fit is the same bits for any thread count, so the results are those
+/// of fitting the models one by one; `on_model` sees them in `chosen`'s order within each
+/// wave.
+fn fit_in_waves(
+    chosen: &[&ModelSpec],
+    specs: &[ModelSpec],
+    fit_one: &FitOne<'_>,
+    on_model: &dyn Fn(&FitResult),
+) -> Result<Vec<FitResult>, Error> {
+    use rayon::prelude::*;
+    let chosen_index = |label: &str| chosen.iter().position(|s| s.label == label);
+    let mut done: Vec<Option<FitResult>> = vec![None; chosen.len()];
+    while done.iter().any(Option::is_none) {
+        let ready: Vec<usize> = (0..chosen.len())
+            .filter(|&i| done[i].is_none())
+            .filter(|&i| {
+                let contained = chosen[i].contains.and_then(|c| chosen_index(c.label));
+                contained.is_none_or(|j| done[j].is_some())
+            })
+            .collect();
+        if ready.is_empty() {
+            return Err(Error::Other(
+                "the chosen models contain one another in a cycle; expected a model to contain only simpler ones".into(),
+            ));
+        }
+        let fitted: Vec<Result<FitResult, Error>> = ready
+            .par_iter()
+            .map(|&i| {
+                let contained = match chosen[i].contains {
+                    None => None,
+                    Some(c) => match chosen_index(c.label) {
+                        Some(j) => done[j].clone(),
+                        None => match specs.iter().find(|s| s.label == c.label) {
+                            Some(s) => Some(fit_one(s, None)?),
+                            None => None,
+                        },
+                    },
+                };
+                fit_one(chosen[i], contained.as_ref())
+            })
+            .collect();
+        for (i, r) in ready.into_iter().zip(fitted) {
+            let r = r?;
+            on_model(&r);
+            done[i] = Some(r);
+        }
+    }
+    Ok(done.into_iter().flatten().collect())
+}
+
 /// [`fit_material`] with `measured`, the material `data` was measured from (the `image`
 /// metric compares renders of it with renders of the fits; other metrics ignore it).
 pub fn fit_material_with(
@@ -274,24 +330,7 @@ pub fn fit_material_with(
             FitError::Data(m) => Error::file(source, m),
         })
     };
-    let mut results: Vec<FitResult> = Vec::new();
-    for spec in chosen {
-        // A model that contains another (anisotropic Ward contains Ward) starts from that
-        // model's optimum: the one fitted for this report, or one fitted for the purpose.
-        let contained = match spec.contains {
-            None => None,
-            Some(c) => match results.iter().find(|r| r.label == c.label) {
-                Some(r) => Some(r.clone()),
-                None => match specs.iter().find(|s| s.label == c.label) {
-                    Some(s) => Some(fit_one(s, None)?),
-                    None => None,
-                },
-            },
-        };
-        let r = fit_one(spec, contained.as_ref())?;
-        on_model(&r);
-        results.push(r);
-    }
+    let results = fit_in_waves(&chosen, &specs, &fit_one, on_model)?;
     let mut report = FitReport::new(name, source, opts.resolution, data, &results);
     report
         .check_loads(registry)

@@ -1025,26 +1025,38 @@ impl Plan {
     }
 
     /// Each fit's predicted mean square noise (per pixel and channel) under `counts`, each
-    /// pixel's falling from its measured samples at the rate `exponent`. One sweep over the
-    /// pixels in order with every fit's sum carried along (the variances are pixel-major,
-    /// so they are read once), the same sums for any thread count; a pixel whose count is
-    /// its predecessor's reuses its decay `c^-exponent`.
+    /// pixel's falling from its measured samples at the rate `exponent`: one sweep over the
+    /// pixels in order with every fit's sum carried along (the variances are pixel-major, so
+    /// they are read once); a pixel whose count is its predecessor's reuses its decay
+    /// `c^-exponent`.
     fn noise(&self, counts: &[f64]) -> Vec<f64> {
         if self.fits == 0 {
             return Vec::new();
         }
+        assert_eq!(
+            counts.len() * self.fits,
+            self.at_one_sample.len(),
+            "a count per pixel of the plan"
+        );
         let n = 3.0 * counts.len() as f64;
-        let mut last = (f64::NAN, 0.0);
-        let mut sums = vec![0.0; self.fits];
+        // The last count's bits and its decay.
+        let mut last: Option<(u64, f64)> = None;
+        // -0.0: the additive identity `Iterator::sum` starts from.
+        let mut sums = vec![-0.0; self.fits];
         for (&c, a) in counts
             .iter()
             .zip(self.at_one_sample.chunks_exact(self.fits))
         {
-            if c != last.0 {
-                last = (c, c.powf(-self.exponent));
-            }
+            let decay = match last {
+                Some((bits, d)) if bits == c.to_bits() => d,
+                _ => {
+                    let d = c.powf(-self.exponent);
+                    last = Some((c.to_bits(), d));
+                    d
+                }
+            };
             for (s, x) in sums.iter_mut().zip(a) {
-                *s += x * last.1;
+                *s += x * decay;
             }
         }
         sums.into_iter().map(|s| s / n).collect()
@@ -1283,6 +1295,28 @@ mod tests {
             let expected = 3.0 / 16.0 / 8.0 / 3.0;
             assert!((noise - expected).abs() < 1e-12 * expected, "{noise}");
         }
+    }
+
+    /// The predicted noise is each fit's sum over the pixels in pixel order of its
+    /// variance times the count's decay, over `3 * pixels`: bit for bit, with counts that
+    /// repeat, change and come back.
+    #[test]
+    fn noise_is_each_fits_sum_in_pixel_order() {
+        let variance: Vec<f32> = (0..50)
+            .map(|i| 1.0 + (i as f32 * 0.37).sin().abs())
+            .collect();
+        let plan = Plan::new((5, 5), (&variance, &[16; 25]), 1.25, (4.0, 1e6));
+        let counts: Vec<f64> = (0..25).map(|i| [32.0, 32.0, 96.0, 4.0][i % 4]).collect();
+        let expected: Vec<f64> = (0..2)
+            .map(|r| {
+                let sum: f64 = (0..25)
+                    .map(|i| plan.at_one_sample[i * 2 + r] * counts[i].powf(-1.25))
+                    .sum();
+                sum / 75.0
+            })
+            .collect();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&plan.noise(&counts)), bits(&expected));
     }
 
     /// The faster the noise falls, the fewer of the samples the hot spot needs:

@@ -168,6 +168,52 @@ fn fitting_a_material_gives_a_report_with_its_selection() {
     );
 }
 
+/// A material's models are fitted in waves, a wave's models in parallel, a model after the
+/// one it contains (listed here before it): the report is the same bits as on one thread,
+/// and every model is reported once.
+#[test]
+fn models_fitted_in_parallel_waves_give_the_one_thread_report() {
+    let m = material(ward());
+    let data = Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), 6.0);
+    let opts = fitting::FitOptions {
+        models: Some("cook-torrance-2,ward,cook-torrance".into()),
+        resolution: 6.0,
+        max_evals: 30,
+        select: None,
+        ..Default::default()
+    };
+    let run = |threads: usize| {
+        let seen = std::sync::Mutex::new(Vec::new());
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let r = pool.install(|| {
+            fitting::fit_material(&REGISTRY, "w", "m", &data, &opts, &|| false, &|f| {
+                seen.lock().unwrap().push(f.label.clone())
+            })
+            .unwrap()
+        });
+        let fits: Vec<(String, String, u64, usize)> = (r.models.iter())
+            .map(|(k, f)| {
+                (
+                    k.clone(),
+                    f.material.to_string(),
+                    f.error.to_bits(),
+                    f.evaluations,
+                )
+            })
+            .collect();
+        (fits, seen.into_inner().unwrap())
+    };
+    let (one, seen) = run(1);
+    assert_eq!(seen, ["ward", "cook-torrance", "cook-torrance-2"]);
+    assert_eq!(run(2).0, one);
+    let two_lobes = &one.iter().find(|f| f.0 == "cook-torrance-2").unwrap();
+    let one_lobe = &one.iter().find(|f| f.0 == "cook-torrance").unwrap();
+    assert!(f64::from_bits(two_lobes.2) <= f64::from_bits(one_lobe.2));
+}
+
 /// On isotropic data an anisotropic model starts from the optimum of the isotropic model it
 /// contains and is never worse than it, even on a budget too small for its own grid of
 /// starts (from it, anisotropic Ashikhmin-Shirley ended 28 % worse than the isotropic
