@@ -220,7 +220,8 @@ pub fn data_material(
 
 /// Fits the chosen models to `data` (named `name`, read from `source`) and builds the
 /// report; `stop` is polled inside the optimizer (an interruption is an error saying so),
-/// `on_model` is called with each model's result as it is fitted. The `image` metric needs
+/// `on_model` is called with each model's result as it is fitted (on this thread, in the
+/// order of [`fit_in_waves`]). The `image` metric needs
 /// [`fit_material_with`] and the measured material.
 pub fn fit_material(
     registry: &Registry,
@@ -238,18 +239,18 @@ pub fn fit_material(
 type FitOne<'a> = dyn Fn(&ModelSpec, Option<&FitResult>) -> Result<FitResult, Error> + Sync + 'a;
 
 /// Fits the `chosen` models in waves, the models of a wave in parallel: a model that
-/// contains another of them (anisotropic Ward contains Ward) waits for that one's wave and
-/// starts from its optimum; one whose contained model is not chosen fits that model for
-/// the purpose. Every fit is the same bits for any thread count, so the results are those
-/// of fitting the models one by one; `on_model` sees them in `chosen`'s order within each
-/// wave.
+/// contains another of them (anisotropic Ward contains Ward) waits for the wave that fits
+/// that one and starts from its optimum; one whose contained model is not chosen fits that
+/// model for the purpose. Every fit is the same bits for any thread count, so the results
+/// are those of fitting the models one by one (their `seconds` apart: a fit's wall time
+/// shares the cores with its wave). `on_model` sees each result on the calling thread as
+/// soon as it and the wave's earlier ones are done, in `chosen`'s order within a wave.
 fn fit_in_waves(
     chosen: &[&ModelSpec],
     specs: &[ModelSpec],
     fit_one: &FitOne<'_>,
     on_model: &dyn Fn(&FitResult),
 ) -> Result<Vec<FitResult>, Error> {
-    use rayon::prelude::*;
     let chosen_index = |label: &str| chosen.iter().position(|s| s.label == label);
     let mut done: Vec<Option<FitResult>> = vec![None; chosen.len()];
     while done.iter().any(Option::is_none) {
@@ -265,29 +266,84 @@ fn fit_in_waves(
                 "the chosen models contain one another in a cycle; expected a model to contain only simpler ones".into(),
             ));
         }
-        let fitted: Vec<Result<FitResult, Error>> = ready
-            .par_iter()
-            .map(|&i| {
-                let contained = match chosen[i].contains {
-                    None => None,
-                    Some(c) => match chosen_index(c.label) {
-                        Some(j) => done[j].clone(),
-                        None => match specs.iter().find(|s| s.label == c.label) {
-                            Some(s) => Some(fit_one(s, None)?),
-                            None => None,
-                        },
+        let fit = |i: usize| -> Result<FitResult, Error> {
+            let fitted_for_the_purpose;
+            let contained = match chosen[i].contains {
+                None => None,
+                Some(c) => match chosen_index(c.label) {
+                    Some(j) => done[j].as_ref(),
+                    None => match specs.iter().find(|s| s.label == c.label) {
+                        Some(s) => {
+                            fitted_for_the_purpose = fit_one(s, None)?;
+                            Some(&fitted_for_the_purpose)
+                        }
+                        None => None,
                     },
-                };
-                fit_one(chosen[i], contained.as_ref())
-            })
-            .collect();
-        for (i, r) in ready.into_iter().zip(fitted) {
-            let r = r?;
-            on_model(&r);
-            done[i] = Some(r);
+                },
+            };
+            fit_one(chosen[i], contained)
+        };
+        let wave = in_parallel_reported_in_order(ready.len(), |k| fit(ready[k]), on_model);
+        for (i, r) in ready.into_iter().zip(wave) {
+            done[i] = Some(r?);
         }
     }
     Ok(done.into_iter().flatten().collect())
+}
+
+/// `job(0..n)` run in parallel on the rayon pool, the results in order; `report` is called
+/// on the calling thread with each successful result as soon as it and every earlier one
+/// are done, and no more after the first error. The calling thread runs jobs of the pool
+/// while it waits (a pool of one thread runs them all on it).
+fn in_parallel_reported_in_order<T: Send>(
+    n: usize,
+    job: impl Fn(usize) -> Result<T, Error> + Sync,
+    report: &dyn Fn(&T),
+) -> Vec<Result<T, Error>> {
+    use std::sync::mpsc::{RecvTimeoutError, TryRecvError, channel};
+    let mut results: Vec<Option<Result<T, Error>>> = (0..n).map(|_| None).collect();
+    rayon::in_place_scope(|scope| {
+        let (tx, rx) = channel();
+        for k in 0..n {
+            let (tx, job) = (tx.clone(), &job);
+            scope.spawn(move |_| {
+                // The receiver outlives the scope's jobs.
+                let _ = tx.send((k, job(k)));
+            });
+        }
+        drop(tx);
+        let mut reported = 0;
+        loop {
+            let received = match rayon::yield_now() {
+                // Not a pool thread: the jobs run on the pool while this one blocks.
+                None => rx.recv().map_err(|_| RecvTimeoutError::Disconnected),
+                Some(rayon::Yield::Executed) => rx.try_recv().map_err(|e| match e {
+                    TryRecvError::Empty => RecvTimeoutError::Timeout,
+                    TryRecvError::Disconnected => RecvTimeoutError::Disconnected,
+                }),
+                Some(rayon::Yield::Idle) => rx.recv_timeout(std::time::Duration::from_millis(1)),
+            };
+            match received {
+                Ok((k, r)) => results[k] = Some(r),
+                Err(RecvTimeoutError::Timeout) => continue,
+                Err(RecvTimeoutError::Disconnected) => break,
+            }
+            while let Some(Some(Ok(r))) = results.get(reported) {
+                report(r);
+                reported += 1;
+            }
+        }
+    });
+    results
+        .into_iter()
+        .map(|r| {
+            r.unwrap_or_else(|| {
+                Err(Error::Other(
+                    "a parallel job ended without its result".into(),
+                ))
+            })
+        })
+        .collect()
 }
 
 /// [`fit_material`] with `measured`, the material `data` was measured from (the `image`

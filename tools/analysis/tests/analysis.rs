@@ -169,49 +169,74 @@ fn fitting_a_material_gives_a_report_with_its_selection() {
 }
 
 /// A material's models are fitted in waves, a wave's models in parallel, a model after the
-/// one it contains (listed here before it): the report is the same bits as on one thread,
-/// and every model is reported once.
+/// one it contains (listed here before it): every fit is the same bits as the model fitted
+/// alone (the contained one then fitted for the purpose), at one thread and at two, and
+/// progress sees each model once, a wave in the order given.
 #[test]
-fn models_fitted_in_parallel_waves_give_the_one_thread_report() {
+fn models_fitted_in_parallel_waves_are_the_models_fitted_one_by_one() {
     let m = material(ward());
     let data = Dataset::isotropic(&|wi, wo| Some(m.eval(wo, wi)), 6.0);
-    let opts = fitting::FitOptions {
-        models: Some("cook-torrance-2,ward,cook-torrance".into()),
+    let opts = |models: &str| fitting::FitOptions {
+        models: Some(models.into()),
         resolution: 6.0,
         max_evals: 30,
         select: None,
         ..Default::default()
     };
-    let run = |threads: usize| {
+    // A fit with its timing taken out.
+    let untimed = |f: &ModelFit| {
+        let mut v = serde_json::to_value(f).unwrap();
+        v["seconds"] = json!(0);
+        v
+    };
+    let run = |models: &str, threads: usize| {
         let seen = std::sync::Mutex::new(Vec::new());
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
         let r = pool.install(|| {
-            fitting::fit_material(&REGISTRY, "w", "m", &data, &opts, &|| false, &|f| {
-                seen.lock().unwrap().push(f.label.clone())
-            })
+            let on_model =
+                |f: &lobe_materials::fit::FitResult| seen.lock().unwrap().push(f.label.clone());
+            fitting::fit_material(
+                &REGISTRY,
+                "w",
+                "m",
+                &data,
+                &opts(models),
+                &|| false,
+                &on_model,
+            )
             .unwrap()
         });
-        let fits: Vec<(String, String, u64, usize)> = (r.models.iter())
-            .map(|(k, f)| {
-                (
-                    k.clone(),
-                    f.material.to_string(),
-                    f.error.to_bits(),
-                    f.evaluations,
-                )
-            })
+        let fits: Vec<(String, serde_json::Value)> = (r.models.iter())
+            .map(|(k, f)| (k.clone(), untimed(f)))
             .collect();
         (fits, seen.into_inner().unwrap())
     };
-    let (one, seen) = run(1);
-    assert_eq!(seen, ["ward", "cook-torrance", "cook-torrance-2"]);
-    assert_eq!(run(2).0, one);
-    let two_lobes = &one.iter().find(|f| f.0 == "cook-torrance-2").unwrap();
-    let one_lobe = &one.iter().find(|f| f.0 == "cook-torrance").unwrap();
-    assert!(f64::from_bits(two_lobes.2) <= f64::from_bits(one_lobe.2));
+    let all = "cook-torrance-2,ward,cook-torrance";
+    for threads in [1, 2] {
+        let (fits, seen) = run(all, threads);
+        assert_eq!(
+            seen,
+            ["ward", "cook-torrance", "cook-torrance-2"],
+            "{threads} threads"
+        );
+        assert_eq!(fits.len(), 3);
+        for (label, fit) in &fits {
+            let (alone, _) = run(label, 1);
+            assert_eq!(
+                alone,
+                [(label.clone(), fit.clone())],
+                "{label}, {threads} threads"
+            );
+        }
+        let two_lobes = &fits.iter().find(|f| f.0 == "cook-torrance-2").unwrap().1;
+        assert_eq!(
+            two_lobes["started_from"]["model"], "cook-torrance",
+            "{two_lobes}"
+        );
+    }
 }
 
 /// On isotropic data an anisotropic model starts from the optimum of the isotropic model it
