@@ -49,6 +49,7 @@ impl Gram {
     /// (the compiler holds it in registers: with a fixed count no sum goes through memory,
     /// where a masked store would keep the next sample's load waiting).
     pub fn add_all(&mut self, samples: impl IntoIterator<Item = ([f64; 3], f64, f64)>) {
+        debug_assert!(self.n <= 3, "a Gram of {} unknowns; at most 3", self.n);
         match self.n {
             0 => self.accumulate_all::<0>(samples),
             1 => self.accumulate_all::<1>(samples),

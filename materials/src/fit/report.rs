@@ -127,8 +127,8 @@ pub struct ModelFit {
     /// Starts whose final error is within 1 % of the best.
     pub starts_agreeing: usize,
     pub evaluations: usize,
-    /// Wall time of the fit (a material's models are fitted in parallel waves, so it
-    /// includes the cores' sharing with the other fits of its wave).
+    /// Wall time of the fit, shared with the fits running beside it (its wave's; in a
+    /// batch, other materials').
     #[serde(deserialize_with = "nullable_f64")]
     pub seconds: f64,
     /// Parameters that ended at (within a relative 1e-3 of) a bound of their fit range:

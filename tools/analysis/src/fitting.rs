@@ -220,8 +220,8 @@ pub fn data_material(
 
 /// Fits the chosen models to `data` (named `name`, read from `source`) and builds the
 /// report; `stop` is polled inside the optimizer (an interruption is an error saying so),
-/// `on_model` is called with each model's result as it is fitted (on this thread, in the
-/// order of [`fit_in_waves`]). The `image` metric needs
+/// `on_model` is called on this thread with each model's result as soon as it and the
+/// earlier models of its wave are done. The `image` metric needs
 /// [`fit_material_with`] and the measured material.
 pub fn fit_material(
     registry: &Registry,
@@ -293,8 +293,9 @@ fn fit_in_waves(
 
 /// `job(0..n)` run in parallel on the rayon pool, the results in order; `report` is called
 /// on the calling thread with each successful result as soon as it and every earlier one
-/// are done, and no more after the first error. The calling thread runs jobs of the pool
-/// while it waits (a pool of one thread runs them all on it).
+/// are done, and no more after the first error. A pool thread runs pool work while it
+/// waits (any, not only these jobs; it stops as soon as every result is in), another thread
+/// blocks. A job's panic is raised again once the jobs end.
 fn in_parallel_reported_in_order<T: Send>(
     n: usize,
     job: impl Fn(usize) -> Result<T, Error> + Sync,
@@ -304,45 +305,45 @@ fn in_parallel_reported_in_order<T: Send>(
     let mut results: Vec<Option<Result<T, Error>>> = (0..n).map(|_| None).collect();
     rayon::in_place_scope(|scope| {
         let (tx, rx) = channel();
+        // A pool thread takes its own newest job first, other threads the oldest: spawned
+        // so that job 0, whose result is reported first, is taken first either way.
+        let on_pool = rayon::current_thread_index().is_some();
         for k in 0..n {
+            let k = if on_pool { n - 1 - k } else { k };
             let (tx, job) = (tx.clone(), &job);
-            scope.spawn(move |_| {
-                // The receiver outlives the scope's jobs.
-                let _ = tx.send((k, job(k)));
-            });
+            // A send fails only once the receiver is gone, after a panic of `report`.
+            scope.spawn(move |_| drop(tx.send((k, job(k)))));
         }
         drop(tx);
-        let mut reported = 0;
-        loop {
-            let received = match rayon::yield_now() {
-                // Not a pool thread: the jobs run on the pool while this one blocks.
-                None => rx.recv().map_err(|_| RecvTimeoutError::Disconnected),
-                Some(rayon::Yield::Executed) => rx.try_recv().map_err(|e| match e {
-                    TryRecvError::Empty => RecvTimeoutError::Timeout,
-                    TryRecvError::Disconnected => RecvTimeoutError::Disconnected,
-                }),
-                Some(rayon::Yield::Idle) => rx.recv_timeout(std::time::Duration::from_millis(1)),
+        let (mut pending, mut reported) = (n, 0);
+        while pending > 0 {
+            let received = match rx.try_recv() {
+                Ok(m) => Ok(m),
+                Err(TryRecvError::Disconnected) => Err(RecvTimeoutError::Disconnected),
+                Err(TryRecvError::Empty) => match rayon::yield_now() {
+                    None => rx.recv().map_err(|_| RecvTimeoutError::Disconnected),
+                    Some(rayon::Yield::Executed) => Err(RecvTimeoutError::Timeout),
+                    Some(rayon::Yield::Idle) => {
+                        rx.recv_timeout(std::time::Duration::from_millis(1))
+                    }
+                },
             };
-            match received {
-                Ok((k, r)) => results[k] = Some(r),
+            let (k, r) = match received {
+                Ok(m) => m,
                 Err(RecvTimeoutError::Timeout) => continue,
+                // A job panicked: the scope raises it again.
                 Err(RecvTimeoutError::Disconnected) => break,
-            }
+            };
+            results[k] = Some(r);
+            pending -= 1;
             while let Some(Some(Ok(r))) = results.get(reported) {
                 report(r);
                 reported += 1;
             }
         }
     });
-    results
-        .into_iter()
-        .map(|r| {
-            r.unwrap_or_else(|| {
-                Err(Error::Other(
-                    "a parallel job ended without its result".into(),
-                ))
-            })
-        })
+    (results.into_iter())
+        .map(|r| r.expect("every job sends its result, or its panic is raised again"))
         .collect()
 }
 
@@ -605,5 +606,77 @@ pub fn fit_batch(
         done: done.into_inner(),
         skipped: skipped.into_inner(),
         failures,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Mutex;
+
+    /// What the jobs and the reports did, in order, on a pool of `threads`.
+    fn events(threads: usize, fail: Option<usize>) -> (Vec<String>, Vec<bool>) {
+        let log = Mutex::new(Vec::new());
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let results = pool.install(|| {
+            in_parallel_reported_in_order(
+                4,
+                |k| {
+                    log.lock().unwrap().push(format!("job {k}"));
+                    match Some(k) == fail {
+                        true => Err(Error::Other(format!("job {k} failed"))),
+                        false => Ok(k),
+                    }
+                },
+                &|k| log.lock().unwrap().push(format!("report {k}")),
+            )
+        });
+        let ok = results.iter().map(|r| r.is_ok()).collect();
+        (log.into_inner().unwrap(), ok)
+    }
+
+    /// On one thread each result is reported as soon as its job ends, in order; on two,
+    /// every result is reported once, in order.
+    #[test]
+    fn results_are_reported_in_order_as_they_are_done() {
+        let (log, ok) = events(1, None);
+        let expected: Vec<String> = (0..4)
+            .flat_map(|k| [format!("job {k}"), format!("report {k}")])
+            .collect();
+        assert_eq!(log, expected);
+        assert_eq!(ok, [true; 4]);
+        let (log, _) = events(2, None);
+        let reports: Vec<&String> = log.iter().filter(|e| e.starts_with("report")).collect();
+        assert_eq!(reports, ["report 0", "report 1", "report 2", "report 3"]);
+    }
+
+    /// After a failed job nothing more is reported, and every result is returned.
+    #[test]
+    fn nothing_is_reported_after_an_error() {
+        let (log, ok) = events(1, Some(1));
+        assert_eq!(log, ["job 0", "report 0", "job 1", "job 2", "job 3"]);
+        assert_eq!(ok, [true, false, true, true]);
+    }
+
+    #[test]
+    #[should_panic(expected = "job 2 panicked")]
+    fn a_job_that_panics_raises_its_panic() {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap()
+            .install(|| {
+                in_parallel_reported_in_order(
+                    3,
+                    |k| match k {
+                        2 => panic!("job 2 panicked"),
+                        _ => Ok(k),
+                    },
+                    &|_| {},
+                )
+            });
     }
 }

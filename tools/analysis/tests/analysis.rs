@@ -196,8 +196,7 @@ fn models_fitted_in_parallel_waves_are_the_models_fitted_one_by_one() {
             .build()
             .unwrap();
         let r = pool.install(|| {
-            let on_model =
-                |f: &lobe_materials::fit::FitResult| seen.lock().unwrap().push(f.label.clone());
+            let on_model = |f: &FitResult| seen.lock().unwrap().push(f.label.clone());
             fitting::fit_material(
                 &REGISTRY,
                 "w",
