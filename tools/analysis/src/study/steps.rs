@@ -229,6 +229,10 @@ impl Step {
             Step::Renders(e) => k
                 .text("step", "renders")
                 .text("environment", &ctx.envs[*e].digest)
+                .text(
+                    "batches",
+                    &ctx.settings.error_settings().batches.to_string(),
+                )
                 .finish(),
             Step::Plots => k.text("step", "plots").finish(),
         })
