@@ -899,7 +899,9 @@ pub fn estimate(
 /// raised, a few rounds, for the fits whose predicted noise is the largest, so that the
 /// largest (the noise floor) is what falls. Scaled so that the noise floor meets its target
 /// (a tenth of the smallest non-negligible error) within a mean of
-/// [`ErrorSettings::max_spp`] per pixel. None when no fit is non-negligible.
+/// [`ErrorSettings::max_spp`] per pixel, each pixel at least 8 samples a batch (so that
+/// every batch takes a fit sample: [`strategy_counts`]). None when no fit is
+/// non-negligible.
 fn allocate(
     stage: &Stage<'_>,
     (sample_variance, measured_at): (&[f32], &[usize]),
@@ -916,7 +918,7 @@ fn allocate(
         (stage.width as usize, stage.height as usize),
         (sample_variance, measured_at),
         RQMC_EXPONENT,
-        ((4 * s.batches) as f64, 64.0 * s.max_spp as f64),
+        ((8 * s.batches) as f64, 64.0 * s.max_spp as f64),
     );
     let target = (s.noise_ratio * smallest / 1.2).powi(2);
     let mut weights = vec![1.0; fits];
