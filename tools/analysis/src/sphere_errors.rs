@@ -9,10 +9,11 @@
 //!
 //! so every representation's image is estimated from the *same* samples (common random
 //! numbers): per sample a film position in the pixel (box filter, the renderer's) and one
-//! direction, drawn from one of three strategies: the map's importance sampling (half the
-//! samples), the measured data's BRDF sampling (a quarter), and Phong-like cones cos^e
-//! around the mirror direction (a quarter, e = 8 to 4096, so that a fit sharper than the
-//! data is resolved too). Each sample is weighted by Veach's balance heuristic,
+//! direction, drawn from one of four strategies: the map's importance sampling (half the
+//! samples), the measured data's BRDF sampling (a quarter), the fits' own BRDF sampling (a
+//! sixteenth, so that a fit's lobe where nothing else samples is resolved too) and
+//! Phong-like cones cos^e around the mirror direction (the rest, e = 8 to 4096, so that a
+//! fit sharper than the data is resolved too). Each sample is weighted by Veach's balance heuristic,
 //! L cos / sum_j n_j p_j (the multi-sample estimator, unbiased for any BRDF), so a fit's
 //! image minus the data's carries only the noise of `f_fit - f_data`: small where the fit
 //! is close, and one pass serves every model.
@@ -899,9 +900,8 @@ pub fn estimate(
 /// raised, a few rounds, for the fits whose predicted noise is the largest, so that the
 /// largest (the noise floor) is what falls. Scaled so that the noise floor meets its target
 /// (a tenth of the smallest non-negligible error) within a mean of
-/// [`ErrorSettings::max_spp`] per pixel, each pixel at least 8 samples a batch (so that
-/// every batch takes a fit sample: [`strategy_counts`]). None when no fit is
-/// non-negligible.
+/// [`ErrorSettings::max_spp`] per pixel, each pixel at least [`FLOOR_PER_BATCH`] samples a
+/// batch. None when no fit is non-negligible.
 fn allocate(
     stage: &Stage<'_>,
     (sample_variance, measured_at): (&[f32], &[usize]),
@@ -918,9 +918,12 @@ fn allocate(
         (stage.width as usize, stage.height as usize),
         (sample_variance, measured_at),
         RQMC_EXPONENT,
-        ((8 * s.batches) as f64, 64.0 * s.max_spp as f64),
+        (
+            (FLOOR_PER_BATCH * s.batches) as f64,
+            64.0 * s.max_spp as f64,
+        ),
     );
-    let target = (s.noise_ratio * smallest / 1.2).powi(2);
+    let target = (s.noise_ratio * smallest / PLAN_MARGIN).powi(2);
     let mut weights = vec![1.0; fits];
     let mut counts = Vec::new();
     for _ in 0..4 {
@@ -941,12 +944,36 @@ fn allocate(
 /// 1.25 came out at 0.76-0.88 of the noise they were planned for on the RGL materials (the
 /// default study's plan-bound maps and two user-data studies: rates of about 1.4-1.5), and
 /// passes planned at 1.4 at 0.89-1.0 of it (paper_white, vch_golden_yellow, cc_ibiza_sunset
-/// under studio and sunset), 19-25 % fewer samples. A material whose rate is lower lands
-/// above the plan: the plan aims 1.2x under the target, which covers rates down to about
-/// 1.15 at the study's pilot and budget; a pass that still misses is followed by one
+/// under studio and sunset), 17-23 % fewer samples; colodur_napoli_4f under sunset at 0.84.
+/// A material whose rate is lower lands above the plan, the more so the further the plan
+/// extrapolates: the plan aims 1.2x under the target, which holds for rates down to about
+/// 1.2 where a pass takes 5-8 times the pilot's samples, and less where a highlight's
+/// pixels take tens of times the pilot's; a pass that still misses is followed by one
 /// planned from its own variances. (Planned at `n^-1`, passes came out 1.8-2.3x below
 /// their target, 2.5-2.9x the samples needed.)
 const RQMC_EXPONENT: f64 = 1.4;
+
+/// The plan aims this many times under the noise target ([`RQMC_EXPONENT`] says what it
+/// covers).
+const PLAN_MARGIN: f64 = 1.2;
+
+/// The fewest samples a batch of a planned pass takes in any pixel: 8, so that every batch
+/// takes a fit sample ([`strategy_counts`]), as the pilot's variances assume.
+const FLOOR_PER_BATCH: usize = 8;
+
+/// What an estimate's results depend on beyond its inputs and its sample counts: the
+/// batches, the plan's rate, margin and floor, the targets and the seed. The study's
+/// content keys record it, so that a study folder made with another form of the estimate
+/// redoes its estimates; a change to the estimate that changes its results changes this
+/// text.
+pub fn form(s: &ErrorSettings) -> String {
+    format!(
+        "4 strategies (map 1/2, data 1/4, fits 1/16, cones); {} batches; plan n^-{RQMC_EXPONENT}, \
+         margin {PLAN_MARGIN}, at least {FLOOR_PER_BATCH} a batch; noise {} of the smallest \
+         error, intervals {} of their error, negligible under {}; seed {}",
+        s.batches, s.noise_ratio, s.interval_ratio, s.negligible, s.seed
+    )
+}
 
 /// What [`allocate`] plans from: the film, the last pass's one-sample variances and the
 /// samples they were measured at, the rate at which they fall, and the fewest and most
@@ -1337,6 +1364,43 @@ mod tests {
             let got = shape[12] / shape[0];
             assert!((got - ratio).abs() < 1e-9 * ratio, "rate {rate}: {got}");
         }
+    }
+
+    #[test]
+    fn the_form_names_every_setting_beyond_the_sample_counts() {
+        let base = ErrorSettings::default();
+        let changed = [
+            ErrorSettings {
+                batches: 8,
+                ..base.clone()
+            },
+            ErrorSettings {
+                noise_ratio: 0.05,
+                ..base.clone()
+            },
+            ErrorSettings {
+                interval_ratio: 0.1,
+                ..base.clone()
+            },
+            ErrorSettings {
+                negligible: 1e-4,
+                ..base.clone()
+            },
+            ErrorSettings {
+                seed: 1,
+                ..base.clone()
+            },
+        ];
+        for c in &changed {
+            assert_ne!(form(c), form(&base), "{c:?}");
+        }
+        // The sample counts are the study's settings, keyed apart.
+        let counts = ErrorSettings {
+            pilot_spp: 128,
+            max_spp: 2048,
+            ..base.clone()
+        };
+        assert_eq!(form(&counts), form(&base));
     }
 
     #[test]

@@ -230,8 +230,8 @@ impl Step {
                 .text("step", "renders")
                 .text("environment", &ctx.envs[*e].digest)
                 .text(
-                    "batches",
-                    &ctx.settings.error_settings().batches.to_string(),
+                    "estimate",
+                    &crate::sphere_errors::form(&ctx.settings.error_settings()),
                 )
                 .finish(),
             Step::Plots => k.text("step", "plots").finish(),
