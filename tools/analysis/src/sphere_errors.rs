@@ -13,10 +13,10 @@
 //! samples), the measured data's BRDF sampling (a quarter), the fits' own BRDF sampling (a
 //! sixteenth, so that a fit's lobe where nothing else samples is resolved too) and
 //! Phong-like cones cos^e around the mirror direction (the rest, e = 8 to 4096, so that a
-//! fit sharper than the data is resolved too). Each sample is weighted by Veach's balance heuristic,
-//! L cos / sum_j n_j p_j (the multi-sample estimator, unbiased for any BRDF), so a fit's
-//! image minus the data's carries only the noise of `f_fit - f_data`: small where the fit
-//! is close, and one pass serves every model.
+//! fit sharper than the data is resolved too). Each sample is weighted by Veach's balance
+//! heuristic, L cos / sum_j n_j p_j (the multi-sample estimator, unbiased for any BRDF),
+//! so a fit's image minus the data's carries only the noise of `f_fit - f_data`: small
+//! where the fit is close, and one pass serves every model.
 //!
 //! The samples of a pixel fall into `B` independent batches (point sets shifted at random
 //! per pixel and batch, Cranley-Patterson). Per pixel and channel, with batch estimates
@@ -962,16 +962,22 @@ const PLAN_MARGIN: f64 = 1.2;
 const FLOOR_PER_BATCH: usize = 8;
 
 /// What an estimate's results depend on beyond its inputs and its sample counts: the
-/// batches, the plan's rate, margin and floor, the targets and the seed. The study's
+/// strategies' shares (of a batch of 64, [`strategy_counts`]), the batches, the plan's rate,
+/// margin and floor, the targets and the seed. The study's
 /// content keys record it, so that a study folder made with another form of the estimate
 /// redoes its estimates; a change to the estimate that changes its results changes this
 /// text.
 pub fn form(s: &ErrorSettings) -> String {
     format!(
-        "4 strategies (map 1/2, data 1/4, fits 1/16, cones); {} batches; plan n^-{RQMC_EXPONENT}, \
+        "strategies (map, data, cones, fits) {:?} of 64; {} batches; plan n^-{RQMC_EXPONENT}, \
          margin {PLAN_MARGIN}, at least {FLOOR_PER_BATCH} a batch; noise {} of the smallest \
          error, intervals {} of their error, negligible under {}; seed {}",
-        s.batches, s.noise_ratio, s.interval_ratio, s.negligible, s.seed
+        strategy_counts(64),
+        s.batches,
+        s.noise_ratio,
+        s.interval_ratio,
+        s.negligible,
+        s.seed
     )
 }
 
