@@ -32,8 +32,9 @@ scene (the same RGL measurement that the tables tabulate), each against its own 
 A suite entry's `mitsuba_native` (lobe material type -> Mitsuba BSDF dict) makes Mitsuba
 render those materials with its own plugins (`roughconductor`, `roughplastic`), so that its
 sampling is its own and not lobe's Dr.Jit twin. The models then differ (lobe's
-Cook-Torrance has Ngan's normalization and V-groove G, Mitsuba's Smith G), so each
-renderer's error is its relative MSE, mean((img - ref)^2 / (ref^2 + 0.01)), against its
+Cook-Torrance has V-groove G, Mitsuba's Smith G; the suite's scenes set `specular` pi / 4,
+which cancels Ngan's 1 / pi against Mitsuba's 1 / 4), so each renderer's error is its
+relative MSE, mean((img - ref)^2 / (ref^2 + 0.01)), against its
 own reference at the reference spp.
 Prints a Markdown table (with the machine) and writes it to --out if given; the per-renderer
 details go to stderr as each scene finishes and follow the table.
