@@ -26,8 +26,10 @@ cargo test --profile checked -p lobe-tests --test fuzz_smoke
 # The lobe Python package (tools/python): built from source and installed into
 # tools/mitsuba's venv by its setup.sh (with Mitsuba 3 for the plugin tests), then its
 # pytest suite against the lobe binary (bit-for-bit evaluation, readers, fits, errors,
-# Mitsuba renders of every plugin model z-tested against lobe's).
-cargo build --release -p lobe-cli
+# Mitsuba renders of every plugin model z-tested against lobe's). The binary is the one
+# `cargo test --release --workspace` built above for the CLI's integration tests
+# (target/release/lobe); a separate `cargo build -p lobe-cli` would compile the whole stack
+# again with another feature set (about 3 minutes of CI).
 venv="$(bash tools/mitsuba/setup.sh | tail -n 1)"
 "$venv/bin/python" -m pytest -q -p no:cacheprovider tools/python/tests
 # The fuzz crate (outside the workspace) keeps a tracked lock file; it must match the
