@@ -79,6 +79,12 @@ pub fn erfinv<T: Num>(x: T) -> T {
     ]
     .iter()
     .fold(s(2.810_226_36e-8), |p, &k| s(k) + p * c);
+    // The tail (|x| above about 0.9966, w >= 5 or not a number) is evaluated only when
+    // some lane takes it: a rare case, and the same value either way.
+    let central_only = lt(w, s(5.0));
+    if all::<T>(central_only) {
+        return central * x;
+    }
     let t = sqrt(w) - s(3.0);
     let tail = [
         1.009_505_58e-4,
@@ -92,7 +98,7 @@ pub fn erfinv<T: Num>(x: T) -> T {
     ]
     .iter()
     .fold(s(-2.002_142_57e-4), |p, &k| s(k) + p * t);
-    select(lt(w, s(5.0)), central, tail) * x
+    select(central_only, central, tail) * x
 }
 
 /// 1 / sqrt(pi) as its f32 rounding (the value every form uses).
@@ -136,11 +142,13 @@ fn slope_11<T: Num>(cos_t: T, u1: T, u2: T) -> (T, T) {
     // A lane whose CDF is within TOLERANCE of its target keeps that iterate; the loop ends
     // when every lane has, which leaves each lane's result what it would be alone.
     let mut done = lt(s(1.0), s(0.0));
+    // erfinv of the last iterate evaluated: the slope x once every lane has stopped.
+    let mut inv = b;
     for _ in 0..NEWTON_STEPS {
         // Outside the bracket (or NaN): bisect.
         let inside = le(a, b) & le(b, c);
         b = select(inside, b, s(0.5) * (a + c));
-        let inv = erfinv(b);
+        inv = erfinv(b);
         let value = norm * (s(1.0) + b + s(FRAC_1_SQRT_PI) * tan_t * exp(-inv * inv)) - u1;
         let derivative = norm * (s(1.0) - inv * tan_t);
         done = done | le(abs(value), s(TOLERANCE));
@@ -152,14 +160,24 @@ fn slope_11<T: Num>(cos_t: T, u1: T, u2: T) -> (T, T) {
             break;
         }
     }
-    let inside = le(a, b) & le(b, c);
-    let b = select(inside, b, s(0.5) * (a + c));
-    let x = erfinv(b);
+    // A lane that stopped kept its iterate, inside its bracket: erfinv(b) is `inv` when
+    // all have (the same value as evaluating it again).
+    let x = match all::<T>(done) {
+        true => inv,
+        false => {
+            let inside = le(a, b) & le(b, c);
+            erfinv(select(inside, b, s(0.5) * (a + c)))
+        }
+    };
     let y = erfinv(s(2.0) * maximum(u2, s(1e-6)) - s(1.0));
-    // At normal incidence the visible slopes are the slopes: a 2D normal of variance 1/2.
+    // At normal incidence the visible slopes are the slopes: a 2D normal of variance 1/2
+    // (computed only where some lane is there).
+    let straight = gt(cos_t, s(0.9999));
+    if all::<T>(!straight) {
+        return (x, y);
+    }
     let r = sqrt(-ln(s(1.0) - u1));
     let (sin_p, cos_p) = sin_cos(s(std::f32::consts::TAU as f64) * u2);
-    let straight = gt(cos_t, s(0.9999));
     (
         select(straight, r * cos_p, x),
         select(straight, r * sin_p, y),
