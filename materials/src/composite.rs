@@ -473,6 +473,20 @@ impl Composite {
             c => Some(c - 1),
         };
         crate::grouping::group_stable(choice.len(), lobe_of, starts, &mut order);
+        let m = choice.len();
+        // One lobe chosen by every query (a material of one lobe and no diffuse weight,
+        // or a lobe that dominates at these `wo`): the block is its batch, read in place.
+        if let Some(j) = (0..self.lobes.len()).find(|&j| starts[j + 1] - starts[j] == m) {
+            let mut rest = [0.0f32; SAMPLE_BLOCK];
+            for (r, c) in rest.iter_mut().zip(choice) {
+                *r = c.1;
+            }
+            let (wi_cols, drawn) = wi.cols_mut(m);
+            self.lobes[j]
+                .1
+                .sample_batch(wo, u, &rest[..m], wi_cols, drawn);
+            return;
+        }
         let mut batch_wo = BlockDirections::new();
         let mut batch_u = [[0.0f32; SAMPLE_BLOCK]; 2];
         let mut batch_uc = [0.0f32; SAMPLE_BLOCK];
