@@ -314,28 +314,43 @@ impl Bvh8 {
         let mut tmax = ray.tmax;
         let mut best = None;
         let mut stack = [MaybeUninit::<Entry>::uninit(); STACK];
-        stack[0].write((0, ray.tmin));
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            // SAFETY: entries below `sp` were written by the pushes below.
-            let (r, t_enter) = unsafe { stack[sp].assume_init() };
-            if t_enter > tmax {
-                continue;
-            }
-            if r >> KIND_SHIFT != INNER {
+        let mut sp = 0;
+        // The reference being visited (the root first): the nearest hit child of an inner
+        // node is visited next without a round trip through the stack.
+        let mut r = 0;
+        loop {
+            if r >> KIND_SHIFT == INNER {
+                let node = &self.nodes[r as usize];
+                let (tn, mask) = boxes.test(node, tmax);
+                if mask != 0 && mask & (mask - 1) == 0 {
+                    // One child hit (the common case deep in the tree): visit it next.
+                    r = node.child[mask.trailing_zeros() as usize];
+                    continue;
+                }
+                if mask != 0 {
+                    sp = Self::push_nearest_last(&mut stack, sp, node, tn, mask);
+                }
+            } else {
                 let (t, id) = self.leaf(r, &lanes, f32x8::splat(tmax));
                 if let Some((t, id)) = nearest_lane(t, id, lanes.skip, tmax) {
                     tmax = t;
                     best = Some((t, id));
                 }
-                continue;
             }
-            let node = &self.nodes[r as usize];
-            let (tn, mask) = boxes.test(node, tmax);
-            sp = Self::push_nearest_last(&mut stack, sp, node, tn, mask);
+            // The next entry the ray still enters before its nearest hit so far.
+            loop {
+                if sp == 0 {
+                    return best;
+                }
+                sp -= 1;
+                // SAFETY: entries below `sp` were written by the pushes.
+                let (next, t_enter) = unsafe { stack[sp].assume_init() };
+                if t_enter <= tmax {
+                    r = next;
+                    break;
+                }
+            }
         }
-        best
     }
 
     /// Pushes the hit children of `node` so that the nearest is on top; returns the new
