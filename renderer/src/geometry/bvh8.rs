@@ -315,8 +315,8 @@ impl Bvh8 {
         let mut best = None;
         let mut stack = [MaybeUninit::<Entry>::uninit(); STACK];
         let mut sp = 0;
-        // The reference being visited (the root first): the nearest hit child of an inner
-        // node is visited next without a round trip through the stack.
+        // The reference being visited (the root first): a node's only hit child is visited
+        // next without a round trip through the stack; of several, the nearest is popped.
         let mut r = 0;
         loop {
             if r >> KIND_SHIFT == INNER {
@@ -327,9 +327,7 @@ impl Bvh8 {
                     r = node.child[mask.trailing_zeros() as usize];
                     continue;
                 }
-                if mask != 0 {
-                    sp = Self::push_nearest_last(&mut stack, sp, node, tn, mask);
-                }
+                sp = Self::push_nearest_last(&mut stack, sp, node, tn, mask);
             } else {
                 let (t, id) = self.leaf(r, &lanes, f32x8::splat(tmax));
                 if let Some((t, id)) = nearest_lane(t, id, lanes.skip, tmax) {
@@ -353,8 +351,8 @@ impl Bvh8 {
         }
     }
 
-    /// Pushes the hit children of `node` so that the nearest is on top; returns the new
-    /// stack size.
+    /// Pushes the hit children of `node` (those of `mask`: none, or two or more) so that
+    /// the nearest is on top; returns the new stack size.
     #[inline(always)]
     fn push_nearest_last(
         stack: &mut [MaybeUninit<Entry>; STACK],
@@ -364,15 +362,6 @@ impl Bvh8 {
         mut mask: u32,
     ) -> usize {
         let tn = tn.to_array();
-        if mask.count_ones() <= 1 {
-            // No child or one (the common case deep in the tree): no ordering to do.
-            if mask != 0 {
-                let k = mask.trailing_zeros() as usize;
-                stack[sp].write((node.child[k], tn[k]));
-                sp += 1;
-            }
-            return sp;
-        }
         let first = sp;
         while mask != 0 {
             let k = mask.trailing_zeros() as usize;
