@@ -26,8 +26,9 @@ use wide::{f32x8, u32x8};
 /// Children of a node, and primitives of a leaf block: eight f32 lanes (`f32x8`) in every
 /// build, whatever the lane count of the batched stages ([`lobe_materials::simd::LANES`]).
 pub(super) const WIDTH: usize = 8;
-/// Traversal stack entries: a node pops one entry and pushes at most eight, so a tree of
-/// depth d needs at most 7 d + 1; [`Bvh8::build`] refuses deeper trees.
+/// Traversal stack entries: visiting a node takes one child off the stack (or, when it is
+/// the only one hit, visits it without the stack) and puts at most seven others on it, so
+/// a tree of depth d needs at most 7 d + 1; [`Bvh8::build`] refuses deeper trees.
 const STACK: usize = 256;
 pub(super) const MAX_DEPTH: usize = (STACK - 1) / (WIDTH - 1);
 
