@@ -3,9 +3,11 @@
 //! hits, and the batched forms of these queries that the wavefront integrator calls.
 
 use super::bvh8::Bvh8;
+use super::kernels;
 use super::kernels::V3;
 use super::{Interaction, Interactions, Mesh, Ray, Rays, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3};
+use lobe_materials::math::{Arith, gt, lt, select, sqrt};
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, f32xn, u32xn};
 
@@ -206,25 +208,96 @@ impl Geometry {
     /// dependency chain per hit), bit for bit the same; other hits one by one.
     pub fn interactions_many(&self, rays: &Rays, hits: &[(u32, f32, u32)], out: &mut Interactions) {
         out.resize(hits.len());
+        // Hits on spheres and on triangles gather into lane batches of their kind.
         let mut spheres = [0usize; LANES];
-        let mut n = 0;
+        let mut triangles = [0usize; LANES];
+        let (mut ns, mut nt) = (0, 0);
         for (h, &(i, t, prim)) in hits.iter().enumerate() {
             let primitive = self.prims.get(prim);
-            if matches!(primitive.kind, PrimKind::Sphere(_)) {
-                spheres[n] = h;
-                n += 1;
-                if n == LANES {
-                    self.sphere_interactions(rays, hits, &spheres, out);
-                    n = 0;
+            match primitive.kind {
+                PrimKind::Sphere(_) => {
+                    spheres[ns] = h;
+                    ns += 1;
+                    if ns == LANES {
+                        self.sphere_interactions(rays, hits, &spheres, out);
+                        ns = 0;
+                    }
                 }
-            } else {
-                let mut it = Interaction::ZERO;
-                self.interaction_of(&rays.get(i as usize), t, prim, primitive, &mut it);
-                out.set(h, &it);
+                PrimKind::Triangle { .. } => {
+                    triangles[nt] = h;
+                    nt += 1;
+                    if nt == LANES {
+                        self.triangle_interactions(rays, hits, &triangles, out);
+                        nt = 0;
+                    }
+                }
+                PrimKind::Rectangle(_) => {
+                    let mut it = Interaction::ZERO;
+                    self.interaction_of(&rays.get(i as usize), t, prim, primitive, &mut it);
+                    out.set(h, &it);
+                }
             }
         }
-        if n > 0 {
-            self.sphere_interactions(rays, hits, &spheres[..n], out);
+        if ns > 0 {
+            self.sphere_interactions(rays, hits, &spheres[..ns], out);
+        }
+        if nt > 0 {
+            self.triangle_interactions(rays, hits, &triangles[..nt], out);
+        }
+    }
+
+    /// The interactions of up to `LANES` hits `which` (indices into `hits` and `out`), all on
+    /// mesh triangles, in SIMD lanes: [`triangle_surface`] of the corners each lane reads,
+    /// bit for bit [`Geometry::interaction`].
+    fn triangle_interactions(
+        &self,
+        rays: &Rays,
+        hits: &[(u32, f32, u32)],
+        which: &[usize],
+        out: &mut Interactions,
+    ) {
+        let n = which.len();
+        let hit = |k: usize| hits[which[k.min(n - 1)]];
+        let (lanes, _) = rays.lanes_at(|k| hit(k).0 as usize);
+        let corners = simd::lanes(|k| {
+            let prim = hit(k).2;
+            let primitive = self.prims.get(prim);
+            match primitive.kind {
+                PrimKind::Triangle { mesh, index } => {
+                    let sg = self.shapes[primitive.shape as usize];
+                    self.corners(&Triangle::new(mesh, &self.meshes[mesh as usize], index), sg)
+                }
+                _ => unreachable!("triangle hits only"),
+            }
+        });
+        let TriangleSurface {
+            p,
+            ng,
+            ns,
+            dpdu,
+            uv,
+        } = triangle_surface(lanes.o, lanes.d, &Corners::lanes(&corners));
+        let [p, ng, ns, dpdu] = [p, ng, ns, dpdu].map(|v| v.to_array());
+        let [u, v] = uv.map(|c| c.to_array());
+        for (k, &h) in which.iter().enumerate() {
+            let (_, t, prim) = hits[h];
+            let shape = self.prims.get(prim).shape;
+            let orient = |n: Vec3| match self.shapes[shape as usize].flip_normals {
+                true => -n,
+                false => n,
+            };
+            let it = Interaction {
+                t,
+                p: p[k],
+                ng: orient(ng[k]),
+                ns: orient(ns[k]),
+                dpdu: dpdu[k],
+                uv: Vec2::new(u[k], v[k]),
+                shape,
+                prim,
+                exit: Vec3::ZERO,
+            };
+            out.set(h, &it);
         }
     }
 
@@ -372,7 +445,7 @@ impl Geometry {
 
     /// Position, geometric and shading normals, tangent and texture coordinates of a hit
     /// on a mesh triangle by the ray from `o` along `d` (passed by value: the ray may be
-    /// one just read from columns, [`super::Rays::get`]).
+    /// one just read from columns, [`super::Rays::get`]): [`triangle_surface`] of one hit.
     #[inline(never)]
     fn triangle_geometry(
         &self,
@@ -381,44 +454,147 @@ impl Geometry {
         tri: &Triangle,
         sg: ShapeGeom,
     ) -> (Vec3, Vec3, Vec3, Vec3, Vec2) {
-        let b = tri
-            .intersect_bary(&Ray {
-                tmin: f32::NEG_INFINITY,
-                tmax: f32::INFINITY,
-                ..Ray::new(o, d)
-            })
-            .map(|(_, b)| b)
-            .unwrap_or(Vec2::splat(1.0 / 3.0));
+        let TriangleSurface {
+            p,
+            ng,
+            ns,
+            dpdu,
+            uv: [u, v],
+        } = triangle_surface(V3::from(o), V3::from(d), &self.corners(tri, sg));
+        (p.into(), ng.into(), ns.into(), dpdu.into(), Vec2::new(u, v))
+    }
+
+    /// What [`triangle_surface`] reads of triangle `tri` of a shape with `sg`: its vertex
+    /// and edges, its vertex normals where the shape shades with them, its texture
+    /// coordinates where the mesh has them.
+    #[inline(always)]
+    fn corners(&self, tri: &Triangle, sg: ShapeGeom) -> Corners<f32> {
         let mesh = &self.meshes[tri.mesh as usize];
         let idx = mesh.indices[tri.index as usize];
-        let mut ng = tri.normal();
-        let w = [1.0 - b.x - b.y, b.x, b.y];
-        let mut ns = ng;
-        if !sg.face_normals && !mesh.normals.is_empty() {
-            let n = idx
-                .iter()
-                .zip(w)
-                .fold(Vec3::ZERO, |a, (&k, wk)| a + mesh.normals[k as usize] * wk);
-            if n.length_squared() > 0.0 {
-                ns = n.normalize();
-                // The file's normals say where the outside is (pbrt-v4's rule).
-                if ng.dot(ns) < 0.0 {
-                    ng = -ng;
-                }
-            }
+        let smooth = !sg.face_normals && !mesh.normals.is_empty();
+        let textured = !mesh.texcoords.is_empty();
+        Corners {
+            p0: tri.p0.into(),
+            e1: tri.e1.into(),
+            e2: tri.e2.into(),
+            normals: idx.map(|k| match smooth {
+                true => mesh.normals[k as usize].into(),
+                false => V3::new(0.0, 0.0, 0.0),
+            }),
+            texcoords: idx.map(|k| match textured {
+                true => mesh.texcoords[k as usize].to_array(),
+                false => [0.0; 2],
+            }),
+            smooth,
+            textured,
         }
-        let uv = if mesh.texcoords.is_empty() {
-            b
-        } else {
-            idx.iter().zip(w).fold(Vec2::ZERO, |a, (&k, wk)| {
-                a + mesh.texcoords[k as usize] * wk
-            })
-        };
-        (tri.point(b), ng, ns, tri.e1.normalize_or_zero(), uv)
     }
 
     /// True when queries go through the BVH (more than [`SMALL_SCENE`] primitives).
     pub fn has_bvh(&self) -> bool {
         self.bvh.is_some()
     }
+}
+
+/// What the local geometry of hits on mesh triangles reads, for one hit or lanes of hits:
+/// the triangle's vertex `p0` and edges, its three vertex normals where the shape shades
+/// with them (`smooth`; zero elsewhere) and its texture coordinates where the mesh has
+/// them (`textured`; zero elsewhere).
+struct Corners<F: Arith> {
+    p0: V3<F>,
+    e1: V3<F>,
+    e2: V3<F>,
+    normals: [V3<F>; 3],
+    texcoords: [[F; 2]; 3],
+    smooth: F::Mask,
+    textured: F::Mask,
+}
+
+impl Corners<f32xn> {
+    /// One lane per hit.
+    #[inline(always)]
+    fn lanes(c: &[Corners<f32>; LANES]) -> Self {
+        let f = |g: fn(&Corners<f32>) -> f32| f32xn::new(std::array::from_fn(|k| g(&c[k])));
+        let v3 = |g: fn(&Corners<f32>) -> V3<f32>| {
+            let v: [V3<f32>; LANES] = std::array::from_fn(|k| g(&c[k]));
+            V3::new(
+                f32xn::new(v.map(|v| v.x)),
+                f32xn::new(v.map(|v| v.y)),
+                f32xn::new(v.map(|v| v.z)),
+            )
+        };
+        Corners {
+            p0: v3(|c| c.p0),
+            e1: v3(|c| c.e1),
+            e2: v3(|c| c.e2),
+            normals: [
+                v3(|c| c.normals[0]),
+                v3(|c| c.normals[1]),
+                v3(|c| c.normals[2]),
+            ],
+            texcoords: [
+                [f(|c| c.texcoords[0][0]), f(|c| c.texcoords[0][1])],
+                [f(|c| c.texcoords[1][0]), f(|c| c.texcoords[1][1])],
+                [f(|c| c.texcoords[2][0]), f(|c| c.texcoords[2][1])],
+            ],
+            smooth: simd::mask_from_bools(std::array::from_fn(|k| c[k].smooth)),
+            textured: simd::mask_from_bools(std::array::from_fn(|k| c[k].textured)),
+        }
+    }
+}
+
+/// The local geometry of hits on mesh triangles by rays from `o` along `d`, written once
+/// for one hit and for lanes: position, geometric and shading normals, tangent along the
+/// first edge and texture coordinates (before the shape's `flip_normals`). The barycentrics
+/// are Möller-Trumbore's over the whole line (a third each where the line misses it,
+/// which a hit the traversal found does not), the position is recomputed from them (a few
+/// ULPs of the vertices), the shading normal is the normalized interpolation of the vertex
+/// normals, and the geometric normal turns to its side (pbrt-v4's rule: the file's normals
+/// say where the outside is).
+#[inline(always)]
+fn triangle_surface<F: Arith>(o: V3<F>, d: V3<F>, c: &Corners<F>) -> TriangleSurface<F> {
+    let (zero, one) = (F::of(0.0), F::of(1.0));
+    let origin = V3::new(zero, zero, zero);
+    let q = kernels::moller_trumbore(o, d, c.p0, c.e1, c.e2);
+    let on_line = kernels::triangle_hit(q, F::of(f64::NEG_INFINITY), F::of(f64::INFINITY));
+    let third = F::of((1.0f32 / 3.0) as f64);
+    let (b1, b2) = (select(on_line, q[1], third), select(on_line, q[2], third));
+    let w = [one - b1 - b2, b1, b2];
+    let face = c.e1.cross(c.e2).unit_or(origin);
+    let n = (0..3).fold(origin, |a, k| a + c.normals[k] * w[k]);
+    let len2 = n.length_squared();
+    let interpolated = c.smooth & gt(len2, zero);
+    let ns = select3(interpolated, n * (one / sqrt(len2)), face);
+    let ng = select3(interpolated & lt(face.dot(ns), zero), -face, face);
+    let uv: [F; 2] = std::array::from_fn(|a| {
+        let t = (0..3).fold(zero, |s, k| s + c.texcoords[k][a] * w[k]);
+        select(c.textured, t, [b1, b2][a])
+    });
+    TriangleSurface {
+        p: c.p0 + c.e1 * b1 + c.e2 * b2,
+        ng,
+        ns,
+        dpdu: c.e1.unit_or(origin),
+        uv,
+    }
+}
+
+/// [`triangle_surface`]'s result: position, geometric and shading normals, tangent and
+/// texture coordinates.
+struct TriangleSurface<F> {
+    p: V3<F>,
+    ng: V3<F>,
+    ns: V3<F>,
+    dpdu: V3<F>,
+    uv: [F; 2],
+}
+
+/// `a` where `m` is set, else `b`, per component.
+#[inline(always)]
+fn select3<F: Arith>(m: F::Mask, a: V3<F>, b: V3<F>) -> V3<F> {
+    V3::new(
+        select(m, a.x, b.x),
+        select(m, a.y, b.y),
+        select(m, a.z, b.z),
+    )
 }

@@ -30,30 +30,44 @@ pub fn splat3<F: Arith>(v: glam::Vec3) -> V3<F> {
 
 const INF: f64 = f64::INFINITY;
 
-/// Möller-Trumbore ([`Triangle::intersect`]) of triangles (vertex `p0`, edges `e1`, `e2`):
-/// the distance in (tmin, tmax), else infinity.
+/// Möller-Trumbore's quantities for rays from `o` along `d` and triangles (vertex `p0`,
+/// edges `e1`, `e2`): the determinant, the barycentrics (u, v) and the distance, with the
+/// operations of [`Triangle::intersect_bary`] in its order.
 #[inline(always)]
-pub fn triangle<F: Arith>(r: &RayLanes<F>, p0: V3<F>, e1: V3<F>, e2: V3<F>) -> F {
-    let (zero, one) = (F::of(0.0), F::of(1.0));
-    let pvec = r.d.cross(e2);
+pub fn moller_trumbore<F: Arith>(o: V3<F>, d: V3<F>, p0: V3<F>, e1: V3<F>, e2: V3<F>) -> [F; 4] {
+    let pvec = d.cross(e2);
     let det = e1.dot(pvec);
-    let inv_det = one / det;
-    let tvec = r.o - p0;
+    let inv_det = F::of(1.0) / det;
+    let tvec = o - p0;
     let u = tvec.dot(pvec) * inv_det;
     let qvec = tvec.cross(e1);
-    let v = r.d.dot(qvec) * inv_det;
+    let v = d.dot(qvec) * inv_det;
     let t = e2.dot(qvec) * inv_det;
-    // The scalar test's conditions, NaN cases included: det nonzero and finite, u in
-    // [0, 1], not v < 0, not u + v > 1, t in (tmin, tmax).
-    let ok = !eq(det, zero)
+    [det, u, v, t]
+}
+
+/// Where [`moller_trumbore`]'s quantities are a hit in (`tmin`, `tmax`): the scalar
+/// test's conditions, NaN cases included: det nonzero and finite, u in [0, 1], not v < 0,
+/// not u + v > 1, t in (tmin, tmax).
+#[inline(always)]
+pub fn triangle_hit<F: Arith>([det, u, v, t]: [F; 4], tmin: F, tmax: F) -> F::Mask {
+    let (zero, one) = (F::of(0.0), F::of(1.0));
+    !eq(det, zero)
         & lt(abs(det), F::of(INF))
         & ge(u, zero)
         & le(u, one)
         & !lt(v, zero)
         & !gt(u + v, one)
-        & gt(t, r.tmin)
-        & lt(t, r.tmax);
-    select(ok, t, F::of(INF))
+        & gt(t, tmin)
+        & lt(t, tmax)
+}
+
+/// Möller-Trumbore ([`Triangle::intersect`]) of triangles (vertex `p0`, edges `e1`, `e2`):
+/// the distance in (tmin, tmax), else infinity.
+#[inline(always)]
+pub fn triangle<F: Arith>(r: &RayLanes<F>, p0: V3<F>, e1: V3<F>, e2: V3<F>) -> F {
+    let q = moller_trumbore(r.o, r.d, p0, e1, e2);
+    select(triangle_hit(q, r.tmin, r.tmax), q[3], F::of(INF))
 }
 
 /// Spheres ([`Sphere::intersect`]: Haines et al.'s careful quadratic) of centres `c` and

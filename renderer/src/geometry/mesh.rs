@@ -8,6 +8,7 @@
 //! for meshes without normals, unless `face_normals` is requested.
 
 use super::Ray;
+use super::kernels::{moller_trumbore, triangle_hit};
 use glam::{Mat4, Vec2, Vec3};
 
 #[derive(Clone, Debug, Default)]
@@ -107,28 +108,14 @@ impl Triangle {
     /// Distance and barycentrics (b1, b2) of the hit.
     #[inline]
     pub fn intersect_bary(&self, ray: &Ray) -> Option<(f32, Vec2)> {
-        let pvec = ray.d.cross(self.e2);
-        let det = self.e1.dot(pvec);
-        if det == 0.0 || !det.is_finite() {
-            return None;
-        }
-        let inv_det = 1.0 / det;
-        let tvec = ray.o - self.p0;
-        let u = tvec.dot(pvec) * inv_det;
-        if !(0.0..=1.0).contains(&u) {
-            return None;
-        }
-        let qvec = tvec.cross(self.e1);
-        let v = ray.d.dot(qvec) * inv_det;
-        if v < 0.0 || u + v > 1.0 {
-            return None;
-        }
-        let t = self.e2.dot(qvec) * inv_det;
-        if t > ray.tmin && t < ray.tmax {
-            Some((t, Vec2::new(u, v)))
-        } else {
-            None
-        }
+        let q = moller_trumbore(
+            ray.o.into(),
+            ray.d.into(),
+            self.p0.into(),
+            self.e1.into(),
+            self.e2.into(),
+        );
+        triangle_hit(q, ray.tmin, ray.tmax).then(|| (q[3], Vec2::new(q[1], q[2])))
     }
 
     /// Unit geometric normal, following the winding (e1 x e2).
