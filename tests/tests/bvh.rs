@@ -358,7 +358,8 @@ fn geometries_of_every_kind(r: &mut Lcg) -> Vec<Geometry> {
 }
 
 /// 203 rays aimed near the origin (some hit, some miss), with short ranges, skipped
-/// primitives, starts on a sphere's surface and raised `tmin` among them.
+/// primitives, starts on a sphere's surface, raised `tmin` and zero direction components
+/// among them.
 fn rays_near_the_origin(g: &Geometry, r: &mut Lcg) -> Vec<Ray> {
     let n_prims = g.prims.len() as u32;
     (0..203)
@@ -378,7 +379,9 @@ fn rays_near_the_origin(g: &Geometry, r: &mut Lcg) -> Vec<Ray> {
                     }
                 }
                 3 => ray.tmin = 0.5 * r.f(),
-                _ => {}
+                // A zero direction component, of either sign (the box test's tiny-reciprocal
+                // rule).
+                _ => ray.d[i / 5 % 3] = if i % 2 == 0 { 0.0 } else { -0.0 },
             }
             ray
         })

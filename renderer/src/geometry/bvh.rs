@@ -2,7 +2,7 @@
 //! tested in SIMD lanes) for closest-hit and occlusion queries, the local geometry of
 //! hits, and the batched forms of these queries that the wavefront integrator calls.
 
-use super::bvh8::Bvh8;
+use super::bvh8::{Bvh8, slab_reciprocal};
 use super::kernels;
 use super::kernels::V3;
 use super::{Interaction, Interactions, Mesh, Ray, Rays, Rectangle, Sphere, Triangle};
@@ -156,7 +156,11 @@ impl Geometry {
     /// columns.
     pub fn closest_many(&self, rays: &Rays, out: &mut Vec<Option<(f32, u32)>>) {
         if let Some(bvh) = &self.bvh {
-            out.extend((0..rays.len()).map(|i| bvh.closest_inlined(&rays.get(i))));
+            for first in (0..rays.len()).step_by(LANES) {
+                let recip = slab_reciprocal_lanes(rays, first);
+                let n = (rays.len() - first).min(LANES);
+                out.extend((0..n).map(|k| bvh.closest_inlined(&rays.get(first + k), recip[k])));
+            }
             return;
         }
         for first in (0..rays.len()).step_by(LANES) {
@@ -181,7 +185,11 @@ impl Geometry {
     /// (as [`Geometry::closest_many`]).
     pub fn occluded_many(&self, rays: &Rays, out: &mut Vec<bool>) {
         if let Some(bvh) = &self.bvh {
-            out.extend((0..rays.len()).map(|i| bvh.occluded_inlined(&rays.get(i))));
+            for first in (0..rays.len()).step_by(LANES) {
+                let recip = slab_reciprocal_lanes(rays, first);
+                let n = (rays.len() - first).min(LANES);
+                out.extend((0..n).map(|k| bvh.occluded_inlined(&rays.get(first + k), recip[k])));
+            }
             return;
         }
         for first in (0..rays.len()).step_by(LANES) {
@@ -494,6 +502,15 @@ impl Geometry {
     pub fn has_bvh(&self) -> bool {
         self.bvh.is_some()
     }
+}
+
+/// The BVH's [`slab_reciprocal`]s of the directions of rays `first..first + LANES` (past
+/// the end, the last ray's), computed in lanes: per ray, those of its x, y and z.
+#[inline(always)]
+fn slab_reciprocal_lanes(rays: &Rays, first: usize) -> [[f32; 3]; LANES] {
+    let d = rays.dirs().load(first);
+    let [x, y, z] = [d.x, d.y, d.z].map(|c| slab_reciprocal(c).to_array());
+    std::array::from_fn(|k| [x[k], y[k], z[k]])
 }
 
 /// What the local geometry of hits on mesh triangles reads, for one hit or lanes of hits:

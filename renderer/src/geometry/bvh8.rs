@@ -19,6 +19,7 @@ use super::kernels::{self, RayLanes, V3};
 use super::primitive::PrimSource;
 #[cfg(doc)]
 use super::{Rectangle, Sphere, Triangle};
+use lobe_materials::math::{Num, abs, copysign, lt, select};
 use lobe_materials::simd::sel;
 use std::mem::MaybeUninit;
 use wide::{f32x8, u32x8};
@@ -93,20 +94,11 @@ struct BoxRay {
 }
 
 impl BoxRay {
+    /// From the ray and the [`slab_reciprocal`]s of its direction's components.
     #[inline(always)]
-    fn new(ray: &Ray) -> Self {
-        let d = ray.d.to_array();
-        // A zero component gets a tiny one of the same sign: finite reciprocals keep the
-        // slab distances free of 0 * inf (Embree's rule).
-        let inv = d.map(|c| {
-            let c = if c.abs() < 1e-30 {
-                1e-30f32.copysign(c)
-            } else {
-                c
-            };
-            f32x8::splat(1.0 / c)
-        });
-        let near = d.map(|c| usize::from(c.is_sign_negative()));
+    fn new(ray: &Ray, reciprocal: [f32; 3]) -> Self {
+        let inv = reciprocal.map(f32x8::splat);
+        let near = ray.d.to_array().map(|c| usize::from(c.is_sign_negative()));
         let o = ray.o.to_array();
         Self {
             o_inv: [0, 1, 2].map(|a| f32x8::splat(o[a]) * inv[a]),
@@ -133,6 +125,21 @@ impl BoxRay {
         let tf = (tf * f32x8::splat(FAR_SCALE)).fast_min(f32x8::splat(tmax));
         (tn, tn.simd_le(tf).to_bitmask())
     }
+}
+
+/// The reciprocal of a ray direction's component `c` (one, or lanes of them) for the slab
+/// test: a zero component gets a tiny one of the same sign, so that the reciprocals are
+/// finite and the slab distances free of 0 * inf (Embree's rule).
+#[inline(always)]
+pub(super) fn slab_reciprocal<T: Num>(c: T) -> T {
+    let tiny = T::of(1e-30);
+    T::of(1.0) / select(lt(abs(c), tiny), copysign(tiny, c), c)
+}
+
+/// [`slab_reciprocal`] of each component of `d`.
+#[inline(always)]
+fn slab_reciprocals(d: glam::Vec3) -> [f32; 3] {
+    d.to_array().map(slab_reciprocal)
 }
 
 /// A ray splatted into SIMD lanes for leaf tests, and the primitive it skips.
@@ -302,15 +309,17 @@ impl Bvh8 {
 
     /// Closest hit (t, primitive index) within the ray's range, skipping `ray.skip`.
     pub fn closest(&self, ray: &Ray) -> Option<(f32, u32)> {
-        self.closest_inlined(ray)
+        self.closest_inlined(ray, slab_reciprocals(ray.d))
     }
 
     /// [`Bvh8::closest`], inlined into the batched query, so that a ray read from columns
     /// ([`super::Rays::get`]) stays in registers (by reference, after its nine scalar
-    /// stores, it stalls on store forwarding).
+    /// stores, it stalls on store forwarding), with its direction's [`slab_reciprocal`]s
+    /// (which the batched query computes a lane vector of rays at a time: their divisions
+    /// then no longer delay each ray's first box test).
     #[inline(always)]
-    pub(super) fn closest_inlined(&self, ray: &Ray) -> Option<(f32, u32)> {
-        let boxes = BoxRay::new(ray);
+    pub(super) fn closest_inlined(&self, ray: &Ray, reciprocal: [f32; 3]) -> Option<(f32, u32)> {
+        let boxes = BoxRay::new(ray, reciprocal);
         let lanes = LaneRay::new(ray);
         let mut tmax = ray.tmax;
         let mut best = None;
@@ -383,13 +392,13 @@ impl Bvh8 {
 
     /// Whether anything not skipped blocks the ray within (tmin, tmax).
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.occluded_inlined(ray)
+        self.occluded_inlined(ray, slab_reciprocals(ray.d))
     }
 
     /// [`Bvh8::occluded`], inlined into the batched query (as [`Bvh8::closest_inlined`]).
     #[inline(always)]
-    pub(super) fn occluded_inlined(&self, ray: &Ray) -> bool {
-        let boxes = BoxRay::new(ray);
+    pub(super) fn occluded_inlined(&self, ray: &Ray, reciprocal: [f32; 3]) -> bool {
+        let boxes = BoxRay::new(ray, reciprocal);
         let lanes = LaneRay::new(ray);
         let tmax = f32x8::splat(ray.tmax);
         let mut stack = [MaybeUninit::<u32>::uninit(); STACK];
@@ -426,6 +435,50 @@ mod tests {
     use super::super::{Rectangle, Sphere};
     use super::*;
     use glam::Vec3;
+
+    /// The slab reciprocals follow Embree's rule (a component under 1e-30 in magnitude
+    /// becomes 1e-30 of its sign), one component or lanes of them, bit for bit.
+    #[test]
+    fn slab_reciprocals_replace_zero_components() {
+        let rule = |c: f32| {
+            let c = if c.abs() < 1e-30 {
+                1e-30f32.copysign(c)
+            } else {
+                c
+            };
+            1.0 / c
+        };
+        let cases = [
+            0.0f32,
+            -0.0,
+            1e-31,
+            -1e-31,
+            1e-30,
+            -1e-30,
+            1.5e-30,
+            0.25,
+            -3.0,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        for c in cases {
+            assert_eq!(slab_reciprocal(c).to_bits(), rule(c).to_bits(), "{c:e}");
+        }
+        assert_eq!(slab_reciprocal(0.0f32), 1e30);
+        assert_eq!(slab_reciprocal(-0.0f32), -1e30);
+        use lobe_materials::simd::{LANES, f32xn};
+        for chunk in cases.chunks(LANES) {
+            let lanes = slab_reciprocal(f32xn::new(lobe_materials::simd::padded(chunk)));
+            for (k, &c) in chunk.iter().enumerate() {
+                assert_eq!(
+                    lanes.to_array()[k].to_bits(),
+                    rule(c).to_bits(),
+                    "{c:e} in lanes"
+                );
+            }
+        }
+    }
 
     /// Every lane of each block kind equals the scalar test of its primitive bit for bit,
     /// hits and misses, across ranges, grazing rays and degenerate primitives.
