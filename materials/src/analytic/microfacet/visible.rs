@@ -157,6 +157,27 @@ fn guess_table() -> &'static [f32] {
     })
 }
 
+/// 1 / the total of the visible slopes' x marginal seen from elevation tangent `tan_t`
+/// (cotangent `cot_t`, `c` = erf(cot_t)): the marginal's normalisation, one value or
+/// lanes, f32 or f64.
+#[inline(always)]
+fn marginal_norm<T: Num>(c: T, tan_t: T, cot_t: T) -> T {
+    let s = T::of;
+    s(1.0) / (s(1.0) + c + s(FRAC_1_SQRT_PI) * tan_t * exp(-cot_t * cot_t))
+}
+
+/// The visible slopes' x marginal CDF seen from elevation tangent `tan_t` (normalisation
+/// `norm`, [`marginal_norm`]) at b = erf(x), `x` = erfinv(b) given, and its derivative in
+/// b: what the Newton steps of [`slope_11`] and [`marginal_inverse`] invert.
+#[inline(always)]
+fn marginal_cdf<T: Num>(norm: T, tan_t: T, b: T, x: T) -> (T, T) {
+    let s = T::of;
+    (
+        norm * (s(1.0) + b + s(FRAC_1_SQRT_PI) * tan_t * exp(-x * x)),
+        norm * (s(1.0) - x * tan_t),
+    )
+}
+
 /// The b in [-1, erf(cot theta)] where the visible slopes' x marginal seen from elevation
 /// cosine `cos_t` reaches `u`, in f64: Newton steps kept inside a bisection interval, from
 /// the fitted exponent of Mitsuba and pbrt-v3 (b = c - (1 + c) (1 - u)^(1 + t (-0.876 +
@@ -165,7 +186,7 @@ fn marginal_inverse(u: f64, cos_t: f64) -> f64 {
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
     let (tan_t, cot_t) = (sin_t / cos_t, cos_t / sin_t.max(1e-12));
     let (mut a, mut c) = (-1.0f64, erf(cot_t));
-    let norm = 1.0 / (1.0 + c + FRAC_1_SQRT_PI * tan_t * (-cot_t * cot_t).exp());
+    let norm = marginal_norm(c, tan_t, cot_t);
     let t = cos_t.acos();
     let fit = 1.0 + t * (-0.876 + t * (0.4265 - 0.0594 * t));
     let mut b = c - (1.0 + c) * (1.0 - u).powf(fit);
@@ -173,8 +194,8 @@ fn marginal_inverse(u: f64, cos_t: f64) -> f64 {
         if !(a <= b && b <= c) {
             b = 0.5 * (a + c);
         }
-        let x = erfinv(b);
-        let value = norm * (1.0 + b + FRAC_1_SQRT_PI * tan_t * (-x * x).exp()) - u;
+        let (cdf, derivative) = marginal_cdf(norm, tan_t, b, erfinv(b));
+        let value = cdf - u;
         if value.abs() <= 1e-12 || c - a <= 1e-15 {
             break;
         }
@@ -182,7 +203,7 @@ fn marginal_inverse(u: f64, cos_t: f64) -> f64 {
             true => c = b,
             false => a = b,
         }
-        b -= value / (norm * (1.0 - x * tan_t));
+        b -= value / derivative;
     }
     b.clamp(a, c)
 }
@@ -220,7 +241,7 @@ fn slope_11<T: Num>(cos_t: T, u1: T, u2: T) -> (T, T) {
     let cot_t = cos_t / maximum(sin_t, s(1e-12));
     let (mut a, mut c) = (s(-1.0), erf(cot_t));
     let mut b = initial_guess(sin_t / (s(1.0) + cos_t), sqrt(s(1.0) - u1));
-    let norm = s(1.0) / (s(1.0) + c + s(FRAC_1_SQRT_PI) * tan_t * exp(-cot_t * cot_t));
+    let norm = marginal_norm(c, tan_t, cot_t);
     // A lane whose CDF is within TOLERANCE of its target keeps that iterate; the loop ends
     // when every lane has, which leaves each lane's result what it would be alone.
     let mut done = lt(s(1.0), s(0.0));
@@ -231,8 +252,8 @@ fn slope_11<T: Num>(cos_t: T, u1: T, u2: T) -> (T, T) {
         let inside = le(a, b) & le(b, c);
         b = select(inside, b, s(0.5) * (a + c));
         inv = erfinv(b);
-        let value = norm * (s(1.0) + b + s(FRAC_1_SQRT_PI) * tan_t * exp(-inv * inv)) - u1;
-        let derivative = norm * (s(1.0) - inv * tan_t);
+        let (cdf, derivative) = marginal_cdf(norm, tan_t, b, inv);
+        let value = cdf - u1;
         done = done | le(abs(value), s(TOLERANCE));
         let above = gt(value, s(0.0));
         c = select(done | !above, c, b);
@@ -360,23 +381,20 @@ mod tests {
                 continue;
             }
             let (tan_t, cot_t) = (sin_t / cos_t, cos_t / sin_t);
-            let c = erf(cot_t);
-            let norm = 1.0 / (1.0 + c + FRAC_1_SQRT_PI * tan_t * (-cot_t * cot_t).exp());
+            let norm = marginal_norm(erf(cot_t), tan_t, cot_t);
             for k in 0..400 {
                 let u = (k as f64 + 0.5) / 400.0;
                 let (v, r) = ((sin_t / (1.0 + cos_t)) as f32, ((1.0 - u) as f32).sqrt());
                 inputs.push((v, r));
                 let b = initial_guess(v, r);
                 // The CDF the Newton steps invert, in f64 (with the same erf and erfinv).
-                let x = erfinv(b as f64);
-                let cdf = norm * (1.0 + b as f64 + FRAC_1_SQRT_PI * tan_t * (-x * x).exp());
+                let (cdf, _) = marginal_cdf(norm, tan_t, b as f64, erfinv(b as f64));
                 worst = worst.max((cdf - u).abs());
                 // slope_11's first step and the CDF where it lands, in f32.
                 let (n32, t32, u32_) = (norm as f32, tan_t as f32, u as f32);
-                let k32 = FRAC_1_SQRT_PI as f32;
                 let value = |b: f32| {
-                    let x = erfinv(b);
-                    (n32 * (1.0 + b + k32 * t32 * (-x * x).exp()) - u32_, x)
+                    let (cdf, derivative) = marginal_cdf(n32, t32, b, erfinv(b));
+                    (cdf - u32_, derivative)
                 };
                 let (mut lo, mut hi) = (-1.0f32, erf(cot_t as f32));
                 let b = if lo <= b && b <= hi {
@@ -384,12 +402,12 @@ mod tests {
                 } else {
                     0.5 * (lo + hi)
                 };
-                let (v0, x0) = value(b);
+                let (v0, d0) = value(b);
                 match v0 > 0.0 {
                     true => hi = b,
                     false => lo = b,
                 }
-                let b1 = b - v0 / (n32 * (1.0 - x0 * t32));
+                let b1 = b - v0 / d0;
                 // Outside the bracket, slope_11 bisects.
                 let b1 = if lo <= b1 && b1 <= hi {
                     b1
