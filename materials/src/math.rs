@@ -125,6 +125,16 @@ pub trait Num: Arith {
 pub fn select<T: Arith>(m: T::Mask, t: T, f: T) -> T {
     T::num_select(m, t, f)
 }
+
+/// `a` where `m` holds, else `b`, per component (per lane).
+#[inline(always)]
+pub fn select_v3<T: Arith>(m: T::Mask, a: V3<T>, b: V3<T>) -> V3<T> {
+    V3::new(
+        select(m, a.x, b.x),
+        select(m, a.y, b.y),
+        select(m, a.z, b.z),
+    )
+}
 /// The smaller of `a` and `b` (per lane, `wide`'s rule in every form: `a` where `b` is NaN,
 /// else `b` where `a` is NaN or the two are equal).
 #[inline(always)]

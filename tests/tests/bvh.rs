@@ -380,8 +380,9 @@ fn rays_near_the_origin(g: &Geometry, r: &mut Lcg) -> Vec<Ray> {
                 }
                 3 => ray.tmin = 0.5 * r.f(),
                 // A zero direction component, of either sign (the box test's tiny-reciprocal
-                // rule).
-                _ => ray.d[i / 5 % 3] = if i % 2 == 0 { 0.0 } else { -0.0 },
+                // rule), in every other of the rest.
+                _ if i % 10 == 4 => ray.d[i / 10 % 3] = if i % 20 == 4 { 0.0 } else { -0.0 },
+                _ => {}
             }
             ray
         })
@@ -623,11 +624,24 @@ fn triangle_interactions_follow_their_vertex_data() {
         assert_eq!(bits(&it), bits(&one), "hit {h}: lanes against one hit");
         assert_eq!(
             it.uv.to_array().map(f32::to_bits),
-            one.uv.to_array().map(f32::to_bits)
+            one.uv.to_array().map(f32::to_bits),
+            "hit {h}: uv, lanes against one hit"
         );
         let PrimKind::Triangle { mesh, index } = g.prims.get(prim).kind else {
             panic!("only triangles")
         };
+        let reference = reference_geometry(
+            &meshes[mesh as usize],
+            index,
+            &records[i as usize],
+            g.shapes[mesh as usize],
+        );
+        let got = [it.p, it.ng, it.ns, it.dpdu, it.uv.extend(0.0)];
+        assert_eq!(
+            got.map(|v| v.to_array().map(f32::to_bits)),
+            reference.map(|v| v.to_array().map(f32::to_bits)),
+            "hit {h} on mesh {mesh}: against the one-hit formula in glam"
+        );
         seen[mesh as usize] += 1;
         let m = &meshes[mesh as usize];
         let idx = m.indices[index as usize].map(|k| k as usize);
@@ -677,4 +691,83 @@ fn triangle_interactions_follow_their_vertex_data() {
         seen.iter().all(|&n| n > 50),
         "hits per mesh: {seen:?}; every kind should be hit"
     );
+    // A line in the triangle's plane (Möller-Trumbore's determinant 0), as no traversal
+    // reports but a caller may pass: barycentrics of a third each, the centroid.
+    let (prim, m) = (0u32, &meshes[0]);
+    let [a, b, c] = m.indices[0].map(|k| m.positions[k as usize]);
+    // Along the second edge: its cross product with itself is exactly zero.
+    let along = Ray::new(a - (c - a), c - a);
+    let mut its = lobe_renderer::geometry::Interactions::default();
+    let rays: Rays = std::iter::once(along).collect();
+    g.interactions_many(&rays, &[(0, 1.0, prim)], &mut its);
+    let it = its.get(0);
+    let centroid = (a + b + c) / 3.0;
+    assert!(
+        (it.p - centroid).length() < 1e-5,
+        "{} against {centroid}",
+        it.p
+    );
+    let reference = reference_geometry(m, 0, &along, g.shapes[0]);
+    assert_eq!(
+        [it.p, it.ng, it.ns, it.dpdu, it.uv.extend(0.0)].map(|v| v.to_array().map(f32::to_bits)),
+        reference.map(|v| v.to_array().map(f32::to_bits)),
+        "a line in the plane"
+    );
+}
+
+/// The local geometry of a hit on triangle `index` of mesh `m` by `ray`, with glam's
+/// operations as the renderer wrote it for one hit before the formula was shared with
+/// lanes: position, geometric and shading normals, tangent, and uv (z 0).
+fn reference_geometry(m: &Mesh, index: u32, ray: &Ray, sg: ShapeGeom) -> [Vec3; 5] {
+    let tri = Triangle::new(0, m, index);
+    let pvec = ray.d.cross(tri.e2);
+    let det = tri.e1.dot(pvec);
+    let inv_det = 1.0 / det;
+    let tvec = ray.o - tri.p0;
+    let u = tvec.dot(pvec) * inv_det;
+    let qvec = tvec.cross(tri.e1);
+    let v = ray.d.dot(qvec) * inv_det;
+    let t = tri.e2.dot(qvec) * inv_det;
+    let hit = det != 0.0
+        && det.is_finite()
+        && (0.0..=1.0).contains(&u)
+        && !(v < 0.0 || u + v > 1.0)
+        && t > f32::NEG_INFINITY
+        && t < f32::INFINITY;
+    let b = if hit {
+        glam::Vec2::new(u, v)
+    } else {
+        glam::Vec2::splat(1.0 / 3.0)
+    };
+    let idx = m.indices[index as usize];
+    let w = [1.0 - b.x - b.y, b.x, b.y];
+    let mut ng = tri.e1.cross(tri.e2).normalize_or_zero();
+    let mut ns = ng;
+    if !sg.face_normals && !m.normals.is_empty() {
+        let n = idx
+            .iter()
+            .zip(w)
+            .fold(Vec3::ZERO, |a, (&k, wk)| a + m.normals[k as usize] * wk);
+        if n.length_squared() > 0.0 {
+            ns = n.normalize();
+            if ng.dot(ns) < 0.0 {
+                ng = -ng;
+            }
+        }
+    }
+    let uv = if m.texcoords.is_empty() {
+        b
+    } else {
+        idx.iter().zip(w).fold(glam::Vec2::ZERO, |a, (&k, wk)| {
+            a + m.texcoords[k as usize] * wk
+        })
+    };
+    let flip = |n: Vec3| if sg.flip_normals { -n } else { n };
+    [
+        tri.p0 + tri.e1 * b.x + tri.e2 * b.y,
+        flip(ng),
+        flip(ns),
+        tri.e1.normalize_or_zero(),
+        uv.extend(0.0),
+    ]
 }

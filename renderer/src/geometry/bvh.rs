@@ -7,7 +7,7 @@ use super::kernels;
 use super::kernels::V3;
 use super::{Interaction, Interactions, Mesh, Ray, Rays, Rectangle, Sphere, Triangle};
 use glam::{Vec2, Vec3};
-use lobe_materials::math::{Arith, gt, lt, select, sqrt};
+use lobe_materials::math::{Arith, gt, lt, select, select_v3, sqrt};
 use lobe_materials::simd;
 use lobe_materials::simd::{LANES, f32xn, u32xn};
 
@@ -24,6 +24,14 @@ pub struct ShapeGeom {
     pub flip_normals: bool,
     /// Ignore vertex normals: shade with the geometric normal.
     pub face_normals: bool,
+}
+
+impl ShapeGeom {
+    /// The shape's normal for the surface normal `n`: `n`, or `-n` with `flip_normals`.
+    #[inline(always)]
+    pub fn orient(&self, n: Vec3) -> Vec3 {
+        if self.flip_normals { -n } else { n }
+    }
 }
 
 /// Primitives, meshes and the BVH over them.
@@ -211,32 +219,33 @@ impl Geometry {
 
     /// [`Geometry::interaction`] of many hits, in order, into `out`: hit (i, t, prim) of ray
     /// i of `rays`. `out` is resized to the hits' count and its old contents overwritten (a
-    /// reused queue is not zeroed first). Hits on spheres are computed a lane vector at a
-    /// time in SIMD lanes ([`Sphere::surface_of`]: its square roots and divisions are a long
-    /// dependency chain per hit), bit for bit the same; other hits one by one.
+    /// reused queue is not zeroed first). Hits on spheres and on mesh triangles are
+    /// computed a lane vector at a time in SIMD lanes ([`Sphere::surface_of`],
+    /// [`triangle_surface`]: their square roots and divisions are a long dependency chain
+    /// per hit), bit for bit the same; hits on rectangles one by one.
     pub fn interactions_many(&self, rays: &Rays, hits: &[(u32, f32, u32)], out: &mut Interactions) {
         out.resize(hits.len());
         // Hits on spheres and on triangles gather into lane batches of their kind.
         let mut spheres = [0usize; LANES];
         let mut triangles = [0usize; LANES];
-        let (mut ns, mut nt) = (0, 0);
+        let (mut n_spheres, mut n_triangles) = (0, 0);
         for (h, &(i, t, prim)) in hits.iter().enumerate() {
             let primitive = self.prims.get(prim);
             match primitive.kind {
                 PrimKind::Sphere(_) => {
-                    spheres[ns] = h;
-                    ns += 1;
-                    if ns == LANES {
+                    spheres[n_spheres] = h;
+                    n_spheres += 1;
+                    if n_spheres == LANES {
                         self.sphere_interactions(rays, hits, &spheres, out);
-                        ns = 0;
+                        n_spheres = 0;
                     }
                 }
                 PrimKind::Triangle { .. } => {
-                    triangles[nt] = h;
-                    nt += 1;
-                    if nt == LANES {
+                    triangles[n_triangles] = h;
+                    n_triangles += 1;
+                    if n_triangles == LANES {
                         self.triangle_interactions(rays, hits, &triangles, out);
-                        nt = 0;
+                        n_triangles = 0;
                     }
                 }
                 PrimKind::Rectangle(_) => {
@@ -246,11 +255,11 @@ impl Geometry {
                 }
             }
         }
-        if ns > 0 {
-            self.sphere_interactions(rays, hits, &spheres[..ns], out);
+        if n_spheres > 0 {
+            self.sphere_interactions(rays, hits, &spheres[..n_spheres], out);
         }
-        if nt > 0 {
-            self.triangle_interactions(rays, hits, &triangles[..nt], out);
+        if n_triangles > 0 {
+            self.triangle_interactions(rays, hits, &triangles[..n_triangles], out);
         }
     }
 
@@ -265,6 +274,7 @@ impl Geometry {
         out: &mut Interactions,
     ) {
         let n = which.len();
+        debug_assert!((1..=LANES).contains(&n), "{n} hits for one lane vector");
         let hit = |k: usize| hits[which[k.min(n - 1)]];
         let (lanes, _) = rays.lanes_at(|k| hit(k).0 as usize);
         let corners = simd::lanes(|k| {
@@ -290,15 +300,12 @@ impl Geometry {
         for (k, &h) in which.iter().enumerate() {
             let (_, t, prim) = hits[h];
             let shape = self.prims.get(prim).shape;
-            let orient = |n: Vec3| match self.shapes[shape as usize].flip_normals {
-                true => -n,
-                false => n,
-            };
+            let sg = self.shapes[shape as usize];
             let it = Interaction {
                 t,
                 p: p[k],
-                ng: orient(ng[k]),
-                ns: orient(ns[k]),
+                ng: sg.orient(ng[k]),
+                ns: sg.orient(ns[k]),
                 dpdu: dpdu[k],
                 uv: Vec2::new(u[k], v[k]),
                 shape,
@@ -334,11 +341,7 @@ impl Geometry {
             let (_, t, prim) = hits[h];
             let shape = self.prims.get(prim).shape;
             let nk = nrm[k];
-            let oriented = if self.shapes[shape as usize].flip_normals {
-                -nk
-            } else {
-                nk
-            };
+            let oriented = self.shapes[shape as usize].orient(nk);
             let it = Interaction {
                 t,
                 p: p[k],
@@ -414,7 +417,6 @@ impl Geometry {
     ) {
         let shape = primitive.shape;
         let sg = self.shapes[shape as usize];
-        let orient = |n: Vec3| if sg.flip_normals { -n } else { n };
         it.t = t;
         it.shape = shape;
         it.prim = prim;
@@ -422,8 +424,8 @@ impl Geometry {
             PrimKind::Sphere(s) => {
                 let (pos, n, dpdu) = s.surface(ray.at(t));
                 it.p = pos;
-                it.ng = orient(n);
-                it.ns = orient(n);
+                it.ng = sg.orient(n);
+                it.ns = sg.orient(n);
                 it.dpdu = dpdu;
                 it.uv = Vec2::ZERO;
                 it.exit = n;
@@ -432,8 +434,8 @@ impl Geometry {
                 let r = &self.rects[r as usize];
                 let uv = r.uv(ray.at(t));
                 it.p = r.point(uv);
-                it.ng = orient(r.n);
-                it.ns = orient(r.n);
+                it.ng = sg.orient(r.n);
+                it.ns = sg.orient(r.n);
                 it.dpdu = r.tangent();
                 it.uv = uv;
                 it.exit = Vec3::ZERO;
@@ -442,8 +444,8 @@ impl Geometry {
                 let tri = Triangle::new(mesh, &self.meshes[mesh as usize], index);
                 let (pos, ng, ns, dpdu, uv) = self.triangle_geometry(ray.o, ray.d, &tri, sg);
                 it.p = pos;
-                it.ng = orient(ng);
-                it.ns = orient(ns);
+                it.ng = sg.orient(ng);
+                it.ns = sg.orient(ns);
                 it.dpdu = dpdu;
                 it.uv = uv;
                 it.exit = Vec3::ZERO;
@@ -510,7 +512,7 @@ impl Geometry {
 fn slab_reciprocal_lanes(rays: &Rays, first: usize) -> [[f32; 3]; LANES] {
     let d = rays.dirs().load(first);
     let [x, y, z] = [d.x, d.y, d.z].map(|c| slab_reciprocal(c).to_array());
-    std::array::from_fn(|k| [x[k], y[k], z[k]])
+    simd::lanes(|k| [x[k], y[k], z[k]])
 }
 
 /// What the local geometry of hits on mesh triangles reads, for one hit or lanes of hits:
@@ -531,9 +533,9 @@ impl Corners<f32xn> {
     /// One lane per hit.
     #[inline(always)]
     fn lanes(c: &[Corners<f32>; LANES]) -> Self {
-        let f = |g: fn(&Corners<f32>) -> f32| f32xn::new(std::array::from_fn(|k| g(&c[k])));
+        let f = |g: fn(&Corners<f32>) -> f32| f32xn::new(simd::lanes(|k| g(&c[k])));
         let v3 = |g: fn(&Corners<f32>) -> V3<f32>| {
-            let v: [V3<f32>; LANES] = std::array::from_fn(|k| g(&c[k]));
+            let v: [V3<f32>; LANES] = simd::lanes(|k| g(&c[k]));
             V3::new(
                 f32xn::new(v.map(|v| v.x)),
                 f32xn::new(v.map(|v| v.y)),
@@ -554,8 +556,8 @@ impl Corners<f32xn> {
                 [f(|c| c.texcoords[1][0]), f(|c| c.texcoords[1][1])],
                 [f(|c| c.texcoords[2][0]), f(|c| c.texcoords[2][1])],
             ],
-            smooth: simd::mask_from_bools(std::array::from_fn(|k| c[k].smooth)),
-            textured: simd::mask_from_bools(std::array::from_fn(|k| c[k].textured)),
+            smooth: simd::mask_from_bools(simd::lanes(|k| c[k].smooth)),
+            textured: simd::mask_from_bools(simd::lanes(|k| c[k].textured)),
         }
     }
 }
@@ -575,14 +577,14 @@ fn triangle_surface<F: Arith>(o: V3<F>, d: V3<F>, c: &Corners<F>) -> TriangleSur
     let q = kernels::moller_trumbore(o, d, c.p0, c.e1, c.e2);
     let on_line = kernels::triangle_hit(q, F::of(f64::NEG_INFINITY), F::of(f64::INFINITY));
     let third = F::of((1.0f32 / 3.0) as f64);
-    let (b1, b2) = (select(on_line, q[1], third), select(on_line, q[2], third));
+    let (b1, b2) = (select(on_line, q.u, third), select(on_line, q.v, third));
     let w = [one - b1 - b2, b1, b2];
     let face = c.e1.cross(c.e2).unit_or(origin);
     let n = (0..3).fold(origin, |a, k| a + c.normals[k] * w[k]);
     let len2 = n.length_squared();
     let interpolated = c.smooth & gt(len2, zero);
-    let ns = select3(interpolated, n * (one / sqrt(len2)), face);
-    let ng = select3(interpolated & lt(face.dot(ns), zero), -face, face);
+    let ns = select_v3(interpolated, n * (one / sqrt(len2)), face);
+    let ng = select_v3(interpolated & lt(face.dot(ns), zero), -face, face);
     let uv: [F; 2] = std::array::from_fn(|a| {
         let t = (0..3).fold(zero, |s, k| s + c.texcoords[k][a] * w[k]);
         select(c.textured, t, [b1, b2][a])
@@ -604,14 +606,4 @@ struct TriangleSurface<F> {
     ns: V3<F>,
     dpdu: V3<F>,
     uv: [F; 2],
-}
-
-/// `a` where `m` is set, else `b`, per component.
-#[inline(always)]
-fn select3<F: Arith>(m: F::Mask, a: V3<F>, b: V3<F>) -> V3<F> {
-    V3::new(
-        select(m, a.x, b.x),
-        select(m, a.y, b.y),
-        select(m, a.z, b.z),
-    )
 }

@@ -315,8 +315,8 @@ impl Bvh8 {
     /// [`Bvh8::closest`], inlined into the batched query, so that a ray read from columns
     /// ([`super::Rays::get`]) stays in registers (by reference, after its nine scalar
     /// stores, it stalls on store forwarding), with its direction's [`slab_reciprocal`]s
-    /// (which the batched query computes a lane vector of rays at a time: their divisions
-    /// then no longer delay each ray's first box test).
+    /// (which the batched query computes a lane vector of rays at a time, so that their
+    /// divisions are off each ray's critical path).
     #[inline(always)]
     pub(super) fn closest_inlined(&self, ray: &Ray, reciprocal: [f32; 3]) -> Option<(f32, u32)> {
         let boxes = BoxRay::new(ray, reciprocal);
@@ -461,6 +461,9 @@ mod tests {
             f32::MAX,
             f32::INFINITY,
             f32::NEG_INFINITY,
+            1e-40,
+            -1e-40,
+            f32::NAN,
         ];
         for c in cases {
             assert_eq!(slab_reciprocal(c).to_bits(), rule(c).to_bits(), "{c:e}");

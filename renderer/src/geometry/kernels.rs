@@ -1,7 +1,7 @@
 //! Ray-primitive intersection in SIMD lanes, one kernel per primitive kind, each with the
 //! operations of the scalar test ([`Triangle::intersect`], [`Sphere::intersect`],
-//! [`Rectangle::intersect`]) in the same order, so a lane's distance is bit for bit the
-//! scalar one. The kernels are generic over the vector ([`Arith`]), so one kernel
+//! [`Rectangle::intersect`]) in the same order (for triangles, the same function:
+//! [`moller_trumbore`]), so a lane's distance is bit for bit the scalar one. The kernels are generic over the vector ([`Arith`]), so one kernel
 //! serves both batch shapes the renderer uses: one ray against the eight primitives of a
 //! BVH8 leaf block (`wide::f32x8`, the ray splatted) and [`LANES`] rays against one
 //! primitive (small scenes tested exhaustively, `f32xn`, the primitive splatted).
@@ -30,11 +30,28 @@ pub fn splat3<F: Arith>(v: glam::Vec3) -> V3<F> {
 
 const INF: f64 = f64::INFINITY;
 
-/// Möller-Trumbore's quantities for rays from `o` along `d` and triangles (vertex `p0`,
-/// edges `e1`, `e2`): the determinant, the barycentrics (u, v) and the distance, with the
-/// operations of [`Triangle::intersect_bary`] in its order.
+/// Möller-Trumbore's quantities for a ray and a triangle: the determinant, the
+/// barycentrics (u, v) of the ray's line in the triangle's plane and the distance along it.
+#[derive(Clone, Copy)]
+pub struct MollerTrumbore<F> {
+    pub det: F,
+    pub u: F,
+    pub v: F,
+    pub t: F,
+}
+
+/// Möller-Trumbore's computation for rays from `o` along `d` and triangles (vertex `p0`,
+/// edges `e1`, `e2`), one or lanes of them: the one the scalar test
+/// ([`Triangle::intersect_bary`]), the leaf kernel ([`triangle`]) and the hits' local
+/// geometry share.
 #[inline(always)]
-pub fn moller_trumbore<F: Arith>(o: V3<F>, d: V3<F>, p0: V3<F>, e1: V3<F>, e2: V3<F>) -> [F; 4] {
+pub fn moller_trumbore<F: Arith>(
+    o: V3<F>,
+    d: V3<F>,
+    p0: V3<F>,
+    e1: V3<F>,
+    e2: V3<F>,
+) -> MollerTrumbore<F> {
     let pvec = d.cross(e2);
     let det = e1.dot(pvec);
     let inv_det = F::of(1.0) / det;
@@ -43,23 +60,23 @@ pub fn moller_trumbore<F: Arith>(o: V3<F>, d: V3<F>, p0: V3<F>, e1: V3<F>, e2: V
     let qvec = tvec.cross(e1);
     let v = d.dot(qvec) * inv_det;
     let t = e2.dot(qvec) * inv_det;
-    [det, u, v, t]
+    MollerTrumbore { det, u, v, t }
 }
 
-/// Where [`moller_trumbore`]'s quantities are a hit in (`tmin`, `tmax`): the scalar
-/// test's conditions, NaN cases included: det nonzero and finite, u in [0, 1], not v < 0,
-/// not u + v > 1, t in (tmin, tmax).
+/// Where [`moller_trumbore`]'s quantities `q` are a hit in (`tmin`, `tmax`), NaN cases
+/// included: det nonzero and finite, u in [0, 1], not v < 0, not u + v > 1, t in (tmin,
+/// tmax).
 #[inline(always)]
-pub fn triangle_hit<F: Arith>([det, u, v, t]: [F; 4], tmin: F, tmax: F) -> F::Mask {
+pub fn triangle_hit<F: Arith>(q: MollerTrumbore<F>, tmin: F, tmax: F) -> F::Mask {
     let (zero, one) = (F::of(0.0), F::of(1.0));
-    !eq(det, zero)
-        & lt(abs(det), F::of(INF))
-        & ge(u, zero)
-        & le(u, one)
-        & !lt(v, zero)
-        & !gt(u + v, one)
-        & gt(t, tmin)
-        & lt(t, tmax)
+    !eq(q.det, zero)
+        & lt(abs(q.det), F::of(INF))
+        & ge(q.u, zero)
+        & le(q.u, one)
+        & !lt(q.v, zero)
+        & !gt(q.u + q.v, one)
+        & gt(q.t, tmin)
+        & lt(q.t, tmax)
 }
 
 /// Möller-Trumbore ([`Triangle::intersect`]) of triangles (vertex `p0`, edges `e1`, `e2`):
@@ -67,7 +84,7 @@ pub fn triangle_hit<F: Arith>([det, u, v, t]: [F; 4], tmin: F, tmax: F) -> F::Ma
 #[inline(always)]
 pub fn triangle<F: Arith>(r: &RayLanes<F>, p0: V3<F>, e1: V3<F>, e2: V3<F>) -> F {
     let q = moller_trumbore(r.o, r.d, p0, e1, e2);
-    select(triangle_hit(q, r.tmin, r.tmax), q[3], F::of(INF))
+    select(triangle_hit(q, r.tmin, r.tmax), q.t, F::of(INF))
 }
 
 /// Spheres ([`Sphere::intersect`]: Haines et al.'s careful quadratic) of centres `c` and

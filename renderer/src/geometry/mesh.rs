@@ -115,7 +115,7 @@ impl Triangle {
             self.e1.into(),
             self.e2.into(),
         );
-        triangle_hit(q, ray.tmin, ray.tmax).then(|| (q[3], Vec2::new(q[1], q[2])))
+        triangle_hit(q, ray.tmin, ray.tmax).then(|| (q.t, Vec2::new(q.u, q.v)))
     }
 
     /// Unit geometric normal, following the winding (e1 x e2).
