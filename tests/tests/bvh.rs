@@ -424,15 +424,7 @@ fn batched_queries_equal_single_ones(g: &Geometry, records: &[Ray]) {
         }
     }
     // interactions_many: every field of every hit's interaction, bit for bit.
-    let mut closest = Vec::new();
-    g.closest_many(rays, &mut closest);
-    let hits: Vec<(u32, f32, u32)> = closest
-        .iter()
-        .enumerate()
-        .filter_map(|(i, c)| c.map(|(t, p)| (i as u32, t, p)))
-        .collect();
-    let mut its = lobe_renderer::geometry::Interactions::default();
-    g.interactions_many(rays, &hits, &mut its);
+    let (hits, its) = hits_and_interactions(g, rays);
     assert_eq!(its.len(), hits.len());
     let its: Vec<_> = (0..its.len()).map(|h| its.get(h)).collect();
     let bits = |it: &lobe_renderer::geometry::Interaction| {
@@ -455,6 +447,24 @@ fn batched_queries_equal_single_ones(g: &Geometry, records: &[Ray]) {
         hits > 20 && hits < 190,
         "{hits} hits: the rays should both hit and miss"
     );
+}
+
+/// The closest hits of `rays` (ray index, distance, primitive; `closest_many`) and their
+/// interactions (`interactions_many`).
+fn hits_and_interactions(
+    g: &Geometry,
+    rays: &Rays,
+) -> (Vec<(u32, f32, u32)>, lobe_renderer::geometry::Interactions) {
+    let mut closest = Vec::new();
+    g.closest_many(rays, &mut closest);
+    let hits: Vec<(u32, f32, u32)> = closest
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| c.map(|(t, p)| (i as u32, t, p)))
+        .collect();
+    let mut its = lobe_renderer::geometry::Interactions::default();
+    g.interactions_many(rays, &hits, &mut its);
+    (hits, its)
 }
 
 /// `closest_many` of the rays `idx` of `records`, in columns, answers bit for bit as
@@ -605,15 +615,7 @@ fn triangle_interactions_follow_their_vertex_data() {
         })
         .collect();
     let rays: Rays = records.iter().copied().collect();
-    let mut closest = Vec::new();
-    g.closest_many(&rays, &mut closest);
-    let hits: Vec<(u32, f32, u32)> = closest
-        .iter()
-        .enumerate()
-        .filter_map(|(i, c)| c.map(|(t, p)| (i as u32, t, p)))
-        .collect();
-    let mut its = lobe_renderer::geometry::Interactions::default();
-    g.interactions_many(&rays, &hits, &mut its);
+    let (hits, its) = hits_and_interactions(&g, &rays);
     let mut seen = [0usize; 3];
     for (h, &(i, t, prim)) in hits.iter().enumerate() {
         let it = its.get(h);
