@@ -226,26 +226,18 @@ impl Geometry {
     pub fn interactions_many(&self, rays: &Rays, hits: &[(u32, f32, u32)], out: &mut Interactions) {
         out.resize(hits.len());
         // Hits on spheres and on triangles gather into lane batches of their kind.
-        let mut spheres = [0usize; LANES];
-        let mut triangles = [0usize; LANES];
-        let (mut n_spheres, mut n_triangles) = (0, 0);
+        let (mut spheres, mut triangles) = (LaneBatch::default(), LaneBatch::default());
         for (h, &(i, t, prim)) in hits.iter().enumerate() {
             let primitive = self.prims.get(prim);
             match primitive.kind {
                 PrimKind::Sphere(_) => {
-                    spheres[n_spheres] = h;
-                    n_spheres += 1;
-                    if n_spheres == LANES {
-                        self.sphere_interactions(rays, hits, &spheres, out);
-                        n_spheres = 0;
+                    if let Some(full) = spheres.push(h) {
+                        self.sphere_interactions(rays, hits, &full, out);
                     }
                 }
                 PrimKind::Triangle { .. } => {
-                    triangles[n_triangles] = h;
-                    n_triangles += 1;
-                    if n_triangles == LANES {
-                        self.triangle_interactions(rays, hits, &triangles, out);
-                        n_triangles = 0;
+                    if let Some(full) = triangles.push(h) {
+                        self.triangle_interactions(rays, hits, &full, out);
                     }
                 }
                 PrimKind::Rectangle(_) => {
@@ -255,11 +247,11 @@ impl Geometry {
                 }
             }
         }
-        if n_spheres > 0 {
-            self.sphere_interactions(rays, hits, &spheres[..n_spheres], out);
+        if !spheres.rest().is_empty() {
+            self.sphere_interactions(rays, hits, spheres.rest(), out);
         }
-        if n_triangles > 0 {
-            self.triangle_interactions(rays, hits, &triangles[..n_triangles], out);
+        if !triangles.rest().is_empty() {
+            self.triangle_interactions(rays, hits, triangles.rest(), out);
         }
     }
 
@@ -503,6 +495,31 @@ impl Geometry {
     /// True when queries go through the BVH (more than [`SMALL_SCENE`] primitives).
     pub fn has_bvh(&self) -> bool {
         self.bvh.is_some()
+    }
+}
+
+/// Indices of hits of one kind, gathered a lane vector at a time.
+#[derive(Default)]
+struct LaneBatch {
+    idx: [usize; LANES],
+    n: usize,
+}
+
+impl LaneBatch {
+    /// Adds hit `h`; when that fills a lane vector, returns it and starts the next.
+    #[inline(always)]
+    fn push(&mut self, h: usize) -> Option<[usize; LANES]> {
+        self.idx[self.n] = h;
+        self.n += 1;
+        (self.n == LANES).then(|| {
+            self.n = 0;
+            self.idx
+        })
+    }
+
+    /// The hits gathered since the last full lane vector.
+    fn rest(&self) -> &[usize] {
+        &self.idx[..self.n]
     }
 }
 
