@@ -467,22 +467,99 @@ fn hits_and_interactions(
     (hits, its)
 }
 
-/// `closest_many` of the rays `idx` of `records`, in columns, answers bit for bit as
+/// `closest_many` and `closest_many_coherent` (eight rays a packet, here rays that are not
+/// coherent at all) of the rays `idx` of `records`, in columns, answer bit for bit as
 /// `closest` of each.
 fn closest_many_equals_closest(g: &Geometry, records: &[Ray], idx: &[u32]) {
     let rays: Rays = idx.iter().map(|&i| records[i as usize]).collect();
-    let mut out = Vec::new();
+    let (mut out, mut coherent) = (Vec::new(), Vec::new());
     g.closest_many(&rays, &mut out);
+    g.closest_many_coherent(&rays, &mut coherent);
     assert_eq!(out.len(), idx.len());
+    assert_eq!(coherent.len(), idx.len());
+    let bits = |h: Option<(f32, u32)>| h.map(|(t, p)| (t.to_bits(), p));
     for (k, &i) in idx.iter().enumerate() {
-        let e = g.closest(&records[i as usize]);
-        assert_eq!(
-            out[k].map(|(t, p)| (t.to_bits(), p)),
-            e.map(|(t, p)| (t.to_bits(), p)),
-            "ray {i}: {:?}",
-            records[i as usize]
-        );
+        let e = bits(g.closest(&records[i as usize]));
+        let ray = records[i as usize];
+        assert_eq!(bits(out[k]), e, "ray {i}: {ray:?}");
+        assert_eq!(bits(coherent[k]), e, "ray {i} in a packet: {ray:?}");
     }
+}
+
+/// Packets of coherent rays (`closest_many_coherent`: a camera's jittered rays, eight per
+/// pixel and pixels in rows, as the wavefront's camera rays come) find each ray's closest
+/// hit bit for bit (and, skipping the primitive each hits first, the hit behind it),
+/// through a BVH of triangles, spheres and rectangles and through the
+/// tree of 70000 coincident triangles, whose ties any hit may settle: there the distance
+/// matches and the primitive is one of those hit.
+#[test]
+fn coherent_packets_find_each_rays_closest_hit() {
+    let mut r = Lcg(31);
+    let camera_rays = |r: &mut Lcg, origin: Vec3, target: Vec3, spread: f32| -> Vec<Ray> {
+        let (size, spp) = (12, 8);
+        let mut rays = Vec::new();
+        for py in 0..size {
+            for px in 0..size {
+                for _ in 0..spp {
+                    let jitter = Vec3::new(px as f32 + r.f(), py as f32 + r.f(), 0.0);
+                    let film = (jitter / size as f32 - Vec3::new(0.5, 0.5, 0.0)) * spread;
+                    rays.push(Ray::new(origin, target + film - origin));
+                }
+            }
+        }
+        // A partial packet at the end.
+        rays.truncate(rays.len() - 3);
+        rays
+    };
+    let g = scene();
+    assert!(g.has_bvh());
+    let rays = camera_rays(&mut r, Vec3::new(0.3, 0.4, 9.0), Vec3::ZERO, 9.0);
+    closest_many_equals_closest(&g, &rays, &(0..rays.len() as u32).collect::<Vec<_>>());
+    let hits = rays.iter().filter(|ray| g.closest(ray).is_some()).count();
+    assert!(
+        hits > rays.len() / 4 && hits < rays.len(),
+        "{hits} of {} rays hit",
+        rays.len()
+    );
+    // The same rays skipping the primitive each hits first: the hits behind.
+    let behind: Vec<Ray> = rays
+        .iter()
+        .map(|&ray| match g.closest(&ray) {
+            Some((_, prim)) => Ray { skip: prim, ..ray },
+            None => ray,
+        })
+        .collect();
+    closest_many_equals_closest(&g, &behind, &(0..rays.len() as u32).collect::<Vec<_>>());
+
+    let mesh = Mesh {
+        positions: vec![
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(1.0, -1.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ],
+        indices: vec![[0, 1, 2]; 70_000],
+        ..Default::default()
+    };
+    let prims = (0..70_000)
+        .map(|t| (PrimShape::Triangle(Triangle::new(0, &mesh, t)), 0))
+        .collect();
+    let piled = Geometry::from_shapes(prims, vec![mesh], vec![ShapeGeom::default()])
+        .expect("70000 coincident triangles");
+    let rays = camera_rays(&mut r, Vec3::ZERO, Vec3::new(0.0, 0.0, 1.0), 2.5);
+    let columns: Rays = rays.iter().copied().collect();
+    let mut packets = Vec::new();
+    piled.closest_many_coherent(&columns, &mut packets);
+    let mut hits = 0;
+    for (ray, p) in rays.iter().zip(&packets) {
+        let e = piled.closest(ray);
+        assert_eq!(
+            p.map(|h| h.0.to_bits()),
+            e.map(|h| h.0.to_bits()),
+            "{ray:?}"
+        );
+        hits += usize::from(p.is_some());
+    }
+    assert!(hits > rays.len() / 4, "{hits} hits");
 }
 
 /// A BVH's SAH cost is the tests a ray expects: over spheres that all share one box every

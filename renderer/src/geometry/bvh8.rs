@@ -6,7 +6,8 @@
 //! operations, lane by lane, as the scalar tests of [`Triangle`], [`Sphere`] and
 //! [`Rectangle`] (so a hit's distance is bit for bit the scalar one).
 //!
-//! Built by [`super::bvh8_build`] from a binary BVH. Child boxes are tested with
+//! Coherent rays (the camera's) are traversed eight at a time instead, by
+//! [`super::bvh8_packet`]. Built by [`super::bvh8_build`] from a binary BVH. Child boxes are tested with
 //! pbrt-v4's conservative slab test (the far distance scaled by 1 + 2 gamma(3), Pharr,
 //! Jakob and Humphreys, "Physically Based Rendering", 4th ed., section 6.8.2), and children
 //! are visited nearest first.
@@ -30,7 +31,7 @@ pub(super) const WIDTH: usize = 8;
 /// Traversal stack entries: visiting a node takes one child off the stack (or, when it is
 /// the only one hit, visits it without the stack) and puts at most seven others on it, so
 /// a tree of depth d needs at most 7 d + 1; [`Bvh8::build`] refuses deeper trees.
-const STACK: usize = 256;
+pub(super) const STACK: usize = 256;
 pub(super) const MAX_DEPTH: usize = (STACK - 1) / (WIDTH - 1);
 
 /// Kind of a child reference (its top two bits); the other 30 bits are an index into
@@ -43,7 +44,8 @@ pub(super) const KIND_SHIFT: u32 = 30;
 pub(super) const INDEX_MASK: u32 = (1 << KIND_SHIFT) - 1;
 
 /// 1 + 2 gamma(3), pbrt-v4's factor making the far slab distance conservative.
-const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+pub(super) const FAR_SCALE: f32 =
+    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// Eight child boxes in lanes (`bounds[axis][0]` lower, `[1]` upper; empty slots have
 /// lower +inf and upper -inf, so no ray hits them) and their references.

@@ -10,6 +10,7 @@
 pub mod bvh;
 pub mod bvh8;
 mod bvh8_build;
+mod bvh8_packet;
 mod interactions;
 pub mod kernels;
 pub mod mesh;

@@ -5,14 +5,16 @@
 //! batched queries load a lane vector of consecutive rays with one plain load per column
 //! ([`Rays::lanes`]); a chosen subset (the hits on spheres) is one gather per column
 //! ([`Rays::lanes_at`]), and the camera writes its rays a lane vector at a time
-//! ([`Rays::push_lanes`]), so no stage transposes ray records. The BVH, which traverses
-//! one ray at a time, reads one ray's nine values ([`Rays::get`]).
+//! ([`Rays::push_lanes`]), so no stage transposes ray records. The BVH reads one ray's
+//! nine values where it traverses one ray at a time ([`Rays::get`]), and eight rays' in
+//! lanes where it traverses a packet of coherent ones ([`Rays::packet`]).
 
 use super::Ray;
 use super::kernels::{RayLanes, V3};
 use glam::Vec3;
 use lobe_materials::simd::{self, LANES, Vec3xN, f32xn, u32xn};
 use lobe_materials::{Vec3Cols, Vec3s};
+use wide::{f32x8, u32x8};
 
 /// Rays in columns, all equally long (private fields; every change keeps them so, and
 /// changes `skip` last, so that `skip` is never longer than another column: the bound that
@@ -136,6 +138,22 @@ impl Rays {
             tmax: f32xn::new(load(&self.tmax, first)),
         };
         (lanes, u32xn::new(load(&self.skip, first)))
+    }
+
+    /// Rays `first..first + 8` in the eight lanes of a BVH8 packet
+    /// ([`super::bvh8::Bvh8`]'s width, whatever [`LANES`] is) and their skipped primitives.
+    pub fn packet(&self, first: usize) -> (RayLanes<f32x8>, u32x8) {
+        let eight = |c: &[f32]| f32x8::new(c[first..first + 8].try_into().expect("eight rays"));
+        let (o, d) = (self.o.cols(), self.d.cols());
+        let v3 = |c: Vec3Cols| V3::new(eight(c.x()), eight(c.y()), eight(c.z()));
+        let lanes = RayLanes {
+            o: v3(o),
+            d: v3(d),
+            tmin: eight(&self.tmin),
+            tmax: eight(&self.tmax),
+        };
+        let skip: [u32; 8] = self.skip[first..first + 8].try_into().expect("eight rays");
+        (lanes, u32x8::new(skip))
     }
 
     /// Rays `ray(0)`, ..., `ray(LANES - 1)` in lanes and their skipped primitives, one

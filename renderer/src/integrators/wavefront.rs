@@ -307,9 +307,10 @@ impl Wavefront {
         }
     }
 
-    /// Closest hits of the active paths, split into hits (with their local geometry,
-    /// computed in a second pass so that neither waits on the other's long dependency
-    /// chains) and escaped paths with their directions.
+    /// Closest hits of the active paths (the camera's rays, a pixel's samples in a row, in
+    /// packets of eight), split into hits (with their local geometry, computed in a second
+    /// pass so that neither waits on the other's long dependency chains) and escaped paths
+    /// with their directions.
     pub fn intersect(&mut self, world: &World) {
         debug_assert_eq!(
             self.paths.ray.len(),
@@ -319,7 +320,11 @@ impl Wavefront {
         let h = &mut self.hits;
         h.closest.clear();
         let rays = &self.paths.ray;
-        world.geometry.closest_many(rays, &mut h.closest);
+        match self.depth {
+            // The camera's rays: each pixel's samples are consecutive.
+            0 => world.geometry.closest_many_coherent(rays, &mut h.closest),
+            _ => world.geometry.closest_many(rays, &mut h.closest),
+        }
         h.hits.clear();
         h.path.clear();
         let e = &mut self.escaped;
