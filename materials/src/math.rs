@@ -51,6 +51,8 @@ pub trait Arith:
     fn num_is_finite(self) -> Self::Mask;
     /// |x|.
     fn num_abs(self) -> Self;
+    /// The magnitude of `self` with the sign bit of `sign`.
+    fn num_copysign(self, sign: Self) -> Self;
     /// Whether the condition holds everywhere (every lane).
     fn mask_all(m: Self::Mask) -> bool;
 }
@@ -75,8 +77,6 @@ pub trait Num: Arith {
     fn num_asin(self) -> Self;
     /// ln x, as [`Num::num_exp`]: [`crate::fastmath::ln`] in f32.
     fn num_ln(self) -> Self;
-    /// The magnitude of `self` with the sign bit of `sign`.
-    fn num_copysign(self, sign: Self) -> Self;
     /// The largest integer not above `self` (`f32::floor`).
     fn num_floor(self) -> Self;
     /// Radians to degrees: times 180 / pi (in f32 and lanes the quotient of the f32
@@ -227,9 +227,9 @@ pub fn powf<T: Num>(x: T, y: T) -> T {
 pub fn ln<T: Num>(x: T) -> T {
     x.num_ln()
 }
-/// The magnitude of `x` with the sign bit of `sign` ([`Num::num_copysign`]).
+/// The magnitude of `x` with the sign bit of `sign` ([`Arith::num_copysign`]).
 #[inline(always)]
-pub fn copysign<T: Num>(x: T, sign: T) -> T {
+pub fn copysign<T: Arith>(x: T, sign: T) -> T {
     x.num_copysign(sign)
 }
 /// `a * b + c` with one rounding ([`Num::num_mul_add`]).
@@ -302,6 +302,10 @@ macro_rules! scalar_num {
                 <$t>::abs(self)
             }
             #[inline(always)]
+            fn num_copysign(self, sign: Self) -> Self {
+                <$t>::copysign(self, sign)
+            }
+            #[inline(always)]
             fn mask_all(m: bool) -> bool {
                 m
             }
@@ -334,10 +338,6 @@ macro_rules! scalar_num {
             #[inline(always)]
             fn num_ln(self) -> Self {
                 $ln(self)
-            }
-            #[inline(always)]
-            fn num_copysign(self, sign: Self) -> Self {
-                <$t>::copysign(self, sign)
             }
             #[inline(always)]
             fn num_mul_add(self, a: Self, b: Self) -> Self {
@@ -472,6 +472,12 @@ macro_rules! lane_arith {
                 <$t>::abs(self)
             }
             #[inline(always)]
+            fn num_copysign(self, sign: Self) -> Self {
+                // The sign bit alone, in the lanes' unsigned type.
+                let bit = <$t>::splat(-0.0).to_bits();
+                <$t>::from_bits((self.to_bits() & !bit) | (sign.to_bits() & bit))
+            }
+            #[inline(always)]
             fn mask_all(m: Self) -> bool {
                 m.all()
             }
@@ -576,11 +582,6 @@ impl Num for f32xn {
             // SAFETY: j + 4 <= table.len() for every lane, checked above.
             unsafe { table.get_unchecked(j..j + 4).try_into().unwrap_unchecked() }
         })
-    }
-    #[inline(always)]
-    fn num_copysign(self, sign: Self) -> Self {
-        let bit = crate::simd::u32xn::splat(0x8000_0000);
-        f32xn::from_bits((self.to_bits() & !bit) | (sign.to_bits() & bit))
     }
 }
 

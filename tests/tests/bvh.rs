@@ -31,10 +31,15 @@ fn scene() -> Geometry {
 
 /// `triangles` random triangles, `spheres` spheres and five rectangles in a box of side 8.
 fn scene_of(triangles: usize, spheres: usize) -> Geometry {
+    scene_at(triangles, spheres, Vec3::ZERO)
+}
+
+/// [`scene_of`] centred on `at`.
+fn scene_at(triangles: usize, spheres: usize, at: Vec3) -> Geometry {
     let mut r = Lcg(7);
     let mut mesh = Mesh::default();
     for _ in 0..triangles {
-        let c = r.v(4.0);
+        let c = at + r.v(4.0);
         let base = mesh.positions.len() as u32;
         for _ in 0..3 {
             mesh.positions.push(c + r.v(0.3));
@@ -48,14 +53,14 @@ fn scene_of(triangles: usize, spheres: usize) -> Geometry {
     for _ in 0..spheres {
         prims.push((
             PrimShape::Sphere(Sphere {
-                center: r.v(4.0),
+                center: at + r.v(4.0),
                 radius: 0.1 + r.f(),
             }),
             1,
         ));
     }
     for k in 0..5 {
-        let m = Mat4::from_translation(r.v(3.0))
+        let m = Mat4::from_translation(at + r.v(3.0))
             * Mat4::from_axis_angle(r.v(1.0).normalize(), k as f32)
             * Mat4::from_scale(Vec3::splat(0.8));
         prims.push((
@@ -489,7 +494,8 @@ fn closest_many_equals_closest(g: &Geometry, records: &[Ray], idx: &[u32]) {
 /// Packets of coherent rays (`closest_many_coherent`: a camera's jittered rays, eight per
 /// pixel and pixels in rows, as the wavefront's camera rays come) find each ray's closest
 /// hit bit for bit (and, skipping the primitive each hits first, the hit behind it),
-/// through a BVH of triangles, spheres and rectangles and through the
+/// through a BVH of triangles, spheres and rectangles (each hit by some) at the origin and
+/// far from it, and through the
 /// tree of 70000 coincident triangles, whose ties any hit may settle: there the distance
 /// matches and the primitive is one of those hit.
 #[test]
@@ -511,25 +517,48 @@ fn coherent_packets_find_each_rays_closest_hit() {
         rays.truncate(rays.len() - 3);
         rays
     };
-    let g = scene();
-    assert!(g.has_bvh());
-    let rays = camera_rays(&mut r, Vec3::new(0.3, 0.4, 9.0), Vec3::ZERO, 9.0);
-    closest_many_equals_closest(&g, &rays, &(0..rays.len() as u32).collect::<Vec<_>>());
-    let hits = rays.iter().filter(|ray| g.closest(ray).is_some()).count();
-    assert!(
-        hits > rays.len() / 4 && hits < rays.len(),
-        "{hits} of {} rays hit",
-        rays.len()
-    );
-    // The same rays skipping the primitive each hits first: the hits behind.
-    let behind: Vec<Ray> = rays
-        .iter()
-        .map(|&ray| match g.closest(&ray) {
-            Some((_, prim)) => Ray { skip: prim, ..ray },
-            None => ray,
-        })
-        .collect();
-    closest_many_equals_closest(&g, &behind, &(0..rays.len() as u32).collect::<Vec<_>>());
+    // The scene at the origin and far from it (where the box tests' rounding is coarse).
+    for at in [Vec3::ZERO, Vec3::new(1000.0, -700.0, 300.0)] {
+        let g = scene_at(3000, 20, at);
+        assert!(g.has_bvh());
+        let rays = camera_rays(&mut r, at + Vec3::new(0.3, 0.4, 9.0), at, 9.0);
+        let all: Vec<u32> = (0..rays.len() as u32).collect();
+        closest_many_equals_closest(&g, &rays, &all);
+        let hits: Vec<u32> = rays
+            .iter()
+            .filter_map(|ray| g.closest(ray))
+            .map(|h| h.1)
+            .collect();
+        assert!(
+            hits.len() > rays.len() / 4 && hits.len() < rays.len(),
+            "{} of {} rays hit",
+            hits.len(),
+            rays.len()
+        );
+        let kinds = |k: fn(&PrimKind) -> bool| {
+            hits.iter()
+                .filter(|&&p| k(&g.prims.get(p).kind))
+                .count()
+        };
+        let (tris, spheres, rects) = (
+            kinds(|k| matches!(k, PrimKind::Triangle { .. })),
+            kinds(|k| matches!(k, PrimKind::Sphere(_))),
+            kinds(|k| matches!(k, PrimKind::Rectangle(_))),
+        );
+        assert!(
+            tris > 0 && spheres > 0 && rects > 0,
+            "hits: {tris} triangles, {spheres} spheres, {rects} rectangles"
+        );
+        // The same rays skipping the primitive each hits first: the hits behind.
+        let behind: Vec<Ray> = rays
+            .iter()
+            .map(|&ray| match g.closest(&ray) {
+                Some((_, prim)) => Ray { skip: prim, ..ray },
+                None => ray,
+            })
+            .collect();
+        closest_many_equals_closest(&g, &behind, &all);
+    }
 
     let mesh = Mesh {
         positions: vec![

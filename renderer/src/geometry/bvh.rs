@@ -2,7 +2,7 @@
 //! tested in SIMD lanes) for closest-hit and occlusion queries, the local geometry of
 //! hits, and the batched forms of these queries that the wavefront integrator calls.
 
-use super::bvh8::{Bvh8, slab_reciprocal};
+use super::bvh8::{Bvh8, WIDTH, slab_reciprocal};
 use super::kernels;
 use super::kernels::V3;
 use super::{Interaction, Interactions, Mesh, Ray, Rays, Rectangle, Sphere, Triangle};
@@ -190,18 +190,19 @@ impl Geometry {
 
     /// [`Geometry::closest_many`] of coherent rays (each run of eight consecutive rays
     /// leaving one point, or nearby points, in nearby directions: a camera's rays through a
-    /// pixel), the same answers up to ties between primitives hit at exactly the same
-    /// distance: with a BVH, eight rays at a time as a packet ([`super::bvh8_packet`]).
+    /// pixel), the same answers up to ties between primitives hit at the same distance or
+    /// a few ulps apart: with a BVH, eight rays at a time as a packet
+    /// ([`super::bvh8_packet`]).
     pub fn closest_many_coherent(&self, rays: &Rays, out: &mut Vec<Option<(f32, u32)>>) {
         let Some(bvh) = &self.bvh else {
             return self.closest_many(rays, out);
         };
-        let whole = rays.len() / 8 * 8;
-        for first in (0..whole).step_by(8) {
+        let whole = rays.len() / WIDTH * WIDTH;
+        for first in (0..whole).step_by(WIDTH) {
             let (lanes, skip) = rays.packet(first);
             let (t, prim) = bvh.closest_packet(&lanes, skip);
             let (t, prim) = (t.to_array(), prim.to_array());
-            out.extend((0..8).map(|k| (prim[k] != u32::MAX).then_some((t[k], prim[k]))));
+            out.extend((0..WIDTH).map(|k| (prim[k] != u32::MAX).then_some((t[k], prim[k]))));
         }
         out.extend((whole..rays.len()).map(|i| bvh.closest(&rays.get(i))));
     }

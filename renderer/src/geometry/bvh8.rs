@@ -7,7 +7,8 @@
 //! [`Rectangle`] (so a hit's distance is bit for bit the scalar one).
 //!
 //! Coherent rays (the camera's) are traversed eight at a time instead, by
-//! [`super::bvh8_packet`]. Built by [`super::bvh8_build`] from a binary BVH. Child boxes are tested with
+//! [`super::bvh8_packet`], with the same box test ([`slab_test`]). Built by
+//! [`super::bvh8_build`] from a binary BVH. Child boxes are tested with
 //! pbrt-v4's conservative slab test (the far distance scaled by 1 + 2 gamma(3), Pharr,
 //! Jakob and Humphreys, "Physically Based Rendering", 4th ed., section 6.8.2), and children
 //! are visited nearest first.
@@ -20,7 +21,7 @@ use super::kernels::{self, RayLanes, V3};
 use super::primitive::PrimSource;
 #[cfg(doc)]
 use super::{Rectangle, Sphere, Triangle};
-use lobe_materials::math::{Num, abs, copysign, lt, select};
+use lobe_materials::math::{Arith, abs, copysign, lt, select};
 use lobe_materials::simd::sel;
 use std::mem::MaybeUninit;
 use wide::{f32x8, u32x8};
@@ -44,8 +45,7 @@ pub(super) const KIND_SHIFT: u32 = 30;
 pub(super) const INDEX_MASK: u32 = (1 << KIND_SHIFT) - 1;
 
 /// 1 + 2 gamma(3), pbrt-v4's factor making the far slab distance conservative.
-pub(super) const FAR_SCALE: f32 =
-    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// Eight child boxes in lanes (`bounds[axis][0]` lower, `[1]` upper; empty slots have
 /// lower +inf and upper -inf, so no ray hits them) and their references.
@@ -114,26 +114,48 @@ impl BoxRay {
     /// before `tmax`.
     #[inline(always)]
     fn test(&self, node: &Node, tmax: f32) -> (f32x8, u32) {
-        // bound * inv - o * inv, fused where the target has FMA (the far distance's
-        // conservative factor covers either rounding).
-        let slab = |a: usize, side: usize| node.bounds[a][side].mul_sub(self.inv[a], self.o_inv[a]);
         let (n, f) = (self.near, self.near.map(|s| 1 - s));
-        let tn = slab(0, n[0])
-            .fast_max(slab(1, n[1]))
-            .fast_max(slab(2, n[2]).fast_max(self.tmin));
-        let tf = slab(0, f[0])
-            .fast_min(slab(1, f[1]))
-            .fast_min(slab(2, f[2]));
-        let tf = (tf * f32x8::splat(FAR_SCALE)).fast_min(f32x8::splat(tmax));
-        (tn, tn.simd_le(tf).to_bitmask())
+        let (tn, hit) = slab_test(
+            [0, 1, 2].map(|a| node.bounds[a][n[a]]),
+            [0, 1, 2].map(|a| node.bounds[a][f[a]]),
+            (&self.inv, &self.o_inv),
+            (self.tmin, f32x8::splat(tmax)),
+        );
+        (tn, hit.to_bitmask())
     }
+}
+
+/// The slab test of eight boxes and rays, lane by lane (eight children against one ray, or
+/// one child against eight rays: the same operations either way): per axis the box's
+/// `near` and `far` bound (the upper one is near where the direction is negative), the
+/// ray's [`slab_reciprocal`]s `inv` of its direction and its origin times them, `o_inv`,
+/// and its range. Returns the entry distances and the mask of the lanes whose ray enters
+/// its box before `tmax`.
+#[inline(always)]
+pub(super) fn slab_test(
+    near: [f32x8; 3],
+    far: [f32x8; 3],
+    (inv, o_inv): (&[f32x8; 3], &[f32x8; 3]),
+    (tmin, tmax): (f32x8, f32x8),
+) -> (f32x8, f32x8) {
+    // bound * inv - o * inv, fused where the target has FMA (the far distance's
+    // conservative factor covers either rounding).
+    let slab = |bound: f32x8, a: usize| bound.mul_sub(inv[a], o_inv[a]);
+    let tn = slab(near[0], 0)
+        .fast_max(slab(near[1], 1))
+        .fast_max(slab(near[2], 2).fast_max(tmin));
+    let tf = slab(far[0], 0)
+        .fast_min(slab(far[1], 1))
+        .fast_min(slab(far[2], 2));
+    let tf = (tf * f32x8::splat(FAR_SCALE)).fast_min(tmax);
+    (tn, tn.simd_le(tf))
 }
 
 /// The reciprocal of a ray direction's component `c` (one, or lanes of them) for the slab
 /// test: a zero component gets a tiny one of the same sign, so that the reciprocals are
 /// finite and the slab distances free of 0 * inf (Embree's rule).
 #[inline(always)]
-pub(super) fn slab_reciprocal<T: Num>(c: T) -> T {
+pub(super) fn slab_reciprocal<T: Arith>(c: T) -> T {
     let tiny = T::of(1e-30);
     T::of(1.0) / select(lt(abs(c), tiny), copysign(tiny, c), c)
 }

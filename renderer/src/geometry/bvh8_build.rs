@@ -519,6 +519,8 @@ impl Draft {
     /// the last primitive; [`Draft::finish`] fetches their data) and returns its reference.
     pub(super) fn leaf_block(&mut self, kind: u32, ids: &[u32]) -> u32 {
         debug_assert!(!ids.is_empty() && ids.len() <= WIDTH);
+        // Distinct primitives: a packet's leaf test stops at the first repeat.
+        debug_assert!((1..ids.len()).all(|k| !ids[..k].contains(&ids[k])));
         let blocks = &mut self.blocks[kind as usize - 1];
         blocks.push(std::array::from_fn(|k| ids[k.min(ids.len() - 1)]));
         (kind << KIND_SHIFT) | (blocks.len() - 1) as u32

@@ -11,12 +11,14 @@
 //! by the sign of the direction, one fused multiply-subtract per plane, pbrt-v4's
 //! conservative far distance), and each leaf primitive against the eight rays with the
 //! same kernels. So every ray enters the same boxes and finds the same distances as it
-//! would alone. Only the order in which the packet visits children (nearest first by its
-//! nearest ray) differs, which can change the answer only between two primitives hit at
-//! exactly the same distance.
+//! would alone, and a ray tests the primitives of the leaves it enters only. Only the
+//! order in which the packet visits children (nearest first by its nearest ray) differs.
+//! That can change the answer only between primitives hit at the same distance or a few
+//! ulps apart (where a box whose rounded entry distance lies beyond a hit found elsewhere
+//! is culled in one order and not in the other).
 
-use super::bvh8::{Bvh8, FAR_SCALE, INDEX_MASK, INNER, KIND_SHIFT, Node, STACK};
-use super::bvh8::{SPHERES, TRIANGLES, WIDTH, slab_reciprocal};
+use super::bvh8::{Bvh8, INDEX_MASK, INNER, KIND_SHIFT, Node, STACK};
+use super::bvh8::{SPHERES, TRIANGLES, WIDTH, slab_reciprocal, slab_test};
 use super::kernels::{self, RayLanes, V3};
 use lobe_materials::simd::sel;
 use std::mem::MaybeUninit;
@@ -50,32 +52,19 @@ impl PacketBoxes {
     /// lanes that enter it before their `tmax`.
     #[inline(always)]
     fn test(&self, node: &Node, k: usize, tmax: f32x8) -> (f32x8, f32x8) {
-        let plane = |a: usize, side: usize| f32x8::splat(node.bounds[a][side].as_array()[k]);
+        let bound = |a: usize, side: usize| f32x8::splat(node.bounds[a][side].as_array()[k]);
         // The near bound is the upper one where the direction is negative.
-        let slab = |a: usize, near: bool| {
-            let (lo, hi) = (plane(a, 0), plane(a, 1));
-            let bound = match near {
-                true => sel(self.negative[a], hi, lo),
-                false => sel(self.negative[a], lo, hi),
-            };
-            bound.mul_sub(self.inv[a], self.o_inv[a])
-        };
-        let tn = slab(0, true)
-            .fast_max(slab(1, true))
-            .fast_max(slab(2, true).fast_max(self.tmin));
-        let tf = slab(0, false)
-            .fast_min(slab(1, false))
-            .fast_min(slab(2, false));
-        let tf = (tf * f32x8::splat(FAR_SCALE)).fast_min(tmax);
-        (tn, tn.simd_le(tf))
+        let near = [0, 1, 2].map(|a| sel(self.negative[a], bound(a, 1), bound(a, 0)));
+        let far = [0, 1, 2].map(|a| sel(self.negative[a], bound(a, 0), bound(a, 1)));
+        slab_test(near, far, (&self.inv, &self.o_inv), (self.tmin, tmax))
     }
 }
 
-/// A packet's stack entry: a child reference and each ray's entry distance (infinity for
-/// the rays that do not enter it).
+/// A packet's stack entry: a child reference and each ray's entry distance (NaN for the
+/// rays that do not enter it, so that no later `tmax` makes them test it).
 type PacketEntry = (u32, f32x8);
 
-/// The smallest lane of `v`.
+/// The smallest lane of `v` that is not NaN.
 #[inline(always)]
 fn min_lane(v: f32x8) -> f32 {
     v.as_array().iter().fold(f32::INFINITY, |m, &x| m.min(x))
@@ -103,8 +92,7 @@ impl Bvh8 {
             if r >> KIND_SHIFT == INNER {
                 sp = self.push_packet_children(&mut stack, sp, r, &boxes, active, tmax);
             } else {
-                let lanes = RayLanes { tmax, ..*rays };
-                self.packet_leaf(r, &lanes, skip, active, &mut tmax, &mut best);
+                self.packet_leaf(r, rays, skip, active, &mut tmax, &mut best);
             }
         }
         (tmax, best)
@@ -131,7 +119,7 @@ impl Bvh8 {
             if !hit.any() {
                 continue;
             }
-            let tn = sel(hit, tn, f32x8::splat(f32::INFINITY));
+            let tn = sel(hit, tn, f32x8::splat(f32::NAN));
             let key = min_lane(tn);
             // Insertion into the pushed run, kept in decreasing distance.
             let mut j = sp;
@@ -147,8 +135,9 @@ impl Bvh8 {
         sp
     }
 
-    /// Tests the `active` rays of `lanes` against every primitive of leaf block `leaf`,
-    /// keeping in `tmax` and `best` each ray's nearest hit not skipped.
+    /// Tests the `active` rays of `lanes` (their range's end: `tmax`) against every
+    /// primitive of leaf block `leaf`, keeping in `tmax` and `best` each ray's nearest hit
+    /// not skipped.
     #[inline(always)]
     fn packet_leaf(
         &self,

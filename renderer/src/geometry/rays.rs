@@ -141,9 +141,10 @@ impl Rays {
     }
 
     /// Rays `first..first + 8` in the eight lanes of a BVH8 packet
-    /// ([`super::bvh8::Bvh8`]'s width, whatever [`LANES`] is) and their skipped primitives.
+    /// ([`super::bvh8::Bvh8`]'s width, whatever [`LANES`] is) and their skipped primitives;
+    /// panics unless there are eight rays from `first` on.
     pub fn packet(&self, first: usize) -> (RayLanes<f32x8>, u32x8) {
-        let eight = |c: &[f32]| f32x8::new(c[first..first + 8].try_into().expect("eight rays"));
+        let eight = |c: &[f32]| f32x8::new(*c[first..].first_chunk().expect("eight rays"));
         let (o, d) = (self.o.cols(), self.d.cols());
         let v3 = |c: Vec3Cols| V3::new(eight(c.x()), eight(c.y()), eight(c.z()));
         let lanes = RayLanes {
@@ -152,7 +153,7 @@ impl Rays {
             tmin: eight(&self.tmin),
             tmax: eight(&self.tmax),
         };
-        let skip: [u32; 8] = self.skip[first..first + 8].try_into().expect("eight rays");
+        let skip = *self.skip[first..].first_chunk().expect("eight rays");
         (lanes, u32x8::new(skip))
     }
 
