@@ -535,11 +535,8 @@ fn coherent_packets_find_each_rays_closest_hit() {
             hits.len(),
             rays.len()
         );
-        let kinds = |k: fn(&PrimKind) -> bool| {
-            hits.iter()
-                .filter(|&&p| k(&g.prims.get(p).kind))
-                .count()
-        };
+        let kinds =
+            |k: fn(&PrimKind) -> bool| hits.iter().filter(|&&p| k(&g.prims.get(p).kind)).count();
         let (tris, spheres, rects) = (
             kinds(|k| matches!(k, PrimKind::Triangle { .. })),
             kinds(|k| matches!(k, PrimKind::Sphere(_))),
@@ -560,20 +557,7 @@ fn coherent_packets_find_each_rays_closest_hit() {
         closest_many_equals_closest(&g, &behind, &all);
     }
 
-    let mesh = Mesh {
-        positions: vec![
-            Vec3::new(-1.0, -1.0, 1.0),
-            Vec3::new(1.0, -1.0, 1.0),
-            Vec3::new(0.0, 1.0, 1.0),
-        ],
-        indices: vec![[0, 1, 2]; 70_000],
-        ..Default::default()
-    };
-    let prims = (0..70_000)
-        .map(|t| (PrimShape::Triangle(Triangle::new(0, &mesh, t)), 0))
-        .collect();
-    let piled = Geometry::from_shapes(prims, vec![mesh], vec![ShapeGeom::default()])
-        .expect("70000 coincident triangles");
+    let piled = coincident_triangles();
     let rays = camera_rays(&mut r, Vec3::ZERO, Vec3::new(0.0, 0.0, 1.0), 2.5);
     let columns: Rays = rays.iter().copied().collect();
     let mut packets = Vec::new();
@@ -636,20 +620,7 @@ fn coincident_primitives_build_and_hit_as_brute_force() {
     let spheres =
         Geometry::from_shapes(vec![(sphere, 0); 4096], vec![], vec![ShapeGeom::default()])
             .expect("4096 coincident spheres");
-    let mesh = Mesh {
-        positions: vec![
-            Vec3::new(-1.0, -1.0, 1.0),
-            Vec3::new(1.0, -1.0, 1.0),
-            Vec3::new(0.0, 1.0, 1.0),
-        ],
-        indices: vec![[0, 1, 2]; 70_000],
-        ..Default::default()
-    };
-    let prims = (0..70_000)
-        .map(|t| (PrimShape::Triangle(Triangle::new(0, &mesh, t)), 0))
-        .collect();
-    let triangles = Geometry::from_shapes(prims, vec![mesh], vec![ShapeGeom::default()])
-        .expect("70000 coincident triangles");
+    let triangles = coincident_triangles();
     let mut r = Lcg(5);
     for g in [&spheres, &triangles] {
         assert!(g.has_bvh());
@@ -665,6 +636,24 @@ fn coincident_primitives_build_and_hit_as_brute_force() {
         }
         assert!(hits > 50, "{hits} hits");
     }
+}
+
+/// 70000 copies of one triangle, one mesh.
+fn coincident_triangles() -> Geometry {
+    let mesh = Mesh {
+        positions: vec![
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(1.0, -1.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ],
+        indices: vec![[0, 1, 2]; 70_000],
+        ..Default::default()
+    };
+    let prims = (0..70_000)
+        .map(|t| (PrimShape::Triangle(Triangle::new(0, &mesh, t)), 0))
+        .collect();
+    Geometry::from_shapes(prims, vec![mesh], vec![ShapeGeom::default()])
+        .expect("70000 coincident triangles")
 }
 
 /// The local geometry of triangle hits (`interactions_many`, in SIMD lanes, and
