@@ -1,10 +1,12 @@
 //! Ray-primitive intersection in SIMD lanes, one kernel per primitive kind, each with the
 //! operations of the scalar test ([`Triangle::intersect`], [`Sphere::intersect`],
 //! [`Rectangle::intersect`]) in the same order (for triangles, the same function:
-//! [`moller_trumbore`]), so a lane's distance is bit for bit the scalar one. The kernels are generic over the vector ([`Arith`]), so one kernel
-//! serves both batch shapes the renderer uses: one ray against the eight primitives of a
-//! BVH8 leaf block (`wide::f32x8`, the ray splatted) and [`LANES`] rays against one
-//! primitive (small scenes tested exhaustively, `f32xn`, the primitive splatted).
+//! [`moller_trumbore`]), so a lane's distance is bit for bit the scalar one. The kernels
+//! are generic over the vector ([`Arith`]), so one kernel serves both batch shapes the
+//! renderer uses: one ray against the eight primitives of a BVH8 leaf block
+//! (`wide::f32x8`, the ray splatted) and many rays against one primitive (the primitive
+//! splatted: eight coherent rays of a BVH8 packet, `wide::f32x8`, and [`LANES`] rays in
+//! small scenes tested exhaustively, `f32xn`).
 
 #[cfg(doc)]
 use super::{Rectangle, Sphere, Triangle};

@@ -308,9 +308,9 @@ impl Wavefront {
     }
 
     /// Closest hits of the active paths (at depth 0 the camera's rays, a pixel's samples in
-    /// a row, in packets of eight), split into hits (with their local geometry, computed in a second
-    /// pass so that neither waits on the other's long dependency chains) and escaped paths
-    /// with their directions.
+    /// a row, in packets of eight), split into hits (with their local geometry, computed in
+    /// a second pass so that neither waits on the other's long dependency chains) and
+    /// escaped paths with their directions.
     pub fn intersect(&mut self, world: &World) {
         debug_assert_eq!(
             self.paths.ray.len(),
