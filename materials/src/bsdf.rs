@@ -243,6 +243,11 @@ impl BsdfSamples {
         })
     }
 
+    /// The sampled directions (whatever the buffer held where there is no sample).
+    pub fn wi(&self) -> Vec3Cols<'_> {
+        self.wi.cols()
+    }
+
     /// Every entry in order.
     pub fn iter(&self) -> impl Iterator<Item = Option<BsdfSample>> + '_ {
         (0..self.len()).map(|k| self.get(k))

@@ -377,7 +377,18 @@ impl<'a, T: Record<N>, const N: usize> Cols<'a, T, N> {
         {
             return self.load(idx[0]);
         }
-        T::from_lanes(self.c.map(|c| f32xn::new(simd::lanes_of(idx, |k| c[k]))))
+        let (n, len) = (idx.len(), self.len());
+        assert!((1..=LANES).contains(&n), "a chunk of 1 to LANES indices");
+        assert!(
+            idx.iter().all(|&k| k < len),
+            "an index beyond {len} elements"
+        );
+        let lane: [usize; LANES] = simd::lanes(|i| idx[i.min(n - 1)]);
+        T::from_lanes(std::array::from_fn(|c| {
+            let col = self.c[c];
+            // SAFETY: every index is below the columns' common length (checked above).
+            f32xn::new(simd::lanes(|i| unsafe { *col.get_unchecked(lane[i]) }))
+        }))
     }
 }
 

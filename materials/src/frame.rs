@@ -55,7 +55,13 @@ impl Frame {
 
     #[inline]
     pub fn to_world(&self, v: Vec3) -> Vec3 {
-        self.s * v.x + self.t * v.y + self.n * v.z
+        to_world(
+            V3::from(self.s),
+            V3::from(self.t),
+            V3::from(self.n),
+            V3::from(v),
+        )
+        .into()
     }
 }
 
@@ -89,6 +95,13 @@ pub fn shading_axes<T: Arith>(n: V3<T>, dpdu: V3<T>, d: V3<T>) -> (V3<T>, V3<T>,
 #[inline(always)]
 pub fn to_local<T: Arith>(s: V3<T>, t: V3<T>, n: V3<T>, v: V3<T>) -> V3<T> {
     V3::new(v.dot(s), v.dot(t), v.dot(n))
+}
+
+/// [`Frame::to_world`] of local `v` in the frame (`s`, `t`, `n`), written once over
+/// [`Arith`] (one frame, or lanes of frames): s v.x + t v.y + n v.z.
+#[inline(always)]
+pub fn to_world<T: Arith>(s: V3<T>, t: V3<T>, n: V3<T>, v: V3<T>) -> V3<T> {
+    s * v.x + t * v.y + n * v.z
 }
 
 /// The tangent and bitangent of [`Frame::from_normal`] for a unit normal `n`, written once

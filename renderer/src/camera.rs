@@ -15,7 +15,7 @@ use glam::{Mat4, Vec2, Vec3};
 use lobe_materials::Vec2Cols;
 use lobe_materials::math::{Arith, V3, sqrt};
 use lobe_materials::simd;
-use lobe_materials::simd::{LANES, Vec3xN, f32xn};
+use lobe_materials::simd::{LANES, Vec3xN, f32xn, u32xn};
 
 /// The axis along which a perspective field of view is measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -184,14 +184,15 @@ impl Camera {
     /// `jitter`, appended to `out`, bit for bit the same: a lane vector at a time
     /// ([`Camera::ray_lanes`]).
     pub fn rays_many(&self, pixel: Vec2, jitter: Vec2Cols, inv: Vec2, out: &mut Rays) {
+        let start = out.len();
+        out.resize(start + jitter.len());
         for first in (0..jitter.len()).step_by(LANES) {
-            let n = (jitter.len() - first).min(LANES);
             let [jx, jy] = jitter.load(first);
             let film = |p: f32, j: f32xn, inv: f32| (f32xn::splat(p) + j) * f32xn::splat(inv);
             let sx = film(pixel.x, jx, inv.x);
             let sy = film(pixel.y, jy, inv.y);
             let (o, d) = self.ray_lanes(sx, sy);
-            out.push_lanes(o, d, n);
+            out.store_lanes(start + first, o, d, u32xn::splat(Ray::NO_SKIP));
         }
     }
 

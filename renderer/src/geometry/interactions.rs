@@ -2,8 +2,9 @@
 //! the wavefront integrator's hit queue, whose lane stages load normals and tangents with
 //! plain loads.
 
-use super::Interaction;
+use super::{Interaction, spawn_origin};
 use glam::Vec2;
+use lobe_materials::simd::{self, Vec3xN, f32xn, i32xn, u32xn};
 use lobe_materials::{Vec3Cols, Vec3s};
 
 /// The interactions of a batch of hits as columns (struct of arrays, pbrt-v4's
@@ -70,6 +71,17 @@ impl Interactions {
     /// The shapes hit.
     pub fn shape(&self) -> &[u32] {
         &self.shape
+    }
+
+    /// The origins and skipped primitives of the rays leaving hits `idx` (one to
+    /// [`simd::LANES`] of them) along world directions `d` in lanes: [`super::spawn_ray`] of
+    /// each, bit for bit, in lanes (past the end of `idx`, the last hit repeated).
+    #[inline(always)]
+    pub fn spawn_lanes(&self, idx: &[usize], d: Vec3xN) -> (Vec3xN, u32xn) {
+        let v3 = |c: &Vec3s| c.cols().lanes_of(idx);
+        let prim = i32xn::new(simd::lanes_of(idx, |k| self.prim[k] as i32));
+        let (o, skip) = spawn_origin::<f32xn>(v3(&self.p), v3(&self.ng), v3(&self.exit), prim, d);
+        (o, wide::bytemuck::cast(skip))
     }
 
     /// Interaction `h` as a record, with one bounds check (inlined, a caller's unused

@@ -22,6 +22,7 @@ pub mod rectangle;
 pub mod sphere;
 
 use glam::{Vec2, Vec3};
+use lobe_materials::math::{Single, V3, abs, ge, lt, select};
 
 pub use bvh::Geometry;
 pub use interactions::Interactions;
@@ -114,36 +115,70 @@ impl Interaction {
 /// Origin of a ray leaving `p` on the side of `n` (Wächter and Binder 2019).
 #[inline(always)]
 pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
-    use wide::bytemuck::cast;
-    use wide::{f32x4, i32x4};
+    offset_origin::<f32>(p.into(), n.into()).into()
+}
+
+/// [`offset_ray_origin`] written once over [`Single`] (one point, or lanes of them),
+/// component by component: p's bits stepped by `(256 n) as i32` units in the last place
+/// away from the surface (the offset's sign from p's), or, near the origin where a step
+/// of p's bits is too small, p plus n / 65536.
+#[inline(always)]
+pub fn offset_origin<T: Single>(p: V3<T>, n: V3<T>) -> V3<T> {
     const ORIGIN: f32 = 1.0 / 32.0;
     const FLOAT_SCALE: f32 = 1.0 / 65536.0;
     const INT_SCALE: f32 = 256.0;
-    // The three components side by side in one SIMD register (the fourth lane is unused),
-    // with the operations of the per-component form: `(INT_SCALE * n) as i32` (`trunc_int`
-    // saturates and maps NaN to 0 as `as` does), the offset's sign from p's, the integer
-    // step of p's bits, and the float step near the origin.
-    let pv = f32x4::new([p.x, p.y, p.z, 0.0]);
-    let nv = f32x4::new([n.x, n.y, n.z, 0.0]);
-    let of = (f32x4::splat(INT_SCALE) * nv).trunc_int();
-    let neg: i32x4 = cast(pv.simd_lt(f32x4::splat(0.0)));
-    let off = neg.select(-of, of);
-    let pi: f32x4 = cast(cast::<f32x4, i32x4>(pv) + off);
-    let near = pv.abs().simd_lt(f32x4::splat(ORIGIN));
-    let out = near
-        .select(pv + f32x4::splat(FLOAT_SCALE) * nv, pi)
-        .to_array();
-    Vec3::new(out[0], out[1], out[2])
+    let axis = |p: T, n: T| {
+        // `trunc_int` maps NaN to 0, as `as i32` does; a unit normal's step is at most 256
+        // (the clamp only keeps the integer arithmetic from overflowing on other input).
+        let of = (T::of32(INT_SCALE) * n).trunc_int();
+        let of = T::int_min(T::int_max(of, T::int(-256)), T::int(256));
+        let near = lt(abs(p), T::of32(ORIGIN));
+        // Near the origin the step is not taken (nor computed: p's bits may be at the
+        // ends of i32's range there).
+        let off = T::int_select(lt(p, T::of32(0.0)), T::int(0) - of, of);
+        let stepped = T::from_bits(p.to_bits() + T::int_select(near, T::int(0), off));
+        select(near, p + T::of32(FLOAT_SCALE) * n, stepped)
+    };
+    V3::new(axis(p.x, n.x), axis(p.y, n.y), axis(p.z, n.z))
 }
 
 /// A ray leaving the surface point `it` in direction `d` (world space, any length).
 #[inline(always)]
 pub fn spawn_ray(it: &Interaction, d: Vec3) -> Ray {
-    let n = if d.dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
+    let (o, skip) = spawn_origin::<f32>(
+        it.p.into(),
+        it.ng.into(),
+        it.exit.into(),
+        it.prim as i32,
+        d.into(),
+    );
     Ray {
-        skip: it.skip_for(d),
-        ..Ray::new(offset_ray_origin(it.p, n), d)
+        skip: skip as u32,
+        ..Ray::new(o.into(), d)
     }
+}
+
+/// The origin and skipped primitive of [`spawn_ray`] (one ray, or lanes of rays), written
+/// once over [`Single`]: the origin offset from `p` to the side of the geometric normal
+/// `ng` that `d` leaves by, and the primitive `prim` skipped when `d` leaves along the
+/// exit direction `exit` ([`Interaction::skip_for`]), else [`Ray::NO_SKIP`] (as an i32).
+#[inline(always)]
+pub fn spawn_origin<T: Single>(
+    p: V3<T>,
+    ng: V3<T>,
+    exit: V3<T>,
+    prim: T::Int,
+    d: V3<T>,
+) -> (V3<T>, T::Int) {
+    let zero = T::of32(0.0);
+    let out = ge(d.dot(ng), zero);
+    let n = V3::new(
+        select(out, ng.x, -ng.x),
+        select(out, ng.y, -ng.y),
+        select(out, ng.z, -ng.z),
+    );
+    let skip = T::int_select(ge(d.dot(exit), zero), prim, T::int(Ray::NO_SKIP as i32));
+    (offset_origin(p, n), skip)
 }
 
 /// A shadow ray from surface point `it` to the point `target`; `target_n`, when given,
@@ -173,6 +208,7 @@ pub fn spawn_ray_to(it: &Interaction, target: Vec3, target_n: Option<Vec3>) -> R
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lobe_materials::simd::{LANES, Vec3xN};
 
     /// Wächter and Binder's offset written per component (the paper's form).
     fn offset_reference(p: Vec3, n: Vec3) -> Vec3 {
@@ -215,5 +251,80 @@ mod tests {
             }
         }
         assert_eq!(cases, 1600);
+    }
+
+    /// Rays spawned in lanes ([`Interactions::spawn_lanes`]) and one at a time ([`spawn_ray`])
+    /// equal the per-component reference bit for bit: points near the origin (among them -0 and the smallest negative values, whose
+    /// bits sit at the ends of i32's range) and far from it, directions on either side of
+    /// the geometric normal and of the exit direction, a NaN normal, and partial chunks.
+    #[test]
+    fn spawned_rays_match_the_per_component_reference() {
+        let n = 5 * LANES + 3;
+        let its: Vec<Interaction> = (0..n)
+            .map(|i| {
+                let t = i as f32;
+                let scale = [1e-4f32, 0.02, 1.0, 37.0, 1e5][i % 5];
+                let p = match i % 9 {
+                    0 => Vec3::new(-0.0, f32::from_bits(0x8000_0001), 0.0),
+                    _ => Vec3::new((t * 0.7).sin(), (t * 1.3).cos(), (t * 0.37).sin()) * scale,
+                };
+                let ng = match i % 11 {
+                    3 => Vec3::new(f32::NAN, 0.0, 1.0),
+                    _ => Vec3::new((t * 0.11).cos(), (t * 0.23).sin(), 0.5).normalize(),
+                };
+                Interaction {
+                    p,
+                    ng,
+                    prim: i as u32,
+                    exit: Vec3::new((t * 0.5).sin(), 0.3, (t * 0.9).cos()),
+                    ..Interaction::ZERO
+                }
+            })
+            .collect();
+        let mut cols = Interactions::default();
+        cols.resize(n);
+        its.iter().enumerate().for_each(|(h, it)| cols.set(h, it));
+        let dir = |h: usize| {
+            let t = h as f32;
+            Vec3::new((t * 2.1).cos(), (t * 0.4).sin() - 0.2, (t * 1.7).sin())
+        };
+        let (mut skipped, mut kept) = (0, 0);
+        for first in (0..n).step_by(3) {
+            let idx: Vec<usize> = (first..n.min(first + LANES)).rev().collect();
+            let d = Vec3xN::from_array(&lobe_materials::simd::lanes_of(&idx, dir));
+            let (o, skip) = cols.spawn_lanes(&idx, d);
+            let (o, skip) = (o.to_array(), skip.to_array());
+            for (k, &h) in idx.iter().enumerate() {
+                let (it, d) = (&its[h], dir(h));
+                let ray = spawn_ray(it, d);
+                // The reference: the offset toward the side `d` leaves by, the primitive
+                // skipped when `d` leaves along the exit direction.
+                let side = if d.dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
+                let want = Ray {
+                    skip: if d.dot(it.exit) >= 0.0 {
+                        it.prim
+                    } else {
+                        Ray::NO_SKIP
+                    },
+                    ..Ray::new(offset_reference(it.p, side), d)
+                };
+                let bits = |r: &Ray| (r.o.to_array().map(f32::to_bits), r.skip);
+                assert_eq!(bits(&ray), bits(&want), "hit {h}");
+                assert_eq!(
+                    bits(&Ray {
+                        o: o[k],
+                        skip: skip[k],
+                        ..want
+                    }),
+                    bits(&want),
+                    "hit {h}"
+                );
+                match want.skip == Ray::NO_SKIP {
+                    true => kept += 1,
+                    false => skipped += 1,
+                }
+            }
+        }
+        assert!(skipped > 0 && kept > 0, "{skipped} skipping, {kept} not");
     }
 }

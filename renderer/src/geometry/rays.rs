@@ -4,8 +4,8 @@
 //! wavefront keeps the live paths' rays in order, compacted each bounce, so the geometry's
 //! batched queries load a lane vector of consecutive rays with one plain load per column
 //! ([`Rays::lanes`]); a chosen subset (the hits on spheres) is one gather per column
-//! ([`Rays::lanes_at`]), and the camera writes its rays a lane vector at a time
-//! ([`Rays::push_lanes`]), so no stage transposes ray records. The BVH reads one ray's
+//! ([`Rays::lanes_at`]), and the camera and the bounces write their rays a lane vector at
+//! a time ([`Rays::store_lanes`]), so no stage transposes ray records. The BVH reads one ray's
 //! nine values where it traverses one ray at a time ([`Rays::get`]), and eight rays' in
 //! lanes where it traverses a packet of coherent ones ([`Rays::packet`]).
 
@@ -114,16 +114,15 @@ impl Rays {
         self.d.cols()
     }
 
-    /// Appends the first `n` (at most [`LANES`]) of the rays with origins `o` and
-    /// directions `d` in lanes, each with [`Ray::new`]'s range and no skipped primitive:
-    /// one plain store per column.
-    #[inline]
-    pub fn push_lanes(&mut self, o: Vec3xN, d: Vec3xN, n: usize) {
-        assert!(n <= LANES, "{n} rays from one lane vector");
-        let first = self.len();
-        self.resize(first + n);
+    /// Sets the origins, directions and skipped primitives of rays `first..` (a lane
+    /// vector's worth, or up to the end) to those of `o`, `d` and `skip` in lanes, keeping
+    /// their ranges: one plain store per column.
+    #[inline(always)]
+    pub fn store_lanes(&mut self, first: usize, o: Vec3xN, d: Vec3xN, skip: u32xn) {
+        let n = (self.len() - first).min(LANES);
         self.o.cols_mut().store(first, o);
         self.d.cols_mut().store(first, d);
+        self.skip[first..first + n].copy_from_slice(&skip.as_array()[..n]);
     }
 
     /// Rays `first..first + LANES` in lanes and their skipped primitives, one plain load
@@ -235,7 +234,7 @@ mod tests {
 
     /// Every way of reading rays from the columns gives each ray bit for bit: one ray,
     /// consecutive lane vectors (with a padded tail), chosen subsets, copies, replaced and
-    /// appended rays, and rays the camera appended a lane vector at a time.
+    /// appended rays, and rays stored a lane vector at a time.
     #[test]
     fn columns_hold_each_ray() {
         let n = 3 * LANES + 5;
@@ -269,21 +268,36 @@ mod tests {
         copy.push(ray(77));
         assert_eq!(copy.len(), n);
         assert_eq!(bits(&copy.get(n - 1)), bits(&ray(77)));
-        // The camera's appends: distinct lanes, at offsets that are not multiples of LANES.
-        let mut camera: Rays = (0..2).map(ray).collect();
+        // Lane stores (the camera's and the bounces'): at offsets that are not multiples of
+        // LANES, a partial vector at the end; skips stored, ranges kept.
+        let mut stored: Rays = (0..2).map(ray).collect();
         let lanes_from = |at: usize| {
             let v = |f: fn(&Ray) -> Vec3| Vec3xN::from_array(&simd::lanes(|k| f(&ray(at + k))));
-            (v(|r| r.o), v(|r| r.d))
+            let skip = u32xn::new(simd::lanes(|k| 7 * (at + k) as u32 + 1));
+            (v(|r| r.o), v(|r| r.d), skip)
         };
         for n in [3, 5, LANES] {
-            let at = camera.len();
-            let (o, d) = lanes_from(at);
-            camera.push_lanes(o, d, n);
-            assert_eq!(camera.len(), at + n);
+            let at = stored.len();
+            stored.resize(at + n);
+            let (o, d, skip) = lanes_from(at);
+            stored.store_lanes(at, o, d, skip);
+            assert_eq!(stored.len(), at + n);
             for i in at..at + n {
-                let want = Ray::new(ray(i).o, ray(i).d);
-                assert_eq!(bits(&camera.get(i)), bits(&want), "ray {i}");
+                let want = Ray {
+                    skip: 7 * i as u32 + 1,
+                    ..Ray::new(ray(i).o, ray(i).d)
+                };
+                assert_eq!(bits(&stored.get(i)), bits(&want), "ray {i}");
             }
+        }
+        let (o, d, skip) = lanes_from(0);
+        stored.store_lanes(0, o, d, skip);
+        for i in 0..2 {
+            let want = Ray {
+                skip: 7 * i as u32 + 1,
+                ..ray(i)
+            };
+            assert_eq!(bits(&stored.get(i)), bits(&want), "ray {i} keeps its range");
         }
     }
 }

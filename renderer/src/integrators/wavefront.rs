@@ -29,14 +29,14 @@
 use super::{shading_lanes, shadow_ray};
 use crate::Rgb;
 use crate::camera::Camera;
-use crate::geometry::{Interactions, Rays, spawn_ray};
+use crate::geometry::{Interactions, Rays};
 #[cfg(doc)]
 use crate::lights::Light;
 use crate::lights::LightSamples;
 use crate::sampler::Sampler;
 use crate::scene::World;
 use glam::{Vec2, Vec3};
-use lobe_materials::frame::{self, Frame};
+use lobe_materials::frame;
 use lobe_materials::grouping::group_stable;
 use lobe_materials::sampling::warp::power_heuristic;
 use lobe_materials::simd;
@@ -112,7 +112,7 @@ pub struct EscapedQueue {
 
 /// The hits that scatter (paths that go on), indexed like [`HitQueue::it`]: the tangents
 /// of their shading frames (the frame of hit h is element h of `frame_s` and `frame_t`
-/// and the hit's `ns`: [`ScatterQueue::frame`]), local outgoing directions (columns, as
+/// and the hit's `ns`), local outgoing directions (columns, as
 /// the tangents), this bounce's sampler values, and the hits grouped by material.
 #[derive(Default)]
 pub struct ScatterQueue {
@@ -530,11 +530,25 @@ impl Wavefront {
         }
         sq.hit.truncate(kept);
         sq.f.truncate(kept);
+        // Rays toward directions (infinite lights) in lanes, as `spawn_ray`; rays toward
+        // points one by one.
+        let its = &self.hits.it;
+        sq.ray.clear();
         sq.ray.resize(sq.hit.len());
-        for (j, &h) in sq.hit.iter().enumerate() {
-            let h = h as usize;
-            let ray = shadow_ray(&self.hits.it.get(h), ls.wi.get(h), ls.at[h]);
-            sq.ray.set(j, ray);
+        for (c, chunk) in sq.hit.chunks(LANES).enumerate() {
+            let n = chunk.len();
+            let idx: [usize; LANES] = simd::lanes(|k| chunk[k.min(n - 1)] as usize);
+            let idx = &idx[..n];
+            if idx.iter().all(|&h| ls.at[h].is_none()) {
+                let d = ls.wi.cols().lanes_of(idx);
+                let (o, skip) = its.spawn_lanes(idx, d);
+                sq.ray.store_lanes(LANES * c, o, d, skip);
+                continue;
+            }
+            for (k, &h) in idx.iter().enumerate() {
+                let ray = shadow_ray(&its.get(h), ls.wi.get(h), ls.at[h]);
+                sq.ray.set(LANES * c + k, ray);
+            }
         }
         sq.occluded.clear();
         world.geometry.occluded_many(&sq.ray, &mut sq.occluded);
@@ -596,16 +610,23 @@ impl Wavefront {
         if self.depth >= rr_depth && !self.next.is_empty() {
             self.russian_roulette(sampler);
         }
+        // The rays in lanes: the sampled directions to world space in their hits' shading
+        // frames, then `spawn_ray`'s origins and skipped primitives.
         let (its, s, rays) = (&self.hits.it, &self.scatter, &mut self.paths.ray);
+        let wi = self.bsdf_samples.wi();
+        rays.clear();
         rays.resize(self.next_hit.len());
-        for (j, &h) in self.next_hit.iter().enumerate() {
-            let h = h as usize;
-            let wi = self
-                .bsdf_samples
-                .get(h)
-                .expect("a path goes on by its sample")
-                .wi;
-            rays.set(j, spawn_ray(&its.get(h), s.frame(its, h).to_world(wi)));
+        for (c, chunk) in self.next_hit.chunks(LANES).enumerate() {
+            let n = chunk.len();
+            let idx: [usize; LANES] = simd::lanes(|k| chunk[k.min(n - 1)] as usize);
+            let idx = &idx[..n];
+            let (fs, ft) = (
+                s.frame_s.cols().lanes_of(idx),
+                s.frame_t.cols().lanes_of(idx),
+            );
+            let d = frame::to_world(fs, ft, its.ns().lanes_of(idx), wi.lanes_of(idx));
+            let (o, skip) = its.spawn_lanes(idx, d);
+            rays.store_lanes(LANES * c, o, d, skip);
         }
         std::mem::swap(&mut self.active, &mut self.next);
     }
@@ -639,16 +660,6 @@ impl Wavefront {
 }
 
 impl ScatterQueue {
-    /// The shading frame of hit `h` of `its`: the queue's tangents, the hit's normal.
-    #[inline(always)]
-    fn frame(&self, its: &Interactions, h: usize) -> Frame {
-        Frame {
-            s: self.frame_s.get(h),
-            t: self.frame_t.get(h),
-            n: its.ns().get(h),
-        }
-    }
-
     /// The sampler streams (pixel keys and sample indices) of the paths `paths`.
     fn streams_of(&mut self, p: &Paths, paths: &[u32]) {
         self.sample_key.clear();
