@@ -105,9 +105,11 @@ fn mixed_lights_and_materials() {
             json!({"type": "cook-torrance", "diffuse": 0.1, "specular": 0.5, "m": 0.2});
     }
     let scene = built(&v, "mixed.json");
-    // Batches that split a pixel's samples unevenly, and one sample at a time.
+    // Batches that split a pixel's samples unevenly, one sample at a time, and batches of
+    // several lane vectors (whose shadow rays mix area-light and infinite-light chunks).
     check(&scene, 5);
     check(&scene, 1);
+    check(&scene, 3 * lobe_materials::simd::LANES + 5);
     // The direct integrator, which runs sample by sample.
     v["integrator"] = json!({"type": "direct", "emitter_samples": 2, "bsdf_samples": 1});
     let scene = built(&v, "direct.json");

@@ -5,7 +5,10 @@
 //! method of Wächter and Binder ("A Fast and Robust Method for Avoiding Self-Intersection",
 //! Ray Tracing Gems, 2019, ch. 6), after the hit point has been recomputed from the
 //! surface itself (re-projection onto the sphere, barycentric interpolation on triangles)
-//! so its error is a few ULPs, as pbrt-v4 does with its error bounds.
+//! so its error is a few ULPs, as pbrt-v4 does with its error bounds. The offset and the
+//! spawned ray's origin and skipped primitive are written once over [`Single`]
+//! ([`offset_origin`], [`spawn_origin`]) for one ray and for lanes of them
+//! ([`Interactions::spawn_lanes`]).
 
 pub mod bvh;
 pub mod bvh8;
@@ -132,9 +135,10 @@ pub fn offset_origin<T: Single>(p: V3<T>, n: V3<T>) -> V3<T> {
         // (the clamp only keeps the integer arithmetic from overflowing on other input).
         let of = (T::of32(INT_SCALE) * n).trunc_int();
         let of = T::int_min(T::int_max(of, T::int(-256)), T::int(256));
-        let near = lt(abs(p), T::of32(ORIGIN));
-        // Near the origin the step is not taken (nor computed: p's bits may be at the
-        // ends of i32's range there).
+        // NaN counts as near: its bits, like those of values near the origin, may sit at
+        // the ends of i32's range, where the step would overflow.
+        let near = !ge(abs(p), T::of32(ORIGIN));
+        // Near the origin the step is not taken (nor computed).
         let off = T::int_select(lt(p, T::of32(0.0)), T::int(0) - of, of);
         let stepped = T::from_bits(p.to_bits() + T::int_select(near, T::int(0), off));
         select(near, p + T::of32(FLOAT_SCALE) * n, stepped)
@@ -217,7 +221,8 @@ mod tests {
             let of = (256.0 * na[k]) as i32;
             let off = if pa[k] < 0.0 { of.wrapping_neg() } else { of };
             let p_i = f32::from_bits((pa[k].to_bits() as i32).wrapping_add(off) as u32);
-            if pa[k].abs() < 1.0 / 32.0 {
+            // NaN counts as near (see `offset_origin`).
+            if !(pa[k].abs() >= 1.0 / 32.0) {
                 pa[k] + na[k] / 65536.0
             } else {
                 p_i
@@ -225,8 +230,9 @@ mod tests {
         }))
     }
 
-    /// The SIMD offset equals the per-component form bit for bit: points near and far
-    /// from the origin, of both signs, and normals along and across the axes.
+    /// [`offset_ray_origin`] (the one-ray form of [`offset_origin`]) equals the
+    /// per-component form bit for bit: points near and far from the origin, of both signs,
+    /// and normals along and across the axes.
     #[test]
     fn offset_ray_origin_matches_the_per_component_form() {
         let mut cases = 0;
@@ -253,10 +259,13 @@ mod tests {
         assert_eq!(cases, 1600);
     }
 
-    /// Rays spawned in lanes ([`Interactions::spawn_lanes`]) and one at a time ([`spawn_ray`])
-    /// equal the per-component reference bit for bit: points near the origin (among them -0 and the smallest negative values, whose
-    /// bits sit at the ends of i32's range) and far from it, directions on either side of
-    /// the geometric normal and of the exit direction, a NaN normal, and partial chunks.
+    /// Rays spawned in lanes ([`Interactions::spawn_lanes`]) and one at a time
+    /// ([`spawn_ray`]) equal the per-component reference bit for bit: points near the
+    /// origin (among them -0 and the smallest negative values, whose bits sit at the ends
+    /// of i32's range), far from it and NaN; normals along the axes (the largest integer
+    /// step) and a NaN one; directions on either side of the geometric normal and of the
+    /// exit direction, a zero exit direction (planar primitives); chunks of consecutive
+    /// hits (one plain load per column), of scattered ones, and partial ones.
     #[test]
     fn spawned_rays_match_the_per_component_reference() {
         let n = 5 * LANES + 3;
@@ -266,17 +275,24 @@ mod tests {
                 let scale = [1e-4f32, 0.02, 1.0, 37.0, 1e5][i % 5];
                 let p = match i % 9 {
                     0 => Vec3::new(-0.0, f32::from_bits(0x8000_0001), 0.0),
+                    4 => Vec3::new(f32::from_bits(0x7fff_ffff), 2.0, -f32::NAN),
                     _ => Vec3::new((t * 0.7).sin(), (t * 1.3).cos(), (t * 0.37).sin()) * scale,
                 };
                 let ng = match i % 11 {
                     3 => Vec3::new(f32::NAN, 0.0, 1.0),
+                    5 => Vec3::X,
+                    6 => -Vec3::Y,
                     _ => Vec3::new((t * 0.11).cos(), (t * 0.23).sin(), 0.5).normalize(),
+                };
+                let exit = match i % 4 {
+                    0 => Vec3::ZERO,
+                    _ => Vec3::new((t * 0.5).sin(), 0.3, (t * 0.9).cos()),
                 };
                 Interaction {
                     p,
                     ng,
                     prim: i as u32,
-                    exit: Vec3::new((t * 0.5).sin(), 0.3, (t * 0.9).cos()),
+                    exit,
                     ..Interaction::ZERO
                 }
             })
@@ -289,8 +305,11 @@ mod tests {
             Vec3::new((t * 2.1).cos(), (t * 0.4).sin() - 0.2, (t * 1.7).sin())
         };
         let (mut skipped, mut kept) = (0, 0);
-        for first in (0..n).step_by(3) {
-            let idx: Vec<usize> = (first..n.min(first + LANES)).rev().collect();
+        let chunks = (0..n).step_by(3).flat_map(|first| {
+            let run = first..n.min(first + LANES);
+            [run.clone().collect::<Vec<usize>>(), run.rev().collect()]
+        });
+        for idx in chunks {
             let d = Vec3xN::from_array(&lobe_materials::simd::lanes_of(&idx, dir));
             let (o, skip) = cols.spawn_lanes(&idx, d);
             let (o, skip) = (o.to_array(), skip.to_array());

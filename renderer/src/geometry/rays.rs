@@ -117,8 +117,12 @@ impl Rays {
     /// Sets the origins, directions and skipped primitives of rays `first..` (a lane
     /// vector's worth, or up to the end) to those of `o`, `d` and `skip` in lanes, keeping
     /// their ranges: one plain store per column.
+    ///
+    /// # Panics
+    /// When `first` is beyond the last ray.
     #[inline(always)]
     pub fn store_lanes(&mut self, first: usize, o: Vec3xN, d: Vec3xN, skip: u32xn) {
+        assert!(first < self.len(), "ray {first} of {}", self.len());
         let n = (self.len() - first).min(LANES);
         self.o.cols_mut().store(first, o);
         self.d.cols_mut().store(first, d);

@@ -112,8 +112,8 @@ pub struct EscapedQueue {
 
 /// The hits that scatter (paths that go on), indexed like [`HitQueue::it`]: the tangents
 /// of their shading frames (the frame of hit h is element h of `frame_s` and `frame_t`
-/// and the hit's `ns`), local outgoing directions (columns, as
-/// the tangents), this bounce's sampler values, and the hits grouped by material.
+/// and the hit's `ns`), local outgoing directions (columns, as the tangents), this
+/// bounce's sampler values, and the hits grouped by material.
 #[derive(Default)]
 pub struct ScatterQueue {
     pub frame_s: Vec3s,
