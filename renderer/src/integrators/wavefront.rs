@@ -449,13 +449,16 @@ impl Wavefront {
         let m = self.hits.it.len();
         q.samples.reset(m);
         let n_lights = world.lights.len();
-        if n_lights == 0 {
-            return;
+        let its = &self.hits.it;
+        match n_lights {
+            0 => return,
+            // One light takes every request: the queue itself is its batch.
+            1 => return world.lights[0].sample_li_many(its.p(), s.light_u.cols(), &mut q.samples),
+            _ => {}
         }
         // Requests grouped by light; when one light takes them all (as in scenes of one
         // light), the queue itself is its batch.
         let choice = |uc: f32| ((uc * n_lights as f32) as usize).min(n_lights - 1);
-        let its = &self.hits.it;
         q.starts.resize(n_lights + 1, 0);
         q.order.resize(m, 0);
         let light_of = |h: usize| Some(choice(s.light_uc[h]));
