@@ -2,6 +2,7 @@
 //! the wavefront integrator's hit queue, whose lane stages load normals and tangents with
 //! plain loads, and gather the points, normals and primitives of the hits their rays leave
 //! from ([`Interactions::spawn_lanes`]).
+
 use super::{Interaction, spawn_origin};
 use glam::Vec2;
 use lobe_materials::simd::{self, Vec3xN, f32xn, i32xn, u32xn};

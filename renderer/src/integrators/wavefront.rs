@@ -456,8 +456,8 @@ impl Wavefront {
             1 => return world.lights[0].sample_li_many(its.p(), s.light_u.cols(), &mut q.samples),
             _ => {}
         }
-        // Requests grouped by light; when one light takes them all (as in scenes of one
-        // light), the queue itself is its batch.
+        // Requests grouped by light; when the choices send them all to one light, the
+        // queue itself is its batch.
         let choice = |uc: f32| ((uc * n_lights as f32) as usize).min(n_lights - 1);
         q.starts.resize(n_lights + 1, 0);
         q.order.resize(m, 0);
