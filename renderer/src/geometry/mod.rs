@@ -103,16 +103,6 @@ impl Interaction {
         prim: 0,
         exit: Vec3::ZERO,
     };
-
-    /// The primitive a ray leaving along `d` may skip (see [`Ray::skip`]).
-    #[inline]
-    pub fn skip_for(&self, d: Vec3) -> u32 {
-        if d.dot(self.exit) >= 0.0 {
-            self.prim
-        } else {
-            Ray::NO_SKIP
-        }
-    }
 }
 
 /// Origin of a ray leaving `p` on the side of `n` (Wächter and Binder 2019).
@@ -149,6 +139,16 @@ pub fn offset_origin<T: Single>(p: V3<T>, n: V3<T>) -> V3<T> {
 /// A ray leaving the surface point `it` in direction `d` (world space, any length).
 #[inline(always)]
 pub fn spawn_ray(it: &Interaction, d: Vec3) -> Ray {
+    let (o, skip) = spawn_origin_of(it, d);
+    Ray {
+        skip,
+        ..Ray::new(o, d)
+    }
+}
+
+/// [`spawn_origin`] of one ray leaving `it` along `d`: its origin and skipped primitive.
+#[inline(always)]
+fn spawn_origin_of(it: &Interaction, d: Vec3) -> (Vec3, u32) {
     let (o, skip) = spawn_origin::<f32>(
         it.p.into(),
         it.ng.into(),
@@ -156,16 +156,13 @@ pub fn spawn_ray(it: &Interaction, d: Vec3) -> Ray {
         it.prim as i32,
         d.into(),
     );
-    Ray {
-        skip: skip as u32,
-        ..Ray::new(o.into(), d)
-    }
+    (o.into(), skip as u32)
 }
 
 /// The origin and skipped primitive of [`spawn_ray`] (one ray, or lanes of rays), written
 /// once over [`Single`]: the origin offset from `p` to the side of the geometric normal
-/// `ng` that `d` leaves by, and the primitive `prim` skipped when `d` leaves along the
-/// exit direction `exit` ([`Interaction::skip_for`]), else [`Ray::NO_SKIP`] (as an i32).
+/// `ng` that `d` leaves by, and the primitive `prim` skipped (see [`Ray::skip`]) when `d`
+/// leaves along the exit direction `exit`, else [`Ray::NO_SKIP`] (as an i32).
 #[inline(always)]
 pub fn spawn_origin<T: Single>(
     p: V3<T>,
@@ -190,8 +187,7 @@ pub fn spawn_origin<T: Single>(
 #[inline(always)]
 pub fn spawn_ray_to(it: &Interaction, target: Vec3, target_n: Option<Vec3>) -> Ray {
     let d0 = target - it.p;
-    let n = if d0.dot(it.ng) >= 0.0 { it.ng } else { -it.ng };
-    let o = offset_ray_origin(it.p, n);
+    let (o, skip) = spawn_origin_of(it, d0);
     let end = match target_n {
         Some(tn) => {
             let tn = if (o - target).dot(tn) >= 0.0 { tn } else { -tn };
@@ -205,7 +201,7 @@ pub fn spawn_ray_to(it: &Interaction, target: Vec3, target_n: Option<Vec3>) -> R
         d,
         tmin: 0.0,
         tmax: 1.0 - 1e-4,
-        skip: it.skip_for(d0),
+        skip,
     }
 }
 

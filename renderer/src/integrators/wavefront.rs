@@ -449,16 +449,13 @@ impl Wavefront {
         let m = self.hits.it.len();
         q.samples.reset(m);
         let n_lights = world.lights.len();
-        let its = &self.hits.it;
-        match n_lights {
-            0 => return,
-            // One light takes every request: the queue itself is its batch.
-            1 => return world.lights[0].sample_li_many(its.p(), s.light_u.cols(), &mut q.samples),
-            _ => {}
+        if n_lights == 0 {
+            return;
         }
-        // Requests grouped by light; when the choices send them all to one light, the
-        // queue itself is its batch.
+        // Requests grouped by light; when one light takes them all (as in scenes of one
+        // light), the queue itself is its batch.
         let choice = |uc: f32| ((uc * n_lights as f32) as usize).min(n_lights - 1);
+        let its = &self.hits.it;
         q.starts.resize(n_lights + 1, 0);
         q.order.resize(m, 0);
         let light_of = |h: usize| Some(choice(s.light_uc[h]));
@@ -534,14 +531,14 @@ impl Wavefront {
         sq.hit.truncate(kept);
         sq.f.truncate(kept);
         // Rays toward directions (infinite lights) in lanes, as `spawn_ray`; rays toward
-        // points one by one.
+        // points one by one. Cleared first, so that every ray starts with `Ray::new`'s
+        // range, which the lane stores keep.
         let its = &self.hits.it;
         sq.ray.clear();
         sq.ray.resize(sq.hit.len());
         for (c, chunk) in sq.hit.chunks(LANES).enumerate() {
-            let n = chunk.len();
-            let idx: [usize; LANES] = simd::lanes(|k| chunk[k.min(n - 1)] as usize);
-            let idx = &idx[..n];
+            let idx = lane_indices(chunk);
+            let idx = &idx[..chunk.len()];
             if idx.iter().all(|&h| ls.at[h].is_none()) {
                 let d = ls.wi.cols().lanes_of(idx);
                 let (o, skip) = its.spawn_lanes(idx, d);
@@ -620,9 +617,8 @@ impl Wavefront {
         rays.clear();
         rays.resize(self.next_hit.len());
         for (c, chunk) in self.next_hit.chunks(LANES).enumerate() {
-            let n = chunk.len();
-            let idx: [usize; LANES] = simd::lanes(|k| chunk[k.min(n - 1)] as usize);
-            let idx = &idx[..n];
+            let idx = lane_indices(chunk);
+            let idx = &idx[..chunk.len()];
             let (fs, ft) = (
                 s.frame_s.cols().lanes_of(idx),
                 s.frame_t.cols().lanes_of(idx),
@@ -782,6 +778,15 @@ impl MaterialGroups {
             }
         }
     }
+}
+
+/// The indices of a chunk of at most [`LANES`] hits, as `usize`s (zero past its end).
+fn lane_indices(chunk: &[u32]) -> [usize; LANES] {
+    let mut idx = [0; LANES];
+    for (i, &h) in idx.iter_mut().zip(chunk) {
+        *i = h as usize;
+    }
+    idx
 }
 
 /// `dst[j] = src[idx[j]]`.
