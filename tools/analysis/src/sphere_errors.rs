@@ -10,8 +10,8 @@
 //! so every representation's image is estimated from the *same* samples (common random
 //! numbers): per sample a film position in the pixel (box filter, the renderer's) and one
 //! direction, drawn from one of four strategies: the map's importance sampling (half the
-//! samples), the measured data's BRDF sampling (a quarter), the fits' own BRDF sampling (a
-//! sixteenth, so that a fit's lobe where nothing else samples is resolved too) and
+//! samples), the measured data's BRDF sampling (a quarter), the own BRDF sampling of the
+//! fits with a lobe that nothing else samples (a sixteenth, [`sampled_fits`]) and
 //! Phong-like cones cos^e around the mirror direction (the rest, e = 8 to 4096, so that a
 //! fit sharper than the data is resolved too). Each sample is weighted by Veach's balance
 //! heuristic, L cos / sum_j n_j p_j (the multi-sample estimator, unbiased for any BRDF),
@@ -151,6 +151,9 @@ pub struct RepError {
     pub flip: f64,
     /// Under [`ErrorSettings::negligible`] of the image's RMS.
     pub negligible: bool,
+    /// Whether this fit's own BRDF sampling was one of the estimate's strategies
+    /// ([`sampled_fits`]; false for the data, whose sampling always is).
+    pub own_samples: bool,
 }
 
 impl RepError {
@@ -273,24 +276,24 @@ impl Stage<'_> {
     /// representation evaluates all of them in one batched call.
     fn pixel(
         &self,
-        reps: &[&dyn Bsdf],
+        (reps, sampled): (&[&dyn Bsdf], &[usize]),
         (x, y): (u32, u32),
         (per_batch, batches): (usize, usize),
         seed: u64,
     ) -> Vec<[f64; 3]> {
+        let fits = sampled.len();
+        let counts = strategy_counts(per_batch, fits > 0);
         let mut background = vec![[0.0; 3]; batches];
-        let hits = self.hits((x, y), (per_batch, batches), seed, &mut background);
-        let fits = reps.len() - 1;
+        let hits = self.hits((x, y), (counts, batches), seed, &mut background);
         let rotation = fit_rotation(seed, self.pixel_id((x, y)), fits);
-        let set = self.directions(reps, hits, (per_batch, rotation));
+        let set = self.directions((reps, sampled), hits, (counts, rotation));
         let n = set.wi.len();
         let mut values = vec![[0.0f64; 3]; reps.len() * batches];
         for row in values.chunks_mut(batches) {
             row.copy_from_slice(&background);
         }
         // Every representation's values, and the data's and the fits' shares of the
-        // density: n_data p_data + sum over fits of n_j p_j.
-        let counts = strategy_counts(per_batch);
+        // density: n_data p_data + sum over the sampled fits of n_j p_j.
         let per_fit = fit_counts(counts[FITS], fits, rotation);
         let mut f = vec![Rgb::splat(0.0); n * reps.len()];
         let mut density = set.density.clone();
@@ -298,7 +301,10 @@ impl Stage<'_> {
         for (r, rep) in reps.iter().enumerate() {
             let count = match r {
                 0 => counts[DATA],
-                _ => per_fit[r - 1],
+                _ => sampled
+                    .iter()
+                    .position(|&j| j == r)
+                    .map_or(0, |j| per_fit[j]),
             } as f64;
             // A fit that draws none of this pixel's samples adds nothing to their density.
             if count == 0.0 {
@@ -348,11 +354,12 @@ impl Stage<'_> {
     fn hits(
         &self,
         (x, y): (u32, u32),
-        (per_batch, batches): (usize, usize),
+        (counts, batches): ([usize; 4], usize),
         seed: u64,
         background: &mut [[f64; 3]],
     ) -> Vec<Hit> {
-        let drawn = self.drawn((x, y), (per_batch, batches), seed);
+        let per_batch = counts.iter().sum();
+        let drawn = self.drawn((x, y), (counts, batches), seed);
         let mut hits = Vec::with_capacity(drawn.len());
         for chunk in drawn.chunks(LANES) {
             self.hits_of((x, y), chunk, per_batch, background, &mut hits);
@@ -360,16 +367,15 @@ impl Stage<'_> {
         hits
     }
 
-    /// The camera samples of pixel (x, y), batch by batch, each strategy's in turn.
+    /// The camera samples of pixel (x, y), batch by batch, each strategy's `counts` in turn.
     fn drawn(
         &self,
         (x, y): (u32, u32),
-        (per_batch, batches): (usize, usize),
+        (counts, batches): ([usize; 4], usize),
         seed: u64,
     ) -> Vec<Drawn> {
         let pixel_id = self.pixel_id((x, y));
-        let counts = strategy_counts(per_batch);
-        let mut drawn = Vec::with_capacity(per_batch * batches);
+        let mut drawn = Vec::with_capacity(counts.iter().sum::<usize>() * batches);
         for batch in 0..batches {
             let key = hash(hash(seed, pixel_id), batch as u64);
             let shift: [f64; 5] = std::array::from_fn(|i| unit(hash(hash(key, i as u64), 17)));
@@ -457,11 +463,10 @@ impl Stage<'_> {
     /// The fits' own samples go to the fits from the pixel's `rotation` on ([`fit_of`]).
     fn directions(
         &self,
-        reps: &[&dyn Bsdf],
+        (reps, sampled): (&[&dyn Bsdf], &[usize]),
         hits: Vec<Hit>,
-        (per_batch, rotation): (usize, usize),
+        (counts, rotation): ([usize; 4], usize),
     ) -> PixelSamples {
-        let counts = strategy_counts(per_batch);
         let u_of = |h: &Hit| {
             glam::Vec2::new(
                 (h.sample.point[2] as f32).min(1.0 - f32::EPSILON),
@@ -485,7 +490,7 @@ impl Stage<'_> {
         let mut from_data = Self::bsdf_samples(reps[0], &of_data, u_of).into_iter();
         // Each fit's samples, the hits sorted to their fits in one pass (none in a pass
         // too small for the fits' share).
-        let fits = reps.len() - 1;
+        let fits = sampled.len();
         let mut of_fits: Vec<Vec<&Hit>> = vec![Vec::new(); fits];
         if fits > 0 {
             for h in hits.iter().filter(|h| h.sample.strategy == FITS) {
@@ -495,7 +500,7 @@ impl Stage<'_> {
         let mut from_fits: Vec<_> = of_fits
             .iter()
             .enumerate()
-            .map(|(j, of_j)| Self::bsdf_samples(reps[1 + j], of_j, u_of).into_iter())
+            .map(|(j, of_j)| Self::bsdf_samples(reps[sampled[j]], of_j, u_of).into_iter())
             .collect();
         let mut drawn = PixelSamples::with_capacity(hits.len());
         let mut world = Vec3s::new();
@@ -577,9 +582,10 @@ impl Stage<'_> {
 
 /// The sampling strategies, in the order of a batch's samples: the map's importance
 /// sampling, the measured data's BRDF sampling, cones `cos^e` around the mirror
-/// direction, and the fits' own BRDF sampling (a defensive share: a fit whose lobe lies
-/// where neither the map nor the data put samples, as a Lafortune lobe off the mirror
-/// direction can, otherwise gives its difference a heavy tail).
+/// direction, and the own BRDF sampling of the fits that need it ([`sampled_fits`]: a
+/// defensive share, since a fit whose lobe lies where neither the map nor the data nor the
+/// cones put samples, as a Lafortune lobe off the mirror direction can, otherwise gives its
+/// difference a heavy tail).
 const MAP: usize = 0;
 const DATA: usize = 1;
 const CONES: usize = 2;
@@ -587,15 +593,96 @@ const FITS: usize = 3;
 
 /// How many of a batch's `per_batch` samples (a multiple of 4) each strategy takes: half
 /// the map's, a quarter the data's, a sixteenth the fits' (at least one from 8 samples a
-/// batch on, none below) and the rest the cones'. (Under the sunset map the fits' share
-/// took builtin-gold's noise floor from 2.5 to 0.28 times its smallest error; an eighth,
-/// or taken from the map's half, raised the other floors by 5-15 %.) A pilot pass of 8 to
-/// 31 samples a batch (the study's 64 spp in 4 batches) thus takes one fit sample, so that
-/// the variances the next pass is planned from come from the strategies that pass uses.
-fn strategy_counts(per_batch: usize) -> [usize; 4] {
+/// batch on, none below; none when no fit is sampled, `fits_sampled` false) and the rest
+/// the cones'. (Under the sunset map the fits' share took builtin-gold's noise floor from
+/// 2.5 to 0.28 times its smallest error; an eighth, or taken from the map's half, raised
+/// the other floors by 5-15 %.) A pilot pass of 8 to 31 samples a batch (the study's 64 spp
+/// in 4 batches) thus takes one fit sample, so that the variances the next pass is planned
+/// from come from the strategies that pass uses.
+fn strategy_counts(per_batch: usize, fits_sampled: bool) -> [usize; 4] {
     let quarter = per_batch / 4;
     let fits = (per_batch / 16).max(usize::from(per_batch >= 8));
-    [per_batch / 2, quarter, quarter - fits, fits]
+    match fits_sampled {
+        true => [per_batch / 2, quarter, quarter - fits, fits],
+        false => [per_batch / 2, quarter + fits, quarter - fits, 0],
+    }
+}
+
+/// How many times the density of the other strategies a fit's own sampling density must
+/// exceed somewhere for the fit to take part in the [`FITS`] strategy ([`sampled_fits`]).
+const UNCOVERED: f64 = 4.0;
+
+/// The fits (indices into `reps`, whose first is the measured data) whose own BRDF
+/// sampling takes part in the [`FITS`] strategy: those with a lobe that the data's
+/// sampling, the cones around the mirror direction and the map do not cover. Every fit
+/// that takes part has its density evaluated at every sample (the balance heuristic's
+/// denominator), so a fit whose lobes are covered costs time there and reduces no noise,
+/// while the fits that do take part share the strategy's samples among fewer.
+///
+/// The probe: each fit's own samples at 18 outgoing directions (0 to 85 degrees from the
+/// normal, three azimuths), 256 each. The fit takes part where its density at any of them
+/// exceeds [`UNCOVERED`] times the sum of the data's sampling density, the cones' and
+/// `cos / pi`, which stands for the map's samples (a broad lobe's weight under the map's
+/// sampling is bounded by its value). Lobes sharper than the data's and the sharpest
+/// cone's, or away from both (a Lafortune lobe off the mirror direction), take part; fits
+/// close to the data do not.
+pub fn sampled_fits(reps: &[&dyn Bsdf]) -> Vec<usize> {
+    let Some((data, fits)) = reps.split_first() else {
+        return Vec::new();
+    };
+    let (wo, u, uc) = probe_queries();
+    let n = wo.len();
+    let mut drawn = lobe_materials::BsdfSamples::new(n);
+    let mut wi = Vec3s::zeros(n);
+    let mut f = vec![Rgb::splat(0.0); n];
+    let mut data_pdf = vec![0.0f32; n];
+    let mut sampled = Vec::new();
+    for (j, fit) in fits.iter().enumerate() {
+        fit.sample_many(wo.cols(), u.cols(), &uc, drawn.cols_mut());
+        let samples: Vec<_> = drawn.iter().collect();
+        for (k, s) in samples.iter().enumerate() {
+            wi.set(k, s.map_or(glam::Vec3::Z, |s| s.wi));
+        }
+        data.eval_pdf_many(wo.cols(), wi.cols(), &mut f, &mut data_pdf);
+        let uncovered = samples.iter().enumerate().any(|(k, s)| {
+            s.is_some_and(|s| {
+                let o = wo.get(k).as_dvec3();
+                let d = s.wi.as_dvec3();
+                let mirror = glam::DVec3::new(-o.x, -o.y, o.z);
+                let cover = mirror_cones::pdf(mirror, d)
+                    + d.z.max(0.0) / std::f64::consts::PI
+                    + f64::from(data_pdf[k]).max(0.0);
+                f64::from(s.pdf) > UNCOVERED * cover
+            })
+        });
+        if uncovered {
+            sampled.push(j + 1);
+        }
+    }
+    sampled
+}
+
+/// The queries of [`sampled_fits`]' probe: outgoing directions 0 to 85 degrees from the
+/// normal at azimuths 0, 45 and 90 degrees, 256 Hammersley points each (and a component
+/// choice in base 3).
+fn probe_queries() -> (Vec3s, Vec2s, Vec<f32>) {
+    const EACH: usize = 256;
+    let (mut wo, mut u, mut uc) = (Vec3s::new(), Vec2s::new(), Vec::new());
+    for theta in [0.0f32, 20.0, 40.0, 60.0, 75.0, 85.0] {
+        for phi in [0.0f32, 45.0, 90.0] {
+            let (t, p) = (theta.to_radians(), phi.to_radians());
+            let o = glam::Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+            for i in 0..EACH {
+                wo.push(o);
+                u.push(glam::Vec2::new(
+                    (i as f32 + 0.5) / EACH as f32,
+                    radical_inverse(i as u64, 2) as f32,
+                ));
+                uc.push(radical_inverse(i as u64, 3) as f32);
+            }
+        }
+    }
+    (wo, u, uc)
 }
 
 /// How many of a batch's `n` samples of the [`FITS`] strategy each of `fits` fits draws,
@@ -747,7 +834,7 @@ struct Pass {
 /// four times the batch count).
 fn pass(
     stage: &Stage<'_>,
-    reps: &[&dyn Bsdf],
+    (reps, sampled): (&[&dyn Bsdf], &[usize]),
     settings: &ErrorSettings,
     spp: &[usize],
     seed: u64,
@@ -765,7 +852,7 @@ fn pass(
             };
             for x in 0..w {
                 let per_batch = spp[(y * w + x) as usize] / batches;
-                let px = stage.pixel(reps, (x, y), (per_batch, batches), seed);
+                let px = stage.pixel((reps, sampled), (x, y), (per_batch, batches), seed);
                 let variance = &mut row.sample_variance[x as usize * (m - 1)..][..m - 1];
                 pixel_sums(&px, batches, per_batch, &mut row.sums, variance);
                 pixel_moments(&px, m, batches, &mut row.images);
@@ -865,11 +952,13 @@ pub fn estimate(
     let pixels = (stage.width * stage.height) as usize;
     let max_spp = round_up(settings.max_spp);
     let mut spp = vec![round_up(settings.pilot_spp).min(max_spp); pixels];
+    let sampled = sampled_fits(reps);
     let mut passes = 0;
     loop {
         passes += 1;
-        let p = pass(stage, reps, &settings, &spp, settings.seed ^ passes as u64);
-        let (mut out, halves) = summarize(stage, &p.sums, p.images, &settings);
+        let seed = settings.seed ^ passes as u64;
+        let p = pass(stage, (reps, &sampled), &settings, &spp, seed);
+        let (mut out, halves) = summarize(stage, (&p.sums, p.images), &sampled, &settings);
         out.spp = spp.iter().sum::<usize>() / pixels;
         out.spp_max = spp.iter().copied().max().unwrap_or(0);
         out.passes = passes;
@@ -969,10 +1058,11 @@ const FLOOR_PER_BATCH: usize = 8;
 /// text.
 pub fn form(s: &ErrorSettings) -> String {
     format!(
-        "strategies (map, data, cones, fits) {:?} of 64; {} batches; plan n^-{RQMC_EXPONENT}, \
+        "strategies (map, data, cones, fits) {:?} of 64, fits sampled over {UNCOVERED}x \
+         the data, cones and cosine densities; {} batches; plan n^-{RQMC_EXPONENT}, \
          margin {PLAN_MARGIN}, at least {FLOOR_PER_BATCH} a batch; noise {} of the smallest \
          error, intervals {} of their error, negligible under {}; seed {}",
-        strategy_counts(64),
+        strategy_counts(64, true),
         s.batches,
         s.noise_ratio,
         s.interval_ratio,
@@ -1151,11 +1241,12 @@ fn add_flip(out: &mut SphereErrors, halves: &[Image; 2]) -> Result<(), lobe_rend
 }
 
 /// The errors (FLIP not yet: [`add_flip`]) and pictures of one pass's sums and images,
-/// and the data's images of its two halves of batches.
+/// and the data's images of its two halves of batches; `sampled` the fits whose own
+/// sampling took part.
 fn summarize(
     stage: &Stage<'_>,
-    sums: &Sums,
-    mut images: Vec<Vec<Moments>>,
+    (sums, mut images): (&Sums, Vec<Vec<Moments>>),
+    sampled: &[usize],
     s: &ErrorSettings,
 ) -> (SphereErrors, [Image; 2]) {
     let b = s.batches;
@@ -1190,6 +1281,7 @@ fn summarize(
             noise,
             flip: f64::NAN,
             negligible: r > 0 && rmse < s.negligible * data_rms,
+            own_samples: sampled.contains(&r),
         });
     }
     let noise_floor = errors[1..].iter().map(|e| e.noise).fold(0.0, f64::max);
@@ -1269,9 +1361,10 @@ mod tests {
         let mut checked = [0usize; 2];
         for stage in [&perspective, &orthographic] {
             for (x, y) in (0..24).flat_map(|y| (0..24).map(move |x| (x, y))) {
-                let drawn = stage.drawn((x, y), (8, 2), 5);
+                let counts = strategy_counts(8, true);
+                let drawn = stage.drawn((x, y), (counts, 2), 5);
                 let mut bg = [[0.0; 3]; 2];
-                let hits = stage.hits((x, y), (8, 2), 5, &mut bg);
+                let hits = stage.hits((x, y), (counts, 2), 5, &mut bg);
                 let mut expected = Vec::new();
                 for d in &drawn {
                     let film = glam::Vec2::new(

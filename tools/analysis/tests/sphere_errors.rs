@@ -2,7 +2,7 @@
 //! the path tracer's, its 95 % intervals cover the true error at their stated rate, its
 //! noise floor matches the spread of repeated estimates, and it sees a 5 % error.
 
-use lobe_analysis::sphere_errors::{ErrorSettings, SphereErrors, Stage, estimate};
+use lobe_analysis::sphere_errors::{ErrorSettings, SphereErrors, Stage, estimate, sampled_fits};
 use lobe_materials::Bsdf;
 use lobe_materials::registry::Registry;
 use lobe_renderer::lights::envmap::EnvMap;
@@ -256,6 +256,32 @@ fn a_fit_lobe_the_data_never_samples_is_still_estimated_with_little_noise() {
         // 0.09 in each run; 0.5 without the fits' share.
         assert!(e.noise < 0.15 * e.rmse, "seed {seed}: {e:?}");
     }
+}
+
+/// The fits' own sampling goes to the fits with a lobe that nothing else samples: a
+/// Lafortune lobe off the mirror direction on a Ward material, and a Ward lobe fifty times
+/// sharper than the data's, take part; a Ward fit close to the data and a Lambertian fit
+/// do not (their densities would be evaluated at every sample for nothing).
+#[test]
+fn only_fits_with_lobes_nothing_else_samples_take_their_own_samples() {
+    let ward = |alpha: f64| {
+        material(
+            json!({"type": "ward", "diffuse": [0.3, 0.2, 0.1], "specular": 0.2, "alpha": alpha}),
+        )
+    };
+    let reps = [
+        ward(0.1),
+        ward(0.12),
+        material(json!({"type": "lambert", "reflectance": 0.3})),
+        material(json!({
+            "type": "lafortune", "diffuse": 0.3, "specular": 0.3,
+            "cx": 0.577, "cy": 0.577, "cz": 0.577, "n": 300
+        })),
+        ward(0.002),
+    ];
+    let refs: Vec<&dyn Bsdf> = reps.iter().map(|r| r.as_ref()).collect();
+    assert_eq!(sampled_fits(&refs), vec![3, 4]);
+    assert_eq!(sampled_fits(&refs[..3]), Vec::<usize>::new());
 }
 
 /// A pass planned to meet the noise target (a budget it does not need) meets it without

@@ -411,7 +411,7 @@ fn save_image(img: &Image, stem: &Path, exposure: f32) -> Result<(), Error> {
 /// An error with its interval as JSON.
 fn error_json(e: &RepError) -> Value {
     json!({"rmse": e.rmse, "ci95": e.ci95, "noise": e.noise, "flip": e.flip,
-           "negligible": e.negligible})
+           "negligible": e.negligible, "own_samples": e.own_samples})
 }
 
 /// The renders under one environment map ([`crate::sphere_errors`]): every representation's
