@@ -49,6 +49,9 @@ use lobe_renderer::geometry::kernels::{self, RayLanes};
 use lobe_renderer::geometry::sphere::Sphere;
 use lobe_renderer::lights::envmap::EnvMap;
 use rayon::prelude::*;
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::rc::Rc;
 
 /// A sphere seen by a camera under an environment map: what the images show.
 pub struct Stage<'a> {
@@ -204,24 +207,53 @@ fn radical_inverse(mut k: u64, b: u64) -> f64 {
     inv
 }
 
-/// Point `k` of `n` of a strategy's set in a pixel's batch: 5 coordinates (film x, y;
-/// direction u, v; component), a low-discrepancy set shifted modulo 1 by `shift`. The
-/// direction, where the variance is, takes the Hammersley pair (k / n, radical inverse in
-/// base 2), a (0, m, 2)-net for n = 2^m; the film and the component the radical inverses
-/// in bases 3, 5 and 7. (With Halton's bases 3 and 5 for the direction, the noise floor
-/// is 1.4-1.5x higher at equal samples.)
-fn point(k: usize, n: usize, shift: &[f64; 5]) -> [f64; 5] {
-    let base = [
+/// Point `k` of `n` of a strategy's set before its shift: 5 coordinates (film x, y;
+/// direction u, v; component). The direction, where the variance is, takes the Hammersley
+/// pair (k / n, radical inverse in base 2), a (0, m, 2)-net for n = 2^m; the film and the
+/// component the radical inverses in bases 3, 5 and 7. (With Halton's bases 3 and 5 for
+/// the direction, the noise floor is 1.4-1.5x higher at equal samples.)
+fn unshifted_point(k: usize, n: usize) -> [f64; 5] {
+    [
         radical_inverse(k as u64, 3),
         radical_inverse(k as u64, 5),
         (k as f64 + 0.5) / n as f64,
         radical_inverse(k as u64, 2),
         radical_inverse(k as u64, 7),
-    ];
+    ]
+}
+
+/// A point of a pixel's batch: an unshifted point ([`unshifted_point`]) shifted modulo 1
+/// by the batch's `shift` (Cranley-Patterson rotation).
+fn shifted(base: &[f64; 5], shift: &[f64; 5]) -> [f64; 5] {
     std::array::from_fn(|i| (base[i] + shift[i]).fract())
 }
 
-/// The samples of one pixel (all batches) that hit the sphere, as the batched
+/// How many unshifted points a thread keeps ([`unshifted_points`]): 8 MB.
+const POINT_CACHE: usize = 1 << 18;
+
+thread_local! {
+    /// The unshifted point sets of the counts this thread drew last, by count.
+    static POINT_SETS: RefCell<HashMap<usize, Rc<[[f64; 5]]>>> = Default::default();
+}
+
+/// The `n` unshifted points of a strategy's set ([`unshifted_point`]). Every pixel and
+/// batch shifts the same sets, and neighbouring pixels mostly draw the same counts, so
+/// each thread keeps the sets it made (up to [`POINT_CACHE`] points, then starts over).
+fn unshifted_points(n: usize) -> Rc<[[f64; 5]]> {
+    POINT_SETS.with_borrow_mut(|sets| {
+        if let Some(set) = sets.get(&n) {
+            return set.clone();
+        }
+        if sets.values().map(|s| s.len()).sum::<usize>() + n > POINT_CACHE {
+            sets.clear();
+        }
+        let set: Rc<[[f64; 5]]> = (0..n).map(|k| unshifted_point(k, n)).collect();
+        sets.insert(n, set.clone());
+        set
+    })
+}
+
+/// The samples of one pixel (a group of its batches) that hit the sphere, as the batched
 /// evaluations take them.
 #[derive(Default)]
 struct PixelSamples {
@@ -270,11 +302,16 @@ struct Hit {
     mirror: glam::DVec3,
 }
 
+/// The most samples of a pixel evaluated at once ([`Stage::pixel`]): a pixel with more
+/// (a highlight takes up to 64 times the budget) is taken a group of whole batches at a
+/// time, so that its buffers stay within tens of megabytes per thread.
+const PIXEL_SAMPLES_AT_ONCE: usize = 1 << 16;
+
 impl Stage<'_> {
     /// The batch estimates (`[rep * batches + batch]`, RGB) of pixel (x, y) for every
     /// representation (`reps[0]` the data, whose sampling is one strategy), `per_batch`
-    /// samples in each of `batches`: the samples are drawn first, then each
-    /// representation evaluates all of them in one batched call.
+    /// samples in each of `batches`, a group of whole batches at a time
+    /// ([`PIXEL_SAMPLES_AT_ONCE`]; each batch's sum is the same whatever the grouping).
     fn pixel(
         &self,
         (reps, sampled): (&[&dyn Bsdf], &[usize]),
@@ -282,16 +319,44 @@ impl Stage<'_> {
         (per_batch, batches): (usize, usize),
         seed: u64,
     ) -> Vec<[f64; 3]> {
+        let mut values = vec![[0.0f64; 3]; reps.len() * batches];
+        let group = (PIXEL_SAMPLES_AT_ONCE / per_batch.max(1)).clamp(1, batches);
+        for first in (0..batches).step_by(group) {
+            let group = first..(first + group).min(batches);
+            self.pixel_batches(
+                (reps, sampled),
+                (x, y),
+                (per_batch, batches),
+                group,
+                seed,
+                &mut values,
+            );
+        }
+        values
+    }
+
+    /// [`Stage::pixel`]'s batch estimates of the batches in `group`: the samples are drawn
+    /// first, then each representation evaluates all of them in one batched call.
+    fn pixel_batches(
+        &self,
+        (reps, sampled): (&[&dyn Bsdf], &[usize]),
+        (x, y): (u32, u32),
+        (per_batch, batches): (usize, usize),
+        group: std::ops::Range<usize>,
+        seed: u64,
+        values: &mut [[f64; 3]],
+    ) {
         let fits = sampled.len();
         let counts = strategy_counts(per_batch, fits > 0);
         let mut background = vec![[0.0; 3]; batches];
-        let hits = self.hits((x, y), (counts, batches), seed, &mut background);
+        let hits = self.hits((x, y), (counts, group.clone()), seed, &mut background);
         let rotation = fit_rotation(seed, self.pixel_id((x, y)), fits);
         let set = self.directions((reps, sampled), hits, (counts, rotation));
         let n = set.wi.len();
-        let mut values = vec![[0.0f64; 3]; reps.len() * batches];
-        for row in values.chunks_mut(batches) {
-            row.copy_from_slice(&background);
+        for r in 0..reps.len() {
+            for b in group.clone() {
+                values[r * batches + b] = background[b];
+            }
         }
         // Every representation's values, and the data's and the fits' shares of the
         // density: n_data p_data + sum over the sampled fits of n_j p_j.
@@ -344,7 +409,6 @@ impl Stage<'_> {
                 );
             }
         }
-        values
     }
 
     /// The camera samples of pixel (x, y) that hit the sphere; those that miss add the
@@ -355,12 +419,12 @@ impl Stage<'_> {
     fn hits(
         &self,
         (x, y): (u32, u32),
-        (counts, batches): ([usize; 4], usize),
+        (counts, group): ([usize; 4], std::ops::Range<usize>),
         seed: u64,
         background: &mut [[f64; 3]],
     ) -> Vec<Hit> {
         let per_batch = counts.iter().sum();
-        let drawn = self.drawn((x, y), (counts, batches), seed);
+        let drawn = self.drawn((x, y), (counts, group), seed);
         let mut hits = Vec::with_capacity(drawn.len());
         for chunk in drawn.chunks(LANES) {
             self.hits_of((x, y), chunk, per_batch, background, &mut hits);
@@ -368,25 +432,28 @@ impl Stage<'_> {
         hits
     }
 
-    /// The camera samples of pixel (x, y), batch by batch, each strategy's `counts` in turn.
+    /// The camera samples of pixel (x, y) in the batches of `group`, batch by batch, each
+    /// strategy's `counts` in turn.
     fn drawn(
         &self,
         (x, y): (u32, u32),
-        (counts, batches): ([usize; 4], usize),
+        (counts, group): ([usize; 4], std::ops::Range<usize>),
         seed: u64,
     ) -> Vec<Drawn> {
         let pixel_id = self.pixel_id((x, y));
-        let mut drawn = Vec::with_capacity(counts.iter().sum::<usize>() * batches);
-        for batch in 0..batches {
+        let mut drawn = Vec::with_capacity(counts.iter().sum::<usize>() * group.len());
+        for batch in group {
             let key = hash(hash(seed, pixel_id), batch as u64);
             let shift: [f64; 5] = std::array::from_fn(|i| unit(hash(hash(key, i as u64), 17)));
-            let samples = (0..counts.len()).flat_map(|j| (0..counts[j]).map(move |i| (j, i)));
-            drawn.extend(samples.map(|(strategy, i)| Drawn {
-                batch,
-                strategy,
-                member: i,
-                point: point(i, counts[strategy], &shift),
-            }));
+            for (strategy, &n) in counts.iter().enumerate() {
+                let set = unshifted_points(n);
+                drawn.extend(set.iter().enumerate().map(|(member, base)| Drawn {
+                    batch,
+                    strategy,
+                    member,
+                    point: shifted(base, &shift),
+                }));
+            }
         }
         drawn
     }
@@ -1369,9 +1436,9 @@ mod tests {
         for stage in [&perspective, &orthographic] {
             for (x, y) in (0..24).flat_map(|y| (0..24).map(move |x| (x, y))) {
                 let counts = strategy_counts(8, true);
-                let drawn = stage.drawn((x, y), (counts, 2), 5);
+                let drawn = stage.drawn((x, y), (counts, 0..2), 5);
                 let mut bg = [[0.0; 3]; 2];
-                let hits = stage.hits((x, y), (counts, 2), 5, &mut bg);
+                let hits = stage.hits((x, y), (counts, 0..2), 5, &mut bg);
                 let mut expected = Vec::new();
                 for d in &drawn {
                     let film = glam::Vec2::new(
@@ -1410,6 +1477,53 @@ mod tests {
             checked.iter().all(|&c| c > 1000),
             "misses and hits: {checked:?}"
         );
+    }
+
+    /// A pixel's batch estimates are the same bit for bit whether its batches are
+    /// evaluated together or one group at a time (as [`Stage::pixel`] takes a pixel of
+    /// more than [`PIXEL_SAMPLES_AT_ONCE`] samples), with and without a fit that samples
+    /// itself; and the estimates differ between batches (each batch its own shift).
+    #[test]
+    fn a_pixels_batches_give_the_same_estimates_in_any_grouping() {
+        use lobe_materials::registry::Registry;
+        use lobe_renderer::scene::builtin_images::studio_environment;
+        let env = EnvMap::new(&studio_environment(32, 16), 1.0, glam::Mat3::IDENTITY);
+        let stage = Stage::sphere(&env, 16);
+        let make = |d: serde_json::Value| Registry::builtin().create(&d, "m").unwrap();
+        let data = make(
+            serde_json::json!({"type": "ward", "diffuse": 0.2, "specular": 0.2, "alpha": 0.1}),
+        );
+        let fit = make(
+            serde_json::json!({"type": "blinn-phong", "diffuse": 0.2, "specular": 0.3, "n": 60.0}),
+        );
+        let reps: [&dyn Bsdf; 2] = [data.as_ref(), fit.as_ref()];
+        let (per_batch, batches) = (24, 4);
+        for sampled in [&[][..], &[1][..]] {
+            for (x, y) in [(8, 8), (3, 9), (12, 5)] {
+                let together = stage.pixel((&reps, sampled), (x, y), (per_batch, batches), 7);
+                let mut apart = vec![[0.0; 3]; reps.len() * batches];
+                for groups in [[0..1, 1..3, 3..4]] {
+                    for group in groups {
+                        stage.pixel_batches(
+                            (&reps, sampled),
+                            (x, y),
+                            (per_batch, batches),
+                            group,
+                            7,
+                            &mut apart,
+                        );
+                    }
+                }
+                let bits =
+                    |v: &[[f64; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(
+                    bits(&together),
+                    bits(&apart),
+                    "pixel ({x}, {y}), fits sampled {sampled:?}"
+                );
+                assert_ne!(together[0], together[1], "pixel ({x}, {y}): batches alike");
+            }
+        }
     }
 
     #[test]

@@ -26,6 +26,7 @@ fn config(out: &Path) -> StudyConfig {
         quick: true,
         shard: (0, 1),
         envs: vec!["builtin:studio".into()],
+        error_spp: None,
     }
 }
 
@@ -540,4 +541,45 @@ fn a_study_redoes_what_its_data_or_map_changed() {
     config.envs = vec![studio.display().to_string()];
     let mapped = go(&config);
     assert_eq!((mapped.computed, mapped.skipped), (1, 3), "{mapped:?}");
+}
+
+/// `--error-spp`: the estimate's budget is the user's (its pilot no larger), recorded in
+/// study.json and bounding every map's mean; one under the estimate's smallest pixel
+/// count, or another budget in a folder made with one, is refused with a message.
+#[test]
+fn the_image_error_budget_is_the_users_and_is_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut c = config(&dir.path().join("study"));
+    let one = &materials()[..1];
+    let go = |c: &StudyConfig| {
+        study::run_materials(&Registry::builtin(), c, one, &|| false, &Count::default())
+            .map_err(|e| e.to_string())
+    };
+    c.error_spp = Some(16);
+    let e = go(&c).unwrap_err();
+    assert!(
+        e.contains("--error-spp") && e.contains("32") && e.contains("16"),
+        "{e}"
+    );
+    c.error_spp = Some(48);
+    let s = study::Settings::of(&c);
+    assert_eq!((s.error_pilot_spp, s.error_max_spp), (32, 48));
+    go(&c).unwrap();
+    let read = |p: PathBuf| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let recorded = read(c.out.join("study.json"));
+    assert_eq!(recorded["settings"]["error_max_spp"], 48);
+    let metrics = read(
+        c.out
+            .join(format!("renders/{}/studio/metrics.json", one[0].name)),
+    );
+    let spp = metrics["spp"].as_u64().unwrap();
+    assert!((32..=48).contains(&spp), "mean spp {spp}");
+    c.error_spp = Some(64);
+    let e = go(&c).unwrap_err();
+    assert!(
+        e.contains("study.json") && e.contains("other settings"),
+        "{e}"
+    );
 }

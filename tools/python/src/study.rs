@@ -3,7 +3,7 @@
 //! calls so that `lobe.distributed.study` can run each step as a Dask task: the plan (the
 //! steps and what each waits for), one step, and the report once every step is done. A
 //! configuration crosses as JSON: `{"inputs": [...], "out": DIR, "quick": bool, "envs":
-//! [...], "shard": [i, n]}`.
+//! [...], "shard": [i, n], "error_spp": n or null}`.
 
 use crate::{guarded, interrupt, on_threads, to_py};
 use lobe_analysis::study::steps::Step;
@@ -42,6 +42,14 @@ fn config(text: &str) -> Result<StudyConfig, Error> {
         quick: v.get("quick").and_then(Value::as_bool).unwrap_or(false),
         shard,
         envs: strings("envs")?,
+        error_spp: match v.get("error_spp") {
+            None | Some(Value::Null) => None,
+            Some(x) => Some(
+                x.as_u64()
+                    .map(|n| n as usize)
+                    .ok_or_else(|| bad("error_spp", "a whole number of samples per pixel"))?,
+            ),
+        },
     })
 }
 

@@ -182,15 +182,18 @@ def test_the_study_as_dask_tasks_writes_the_one_machine_report(client, data, tmp
     one = tmp_path / "one"
     many = tmp_path / "many"
     inputs = [str(data / "m0.bin")]
-    a = lobe.study(inputs, one, quick=True, envs=["builtin:studio"], progress=False)
-    b = ld.study(inputs, many, client, quick=True, envs=["builtin:studio"], progress=False)
+    a = lobe.study(inputs, one, quick=True, envs=["builtin:studio"], progress=False, error_spp=48)
+    b = ld.study(inputs, many, client, quick=True, envs=["builtin:studio"], progress=False, error_spp=48)
     assert a["failures"] == b["failures"] == []
+    for d in (one, many):
+        with open(d / "study.json") as f:
+            assert json.load(f)["settings"]["error_max_spp"] == 48
     assert (a["computed"], b["computed"]) == (4, 4)
     assert b["index"] == str(many / "index.html")
     ra, rb = untimed_results(one / "results.json"), untimed_results(many / "results.json")
     assert json.dumps(ra, sort_keys=True) == json.dumps(rb, sort_keys=True)
     # A rerun finds every step done.
-    again = ld.study(inputs, many, client, quick=True, envs=["builtin:studio"], progress=False)
+    again = ld.study(inputs, many, client, quick=True, envs=["builtin:studio"], progress=False, error_spp=48)
     assert (again["computed"], again["skipped"]) == (0, 4)
 
 

@@ -31,6 +31,12 @@ pub struct StudyArgs {
     /// Open the report in the platform's browser when it is built.
     #[arg(long)]
     open: bool,
+    /// The image-error estimate's budget, a cap on its mean samples per pixel (at least
+    /// 32; default 4096, 128 with --quick): each map takes what its noise target needs
+    /// within it. A smaller cap finishes sooner with noisier errors; results.json says per
+    /// map whether the targets hold.
+    #[arg(long, value_name = "SPP")]
+    error_spp: Option<usize>,
 }
 
 /// Progress: a bar over steps on a terminal, else one line per computed step.
@@ -90,6 +96,7 @@ pub fn cmd_study(args: StudyArgs, quiet: bool) -> Result<(), Error> {
         quick: args.quick,
         shard,
         envs: args.env.clone(),
+        error_spp: args.error_spp,
     };
     let flag = crate::args::ctrl_c(
         "interrupted: stopping after the running step (finished steps are kept, no partial file is written); Ctrl-C again to abort",

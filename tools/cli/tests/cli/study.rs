@@ -2,8 +2,9 @@
 
 use super::common::*;
 
-/// `lobe study` refuses, in one line naming the problem, missing data, a bad shard, data
-/// inside the study folder and a study folder made with other settings.
+/// `lobe study` refuses, in one line naming the problem, missing data, a bad shard, a
+/// budget under the estimate's smallest, data inside the study folder and a study folder
+/// made with other settings.
 #[test]
 fn study_refuses_bad_inputs_in_one_line() {
     let dir = tempfile::tempdir().unwrap();
@@ -18,6 +19,10 @@ fn study_refuses_bad_inputs_in_one_line() {
     std::fs::write(&data, b"not read before the checks").unwrap();
     let d = data.to_str().unwrap();
     fails(&["study", d, "--shard", "2/2", "-o", o], "--shard");
+    fails(
+        &["study", d, "--error-spp", "8", "-o", o],
+        "--error-spp: expected a mean of 32 samples per pixel or more, found 8",
+    );
     let inside = out.join("b.bsdf");
     std::fs::create_dir_all(&out).unwrap();
     std::fs::write(&inside, b"x").unwrap();

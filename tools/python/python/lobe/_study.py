@@ -21,6 +21,7 @@ def study_config(
     quick: bool = False,
     envs: Iterable[str] = (),
     shard: Optional[Tuple[int, int]] = None,
+    error_spp: Optional[int] = None,
 ) -> str:
     """The JSON configuration the compiled study functions take (absolute paths, so that
     every process of a cluster reads the same files)."""
@@ -34,6 +35,7 @@ def study_config(
             "quick": bool(quick),
             "envs": env_list,
             "shard": list(shard) if shard is not None else None,
+            "error_spp": error_spp,
         }
     )
 
@@ -45,16 +47,17 @@ def study(
     envs: Iterable[str] = (),
     shard: Optional[Tuple[int, int]] = None,
     progress: bool = True,
+    error_spp: Optional[int] = None,
 ) -> Dict[str, Any]:
     """Runs the study of ``data`` (measured files and folders of them; empty: the built-in
     set) into the folder ``out``, as ``lobe study DATA -o OUT [--quick] [--env MAP]
-    [--shard I/N]``: steps done for the same data, maps and settings are kept, the rest
+    [--shard I/N] [--error-spp SPP]``: steps done for the same data, maps and settings are kept, the rest
     computed. Returns the summary: ``materials``, ``computed``, ``skipped``, ``pending``
     (materials of other shards not yet complete), ``index`` (the report's index page, once
     every material is complete) and ``failures`` (``[material, error]`` pairs; the others
     go on). ``progress`` shows a bar over the steps. Ctrl-C stops at the next step or fit
     evaluation, keeping every finished file, and raises ``KeyboardInterrupt``."""
-    config = study_config(data, out, quick, envs, shard)
+    config = study_config(data, out, quick, envs, shard, error_spp)
     if not progress:
         return json.loads(_lobe.study_run(config, None))
     bar: Optional[Progress] = None

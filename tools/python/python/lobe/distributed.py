@@ -217,12 +217,13 @@ def study(
     quick: bool = False,
     envs: Iterable[str] = (),
     progress: bool = True,
+    error_spp: Optional[int] = None,
 ) -> Dict[str, Any]:
     """The study of ``data`` (measured files and folders of them; empty: the built-in
     set) as Dask tasks, writing the folder ``out`` as ``lobe study`` and ``lobe.study``
     write it (the same files and ``results.json``, timed values aside). Returns the same
-    summary as ``lobe.study``."""
-    config = study_config(data, out, quick, envs)
+    summary as ``lobe.study``; ``error_spp`` is ``lobe study --error-spp``."""
+    config = study_config(data, out, quick, envs, error_spp=error_spp)
     plan = json.loads(_lobe.study_plan(config))
     futures: Dict[Tuple[str, str], Any] = {}
     for s in plan["steps"]:
