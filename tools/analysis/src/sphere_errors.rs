@@ -228,7 +228,7 @@ fn shifted(base: &[f64; 5], shift: &[f64; 5]) -> [f64; 5] {
     std::array::from_fn(|i| (base[i] + shift[i]).fract())
 }
 
-/// How many unshifted points a thread keeps ([`unshifted_points`]): 8 MB.
+/// How many unshifted points a thread keeps ([`unshifted_points`]): 10 MiB.
 const POINT_CACHE: usize = 1 << 18;
 
 thread_local! {
@@ -238,8 +238,13 @@ thread_local! {
 
 /// The `n` unshifted points of a strategy's set ([`unshifted_point`]). Every pixel and
 /// batch shifts the same sets, and neighbouring pixels mostly draw the same counts, so
-/// each thread keeps the sets it made (up to [`POINT_CACHE`] points, then starts over).
+/// each thread keeps the sets it made, up to [`POINT_CACHE`] points (then it starts
+/// over; a larger set is made each time).
 fn unshifted_points(n: usize) -> Rc<[[f64; 5]]> {
+    let make = || -> Rc<[[f64; 5]]> { (0..n).map(|k| unshifted_point(k, n)).collect() };
+    if n > POINT_CACHE {
+        return make();
+    }
     POINT_SETS.with_borrow_mut(|sets| {
         if let Some(set) = sets.get(&n) {
             return set.clone();
@@ -247,7 +252,7 @@ fn unshifted_points(n: usize) -> Rc<[[f64; 5]]> {
         if sets.values().map(|s| s.len()).sum::<usize>() + n > POINT_CACHE {
             sets.clear();
         }
-        let set: Rc<[[f64; 5]]> = (0..n).map(|k| unshifted_point(k, n)).collect();
+        let set = make();
         sets.insert(n, set.clone());
         set
     })
@@ -304,7 +309,9 @@ struct Hit {
 
 /// The most samples of a pixel evaluated at once ([`Stage::pixel`]): a pixel with more
 /// (a highlight takes up to 64 times the budget) is taken a group of whole batches at a
-/// time, so that its buffers stay within tens of megabytes per thread.
+/// time, so that its buffers stay within tens of megabytes per thread (a batch is never
+/// split: one of 262,144 samples, a highlight's at the study's largest cap, takes about
+/// 100 MB).
 const PIXEL_SAMPLES_AT_ONCE: usize = 1 << 16;
 
 impl Stage<'_> {
@@ -320,9 +327,9 @@ impl Stage<'_> {
         seed: u64,
     ) -> Vec<[f64; 3]> {
         let mut values = vec![[0.0f64; 3]; reps.len() * batches];
-        let group = (PIXEL_SAMPLES_AT_ONCE / per_batch.max(1)).clamp(1, batches);
-        for first in (0..batches).step_by(group) {
-            let group = first..(first + group).min(batches);
+        let batches_at_once = (PIXEL_SAMPLES_AT_ONCE / per_batch.max(1)).clamp(1, batches);
+        for first in (0..batches).step_by(batches_at_once) {
+            let group = first..(first + batches_at_once).min(batches);
             self.pixel_batches(
                 (reps, sampled),
                 (x, y),
@@ -1121,7 +1128,7 @@ const PLAN_MARGIN: f64 = 1.2;
 /// The fewest samples a batch of a planned pass takes in any pixel: 8, so that every batch
 /// takes a fit sample where a fit samples itself ([`strategy_counts`]), as the pilot's
 /// variances assume.
-const FLOOR_PER_BATCH: usize = 8;
+pub const FLOOR_PER_BATCH: usize = 8;
 
 /// What an estimate's results depend on beyond its inputs and its sample counts: the
 /// strategies' shares (of a batch of 64, [`strategy_counts`]), the batches, the plan's rate,
@@ -1480,9 +1487,10 @@ mod tests {
     }
 
     /// A pixel's batch estimates are the same bit for bit whether its batches are
-    /// evaluated together or one group at a time (as [`Stage::pixel`] takes a pixel of
-    /// more than [`PIXEL_SAMPLES_AT_ONCE`] samples), with and without a fit that samples
-    /// itself; and the estimates differ between batches (each batch its own shift).
+    /// evaluated together or a group at a time, in three groupings, with and without a fit
+    /// that samples itself, and through [`Stage::pixel`]'s own grouping of a pixel of more
+    /// than [`PIXEL_SAMPLES_AT_ONCE`] samples; and the batches' estimates differ (each
+    /// batch its own shift).
     #[test]
     fn a_pixels_batches_give_the_same_estimates_in_any_grouping() {
         use lobe_materials::registry::Registry;
@@ -1497,33 +1505,50 @@ mod tests {
             serde_json::json!({"type": "blinn-phong", "diffuse": 0.2, "specular": 0.3, "n": 60.0}),
         );
         let reps: [&dyn Bsdf; 2] = [data.as_ref(), fit.as_ref()];
-        let (per_batch, batches) = (24, 4);
+        let batches = 4;
+        let bits = |v: &[[f64; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let in_groups = |sampled: &[usize],
+                         (x, y),
+                         per_batch,
+                         groups: &[std::ops::Range<usize>]| {
+            let mut values = vec![[0.0; 3]; reps.len() * batches];
+            for group in groups {
+                let at = (per_batch, batches);
+                stage.pixel_batches((&reps, sampled), (x, y), at, group.clone(), 7, &mut values);
+            }
+            values
+        };
         for sampled in [&[][..], &[1][..]] {
             for (x, y) in [(8, 8), (3, 9), (12, 5)] {
-                let together = stage.pixel((&reps, sampled), (x, y), (per_batch, batches), 7);
-                let mut apart = vec![[0.0; 3]; reps.len() * batches];
-                for groups in [[0..1, 1..3, 3..4]] {
-                    for group in groups {
-                        stage.pixel_batches(
-                            (&reps, sampled),
-                            (x, y),
-                            (per_batch, batches),
-                            group,
-                            7,
-                            &mut apart,
-                        );
-                    }
+                let together = in_groups(sampled, (x, y), 24, std::slice::from_ref(&(0..batches)));
+                for groups in [
+                    &[0..1, 1..3, 3..4][..],
+                    &[0..2, 2..4],
+                    &[0..1, 1..2, 2..3, 3..4],
+                ] {
+                    let apart = in_groups(sampled, (x, y), 24, groups);
+                    assert_eq!(
+                        bits(&together),
+                        bits(&apart),
+                        "({x}, {y}) {sampled:?} {groups:?}"
+                    );
                 }
-                let bits =
-                    |v: &[[f64; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
-                assert_eq!(
-                    bits(&together),
-                    bits(&apart),
-                    "pixel ({x}, {y}), fits sampled {sampled:?}"
-                );
                 assert_ne!(together[0], together[1], "pixel ({x}, {y}): batches alike");
             }
         }
+        // 4 batches of 20,000: Stage::pixel takes 0..3, then 3..4.
+        let per_batch = 20_000;
+        assert_eq!(PIXEL_SAMPLES_AT_ONCE / per_batch, 3);
+        let grouped = stage.pixel((&reps, &[1]), (8, 8), (per_batch, batches), 7);
+        assert_eq!(
+            bits(&grouped),
+            bits(&in_groups(
+                &[1],
+                (8, 8),
+                per_batch,
+                std::slice::from_ref(&(0..batches))
+            ))
+        );
     }
 
     #[test]

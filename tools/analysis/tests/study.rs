@@ -545,7 +545,8 @@ fn a_study_redoes_what_its_data_or_map_changed() {
 
 /// `--error-spp`: the estimate's budget is the user's (its pilot no larger), recorded in
 /// study.json and bounding every map's mean; one under the estimate's smallest pixel
-/// count, or another budget in a folder made with one, is refused with a message.
+/// count or over its largest is refused with a message before anything is written, and
+/// another budget in a folder made with one is refused too.
 #[test]
 fn the_image_error_budget_is_the_users_and_is_recorded() {
     let dir = tempfile::tempdir().unwrap();
@@ -555,12 +556,17 @@ fn the_image_error_budget_is_the_users_and_is_recorded() {
         study::run_materials(&Registry::builtin(), c, one, &|| false, &Count::default())
             .map_err(|e| e.to_string())
     };
-    c.error_spp = Some(16);
-    let e = go(&c).unwrap_err();
-    assert!(
-        e.contains("--error-spp") && e.contains("32") && e.contains("16"),
-        "{e}"
-    );
+    for n in [16, 1 << 20] {
+        c.error_spp = Some(n);
+        let e = go(&c).unwrap_err();
+        let expected =
+            format!("--error-spp: expected a mean of 32 to 16384 samples per pixel, found {n}");
+        assert_eq!(e, expected);
+        assert!(
+            !c.out.exists(),
+            "--error-spp {n}: the study folder was made"
+        );
+    }
     c.error_spp = Some(48);
     let s = study::Settings::of(&c);
     assert_eq!((s.error_pilot_spp, s.error_max_spp), (32, 48));

@@ -80,10 +80,11 @@ def test_bad_arrays_and_options_are_value_errors():
         lobe.compare(np.full((4, 4, 3), np.nan, dtype=np.float32), np.zeros((4, 4, 3)))
 
 
-def test_a_study_budget_under_the_smallest_is_a_value_error_as_in_the_cli(tmp_path, lobe_bin):
-    with pytest.raises(ValueError, match="--error-spp") as e:
+def test_a_study_budget_out_of_range_is_a_value_error_as_in_the_cli(tmp_path, lobe_bin):
+    with pytest.raises(ValueError, match="--error-spp: expected a mean of 32 to 16384") as e:
         lobe.study([], tmp_path / "s", quick=True, envs=["builtin:studio"], progress=False, error_spp=16)
     cli = cli_error(lobe_bin, ["study", "--quick", "--error-spp", "16", "-o", str(tmp_path / "c")])
     assert cli.endswith(str(e.value))
     with pytest.raises(ValueError, match="error_spp"):
         lobe.study([], tmp_path / "s", quick=True, progress=False, error_spp=-1)
+    assert not (tmp_path / "s").exists() and not (tmp_path / "c").exists()

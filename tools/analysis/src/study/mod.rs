@@ -49,9 +49,11 @@ pub struct StudyConfig {
     pub error_spp: Option<usize>,
 }
 
-/// The smallest budget `--error-spp` takes: the fewest samples the estimate gives a pixel
-/// (8 in each of its 4 batches).
-pub const MIN_ERROR_SPP: usize = 32;
+/// The budgets `--error-spp` takes: from the fewest samples the estimate gives a pixel (8
+/// in each of its 4 batches) to 16,384, where a highlight's pixel (64 times the budget)
+/// already takes a million samples.
+pub const ERROR_SPP_RANGE: std::ops::RangeInclusive<usize> =
+    crate::sphere_errors::FLOOR_PER_BATCH * 4..=16_384;
 
 /// How much work each step does: the full study on the user's data, a lighter one on the
 /// built-in set (a complete report in minutes), or the quick one.
@@ -574,9 +576,10 @@ pub enum StepOutcome {
 
 impl Prepared {
     pub fn new(config: &StudyConfig, mats: Vec<StudyMaterial>) -> Result<Self, Error> {
-        if let Some(n) = config.error_spp.filter(|&n| n < MIN_ERROR_SPP) {
+        if let Some(n) = config.error_spp.filter(|n| !ERROR_SPP_RANGE.contains(n)) {
+            let (lo, hi) = ERROR_SPP_RANGE.into_inner();
             return Err(Error::Other(format!(
-                "--error-spp: expected a mean of {MIN_ERROR_SPP} samples per pixel or more, found {n}"
+                "--error-spp: expected a mean of {lo} to {hi} samples per pixel, found {n}"
             )));
         }
         let settings = Settings::of(config);

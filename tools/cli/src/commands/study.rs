@@ -31,10 +31,10 @@ pub struct StudyArgs {
     /// Open the report in the platform's browser when it is built.
     #[arg(long)]
     open: bool,
-    /// The image-error estimate's budget, a cap on its mean samples per pixel (at least
-    /// 32; default 4096, 128 with --quick): each map takes what its noise target needs
-    /// within it. A smaller cap finishes sooner with noisier errors; results.json says per
-    /// map whether the targets hold.
+    /// The image-error estimate's budget, a cap on its mean samples per pixel (32 to
+    /// 16384, rounded up to a multiple of 16; default 4096, 128 with --quick): each map
+    /// takes what its noise target needs within it. A smaller cap finishes sooner with
+    /// noisier errors; results.json says per map whether the targets hold.
     #[arg(long, value_name = "SPP")]
     error_spp: Option<usize>,
 }

@@ -19,10 +19,13 @@ fn study_refuses_bad_inputs_in_one_line() {
     std::fs::write(&data, b"not read before the checks").unwrap();
     let d = data.to_str().unwrap();
     fails(&["study", d, "--shard", "2/2", "-o", o], "--shard");
-    fails(
-        &["study", d, "--error-spp", "8", "-o", o],
-        "--error-spp: expected a mean of 32 samples per pixel or more, found 8",
-    );
+    for (n, found) in [("8", "found 8"), ("100000", "found 100000")] {
+        fails(
+            &["study", d, "--error-spp", n, "-o", o],
+            &format!("--error-spp: expected a mean of 32 to 16384 samples per pixel, {found}"),
+        );
+        assert!(!out.exists(), "--error-spp {n}: the study folder was made");
+    }
     let inside = out.join("b.bsdf");
     std::fs::create_dir_all(&out).unwrap();
     std::fs::write(&inside, b"x").unwrap();
