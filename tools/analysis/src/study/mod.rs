@@ -85,8 +85,8 @@ pub struct Settings {
 
 impl Settings {
     /// The settings of a configuration: `quick`, else the built-in set's when it has no
-    /// inputs, else the full study's.
-    /// With [`StudyConfig::error_spp`], that budget, and a pilot pass of at most as many.
+    /// inputs, else the full study's. With [`StudyConfig::error_spp`], that budget, and a
+    /// pilot pass of at most as many.
     pub fn of(config: &StudyConfig) -> Self {
         let settings = match (config.quick, config.inputs.is_empty()) {
             (true, _) => Self::new(true),
@@ -104,7 +104,7 @@ impl Settings {
     }
 
     /// The built-in set's: every applicable model at 5-degree bins, 256-pixel sphere
-    /// images, equal time at the data's 32 spp.
+    /// images, equal time at the data's 32 spp, a 64 spp pilot (the full study's cap).
     pub fn builtin() -> Self {
         Self {
             resolution: 5.0,
@@ -112,7 +112,6 @@ impl Settings {
             size: 256,
             spp: 32,
             error_pilot_spp: 64,
-            error_max_spp: 4096,
             microfacet_nodes: 33,
             microfacet_iterations: 3,
             ..Self::new(false)

@@ -3,8 +3,8 @@
 use super::common::*;
 
 /// `lobe study` refuses, in one line naming the problem, missing data, a bad shard, a
-/// budget under the estimate's smallest, data inside the study folder and a study folder
-/// made with other settings.
+/// budget out of the estimate's range (and makes no folder), data inside the study folder
+/// and a study folder made with other settings.
 #[test]
 fn study_refuses_bad_inputs_in_one_line() {
     let dir = tempfile::tempdir().unwrap();

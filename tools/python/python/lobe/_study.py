@@ -52,10 +52,10 @@ def study(
     """Runs the study of ``data`` (measured files and folders of them; empty: the built-in
     set) into the folder ``out``, as ``lobe study DATA -o OUT [--quick] [--env MAP]
     [--shard I/N] [--error-spp SPP]``: steps done for the same data, maps and settings
-    are kept, the rest computed. Returns the summary: ``materials``, ``computed``, ``skipped``, ``pending``
-    (materials of other shards not yet complete), ``index`` (the report's index page, once
-    every material is complete) and ``failures`` (``[material, error]`` pairs; the others
-    go on). ``progress`` shows a bar over the steps. Ctrl-C stops at the next step or fit
+    are kept, the rest computed. Returns the summary: ``materials``, ``computed``,
+    ``skipped``, ``pending`` (materials of other shards not yet complete), ``index`` (the
+    report's index page, once every material is complete) and ``failures`` (``[material,
+    error]`` pairs; the others go on). ``progress`` shows a bar over the steps. Ctrl-C stops at the next step or fit
     evaluation, keeping every finished file, and raises ``KeyboardInterrupt``."""
     config = study_config(data, out, quick, envs, shard, error_spp)
     if not progress:
