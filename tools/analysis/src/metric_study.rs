@@ -54,8 +54,9 @@ pub struct Row {
     pub rmse: f64,
     pub ci95: [f64; 2],
     pub flip: f64,
-    /// The largest noise of any fit's difference image under this map (the same for every
-    /// row of the material and map).
+    /// The noise of the difference image of the fit with the smallest error under this map
+    /// ([`crate::sphere_errors::SphereErrors::noise_floor`]; the same for every row of the
+    /// material and map).
     pub noise_floor: f64,
 }
 

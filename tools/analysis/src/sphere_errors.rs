@@ -24,16 +24,20 @@
 //! `d_b` of the difference and their mean `m` and sample variance `s^2`, `m^2 - s^2 / B` is
 //! unbiased for the squared difference of the converged images, so the mean square error
 //! carries no noise bias; its 95 % interval is the delete-one jackknife over batches with
-//! Student's t (B - 1 degrees of freedom), taken through the square root to the RMSE. The
-//! noise floor is the RMS standard error of the difference image, `sqrt(mean s^2 / B)`:
-//! what noise alone adds to an error measured without the correction, and the size of the
-//! noise left in a difference image or FLIP map. A pilot pass takes the same count in every
-//! pixel; the next pass puts samples where the pilot's differences were noisy (adaptive
-//! sampling: in proportion to a power of each pixel's noise, the allocation that minimises
-//! the summed noise for a budget, with the noise falling as `n^-1.4` in the samples since
-//! each batch is a randomized low-discrepancy set), scaled so that the noise
-//! floor is under a tenth of the smallest fit error, within a mean budget per pixel. Only
-//! the last pass is reported, so its intervals do not depend on the plan's noise.
+//! Student's t (B - 1 degrees of freedom), taken through the square root to the RMSE. A
+//! fit's noise is the RMS standard error of its difference image, `sqrt(mean s^2 / B)`:
+//! what noise alone adds to its error measured without the correction, and the size of
+//! the noise left in its difference image or FLIP map. With common random numbers each
+//! difference carries its own noise, roughly in proportion to its size (a fit far from the
+//! data has a noisy difference and a large error; a perfect fit has neither), so the noise
+//! target holds each fit to a tenth of its own error, and the noise floor is the noise of
+//! the closest fit's difference (the smallest error's). A pilot pass takes the same count
+//! in every pixel; the next pass puts samples where the pilot's differences were noisy
+//! (adaptive sampling: in proportion to a power of each pixel's noise, the allocation that
+//! minimises the summed noise for a budget, with the noise falling as `n^-1.4` in the
+//! samples since each batch is a randomized low-discrepancy set), scaled so that every fit
+//! meets its target, within a mean budget per pixel. Only the last pass is reported, so
+//! its intervals do not depend on the plan's noise.
 //! Errors under [`ErrorSettings::negligible`] of the image's RMS are below what a display
 //! shows and are exempt from these targets.
 
@@ -115,7 +119,8 @@ pub struct ErrorSettings {
     pub pilot_spp: usize,
     /// The most samples per pixel the estimate may take.
     pub max_spp: usize,
-    /// The noise floor's target, as a share of the smallest fit error.
+    /// The noise target: every non-negligible fit's noise under this share of its own
+    /// error (so the noise floor under this share of the smallest).
     pub noise_ratio: f64,
     /// The interval width's target, as a share of its error.
     pub interval_ratio: f64,
@@ -180,7 +185,9 @@ pub struct SphereErrors {
     /// FLIP error map of each representation against the data's image (index 0: the two
     /// halves of the data's batches).
     pub flip_maps: Vec<Vec<f32>>,
-    /// The largest noise of the fits' difference images.
+    /// The noise of the difference image of the fit with the smallest non-negligible
+    /// error (0 when every fit is negligible): the noise on the comparison closest to the
+    /// data. Each error's own is [`RepError::noise`].
     pub noise_floor: f64,
     /// Mean samples per pixel of the reported pass and its most in one pixel, in how many
     /// batches, and passes made.
@@ -191,7 +198,7 @@ pub struct SphereErrors {
     /// The exposure (stops) of pictures and FLIP: under 1 % of the data image's pixels
     /// clip.
     pub exposure: f32,
-    /// Whether the noise and interval targets hold on the non-negligible fits.
+    /// Whether the noise and interval targets hold on every non-negligible fit.
     pub noise_target_met: bool,
     pub interval_target_met: bool,
 }
@@ -1042,7 +1049,6 @@ pub fn estimate(
         out.spp_max = spp.iter().copied().max().unwrap_or(0);
         out.passes = passes;
         let spent = out.spp >= max_spp * 9 / 10;
-        // The noise floor bounds every fit's own noise, so its target covers theirs.
         let met = out.noise_target_met && out.interval_target_met;
         let next = match met || spent || passes >= 3 {
             true => None,
@@ -1060,28 +1066,33 @@ pub fn estimate(
 
 /// The samples per pixel of the next pass, planned from the last pass's one-sample
 /// variances `sample_variance` (`[pixel * fits + fit]`), measured at `measured_at` samples
-/// per pixel and extrapolated at the rate [`RQMC_EXPONENT`] (`b`): a pixel's noise at `n`
+/// per pixel, pooled over each pixel's 3x3 neighbourhood ([`pooled`]) and extrapolated at the rate [`RQMC_EXPONENT`] (`b`): a pixel's noise at `n`
 /// samples is `a n^-b`, with `a` its weighted variance summed over the fits, and the
 /// samples go in proportion to `a^(1 / (1 + b))` (the allocation that minimises the
 /// weighted sum of their noise for a budget; the square root at `b = 1`), widened by a 3x3
-/// maximum so that a hot spot seen in one pixel covers its neighbours. The weights are
-/// raised, a few rounds, for the fits whose predicted noise is the largest, so that the
-/// largest (the noise floor) is what falls. Scaled so that the noise floor meets its target
-/// (a tenth of the smallest non-negligible error) within a mean of
-/// [`ErrorSettings::max_spp`] per pixel, each pixel at least [`FLOOR_PER_BATCH`] samples a
-/// batch. None when no fit is non-negligible.
+/// maximum so that a hot spot seen in one pixel covers its neighbours. Each non-negligible
+/// fit's target is a tenth of its own error ([`ErrorSettings::noise_ratio`]); the weights
+/// start at the inverse targets and are raised, a few rounds, for the fits furthest over
+/// theirs, so that the worst of them is what falls. Scaled so that every fit meets its
+/// target within a mean of [`ErrorSettings::max_spp`] per pixel, each pixel at least
+/// [`FLOOR_PER_BATCH`] samples a batch. None when no fit is non-negligible.
 fn allocate(
     stage: &Stage<'_>,
     (sample_variance, measured_at): (&[f32], &[usize]),
     out: &SphereErrors,
     s: &ErrorSettings,
 ) -> Option<Vec<usize>> {
-    let fits = out.errors.len() - 1;
-    let smallest = out.errors[1..]
+    // Each fit's target mean square noise (infinite: negligible, exempt).
+    let targets: Vec<f64> = out.errors[1..]
         .iter()
-        .filter(|e| !e.negligible)
-        .map(|e| e.rmse)
-        .min_by(f64::total_cmp)?;
+        .map(|e| match e.negligible {
+            true => f64::INFINITY,
+            false => (s.noise_ratio * e.rmse / PLAN_MARGIN).powi(2),
+        })
+        .collect();
+    if targets.iter().all(|t| t.is_infinite()) {
+        return None;
+    }
     let plan = Plan::new(
         (stage.width as usize, stage.height as usize),
         (sample_variance, measured_at),
@@ -1091,16 +1102,22 @@ fn allocate(
             64.0 * s.max_spp as f64,
         ),
     );
-    let target = (s.noise_ratio * smallest / PLAN_MARGIN).powi(2);
-    let mut weights = vec![1.0; fits];
+    // The inverse targets, the largest 1 (the bisection's range is in the shape's units).
+    let tightest = targets.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut weights: Vec<f64> = targets.iter().map(|t| tightest / t).collect();
     let mut counts = Vec::new();
     for _ in 0..4 {
         let shape = plan.shape(&weights);
-        counts = plan.scaled(&shape, target, s.max_spp as f64);
-        let noise = plan.noise(&counts);
-        let worst = noise.iter().copied().fold(0.0, f64::max);
-        for (w, n) in weights.iter_mut().zip(&noise) {
-            *w *= (n / worst.max(1e-300)).max(1e-3);
+        counts = plan.scaled(&shape, &targets, s.max_spp as f64);
+        let over: Vec<f64> = plan
+            .noise(&counts)
+            .iter()
+            .zip(&targets)
+            .map(|(n, t)| n / t.max(1e-300))
+            .collect();
+        let worst = over.iter().copied().fold(0.0, f64::max);
+        for (w, o) in weights.iter_mut().zip(&over) {
+            *w *= (o / worst.max(1e-300)).max(1e-3);
         }
     }
     Some(counts.into_iter().map(|x| x as usize).collect())
@@ -1140,8 +1157,8 @@ pub fn form(s: &ErrorSettings) -> String {
     format!(
         "strategies (map, data, cones, fits) {:?} of 64, fits sampled over {UNCOVERED}x \
          the data, cones and cosine densities at 256 of their samples at each of 18 \
-         directions, else the data's; {} batches; plan n^-{RQMC_EXPONENT}, \
-         margin {PLAN_MARGIN}, at least {FLOOR_PER_BATCH} a batch; noise {} of the smallest \
+         directions, else the data's; {} batches; plan n^-{RQMC_EXPONENT} from 3x3-pooled \
+         variances, margin {PLAN_MARGIN}, at least {FLOOR_PER_BATCH} a batch; noise {} of each fit's \
          error, intervals {} of their error, negligible under {}; seed {}",
         strategy_counts(64, true),
         s.batches,
@@ -1160,17 +1177,43 @@ struct Plan {
     height: usize,
     fits: usize,
     /// Each pixel's and fit's noise at one sample, `[pixel * fits + fit]`: the measured
-    /// one-sample variance times `measured^(exponent - 1)`.
+    /// one-sample variance times `measured^(exponent - 1)`, pooled ([`pooled`]).
     at_one_sample: Vec<f64>,
     exponent: f64,
     floor: f64,
     ceiling: f64,
 }
 
+/// Per pixel and fit, the mean of `values` (`[pixel * fits + fit]` on a `width` x
+/// `height` film) over the pixel's 3x3 neighbourhood (within the film). A pixel's variance
+/// from a few batches is itself noisy (3 degrees of freedom with 4 batches), and a plan
+/// that gives few samples where it came out low predicts too little noise there; the
+/// neighbours' mean, whose integrands are close, has 9 times the degrees of freedom.
+fn pooled(values: &[f64], (width, height): (usize, usize), fits: usize) -> Vec<f64> {
+    if fits == 0 || values.len() != width * height * fits {
+        return values.to_vec();
+    }
+    let mut out = vec![0.0; values.len()];
+    for (i, px) in out.chunks_exact_mut(fits).enumerate() {
+        let (x, y) = (i % width, i / width);
+        let us = x.saturating_sub(1)..(x + 2).min(width);
+        let vs = y.saturating_sub(1)..(y + 2).min(height);
+        let n = (us.len() * vs.len()) as f64;
+        for v in vs {
+            for u in us.clone() {
+                let there = &values[(v * width + u) * fits..][..fits];
+                px.iter_mut().zip(there).for_each(|(a, b)| *a += b / n);
+            }
+        }
+    }
+    out
+}
+
 impl Plan {
     /// The plan of a `width` x `height` film from one-sample variances `sample_variance`
-    /// (`[pixel * fits + fit]`) measured at `measured_at` samples per pixel, falling at the
-    /// rate `exponent`, with `floor` to `ceiling` samples a pixel.
+    /// (`[pixel * fits + fit]`) measured at `measured_at` samples per pixel, pooled over
+    /// 3x3 neighbourhoods, falling at the rate `exponent`, with `floor` to `ceiling`
+    /// samples a pixel.
     fn new(
         (width, height): (usize, usize),
         (sample_variance, measured_at): (&[f32], &[usize]),
@@ -1185,12 +1228,12 @@ impl Plan {
                 let gain = (c0 as f64).powf(exponent - 1.0);
                 v.iter().map(move |&x| x as f64 * gain)
             })
-            .collect();
+            .collect::<Vec<f64>>();
         Self {
             width,
             height,
             fits,
-            at_one_sample,
+            at_one_sample: pooled(&at_one_sample, (width, height), fits),
             exponent,
             floor,
             ceiling,
@@ -1273,14 +1316,14 @@ impl Plan {
         sums.into_iter().map(|s| s / n).collect()
     }
 
-    /// The counts of the smallest scale of `shape` whose worst predicted noise meets
-    /// `target`, or of the largest whose mean is within `budget` if that is smaller
-    /// (bisections in log scale: noise falls and the mean grows with the scale).
-    fn scaled(&self, shape: &[f64], target: f64, budget: f64) -> Vec<f64> {
+    /// The counts of the smallest scale of `shape` at which every fit's predicted noise
+    /// meets its `targets` entry, or of the largest whose mean is within `budget` if that
+    /// is smaller (bisections in log scale: noise falls and the mean grows with the scale).
+    fn scaled(&self, shape: &[f64], targets: &[f64], budget: f64) -> Vec<f64> {
         let mean = |c: &[f64]| c.iter().sum::<f64>() / c.len() as f64;
         let meets = |x: f64| {
-            let worst = self.noise(&self.counts(shape, x.exp()));
-            worst.into_iter().fold(0.0, f64::max) <= target
+            let noise = self.noise(&self.counts(shape, x.exp()));
+            noise.iter().zip(targets).all(|(n, t)| n <= t)
         };
         let affordable = |x: f64| mean(&self.counts(shape, x.exp())) <= budget;
         let bisect = |ok_high: bool, test: &dyn Fn(f64) -> bool| {
@@ -1365,11 +1408,13 @@ fn summarize(
             own_samples: sampled.contains(&r),
         });
     }
-    let noise_floor = errors[1..].iter().map(|e| e.noise).fold(0.0, f64::max);
     let fits: Vec<&RepError> = errors[1..].iter().filter(|e| !e.negligible).collect();
-    let smallest = fits.iter().map(|e| e.rmse).fold(f64::INFINITY, f64::min);
+    let noise_floor = fits
+        .iter()
+        .min_by(|a, b| a.rmse.total_cmp(&b.rmse))
+        .map_or(0.0, |e| e.noise);
     let out = SphereErrors {
-        noise_target_met: noise_floor <= s.noise_ratio * smallest,
+        noise_target_met: fits.iter().all(|e| e.noise <= s.noise_ratio * e.rmse),
         interval_target_met: fits.iter().all(|e| e.relative_width() <= s.interval_ratio),
         images,
         errors,
@@ -1408,17 +1453,37 @@ pub fn exposure_for(img: &Image) -> f32 {
 mod tests {
     use super::*;
 
-    /// A 5 x 5 film with two fits: one pixel whose first fit is 100 times noisier than
-    /// anywhere else.
+    /// The side of the films of the plan's tests.
+    const SIDE: usize = 9;
+    const PIXELS: usize = SIDE * SIDE;
+    /// The centre pixel.
+    const HOT: usize = PIXELS / 2;
+
+    /// A 9 x 9 film with two fits: the centre pixel's first fit is 100 times noisier than
+    /// anywhere else (12 times after pooling over its 3x3 neighbourhood).
     fn hot_spot() -> Vec<f32> {
-        let mut v = vec![1.0f32; 25 * 2];
-        v[12 * 2] = 100.0;
+        let mut v = vec![1.0f32; PIXELS * 2];
+        v[HOT * 2] = 100.0;
         v
     }
 
-    /// The plan of a 5 x 5 film with two fits, 4 to a million samples per pixel.
+    /// The plan of a 9 x 9 film with two fits, 4 to a million samples per pixel.
     fn plan(variance: &[f32]) -> Plan {
-        Plan::new((5, 5), (variance, &[4; 25]), 1.0, (4.0, 1e6))
+        Plan::new((SIDE, SIDE), (variance, &[4; PIXELS]), 1.0, (4.0, 1e6))
+    }
+
+    /// Pooling takes each pixel's mean over its 3x3 neighbourhood within the film: a
+    /// corner's over 4 pixels, an edge's over 6, an inner pixel's over 9.
+    #[test]
+    fn pooling_averages_each_pixels_neighbourhood_within_the_film() {
+        let mut v = vec![0.0; 9 * 2];
+        v[0] = 36.0; // pixel (0, 0), first fit
+        v[9] = 18.0; // pixel (1, 1), second fit
+        let p = pooled(&v, (3, 3), 2);
+        let first: Vec<f64> = p.iter().step_by(2).copied().collect();
+        let second: Vec<f64> = p.iter().skip(1).step_by(2).copied().collect();
+        assert_eq!(first, [9.0, 6.0, 0.0, 6.0, 4.0, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(second, [4.5, 3.0, 4.5, 3.0, 2.0, 3.0, 4.5, 3.0, 4.5]);
     }
 
     /// The lane hits equal the scalar chain they replace (camera ray, sphere distance,
@@ -1556,9 +1621,15 @@ mod tests {
         let variance = hot_spot();
         let plan = plan(&variance);
         let shape = plan.shape(&[1.0, 1.0]);
-        let counts = plan.scaled(&shape, 1e-3, 1e9);
-        let (hot, near, far) = (counts[12], counts[6], counts[0]);
-        assert!(hot == near && near > 5.0 * far, "{hot} {near} {far}");
+        let counts = plan.scaled(&shape, &[1e-3, 1e-3], 1e9);
+        // Two pixels from the hot one (its pooled neighbours' 3x3 maximum), and three; the
+        // hot spot's variance summed over the fits is 13 / 2 of a quiet pixel's after
+        // pooling, so its counts are about (13 / 2)^(1 / 2) = 2.55 times.
+        let (hot, near, far, corner) = (counts[HOT], counts[HOT - 2], counts[HOT - 3], counts[0]);
+        assert!(
+            hot == near && near > 2.4 * far && far == corner,
+            "{hot} {near} {far} {corner}"
+        );
         assert!(counts.iter().all(|c| c % 4.0 == 0.0 && *c >= 4.0));
         let worst = plan.noise(&counts).into_iter().fold(0.0, f64::max);
         assert!(worst <= 1e-3, "{worst}");
@@ -1598,15 +1669,16 @@ mod tests {
         assert_eq!(bits(&plan.noise(&counts)), bits(&expected));
     }
 
-    /// The faster the noise falls, the fewer of the samples the hot spot needs:
-    /// `100^(1/2)` times a quiet pixel's at the rate 1, `100^(1/2.5)` at 1.5.
+    /// The faster the noise falls, the fewer of the samples the hot spot needs: its pooled
+    /// variance is 12 times a quiet pixel's, so `12^(1/2)` times the samples at the rate 1,
+    /// `12^(1/2.5)` at 1.5.
     #[test]
     fn a_faster_rate_flattens_the_plan() {
         let variance = hot_spot();
-        for (rate, ratio) in [(1.0, 10.0), (1.5, 100f64.powf(0.4))] {
-            let plan = Plan::new((5, 5), (&variance, &[4; 25]), rate, (1e-9, 1e12));
+        for (rate, ratio) in [(1.0, 12f64.sqrt()), (1.5, 12f64.powf(0.4))] {
+            let plan = Plan::new((SIDE, SIDE), (&variance, &[4; PIXELS]), rate, (1e-9, 1e12));
             let shape = plan.shape(&[1.0, 0.0]);
-            let got = shape[12] / shape[0];
+            let got = shape[HOT] / shape[0];
             assert!((got - ratio).abs() < 1e-9 * ratio, "rate {rate}: {got}");
         }
     }
@@ -1648,12 +1720,33 @@ mod tests {
         assert_eq!(form(&counts), form(&base));
     }
 
+    /// Each fit is held to its own target: with the hot spot's fit allowed 100 times the
+    /// other's noise, the plan takes what the other needs (about half the samples that the
+    /// hot spot's fit would take at the other's target), and both meet their targets.
+    #[test]
+    fn each_fit_is_held_to_its_own_target() {
+        let variance = hot_spot();
+        let plan = plan(&variance);
+        let mean = |c: &[f64]| c.iter().sum::<f64>() / PIXELS as f64;
+        let equal = plan.scaled(&plan.shape(&[1.0, 1.0]), &[1e-3, 1e-3], 1e9);
+        let own = plan.scaled(&plan.shape(&[0.01, 1.0]), &[1e-1, 1e-3], 1e9);
+        let noise = plan.noise(&own);
+        assert!(noise[0] <= 1e-1 && noise[1] <= 1e-3, "{noise:?}");
+        assert!(noise[1] > 0.8e-3, "not over-sampled: {noise:?}");
+        assert!(
+            mean(&own) < 0.6 * mean(&equal),
+            "{} vs {}",
+            mean(&own),
+            mean(&equal)
+        );
+    }
+
     #[test]
     fn the_budget_bounds_the_mean() {
         let variance = hot_spot();
         let plan = plan(&variance);
-        let counts = plan.scaled(&plan.shape(&[1.0, 1.0]), 1e-9, 64.0);
-        let mean = counts.iter().sum::<f64>() / 25.0;
+        let counts = plan.scaled(&plan.shape(&[1.0, 1.0]), &[1e-9, 1e-9], 64.0);
+        let mean = counts.iter().sum::<f64>() / PIXELS as f64;
         assert!(mean <= 64.0 && mean > 48.0, "{mean}");
     }
 }

@@ -373,3 +373,37 @@ fn a_planned_pass_meets_its_noise_target_with_the_samples_it_needs() {
         );
     }
 }
+
+/// With a fit close to the data and one far from it, each fit is held to a tenth of its
+/// own error: the planned pass meets that for both without taking several times the
+/// samples it needs (the worst fit's noise over 0.06 of its error), and the noise floor
+/// is the noise of the closer fit's difference image.
+#[test]
+fn every_fit_meets_the_noise_target_on_its_own_error() {
+    let env = studio();
+    let stage = Stage::sphere(&env, 32);
+    let [data, close] = pair();
+    let far = material(
+        json!({"type": "ward", "diffuse": [0.3, 0.2, 0.1], "specular": 0.3, "alpha": 0.25}),
+    );
+    let reps = [data, close, far];
+    let e = run_adaptive(&stage, &reps, (64, 1 << 14), 3);
+    let (close, far) = (&e.errors[1], &e.errors[2]);
+    assert!(
+        far.rmse > 3.0 * close.rmse,
+        "{} vs {}",
+        far.rmse,
+        close.rmse
+    );
+    assert_eq!(e.noise_floor, close.noise);
+    let worst = [close, far]
+        .iter()
+        .map(|f| f.noise / f.rmse)
+        .fold(0.0, f64::max);
+    assert!(
+        e.noise_target_met && worst <= 0.1 && worst > 0.06,
+        "{} passes, {} spp, worst noise {worst} of its error",
+        e.passes,
+        e.spp
+    );
+}

@@ -250,3 +250,23 @@ def test_converter_resolves_a_fit_report_against_the_scene_folder(tmp_path, fit_
     d = Converter(str(folder / "scene.json")).convert(4)
     assert d["shape0"]["bsdf"] == {"type": "lobe", "model": "lafortune", "report": str(folder / "r.fit.json")}
     assert "lafortune" in str(mi.load_dict(d["shape0"]["bsdf"]))
+
+
+def test_converter_writes_mesh_files_only_for_meshes(tmp_path):
+    """A scene without meshes leaves no temporary folder; a mesh's PLY is written into one
+    that outlives the conversion (Mitsuba reads it when the scene loads)."""
+    mi.set_variant("scalar_rgb")
+    lobe.mitsuba.register()
+    (tmp_path / "sphere.json").write_text(json.dumps(sphere_scene({"type": "lambert"}, 4)))
+    c = Converter(str(tmp_path / "sphere.json"))
+    c.convert(4)
+    assert c._tmp is None
+    (tmp_path / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    scene = sphere_scene({"type": "lambert"}, 4)
+    scene["shapes"] = [{"type": "obj", "file": "tri.obj"}]
+    (tmp_path / "mesh.json").write_text(json.dumps(scene))
+    c = Converter(str(tmp_path / "mesh.json"))
+    d = c.convert(4)
+    ply = d["shape0"]["filename"]
+    assert os.path.dirname(ply) == c.tmp and os.path.getsize(ply) > 0
+    mi.load_dict(d)

@@ -483,7 +483,7 @@ impl StudySummary {
             n => format!("{n} {what}s"),
         };
         format!(
-            "PASS: {} done; of {}, {} have every interval under 20 % of its error and {} a noise floor under 10 % of the smallest fit error (sample-count targets, findings rather than failures: results.json)",
+            "PASS: {} done; of {}, {} have every interval under 20 % of its error and {} every fit's noise under 10 % of its error (sample-count targets, findings rather than failures: results.json)",
             count(self.materials, "material"),
             count(maps.len(), "material-map"),
             met("interval_target_met"),

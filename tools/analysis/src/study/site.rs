@@ -528,7 +528,7 @@ fn render_grid(d: &MaterialData, env: usize) -> String {
     let (name, m) = &d.maps[env];
     let dir = format!("../{}", Layout::renders_rel(&d.name, name));
     let mut s = format!(
-        "<h3>Under {}</h3>\n<p class=\"note\">{} spp per pixel on average{} for every image from the same samples (common random numbers), {} batches; exposure {:+.2} stops (under 1 % of the reference's pixels clip). Noise floor {:.2e}: the RMS noise left in a difference image. Below each fit: its FLIP map against the reference.</p>\n",
+        "<h3>Under {}</h3>\n<p class=\"note\">{} spp per pixel on average{} for every image from the same samples (common random numbers), {} batches; exposure {:+.2} stops (under 1 % of the reference's pixels clip). Noise floor {:.2e}: the RMS noise left in the closest fit's difference image (each fit's own is in the table of image errors). Below each fit: its FLIP map against the reference.</p>\n",
         esc(name),
         m["spp"],
         match m["spp_max"].as_u64() {
@@ -631,7 +631,7 @@ fn error_table(env: &str, m: &Value) -> String {
     let empty = serde_json::Map::new();
     let errors = m["errors"].as_object().unwrap_or(&empty);
     let mut b = format!(
-        "<h3>Under {}</h3>\n<p>Ranking (\u{201c}&lt;\u{201d} only where the 95 % intervals separate): {}</p>\n<p class=\"note\">Noise floor {:.3e}; targets: noise floor under 10 % of the smallest fit error {}, every interval narrower than 20 % of its error {}. Equal time: the error each representation reaches in the time the measured data's render takes at {} spp, from its speed/accuracy curve.</p>\n<table class=\"sortable\">\n<thead><tr><th>representation</th><th>RMSE</th><th>95 % interval</th><th>FLIP</th><th>spp at equal time</th><th>RMSE at equal time</th><th>its 95 % interval</th><th>time per spp</th></tr></thead>\n<tbody>\n",
+        "<h3>Under {}</h3>\n<p>Ranking (\u{201c}&lt;\u{201d} only where the 95 % intervals separate): {}</p>\n<p class=\"note\">Noise: the RMS noise of each fit's difference image from the data's (for the measured data, of its own image); the noise floor {:.3e} is the closest fit's. Targets: every fit's noise under 10 % of its error {}, every interval narrower than 20 % of its error {}. Equal time: the error each representation reaches in the time the measured data's render takes at {} spp, from its speed/accuracy curve.</p>\n<table class=\"sortable\">\n<thead><tr><th>representation</th><th>RMSE</th><th>95 % interval</th><th>noise</th><th>FLIP</th><th>spp at equal time</th><th>RMSE at equal time</th><th>its 95 % interval</th><th>time per spp</th></tr></thead>\n<tbody>\n",
         esc(env),
         esc(&ranking(errors)),
         m["noise_floor"].as_f64().unwrap_or(f64::NAN),
@@ -649,16 +649,18 @@ fn error_table(env: &str, m: &Value) -> String {
     );
     for (name, r) in errors {
         let g = |p: &str| r.pointer(p).and_then(Value::as_f64);
-        let mark = match r["negligible"] == true {
-            true => " (indistinguishable)",
-            false => "",
+        let mark = match (name.as_str(), r["negligible"] == true) {
+            ("measured", _) => " (its image's own noise, not a comparison)",
+            (_, true) => " (indistinguishable)",
+            (_, false) => "",
         };
         let _ = writeln!(
             b,
-            "<tr><td>{}{mark}</td>{}{}{}{}{}{}{}</tr>",
+            "<tr><td>{}{mark}</td>{}{}{}{}{}{}{}{}</tr>",
             esc(name),
             num(g("/rmse"), false),
             interval(g("/ci95/0"), g("/ci95/1"), false),
+            num(g("/noise"), false),
             num(g("/flip"), false),
             plain_cell(g("/equal_time/spp"), "", true),
             num(g("/equal_time/rmse"), true),

@@ -3,9 +3,11 @@ dictionary. Written from the documented format with Mitsuba's own constructs (lo
 sphere, rectangle, obj/ply, envmap, constant, point, directional, area, path, direct), so
 that conventions are checked, not copied, when the two renderers are compared."""
 
+import atexit
 import json
 import math
 import os
+import shutil
 import tempfile
 
 import mitsuba as mi
@@ -58,8 +60,18 @@ class Converter:
         self.base = os.path.dirname(self.path)
         with open(self.path) as f:
             self.scene = json.load(f)
-        self.tmp = tempfile.mkdtemp(prefix="lobe-mitsuba-")
+        self._tmp = None
         self.gltf_camera = None
+
+    @property
+    def tmp(self):
+        """The folder of the PLY meshes this conversion writes: made on the first mesh,
+        removed when the interpreter exits (Mitsuba reads the files when the scene loads,
+        after `convert` returns)."""
+        if self._tmp is None:
+            self._tmp = tempfile.mkdtemp(prefix="lobe-mitsuba-")
+            atexit.register(shutil.rmtree, self._tmp, ignore_errors=True)
+        return self._tmp
 
     def resolve(self, p):
         return p if os.path.isabs(p) else os.path.join(self.base, p)
