@@ -124,8 +124,8 @@ pub struct ErrorSettings {
     pub noise_ratio: f64,
     /// The interval width's target, as a share of its error.
     pub interval_ratio: f64,
-    /// Errors under this share of the data image's RMS are negligible (no display shows
-    /// them) and exempt from the targets.
+    /// Errors at or under this share of the data image's RMS are negligible (no display
+    /// shows them; an error of 0 always is) and exempt from the targets.
     pub negligible: f64,
     /// Seeds every random number (the images are the same for any thread count).
     pub seed: u64,
@@ -158,7 +158,7 @@ pub struct RepError {
     /// Mean FLIP against the data's image at the common exposure. For the data: FLIP
     /// between the images of its two halves of batches (noise at half the samples).
     pub flip: f64,
-    /// Under [`ErrorSettings::negligible`] of the image's RMS.
+    /// At or under [`ErrorSettings::negligible`] of the image's RMS.
     pub negligible: bool,
     /// Whether this fit's own BRDF sampling was one of the estimate's strategies
     /// ([`sampled_fits`]; false for the data, whose sampling always is).
@@ -1404,7 +1404,7 @@ fn summarize(
             ci95: [root(ci[0]), root(ci[1])],
             noise,
             flip: f64::NAN,
-            negligible: r > 0 && rmse < s.negligible * data_rms,
+            negligible: r > 0 && rmse <= s.negligible * data_rms,
             own_samples: sampled.contains(&r),
         });
     }

@@ -407,3 +407,17 @@ fn every_fit_meets_the_noise_target_on_its_own_error() {
         e.spp
     );
 }
+
+/// A black material and its exact fit: every error is 0, so every fit is negligible, the
+/// targets hold without a planned pass, and nothing is NaN.
+#[test]
+fn a_black_material_gives_zero_errors_and_no_plan() {
+    let env = studio();
+    let stage = Stage::sphere(&env, 16);
+    let black = || material(json!({"type": "lambert", "reflectance": 0.0}));
+    let e = run_adaptive(&stage, &[black(), black()], (64, 512), 0);
+    let fit = &e.errors[1];
+    assert!(fit.rmse == 0.0 && fit.negligible && fit.ci95.iter().all(|x| x.is_finite()));
+    assert!(e.noise_target_met && e.interval_target_met && e.passes == 1);
+    assert_eq!(e.noise_floor, 0.0);
+}
