@@ -54,6 +54,8 @@ pub struct Row {
     pub rmse: f64,
     pub ci95: [f64; 2],
     pub flip: f64,
+    /// The RMS noise of this fit's difference image from the data's.
+    pub noise: f64,
     /// The noise of the difference image of the fit with the smallest error under this map
     /// ([`crate::sphere_errors::SphereErrors::noise_floor`]; the same for every row of the
     /// material and map).
@@ -229,6 +231,7 @@ fn image_errors(
             rmse: e.rmse,
             ci95: e.ci95,
             flip: e.flip,
+            noise: e.noise,
             noise_floor: est.noise_floor,
         })
         .collect())
@@ -320,11 +323,11 @@ impl GeoMean {
 /// The rows as CSV.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "material,model,metric,env,eq1_normalized,rmse,rmse_ci95_lo,rmse_ci95_hi,flip,noise_floor\n",
+        "material,model,metric,env,eq1_normalized,rmse,rmse_ci95_lo,rmse_ci95_hi,flip,noise,noise_floor\n",
     );
     for r in rows {
         s += &format!(
-            "{},{},{},{},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e}\n",
+            "{},{},{},{},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e}\n",
             r.material,
             r.model,
             r.metric,
@@ -334,6 +337,7 @@ pub fn csv(rows: &[Row]) -> String {
             r.ci95[0],
             r.ci95[1],
             r.flip,
+            r.noise,
             r.noise_floor
         );
     }
@@ -427,6 +431,7 @@ mod tests {
             rmse,
             ci95: [0.9 * rmse, 1.1 * rmse],
             flip,
+            noise: 0.01 * rmse,
             noise_floor: 1e-3,
         }
     }
@@ -473,7 +478,7 @@ mod tests {
         assert!(
             csv.lines().nth(1)
                 == Some(
-                    "m,ward,eq1,e,1.000000e-1,2.000000e-1,1.800000e-1,2.200000e-1,1.000000e-1,1.000000e-3"
+                    "m,ward,eq1,e,1.000000e-1,2.000000e-1,1.800000e-1,2.200000e-1,1.000000e-1,2.000000e-3,1.000000e-3"
                 ),
             "{csv}"
         );

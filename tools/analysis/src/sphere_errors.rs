@@ -38,8 +38,8 @@
 //! samples since each batch is a randomized low-discrepancy set), scaled so that every fit
 //! meets its target, within a mean budget per pixel. Only the last pass is reported, so
 //! its intervals do not depend on the plan's noise.
-//! Errors under [`ErrorSettings::negligible`] of the image's RMS are below what a display
-//! shows and are exempt from these targets.
+//! Errors at or under [`ErrorSettings::negligible`] of the image's RMS (an error of 0
+//! always) are below what a display shows and are exempt from these targets.
 
 use lobe_materials::frame::{self, Frame};
 use lobe_materials::sampling::mirror_cones;
@@ -218,7 +218,7 @@ fn radical_inverse(mut k: u64, b: u64) -> f64 {
 /// direction u, v; component). The direction, where the variance is, takes the Hammersley
 /// pair (k / n, radical inverse in base 2), a (0, m, 2)-net for n = 2^m; the film and the
 /// component the radical inverses in bases 3, 5 and 7. (With Halton's bases 3 and 5 for
-/// the direction, the noise floor is 1.4-1.5x higher at equal samples.)
+/// the direction, the largest noise of any fit is 1.4-1.5x higher at equal samples.)
 fn unshifted_point(k: usize, n: usize) -> [f64; 5] {
     [
         radical_inverse(k as u64, 3),
@@ -679,9 +679,9 @@ const FITS: usize = 3;
 /// (`fits_sampled` false; [`sampled_fits`]) the data's sampling takes the sixteenth: it is
 /// the closest stand-in for fits near the data (given to the cones instead, one of six
 /// planned passes of `tests/sphere_errors.rs`' Ward pair missed its noise target). (The fits'
-/// share was added when a Lafortune fit of builtin-gold, under the sunset map, made the
-/// noise floor 2.5 times its smallest error, 0.28 with the share; an eighth, or taken from
-/// the map's half, raised the other floors by 5-15 %.) A pilot pass of 8 to 31 samples a
+/// share was added when a Lafortune fit of builtin-gold, under the sunset map, made its
+/// noise 2.5 times the smallest error, 0.28 with the share; an eighth, or taken from the
+/// map's half, raised the other maps' largest noise by 5-15 %.) A pilot pass of 8 to 31 samples a
 /// batch (the study's 64 spp in 4 batches) thus takes one fit sample where a fit samples
 /// itself, so that the variances the next pass is planned from come from the strategies
 /// that pass uses.
@@ -1066,12 +1066,13 @@ pub fn estimate(
 
 /// The samples per pixel of the next pass, planned from the last pass's one-sample
 /// variances `sample_variance` (`[pixel * fits + fit]`), measured at `measured_at` samples
-/// per pixel, pooled over each pixel's 3x3 neighbourhood ([`pooled`]) and extrapolated at the rate [`RQMC_EXPONENT`] (`b`): a pixel's noise at `n`
-/// samples is `a n^-b`, with `a` its weighted variance summed over the fits, and the
-/// samples go in proportion to `a^(1 / (1 + b))` (the allocation that minimises the
-/// weighted sum of their noise for a budget; the square root at `b = 1`), widened by a 3x3
-/// maximum so that a hot spot seen in one pixel covers its neighbours. Each non-negligible
-/// fit's target is a tenth of its own error ([`ErrorSettings::noise_ratio`]); the weights
+/// per pixel, pooled over each pixel's 3x3 neighbourhood ([`pooled`]) and extrapolated
+/// at the rate [`RQMC_EXPONENT`] (`b`): a pixel's noise at `n` samples is `a n^-b`, with
+/// `a` its weighted variance summed over the fits, and the samples go in proportion to
+/// `a^(1 / (1 + b))` (the allocation that minimises the weighted sum of their noise for a
+/// budget; the square root at `b = 1`), widened by a 3x3 maximum so that a hot spot seen
+/// in one pixel covers its neighbours. Each non-negligible fit's target is a tenth of its
+/// own error ([`noise_targets`]); the weights
 /// start at the inverse targets and are raised, a few rounds, for the fits furthest over
 /// theirs, so that the worst of them is what falls. Scaled so that every fit meets its
 /// target within a mean of [`ErrorSettings::max_spp`] per pixel, each pixel at least
@@ -1082,14 +1083,7 @@ fn allocate(
     out: &SphereErrors,
     s: &ErrorSettings,
 ) -> Option<Vec<usize>> {
-    // Each fit's target mean square noise (infinite: negligible, exempt).
-    let targets: Vec<f64> = out.errors[1..]
-        .iter()
-        .map(|e| match e.negligible {
-            true => f64::INFINITY,
-            false => (s.noise_ratio * e.rmse / PLAN_MARGIN).powi(2),
-        })
-        .collect();
+    let targets = noise_targets(&out.errors[1..], s);
     if targets.iter().all(|t| t.is_infinite()) {
         return None;
     }
@@ -1121,6 +1115,20 @@ fn allocate(
         }
     }
     Some(counts.into_iter().map(|x| x as usize).collect())
+}
+
+/// Each fit's target mean square noise for the plan: a tenth of its error
+/// ([`ErrorSettings::noise_ratio`]) over [`PLAN_MARGIN`], squared; infinite (exempt) for a
+/// negligible fit, and for any target that is not a positive number.
+fn noise_targets(fits: &[RepError], s: &ErrorSettings) -> Vec<f64> {
+    fits.iter()
+        .map(|e| (s.noise_ratio * e.rmse / PLAN_MARGIN).powi(2))
+        .zip(fits)
+        .map(|(t, e)| match !e.negligible && t.is_finite() && t > 0.0 {
+            true => t,
+            false => f64::INFINITY,
+        })
+        .collect()
 }
 
 /// The rate at which a pixel's batch variance falls with its samples, `n^-RQMC_EXPONENT`,
@@ -1157,9 +1165,10 @@ pub fn form(s: &ErrorSettings) -> String {
     format!(
         "strategies (map, data, cones, fits) {:?} of 64, fits sampled over {UNCOVERED}x \
          the data, cones and cosine densities at 256 of their samples at each of 18 \
-         directions, else the data's; {} batches; plan n^-{RQMC_EXPONENT} from 3x3-pooled \
-         variances, margin {PLAN_MARGIN}, at least {FLOOR_PER_BATCH} a batch; noise {} of each fit's \
-         error, intervals {} of their error, negligible under {}; seed {}",
+         directions, else the data's; {} batches; plan n^-{RQMC_EXPONENT} from \
+         3x3-pooled variances, margin {PLAN_MARGIN}, at least {FLOOR_PER_BATCH} a batch; \
+         noise {} of each fit's error, intervals {} of their error, negligible at or \
+         under {}; seed {}",
         strategy_counts(64, true),
         s.batches,
         s.noise_ratio,
@@ -1190,6 +1199,11 @@ struct Plan {
 /// that gives few samples where it came out low predicts too little noise there; the
 /// neighbours' mean, whose integrands are close, has 9 times the degrees of freedom.
 fn pooled(values: &[f64], (width, height): (usize, usize), fits: usize) -> Vec<f64> {
+    debug_assert_eq!(
+        values.len(),
+        width * height * fits,
+        "a value per pixel and fit"
+    );
     if fits == 0 || values.len() != width * height * fits {
         return values.to_vec();
     }
@@ -1321,6 +1335,14 @@ impl Plan {
     /// is smaller (bisections in log scale: noise falls and the mean grows with the scale).
     fn scaled(&self, shape: &[f64], targets: &[f64], budget: f64) -> Vec<f64> {
         let mean = |c: &[f64]| c.iter().sum::<f64>() / c.len() as f64;
+        // The shape at a mean of 1, so that the scale is in samples per pixel whatever
+        // the variances' units (a dim material's are tiny).
+        let unit = mean(shape);
+        let shape: Vec<f64> = match unit.is_finite() && unit > 0.0 {
+            true => shape.iter().map(|g| g / unit).collect(),
+            false => shape.to_vec(),
+        };
+        let shape = &shape[..];
         let meets = |x: f64| {
             let noise = self.noise(&self.counts(shape, x.exp()));
             noise.iter().zip(targets).all(|(n, t)| n <= t)
@@ -1404,7 +1426,7 @@ fn summarize(
             ci95: [root(ci[0]), root(ci[1])],
             noise,
             flip: f64::NAN,
-            negligible: r > 0 && rmse <= s.negligible * data_rms,
+            negligible: r > 0 && (rmse == 0.0 || rmse <= s.negligible * data_rms),
             own_samples: sampled.contains(&r),
         });
     }
@@ -1738,6 +1760,48 @@ mod tests {
             "{} vs {}",
             mean(&own),
             mean(&equal)
+        );
+    }
+
+    /// A fit's plan target is a tenth of its error over the margin, squared; a negligible
+    /// fit, a zero error and an error that is not a number are exempt (infinite).
+    #[test]
+    fn noise_targets_exempt_negligible_zero_and_undefined_errors() {
+        let fit = |rmse: f64, negligible: bool| RepError {
+            rmse,
+            ci95: [rmse; 2],
+            noise: 0.0,
+            flip: 0.0,
+            negligible,
+            own_samples: false,
+        };
+        let fits = [
+            fit(0.3, false),
+            fit(0.3, true),
+            fit(0.0, false),
+            fit(f64::NAN, false),
+        ];
+        let t = noise_targets(&fits, &ErrorSettings::default());
+        let expected = (0.1 * 0.3 / PLAN_MARGIN).powi(2);
+        assert!((t[0] - expected).abs() < 1e-15 * expected, "{t:?}");
+        assert!(t[1..].iter().all(|x| x.is_infinite()), "{t:?}");
+    }
+
+    /// The plan's scale is in samples per pixel whatever the variances' units: a material
+    /// 1e12 times dimmer (variances 1e-24 times) takes the same counts.
+    #[test]
+    fn the_plan_does_not_depend_on_the_variances_units() {
+        let variance = hot_spot();
+        let dim: Vec<f32> = variance.iter().map(|v| v * 1e-24).collect();
+        let (bright, dim) = (plan(&variance), plan(&dim));
+        let a = bright.scaled(&bright.shape(&[1.0, 1.0]), &[1e-3, 1e-3], 1e9);
+        let b = dim.scaled(&dim.shape(&[1.0, 1.0]), &[1e-27, 1e-27], 1e9);
+        let mean = |c: &[f64]| c.iter().sum::<f64>() / PIXELS as f64;
+        assert!(
+            (mean(&a) / mean(&b) - 1.0).abs() < 0.02,
+            "{} vs {}",
+            mean(&a),
+            mean(&b)
         );
     }
 

@@ -6,6 +6,8 @@ z-test (renderer/src/compare.rs, through lobe.compare)."""
 
 import json
 import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -254,9 +256,9 @@ def test_converter_resolves_a_fit_report_against_the_scene_folder(tmp_path, fit_
 
 def test_converter_writes_mesh_files_only_for_meshes(tmp_path):
     """A scene without meshes leaves no temporary folder; a mesh's PLY is written into one
-    that outlives the conversion (Mitsuba reads it when the scene loads)."""
+    that outlives the conversion (Mitsuba reads it when the scene loads) and is removed
+    when the interpreter exits."""
     mi.set_variant("scalar_rgb")
-    lobe.mitsuba.register()
     (tmp_path / "sphere.json").write_text(json.dumps(sphere_scene({"type": "lambert"}, 4)))
     c = Converter(str(tmp_path / "sphere.json"))
     c.convert(4)
@@ -268,5 +270,16 @@ def test_converter_writes_mesh_files_only_for_meshes(tmp_path):
     c = Converter(str(tmp_path / "mesh.json"))
     d = c.convert(4)
     ply = d["shape0"]["filename"]
-    assert os.path.dirname(ply) == c.tmp and os.path.getsize(ply) > 0
+    assert c._tmp is not None and os.path.dirname(ply) == c._tmp and os.path.getsize(ply) > 0
     mi.load_dict(d)
+    # In another interpreter: the folder exists while it runs and is gone once it exits.
+    code = (
+        "import sys, os, mitsuba as mi; mi.set_variant('scalar_rgb');"
+        "from lobe.mitsuba.convert import Converter;"
+        "c = Converter(sys.argv[1]); d = c.convert(4);"
+        "assert os.path.isfile(d['shape0']['filename']); print(c._tmp)"
+    )
+    out = subprocess.run([sys.executable, "-c", code, str(tmp_path / "mesh.json")], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    folder = out.stdout.strip()
+    assert folder and not os.path.exists(folder), folder

@@ -76,8 +76,8 @@ pub enum FigureCmd {
         #[arg(long, default_value = "builtin:studio")]
         env: String,
         /// At most this many samples per pixel: the images of all materials share their
-        /// samples, and the estimate stops sooner once its noise is under a tenth of the
-        /// errors.
+        /// samples, and the estimate stops sooner once every fit's noise is under a tenth
+        /// of its own error.
         #[arg(long, default_value_t = 256)]
         spp: u32,
         /// Pixels per sphere tile.

@@ -354,7 +354,8 @@ fn fit_select_picks_the_cheapest_model_within_tolerance() {
 /// `fit compare-metrics`' metrics.csv of the Ward and Blinn-Phong data ("w", "b") under
 /// sunset, both models, metrics eq1 and log: each data's own model has a vanishing Eq. (1)
 /// error and an image error whose interval lies below the other model's; every interval
-/// holds its estimate; the noise floor is positive and below the other model's error.
+/// holds its estimate; the own model's noise and the noise floor are positive and below
+/// the other model's error.
 fn assert_each_data_fits_its_own_model_best(csv: &str) {
     let rows: Vec<Vec<&str>> = csv
         .lines()
@@ -374,8 +375,8 @@ fn assert_each_data_fits_its_own_model_best(csv: &str) {
         for (material, own, other) in [("w", "ward", "blinn-phong"), ("b", "blinn-phong", "ward")] {
             // Eq. (1) error (column 4) near zero for the data's own model; its image
             // closer to the data's (RMSE, column 5) than the other model's, the intervals
-            // (columns 6, 7) apart; a positive noise floor (column 9) below the other
-            // model's error.
+            // (columns 6, 7) apart; its noise (column 9) and the map's noise floor (column
+            // 10) positive and below the other model's error.
             assert!(value(material, own, metric, 4) < 1e-3, "{csv}");
             assert!(value(material, other, metric, 4) > 1e-2, "{csv}");
             assert!(
@@ -390,11 +391,13 @@ fn assert_each_data_fits_its_own_model_best(csv: &str) {
                 );
                 assert!(lo <= e && e <= hi, "{csv}");
             }
-            let floor = value(material, own, metric, 9);
-            assert!(
-                floor > 0.0 && floor < value(material, other, metric, 5),
-                "{csv}"
-            );
+            for col in [9, 10] {
+                let noise = value(material, own, metric, col);
+                assert!(
+                    noise > 0.0 && noise < value(material, other, metric, 5),
+                    "column {col}: {csv}"
+                );
+            }
         }
     }
 }
