@@ -1096,7 +1096,7 @@ fn allocate(
             64.0 * s.max_spp as f64,
         ),
     );
-    // The inverse targets, the largest 1 (the bisection's range is in the shape's units).
+    // The inverse targets, the largest 1 (a negligible fit 0).
     let tightest = targets.iter().copied().fold(f64::INFINITY, f64::min);
     let mut weights: Vec<f64> = targets.iter().map(|t| tightest / t).collect();
     let mut counts = Vec::new();
