@@ -681,10 +681,10 @@ const FITS: usize = 3;
 /// planned passes of `tests/sphere_errors.rs`' Ward pair missed its noise target). (The fits'
 /// share was added when a Lafortune fit of builtin-gold, under the sunset map, made its
 /// noise 2.5 times the smallest error, 0.28 with the share; an eighth, or taken from the
-/// map's half, raised the other maps' largest noise by 5-15 %.) A pilot pass of 8 to 31 samples a
-/// batch (the study's 64 spp in 4 batches) thus takes one fit sample where a fit samples
-/// itself, so that the variances the next pass is planned from come from the strategies
-/// that pass uses.
+/// map's half, raised the other maps' largest noise by 5-15 %.) A pilot pass of 8 to 31
+/// samples a batch (the study's 64 spp in 4 batches) thus takes one fit sample where a
+/// fit samples itself, so that the variances the next pass is planned from come from the
+/// strategies that pass uses.
 fn strategy_counts(per_batch: usize, fits_sampled: bool) -> [usize; 4] {
     let quarter = per_batch / 4;
     let fits = (per_batch / 16).max(usize::from(per_batch >= 8));
@@ -1072,9 +1072,9 @@ pub fn estimate(
 /// `a^(1 / (1 + b))` (the allocation that minimises the weighted sum of their noise for a
 /// budget; the square root at `b = 1`), widened by a 3x3 maximum so that a hot spot seen
 /// in one pixel covers its neighbours. Each non-negligible fit's target is a tenth of its
-/// own error ([`noise_targets`]); the weights
-/// start at the inverse targets and are raised, a few rounds, for the fits furthest over
-/// theirs, so that the worst of them is what falls. Scaled so that every fit meets its
+/// own error ([`noise_targets`]); the weights start at the inverse targets and are raised,
+/// a few rounds, for the fits furthest over theirs, so that the worst of them is what
+/// falls. Scaled so that every fit meets its
 /// target within a mean of [`ErrorSettings::max_spp`] per pixel, each pixel at least
 /// [`FLOOR_PER_BATCH`] samples a batch. None when no fit is non-negligible.
 fn allocate(
@@ -1096,9 +1096,8 @@ fn allocate(
             64.0 * s.max_spp as f64,
         ),
     );
-    // The inverse targets, the largest 1 (a negligible fit 0).
-    let tightest = targets.iter().copied().fold(f64::INFINITY, f64::min);
-    let mut weights: Vec<f64> = targets.iter().map(|t| tightest / t).collect();
+    // The inverse targets (a negligible fit's 0).
+    let mut weights: Vec<f64> = targets.iter().map(|t| 1.0 / t).collect();
     let mut counts = Vec::new();
     for _ in 0..4 {
         let shape = plan.shape(&weights);
@@ -1204,7 +1203,7 @@ fn pooled(values: &[f64], (width, height): (usize, usize), fits: usize) -> Vec<f
         width * height * fits,
         "a value per pixel and fit"
     );
-    if fits == 0 || values.len() != width * height * fits {
+    if fits == 0 {
         return values.to_vec();
     }
     let mut out = vec![0.0; values.len()];
@@ -1256,7 +1255,9 @@ impl Plan {
 
     /// Per pixel, the weighted noise summed over the fits at one sample (extrapolated from
     /// the samples it was measured at) to the power `1 / (1 + exponent)`, then the largest
-    /// of it over the pixel's 3x3 neighbourhood.
+    /// of it over the pixel's 3x3 neighbourhood; scaled to a mean of 1, so that
+    /// [`Plan::scaled`]'s scale is in samples per pixel whatever the variances' units (a
+    /// dim material's are tiny) and the weights'.
     fn shape(&self, weights: &[f64]) -> Vec<f64> {
         let (w, h) = (self.width, self.height);
         let power = 1.0 / (1.0 + self.exponent);
@@ -1271,7 +1272,7 @@ impl Plan {
                     .powf(power)
             })
             .collect();
-        (0..w * h)
+        let widened: Vec<f64> = (0..w * h)
             .map(|i| {
                 let (x, y) = (i % w, i / w);
                 let ys = y.saturating_sub(1)..(y + 2).min(h);
@@ -1279,7 +1280,12 @@ impl Plan {
                     .map(|(u, v)| raw[v * w + u])
                     .fold(0.0, f64::max)
             })
-            .collect()
+            .collect();
+        let mean = widened.iter().sum::<f64>() / widened.len().max(1) as f64;
+        match mean.is_finite() && mean > 0.0 {
+            true => widened.into_iter().map(|g| g / mean).collect(),
+            false => widened,
+        }
     }
 
     /// Samples per pixel in proportion to `shape`, clamped to the floor and the ceiling,
@@ -1335,14 +1341,6 @@ impl Plan {
     /// is smaller (bisections in log scale: noise falls and the mean grows with the scale).
     fn scaled(&self, shape: &[f64], targets: &[f64], budget: f64) -> Vec<f64> {
         let mean = |c: &[f64]| c.iter().sum::<f64>() / c.len() as f64;
-        // The shape at a mean of 1, so that the scale is in samples per pixel whatever
-        // the variances' units (a dim material's are tiny).
-        let unit = mean(shape);
-        let shape: Vec<f64> = match unit.is_finite() && unit > 0.0 {
-            true => shape.iter().map(|g| g / unit).collect(),
-            false => shape.to_vec(),
-        };
-        let shape = &shape[..];
         let meets = |x: f64| {
             let noise = self.noise(&self.counts(shape, x.exp()));
             noise.iter().zip(targets).all(|(n, t)| n <= t)

@@ -55,8 +55,9 @@ def study(
     are kept, the rest computed. Returns the summary: ``materials``, ``computed``,
     ``skipped``, ``pending`` (materials of other shards not yet complete), ``index`` (the
     report's index page, once every material is complete) and ``failures`` (``[material,
-    error]`` pairs; the others go on). ``progress`` shows a bar over the steps. Ctrl-C stops at the next step or fit
-    evaluation, keeping every finished file, and raises ``KeyboardInterrupt``."""
+    error]`` pairs; the others go on). ``progress`` shows a bar over the steps. Ctrl-C
+    stops at the next step or fit evaluation, keeping every finished file, and raises
+    ``KeyboardInterrupt``."""
     config = study_config(data, out, quick, envs, shard, error_spp)
     if not progress:
         return json.loads(_lobe.study_run(config, None))
