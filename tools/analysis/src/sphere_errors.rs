@@ -36,8 +36,12 @@
 //! (adaptive sampling: in proportion to a power of each pixel's noise, the allocation that
 //! minimises the summed noise for a budget, with the noise falling as `n^-1.4` in the
 //! samples since each batch is a randomized low-discrepancy set), scaled so that every fit
-//! meets its target, within a mean budget per pixel. Only the last pass is reported, so
-//! its intervals do not depend on the plan's noise.
+//! meets its target, within a mean budget per pixel. Each fit is reported from the first
+//! pass whose estimate of it meets its targets, and later passes evaluate only the data
+//! and the fits still open (a fit far from the data, whose difference is smooth, needs
+//! fewer samples than the closest); every pass is independent of the one it was planned
+//! from, so the intervals a pass reports do not depend on the plan's noise. A fit settled
+//! early is shown as the last pass's data image plus its own difference image.
 //! Errors at or under [`ErrorSettings::negligible`] of the image's RMS (an error of 0
 //! always) are below what a display shows and are exempt from these targets.
 
@@ -163,6 +167,10 @@ pub struct RepError {
     /// Whether this fit's own BRDF sampling was one of the estimate's strategies
     /// ([`sampled_fits`]; false for the data, whose sampling always is).
     pub own_samples: bool,
+    /// The pass (from 1) this error comes from: the first whose estimate met this fit's
+    /// targets, or the last ([`estimate`]); and that pass's mean samples per pixel.
+    pub pass: usize,
+    pub spp: usize,
 }
 
 impl RepError {
@@ -906,7 +914,8 @@ fn root(x: f64) -> f64 {
 /// A pixel's mean and the variance of that mean, per channel.
 type Moments = ([f32; 3], [f32; 3]);
 
-/// One pass's results: the batch sums, the mean images (the data's two halves appended)
+/// One pass's results: the batch sums, the mean images (every representation's, the
+/// data's two halves of batches, each fit's difference from the data: [`pixel_moments`])
 /// and, per pixel and fit, the variance of one sample of its difference (summed over
 /// channels), from which the next pass's samples are allocated.
 struct Pass {
@@ -933,7 +942,7 @@ fn pass(
         .map(|y| {
             let mut row = Pass {
                 sums: Sums::new(m, batches),
-                images: vec![Vec::with_capacity(w as usize); m + 2],
+                images: vec![Vec::with_capacity(w as usize); 2 * m + 1],
                 sample_variance: vec![0.0; w as usize * (m - 1)],
             };
             for x in 0..w {
@@ -951,7 +960,7 @@ fn pass(
         .collect();
     let mut total = Pass {
         sums: Sums::new(m, batches),
-        images: vec![Vec::with_capacity((w * h) as usize); m + 2],
+        images: vec![Vec::with_capacity((w * h) as usize); 2 * m + 1],
         sample_variance: Vec::with_capacity((w * h) as usize * (m - 1)),
     };
     for row in &rows {
@@ -996,33 +1005,41 @@ fn pixel_sums(
     }
 }
 
-/// Appends a pixel's mean and its variance to each representation's image, and the data's
-/// two halves of batches to the last two.
+/// Appends a pixel's mean and its variance to each of the `m` representations' images
+/// (`images[..m]`), the data's two halves of batches (`images[m]`, `images[m + 1]`) and
+/// each fit's difference from the data (`images[m + 1 + r]` for fit `r`).
 fn pixel_moments(px: &[[f64; 3]], m: usize, batches: usize, images: &mut [Vec<Moments>]) {
-    let value = |r: usize, b: usize, c: usize| px[r * batches + b][c];
-    let moments = |r: usize, bs: std::ops::Range<usize>| -> Moments {
+    let moments = |value: &dyn Fn(usize, usize) -> f64, bs: std::ops::Range<usize>| {
         let n = bs.len() as f64;
         let mean: [f64; 3] =
-            std::array::from_fn(|c| bs.clone().map(|b| value(r, b, c)).sum::<f64>() / n);
+            std::array::from_fn(|c| bs.clone().map(|b| value(b, c)).sum::<f64>() / n);
         let var: [f64; 3] = std::array::from_fn(|c| {
-            let ss: f64 = bs.clone().map(|b| (value(r, b, c) - mean[c]).powi(2)).sum();
+            let ss: f64 = bs.clone().map(|b| (value(b, c) - mean[c]).powi(2)).sum();
             ss / (n - 1.0) / n
         });
         (mean.map(|v| v as f32), var.map(|v| v as f32))
     };
+    let value = |r: usize| move |b: usize, c: usize| px[r * batches + b][c];
+    let difference = |r: usize| move |b: usize, c: usize| value(r)(b, c) - value(0)(b, c);
     for (r, img) in images.iter_mut().enumerate().take(m) {
-        img.push(moments(r, 0..batches));
+        img.push(moments(&value(r), 0..batches));
     }
-    images[m].push(moments(0, 0..batches / 2));
-    images[m + 1].push(moments(0, batches / 2..batches));
+    images[m].push(moments(&value(0), 0..batches / 2));
+    images[m + 1].push(moments(&value(0), batches / 2..batches));
+    for r in 1..m {
+        images[m + 1 + r].push(moments(&difference(r), 0..batches));
+    }
 }
 
 /// The images, errors and noise of representations `reps` (`reps[0]` the measured data)
 /// on `stage`. A pilot pass at [`ErrorSettings::pilot_spp`] in every pixel; while the
 /// targets of `settings` miss, a new pass whose samples go where the last pass's
 /// differences were noisy ([`allocate`]), up to a mean of [`ErrorSettings::max_spp`] per
-/// pixel. Each pass is independent of the one it was planned from, and only the last is
-/// reported, so the allocation biases nothing.
+/// pixel. A fit is reported from the first pass whose estimate of it meets its targets
+/// (the fits far from the data meet theirs with few samples) and takes no part in later
+/// passes, which evaluate only the data and the fits still open; the rest are reported
+/// from the last pass. Each pass is independent of the one it was planned from, so the
+/// allocation biases nothing a pass reports.
 pub fn estimate(
     stage: &Stage<'_>,
     reps: &[&dyn Bsdf],
@@ -1038,29 +1055,137 @@ pub fn estimate(
     let pixels = (stage.width * stage.height) as usize;
     let max_spp = round_up(settings.max_spp);
     let mut spp = vec![round_up(settings.pilot_spp).min(max_spp); pixels];
-    let sampled = sampled_fits(reps);
+    // The fits still open (in `reps`), and those settled in an earlier pass: their error
+    // and their difference image.
+    let mut open: Vec<usize> = (1..reps.len()).collect();
+    let mut settled: Vec<Option<Settled>> = vec![None; reps.len()];
     let mut passes = 0;
     loop {
         passes += 1;
         let seed = settings.seed ^ passes as u64;
-        let p = pass(stage, (reps, &sampled), &settings, &spp, seed);
-        let (mut out, halves) = summarize(stage, (&p.sums, p.images), &sampled, &settings);
-        out.spp = spp.iter().sum::<usize>() / pixels;
-        out.spp_max = spp.iter().copied().max().unwrap_or(0);
-        out.passes = passes;
-        let spent = out.spp >= max_spp * 9 / 10;
-        let met = out.noise_target_met && out.interval_target_met;
-        let next = match met || spent || passes >= 3 {
+        let in_pass: Vec<&dyn Bsdf> = std::iter::once(0)
+            .chain(open.iter().copied())
+            .map(|r| reps[r])
+            .collect();
+        let sampled = sampled_fits(&in_pass);
+        let p = pass(stage, (&in_pass, &sampled), &settings, &spp, seed);
+        let mut done = summarize(stage, (&p.sums, p.images), &sampled, &settings);
+        let mean = spp.iter().sum::<usize>() / pixels;
+        for e in &mut done.errors {
+            (e.pass, e.spp) = (passes, mean);
+        }
+        let meets: Vec<bool> = done.errors[1..]
+            .iter()
+            .map(|e| meets_targets(e, &settings))
+            .collect();
+        let last = mean >= max_spp * 9 / 10 || passes >= 3 || meets.iter().all(|&m| m);
+        let next = match last {
             true => None,
-            false => allocate(stage, (&p.sample_variance, &spp), &out, &settings),
+            false => {
+                let mut targets = noise_targets(&done.errors[1..], &settings);
+                for (t, _) in targets.iter_mut().zip(&meets).filter(|(_, m)| **m) {
+                    *t = f64::INFINITY;
+                }
+                allocate(stage, (&p.sample_variance, &spp), &targets, &settings)
+            }
         };
-        match next {
-            Some(n) => spp = n.into_iter().map(round_up).collect(),
-            None => {
-                add_flip(&mut out, &halves)?;
-                return Ok(out);
+        let Some(next) = next else {
+            let spp_max = spp.iter().copied().max().unwrap_or(0);
+            let (mut out, halves) =
+                conclude(done, (&open, settled), (mean, spp_max, passes), &settings);
+            add_flip(&mut out, &halves)?;
+            return Ok(out);
+        };
+        let mut still = Vec::new();
+        for (k, &r) in open.iter().enumerate() {
+            match meets[k] {
+                true => {
+                    settled[r] = Some((done.errors[k + 1].clone(), done.differences[k].clone()))
+                }
+                false => still.push(r),
             }
         }
+        open = still;
+        spp = next.into_iter().map(round_up).collect();
+    }
+}
+
+/// A fit settled in an earlier pass ([`estimate`]): its error and its difference image.
+type Settled = (RepError, Image);
+
+/// Whether an error meets its targets ([`ErrorSettings::noise_ratio`] and
+/// [`ErrorSettings::interval_ratio`] of it), or is negligible and exempt.
+fn meets_targets(e: &RepError, s: &ErrorSettings) -> bool {
+    e.negligible || (e.noise <= s.noise_ratio * e.rmse && e.relative_width() <= s.interval_ratio)
+}
+
+/// The estimate's results from its last pass `done` (of the data and the fits `open`)
+/// and the fits `settled` in earlier passes, whose images are the last pass's data image
+/// plus their own pass's difference image (its variance the sum of both): an image of the
+/// fit whose noise is that of the data's image at the last pass and of the difference at
+/// the fit's, both small, and whose FLIP map against the data's image shows the same
+/// difference as its error. FLIP comes after ([`add_flip`], with the data's two halves of
+/// batches of the last pass, returned beside).
+fn conclude(
+    done: Summary,
+    (open, settled): (&[usize], Vec<Option<Settled>>),
+    (spp, spp_max, passes): (usize, usize, usize),
+    s: &ErrorSettings,
+) -> (SphereErrors, [Image; 2]) {
+    let data = &done.images[0];
+    let (mut images, mut errors) = (vec![data.clone()], vec![done.errors[0].clone()]);
+    for (r, fit) in settled.into_iter().enumerate().skip(1) {
+        match (fit, open.iter().position(|&o| o == r)) {
+            (_, Some(k)) => {
+                images.push(done.images[k + 1].clone());
+                errors.push(done.errors[k + 1].clone());
+            }
+            (Some((error, difference)), None) => {
+                images.push(plus(data, &difference));
+                errors.push(error);
+            }
+            (None, None) => unreachable!("every fit is open or settled"),
+        }
+    }
+    let fits: Vec<&RepError> = errors[1..].iter().filter(|e| !e.negligible).collect();
+    let noise_floor = fits
+        .iter()
+        .min_by(|a, b| a.rmse.total_cmp(&b.rmse))
+        .map_or(0.0, |e| e.noise);
+    let out = SphereErrors {
+        noise_target_met: fits.iter().all(|e| e.noise <= s.noise_ratio * e.rmse),
+        interval_target_met: fits.iter().all(|e| e.relative_width() <= s.interval_ratio),
+        noise_floor,
+        exposure: exposure_for(data),
+        images,
+        errors,
+        flip_maps: Vec::new(),
+        spp,
+        spp_max,
+        batches: s.batches,
+        passes,
+    };
+    (out, done.halves)
+}
+
+/// `image` plus a `difference` from an independent pass: the sum clamped at 0 (a
+/// radiance; below 0 only by noise), its variance the sum of both.
+fn plus(image: &Image, difference: &Image) -> Image {
+    let add = |a: &[Rgb], b: &[Rgb], f: fn(f32) -> f32| -> Vec<Rgb> {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| {
+                let (x, y) = (x.to_array(), y.to_array());
+                Rgb::from(std::array::from_fn::<f32, 3, _>(|c| f(x[c] + y[c])))
+            })
+            .collect()
+    };
+    Image {
+        width: image.width,
+        height: image.height,
+        pixels: add(&image.pixels, &difference.pixels, |v| v.max(0.0)),
+        variance: add(&image.variance, &difference.variance, |v| v),
+        variance_dof: image.variance_dof.min(difference.variance_dof),
     }
 }
 
@@ -1080,10 +1205,9 @@ pub fn estimate(
 fn allocate(
     stage: &Stage<'_>,
     (sample_variance, measured_at): (&[f32], &[usize]),
-    out: &SphereErrors,
+    targets: &[f64],
     s: &ErrorSettings,
 ) -> Option<Vec<usize>> {
-    let targets = noise_targets(&out.errors[1..], s);
     if targets.iter().all(|t| t.is_infinite()) {
         return None;
     }
@@ -1101,11 +1225,11 @@ fn allocate(
     let mut counts = Vec::new();
     for _ in 0..4 {
         let shape = plan.shape(&weights);
-        counts = plan.scaled(&shape, &targets, s.max_spp as f64);
+        counts = plan.scaled(&shape, targets, s.max_spp as f64);
         let over: Vec<f64> = plan
             .noise(&counts)
             .iter()
-            .zip(&targets)
+            .zip(targets)
             .map(|(n, t)| n / t.max(1e-300))
             .collect();
         let worst = over.iter().copied().fold(0.0, f64::max);
@@ -1166,6 +1290,7 @@ pub fn form(s: &ErrorSettings) -> String {
          the data, cones and cosine densities at 256 of their samples at each of 18 \
          directions, else the data's; {} batches; plan n^-{RQMC_EXPONENT} from \
          3x3-pooled variances, margin {PLAN_MARGIN}, at least {FLOOR_PER_BATCH} a batch; \
+         each fit from the first pass that meets its targets; \
          noise {} of each fit's error, intervals {} of their error, negligible at or \
          under {}; seed {}",
         strategy_counts(64, true),
@@ -1384,15 +1509,24 @@ fn add_flip(out: &mut SphereErrors, halves: &[Image; 2]) -> Result<(), lobe_rend
     Ok(())
 }
 
-/// The errors (FLIP not yet: [`add_flip`]) and pictures of one pass's sums and images,
-/// and the data's images of its two halves of batches; `sampled` the fits whose own
-/// sampling took part.
+/// One pass's errors (FLIP not yet: [`add_flip`]) and images: every representation's
+/// (index 0 the data), the data's two halves of batches, and each fit's difference image
+/// (`differences[r - 1]` for fit `r`).
+struct Summary {
+    images: Vec<Image>,
+    errors: Vec<RepError>,
+    halves: [Image; 2],
+    differences: Vec<Image>,
+}
+
+/// The [`Summary`] of one pass's sums and images; `sampled` the fits whose own sampling
+/// took part.
 fn summarize(
     stage: &Stage<'_>,
     (sums, mut images): (&Sums, Vec<Vec<Moments>>),
     sampled: &[usize],
     s: &ErrorSettings,
-) -> (SphereErrors, [Image; 2]) {
+) -> Summary {
     let b = s.batches;
     let (w, h) = (stage.width, stage.height);
     let n = 3.0 * (w as f64) * (h as f64);
@@ -1403,10 +1537,11 @@ fn summarize(
         variance: px.iter().map(|p| Rgb::from(p.1)).collect(),
         variance_dof: (b - 1) as f64,
     };
+    let m = (images.len() - 1) / 2;
+    let differences: Vec<Image> = images.split_off(m + 2).into_iter().map(to_image).collect();
     let half_b = to_image(images.pop().unwrap_or_default());
     let half_a = to_image(images.pop().unwrap_or_default());
     let images: Vec<Image> = images.into_iter().map(to_image).collect();
-    let exposure = exposure_for(&images[0]);
     let data_rms = (sums.data_sq / n).sqrt();
     let mut errors = Vec::new();
     for r in 0..images.len() {
@@ -1426,27 +1561,16 @@ fn summarize(
             flip: f64::NAN,
             negligible: r > 0 && (rmse == 0.0 || rmse <= s.negligible * data_rms),
             own_samples: sampled.contains(&r),
+            pass: 0,
+            spp: 0,
         });
     }
-    let fits: Vec<&RepError> = errors[1..].iter().filter(|e| !e.negligible).collect();
-    let noise_floor = fits
-        .iter()
-        .min_by(|a, b| a.rmse.total_cmp(&b.rmse))
-        .map_or(0.0, |e| e.noise);
-    let out = SphereErrors {
-        noise_target_met: fits.iter().all(|e| e.noise <= s.noise_ratio * e.rmse),
-        interval_target_met: fits.iter().all(|e| e.relative_width() <= s.interval_ratio),
+    Summary {
         images,
         errors,
-        flip_maps: Vec::new(),
-        noise_floor,
-        spp: 0,
-        spp_max: 0,
-        batches: b,
-        passes: 0,
-        exposure,
-    };
-    (out, [half_a, half_b])
+        halves: [half_a, half_b],
+        differences,
+    }
 }
 
 /// The exposure (stops) at which under 1 % of the image's pixels clip: the 99.5th
@@ -1772,6 +1896,8 @@ mod tests {
             flip: 0.0,
             negligible,
             own_samples: false,
+            pass: 1,
+            spp: 64,
         };
         let fits = [
             fit(0.3, false),

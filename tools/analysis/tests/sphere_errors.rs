@@ -292,6 +292,28 @@ fn only_fits_with_lobes_nothing_else_samples_take_their_own_samples() {
 /// estimate as the only fit. Agreement: the summed squared differences over the summed
 /// variances of the two images, about 1 for two unbiased estimates (a bias of half a
 /// standard error in every pixel makes it 1.25).
+/// Per pixel and channel the difference of two independent images over its standard
+/// error (Welch's t, about 6 degrees of freedom from two 4-batch estimates): the mean over
+/// pixels (0 for two unbiased estimates; a bias shifts it) and the median of its size
+/// (0.72 for t with 6 degrees of freedom).
+fn agreement(a: &lobe_renderer::film::Image, b: &lobe_renderer::film::Image) -> (f64, f64) {
+    let mut z = Vec::new();
+    for k in 0..a.pixels.len() {
+        let (pa, pb) = (a.pixels[k].to_array(), b.pixels[k].to_array());
+        let (va, vb) = (a.variance[k].to_array(), b.variance[k].to_array());
+        for c in 0..3 {
+            let v = va[c] as f64 + vb[c] as f64;
+            if v > 0.0 {
+                z.push((pa[c] as f64 - pb[c] as f64) / v.sqrt());
+            }
+        }
+    }
+    let mean = z.iter().sum::<f64>() / z.len() as f64;
+    let mut size: Vec<f64> = z.iter().map(|x| x.abs()).collect();
+    size.sort_by(f64::total_cmp);
+    (mean, size[size.len() / 2])
+}
+
 #[test]
 fn images_are_the_same_whichever_fits_sample_themselves() {
     let env = studio();
@@ -318,27 +340,6 @@ fn images_are_the_same_whichever_fits_sample_themselves() {
     assert_eq!(own(&mixed), [false, true]);
     assert_eq!(own(&none), [false]);
     assert_eq!(own(&alone), [true]);
-    // Per pixel and channel the difference over its standard error (Welch's t, about 6
-    // degrees of freedom from two 4-batch estimates): the mean over pixels (0 for two
-    // unbiased estimates; a bias shifts it) and the median of its size (0.72 for t with 6
-    // degrees of freedom).
-    let agreement = |a: &lobe_renderer::film::Image, b: &lobe_renderer::film::Image| {
-        let mut z = Vec::new();
-        for k in 0..a.pixels.len() {
-            let (pa, pb) = (a.pixels[k].to_array(), b.pixels[k].to_array());
-            let (va, vb) = (a.variance[k].to_array(), b.variance[k].to_array());
-            for c in 0..3 {
-                let v = va[c] as f64 + vb[c] as f64;
-                if v > 0.0 {
-                    z.push((pa[c] as f64 - pb[c] as f64) / v.sqrt());
-                }
-            }
-        }
-        let mean = z.iter().sum::<f64>() / z.len() as f64;
-        let mut size: Vec<f64> = z.iter().map(|x| x.abs()).collect();
-        size.sort_by(f64::total_cmp);
-        (mean, size[size.len() / 2])
-    };
     let pairs = [
         ("data", &mixed.images[0], &none.images[0]),
         ("close fit", &mixed.images[1], &none.images[1]),
@@ -421,4 +422,40 @@ fn a_black_material_gives_zero_errors_and_no_plan() {
     assert!(fit.rmse == 0.0 && fit.negligible && fit.ci95.iter().all(|x| x.is_finite()));
     assert!(e.noise_target_met && e.interval_target_met && e.passes == 1);
     assert_eq!(e.noise_floor, 0.0);
+}
+
+/// A fit far from the data (in a smooth way) meets its targets in the pilot pass: it is
+/// reported from that
+/// pass (its error, interval and noise), the planned pass evaluates only the data and the
+/// fit still open, and its image (the last pass's data image plus its own difference
+/// image) agrees with its image from a long independent estimate, as does its error.
+#[test]
+fn a_fit_that_meets_its_targets_early_is_reported_from_that_pass() {
+    let env = studio();
+    let stage = Stage::sphere(&env, 32);
+    let [data, close] = pair();
+    // The data's highlight and twice its diffuse colour: a smooth difference.
+    let far = material(
+        json!({"type": "ward", "diffuse": [0.6, 0.4, 0.2], "specular": 0.2, "alpha": 0.1}),
+    );
+    let reps = [data, close, far];
+    let e = run_adaptive(&stage, &reps, (64, 1 << 14), 3);
+    let (close, far) = (&e.errors[1], &e.errors[2]);
+    assert!(
+        e.passes == 2 && close.pass == 2 && close.spp > 64 && far.pass == 1 && far.spp == 64,
+        "{} passes; close fit {close:?}; far fit {far:?}",
+        e.passes
+    );
+    assert!(e.noise_target_met && far.noise <= 0.1 * far.rmse, "{far:?}");
+    let long = run(&stage, &reps, 4096, 77);
+    let truth = long.errors[2].rmse;
+    assert!(
+        far.ci95[0] <= truth && truth <= far.ci95[1],
+        "{far:?} vs {truth}"
+    );
+    let (mean, median) = agreement(&e.images[2], &long.images[2]);
+    assert!(
+        mean.abs() < 0.15 && (0.55..0.9).contains(&median),
+        "mean {mean}, median size {median}"
+    );
 }

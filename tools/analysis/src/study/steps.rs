@@ -411,7 +411,8 @@ fn save_image(img: &Image, stem: &Path, exposure: f32) -> Result<(), Error> {
 /// An error with its interval as JSON.
 fn error_json(e: &RepError) -> Value {
     json!({"rmse": e.rmse, "ci95": e.ci95, "noise": e.noise, "flip": e.flip,
-           "negligible": e.negligible, "own_samples": e.own_samples})
+           "negligible": e.negligible, "own_samples": e.own_samples,
+           "pass": e.pass, "spp": e.spp})
 }
 
 /// The renders under one environment map ([`crate::sphere_errors`]): every representation's
