@@ -500,7 +500,7 @@ pub fn spheres(
         }
         root.draw(&Text::new(
             format!(
-                "{} spp on average (up to {}) in {} batches; noise floor {:.2e} (the RMS noise of the closest fit's difference image)",
+                "{} spp on average (up to {}) in {} batches in the last pass; noise floor {:.2e} (the RMS noise of the closest fit's difference image)",
                 est.spp, est.spp_max, est.batches, est.noise_floor
             ),
             (10, foot + 40),

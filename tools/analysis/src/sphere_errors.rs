@@ -197,8 +197,8 @@ pub struct SphereErrors {
     /// error (0 when every fit is negligible): the noise on the comparison closest to the
     /// data. Each error's own is [`RepError::noise`].
     pub noise_floor: f64,
-    /// Mean samples per pixel of the reported pass and its most in one pixel, in how many
-    /// batches, and passes made.
+    /// Mean samples per pixel of the last pass and its most in one pixel, in how many
+    /// batches, and passes made (each fit's own pass and its mean: [`RepError::pass`]).
     pub spp: usize,
     pub spp_max: usize,
     pub batches: usize,
@@ -1076,9 +1076,14 @@ pub fn estimate(
         }
         let meets: Vec<bool> = done.errors[1..]
             .iter()
-            .map(|e| meets_targets(e, &settings))
+            .map(|e| settles(e, &settings))
             .collect();
-        let last = mean >= max_spp * 9 / 10 || passes >= 3 || meets.iter().all(|&m| m);
+        let met = done.errors[1..].iter().all(|e| {
+            e.negligible
+                || (e.noise <= settings.noise_ratio * e.rmse
+                    && e.relative_width() <= settings.interval_ratio)
+        });
+        let last = mean >= max_spp * 9 / 10 || passes >= 3 || met;
         let next = match last {
             true => None,
             false => {
@@ -1113,10 +1118,17 @@ pub fn estimate(
 /// A fit settled in an earlier pass ([`estimate`]): its error and its difference image.
 type Settled = (RepError, Image);
 
-/// Whether an error meets its targets ([`ErrorSettings::noise_ratio`] and
-/// [`ErrorSettings::interval_ratio`] of it), or is negligible and exempt.
-fn meets_targets(e: &RepError, s: &ErrorSettings) -> bool {
-    e.negligible || (e.noise <= s.noise_ratio * e.rmse && e.relative_width() <= s.interval_ratio)
+/// Whether a fit's estimate in a pass that is not the last settles it: a non-negligible
+/// error whose noise meets its target ([`ErrorSettings::noise_ratio`] of it, a mean over
+/// every pixel, stable from pass to pass) and whose interval is under half its target
+/// ([`ErrorSettings::interval_ratio`]: the margin keeps the choice from picking the
+/// passes where a width from few batches came out low, which would leave the intervals
+/// reported short of their coverage). A negligible error stays open: judged from a pilot,
+/// a close fit's noise-corrected error can come out at 0.
+fn settles(e: &RepError, s: &ErrorSettings) -> bool {
+    !e.negligible
+        && e.noise <= s.noise_ratio * e.rmse
+        && e.relative_width() <= 0.5 * s.interval_ratio
 }
 
 /// The estimate's results from its last pass `done` (of the data and the fits `open`)
@@ -1290,7 +1302,7 @@ pub fn form(s: &ErrorSettings) -> String {
          the data, cones and cosine densities at 256 of their samples at each of 18 \
          directions, else the data's; {} batches; plan n^-{RQMC_EXPONENT} from \
          3x3-pooled variances, margin {PLAN_MARGIN}, at least {FLOOR_PER_BATCH} a batch; \
-         each fit from the first pass that meets its targets; \
+         each fit from the first pass that meets its targets (intervals at half); \
          noise {} of each fit's error, intervals {} of their error, negligible at or \
          under {}; seed {}",
         strategy_counts(64, true),
@@ -1489,7 +1501,9 @@ impl Plan {
 
 /// The FLIP of every representation against the data's image at the common exposure
 /// (for the data: between the images of its two halves of batches, `halves`), and the
-/// maps; computed for the reported pass only, the representations on all cores.
+/// maps; computed once the passes are done, the representations on all cores. (FLIP has
+/// no noise correction: a fit settled in an early pass carries that pass's difference
+/// noise, at most a tenth of its error.)
 fn add_flip(out: &mut SphereErrors, halves: &[Image; 2]) -> Result<(), lobe_renderer::Error> {
     let flips = (0..out.images.len())
         .into_par_iter()

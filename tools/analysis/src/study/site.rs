@@ -466,7 +466,7 @@ fn index(
     let mut b = format!(
         "<h1>BRDF model study: {} materials</h1>\n<p class=\"note\">The experiment of Ngan, Durand and Matusik 2005 (sections 3 to 5), run by <code>lobe study</code>: \
          every model fitted to each material (Eq. 1 metric, {}\u{b0} bins, {} objective evaluations per start), the cheapest model within {} % of the best error selected, \
-         the microfacet distribution estimated from the data, and {}-pixel images of a sphere under {}, every representation from the same samples as the measured data's, \
+         the microfacet distribution estimated from the data, and {}-pixel images of a sphere under {}, every fit's difference from the measured data's image estimated from the same samples as the data's, \
          with its RMSE against the data's image, a 95 % interval and the noise floor (numbers in <a href=\"results.json\">results.json</a>). \
          Errors are normalized by the material's largest albedo. The selection ranks models by the committed cost table (the same on every run); <i>italic</i> values come from this run's timings and vary from run to run; each row's best model is highlighted. Click a column to sort.</p>\n",
         data.len(),
@@ -528,7 +528,7 @@ fn render_grid(d: &MaterialData, env: usize) -> String {
     let (name, m) = &d.maps[env];
     let dir = format!("../{}", Layout::renders_rel(&d.name, name));
     let mut s = format!(
-        "<h3>Under {}</h3>\n<p class=\"note\">{} spp per pixel on average{} for every image from the same samples (common random numbers), {} batches; exposure {:+.2} stops (under 1 % of the reference's pixels clip). Noise floor {:.2e}: the RMS noise left in the closest fit's difference image (each fit's own is in the table of image errors). Below each fit: its FLIP map against the reference.</p>\n",
+        "<h3>Under {}</h3>\n<p class=\"note\">{} spp per pixel on average{} in the last pass, {} batches, each fit's difference from the same samples as the data's (common random numbers; a fit whose estimate met its targets in an earlier pass is reported from that pass, with fewer samples, and pictured as the reference plus its difference); exposure {:+.2} stops (under 1 % of the reference's pixels clip). Noise floor {:.2e}: the RMS noise left in the closest fit's difference image (each fit's own is in the table of image errors). Below each fit: its FLIP map against the reference.</p>\n",
         esc(name),
         m["spp"],
         match m["spp_max"].as_u64() {
@@ -631,7 +631,7 @@ fn error_table(env: &str, m: &Value) -> String {
     let empty = serde_json::Map::new();
     let errors = m["errors"].as_object().unwrap_or(&empty);
     let mut b = format!(
-        "<h3>Under {}</h3>\n<p>Ranking (\u{201c}&lt;\u{201d} only where the 95 % intervals separate): {}</p>\n<p class=\"note\">Noise: the RMS noise of each fit's difference image from the data's (for the measured data, of its own image); the noise floor {:.3e} is the closest fit's. Targets: every fit's noise under 10 % of its error {}, every interval narrower than 20 % of its error {}. Equal time: the error each representation reaches in the time the measured data's render takes at {} spp, from its speed/accuracy curve.</p>\n<table class=\"sortable\">\n<thead><tr><th>representation</th><th>RMSE</th><th>95 % interval</th><th>noise</th><th>FLIP</th><th>spp at equal time</th><th>RMSE at equal time</th><th>its 95 % interval</th><th>time per spp</th></tr></thead>\n<tbody>\n",
+        "<h3>Under {}</h3>\n<p>Ranking (\u{201c}&lt;\u{201d} only where the 95 % intervals separate): {}</p>\n<p class=\"note\">Noise: the RMS noise of each fit's difference image from the data's (for the measured data, of its own image); the noise floor {:.3e} is the closest fit's. Pass (spp): the pass each error comes from (the first whose estimate met its targets, or the last) and its mean samples per pixel. Targets: every fit's noise under 10 % of its error {}, every interval narrower than 20 % of its error {}. Equal time: the error each representation reaches in the time the measured data's render takes at {} spp, from its speed/accuracy curve.</p>\n<table class=\"sortable\">\n<thead><tr><th>representation</th><th>RMSE</th><th>95 % interval</th><th>noise</th><th>pass (spp)</th><th>FLIP</th><th>spp at equal time</th><th>RMSE at equal time</th><th>its 95 % interval</th><th>time per spp</th></tr></thead>\n<tbody>\n",
         esc(env),
         esc(&ranking(errors)),
         m["noise_floor"].as_f64().unwrap_or(f64::NAN),
@@ -656,11 +656,15 @@ fn error_table(env: &str, m: &Value) -> String {
         };
         let _ = writeln!(
             b,
-            "<tr><td>{}{mark}</td>{}{}{}{}{}{}{}{}</tr>",
+            "<tr><td>{}{mark}</td>{}{}{}<td>{}</td>{}{}{}{}{}</tr>",
             esc(name),
             num(g("/rmse"), false),
             interval(g("/ci95/0"), g("/ci95/1"), false),
             num(g("/noise"), false),
+            match (r["pass"].as_u64(), r["spp"].as_u64()) {
+                (Some(pass), Some(spp)) => format!("{pass} ({spp})"),
+                _ => String::new(),
+            },
             num(g("/flip"), false),
             plain_cell(g("/equal_time/spp"), "", true),
             num(g("/equal_time/rmse"), true),
