@@ -51,31 +51,41 @@ fn run_adaptive(
     estimate(stage, &refs, &s).unwrap()
 }
 
-/// 60 independent estimates of the [`pair`]'s error on a 24-pixel stage (pilot and
-/// budget `spp`), and the true error (a 16,384 spp estimate).
-fn trials(spp: (usize, usize)) -> (f64, Vec<SphereErrors>) {
+/// 60 independent estimates of `reps` on a 24-pixel stage (pilot and budget `spp`), and
+/// the truth: a 16,384 spp estimate.
+fn trials_of(reps: &[Arc<dyn Bsdf>], spp: (usize, usize)) -> (SphereErrors, Vec<SphereErrors>) {
     let env = studio();
     let stage = Stage::sphere(&env, 24);
-    let reps = pair();
-    let truth = run(&stage, &reps, 16384, 999).errors[1].rmse;
+    let truth = run(&stage, reps, 16384, 999);
     let runs = (0..60)
-        .map(|seed| run_adaptive(&stage, &reps, spp, seed))
+        .map(|seed| run_adaptive(&stage, reps, spp, seed))
         .collect();
     (truth, runs)
 }
 
-/// That at least 51 of the 60 runs' 95 % intervals cover `truth` (P(X <= 50) = 0.4 % for a
-/// true 95 % rate).
-fn assert_coverage(truth: f64, runs: &[SphereErrors]) {
+/// [`trials_of`] the [`pair`], and its fit's true error.
+fn trials(spp: (usize, usize)) -> (f64, Vec<SphereErrors>) {
+    let (truth, runs) = trials_of(&pair(), spp);
+    (truth.errors[1].rmse, runs)
+}
+
+/// That at least 51 of the 60 runs' 95 % intervals of fit `k` cover its `truth`
+/// (P(X <= 50) = 0.4 % for a true 95 % rate).
+fn assert_coverage_of(k: usize, truth: f64, runs: &[SphereErrors]) {
     let covered = runs
         .iter()
-        .filter(|e| e.errors[1].ci95[0] <= truth && truth <= e.errors[1].ci95[1])
+        .filter(|e| e.errors[k].ci95[0] <= truth && truth <= e.errors[k].ci95[1])
         .count();
     assert!(
         covered >= 51,
-        "{covered} of {} intervals cover {truth}",
+        "fit {k}: {covered} of {} intervals cover {truth}",
         runs.len()
     );
+}
+
+/// [`assert_coverage_of`] the first fit.
+fn assert_coverage(truth: f64, runs: &[SphereErrors]) {
+    assert_coverage_of(1, truth, runs);
 }
 
 #[test]
@@ -432,8 +442,7 @@ fn a_black_material_gives_zero_errors_and_no_plan() {
 fn a_fit_that_meets_its_targets_early_is_reported_from_that_pass() {
     let env = studio();
     let stage = Stage::sphere(&env, 32);
-    let [data, close] = pair();
-    let reps = [data, far_fit(), close];
+    let reps = data_far_close();
     let e = run_adaptive(&stage, &reps, (64, 1 << 14), 3);
     let (far, close) = (&e.errors[1], &e.errors[2]);
     assert!(
@@ -457,10 +466,15 @@ fn a_fit_that_meets_its_targets_early_is_reported_from_that_pass() {
     }
 }
 
-/// The data's highlight and twice its diffuse colour beside [`pair`]'s data: a fit whose
-/// difference is smooth, so that it meets its targets with the pilot's samples.
-fn far_fit() -> Arc<dyn Bsdf> {
-    material(json!({"type": "ward", "diffuse": [0.6, 0.4, 0.2], "specular": 0.2, "alpha": 0.1}))
+/// [`pair`]'s data, a fit far from it whose difference is smooth (the data's highlight and
+/// twice its diffuse colour: it meets its targets with the pilot's samples), and
+/// [`pair`]'s close fit.
+fn data_far_close() -> [Arc<dyn Bsdf>; 3] {
+    let [data, close] = pair();
+    let far = material(
+        json!({"type": "ward", "diffuse": [0.6, 0.4, 0.2], "specular": 0.2, "alpha": 0.1}),
+    );
+    [data, far, close]
 }
 
 /// A fit settled in the pilot keeps its intervals' coverage: in 60 trials of the data, the
@@ -469,28 +483,13 @@ fn far_fit() -> Arc<dyn Bsdf> {
 /// fit's.
 #[test]
 fn fits_settled_early_keep_their_coverage() {
-    let env = studio();
-    let stage = Stage::sphere(&env, 24);
-    let [data, close] = pair();
-    let reps = [data, far_fit(), close];
-    let truth = run(&stage, &reps, 16384, 999);
-    let runs: Vec<SphereErrors> = (0..60)
-        .map(|seed| run_adaptive(&stage, &reps, (64, 512), seed))
-        .collect();
+    let (truth, runs) = trials_of(&data_far_close(), (64, 512));
     let settled = runs.iter().filter(|e| e.errors[1].pass == 1).count();
     assert!(
         settled >= 50,
         "{settled} of 60 trials settled the far fit in the pilot"
     );
     for k in [1, 2] {
-        let t = truth.errors[k].rmse;
-        let covered = runs
-            .iter()
-            .filter(|e| e.errors[k].ci95[0] <= t && t <= e.errors[k].ci95[1])
-            .count();
-        assert!(
-            covered >= 51,
-            "fit {k}: {covered} of 60 intervals cover {t}"
-        );
+        assert_coverage_of(k, truth.errors[k].rmse, &runs);
     }
 }
