@@ -1078,11 +1078,9 @@ pub fn estimate(
             .iter()
             .map(|e| settles(e, &settings))
             .collect();
-        let met = done.errors[1..].iter().all(|e| {
-            e.negligible
-                || (e.noise <= settings.noise_ratio * e.rmse
-                    && e.relative_width() <= settings.interval_ratio)
-        });
+        let met = done.errors[1..]
+            .iter()
+            .all(|e| e.negligible || within_targets(e, &settings, 1.0));
         let last = mean >= max_spp * 9 / 10 || passes >= 3 || met;
         let next = match last {
             true => None,
@@ -1126,9 +1124,13 @@ type Settled = (RepError, Image);
 /// reported short of their coverage). A negligible error stays open: judged from a pilot,
 /// a close fit's noise-corrected error can come out at 0.
 fn settles(e: &RepError, s: &ErrorSettings) -> bool {
-    !e.negligible
-        && e.noise <= s.noise_ratio * e.rmse
-        && e.relative_width() <= 0.5 * s.interval_ratio
+    !e.negligible && within_targets(e, s, 0.5)
+}
+
+/// Whether an error's noise is within [`ErrorSettings::noise_ratio`] of it and its
+/// interval within `interval_share` of [`ErrorSettings::interval_ratio`].
+fn within_targets(e: &RepError, s: &ErrorSettings, interval_share: f64) -> bool {
+    e.noise <= s.noise_ratio * e.rmse && e.relative_width() <= interval_share * s.interval_ratio
 }
 
 /// The estimate's results from its last pass `done` (of the data and the fits `open`)
@@ -1183,20 +1185,16 @@ fn conclude(
 /// `image` plus a `difference` from an independent pass: the sum clamped at 0 (a
 /// radiance; below 0 only by noise), its variance the sum of both.
 fn plus(image: &Image, difference: &Image) -> Image {
-    let add = |a: &[Rgb], b: &[Rgb], f: fn(f32) -> f32| -> Vec<Rgb> {
-        a.iter()
-            .zip(b)
-            .map(|(x, y)| {
-                let (x, y) = (x.to_array(), y.to_array());
-                Rgb::from(std::array::from_fn::<f32, 3, _>(|c| f(x[c] + y[c])))
-            })
-            .collect()
-    };
+    let sum =
+        |a: &[Rgb], b: &[Rgb]| -> Vec<Rgb> { a.iter().zip(b).map(|(&x, &y)| x + y).collect() };
     Image {
         width: image.width,
         height: image.height,
-        pixels: add(&image.pixels, &difference.pixels, |v| v.max(0.0)),
-        variance: add(&image.variance, &difference.variance, |v| v),
+        pixels: sum(&image.pixels, &difference.pixels)
+            .into_iter()
+            .map(|p| p.map(|v| v.max(0.0)))
+            .collect(),
+        variance: sum(&image.variance, &difference.variance),
         variance_dof: image.variance_dof.min(difference.variance_dof),
     }
 }
